@@ -1,0 +1,66 @@
+# jointwear: two commands for a fresh machine.
+#   make demo   runs the main job
+#   make test   runs the tests
+# Both bootstrap the virtual environment on first use (ROS 2 Jazzy wheels,
+# the CMake path fix, the jointwear_msgs interface build, the package itself)
+# and only redo a step when its inputs changed.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -o pipefail -c
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+BUILD  := build/jointwear_msgs
+# Every ROS process we start stays on loopback, on its own domain.
+export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
+export ROS_DOMAIN_ID ?= $(shell $(PYTHON) -c "import os; print(os.getpid() % 90 + 10)")
+export MPLBACKEND ?= Agg
+
+MSG_SRCS := $(wildcard msg_defs/msg/*.msg msg_defs/srv/*.srv) msg_defs/CMakeLists.txt msg_defs/package.xml
+
+.PHONY: all env demo test bench lint clean distclean
+
+all: env
+
+env: $(VENV)/.stamp-pkg
+
+$(VENV)/.stamp-deps: requirements.txt tools/fix_ros_cmake_paths.py
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	@echo "installing ROS 2 Jazzy wheels and Python dependencies into $(VENV) (first run: ~1 min)"
+	$(PY) -m pip install --quiet --upgrade pip setuptools wheel 2>&1 | { grep -v "is ignored: it is neither" || true; }
+	$(PY) -m pip install --quiet -r requirements.txt 2>&1 | { grep -v "is ignored: it is neither" || true; }
+	$(PY) tools/fix_ros_cmake_paths.py
+	@touch $@
+
+$(VENV)/.stamp-msgs: $(VENV)/.stamp-deps $(MSG_SRCS)
+	@echo "building jointwear_msgs with rosidl into $(VENV)"
+	@rm -rf $(BUILD) && mkdir -p $(BUILD)
+	PATH="$(abspath $(VENV))/bin:$$PATH" LD_LIBRARY_PATH="$(abspath $(VENV))/lib" \
+	  cmake -S msg_defs -B $(BUILD) -DCMAKE_PREFIX_PATH="$(abspath $(VENV))" \
+	  -DCMAKE_INSTALL_PREFIX="$(abspath $(VENV))" -DPython3_EXECUTABLE="$(abspath $(PY))" \
+	  -DBUILD_TESTING=OFF > $(BUILD).log 2>&1 || (tail -40 $(BUILD).log; exit 1)
+	PATH="$(abspath $(VENV))/bin:$$PATH" LD_LIBRARY_PATH="$(abspath $(VENV))/lib" \
+	  cmake --build $(BUILD) -j2 >> $(BUILD).log 2>&1 || (tail -40 $(BUILD).log; exit 1)
+	cmake --install $(BUILD) >> $(BUILD).log 2>&1 || (tail -40 $(BUILD).log; exit 1)
+	@touch $@
+
+$(VENV)/.stamp-pkg: $(VENV)/.stamp-msgs setup.py setup.cfg
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e . 2>&1 | { grep -v "is ignored: it is neither" || true; }
+	@touch $@
+
+# Until the node suite lands, the main job is a smoke demo of the model core.
+demo: env
+	$(VENV)/bin/jointwear model curve --params ref-2011r --load 0.1 --temperature 40 --wear 35 \
+	  --speeds 0,10,25,47,80,150,280 --plot out/demo/friction_curve_w35.png
+
+test: env
+	$(PY) -m pytest -q test
+
+bench: env
+	$(PY) bench/run_all.py
+
+clean:
+	rm -rf build *.egg-info .pytest_cache
+
+distclean: clean
+	rm -rf $(VENV)

@@ -1,0 +1,3 @@
+from jointwear_ros.cli import main
+
+raise SystemExit(main())

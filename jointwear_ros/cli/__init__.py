@@ -1,0 +1,64 @@
+"""The ``jointwear`` command line: a thin adapter over the core.
+
+Each sub-command lives in its own module with a ``register(subparsers)``
+function; :data:`COMMAND_MODULES` lists them. Any
+:class:`~jointwear_ros.errors.JointwearError` becomes a one-line message on
+stderr and exit code 2, as do argument errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from ..errors import JointwearError
+
+__all__ = ["main", "build_parser", "COMMAND_MODULES", "UsageError"]
+
+#: Modules (relative to this package) that register sub-commands.
+COMMAND_MODULES: tuple[str, ...] = ("model_cmd",)
+
+EXIT_USAGE = 2
+
+
+class UsageError(JointwearError):
+    """A command-line argument is malformed or out of range."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line and exit code 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="jointwear",
+        description="Robot-joint wear diagnosis from static friction (ROS 2 Jazzy).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for mod in COMMAND_MODULES:
+        importlib.import_module(f"{__name__}.{mod}").register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        rc = args.func(args)
+    except JointwearError as exc:
+        print(f"jointwear: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("jointwear: interrupted", file=sys.stderr)
+        return 130
+    return int(rc or 0)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,36 @@
+"""Errors of jointwear: one root, specific subclasses.
+
+Messages say what was wrong (the value), what was expected, and what to do.
+The CLI turns any :class:`JointwearError` into a one-line message and exit
+code 2; nodes log it and keep running.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "JointwearError",
+    "ModelError",
+    "ParameterError",
+    "ParameterSetError",
+    "InputDataError",
+]
+
+
+class JointwearError(Exception):
+    """Root of every error jointwear raises on purpose."""
+
+
+class ModelError(JointwearError):
+    """A model or term was built or evaluated wrongly (unknown term, name clash, missing input)."""
+
+
+class ParameterError(JointwearError):
+    """A parameter value is missing, not finite, or outside its bounds."""
+
+
+class ParameterSetError(JointwearError):
+    """A named parameter set could not be found or read."""
+
+
+class InputDataError(JointwearError):
+    """Input data from outside (CSV, bag, message, argument) is malformed."""

@@ -1,0 +1,128 @@
+"""Named parameter sets, kept as YAML in ``config/params/``.
+
+A parameter set file holds ``name``, ``description``, ``valid`` (input ranges in
+which the set is meaningful) and ``parameters`` (name -> value). Units and
+bounds come from the terms' :class:`~jointwear_ros.model.parameters.ParamSpec`.
+
+Sets are looked up, in order, in ``$JOINTWEAR_PARAMS_PATH`` (``:``-separated
+directories), the source tree's ``config/params``, and the installed
+``share/jointwear_ros/config/params`` of the running prefix. A path to a
+``.yaml`` file is accepted too.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from ..errors import ParameterSetError
+from .parameters import Parameter, Parameters
+from .terms import TERMS
+
+__all__ = ["ParameterSet", "load_parameter_set", "load_parameter_set_info", "available_parameter_sets"]
+
+
+@dataclass(frozen=True)
+class ParameterSet:
+    """A named parameter set with its validity ranges."""
+
+    name: str
+    description: str
+    values: dict[str, float]
+    valid: dict[str, tuple[float, float]] = field(default_factory=dict)
+    path: Path | None = None
+
+    def parameters(self) -> Parameters:
+        """All values as :class:`Parameters`, with units and bounds from the terms."""
+        specs = {s.name: s for t in TERMS.values() for s in t.params}
+        out = Parameters()
+        for n, v in self.values.items():
+            spec = specs.get(n)
+            if spec is None:
+                out.add(Parameter(n, v))
+            else:
+                out.add(Parameter.from_spec(spec, v))
+        return out
+
+    def check_range(self, var: str, value: float) -> None:
+        """Raise :class:`ParameterSetError` if ``value`` is outside the set's valid range of ``var``."""
+        if var in self.valid:
+            lo, hi = self.valid[var]
+            if not lo <= value <= hi:
+                raise ParameterSetError(
+                    f"{var} = {value:g} is outside the valid range [{lo:g}, {hi:g}] of parameter set {self.name!r}"
+                )
+
+
+def _search_dirs() -> list[Path]:
+    dirs: list[Path] = []
+    env = os.environ.get("JOINTWEAR_PARAMS_PATH")
+    if env:
+        dirs.extend(Path(d) for d in env.split(os.pathsep) if d)
+    dirs.append(Path(__file__).resolve().parents[2] / "config" / "params")
+    dirs.append(Path(sys.prefix) / "share" / "jointwear_ros" / "config" / "params")
+    return dirs
+
+
+def available_parameter_sets() -> list[str]:
+    names: set[str] = set()
+    for d in _search_dirs():
+        if d.is_dir():
+            names.update(p.stem for p in d.glob("*.yaml"))
+    return sorted(names)
+
+
+def _find(name: str) -> Path:
+    as_path = Path(name)
+    if as_path.suffix in (".yaml", ".yml") and as_path.is_file():
+        return as_path
+    for d in _search_dirs():
+        cand = d / f"{name}.yaml"
+        if cand.is_file():
+            return cand
+    known = ", ".join(available_parameter_sets()) or "(none found)"
+    raise ParameterSetError(f"unknown parameter set {name!r}; available: {known}")
+
+
+def load_parameter_set_info(name: str) -> ParameterSet:
+    """Read a named parameter set (or a YAML path) with its description and valid ranges."""
+    path = _find(name)
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ParameterSetError(f"{path}: cannot read parameter set: {exc}") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("parameters"), dict):
+        raise ParameterSetError(f"{path}: expected a mapping with a 'parameters' mapping")
+    values: dict[str, float] = {}
+    for k, v in doc["parameters"].items():
+        try:
+            fv = float(v)
+        except (TypeError, ValueError):
+            raise ParameterSetError(f"{path}: parameter {k!r} = {v!r} is not a number") from None
+        if not math.isfinite(fv):
+            raise ParameterSetError(f"{path}: parameter {k!r} = {v!r} is not finite")
+        values[str(k)] = fv
+    valid: dict[str, tuple[float, float]] = {}
+    for k, rng in (doc.get("valid") or {}).items():
+        try:
+            lo, hi = (float(rng[0]), float(rng[1]))
+        except (TypeError, ValueError, IndexError):
+            raise ParameterSetError(f"{path}: valid range of {k!r} must be [low, high], got {rng!r}") from None
+        valid[str(k)] = (lo, hi)
+    return ParameterSet(
+        name=str(doc.get("name", path.stem)),
+        description=str(doc.get("description", "")).strip(),
+        values=values,
+        valid=valid,
+        path=path,
+    )
+
+
+def load_parameter_set(name: str) -> Parameters:
+    """The named parameter set as :class:`Parameters` (e.g. ``"ref-2011r"``)."""
+    return load_parameter_set_info(name).parameters()

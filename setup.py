@@ -1,0 +1,31 @@
+"""ament_python package jointwear_ros (builds with colcon, or pip install -e . in a venv)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = "jointwear_ros"
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*", "bench", "tools"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+        ("share/" + package_name + "/config", glob("config/*.yaml")),
+        ("share/" + package_name + "/config/params", glob("config/params/*.yaml")),
+        ("share/" + package_name + "/launch", glob("launch/*.launch.py")),
+    ],
+    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "matplotlib", "mcap", "rosbags"],
+    zip_safe=True,
+    maintainer="jointwear maintainers",
+    maintainer_email="maintainers@jointwear.dev",
+    description="Robot-joint wear diagnosis from static friction (ROS 2 Jazzy node suite).",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "jointwear = jointwear_ros.cli:main",
+        ],
+    },
+)
