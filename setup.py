@@ -26,6 +26,11 @@ setup(
     entry_points={
         "console_scripts": [
             "jointwear = jointwear_ros.cli:main",
+            "joint_sim = jointwear_ros.nodes.joint_sim:main",
+            "test_cycle = jointwear_ros.nodes.test_cycle:main",
+            "friction_observer = jointwear_ros.nodes.friction_observer:main",
+            "wear_estimator = jointwear_ros.nodes.wear_estimator:main",
+            "recorder = jointwear_ros.nodes.recorder:main",
         ],
     },
 )

@@ -1,0 +1,46 @@
+"""A rosbags typestore with ROS 2 Jazzy's types plus ``jointwear_msgs``.
+
+The ``jointwear_msgs`` definitions are read from their ``.msg`` files: the
+installed ``share/jointwear_msgs/msg`` of the running prefix, or the source
+tree's ``msg_defs/msg``. No ROS runtime is needed.
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+from pathlib import Path
+
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+from ..errors import JointwearError
+
+__all__ = ["jointwear_typestore", "msg_definition_dirs", "JOINTWEAR_MSG_TYPES"]
+
+JOINTWEAR_MSG_TYPES = ("FrictionObservation", "WearEstimate", "TestCycleStatus")
+
+
+def msg_definition_dirs() -> list[Path]:
+    return [
+        Path(sys.prefix) / "share" / "jointwear_msgs" / "msg",
+        Path(__file__).resolve().parents[2] / "msg_defs" / "msg",
+    ]
+
+
+@functools.lru_cache(maxsize=1)
+def jointwear_typestore() -> Typestore:
+    """Jazzy typestore with ``jointwear_msgs/msg/*`` registered (cached)."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    for d in msg_definition_dirs():
+        if all((d / f"{n}.msg").is_file() for n in JOINTWEAR_MSG_TYPES):
+            types = {}
+            for n in JOINTWEAR_MSG_TYPES:
+                types.update(get_types_from_msg((d / f"{n}.msg").read_text(), f"jointwear_msgs/msg/{n}"))
+            store.register(types)
+            return store
+    raise JointwearError(
+        "jointwear_msgs message definitions not found in "
+        + ", ".join(str(d) for d in msg_definition_dirs())
+        + "; run 'make env' (or build jointwear_msgs with colcon)"
+    )
