@@ -1,7 +1,7 @@
 """The ``jointwear`` command line: a thin adapter over the core.
 
-Each sub-command lives in its own module with a ``register(subparsers)``
-function; :data:`COMMAND_MODULES` lists them. Any
+Each sub-command lives in its own module ``*_cmd.py`` in this package with a
+``register(subparsers)`` function; they are found at start-up. Any
 :class:`~jointwear_ros.errors.JointwearError` becomes a one-line message on
 stderr and exit code 2, as do argument errors.
 """
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import pkgutil
 import sys
 from collections.abc import Sequence
 
@@ -18,7 +19,9 @@ from ..errors import JointwearError
 __all__ = ["main", "build_parser", "COMMAND_MODULES", "UsageError"]
 
 #: Modules (relative to this package) that register sub-commands.
-COMMAND_MODULES: tuple[str, ...] = ("model_cmd",)
+COMMAND_MODULES: tuple[str, ...] = tuple(
+    sorted(m.name for m in pkgutil.iter_modules(__path__) if m.name.endswith("_cmd"))
+)
 
 EXIT_USAGE = 2
 
