@@ -1,0 +1,83 @@
+"""Wear estimators, the Cramér-Rao bound, test-cycle design and the Section 5.1 study.
+
+Every estimator follows :class:`~jointwear_ros.types.WearEstimator`: a ``name``
+and ``estimate(ObservationTable) -> WearResult``. Build one by name with
+:func:`make_estimator`.
+
+Pure numpy/scipy; no ROS import.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ..errors import InputDataError
+from ..model import Model, Parameters
+from ..types import WearEstimator
+from .inverse import TemperatureTable, WearInverse
+from .paper import PAPER_N_SAMPLES, PAPER_TEMPERATURE_RANGE, PaperEstimator, PaperGridEstimator
+from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
+
+__all__ = [
+    "ESTIMATOR_METHODS",
+    "make_estimator",
+    "PaperEstimator",
+    "PaperGridEstimator",
+    "PAPER_N_SAMPLES",
+    "PAPER_TEMPERATURE_RANGE",
+    "WearInverse",
+    "TemperatureTable",
+    "TemperaturePrior",
+    "normal_prior",
+    "uniform_prior",
+    "parse_temperature_prior",
+]
+
+
+def _estimator_classes() -> dict[str, type]:
+    classes: dict[str, type] = {"paper": PaperEstimator, "paper-grid": PaperGridEstimator}
+    try:
+        from .bayes import BayesEstimator
+
+        classes["bayes"] = BayesEstimator
+    except ImportError:  # pragma: no cover - during development only
+        pass
+    try:
+        from .joint import JointEstimator
+
+        classes["joint"] = JointEstimator
+    except ImportError:  # pragma: no cover
+        pass
+    return classes
+
+
+#: Method names accepted by :func:`make_estimator`.
+ESTIMATOR_METHODS: tuple[str, ...] = ("paper", "paper-grid", "bayes", "joint")
+
+
+def make_estimator(
+    method: str,
+    model: Model | None = None,
+    params: Parameters | Mapping[str, float] | str | None = None,
+    **options: Any,
+) -> WearEstimator:
+    """An estimator by name: ``paper``, ``paper-grid``, ``bayes`` or ``joint``.
+
+    ``model`` defaults to Eq. (9), ``params`` to ``ref-2011r`` (a name loads a
+    set); ``options`` go to the estimator's constructor (``seed=``, ``rng=``,
+    ``n_samples=``, ``temperature_range=``, ``prior=``, ``noise_std=``, ...).
+
+    >>> est = make_estimator("paper", seed=0)
+    >>> est.name
+    'paper'
+    """
+    classes = _estimator_classes()
+    key = str(method).strip().lower()
+    if key not in classes:
+        raise InputDataError(f"unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
+    try:
+        est = classes[key](model, params, **options)
+    except TypeError as exc:
+        raise InputDataError(f"estimator {key!r}: {exc}") from None
+    return est  # type: ignore[no-any-return]

@@ -1,0 +1,188 @@
+"""Shared plumbing of the estimators: model resolution, input checks, combining rows.
+
+Pure numpy; no ROS import.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import InputDataError
+from ..model import Model, Parameters, load_parameter_set, paper_wear_model
+from ..types import ObservationTable, WearResult
+
+__all__ = [
+    "DEFAULT_NOISE_STD",
+    "DEFAULT_PARAMS",
+    "WEAR_RANGE",
+    "Rows",
+    "resolve_model",
+    "prepare_rows",
+    "combine_rows",
+    "make_rng",
+]
+
+Array = npt.NDArray[np.float64]
+
+#: Noise level of a static friction observation, Section 5.1 of the paper.
+DEFAULT_NOISE_STD = 0.0015
+#: Parameter set used when none is given.
+DEFAULT_PARAMS = "ref-2011r"
+#: The wear scale of the paper: 0 (new) to 100 (failure).
+WEAR_RANGE = (0.0, 100.0)
+
+
+def resolve_model(
+    model: Model | None, params: Parameters | Mapping[str, float] | str | None
+) -> tuple[Model, Parameters]:
+    """The model (default Eq. 9) and its parameters (default ``ref-2011r``; a name loads a set)."""
+    m = model if model is not None else paper_wear_model()
+    if params is None:
+        params = DEFAULT_PARAMS
+    if isinstance(params, str):
+        params = load_parameter_set(params)
+    return m, m.make_params(params)
+
+
+def make_rng(rng: np.random.Generator | None = None, seed: int | None = None) -> np.random.Generator:
+    """A generator passed in, or a new one from ``seed`` (never numpy's global state)."""
+    if rng is not None:
+        if not isinstance(rng, np.random.Generator):
+            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        return rng
+    return np.random.default_rng(seed)
+
+
+@dataclass(frozen=True)
+class Rows:
+    """Checked observation rows, as plain arrays of equal length."""
+
+    speed: Array
+    tau_f: Array
+    load: Array
+    temperature: Array  # NaN = unknown
+    noise_std: Array
+    source: str
+
+    def __len__(self) -> int:
+        return int(self.speed.size)
+
+    @property
+    def known_temperature(self) -> npt.NDArray[np.bool_]:
+        return np.isfinite(self.temperature)
+
+
+def prepare_rows(
+    table: ObservationTable,
+    *,
+    noise_std: float = DEFAULT_NOISE_STD,
+    default_load: float | None = None,
+    use_temperature: bool = True,
+) -> Rows:
+    """Check one cycle's observations and return them as arrays.
+
+    Raises :class:`~jointwear_ros.errors.InputDataError` naming the row and the
+    value when the table is empty, a speed is negative or not finite, a
+    friction value is not finite, or a load torque is missing.
+    """
+    if not isinstance(table, ObservationTable):
+        raise InputDataError(
+            f"estimators take an ObservationTable, got {type(table).__name__}; "
+            "build one with ObservationTable.from_arrays(speed=..., tau_f=..., load_torque=...)"
+        )
+    where = table.source or "observations"
+    n = len(table)
+    if n == 0:
+        raise InputDataError(f"{where}: the table is empty; a wear estimate needs at least one friction observation")
+    speed = np.asarray(table.speed, dtype=float)
+    tau = np.asarray(table.tau_f, dtype=float)
+    bad = np.flatnonzero(~np.isfinite(speed))
+    if bad.size:
+        i = int(bad[0])
+        raise InputDataError(f"{where}: row {i}: speed {float(speed[i])!r} is not finite; give the motor-side speed in rad/s")
+    bad = np.flatnonzero(speed < 0)
+    if bad.size:
+        i = int(bad[0])
+        raise InputDataError(
+            f"{where}: row {i}: speed {speed[i]:g} is negative; the friction model is for |v|: "
+            "give the speed magnitude (motor side, rad/s)"
+        )
+    bad = np.flatnonzero(~np.isfinite(tau))
+    if bad.size:
+        i = int(bad[0])
+        raise InputDataError(
+            f"{where}: row {i} (speed {speed[i]:g} rad/s): tau_f {float(tau[i])!r} is not finite; "
+            "drop the observation or repeat that speed"
+        )
+    if "load_torque" in table:
+        load = np.abs(np.asarray(table["load_torque"], dtype=float))
+        bad = np.flatnonzero(~np.isfinite(load))
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(f"{where}: row {i} (speed {speed[i]:g} rad/s): load_torque {float(load[i])!r} is not finite")
+    elif default_load is not None:
+        load = np.full(n, abs(float(default_load)))
+    else:
+        raise InputDataError(
+            f"{where}: column 'load_torque' is missing; give the manipulated load torque tau_m "
+            "per observation or pass default_load= to the estimator"
+        )
+    if use_temperature and "temperature" in table:
+        temp = np.asarray(table["temperature"], dtype=float).copy()
+        bad = np.flatnonzero(np.isinf(temp))
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(f"{where}: row {i}: temperature {float(temp[i])!r} is infinite; use NaN for unknown")
+    else:
+        temp = np.full(n, math.nan)
+    if not (math.isfinite(noise_std) and noise_std > 0):
+        raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
+    sig = np.full(n, float(noise_std))
+    if "tau_f_std" in table:
+        given = np.asarray(table["tau_f_std"], dtype=float)
+        ok = np.isfinite(given) & (given > 0)
+        sig[ok] = given[ok]
+    return Rows(speed=speed.copy(), tau_f=tau.copy(), load=load, temperature=temp, noise_std=sig, source=where)
+
+
+def combine_rows(
+    rows: Rows,
+    wear: Array,
+    wear_std: Array,
+    *,
+    method: str,
+    info: Mapping[str, Any] | None = None,
+    temperature: float = math.nan,
+    temperature_std: float = math.nan,
+) -> WearResult:
+    """One result from per-row estimates of a per-speed estimator.
+
+    The cycle estimate is the inverse-variance weighted mean of the rows. Rows of
+    one cycle share one temperature, so their errors are correlated; the reported
+    std is the weighted mean of the row stds (the fully-correlated case, an upper
+    bound) and the interval is estimate +- 2 std, clipped to [0, 100].
+    """
+    var = np.maximum(np.asarray(wear_std, dtype=float) ** 2, 1e-12)
+    wts = 1.0 / var
+    wts = wts / wts.sum()
+    est = float(np.sum(wts * wear))
+    std = float(np.sum(wts * np.sqrt(var)))
+    lo, hi = WEAR_RANGE
+    return WearResult(
+        wear=est,
+        wear_std=std,
+        wear_low=max(lo, est - 2.0 * std),
+        wear_high=min(hi, est + 2.0 * std),
+        method=method,
+        temperature=temperature,
+        temperature_std=temperature_std,
+        speeds=tuple(float(s) for s in rows.speed),
+        per_speed_wear=tuple(float(w) for w in wear),
+        info=dict(info or {}, per_speed_std=[float(s) for s in np.sqrt(var)], interval="estimate +- 2 std"),
+    )
