@@ -1,14 +1,17 @@
 """Shared node plumbing: the ``main`` shape of ros2/examples and typed parameter declaration.
 
 ``run_node(MyNode, args)`` does ``rclpy.init``, constructs the node, spins,
-handles Ctrl-C and external shutdown, calls the node's ``on_shutdown`` hook
-(where motion nodes send their final zero command), destroys the node if it was
-built, and ends with ``rclpy.try_shutdown()``.
+handles Ctrl-C, SIGTERM and external shutdown, calls the node's ``on_shutdown``
+hook (where motion nodes send their final zero command) while the context is
+still valid, destroys the node if it was built, and ends with
+``rclpy.try_shutdown()``. rclpy's own signal handlers are not installed: they
+would shut the context down before a zero command could be published.
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -18,6 +21,7 @@ import rclpy
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 __all__ = ["run_node", "ParamDecl", "declare_parameters", "loopback_env"]
 
@@ -61,7 +65,13 @@ def run_node(
     multithreaded: bool = False,
 ) -> int:
     """Run one node until Ctrl-C or shutdown; return a process exit code."""
-    rclpy.init(args=args)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+
+    def _terminate(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, _terminate)
+    signal.signal(signal.SIGINT, _terminate)
     node: Node | None = None
     rc = 0
     try:
