@@ -23,7 +23,7 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, Si
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-__all__ = ["run_node", "ParamDecl", "declare_parameters", "loopback_env"]
+__all__ = ["ParamDecl", "declare_parameters", "loopback_env", "run_node"]
 
 
 def loopback_env(domain_id: int | None = None, base: Mapping[str, str] | None = None) -> dict[str, str]:
@@ -65,7 +65,7 @@ def run_node(
     multithreaded: bool = False,
 ) -> int:
     """Run one node until Ctrl-C or shutdown; return a process exit code."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
 
     def _terminate(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
