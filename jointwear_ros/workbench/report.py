@@ -86,18 +86,26 @@ def plot_residuals(
     for k, c in enumerate(cols):
         ax = axes[k // ncol][k % ncol]
         for i, (label, f) in enumerate(fits):
-            ax.plot(table[c], f.residuals, ".", ms=3, alpha=0.6, color=f"C{i}", label=f"{label} (RMSE {f.rmse:.4f})")
+            ax.plot(table[c], f.residuals, ".", ms=3, alpha=0.6, color=f"C{i}", label=f"{_short(label)} (RMSE {f.rmse:.4f})")
         if math.isfinite(nf):
             ax.axhspan(-nf, nf, color="0.85", zorder=0, label=f"noise floor ±{nf:.4f}")
         ax.axhline(0.0, color="grey", lw=0.6)
         ax.set_xlabel(c)
         ax.set_ylabel("residual [normalized]")
         ax.grid(alpha=0.3)
-        if k == 0:
-            ax.legend(fontsize=7)
     for k in range(len(cols), nrow * ncol):
         axes[k // ncol][k % ncol].axis("off")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    if len(cols) < nrow * ncol:  # an empty panel holds the legend
+        axes[nrow - 1][ncol - 1].legend(handles, labels, loc="center", fontsize=8)
+    else:
+        axes[0][0].legend(handles, labels, fontsize=6)
     return save_figure(fig, path)
+
+
+def _short(label: str, width: int = 60) -> str:
+    """A long model spec, shortened from the front (the newest terms are at the end)."""
+    return label if len(label) <= width else label[: label.find(":") + 1] + " …" + label[-(width - 12):]
 
 
 def plot_band_errors(path: Path, table: ObservationTable, fits: Sequence[tuple[str, FitResult]]) -> Path:
