@@ -165,7 +165,7 @@ def _speed_region(speed: Array, r0: Array, r1: Array) -> tuple[float, float]:
     present = np.isfinite(g)
     if not present.any() or np.nanmax(g) <= 0:
         return float(edges[0]), float(edges[-1])
-    on = present & (g >= 0.25 * np.nanmax(g))
+    on = present & (g >= 0.15 * np.nanmax(g))
     idx = np.flatnonzero(on)
     lo_i, hi_i = int(idx.min()), int(idx.max())
     # bands with data outside the region: if none, it is every speed present
