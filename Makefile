@@ -59,6 +59,10 @@ test: env
 bench: env
 	$(PY) bench/run_all.py
 
+lint: env
+	$(VENV)/bin/ruff check jointwear_ros test tools bench
+	$(VENV)/bin/mypy
+
 clean:
 	rm -rf build *.egg-info .pytest_cache
 

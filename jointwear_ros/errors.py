@@ -8,11 +8,11 @@ code 2; nodes log it and keep running.
 from __future__ import annotations
 
 __all__ = [
+    "InputDataError",
     "JointwearError",
     "ModelError",
     "ParameterError",
     "ParameterSetError",
-    "InputDataError",
 ]
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["plot_curve", "new_figure", "save_figure"]
+__all__ = ["new_figure", "plot_curve", "save_figure"]
 
 Array = npt.NDArray[np.float64]
 

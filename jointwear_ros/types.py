@@ -16,7 +16,7 @@ import numpy.typing as npt
 
 from .errors import InputDataError
 
-__all__ = ["ObservationTable", "WearResult", "WearEstimator", "OBSERVATION_COLUMNS"]
+__all__ = ["OBSERVATION_COLUMNS", "ObservationTable", "WearEstimator", "WearResult"]
 
 Array = npt.NDArray[np.float64]
 

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from ..errors import JointwearError
 
-__all__ = ["main", "build_parser", "COMMAND_MODULES", "UsageError"]
+__all__ = ["COMMAND_MODULES", "UsageError", "build_parser", "main"]
 
 #: Modules (relative to this package) that register sub-commands.
 COMMAND_MODULES: tuple[str, ...] = tuple(

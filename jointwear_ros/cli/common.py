@@ -12,7 +12,7 @@ import numpy as np
 
 from . import UsageError
 
-__all__ = ["parse_float", "parse_float_list", "print_json", "format_table"]
+__all__ = ["format_table", "parse_float", "parse_float_list", "print_json"]
 
 
 def parse_float(text: str, what: str) -> float:

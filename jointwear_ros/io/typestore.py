@@ -16,7 +16,7 @@ from rosbags.typesys.store import Typestore
 
 from ..errors import JointwearError
 
-__all__ = ["jointwear_typestore", "msg_definition_dirs", "JOINTWEAR_MSG_TYPES"]
+__all__ = ["JOINTWEAR_MSG_TYPES", "jointwear_typestore", "msg_definition_dirs"]
 
 JOINTWEAR_MSG_TYPES = ("FrictionObservation", "WearEstimate", "TestCycleStatus")
 

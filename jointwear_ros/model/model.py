@@ -19,7 +19,7 @@ from ..errors import ModelError, ParameterError
 from .parameters import Parameter, Parameters
 from .terms import Term, term_by_name
 
-__all__ = ["Model", "parse_model_spec", "MODEL_SPECS", "paper_model", "paper_wear_model", "standard_model"]
+__all__ = ["MODEL_SPECS", "Model", "paper_model", "paper_wear_model", "parse_model_spec", "standard_model"]
 
 Array = npt.NDArray[np.float64]
 

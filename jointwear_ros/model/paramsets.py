@@ -24,7 +24,7 @@ from ..errors import ParameterSetError
 from .parameters import Parameter, Parameters
 from .terms import TERMS
 
-__all__ = ["ParameterSet", "load_parameter_set", "load_parameter_set_info", "available_parameter_sets"]
+__all__ = ["ParameterSet", "available_parameter_sets", "load_parameter_set", "load_parameter_set_info"]
 
 
 @dataclass(frozen=True)

@@ -36,19 +36,19 @@ if TYPE_CHECKING:
     from .model import Model
 
 __all__ = [
-    "Term",
+    "STRIBECK_EXPONENT",
+    "TERMS",
     "Coulomb",
     "LoadCoulomb",
     "LoadStribeck",
+    "Stribeck",
     "TempStribeck",
     "TempViscous",
+    "Term",
+    "Viscous",
     "WearStribeck",
     "WearViscous",
-    "Stribeck",
-    "Viscous",
     "stribeck_shape",
-    "TERMS",
-    "STRIBECK_EXPONENT",
 ]
 
 Array = npt.NDArray[np.float64]

@@ -1,0 +1,97 @@
+"""Shared node plumbing: the ``main`` shape of ros2/examples and typed parameter declaration.
+
+``run_node(MyNode, args)`` does ``rclpy.init``, constructs the node, spins,
+handles Ctrl-C, SIGTERM and external shutdown, calls the node's ``on_shutdown``
+hook (where motion nodes send their final zero command) while the context is
+still valid, destroys the node if it was built, and ends with
+``rclpy.try_shutdown()``. rclpy's own signal handlers are not installed: they
+would shut the context down before a zero command could be published.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+__all__ = ["ParamDecl", "declare_parameters", "loopback_env", "run_node"]
+
+
+def loopback_env(domain_id: int | None = None, base: Mapping[str, str] | None = None) -> dict[str, str]:
+    """An environment for child ROS processes: DDS on loopback, on ``domain_id``."""
+    env = dict(os.environ if base is None else base)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    if domain_id is not None:
+        env["ROS_DOMAIN_ID"] = str(domain_id)
+    return env
+
+
+@dataclass(frozen=True)
+class ParamDecl:
+    """A ROS parameter with its default, description and optional numeric range."""
+
+    name: str
+    default: Any
+    description: str
+    min: float | None = None
+    max: float | None = None
+    read_only: bool = False
+
+
+def declare_parameters(node: Node, decls: Sequence[ParamDecl]) -> dict[str, Any]:
+    """Declare each parameter with a descriptor; return name -> current value."""
+    out: dict[str, Any] = {}
+    for d in decls:
+        desc = ParameterDescriptor(description=d.description, read_only=d.read_only)
+        if d.min is not None and d.max is not None and isinstance(d.default, float):
+            desc.floating_point_range = [FloatingPointRange(from_value=float(d.min), to_value=float(d.max))]
+        node.declare_parameter(d.name, d.default, desc)
+        out[d.name] = node.get_parameter(d.name).value
+    return out
+
+
+def run_node(
+    factory: Callable[[], Node],
+    args: Sequence[str] | None = None,
+    multithreaded: bool = False,
+) -> int:
+    """Run one node until Ctrl-C or shutdown; return a process exit code."""
+    rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
+
+    def _terminate(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, _terminate)
+    signal.signal(signal.SIGINT, _terminate)
+    node: Node | None = None
+    rc = 0
+    try:
+        node = factory()
+        executor = MultiThreadedExecutor() if multithreaded else SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception as exc:  # construction or a callback failed: say so, stop cleanly
+        print(f"{getattr(factory, '__name__', 'node')}: fatal: {exc}", file=sys.stderr)
+        rc = 1
+    finally:
+        if node is not None:
+            hook = getattr(node, "on_shutdown", None)
+            if callable(hook):
+                try:
+                    hook()
+                except Exception as exc:  # pragma: no cover - best effort on the way out
+                    print(f"on_shutdown failed: {exc}", file=sys.stderr)
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return rc
