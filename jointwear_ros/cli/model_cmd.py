@@ -1,9 +1,15 @@
-"""``jointwear model ...``: evaluate the friction model (and, later, fit and diagnose it)."""
+"""``jointwear model ...``: evaluate, fit, compare and diagnose the friction model.
+
+``curve`` evaluates Eq. (9). The workbench actions (``fit``, ``diagnose``,
+``compare``, ``add``, ``report``) take an observation table (CSV or a
+rosbag2/MCAP bag of FrictionObservation) and a model spec; they are thin
+adapters over :mod:`jointwear_ros.workbench`."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     c.add_argument("--json", action="store_true", help="print JSON instead of a table")
     c.add_argument("--plot", metavar="FILE.png", help="draw the curve and its components to a PNG")
     c.set_defaults(func=cmd_curve)
+
+    _register_workbench(msub)
 
 
 def cmd_curve(args: argparse.Namespace) -> int:
@@ -92,4 +100,308 @@ def cmd_curve(args: argparse.Namespace) -> int:
         print(format_table(headers, rows))
         if args.plot:
             print(f"# plot written to {args.plot}")
+    return 0
+
+
+# -- the model workbench ---------------------------------------------------------
+def _add_data_args(p: argparse.ArgumentParser, model_required: bool = True) -> None:
+    p.add_argument("data", metavar="DATA", help="observation table: CSV file, or rosbag2/MCAP bag of FrictionObservation")
+    if model_required:
+        p.add_argument("--model", required=True, metavar="SPEC",
+                       help="model spec: standard, paper, paper+wear, or 'A + B + ...' of term names "
+                            "(built-in terms, generic terms such as x_stribeck(lube_hours), pkg.module:Class)")
+    p.add_argument("--topic", default=None, help="bag topic to read (default: every FrictionObservation topic)")
+    p.add_argument("--params", default=None, help="parameter set name or YAML path for starting values")
+    p.add_argument("--fix", action="append", default=[], metavar="NAME[=VALUE]",
+                   help="hold a parameter fixed (at VALUE, or its starting value); repeatable")
+    p.add_argument("--folds", type=int, default=5, help="cross-validation folds, grouped by cycle (default 5)")
+
+
+def _register_workbench(msub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    f = msub.add_parser("fit", help="fit a model spec to observations (RMSE, CV RMSE, AIC/BIC, parameters)",
+                        description="Nonlinear least-squares fit of a model to an observation table.")
+    _add_data_args(f)
+    f.add_argument("--json", action="store_true", help="print JSON (rmse, cv_rmse, aic, bic, params, ...)")
+    f.add_argument("--report", metavar="DIR", help="write plots and an HTML report into DIR")
+    f.add_argument("--history", metavar="FILE.json", help="append this model version to a JSON history")
+    f.set_defaults(func=cmd_fit)
+
+    d = msub.add_parser("diagnose", help="which physical effect is the model missing?",
+                        description="Fit every candidate effect on top of the model, rank by CV error and BIC, "
+                                    "test against the noise floor.")
+    _add_data_args(d)
+    d.add_argument("--json", action="store_true", help="print JSON")
+    d.add_argument("--candidate", action="append", default=[], metavar="TERM",
+                   help="also try this term (e.g. a user term pkg.module:Class); repeatable")
+    d.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level (default 0.01)")
+    d.add_argument("--top", type=int, default=10, help="candidates to list (default 10)")
+    d.add_argument("--report", metavar="DIR", help="write plots and an HTML report into DIR")
+    d.set_defaults(func=cmd_diagnose)
+
+    c = msub.add_parser("compare", help="compare model specs: errors, errors per speed band, residual structure")
+    _add_data_args(c, model_required=False)
+    c.add_argument("--model", action="append", required=True, metavar="SPEC", help="a model spec; repeat to compare")
+    c.add_argument("--json", action="store_true", help="print JSON")
+    c.add_argument("--plot", metavar="DIR", help="write overlaid residual and band-error plots into DIR")
+    c.set_defaults(func=cmd_compare)
+
+    a = msub.add_parser("add", help="add a term to the model, refit, show the error fall",
+                        description="Fit SPEC and SPEC + TERM; show RMSE per speed band before and after.")
+    _add_data_args(a)
+    a.add_argument("--term", required=True, metavar="TERM", help="term to add (a candidate's term string, or pkg.module:Class)")
+    a.add_argument("--history", metavar="FILE.json", help="append both versions to a JSON history")
+    a.add_argument("--plot", metavar="DIR", help="write overlaid before/after plots (and the error-fall chart) into DIR")
+    a.add_argument("--json", action="store_true", help="print JSON")
+    a.set_defaults(func=cmd_add)
+
+    r = msub.add_parser("report", help="self-contained HTML report: fit, residuals, diagnosis, history")
+    _add_data_args(r)
+    r.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    r.add_argument("--history", metavar="FILE.json", help="model history to chart (read only)")
+    r.add_argument("--no-diagnose", action="store_true", help="leave out the diagnosis (faster)")
+    r.set_defaults(func=cmd_report)
+
+
+def _check_out_dir(value: str | None, flag: str) -> None:
+    if value and Path(value).exists() and not Path(value).is_dir():
+        raise UsageError(f"{flag}: {value!r} exists and is not a directory")
+
+
+def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
+    """Read the data, parse the model and the starting parameters (everything that can fail on input)."""
+    from ..io.tables import read_table
+    from ..workbench import parse_spec
+
+    if args.folds < 0 or args.folds == 1:
+        raise UsageError(f"--folds: {args.folds} must be 0 (no cross-validation) or at least 2")
+    model = parse_spec(spec)
+    table = read_table(args.data, topic=args.topic)
+    start = load_parameter_set_info(args.params).parameters() if args.params else None
+    params = model.make_params(start)
+    for item in args.fix:
+        name, _, value = item.partition("=")
+        name = name.strip()
+        if name not in params:
+            raise UsageError(f"--fix: model {model.spec!r} has no parameter {name!r}; it has {', '.join(params)}")
+        if value:
+            params[name].value = parse_float(value, f"--fix {name}")
+        params[name].vary = False
+    return table, model, params
+
+
+def _fit(table: Any, model: Any, params: Any, folds: int) -> Any:
+    from ..workbench import fit_model, group_folds
+
+    return fit_model(model, table, params, folds=group_folds(table, folds) if folds >= 2 else None,
+                     cv_folds=folds)
+
+
+def _bands_dict(table: Any, fit: Any) -> list[dict[str, Any]]:
+    from ..workbench import band_rmse
+
+    return [{"band": b.label, "lo": b.lo, "hi": b.hi, "n": b.n, "rmse": b.rmse}
+            for b in band_rmse(table.speed, fit.residuals)]
+
+
+def _print_fit(table: Any, fit: Any) -> None:
+    from ..workbench import band_rmse, noise_floor
+
+    nf, src = noise_floor(table)
+    print(f"# model: {fit.spec}")
+    print(f"# {fit.model.equation()}")
+    print(f"# data: {table.source}, n = {fit.n}; noise floor {nf:.5f} ({src})")
+    print(format_table(["RMSE", "CV RMSE", "AIC", "BIC", "free", "converged"],
+                       [[fit.rmse, fit.cv_rmse, f"{fit.aic:.1f}", f"{fit.bic:.1f}", fit.n_free, fit.success]]))
+    if not fit.success:
+        print(f"# solver: {fit.message}")
+    print()
+    rows = [[n, f"{p.value:.6g}", "fixed" if not p.vary else f"{p.stderr:.3g}" if p.stderr is not None else "-", p.unit]
+            for n, p in fit.params.items()]
+    print(format_table(["parameter", "value", "stderr", "unit"], rows))
+    strong = [(a, b, fit.correlation(a, b)) for i, a in enumerate(fit.free) for b in fit.free[i + 1:]]
+    strong = [s for s in strong if np.isfinite(s[2]) and abs(s[2]) > 0.95]
+    if strong:
+        print("# strongly correlated: " + ", ".join(f"{a}~{b} ({r:+.3f})" for a, b, r in strong[:6]))
+    print()
+    print(format_table(["speed band", "n", "RMSE"], [[b.label, b.n, b.rmse] for b in band_rmse(table.speed, fit.residuals)]))
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    from ..workbench import noise_floor
+    from ..workbench.history import History
+
+    _check_out_dir(args.report, "--report")
+    table, model, params = _prepare(args, args.model)
+    history = History.load(args.history) if args.history else None
+    fit = _fit(table, model, params, args.folds)
+    if args.report:
+        from ..workbench.report import write_report
+
+        write_report(args.report, table, fit, history=history)
+    if history is not None:
+        history.add(fit, table)
+        history.save()
+    if args.json:
+        nf, src = noise_floor(table)
+        print_json({**fit.to_dict(), "data": table.source, "noise_floor": nf, "noise_source": src,
+                    "bands": _bands_dict(table, fit)})
+    else:
+        _print_fit(table, fit)
+        if args.report:
+            print(f"# report written to {Path(args.report) / 'report.html'}")
+    return 0
+
+
+def _progress() -> Any:
+    import sys
+
+    from ..workbench.diagnose import stderr_progress
+
+    return stderr_progress if sys.stderr.isatty() else None
+
+
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    from ..workbench import diagnose, resolve_term
+    from ..workbench.candidates import parse_spec
+
+    _check_out_dir(args.report, "--report")
+    if not 0 < args.alpha < 1:
+        raise UsageError(f"--alpha: {args.alpha} must be between 0 and 1")
+    if args.folds < 2:
+        raise UsageError(f"--folds: diagnose ranks by cross-validated error; give at least 2, got {args.folds}")
+    table, model, params = _prepare(args, args.model)
+    extra = []
+    for t in args.candidate:
+        term = resolve_term(t)
+        extra.append(term if term is not None else parse_spec(t).terms[0])
+    base = _fit(table, model, params, args.folds)
+    diag = diagnose(table, base, extra_terms=extra, cv_folds=args.folds, alpha=args.alpha, progress=_progress())
+    if args.report:
+        from ..workbench.report import write_report
+
+        write_report(args.report, table, base, diagnosis=diag)
+    if args.json:
+        print_json(diag.to_dict())
+        return 0
+    print(f"# model: {diag.model}")
+    print(f"# data: {table.source}, n = {diag.n}; RMSE {diag.rmse:.5f}, CV RMSE {diag.cv_rmse:.5f}, "
+          f"noise floor {diag.noise_floor:.5f} ({diag.noise_source})")
+    rows = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse, f"{c.delta_bic:.1f}", f"{c.p_value:.2g}",
+             "yes" if c.significant else "no", c.speed_region_label]
+            for i, c in enumerate(diag.candidates[: max(args.top, 0)])]
+    print(format_table(["#", "term", "variables", "CV RMSE", "dBIC", "p", "signif.", "speed region"], rows))
+    print()
+    print(diag.summary())
+    if args.report:
+        print(f"# report written to {Path(args.report) / 'report.html'}")
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from ..workbench import band_rmse, noise_floor, residual_structure
+
+    _check_out_dir(args.plot, "--plot")
+    prepared = [_prepare(args, spec) for spec in args.model]
+    table = prepared[0][0]
+    fits = [_fit(table, m, p, args.folds) for _, m, p in prepared]
+    nf, src = noise_floor(table)
+    if args.plot:
+        from ..workbench.report import plot_band_errors, plot_residuals
+
+        labelled = [(f"{i + 1}: {f.spec}", f) for i, f in enumerate(fits)]
+        plot_residuals(Path(args.plot) / "residuals.png", table, labelled)
+        plot_band_errors(Path(args.plot) / "bands.png", table, labelled)
+    if args.json:
+        print_json({
+            "data": table.source, "n": len(table), "noise_floor": nf, "noise_source": src,
+            "models": [{**f.to_dict(), "bands": _bands_dict(table, f),
+                        "residual_structure": [{"column": s.column, "r2_binned": s.r2_binned, "corr": s.corr}
+                                               for s in residual_structure(table, f.residuals)]} for f in fits],
+        })
+        return 0
+    print(f"# data: {table.source}, n = {len(table)}; noise floor {nf:.5f} ({src})")
+    print(format_table(["#", "model", "RMSE", "CV RMSE", "AIC", "BIC", "free"],
+                       [[i + 1, f.spec, f.rmse, f.cv_rmse, f"{f.aic:.1f}", f"{f.bic:.1f}", f.n_free]
+                        for i, f in enumerate(fits)]))
+    print()
+    bands = [band_rmse(table.speed, f.residuals) for f in fits]
+    print(format_table(["speed band", "n", *[f"RMSE #{i + 1}" for i in range(len(fits))]],
+                       [[b.label, b.n, *[bb[j].rmse for bb in bands]] for j, b in enumerate(bands[0])]))
+    for i, f in enumerate(fits):
+        print()
+        print(f"# residual structure of model #{i + 1} (share of residual variance explained by each column)")
+        print(format_table(["column", "binned R2", "corr"],
+                           [[s.column, s.r2_binned, s.corr] for s in residual_structure(table, f.residuals)]))
+    if args.plot:
+        print(f"# plots written to {args.plot}")
+    return 0
+
+
+def cmd_add(args: argparse.Namespace) -> int:
+    from ..workbench import band_rmse, noise_floor
+    from ..workbench.history import History
+
+    _check_out_dir(args.plot, "--plot")
+    table, model, params = _prepare(args, args.model)
+    _, model2, params2 = _prepare(args, f"{args.model} + {args.term}")
+    history = History.load(args.history) if args.history else None
+    before = _fit(table, model, params, args.folds)
+    after = _fit(table, model2, params2, args.folds)
+    if history is not None:
+        if history.last is None or history.last.model != before.spec or history.last.data != table.source:
+            history.add(before, table)
+        history.add(after, table, note=f"added {args.term}")
+    if args.plot:
+        from ..workbench.report import plot_band_errors, plot_error_fall, plot_residuals
+
+        pair = [("before: " + before.spec, before), ("after: " + after.spec, after)]
+        plot_residuals(Path(args.plot) / "residuals_before_after.png", table, pair)
+        plot_band_errors(Path(args.plot) / "bands_before_after.png", table, pair)
+        if history is not None:
+            plot_error_fall(Path(args.plot) / "error_fall.png", history)
+    if history is not None:
+        history.save()
+    nf, src = noise_floor(table)
+    b0 = band_rmse(table.speed, before.residuals)
+    b1 = band_rmse(table.speed, after.residuals)
+    if args.json:
+        print_json({
+            "data": table.source, "noise_floor": nf, "term": args.term,
+            "before": {**before.to_dict(), "bands": _bands_dict(table, before)},
+            "after": {**after.to_dict(), "bands": _bands_dict(table, after)},
+            "cv_rmse_ratio": before.cv_rmse / after.cv_rmse if after.cv_rmse > 0 else None,
+        })
+        return 0
+    print(f"# before: {before.spec}")
+    print(f"# after:  {after.spec}")
+    print(f"# data: {table.source}, n = {len(table)}; noise floor {nf:.5f} ({src})")
+    print(format_table(["", "RMSE", "CV RMSE", "BIC"],
+                       [["before", before.rmse, before.cv_rmse, f"{before.bic:.1f}"],
+                        ["after", after.rmse, after.cv_rmse, f"{after.bic:.1f}"]]))
+    print()
+    print(format_table(["speed band", "n", "RMSE before", "RMSE after", "ratio"],
+                       [[x.label, x.n, x.rmse, y.rmse, f"{x.rmse / y.rmse:.2f}x" if y.rmse > 0 else "-"]
+                        for x, y in zip(b0, b1)]))
+    if after.cv_rmse > 0:
+        print(f"# CV RMSE fell {before.cv_rmse / after.cv_rmse:.2f}x"
+              + (f"; now {after.cv_rmse / nf:.2f}x the noise floor" if np.isfinite(nf) and nf > 0 else ""))
+    if args.history:
+        print(f"# history: {args.history} ({len(history.versions) if history else 0} versions)")
+    if args.plot:
+        print(f"# plots written to {args.plot}")
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from ..workbench import diagnose
+    from ..workbench.history import History
+    from ..workbench.report import write_report
+
+    _check_out_dir(args.out, "--out")
+    table, model, params = _prepare(args, args.model)
+    history = History.load(args.history) if args.history else None
+    fit = _fit(table, model, params, max(args.folds, 2))
+    diag = None if args.no_diagnose else diagnose(table, fit, cv_folds=max(args.folds, 2), progress=_progress())
+    path = write_report(args.out, table, fit, diagnosis=diag, history=history)
+    print(f"# report written to {path}")
     return 0

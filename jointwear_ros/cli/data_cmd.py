@@ -1,0 +1,152 @@
+"""``jointwear data ...``: synthetic observation tables with hidden effects, and a look at a table."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+
+from . import UsageError
+from .common import format_table, parse_float, parse_float_list, print_json
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    from ..data import DEFAULT_SPEEDS, HIDDEN_EFFECTS, NOISE_STD
+
+    p = sub.add_parser("data", help="synthetic observation tables with hidden effects; inspect a table")
+    dsub = p.add_subparsers(dest="data_command", metavar="ACTION", parser_class=type(p))
+    dsub.required = True
+
+    s = dsub.add_parser(
+        "synth",
+        help="write an observation table from the reference model plus hidden effects",
+        description="Observations from the reference model (Eq. 6, or 9 with --wear) with cycle temperatures, "
+                    "load torques and window positions drawn at random, noise sigma_e, and optional hidden "
+                    f"effects: {', '.join(HIDDEN_EFFECTS)}.",
+    )
+    s.add_argument("out", metavar="OUT", help="output: FILE.csv, or a new bag directory (rosbag2, MCAP)")
+    s.add_argument("--cycles", type=int, default=40, help="test cycles (default 40)")
+    s.add_argument("--speeds", default=",".join(f"{v:g}" for v in DEFAULT_SPEEDS),
+                   help="speeds of a cycle, comma list or START:STOP:COUNT, rad/s")
+    s.add_argument("--hidden", action="append", default=[], choices=sorted(HIDDEN_EFFECTS), metavar="EFFECT",
+                   help=f"hide an effect in the data; repeatable ({', '.join(HIDDEN_EFFECTS)})")
+    s.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    s.add_argument("--params", default="ref-2011r", help="parameter set of the reference model")
+    s.add_argument("--temperature", default="25:55", help="cycle temperature range LO:HI, degC, or one value")
+    s.add_argument("--load", default="0.02:0.5", help="load torque range LO:HI, normalized, or one value")
+    s.add_argument("--position", default="-2.5:2.5", help="window position range LO:HI, rad, or one value")
+    s.add_argument("--wear", default=None, help="use Eq. (9) with this wear level (adds a wear column)")
+    s.add_argument("--noise", default=str(NOISE_STD), help=f"noise sigma_e (default {NOISE_STD})")
+    s.add_argument("--json", action="store_true", help="print a JSON summary")
+    s.set_defaults(func=cmd_synth)
+
+    e = dsub.add_parser("effects", help="list the hidden effects synth offers")
+    e.set_defaults(func=cmd_effects)
+
+    sh = dsub.add_parser("show", help="summary of an observation table (CSV or bag)")
+    sh.add_argument("data", metavar="DATA")
+    sh.add_argument("--topic", default=None, help="bag topic to read")
+    sh.add_argument("--json", action="store_true")
+    sh.set_defaults(func=cmd_show)
+
+
+def _range(text: str, what: str) -> tuple[float, float]:
+    parts = text.split(":")
+    if len(parts) == 1:
+        v = parse_float(parts[0], what)
+        return v, v
+    if len(parts) != 2:
+        raise UsageError(f"{what}: {text!r} must be LO:HI or a single value")
+    lo, hi = parse_float(parts[0], what), parse_float(parts[1], what)
+    if lo > hi:
+        raise UsageError(f"{what}: {text!r} has LO above HI")
+    return lo, hi
+
+
+def cmd_synth(args: argparse.Namespace) -> int:
+    from ..data import synth_observations
+    from ..io.tables import write_table
+    from ..model import load_parameter_set_info
+    from ..workbench import noise_floor
+
+    if args.cycles < 1:
+        raise UsageError(f"--cycles: {args.cycles} must be at least 1")
+    speeds = parse_float_list(args.speeds, "--speeds")
+    if any(v < 0 for v in speeds):
+        raise UsageError("--speeds: speeds must be >= 0 (the model is for |v|)")
+    temperature = _range(args.temperature, "--temperature")
+    load = _range(args.load, "--load")
+    position = _range(args.position, "--position")
+    noise = parse_float(args.noise, "--noise")
+    if noise < 0:
+        raise UsageError(f"--noise: {noise:g} must be >= 0")
+    info = load_parameter_set_info(args.params)
+    for v in temperature:
+        info.check_range("temperature", v)
+    for v in load:
+        info.check_range("load_torque", abs(v))
+    wear = None if args.wear is None else parse_float(args.wear, "--wear")
+    if wear is not None:
+        info.check_range("wear", wear)
+    out = Path(args.out)
+    is_csv = out.suffix.lower() == ".csv"
+    if not is_csv and out.exists():
+        raise UsageError(f"{out}: already exists; a bag is written to a new directory")
+    if is_csv and out.is_dir():
+        raise UsageError(f"{out}: is a directory")
+    table = synth_observations(
+        n_cycles=args.cycles, speeds=speeds, effects=args.hidden, seed=args.seed, params=args.params,
+        model="paper" if wear is None else "paper+wear", temperature=temperature, load=load,
+        position=position, wear=0.0 if wear is None else wear, noise=noise,
+    )
+    write_table(table, out)
+    nf, _ = noise_floor(table)
+    summary = {"out": str(out), "format": "csv" if is_csv else "rosbag2-mcap", "rows": len(table),
+               "cycles": args.cycles, "hidden": args.hidden, "seed": args.seed, "noise": noise,
+               "columns": table.names if is_csv else [c for c in table.names if c not in ("lube_hours", "wear")]}
+    if args.json:
+        print_json(summary)
+    else:
+        hid = ", ".join(args.hidden) or "none"
+        print(f"# wrote {len(table)} observations ({args.cycles} cycles x {len(speeds)} speeds) to {out}")
+        print(f"# hidden effects: {hid}; noise sigma_e = {noise:g} (noise floor {nf:.5f}); seed {args.seed}")
+        if not is_csv and ("lubrication" in args.hidden or wear is not None):
+            print("# note: a bag keeps only FrictionObservation fields; lube_hours/wear are not in it (use CSV)")
+    return 0
+
+
+def cmd_effects(args: argparse.Namespace) -> int:
+    from ..data import HIDDEN_EFFECTS
+
+    print(format_table(["effect", "variables", "what"],
+                       [[e.name, ",".join(e.variables), e.description] for e in HIDDEN_EFFECTS.values()]))
+    return 0
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from ..io.tables import read_table
+    from ..workbench import noise_floor
+
+    table = read_table(args.data, topic=args.topic)
+    nf, src = noise_floor(table)
+    stats = []
+    for n in table.names:
+        c = table[n]
+        ok = c[np.isfinite(c)]
+        stats.append({"column": n, "min": float(ok.min()) if ok.size else math.nan,
+                      "max": float(ok.max()) if ok.size else math.nan,
+                      "mean": float(ok.mean()) if ok.size else math.nan, "non_finite": int(c.size - ok.size)})
+    cycles = int(np.unique(table["cycle"]).size) if "cycle" in table else None
+    if args.json:
+        print_json({"data": table.source, "rows": len(table), "cycles": cycles, "noise_floor": nf,
+                    "noise_source": src, "columns": stats})
+        return 0
+    print(f"# {table.source}: {len(table)} observations" + (f", {cycles} cycles" if cycles else "")
+          + f"; noise floor {nf:.5f} ({src})")
+    print(format_table(["column", "min", "max", "mean", "non-finite"],
+                       [[s["column"], s["min"], s["max"], s["mean"], s["non_finite"]] for s in stats], floatfmt=".5g"))
+    return 0

@@ -1,0 +1,7 @@
+"""Synthetic observation tables with hidden effects (pure numpy)."""
+
+from __future__ import annotations
+
+from .synth import DEFAULT_SPEEDS, HIDDEN_EFFECTS, NOISE_STD, HiddenEffect, synth_observations
+
+__all__ = ["DEFAULT_SPEEDS", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]

@@ -1,0 +1,193 @@
+"""Synthetic observation tables: the reference model plus optional hidden effects.
+
+Each test cycle has its own temperature ``T``; each observation (one speed of
+one cycle) has its own load torque ``tau_m`` and window position. Friction is
+the reference model (Eq. 6, or Eq. 9 with a wear level) plus any hidden
+effects, plus Gaussian noise ``sigma_e`` (the paper's 0.0015). The hidden
+effects are what the model workbench should find:
+
+``load_viscous``
+    a load-dependent viscous term ``k * tau_m * v`` (k = 1.5e-4 s/rad).
+``ripple``
+    a periodic friction ripple in joint position
+    ``A * sin(omega * position + phi)`` (A = 0.004, omega = 3 rad^-1).
+``lubrication``
+    low-speed friction that grows with hours since lubrication (column
+    ``lube_hours``): ``k * h * exp(-|v / 15|^1.3)`` (k = 1.0e-5 per hour).
+``time_drift``
+    a slow drift of the friction level with time (column ``time``, s):
+    ``k * time`` (k = 0.012 per 40 days).
+
+Pure numpy; no file or ROS access (writing is the IO layer's job).
+
+>>> t = synth_observations(n_cycles=3, seed=1)
+>>> len(t), sorted(t.names)[:3]
+(30, ['cycle', 'load_torque', 'lube_hours'])
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import InputDataError
+from ..model import load_parameter_set, parse_model_spec, stribeck_shape
+from ..types import ObservationTable
+
+__all__ = ["HIDDEN_EFFECTS", "HiddenEffect", "synth_observations", "DEFAULT_SPEEDS", "NOISE_STD"]
+
+Array = npt.NDArray[np.float64]
+
+#: The paper's measurement noise sigma_e (normalized torque).
+NOISE_STD = 0.0015
+
+#: Speeds of one synthetic test cycle, motor side, rad/s.
+DEFAULT_SPEEDS: tuple[float, ...] = (2.0, 6.0, 12.0, 20.0, 32.0, 47.0, 70.0, 110.0, 170.0, 250.0)
+
+
+@dataclass(frozen=True)
+class HiddenEffect:
+    """One effect the generator can hide in the data: what it is and which column drives it."""
+
+    name: str
+    description: str
+    variables: tuple[str, ...]
+
+
+HIDDEN_EFFECTS: dict[str, HiddenEffect] = {
+    e.name: e
+    for e in (
+        HiddenEffect("load_viscous", "load-dependent viscous friction 1.5e-4 * tau_m * v", ("load_torque",)),
+        HiddenEffect("ripple", "position ripple 0.004 * sin(3 * position + 0.7)", ("position",)),
+        HiddenEffect(
+            "lubrication", "low-speed friction 1e-5 * lube_hours * exp(-|v/15|^1.3)", ("lube_hours",)
+        ),
+        HiddenEffect("time_drift", "friction drift 0.012 per 40 days of time", ("time",)),
+    )
+}
+
+
+def _effect_value(name: str, cols: dict[str, Array]) -> Array:
+    v = np.abs(cols["speed"])
+    if name == "load_viscous":
+        return 1.5e-4 * cols["load_torque"] * v
+    if name == "ripple":
+        return 0.004 * np.sin(3.0 * cols["position"] + 0.7)
+    if name == "lubrication":
+        s, _ = stribeck_shape(v, 15.0)
+        return 1.0e-5 * cols["lube_hours"] * s
+    if name == "time_drift":
+        return 0.012 * cols["time"] / (40.0 * 86400.0)
+    raise InputDataError(f"unknown hidden effect {name!r}; known: {', '.join(HIDDEN_EFFECTS)}")
+
+
+def synth_observations(
+    n_cycles: int = 40,
+    speeds: Sequence[float] = DEFAULT_SPEEDS,
+    effects: Iterable[str] = (),
+    *,
+    seed: int | None = 0,
+    rng: np.random.Generator | None = None,
+    params: str = "ref-2011r",
+    model: str = "paper",
+    temperature: tuple[float, float] = (25.0, 55.0),
+    load: tuple[float, float] = (0.02, 0.5),
+    position: tuple[float, float] = (-2.5, 2.5),
+    wear: float = 0.0,
+    noise: float = NOISE_STD,
+) -> ObservationTable:
+    """Observation table from the reference model plus hidden effects and noise.
+
+    Parameters
+    ----------
+    n_cycles
+        Number of test cycles; each gives one observation per speed.
+    speeds
+        Speeds of a cycle, motor side, rad/s (>= 0).
+    effects
+        Names of hidden effects (keys of :data:`HIDDEN_EFFECTS`).
+    seed, rng
+        Random generator, or the seed of a new one (``rng`` wins).
+    params
+        Parameter set of the reference model.
+    model
+        ``paper`` (Eq. 6) or ``paper+wear`` (Eq. 9, with ``wear``).
+    temperature, load, position
+        Uniform ranges of the cycle temperature (degC), the load torque per
+        observation (normalized) and the window centre per observation (rad).
+        Give equal bounds to hold a quantity fixed.
+    wear
+        Wear level used by ``paper+wear``; a ``wear`` column is written then.
+    noise
+        Standard deviation of the Gaussian noise on ``tau_f``; also the
+        ``tau_f_std`` column.
+
+    Returns
+    -------
+    ObservationTable
+        Columns ``cycle``, ``time``, ``speed``, ``tau_f``, ``tau_f_std``,
+        ``tau_plus``, ``tau_minus``, ``load_torque``, ``temperature``,
+        ``position``, ``lube_hours`` (and ``wear`` for ``paper+wear``).
+    """
+    effects = list(effects)
+    for e in effects:
+        if e not in HIDDEN_EFFECTS:
+            raise InputDataError(f"unknown hidden effect {e!r}; known: {', '.join(HIDDEN_EFFECTS)}")
+    if n_cycles < 1:
+        raise InputDataError(f"n_cycles must be at least 1, got {n_cycles}")
+    sp = np.asarray(list(speeds), dtype=float)
+    if sp.size == 0 or np.any(sp < 0) or not np.all(np.isfinite(sp)):
+        raise InputDataError("speeds must be a non-empty list of finite values >= 0")
+    if model not in ("paper", "paper+wear"):
+        raise InputDataError(f"synthetic data model must be 'paper' or 'paper+wear', got {model!r}")
+    for what, (lo, hi) in (("temperature", temperature), ("load", load), ("position", position)):
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
+            raise InputDataError(f"{what} range [{lo}, {hi}] is not a finite interval lo <= hi")
+    if not (noise >= 0 and np.isfinite(noise)):
+        raise InputDataError(f"noise must be finite and >= 0, got {noise}")
+    gen = rng if rng is not None else np.random.default_rng(seed)
+
+    m = parse_model_spec(model)
+    pset = load_parameter_set(params)
+    p = m.make_params(pset)
+    ns = sp.size
+    n = n_cycles * ns
+    cycle = np.repeat(np.arange(n_cycles, dtype=float), ns)
+    # a cycle a day, one speed every 30 s; jitter the start of the day
+    day = np.repeat(np.arange(n_cycles) * 86400.0 + gen.uniform(0.0, 3600.0, n_cycles), ns)
+    time = day + np.tile(np.arange(ns) * 30.0, n_cycles)
+    T = np.repeat(gen.uniform(temperature[0], temperature[1], n_cycles), ns)
+    # hours since the last lubrication: each cycle on its own schedule
+    hours = np.repeat(gen.uniform(0.0, 2000.0, n_cycles), ns)
+    tm = gen.uniform(load[0], load[1], n)
+    pos = gen.uniform(position[0], position[1], n)
+    v = np.tile(sp, n_cycles)
+    cols: dict[str, Array] = {
+        "cycle": cycle,
+        "time": time,
+        "speed": v,
+        "load_torque": tm,
+        "temperature": T,
+        "position": pos,
+        "lube_hours": hours,
+    }
+    inputs = dict(speed=v, load_torque=tm, temperature=T)
+    if model == "paper+wear":
+        cols["wear"] = np.full(n, float(wear))
+        inputs["wear"] = cols["wear"]
+    tau = m.evaluate(p, **inputs)
+    for e in effects:
+        tau = tau + _effect_value(e, cols)
+    tau = tau + gen.normal(0.0, noise, n) if noise > 0 else tau
+    # u+ and u- around a gravity torque of +-tau_m (sign from the window position)
+    g = tm * np.sign(np.cos(pos) + 1e-12)
+    cols["tau_f"] = tau
+    cols["tau_f_std"] = np.full(n, float(noise))
+    cols["tau_plus"] = g + tau
+    cols["tau_minus"] = g - tau
+    order = ["cycle", "time", "speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus",
+             "load_torque", "temperature", "position", "lube_hours", "wear"]
+    return ObservationTable({k: cols[k] for k in order if k in cols}, source="synth")

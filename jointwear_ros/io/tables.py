@@ -1,0 +1,276 @@
+"""Observation tables from and to files: CSV, and rosbag2 (MCAP) bags of FrictionObservation.
+
+Bags are read and written with rosbags and the jointwear typestore; no ROS
+runtime is needed. Every problem with the input raises
+:class:`~jointwear_ros.errors.InputDataError` with a one-line message naming
+the file, the column and the row. Writers write to a temporary name and
+rename, so a failed write leaves nothing half-written.
+
+CSV rules: a header line of column names (lines starting with ``#`` before it
+are comments), then one observation per line. ``speed`` and ``tau_f`` are
+required. Every cell of a numeric column must be a finite number (leave out a
+column rather than fill it with blanks or NaN); a column in which no cell is a
+number (a joint name, a comment) is ignored, unless it is one of the standard
+columns.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import InputDataError
+from ..types import OBSERVATION_COLUMNS, ObservationTable
+from .typestore import jointwear_typestore
+
+__all__ = [
+    "FRICTION_OBSERVATION_TYPE",
+    "DEFAULT_OBSERVATION_TOPIC",
+    "read_table",
+    "read_csv",
+    "read_bag",
+    "write_table",
+    "write_csv",
+    "write_bag",
+]
+
+Array = npt.NDArray[np.float64]
+
+FRICTION_OBSERVATION_TYPE = "jointwear_msgs/msg/FrictionObservation"
+DEFAULT_OBSERVATION_TOPIC = "/jointwear/friction_observations"
+
+_REQUIRED = ("speed", "tau_f")
+
+
+def _is_bag(path: Path) -> bool:
+    return (path.is_dir() and (path / "metadata.yaml").is_file()) or path.suffix in (".mcap", ".db3")
+
+
+def read_table(path: str | os.PathLike[str], topic: str | None = None) -> ObservationTable:
+    """Read a CSV file or a rosbag2 bag (directory, or its ``.mcap`` file) into a table."""
+    p = Path(path)
+    if not p.exists():
+        raise InputDataError(f"{p}: no such file or directory")
+    if _is_bag(p):
+        return read_bag(p, topic=topic)
+    if p.is_dir():
+        raise InputDataError(f"{p}: a directory without metadata.yaml is not a rosbag2 bag; give a CSV file or a bag")
+    return read_csv(p)
+
+
+def _parse_cell(text: str) -> float | None:
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
+    """Read an observation table from CSV (see the module docstring for the rules)."""
+    p = Path(path)
+    src = str(p)
+    try:
+        raw = p.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputDataError(f"{src}: no such file") from None
+    except UnicodeDecodeError as exc:
+        raise InputDataError(f"{src}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); give a CSV file") from None
+    except OSError as exc:
+        raise InputDataError(f"{src}: cannot read ({exc.strerror})") from None
+    if not raw.strip():
+        raise InputDataError(f"{src}: the file is empty; expected a header line with at least speed,tau_f and data rows")
+    lines = list(csv.reader(io.StringIO(raw)))
+    header: list[str] | None = None
+    header_line = 0
+    rows: list[tuple[int, list[str]]] = []
+    for lineno, fields in enumerate(lines, start=1):
+        if not fields or all(not f.strip() for f in fields):
+            continue
+        if header is None:
+            if fields[0].lstrip().startswith("#"):
+                continue
+            header = [f.strip() for f in fields]
+            header_line = lineno
+            continue
+        rows.append((lineno, [f.strip() for f in fields]))
+    if header is None:
+        raise InputDataError(f"{src}: no header line; expected column names such as speed,tau_f")
+    for i, name in enumerate(header):
+        if not name:
+            raise InputDataError(f"{src}: line {header_line}: column {i + 1} of the header has no name")
+        if header.count(name) > 1:
+            raise InputDataError(f"{src}: line {header_line}: column {name!r} appears twice in the header")
+    for req in _REQUIRED:
+        if req not in header:
+            raise InputDataError(
+                f"{src}: column {req!r} is missing (required); columns in the header: {', '.join(header)}"
+            )
+    if not rows:
+        raise InputDataError(f"{src}: no data rows after the header (line {header_line})")
+    for r, (lineno, fields) in enumerate(rows, start=1):
+        if len(fields) != len(header):
+            raise InputDataError(
+                f"{src}: row {r} (line {lineno}) has {len(fields)} fields, the header has {len(header)}"
+            )
+    cols: dict[str, Array] = {}
+    for j, name in enumerate(header):
+        values = [_parse_cell(fields[j]) for _, fields in rows]
+        if name not in OBSERVATION_COLUMNS and all(v is None for v in values) and any(f[j] for _, f in rows):
+            continue  # a text column (joint name, note): not data for the model
+        for r, ((lineno, fields), v) in enumerate(zip(rows, values), start=1):
+            cell = fields[j]
+            if v is None:
+                what = "is empty" if not cell else f"{cell!r} is not a number"
+                raise InputDataError(f"{src}: column {name!r}, row {r} (line {lineno}): {what}")
+            if not math.isfinite(v):
+                raise InputDataError(
+                    f"{src}: column {name!r}, row {r} (line {lineno}): {cell!r} is not a finite number; "
+                    "fill in the value or leave the column out"
+                )
+        cols[name] = np.asarray(values, dtype=float)
+    return ObservationTable(cols, source=src)
+
+
+def _bag_dir(p: Path) -> Path:
+    if p.is_dir():
+        return p
+    if (p.parent / "metadata.yaml").is_file():
+        return p.parent
+    return p
+
+
+def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> ObservationTable:
+    """Read ``jointwear_msgs/msg/FrictionObservation`` messages of a rosbag2 bag into a table.
+
+    ``topic`` restricts to one topic (default: every topic of that type).
+    Columns: the message's fields, ``cycle`` (cycle_id) and ``time`` (header
+    stamp, s). ``temperature`` may be NaN (unknown).
+    """
+    from rosbags.highlevel import AnyReader
+
+    p = Path(path)
+    src = str(p)
+    store = jointwear_typestore()
+    fields = ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position")
+    data: dict[str, list[float]] = {k: [] for k in ("cycle", "time", *fields)}
+    try:
+        with AnyReader([_bag_dir(p)], default_typestore=store) as reader:
+            conns = [c for c in reader.connections if c.msgtype == FRICTION_OBSERVATION_TYPE
+                     and (topic is None or c.topic == topic)]
+            if not conns:
+                present = ", ".join(sorted(f"{c.topic} ({c.msgtype})" for c in reader.connections)) or "none"
+                want = f"on topic {topic!r} " if topic else ""
+                raise InputDataError(
+                    f"{src}: no {FRICTION_OBSERVATION_TYPE} messages {want}in the bag; topics: {present}"
+                )
+            for i, (conn, _t, raw) in enumerate(reader.messages(connections=conns), start=1):
+                msg = reader.deserialize(raw, conn.msgtype)
+                data["cycle"].append(float(msg.cycle_id))
+                data["time"].append(float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec))
+                for f in fields:
+                    val = float(getattr(msg, f))
+                    if f != "temperature" and not math.isfinite(val):
+                        raise InputDataError(
+                            f"{src}: column {f!r}, row {i} (message {i} on {conn.topic}): {val!r} is not finite"
+                        )
+                    data[f].append(val)
+    except InputDataError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any reader failure is a bad-input message
+        raise InputDataError(f"{src}: cannot read the bag ({type(exc).__name__}: {exc})") from None
+    if not data["speed"]:
+        raise InputDataError(f"{src}: the bag holds no {FRICTION_OBSERVATION_TYPE} messages")
+    return ObservationTable({k: np.asarray(v, dtype=float) for k, v in data.items()}, source=src)
+
+
+def _fmt(v: float) -> str:
+    return repr(float(v))
+
+
+def write_csv(table: ObservationTable, path: str | os.PathLike[str]) -> Path:
+    """Write ``table`` as CSV, atomically (a temporary file, then rename)."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    names = table.names
+    fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(names)
+            cols = [table[n] for n in names]
+            for i in range(len(table)):
+                w.writerow([_fmt(c[i]) for c in cols])
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return p
+
+
+def write_bag(
+    table: ObservationTable,
+    path: str | os.PathLike[str],
+    *,
+    topic: str = DEFAULT_OBSERVATION_TOPIC,
+    joint_name: str = "joint",
+) -> Path:
+    """Write ``table`` as a rosbag2 MCAP bag (a directory) of FrictionObservation messages.
+
+    Only the message's fields are kept (extra columns such as ``lube_hours``
+    need CSV). The bag is built under a temporary name and renamed.
+    """
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    p = Path(path)
+    if p.exists():
+        raise InputDataError(f"{p}: already exists; give a new bag directory name or delete it")
+    store = jointwear_typestore()
+    Msg: Any = store.types[FRICTION_OBSERVATION_TYPE]
+    Header: Any = store.types["std_msgs/msg/Header"]
+    Time: Any = store.types["builtin_interfaces/msg/Time"]
+    n = len(table)
+    col = {k: table.get(k, math.nan) for k in
+           ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position")}
+    cyc = table.get("cycle", 0.0)
+    tim = table["time"] if "time" in table else np.arange(n, dtype=float)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=p.name + ".", dir=p.parent)) / "bag"
+    try:
+        with Writer(tmp, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+            conn = writer.add_connection(topic, FRICTION_OBSERVATION_TYPE, typestore=store)
+            for i in range(n):
+                t = max(float(tim[i]), 0.0)
+                sec = int(t)
+                nsec = int(round((t - sec) * 1e9)) % 1_000_000_000
+                msg = Msg(
+                    header=Header(stamp=Time(sec=sec, nanosec=nsec), frame_id=""),
+                    joint_name=joint_name,
+                    cycle_id=int(cyc[i]) if math.isfinite(cyc[i]) else 0,
+                    samples_plus=0,
+                    samples_minus=0,
+                    **{k: float(v[i]) for k, v in col.items()},
+                )
+                writer.write(conn, sec * 1_000_000_000 + nsec, store.serialize_cdr(msg, FRICTION_OBSERVATION_TYPE))
+        os.replace(tmp, p)
+    finally:
+        shutil.rmtree(tmp.parent, ignore_errors=True)
+    return p
+
+
+def write_table(table: ObservationTable, path: str | os.PathLike[str], **kwargs: Any) -> Path:
+    """CSV when ``path`` ends in ``.csv``, else a rosbag2 MCAP bag directory."""
+    if str(path).lower().endswith(".csv"):
+        return write_csv(table, path)
+    return write_bag(table, path, **kwargs)
+
+

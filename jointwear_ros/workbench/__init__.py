@@ -1,0 +1,40 @@
+"""The model workbench: fit, compare, diagnose the missing effect, add it, keep a history.
+
+Pure numpy/scipy (plus matplotlib for plots in :mod:`.report`); no ROS import.
+"""
+
+from __future__ import annotations
+
+from .candidates import (
+    ENTRY_POINT_GROUP,
+    SHAPES,
+    CandidateTerm,
+    candidate_library,
+    candidate_variables,
+    parse_spec,
+    resolve_term,
+)
+from .compare import SPEED_BAND_EDGES, BandError, band_rmse, noise_floor, residual_structure
+from .diagnose import CandidateResult, Diagnosis, diagnose
+from .fit import FitResult, fit_model, group_folds
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "SHAPES",
+    "CandidateTerm",
+    "candidate_library",
+    "candidate_variables",
+    "parse_spec",
+    "resolve_term",
+    "SPEED_BAND_EDGES",
+    "BandError",
+    "band_rmse",
+    "noise_floor",
+    "residual_structure",
+    "CandidateResult",
+    "Diagnosis",
+    "diagnose",
+    "FitResult",
+    "fit_model",
+    "group_folds",
+]

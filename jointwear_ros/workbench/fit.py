@@ -1,0 +1,401 @@
+"""Nonlinear least-squares fit of a model to an observation table.
+
+``fit_model`` wraps :func:`scipy.optimize.least_squares` (trust-region
+reflective, bounds from the parameters, the terms' analytic Jacobian). It
+never raises on non-convergence: it returns a :class:`FitResult` with
+``success`` and ``message``, RMSE, cross-validated RMSE (folds grouped by test
+cycle), AIC/BIC, parameter values with standard errors and correlations.
+
+Starting values: the given parameters (a parameter set, or each term's
+physically sensible default); the parameters the model is linear in are then
+solved for by linear least squares (variable projection), and, where the
+model is nonlinear in some free parameters, further starts scale those by
+0.3 and 3. The best start wins.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.optimize import least_squares
+
+from ..errors import InputDataError
+from ..model import Model, Parameters
+from ..types import ObservationTable
+
+__all__ = ["FitResult", "fit_model", "group_folds", "model_inputs", "information_criteria"]
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass
+class FitResult:
+    """Outcome of one fit: never an exception on non-convergence (see ``success``/``message``)."""
+
+    model: Model
+    params: Parameters
+    success: bool
+    message: str
+    n: int
+    n_free: int
+    ssr: float
+    rmse: float
+    cv_rmse: float
+    aic: float
+    bic: float
+    free: list[str]
+    correlations: Array
+    residuals: Array
+    fitted: Array
+    nfev: int = 0
+    cv_residuals: Array | None = field(default=None, repr=False)
+
+    @property
+    def spec(self) -> str:
+        return self.model.spec
+
+    def stderr(self, name: str) -> float:
+        s = self.params[name].stderr
+        return math.nan if s is None else float(s)
+
+    def correlation(self, a: str, b: str) -> float:
+        i, j = self.free.index(a), self.free.index(b)
+        return float(self.correlations[i, j])
+
+    def to_dict(self) -> dict[str, Any]:
+        """The CLI's JSON: rmse, cv_rmse, aic, bic, params {name: {value, stderr}} and more."""
+        return {
+            "model": self.spec,
+            "equation": self.model.equation(),
+            "n": self.n,
+            "n_free": self.n_free,
+            "success": self.success,
+            "message": self.message,
+            "rmse": self.rmse,
+            "cv_rmse": self.cv_rmse,
+            "aic": self.aic,
+            "bic": self.bic,
+            "params": {
+                n: {
+                    "value": p.value,
+                    "stderr": p.stderr,
+                    "vary": p.vary,
+                    "unit": p.unit,
+                }
+                for n, p in self.params.items()
+            },
+            "correlations": {
+                a: {b: float(self.correlations[i, j]) for j, b in enumerate(self.free) if j != i}
+                for i, a in enumerate(self.free)
+            },
+        }
+
+
+def information_criteria(ssr: float, n: int, k: int) -> tuple[float, float]:
+    """Gaussian AIC and BIC with unknown noise variance: n ln(SSR/n) + 2k, n ln(SSR/n) + k ln n."""
+    if n <= 0:
+        return math.nan, math.nan
+    base = n * math.log(max(ssr, 1e-300) / n)
+    return base + 2.0 * k, base + k * math.log(n)
+
+
+def model_inputs(model: Model, table: ObservationTable) -> dict[str, Array]:
+    """The columns ``model`` needs, checked: present and finite (else :class:`InputDataError`)."""
+    src = table.source or "observations"
+    out: dict[str, Array] = {}
+    for var in model.variables:
+        if var not in table:
+            raise InputDataError(
+                f"{src}: column {var!r} is missing, needed by model {model.spec!r}; "
+                f"columns present: {', '.join(table.names)}"
+            )
+        col = table[var]
+        bad = np.flatnonzero(~np.isfinite(col))
+        if bad.size:
+            raise InputDataError(
+                f"{src}: column {var!r}, row {int(bad[0]) + 1}: value {col[bad[0]]!r} is not finite "
+                f"({bad.size} such rows); model {model.spec!r} needs it"
+            )
+        out[var] = col
+    y = table.tau_f
+    bad = np.flatnonzero(~np.isfinite(y))
+    if bad.size:
+        raise InputDataError(f"{src}: column 'tau_f', row {int(bad[0]) + 1}: value {y[bad[0]]!r} is not finite")
+    return out
+
+
+def group_folds(table: ObservationTable, k: int = 5, seed: int = 0, column: str = "cycle") -> Array:
+    """Fold index per row; rows of one test cycle stay in one fold (rows are groups without ``cycle``)."""
+    n = len(table)
+    groups = table[column] if column in table else np.arange(n, dtype=float)
+    uniq, inv = np.unique(groups, return_inverse=True)
+    k = int(min(k, uniq.size))
+    if k < 2:
+        return np.zeros(n, dtype=int)
+    order = np.random.default_rng(seed).permutation(uniq.size)
+    fold_of_group = np.empty(uniq.size, dtype=int)
+    fold_of_group[order] = np.arange(uniq.size) % k
+    return fold_of_group[inv].astype(int)
+
+
+class _Problem:
+    """Residuals and Jacobian in the free parameters, on prepared inputs."""
+
+    def __init__(self, model: Model, x: Mapping[str, Array], y: Array, params: Parameters) -> None:
+        self.model = model
+        self.x = dict(x)
+        self.y = y
+        self.params = params
+        self.free = params.free()
+        self.fixed = {n: p.value for n, p in params.items() if not p.vary}
+        self.lb = np.array([params[n].min for n in self.free], dtype=float)
+        self.ub = np.array([params[n].max for n in self.free], dtype=float)
+
+    def values(self, theta: Array) -> dict[str, float]:
+        d = dict(self.fixed)
+        d.update(zip(self.free, (float(t) for t in theta)))
+        return d
+
+    def f(self, theta: Array) -> Array:
+        return self.model.evaluate(self.values(theta), **self.x) - self.y
+
+    def jac(self, theta: Array) -> Array:
+        return self.model.jacobian(self.values(theta), self.free, **self.x)
+
+    def clip(self, theta: Array) -> Array:
+        with np.errstate(invalid="ignore"):
+            lo = np.where(np.isfinite(self.lb), self.lb + 1e-12 * (1 + np.abs(self.lb)), -np.inf)
+            hi = np.where(np.isfinite(self.ub), self.ub - 1e-12 * (1 + np.abs(self.ub)), np.inf)
+        return np.clip(theta, lo, hi)
+
+    def solve(self, theta0: Array, max_nfev: int | None = None) -> Any:
+        with np.errstate(all="ignore"):
+            return least_squares(
+                self.f, self.clip(theta0), jac=self.jac, bounds=(self.lb, self.ub), method="trf",
+                x_scale="jac", max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10,
+            )
+
+
+def _linear_names(prob: _Problem, theta: Array) -> list[str]:
+    """Free parameters the model is linear in: their Jacobian column does not move with them.
+
+    Tested at a point with no zero parameter (an amplitude at 0 would hide
+    its shape parameters' nonlinearity).
+    """
+    theta = prob.clip(np.where(theta == 0.0, 1.0, theta))
+    with np.errstate(all="ignore"):
+        j0 = prob.jac(theta)
+    out = []
+    for i, n in enumerate(prob.free):
+        t2 = theta.copy()
+        t2[i] = theta[i] + max(1.0, abs(theta[i])) * 0.37
+        t2 = prob.clip(t2)
+        if t2[i] == theta[i]:
+            continue
+        with np.errstate(all="ignore"):
+            j1 = prob.jac(t2)
+        if np.allclose(j0[:, i], j1[:, i], rtol=1e-9, atol=1e-14):
+            out.append(n)
+    return out
+
+
+def _project_linear(prob: _Problem, theta: Array, linear: Sequence[str]) -> Array:
+    """Solve the linear parameters by least squares given the others (then clip to bounds)."""
+    idx = [prob.free.index(n) for n in linear if n in prob.free]
+    if not idx:
+        return theta
+    with np.errstate(all="ignore"):
+        r = prob.f(theta)
+        jl = prob.jac(theta)[:, idx]
+        if not np.all(np.isfinite(jl)) or not np.all(np.isfinite(r)):
+            return theta
+        # model = jl @ theta_l + rest; want jl @ theta_l_new = y - rest = jl @ theta_l - r
+        target = jl @ theta[idx] - r
+        sol, *_ = np.linalg.lstsq(jl, target, rcond=None)
+    out = theta.copy()
+    out[idx] = sol
+    return prob.clip(out)
+
+
+def _covariance(jac: Array, ssr: float, n: int) -> tuple[Array, Array]:
+    """Standard errors and correlations; parameters in a non-identifiable direction get inf."""
+    k = jac.shape[1]
+    if k == 0:
+        return np.zeros(0), np.zeros((0, 0))
+    dof = max(n - k, 1)
+    s2 = ssr / dof
+    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    tol = sv.max() * max(jac.shape) * np.finfo(float).eps * 1e3 if sv.size else 0.0
+    ok = sv > tol
+    inv = np.where(ok, 1.0 / np.where(ok, sv, 1.0) ** 2, 0.0)
+    cov = (vt.T * inv) @ vt * s2
+    var = np.diag(cov).copy()
+    null = vt[~ok]
+    unident = np.any(np.abs(null) > 1e-6, axis=0) if null.size else np.zeros(k, dtype=bool)
+    std = np.sqrt(np.maximum(var, 0.0))
+    std[unident] = np.inf
+    with np.errstate(all="ignore"):
+        d = np.sqrt(np.maximum(var, 0.0))
+        corr = cov / np.outer(d, d)
+    corr[~np.isfinite(corr)] = 0.0
+    corr[unident, :] = np.nan
+    corr[:, unident] = np.nan
+    np.fill_diagonal(corr, 1.0)
+    return std, corr
+
+
+def fit_model(
+    model: Model,
+    table: ObservationTable,
+    params: Parameters | Mapping[str, float] | None = None,
+    *,
+    fixed: Sequence[str] = (),
+    starts: Sequence[Mapping[str, float]] | None = None,
+    n_starts: int = 3,
+    cv_folds: int = 5,
+    folds: Array | None = None,
+    cv_max_nfev: int | None = 60,
+) -> FitResult:
+    """Fit ``model`` to ``table`` by nonlinear least squares.
+
+    Parameters
+    ----------
+    model
+        The model to fit.
+    table
+        Observations; the model's input columns must be present and finite.
+    params
+        Starting values (a :class:`Parameters` keeps its bounds and vary flags).
+    fixed
+        Names of parameters held at their starting value.
+    starts
+        Explicit starting points (each overrides some values); default: the
+        automatic multi-start described in the module docstring.
+    n_starts
+        Number of automatic starts (1: no multi-start).
+    cv_folds, folds
+        Cross-validation folds grouped by ``cycle`` (``folds`` gives the fold
+        of each row directly); ``cv_folds < 2`` skips cross-validation.
+    cv_max_nfev
+        Evaluation budget of each fold's refit (warm-started at the full fit).
+
+    Returns
+    -------
+    FitResult
+    """
+    x = model_inputs(model, table)
+    y = np.asarray(table.tau_f, dtype=float)
+    n = y.size
+    p0 = model.make_params(params)
+    if fixed:
+        p0.set_vary(fixed, False)
+    prob = _Problem(model, x, y, p0)
+    theta_base = np.array([p0[nm].value for nm in prob.free], dtype=float)
+
+    best: Any = None
+    message = ""
+    if prob.free and n > 0:
+        candidates: list[Array] = []
+        if starts is not None:
+            for s in starts:
+                t = theta_base.copy()
+                for nm, val in s.items():
+                    if nm in prob.free:
+                        t[prob.free.index(nm)] = float(val)
+                candidates.append(prob.clip(t))
+            linear = _linear_names(prob, candidates[0]) if candidates else []
+            candidates = [_project_linear(prob, t, linear) for t in candidates]
+        else:
+            t0 = prob.clip(theta_base)
+            linear = _linear_names(prob, t0)
+            nonlinear = [i for i, nm in enumerate(prob.free) if nm not in linear]
+            candidates.append(t0)
+            candidates.append(_project_linear(prob, t0, linear))
+            if nonlinear and n_starts > 1:
+                for factor in (0.3, 3.0, 0.1, 10.0)[: n_starts - 1]:
+                    t = t0.copy()
+                    t[nonlinear] = t0[nonlinear] * factor
+                    candidates.append(_project_linear(prob, prob.clip(t), linear))
+        # pick the most promising starts by initial cost, then solve
+        with np.errstate(all="ignore"):
+            costs = [float(np.sum(prob.f(t) ** 2)) for t in candidates]
+        order = np.argsort(np.where(np.isfinite(costs), costs, np.inf))
+        keep = [candidates[i] for i in order[: max(n_starts, 1) if starts is None else 3]]
+        for t in keep:
+            try:
+                sol = prob.solve(t)
+            except (ValueError, np.linalg.LinAlgError) as exc:
+                message = f"solver failed from a start: {exc}"
+                continue
+            if not np.isfinite(sol.cost):
+                continue
+            if best is None or sol.cost < best.cost:
+                best = sol
+        theta = best.x if best is not None else prob.clip(theta_base)
+        success = bool(best is not None and best.status > 0)
+        message = best.message if best is not None else (message or "no start gave a finite cost")
+        nfev = int(best.nfev) if best is not None else 0
+    else:
+        theta = theta_base
+        success = True
+        message = "no free parameters" if n > 0 else "no observations"
+        nfev = 0
+
+    with np.errstate(all="ignore"):
+        resid = prob.f(theta) if n else np.zeros(0)
+    ssr = float(np.sum(resid**2))
+    k = len(prob.free)
+    rmse = math.sqrt(ssr / n) if n else math.nan
+    aic, bic = information_criteria(ssr, n, k)
+    if k and n and np.all(np.isfinite(resid)):
+        std, corr = _covariance(prob.jac(theta), ssr, n)
+    else:
+        std, corr = np.full(k, np.nan), np.full((k, k), np.nan)
+    out_params = p0.copy()
+    for i, nm in enumerate(prob.free):
+        out_params[nm].value = float(theta[i])
+        out_params[nm].stderr = float(std[i])
+
+    cv_rmse = math.nan
+    cv_res: Array | None = None
+    if n and (cv_folds >= 2 or folds is not None):
+        fid = folds if folds is not None else group_folds(table, cv_folds)
+        if np.unique(fid).size >= 2:
+            cv_res = _cross_validate(model, x, y, out_params, fid, theta, cv_max_nfev)
+            cv_rmse = float(np.sqrt(np.mean(cv_res**2)))
+
+    return FitResult(
+        model=model, params=out_params, success=success, message=str(message), n=n, n_free=k, ssr=ssr,
+        rmse=rmse, cv_rmse=cv_rmse, aic=aic, bic=bic, free=list(prob.free), correlations=corr,
+        residuals=resid, fitted=resid + y, nfev=nfev, cv_residuals=cv_res,
+    )
+
+
+def _cross_validate(
+    model: Model, x: Mapping[str, Array], y: Array, params: Parameters, folds: Array, theta: Array,
+    max_nfev: int | None,
+) -> Array:
+    """Held-out residual of every row, from refits on the other folds (warm-started at ``theta``)."""
+    out = np.empty_like(y)
+    for f in np.unique(folds):
+        test = folds == f
+        train = ~test
+        xt = {k: v[train] for k, v in x.items()}
+        prob = _Problem(model, xt, y[train], params)
+        if prob.free and train.sum() > 0:
+            try:
+                sol = prob.solve(theta, max_nfev=max_nfev)
+                th = sol.x if np.isfinite(sol.cost) else theta
+            except (ValueError, np.linalg.LinAlgError):
+                th = theta
+        else:
+            th = theta
+        vals = prob.values(th)
+        with np.errstate(all="ignore"):
+            out[test] = model.evaluate(vals, **{k: v[test] for k, v in x.items()}) - y[test]
+    return out
