@@ -15,6 +15,7 @@ from typing import Any
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import WearEstimator
+from .bayes import BayesEstimator
 from .inverse import TemperatureTable, WearInverse
 from .paper import PAPER_N_SAMPLES, PAPER_TEMPERATURE_RANGE, PaperEstimator, PaperGridEstimator
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
@@ -22,6 +23,7 @@ from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uni
 __all__ = [
     "ESTIMATOR_METHODS",
     "make_estimator",
+    "BayesEstimator",
     "PaperEstimator",
     "PaperGridEstimator",
     "PAPER_N_SAMPLES",
