@@ -22,18 +22,18 @@ from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uni
 
 __all__ = [
     "ESTIMATOR_METHODS",
-    "make_estimator",
+    "PAPER_N_SAMPLES",
+    "PAPER_TEMPERATURE_RANGE",
     "BayesEstimator",
     "PaperEstimator",
     "PaperGridEstimator",
-    "PAPER_N_SAMPLES",
-    "PAPER_TEMPERATURE_RANGE",
-    "WearInverse",
-    "TemperatureTable",
     "TemperaturePrior",
+    "TemperatureTable",
+    "WearInverse",
+    "make_estimator",
     "normal_prior",
-    "uniform_prior",
     "parse_temperature_prior",
+    "uniform_prior",
 ]
 
 

@@ -60,7 +60,7 @@ from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, combine_rows, prepare_rows, 
 from .inverse import base_friction
 from .priors import TemperaturePrior, parse_temperature_prior, uniform_prior
 
-__all__ = ["BayesEstimator", "PosteriorSummary", "SpeedPosterior", "DEFAULT_BAYES_PRIOR"]
+__all__ = ["DEFAULT_BAYES_PRIOR", "BayesEstimator", "PosteriorSummary", "SpeedPosterior"]
 
 Array = npt.NDArray[np.float64]
 
@@ -167,7 +167,7 @@ class SpeedPosterior:
         lo = self.b_min - g_span - 16.0 * s
         hi = self.b_max + g_span + 16.0 * s
         dy = y_step * s
-        n = int(math.ceil((hi - lo) / dy)) + 1
+        n = math.ceil((hi - lo) / dy) + 1
         self._y0, self._dy = lo, dy
         y = lo + dy * np.arange(n)
         self._logh = self.log_marginal_exact(y)
@@ -338,7 +338,7 @@ class BayesEstimator:
         if point not in ("mode", "mean"):
             raise InputDataError(f"point = {point!r}: choose 'mode' (marginal maximum likelihood) or 'mean'")
         self.point = point
-        n = int(round((hi - lo) / grid_step)) + 1
+        n = round((hi - lo) / grid_step) + 1
         self.w_grid = np.linspace(lo, hi, n)
         self.log_w_prior = np.zeros(n)
         self.default_load = default_load
