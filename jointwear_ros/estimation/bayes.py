@@ -118,7 +118,8 @@ class SpeedPosterior:
         log_w_prior: Array,
         *,
         y_step: float = 0.1,
-        max_nodes: int = 20000,
+        max_nodes: int = 4000,
+        max_table: int = 40000,
     ) -> None:
         self.model, self.params = model, params
         self.speed, self.load = float(speed), float(load)
@@ -133,8 +134,17 @@ class SpeedPosterior:
         trap = np.gradient(w_grid)
         self.log_base = log_w_prior + np.log(trap)
         self.prior = prior
-        if prior is not None:
-            self._build_marginal(prior, y_step, max_nodes)
+        self._y_step, self._max_nodes, self._max_table = y_step, max_nodes, max_table
+        self._logh: Array | None = None
+
+    def _marginal(self) -> Array:
+        """The log h table, built on first use (rows with a measured T never need it)."""
+        if self._logh is None:
+            if self.prior is None:
+                raise InputDataError("no temperature prior: the marginal likelihood needs one")
+            self._build_marginal(self.prior, self._y_step, self._max_nodes)
+        assert self._logh is not None
+        return self._logh
 
     # -- the marginal density h(y) of b(T) + e ------------------------------
     def _nodes(self, prior: TemperaturePrior, max_nodes: int) -> tuple[Array, Array]:
@@ -166,7 +176,7 @@ class SpeedPosterior:
         g_span = float(self.g.max() - self.g.min())
         lo = self.b_min - g_span - 16.0 * s
         hi = self.b_max + g_span + 16.0 * s
-        dy = y_step * s
+        dy = max(y_step * s, (hi - lo) / (self._max_table - 1))
         n = math.ceil((hi - lo) / dy) + 1
         self._y0, self._dy = lo, dy
         y = lo + dy * np.arange(n)
@@ -189,18 +199,19 @@ class SpeedPosterior:
         Beyond the table (more than 16 sigma_e from every b(T)), h is continued
         by the Gaussian tail of the nearest edge of b's range.
         """
+        logh = self._marginal()
         t = (y - self._y0) / self._dy
-        n = self._logh.size
+        n = logh.size
         k = np.clip(t, 0, n - 1 - 1e-9).astype(np.intp)
         f = np.clip(t, 0, n - 1) - k
-        out = self._logh[k] * (1.0 - f) + self._logh[k + 1] * f
+        out = logh[k] * (1.0 - f) + logh[k + 1] * f
         below, above = t < 0, t > n - 1
         if below.any() or above.any():
             s2 = 2.0 * self.sigma * self.sigma
             y_lo, y_hi = self._y0, self._y0 + self._dy * (n - 1)
             yb, ya = y[below], y[above]
-            out[below] = self._logh[0] - ((yb - self.b_min) ** 2 - (y_lo - self.b_min) ** 2) / s2
-            out[above] = self._logh[-1] - ((ya - self.b_max) ** 2 - (y_hi - self.b_max) ** 2) / s2
+            out[below] = logh[0] - ((yb - self.b_min) ** 2 - (y_lo - self.b_min) ** 2) / s2
+            out[above] = logh[-1] - ((ya - self.b_max) ** 2 - (y_hi - self.b_max) ** 2) / s2
         return out
 
     # -- posterior -------------------------------------------------------------
@@ -241,6 +252,7 @@ class SpeedPosterior:
 
     def tau_range(self) -> tuple[float, float]:
         """Observations beyond this range are out by more than 12 sigma_e for every w and T."""
+        self._marginal()
         return (float(self.b_nodes.min() + self.g.min() - 12.0 * self.sigma),
                 float(self.b_nodes.max() + self.g.max() + 12.0 * self.sigma))
 
