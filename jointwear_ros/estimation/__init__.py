@@ -15,23 +15,37 @@ from typing import Any
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import WearEstimator
+from .crb import (
+    CRB_METHODS,
+    FisherResult,
+    crb_known_temperature,
+    crb_multi_speed,
+    crb_per_speed,
+    fisher_information,
+)
 from .inverse import TemperatureTable, WearInverse
 from .paper import PAPER_N_SAMPLES, PAPER_TEMPERATURE_RANGE, PaperEstimator, PaperGridEstimator
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
 
 __all__ = [
+    "CRB_METHODS",
     "ESTIMATOR_METHODS",
-    "make_estimator",
-    "PaperEstimator",
-    "PaperGridEstimator",
     "PAPER_N_SAMPLES",
     "PAPER_TEMPERATURE_RANGE",
-    "WearInverse",
-    "TemperatureTable",
+    "FisherResult",
+    "PaperEstimator",
+    "PaperGridEstimator",
     "TemperaturePrior",
+    "TemperatureTable",
+    "WearInverse",
+    "crb_known_temperature",
+    "crb_multi_speed",
+    "crb_per_speed",
+    "fisher_information",
+    "make_estimator",
     "normal_prior",
-    "uniform_prior",
     "parse_temperature_prior",
+    "uniform_prior",
 ]
 
 
