@@ -54,7 +54,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import logsumexp
 from scipy.stats import norm, qmc
 
 from ..errors import InputDataError
@@ -162,13 +161,16 @@ def _curves(model: Model, params: Parameters, speed: Array, load: float, temps: 
 
 def temperature_nodes(model: Model, params: Parameters, speeds: npt.ArrayLike, wear: float, *,
                       load: float = 0.1, noise_std: float = DEFAULT_NOISE_STD,
-                      prior: TemperaturePrior | str = DEFAULT_CRB_PRIOR) -> int:
+                      prior: TemperaturePrior | str = DEFAULT_CRB_PRIOR, density: float = 4.0) -> int:
     """Quadrature nodes over T that resolve the likelihood at these speeds.
 
     The marginal (13) is a sum of Gaussian bumps of width sigma; over the
-    prior's range the friction moves by ``spread``; the rule takes about 4
-    nodes per sigma of that spread (48 at least, 1536 at most), scaled by the
-    number of speeds sharing T (the joint likelihood's bump is narrower).
+    prior's range the friction moves by ``spread``; the rule takes ``density``
+    nodes per sigma of that spread (48 at least, 1536 at most), the spread
+    being the root-sum-square over the speeds sharing T (the joint
+    likelihood's bump in T is narrower). About one node per sigma already
+    gives ~1e-4 relative accuracy for a uniform prior; 4 (the default) leaves
+    margin for priors whose nodes spread into long tails.
     """
     v = np.atleast_1d(np.asarray(speeds, dtype=float)).ravel()
     pr = parse_temperature_prior(prior)
@@ -176,7 +178,8 @@ def temperature_nodes(model: Model, params: Parameters, speeds: npt.ArrayLike, w
     t = np.linspace(lo, hi, 129)
     f, _ = _curves(model, params, v, abs(float(load)), t, float(wear))
     spread = float(np.sqrt(np.sum((f.max(axis=1) - f.min(axis=1)) ** 2)))
-    n = math.ceil(4.0 * spread / float(noise_std)) + _MIN_NODES
+    n = math.ceil(float(density) * spread / float(noise_std)) + _MIN_NODES
+    n = 16 * math.ceil(n / 16)  # a multiple of 16: the prior's cached Gauss-Legendre rules get reused
     return int(min(max(n, _MIN_NODES), _MAX_NODES))
 
 
@@ -190,10 +193,15 @@ def _scores(y: Array, f: Array, a: Array, logpi: Array, sig: float) -> Array:
     inv2 = 0.5 / (sig * sig)
     for s in range(0, q, step):
         r = y[s:s + step, :, None] - f[None, :, :]  # (q, K, n)
-        ll = logpi[None, :] - inv2 * np.einsum("qkn,qkn->qn", r, r)
-        ll -= logsumexp(ll, axis=1, keepdims=True)
+        if k == 1:
+            ll = logpi[None, :] - inv2 * r[:, 0, :] ** 2
+            num = r[:, 0, :] * a[0][None, :]
+        else:
+            ll = logpi[None, :] - inv2 * np.einsum("qkn,qkn->qn", r, r)
+            num = np.einsum("qkn,kn->qn", r, a)
+        ll -= ll.max(axis=1, keepdims=True)
         np.exp(ll, out=ll)
-        out[s:s + step] = np.einsum("qn,qkn,kn->q", ll, r, a) / (sig * sig)
+        out[s:s + step] = np.einsum("qn,qn->q", ll, num) / (ll.sum(axis=1) * sig * sig)
     return out
 
 
