@@ -43,7 +43,6 @@ from .crb import (
     DEFAULT_CRB_PRIOR,
     _curves,
     _log_weights,
-    _scores,
     crb_known_temperature,
     crb_per_speed,
     fisher_information,
@@ -54,6 +53,7 @@ from .priors import TemperaturePrior, parse_temperature_prior
 __all__ = ["PAPER_SECONDS_PER_SPEED", "CycleDesign", "design_cycle"]
 
 Array = npt.NDArray[np.float64]
+Work = npt.NDArray[Any]  # single-precision search arrays
 
 #: Seconds one speed took in the paper's experiments (forward and reverse, Section 2).
 PAPER_SECONDS_PER_SPEED = 14.0
@@ -128,7 +128,7 @@ class _SearchBound:
         self.sigma = sigma
         self.n_nodes = spread_nodes
 
-    def partial(self, idx: Sequence[int], skip: int = -1) -> tuple[Array, Array]:
+    def partial(self, idx: Sequence[int], skip: int = -1) -> tuple[Work, Work]:
         """Log posterior weights over T nodes and the summed known-T score, (Q, n) each, of the
         design ``idx`` without position ``skip``; position k uses noise column k."""
         q, n = self.z.shape[0], self.logpi.size
@@ -139,12 +139,12 @@ class _SearchBound:
                 self._add(ll, num, int(c), k)
         return ll, num
 
-    def _add(self, ll: Array, num: Array, c: int, pos: int) -> None:
+    def _add(self, ll: Work, num: Work, c: int, pos: int) -> None:
         r = (self.f_out[c] + self.z[:, pos])[:, None] - self.f[c][None, :]
         ll -= (0.5 / self.sigma**2) * r * r
         num += r * (self.a[c] / self.sigma**2)[None, :]
 
-    def with_each(self, ll: Array, num: Array, pos: int, cands: Sequence[int]) -> Array:
+    def with_each(self, ll: Work, num: Work, pos: int, cands: Sequence[int]) -> Array:
         """The bound for the partial design plus each candidate at position ``pos``."""
         out = np.empty(len(cands))
         for j, c in enumerate(cands):
@@ -201,9 +201,9 @@ def design_cycle(
     """
     m, p = resolve_model(model, params)
     for name, val in (("budget", budget), ("seconds_per_speed", seconds_per_speed)):
-        if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+        if not (isinstance(val, (int, float, np.floating, np.integer)) and math.isfinite(val) and val > 0):
             raise InputDataError(f"{name} = {val!r} must be a positive number of seconds")
-    n = int(math.floor(budget / seconds_per_speed + 1e-9))
+    n = math.floor(float(budget) / float(seconds_per_speed) + 1e-9)
     if n < 1:
         raise InputDataError(
             f"budget {budget:g} s is shorter than one speed ({seconds_per_speed:g} s); "
