@@ -23,7 +23,9 @@ from .crb import (
     crb_per_speed,
     fisher_information,
 )
+from .design import PAPER_SECONDS_PER_SPEED, CycleDesign, design_cycle
 from .inverse import TemperatureTable, WearInverse
+from .joint import JointEstimator, JointPosterior
 from .paper import PAPER_N_SAMPLES, PAPER_TEMPERATURE_RANGE, PaperEstimator, PaperGridEstimator
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
 
@@ -31,8 +33,12 @@ __all__ = [
     "CRB_METHODS",
     "ESTIMATOR_METHODS",
     "PAPER_N_SAMPLES",
+    "PAPER_SECONDS_PER_SPEED",
     "PAPER_TEMPERATURE_RANGE",
+    "CycleDesign",
     "FisherResult",
+    "JointEstimator",
+    "JointPosterior",
     "PaperEstimator",
     "PaperGridEstimator",
     "TemperaturePrior",
@@ -41,6 +47,7 @@ __all__ = [
     "crb_known_temperature",
     "crb_multi_speed",
     "crb_per_speed",
+    "design_cycle",
     "fisher_information",
     "make_estimator",
     "normal_prior",

@@ -40,6 +40,7 @@ A single speed with the paper's data distribution is the quantity the paper
 plots in Fig. 11 (Section 5.1 uses T ~ N(40, 3^2); pass ``normal_prior(40, 3)``).
 
 >>> from jointwear_ros.model import paper_wear_model, load_parameter_set
+>>> from jointwear_ros.estimation.priors import normal_prior
 >>> m, p = paper_wear_model(), load_parameter_set("ref-2011r")
 >>> b = crb_per_speed(m, p, [40.0], 35.0, prior=normal_prior(40, 3))
 >>> bool(1.0 < b[0] < 4.0)
@@ -59,7 +60,7 @@ from scipy.stats import norm, qmc
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ._common import DEFAULT_NOISE_STD, resolve_model
-from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
+from .priors import TemperaturePrior, parse_temperature_prior, uniform_prior
 
 __all__ = [
     "CRB_METHODS",
@@ -69,7 +70,6 @@ __all__ = [
     "crb_multi_speed",
     "crb_per_speed",
     "fisher_information",
-    "normal_prior",
     "temperature_nodes",
 ]
 
