@@ -52,6 +52,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
@@ -205,6 +206,13 @@ def _scores(y: Array, f: Array, a: Array, logpi: Array, sig: float) -> Array:
     return out
 
 
+@lru_cache(maxsize=8)
+def _gauss_hermite(n: int) -> tuple[Array, Array]:
+    """Nodes and weights (summing to 1) of E[h(x)], x ~ N(0, 1)."""
+    x, g = np.polynomial.hermite_e.hermegauss(n)
+    return x, g / g.sum()
+
+
 def _log_weights(wts: Array) -> Array:
     with np.errstate(divide="ignore"):
         return np.log(np.maximum(wts, 0.0))
@@ -213,8 +221,7 @@ def _log_weights(wts: Array) -> Array:
 # -- per speed ---------------------------------------------------------------------
 def _per_speed_quadrature(f: Array, a: Array, wts: Array, sig: float, n_noise: int) -> float:
     """E over T (prior nodes) and e (Gauss-Hermite) of the squared score; f, a, wts: (n,)."""
-    x, g = np.polynomial.hermite_e.hermegauss(int(n_noise))
-    g = g / g.sum()
+    x, g = _gauss_hermite(int(n_noise))
     e = sig * x
     y = (f[:, None] + e[None, :]).reshape(-1, 1)
     s = _scores(y, f[None, :], a[None, :], _log_weights(wts), sig).reshape(f.size, e.size)
