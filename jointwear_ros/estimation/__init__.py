@@ -16,20 +16,41 @@ from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import WearEstimator
 from .bayes import BayesEstimator
+from .crb import (
+    CRB_METHODS,
+    FisherResult,
+    crb_known_temperature,
+    crb_multi_speed,
+    crb_per_speed,
+    fisher_information,
+)
+from .design import PAPER_SECONDS_PER_SPEED, CycleDesign, design_cycle
 from .inverse import TemperatureTable, WearInverse
+from .joint import JointEstimator, JointPosterior
 from .paper import PAPER_N_SAMPLES, PAPER_TEMPERATURE_RANGE, PaperEstimator, PaperGridEstimator
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
 
 __all__ = [
+    "CRB_METHODS",
     "ESTIMATOR_METHODS",
     "PAPER_N_SAMPLES",
+    "PAPER_SECONDS_PER_SPEED",
     "PAPER_TEMPERATURE_RANGE",
     "BayesEstimator",
+    "CycleDesign",
+    "FisherResult",
+    "JointEstimator",
+    "JointPosterior",
     "PaperEstimator",
     "PaperGridEstimator",
     "TemperaturePrior",
     "TemperatureTable",
     "WearInverse",
+    "crb_known_temperature",
+    "crb_multi_speed",
+    "crb_per_speed",
+    "design_cycle",
+    "fisher_information",
     "make_estimator",
     "normal_prior",
     "parse_temperature_prior",
