@@ -1,0 +1,356 @@
+"""``jointwear study``: the Section 5.1 simulation study, robustness, and the Section 6 case study.
+
+``jointwear study [--method M] ...`` runs the paper's study (Eq. 12 data, per
+speed: bias, variance, the Cramér-Rao bound, quantiles; Figs. 9-11 with
+``--plot DIR``). ``jointwear study robustness`` runs several estimators when the
+true temperature distribution differs from the assumed one.
+``jointwear study case`` runs the synthetic case study in the spirit of
+Section 6. Thin adapters over :mod:`jointwear_ros.estimation.study` and
+:mod:`jointwear_ros.estimation.case_study`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..estimation import ESTIMATOR_METHODS, make_estimator
+from ..estimation.priors import TemperaturePrior, parse_temperature_prior
+from ..model import load_parameter_set_info, paper_wear_model
+from . import UsageError
+from .common import format_table, parse_float, parse_float_list, print_json
+
+__all__ = ["register"]
+
+DEFAULT_SPEEDS = "0:280:56"
+DEFAULT_ROBUST_SPEEDS = "10,40,80,120"
+DEFAULT_TRUE_T = "normal:40:3"
+ACTIONS = ("run", "robustness", "case")
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "study",
+        help="the paper's Section 5.1 simulation study, robustness, and a Section 6 style case study",
+        description=(
+            "ACTION run (default): simulate Eq. (12) at each speed and report the estimator's bias, variance, "
+            "bound and quantiles. robustness: several estimators under true temperature distributions other "
+            "than the assumed one. case: a wear profile rising past 35 at k = 80 observed through a second, "
+            "slightly different joint."
+        ),
+    )
+    p.add_argument("action", nargs="?", default="run", choices=ACTIONS, help="run (default), robustness or case")
+    p.add_argument("--method", default="paper", choices=ESTIMATOR_METHODS,
+                   help="estimator of the study (default paper)")
+    p.add_argument("--methods", default=None,
+                   help="robustness/case: comma list of estimators (default paper,bayes,joint / paper,bayes)")
+    p.add_argument("--runs", default=None, help="runs per speed (default 10000; robustness 2000)")
+    p.add_argument("--speeds", default=None,
+                   help=f"comma list or START:STOP:COUNT, rad/s (default {DEFAULT_SPEEDS}; robustness {DEFAULT_ROBUST_SPEEDS})")
+    p.add_argument("--true-wear", default="35", help="w0 of the simulated joint (default 35)")
+    p.add_argument("--true-temperature", default=DEFAULT_TRUE_T,
+                   help="distribution of the true T: normal:MEAN:STD, uniform:LO:HI or LO:HI (default normal:40:3)")
+    p.add_argument("--assumed-temperature", default=None,
+                   help="what the estimator assumes (paper: LO:HI of its uniform, default 30:50; "
+                        "bayes/joint: a prior spec, default the true distribution; robustness: U(25,55))")
+    p.add_argument("--n-samples", default="200", help="paper: N temperature samples per observation (default 200)")
+    p.add_argument("--point", default=None, choices=("mode", "mean", "map"),
+                   help="bayes: mode (default) or mean; joint: mean (default) or map")
+    p.add_argument("--load", default="0.1", help="load torque tau_m, normalized (default 0.1)")
+    p.add_argument("--noise-std", default="0.0015", help="sigma_e (default 0.0015)")
+    p.add_argument("--params", default="ref-2011r", help="parameter set name or YAML path (default ref-2011r)")
+    p.add_argument("--seed", default="0", help="random seed (default 0)")
+    p.add_argument("--tolerance", default="1.0", help="robustness: |bias| counted as unbiased (default 1.0)")
+    p.add_argument("--mismatch", default="0.03", help="case: relative spread of the second joint's parameters (default 0.03)")
+    p.add_argument("--histogram", action="store_true", help="run: include the histogram of estimates in the JSON")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--plot", metavar="DIR", help="write the figures (PNG) into DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_study)
+
+
+# -- argument helpers -------------------------------------------------------------
+class _Bar:
+    """A progress bar on stderr."""
+
+    def __init__(self, label: str, quiet: bool) -> None:
+        self.label, self.quiet = label, quiet
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.quiet:
+            return
+        width = 30
+        k = int(width * done / max(total, 1))
+        sys.stderr.write(f"\r{self.label} [{'#' * k}{'.' * (width - k)}] {done}/{total}")
+        if done >= total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _prior(text: str, what: str) -> TemperaturePrior:
+    spec = text.strip()
+    parts = spec.split(":")
+    if len(parts) == 2 and _is_number(parts[0]):  # LO:HI
+        spec = "uniform:" + spec
+    try:
+        return parse_temperature_prior(spec)
+    except Exception as exc:  # InputDataError: name the option
+        raise UsageError(f"{what}: {exc}") from None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _int(text: str, what: str, lo: int) -> int:
+    try:
+        n = int(text)
+    except (TypeError, ValueError):
+        raise UsageError(f"{what}: {text!r} is not an integer") from None
+    if n < lo:
+        raise UsageError(f"{what}: {n} must be at least {lo}")
+    return n
+
+
+def _speeds(text: str) -> list[float]:
+    v = parse_float_list(text, "--speeds")
+    for s in v:
+        if s < 0:
+            raise UsageError(f"--speeds: {s:g} is negative; give motor-side speed magnitudes >= 0 rad/s")
+    return v
+
+
+def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, params: Any,
+               default_assumed: str | None) -> Any:
+    """An estimator configured from the command line."""
+    opts: dict[str, Any] = {"noise_std": parse_float(args.noise_std, "--noise-std")}
+    assumed_text = args.assumed_temperature or default_assumed
+    if method in ("paper", "paper-grid"):
+        opts["n_samples"] = _int(args.n_samples, "--n-samples", 1)
+        if assumed_text is not None:
+            pr = _prior(assumed_text, "--assumed-temperature")
+            if pr.kind != "uniform":
+                raise UsageError(f"--assumed-temperature {assumed_text!r}: the paper's estimator assumes a "
+                                 "uniform range; give LO:HI")
+            opts["temperature_range"] = pr.args
+    else:
+        opts["prior"] = _prior(assumed_text, "--assumed-temperature") if assumed_text else true_t
+        if args.point is not None:
+            point = args.point
+            if method == "bayes" and point == "map":
+                point = "mode"
+            if method == "joint" and point == "mode":
+                point = "map"
+            opts["point"] = point
+    model = paper_wear_model()
+    return make_estimator(method, model, params, **opts)
+
+
+def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, float, float, float]:
+    info = load_parameter_set_info(args.params)
+    params = paper_wear_model().make_params(info.parameters())
+    true_t = _prior(args.true_temperature, "--true-temperature")
+    seed = _int(args.seed, "--seed", 0)
+    wear = parse_float(args.true_wear, "--true-wear")
+    if not 0 <= wear <= 100:
+        raise UsageError(f"--true-wear: {wear:g} must be within [0, 100]")
+    load = parse_float(args.load, "--load")
+    if load < 0:
+        raise UsageError(f"--load: {load:g} must be >= 0")
+    noise = parse_float(args.noise_std, "--noise-std")
+    if noise <= 0:
+        raise UsageError(f"--noise-std: {noise:g} must be positive")
+    if args.plot is not None and Path(args.plot).exists() and not Path(args.plot).is_dir():
+        raise UsageError(f"--plot: {args.plot!r} exists and is not a directory")
+    return info, params, true_t, seed, wear, load, noise
+
+
+def _methods(text: str | None, default: str) -> list[str]:
+    names = [m.strip().lower() for m in (text or default).split(",") if m.strip()]
+    bad = [m for m in names if m not in ESTIMATOR_METHODS]
+    if bad or not names:
+        raise UsageError(f"--methods: {', '.join(bad) or 'empty'} not known; choose from {', '.join(ESTIMATOR_METHODS)}")
+    return names
+
+
+# -- actions ---------------------------------------------------------------------
+def cmd_study(args: argparse.Namespace) -> int:
+    if args.action == "robustness":
+        return _cmd_robustness(args)
+    if args.action == "case":
+        return _cmd_case(args)
+    return _cmd_run(args)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from ..estimation.study import StudySetup, run_study
+
+    _, params, true_t, seed, wear, load, noise = _common(args)
+    runs = _int(args.runs or "10000", "--runs", 2)
+    speeds = _speeds(args.speeds or DEFAULT_SPEEDS)
+    est = _estimator(args.method, args, true_t, params, None)
+    setup = StudySetup(speeds=speeds, runs=runs, true_wear=wear, load=load, noise_std=noise,
+                       true_temperature=true_t, seed=seed)
+    unit = "cycles" if args.method == "joint" else "speeds"
+    res = run_study(est, setup, model=paper_wear_model(), params=params,
+                    progress=_Bar(f"study {args.method} ({unit})", args.quiet))
+    if args.plot:
+        _plot_study(res, Path(args.plot))
+    if args.json:
+        print_json(res.to_dict(histogram=args.histogram))
+        return 0
+    print(f"method {res.method} ({res.mode}), {res.runs} runs, {res.seconds:.2f} s; true w = {res.true_wear:g}, "
+          f"true T ~ {res.true_temperature}, assumed {res.assumed_temperature}")
+    if res.mode == "cycle":
+        print("each run is one test cycle over all speeds at one shared unknown T; one estimate per cycle")
+    q = res.quantiles
+    rows = [[lab, float(b), float(v), float(c), float(m), float(q[0.025][i]), float(q[0.5][i]), float(q[0.975][i])]
+            for i, (lab, b, v, c, m) in enumerate(zip(res.rows, res.bias, res.variance, res.crb, res.mse))]
+    print(format_table(["speed", "bias", "variance", "crb", "mse", "q2.5", "median", "q97.5"], rows, ".3f"))
+    for k, val in res.extra.items():
+        print(f"{k}: {val:.4g}" if isinstance(val, float) else f"{k}: {val}")
+    return 0
+
+
+def _cmd_robustness(args: argparse.Namespace) -> int:
+    from ..estimation.study import DEFAULT_ROBUSTNESS_SCENARIOS, StudySetup, robustness_study
+
+    _, params, true_t, seed, wear, load, noise = _common(args)
+    runs = _int(args.runs or "2000", "--runs", 2)
+    speeds = _speeds(args.speeds or DEFAULT_ROBUST_SPEEDS)
+    tol = parse_float(args.tolerance, "--tolerance")
+    if tol <= 0:
+        raise UsageError(f"--tolerance: {tol:g} must be positive")
+    methods = _methods(args.methods, "paper,bayes,joint")
+    ests = {m: _estimator(m, args, true_t, params, "uniform:25:55" if m in ("bayes", "joint") else None)
+            for m in methods}
+    scenarios: dict[str, Any] = dict(DEFAULT_ROBUSTNESS_SCENARIOS)
+    if args.true_temperature != DEFAULT_TRUE_T:
+        scenarios = {f"given {true_t.label}": true_t}
+    setup = StudySetup(speeds=speeds, runs=runs, true_wear=wear, load=load, noise_std=noise, seed=seed)
+    rows = robustness_study(ests, scenarios, setup, model=paper_wear_model(), params=params, tolerance=tol,
+                            progress=_Bar("robustness (scenario x method)", args.quiet))
+    summary = {m: all(r.unbiased for r in rows if r.method == m) for m in methods}
+    if args.json:
+        print_json({"runs": runs, "speeds": speeds, "true_wear": wear, "tolerance": tol,
+                    "rows": [r.to_dict() for r in rows], "unbiased_in_every_scenario": summary})
+        return 0
+    print(f"robustness: {runs} runs per cell, true w = {wear:g}; 'yes' = |bias| <= {tol:g}")
+    table = [[r.scenario, r.method, r.assumed_temperature, r.speed, r.bias, r.std, r.rmse,
+              "yes" if r.unbiased else "NO"] for r in rows]
+    print(format_table(["true T", "method", "assumed", "speed", "bias", "std", "rmse", "unbiased"], table, ".2f"))
+    for m, ok in summary.items():
+        print(f"{m}: {'unbiased in every scenario' if ok else 'biased in some scenario'}")
+    return 0
+
+
+def _cmd_case(args: argparse.Namespace) -> int:
+    from ..estimation.case_study import CaseSetup, run_case_study
+
+    _, params, true_t, seed, _, load, noise = _common(args)
+    speeds = _speeds(args.speeds or DEFAULT_SPEEDS)
+    methods = _methods(args.methods, "paper,bayes")
+    mismatch = parse_float(args.mismatch, "--mismatch")
+    if not 0 <= mismatch < 0.5:
+        raise UsageError(f"--mismatch: {mismatch:g} must be within [0, 0.5)")
+    ests = {m: _estimator(m, args, true_t, params, None) for m in methods}
+    setup = CaseSetup(speeds=tuple(speeds), load=load, noise_std=noise, temperature=true_t, mismatch=mismatch,
+                      seed=seed)
+    res = run_case_study(ests, setup, model=paper_wear_model(), params=params,
+                         progress=_Bar("case study (methods)", args.quiet))
+    if args.plot:
+        _plot_case(res, Path(args.plot))
+    if args.json:
+        print_json(res.to_dict())
+        return 0
+    print(res.summary_text())
+    return 0
+
+
+# -- figures -----------------------------------------------------------------------
+def _plot_study(res: Any, out: Path) -> None:
+    from ..plots import new_figure, save_figure
+
+    v = np.asarray(res.speeds)
+    if res.mode == "per-speed":
+        fig, axes = new_figure()
+        ax = axes[0][0]
+        edges = res.hist_edges
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        dens = res.hist_counts / (res.runs * np.diff(edges)[None, :])
+        if v.size > 1:
+            cs = ax.contourf(v, centres, dens.T, levels=12, cmap="viridis")
+            fig.colorbar(cs, ax=ax, label="density of w_hat")
+        mean = res.true_wear + res.bias
+        ax.plot(v, mean, color="white", lw=1.8, label="mean of w_hat")
+        ax.axhline(res.true_wear, color="red", ls="--", lw=1.0, label=f"true w = {res.true_wear:g}")
+        ax.set_xlabel("speed v, motor side [rad/s]")
+        ax.set_ylabel("w_hat")
+        ax.set_title(f"Fig. 9: density of w_hat over speed ({res.method}, {res.runs} runs)")
+        ax.legend(fontsize=8)
+        save_figure(fig, out / f"study_{res.method}_density.png")
+
+        fig, axes = new_figure()
+        ax = axes[0][0]
+        ax.plot(v, res.bias, "o-", ms=3)
+        ax.axhline(0.0, color="grey", lw=0.6)
+        ax.set_xlabel("speed v, motor side [rad/s]")
+        ax.set_ylabel("bias of w_hat")
+        ax.set_title(f"Fig. 10: bias ({res.method})")
+        ax.grid(alpha=0.3)
+        save_figure(fig, out / f"study_{res.method}_bias.png")
+
+    fig, axes = new_figure()
+    ax = axes[0][0]
+    if res.mode == "per-speed":
+        ax.semilogy(v, res.variance, "o-", ms=3, label="variance of w_hat")
+        ax.semilogy(v, res.mse, "s-", ms=2, lw=0.8, label="mean-squared error")
+        if np.isfinite(res.crb).any():
+            ax.semilogy(v, res.crb, "k--", label="Cramer-Rao bound")
+        ax.set_xlabel("speed v, motor side [rad/s]")
+    else:
+        ax.bar(["variance", "mse", "multi-speed CRB"], [res.variance[0], res.mse[0], res.crb[0]])
+        ax.set_yscale("log")
+    ax.set_ylabel("wear^2")
+    ax.set_title(f"Fig. 11: variance and the bound ({res.method})")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8) if res.mode == "per-speed" else None
+    save_figure(fig, out / f"study_{res.method}_variance.png")
+
+
+def _plot_case(res: Any, out: Path) -> None:
+    from ..plots import new_figure, save_figure
+
+    fig, axes = new_figure(2, 1, size=(8.0, 8.0))
+    ax = axes[0][0]
+    k = res.k
+    ax.plot(k, res.w_true, "k-", lw=2, label="true w")
+    ax.plot(k, res.w_ref, "k--", lw=1, label="w* (Eq. 16)")
+    for m, d in res.methods.items():
+        i = d["best_index"]
+        ax.plot(k, d["estimates"][:, i], lw=1, label=f"{m} at {res.speeds[i]:.1f} rad/s")
+    ax.axhline(35.0, color="red", ls=":", label="threshold 35")
+    ax.set_xlabel("index k")
+    ax.set_ylabel("w")
+    ax.legend(fontsize=8)
+    ax.set_title("Fig. 13: estimated wear over k at the best speed")
+    ax = axes[1][0]
+    for m, d in res.methods.items():
+        ax.plot(res.speeds, d["mean"], label=f"{m}: mean dw")
+        ax.plot(res.speeds, d["worst"], ls="--", label=f"{m}: worst |dw|")
+        ax.plot(res.speeds, 3 * d["std"], ls=":", label=f"{m}: 3 std")
+    ax.set_xlabel("speed v [rad/s]")
+    ax.set_ylabel("dw = w_hat - w*")
+    ax.set_ylim(-20, 40)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    ax.set_title("Fig. 14: bias, worst case and 3 std of dw over speed")
+    save_figure(fig, out / "case_study.png")
