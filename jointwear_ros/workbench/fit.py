@@ -260,6 +260,7 @@ def fit_model(
     cv_folds: int = 5,
     folds: Array | None = None,
     cv_max_nfev: int | None = 60,
+    max_nfev: int | None = None,
 ) -> FitResult:
     """Fit ``model`` to ``table`` by nonlinear least squares.
 
@@ -328,7 +329,7 @@ def fit_model(
         keep = [candidates[i] for i in order[: max(n_starts, 1) if starts is None else 3]]
         for t in keep:
             try:
-                sol = prob.solve(t)
+                sol = prob.solve(t, max_nfev=max_nfev)
             except (ValueError, np.linalg.LinAlgError) as exc:
                 message = f"solver failed from a start: {exc}"
                 continue
