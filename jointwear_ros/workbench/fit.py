@@ -121,14 +121,14 @@ def model_inputs(model: Model, table: ObservationTable) -> dict[str, Array]:
         bad = np.flatnonzero(~np.isfinite(col))
         if bad.size:
             raise InputDataError(
-                f"{src}: column {var!r}, row {int(bad[0]) + 1}: value {col[bad[0]]!r} is not finite "
+                f"{src}: column {var!r}, row {int(bad[0]) + 1}: value {float(col[bad[0]])!r} is not finite "
                 f"({bad.size} such rows); model {model.spec!r} needs it"
             )
         out[var] = col
     y = table.tau_f
     bad = np.flatnonzero(~np.isfinite(y))
     if bad.size:
-        raise InputDataError(f"{src}: column 'tau_f', row {int(bad[0]) + 1}: value {y[bad[0]]!r} is not finite")
+        raise InputDataError(f"{src}: column 'tau_f', row {int(bad[0]) + 1}: value {float(y[bad[0]])!r} is not finite")
     return out
 
 
