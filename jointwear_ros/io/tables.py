@@ -22,7 +22,6 @@ import math
 import os
 import shutil
 import tempfile
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -34,14 +33,14 @@ from ..types import OBSERVATION_COLUMNS, ObservationTable
 from .typestore import jointwear_typestore
 
 __all__ = [
-    "FRICTION_OBSERVATION_TYPE",
     "DEFAULT_OBSERVATION_TOPIC",
-    "read_table",
-    "read_csv",
+    "FRICTION_OBSERVATION_TYPE",
     "read_bag",
-    "write_table",
-    "write_csv",
+    "read_csv",
+    "read_table",
     "write_bag",
+    "write_csv",
+    "write_table",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -176,7 +175,7 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
                     f"{src}: no {FRICTION_OBSERVATION_TYPE} messages {want}in the bag; topics: {present}"
                 )
             for i, (conn, _t, raw) in enumerate(reader.messages(connections=conns), start=1):
-                msg = reader.deserialize(raw, conn.msgtype)
+                msg: Any = reader.deserialize(raw, conn.msgtype)
                 data["cycle"].append(float(msg.cycle_id))
                 data["time"].append(float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec))
                 for f in fields:
@@ -188,7 +187,7 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
                     data[f].append(val)
     except InputDataError:
         raise
-    except Exception as exc:  # noqa: BLE001 - any reader failure is a bad-input message
+    except Exception as exc:
         raise InputDataError(f"{src}: cannot read the bag ({type(exc).__name__}: {exc})") from None
     if not data["speed"]:
         raise InputDataError(f"{src}: the bag holds no {FRICTION_OBSERVATION_TYPE} messages")
@@ -266,7 +265,7 @@ def write_bag(
             for i in range(n):
                 t = max(float(tim[i]), 0.0)
                 sec = int(t)
-                nsec = int(round((t - sec) * 1e9)) % 1_000_000_000
+                nsec = round((t - sec) * 1e9) % 1_000_000_000
                 msg = Msg(
                     header=Header(stamp=Time(sec=sec, nanosec=nsec), frame_id=""),
                     joint_name=joint_name,

@@ -20,6 +20,7 @@ When no candidate is significant the diagnosis says so.
 
 from __future__ import annotations
 
+import itertools
 import math
 import sys
 from collections.abc import Callable, Sequence
@@ -166,7 +167,7 @@ def _speed_region(speed: Array, r0: Array, r1: Array) -> tuple[float, float]:
     v = np.abs(speed)
     edges = SPEED_BAND_EDGES
     gains = []
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    for lo, hi in itertools.pairwise(edges):
         m = (v >= lo) & (v < hi)
         gains.append(float(np.sum(r0[m] ** 2 - r1[m] ** 2)) / max(int(m.sum()), 1) if m.any() else math.nan)
     g = np.asarray(gains)

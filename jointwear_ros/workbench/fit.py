@@ -28,7 +28,7 @@ from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import ObservationTable
 
-__all__ = ["FitResult", "fit_model", "group_folds", "model_inputs", "information_criteria"]
+__all__ = ["FitResult", "fit_model", "group_folds", "information_criteria", "model_inputs"]
 
 Array = npt.NDArray[np.float64]
 
