@@ -15,23 +15,44 @@ from typing import Any
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import WearEstimator
+from .crb import (
+    CRB_METHODS,
+    FisherResult,
+    crb_known_temperature,
+    crb_multi_speed,
+    crb_per_speed,
+    fisher_information,
+)
+from .design import PAPER_SECONDS_PER_SPEED, CycleDesign, design_cycle
 from .inverse import TemperatureTable, WearInverse
+from .joint import JointEstimator, JointPosterior
 from .paper import PAPER_N_SAMPLES, PAPER_TEMPERATURE_RANGE, PaperEstimator, PaperGridEstimator
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
 
 __all__ = [
+    "CRB_METHODS",
     "ESTIMATOR_METHODS",
-    "make_estimator",
+    "PAPER_N_SAMPLES",
+    "PAPER_SECONDS_PER_SPEED",
+    "PAPER_TEMPERATURE_RANGE",
+    "CycleDesign",
+    "FisherResult",
+    "JointEstimator",
+    "JointPosterior",
     "PaperEstimator",
     "PaperGridEstimator",
-    "PAPER_N_SAMPLES",
-    "PAPER_TEMPERATURE_RANGE",
-    "WearInverse",
-    "TemperatureTable",
     "TemperaturePrior",
+    "TemperatureTable",
+    "WearInverse",
+    "crb_known_temperature",
+    "crb_multi_speed",
+    "crb_per_speed",
+    "design_cycle",
+    "fisher_information",
+    "make_estimator",
     "normal_prior",
-    "uniform_prior",
     "parse_temperature_prior",
+    "uniform_prior",
 ]
 
 

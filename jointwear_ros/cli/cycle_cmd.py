@@ -1,0 +1,111 @@
+"""``jointwear cycle design``: choose a test cycle's speeds to minimise the bound on w.
+
+A thin adapter over :func:`jointwear_ros.estimation.design.design_cycle`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections import Counter
+
+from ..estimation.design import PAPER_SECONDS_PER_SPEED, design_cycle
+from ..estimation.priors import parse_temperature_prior
+from ..model import load_parameter_set_info, paper_wear_model
+from . import UsageError
+from .common import format_table, parse_float, parse_float_list, print_json
+
+__all__ = ["register"]
+
+DEFAULT_CANDIDATES = "0:280:57"
+#: Largest cycle the search handles in reasonable time.
+MAX_SPEEDS = 64
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("cycle", help="test-cycle design: which speeds to measure")
+    csub = p.add_subparsers(dest="cycle_command", metavar="ACTION", parser_class=type(p))
+    csub.required = True
+    d = csub.add_parser(
+        "design",
+        help="choose the speeds that minimise the bound on the wear estimate",
+        description=(
+            "Choose floor(budget / seconds-per-speed) speeds (repeats allowed) from the candidates so that "
+            "the Cramer-Rao bound on w of one cycle, all speeds at one unknown temperature, is smallest."
+        ),
+    )
+    d.add_argument("--budget", default="90", help="cycle time, seconds (default 90)")
+    d.add_argument("--seconds-per-speed", default=f"{PAPER_SECONDS_PER_SPEED:g}",
+                   help=f"time one speed takes, seconds (default {PAPER_SECONDS_PER_SPEED:g}, the paper's)")
+    d.add_argument("--params", default="ref-2011r", help="parameter set name or YAML path (default ref-2011r)")
+    d.add_argument("--wear", default="35", help="wear level at which the bound is minimised (default 35, the alarm level)")
+    d.add_argument("--load", default="0.1", help="load torque tau_m, normalized (default 0.1)")
+    d.add_argument("--noise-std", default="0.0015", help="sigma_e of one observation (default 0.0015)")
+    d.add_argument("--prior", default="uniform:25:55",
+                   help="temperature distribution: uniform:LO:HI or normal:MEAN:STD (default uniform:25:55)")
+    d.add_argument("--speeds-candidates", default=DEFAULT_CANDIDATES,
+                   help=f"candidate speeds, comma list or START:STOP:COUNT, rad/s (default {DEFAULT_CANDIDATES})")
+    d.add_argument("--no-repeats", action="store_true", help="choose each speed at most once")
+    d.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    d.set_defaults(func=cmd_design)
+
+
+def _progress(done: int, total: int) -> None:  # pragma: no cover - terminal only
+    width = 30
+    k = int(width * done / max(total, 1))
+    sys.stderr.write(f"\r  searching [{'#' * k}{'.' * (width - k)}] {done}/{total}")
+    if done >= total:
+        sys.stderr.write("\r" + " " * (width + 40) + "\r")
+    sys.stderr.flush()
+
+
+def cmd_design(args: argparse.Namespace) -> int:
+    budget = parse_float(args.budget, "--budget")
+    sps = parse_float(args.seconds_per_speed, "--seconds-per-speed")
+    if budget <= 0:
+        raise UsageError(f"--budget: {args.budget} must be a positive number of seconds")
+    if sps <= 0:
+        raise UsageError(f"--seconds-per-speed: {args.seconds_per_speed} must be a positive number of seconds")
+    n = math.floor(budget / sps + 1e-9)
+    if n < 1:
+        raise UsageError(f"--budget {budget:g} s is shorter than one speed ({sps:g} s); raise --budget")
+    if n > MAX_SPEEDS:
+        raise UsageError(f"--budget {budget:g} s at {sps:g} s per speed gives {n} speeds; at most {MAX_SPEEDS} are searched")
+    info = load_parameter_set_info(args.params)
+    wear = parse_float(args.wear, "--wear")
+    load = parse_float(args.load, "--load")
+    noise = parse_float(args.noise_std, "--noise-std")
+    if noise <= 0:
+        raise UsageError(f"--noise-std: {args.noise_std} must be positive")
+    info.check_range("wear", wear)
+    info.check_range("load_torque", abs(load))
+    cands = parse_float_list(args.speeds_candidates, "--speeds-candidates")
+    for s in cands:
+        if s < 0:
+            raise UsageError(f"--speeds-candidates: {s:g} is negative; give speed magnitudes >= 0 rad/s")
+        info.check_range("speed", s)
+    prior = parse_temperature_prior(args.prior)
+    if args.no_repeats and len(set(cands)) < n:
+        raise UsageError(f"--no-repeats: {n} distinct speeds needed but --speeds-candidates gives {len(set(cands))}")
+
+    model = paper_wear_model()
+    d = design_cycle(model, model.make_params(info.parameters()), budget=budget, seconds_per_speed=sps,
+                     candidates=cands, wear=wear, load=load, noise_std=noise, prior=prior,
+                     allow_repeats=not args.no_repeats, progress=_progress if sys.stderr.isatty() else None)
+    if args.json:
+        print_json(dict(d.to_dict(), params=info.name))
+        return 0
+    print(f"cycle design: {d.n_speeds} speeds x {sps:g} s = {d.seconds:g} s of a {budget:g} s budget")
+    print(f"  {info.name}, w = {wear:g}, tau_m = {load:g}, sigma_e = {noise:g}, T ~ {prior.label} (one T per cycle)")
+    counts = Counter(d.speeds)
+    single = dict(zip(d.speeds, d.per_speed_bound_std))
+    rows = [[f"{v:g}", counts[v], single[v]] for v in sorted(counts)]
+    print(format_table(["speed (rad/s)", "times", "single-speed bound std"], rows, floatfmt=".3f"))
+    print(f"bound std on w of this cycle (shared T):   {d.bound_std:.3f}  (+-{100 * d.bound_rel_error:.2f} % numerical)")
+    print(f"  same speeds with T known:                 {d.known_temperature_bound_std:.3f}")
+    print(f"paper's best single speed {d.best_single_speed:g} rad/s: one observation {d.best_single_bound_std:.3f}, "
+          f"repeated {d.n_speeds}x {d.repeated_best_bound_std:.3f}")
+    print(f"design / repeated best single speed: {d.bound_std / d.repeated_best_bound_std:.3f} "
+          f"({d.gain:.2f}x smaller std)")
+    return 0

@@ -1,0 +1,391 @@
+"""Joint estimation of wear and temperature from all speeds of one test cycle.
+
+The paper estimates w one speed at a time, each time integrating over an
+unknown T. In a test cycle every speed is measured within minutes, at the same
+joint temperature, so the K observations share ONE unknown T:
+
+    y_k = f(v_k, tau_m,k, T, w) + e_k,   e_k ~ N(0, sigma_k^2),   T ~ p(T),   w ~ U(0, 100)
+
+:class:`JointEstimator` computes the posterior ``p(w, T | y)`` on a grid: T on
+the prior's quadrature nodes (Gauss-Legendre in probability space; as many as
+:func:`~jointwear_ros.estimation.crb.temperature_nodes` needs to resolve the
+likelihood's width in T: two nodes per sigma of the friction's spread over the
+prior), w on a uniform grid over [0, 100]. A coarse pass (w
+step 0.5) finds every region of w holding posterior mass (the wear effect is
+not monotone in w for v > 0, so the posterior can have two modes); a fine pass
+(step 1/32) over those regions only gives the posterior moments. Reported:
+
+- ``wear``: the posterior mean of w (``point="mean"``, default) or the joint
+  MAP of (w, T), polished by bounded L-BFGS-B (``point="map"``);
+- ``wear_std``, ``wear_low``/``wear_high``: posterior std and the central 95 %
+  credible interval of the marginal posterior of w;
+- ``temperature``, ``temperature_std``: posterior mean and std of T;
+- ``per_speed_wear``: each row's own least-squares w at the estimated T.
+
+Rows with a measured temperature (finite ``temperature`` column) fix T: with a
+measurement on every row each row uses its own; when only some rows have one,
+the cycle's T is the mean of the measured values. The posterior is then over
+w alone.
+
+The friction model's values on the (row, T node, w) grid do not depend on the
+data and are cached per set of (speed, load) rows, so repeated cycles at the
+same speeds (a simulation study) cost a few array operations each.
+
+>>> from jointwear_ros.types import ObservationTable
+>>> from jointwear_ros.model import paper_wear_model, load_parameter_set
+>>> m, p = paper_wear_model(), load_parameter_set("ref-2011r")
+>>> v = [0.0, 20.0, 40.0, 60.0, 100.0, 150.0]
+>>> tau = m.evaluate(p, speed=v, load_torque=0.1, temperature=37.0, wear=35.0)
+>>> r = JointEstimator().estimate(ObservationTable.from_arrays(speed=v, tau_f=tau, load_torque=0.1))
+>>> abs(r.wear - 35.0) < 0.5 and abs(r.temperature - 37.0) < 1.0
+True
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.optimize import minimize
+from scipy.special import logsumexp
+
+from ..errors import InputDataError
+from ..model import Model, Parameters
+from ..types import ObservationTable, WearResult
+from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, Rows, prepare_rows, resolve_model
+from .crb import DEFAULT_CRB_PRIOR, temperature_nodes
+from .priors import TemperaturePrior, parse_temperature_prior
+
+__all__ = ["JointEstimator", "JointPosterior"]
+
+Array = npt.NDArray[np.float64]
+Index = npt.NDArray[np.intp]
+
+#: Fine w steps per coarse step.
+_REFINE = 16
+#: Coarse cells whose marginal log posterior is within this of the maximum are refined.
+_KEEP_LOG = 25.0
+#: Largest cached model grid (floats); beyond it the fine pass evaluates the model on demand.
+_MAX_CACHE = 12_000_000
+
+
+@dataclass(frozen=True)
+class JointPosterior:
+    """Summary of p(w, T | y) for one cycle."""
+
+    wear_mean: float
+    wear_std: float
+    wear_low: float
+    wear_high: float
+    wear_map: float
+    temperature_mean: float
+    temperature_std: float
+    temperature_map: float
+    n_modes: int
+
+
+class _Grid:
+    """Model values on (rows, T nodes, fine w grid) for one set of rows."""
+
+    def __init__(self, model: Model, params: Parameters, speed: Array, load: Array, temps: Array,
+                 wgrid: Array) -> None:
+        self.model, self.params = model, params
+        self.speed, self.load, self.temps, self.w = speed, load, temps, wgrid
+        self.coarse_idx = np.arange(0, wgrid.size, _REFINE)
+        if self.coarse_idx[-1] != wgrid.size - 1:
+            self.coarse_idx = np.append(self.coarse_idx, wgrid.size - 1)
+        size = speed.size * temps.size * wgrid.size
+        self.full: Array | None = self._eval(wgrid) if size <= _MAX_CACHE else None
+        self.coarse = self.full[:, :, self.coarse_idx] if self.full is not None else self._eval(wgrid[self.coarse_idx])
+
+    def _eval(self, w: Array) -> Array:
+        f = self.model.evaluate(self.params, speed=self.speed[:, None, None], load_torque=self.load[:, None, None],
+                                temperature=self.temps[None, :, None], wear=w[None, None, :])
+        return np.asarray(np.broadcast_to(f, (self.speed.size, self.temps.size, w.size)), dtype=float)
+
+    def fine(self, idx: Index) -> Array:
+        if self.full is not None:
+            return self.full[:, :, idx]
+        return self._eval(self.w[idx])
+
+
+class JointEstimator:
+    """Wear and temperature together from all speeds of one cycle (one shared unknown T).
+
+    Parameters
+    ----------
+    model, params
+        Friction model (default Eq. 9) and parameters (default ``ref-2011r``).
+    prior
+        Temperature prior (a :class:`TemperaturePrior` or a spec such as
+        ``"uniform:25:55"``); default U(25, 55) degC.
+    noise_std
+        sigma_e for rows without ``tau_f_std`` (normalized torque).
+    wear_range
+        Support of the flat prior on w (default [0, 100]).
+    wear_step
+        Step of the fine w grid (default 1/32).
+    point
+        ``"mean"`` (posterior mean, default) or ``"map"`` (joint MAP of w and T).
+    n_temperature
+        Quadrature nodes over T (default: enough to resolve the likelihood).
+    default_load
+        tau_m for tables without a ``load_torque`` column.
+    use_temperature
+        Use measured temperatures when rows have them.
+    seed, rng
+        Accepted for the common estimator interface; the estimator is deterministic.
+    """
+
+    name = "joint"
+
+    def __init__(
+        self,
+        model: Model | None = None,
+        params: Parameters | Mapping[str, float] | str | None = None,
+        *,
+        prior: TemperaturePrior | str = DEFAULT_CRB_PRIOR,
+        noise_std: float = DEFAULT_NOISE_STD,
+        wear_range: tuple[float, float] = WEAR_RANGE,
+        wear_step: float = 1.0 / 32.0,
+        point: str = "mean",
+        n_temperature: int | None = None,
+        default_load: float | None = None,
+        use_temperature: bool = True,
+        seed: int | None = None,
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        self.model, self.params = resolve_model(model, params)
+        self.prior = parse_temperature_prior(prior)
+        if not (math.isfinite(noise_std) and noise_std > 0):
+            raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
+        self.noise_std = float(noise_std)
+        lo, hi = (float(wear_range[0]), float(wear_range[1]))
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+            raise InputDataError(f"wear_range = {wear_range!r}: needs finite low < high")
+        self.wear_range = (lo, hi)
+        if not (math.isfinite(wear_step) and 0 < wear_step <= (hi - lo) / (4 * _REFINE)):
+            raise InputDataError(f"wear_step = {wear_step!r} must be positive and at most {(hi - lo) / (4 * _REFINE):g}")
+        n = math.ceil((hi - lo) / wear_step / _REFINE) * _REFINE
+        self.w_grid = np.linspace(lo, hi, n + 1)
+        key = str(point).strip().lower()
+        if key not in ("mean", "map"):
+            raise InputDataError(f"point = {point!r}: choose 'mean' (posterior mean) or 'map'")
+        self.point = key
+        if n_temperature is not None and int(n_temperature) < 2:
+            raise InputDataError(f"n_temperature = {n_temperature!r} must be at least 2")
+        self.n_temperature = None if n_temperature is None else int(n_temperature)
+        self.default_load = default_load
+        self.use_temperature = use_temperature
+        self._cache: OrderedDict[tuple[object, ...], _Grid] = OrderedDict()
+
+    # -- grids ---------------------------------------------------------------
+    def _grid(self, speed: Array, load: Array, temps: Array | None) -> _Grid:
+        key = (speed.tobytes(), load.tobytes(), None if temps is None else temps.tobytes())
+        g = self._cache.get(key)
+        if g is not None:
+            self._cache.move_to_end(key)
+            return g
+        if temps is None:
+            n = self.n_temperature or temperature_nodes(self.model, self.params, speed, 35.0,
+                                                        load=float(np.mean(load)), noise_std=self.noise_std,
+                                                        prior=self.prior, density=2.0)
+            temps, _ = self.prior.quadrature(n)
+        g = _Grid(self.model, self.params, speed, load, temps, self.w_grid)
+        self._cache[key] = g
+        if len(self._cache) > 8:
+            self._cache.popitem(last=False)
+        return g
+
+    # -- the posterior ---------------------------------------------------------
+    def posterior(self, speed: npt.ArrayLike, load: npt.ArrayLike, tau_f: npt.ArrayLike,
+                  noise_std: npt.ArrayLike | None = None, temperature: npt.ArrayLike | None = None
+                  ) -> JointPosterior:
+        """The posterior summary for one cycle given as arrays (rows share T).
+
+        ``temperature``: None or all-NaN for unknown T; otherwise measured
+        values (NaN rows take the mean of the measured ones).
+        """
+        v = np.atleast_1d(np.asarray(speed, dtype=float))
+        tm = np.abs(np.broadcast_to(np.asarray(load, dtype=float), v.shape)).copy()
+        y = np.broadcast_to(np.asarray(tau_f, dtype=float), v.shape)
+        sig = np.broadcast_to(np.asarray(self.noise_std if noise_std is None else noise_std, dtype=float), v.shape)
+        temp = None if temperature is None else np.broadcast_to(np.asarray(temperature, dtype=float), v.shape)
+        if temp is not None and np.isfinite(temp).any():
+            return self._posterior_known(v, tm, y, sig, np.where(np.isfinite(temp), temp, np.nanmean(temp)))
+        return self._posterior_unknown(v, tm, y, sig)
+
+    def _posterior_unknown(self, v: Array, tm: Array, y: Array, sig: Array) -> JointPosterior:
+        g = self._grid(v, tm, None)
+        nt = g.temps.size
+        _, wq = self.prior.quadrature(nt)
+        with np.errstate(divide="ignore"):
+            logw = np.log(wq)
+        inv = 0.5 / sig**2
+        # coarse pass: marginal over T on the coarse w grid
+        rc = y[:, None, None] - g.coarse
+        llc = logw[:, None] - np.einsum("k,ktw->tw", inv, rc * rc)
+        marg = logsumexp(llc, axis=0)
+        keep = np.flatnonzero(marg >= marg.max() - _KEEP_LOG)
+        idx = self._fine_columns(g, keep)
+        # fine pass
+        rf = y[:, None, None] - g.fine(idx)
+        chi = np.einsum("k,ktw->tw", inv, rf * rf)
+        ll = logw[:, None] - chi
+        ll -= ll.max()
+        p = np.exp(ll)
+        p /= p.sum()
+        w = g.w[idx]
+        pw = p.sum(axis=0)
+        pt = p.sum(axis=1)
+        wm = float(pw @ w)
+        ws = math.sqrt(max(float(pw @ (w - wm) ** 2), 0.0))
+        tmn = float(pt @ g.temps)
+        ts = math.sqrt(max(float(pt @ (g.temps - tmn) ** 2), 0.0))
+        lo, hi = self._interval(w, pw)
+        # joint MAP: the prior density (not the quadrature weight) at each node
+        lmap = np.asarray(self.prior.logpdf(g.temps), dtype=float)[:, None] - chi
+        it, iw = np.unravel_index(int(np.argmax(lmap)), lmap.shape)
+        w_map, t_map = float(w[iw]), float(g.temps[it])
+        if self.point == "map":
+            w_map, t_map = self._polish(v, tm, y, sig, w_map, t_map)
+        return JointPosterior(wm, ws, lo, hi, w_map, tmn, ts, t_map, _count_modes(keep))
+
+    def _posterior_known(self, v: Array, tm: Array, y: Array, sig: Array, temp: Array) -> JointPosterior:
+        f = self.model.evaluate(self.params, speed=v[:, None], load_torque=tm[:, None], temperature=temp[:, None],
+                                wear=self.w_grid[None, :])
+        chi = np.sum(((y[:, None] - f) / sig[:, None]) ** 2, axis=0) * 0.5
+        ll = -(chi - chi.min())
+        p = np.exp(ll)
+        p /= p.sum()
+        w = self.w_grid
+        wm = float(p @ w)
+        ws = math.sqrt(max(float(p @ (w - wm) ** 2), 0.0))
+        lo, hi = self._interval(w, p)
+        w_map = float(w[int(np.argmin(chi))])
+        t = float(np.mean(temp))
+        if self.point == "map":
+            w_map = self._polish_known(v, tm, y, sig, temp, w_map)
+        modes = _count_modes(np.flatnonzero(ll[::_REFINE] >= -_KEEP_LOG))
+        return JointPosterior(wm, ws, lo, hi, w_map, t, 0.0, t, modes)
+
+    def _fine_columns(self, g: _Grid, keep: Index) -> Index:
+        """Fine w indices covering the coarse cells on either side of each kept coarse point."""
+        ci = g.coarse_idx
+        mask = np.zeros(g.w.size, dtype=bool)
+        for c in keep:
+            a = ci[max(c - 1, 0)]
+            b = ci[min(c + 1, ci.size - 1)]
+            mask[a:b + 1] = True
+        return np.flatnonzero(mask)
+
+    @staticmethod
+    def _interval(w: Array, pw: Array, level: float = 0.95) -> tuple[float, float]:
+        c = np.cumsum(pw)
+        a = (1.0 - level) / 2.0
+        lo = float(w[min(int(np.searchsorted(c, a)), w.size - 1)])
+        hi = float(w[min(int(np.searchsorted(c, 1.0 - a)), w.size - 1)])
+        return lo, hi
+
+    def _polish(self, v: Array, tm: Array, y: Array, sig: Array, w0: float, t0: float) -> tuple[float, float]:
+        t_lo, t_hi = self.prior.support(1.0 - 1e-9)
+
+        def cost(x: Array) -> float:
+            f = self.model.evaluate(self.params, speed=v, load_torque=tm, temperature=x[1], wear=x[0])
+            return float(0.5 * np.sum(((y - f) / sig) ** 2) - self.prior.logpdf(x[1]))
+
+        res = minimize(cost, np.array([w0, t0]), method="L-BFGS-B",
+                       bounds=[self.wear_range, (t_lo, t_hi)])
+        if res.success and res.fun <= cost(np.array([w0, t0])):
+            return float(res.x[0]), float(res.x[1])
+        return w0, t0
+
+    def _polish_known(self, v: Array, tm: Array, y: Array, sig: Array, temp: Array, w0: float) -> float:
+        def cost(x: Array) -> float:
+            f = self.model.evaluate(self.params, speed=v, load_torque=tm, temperature=temp, wear=x[0])
+            return float(0.5 * np.sum(((y - f) / sig) ** 2))
+
+        res = minimize(cost, np.array([w0]), method="L-BFGS-B", bounds=[self.wear_range])
+        return float(res.x[0]) if res.success and res.fun <= cost(np.array([w0])) else w0
+
+    # -- many cycles at once -----------------------------------------------------
+    def estimate_arrays(self, speed: npt.ArrayLike, load: npt.ArrayLike, tau_f: npt.ArrayLike,
+                        temperature: npt.ArrayLike | None = None) -> dict[str, Array]:
+        """Estimates of many cycles at the same speeds: ``tau_f`` of shape (runs, K).
+
+        Returns arrays (runs,) ``wear`` (the chosen point), ``wear_mean``,
+        ``wear_map``, ``wear_std``, ``temperature``, ``temperature_std``.
+        ``temperature``: None (unknown) or per-run values of shape (runs,) or (runs, K).
+        """
+        v = np.atleast_1d(np.asarray(speed, dtype=float))
+        tau = np.atleast_2d(np.asarray(tau_f, dtype=float))
+        if tau.shape[1] != v.size:
+            raise InputDataError(f"tau_f has {tau.shape[1]} columns for {v.size} speeds")
+        temp = None if temperature is None else np.asarray(temperature, dtype=float)
+        keys = ("wear", "wear_mean", "wear_map", "wear_std", "temperature", "temperature_std")
+        out = {k: np.empty(tau.shape[0]) for k in keys}
+        for i in range(tau.shape[0]):
+            ti = None
+            if temp is not None:
+                ti = np.broadcast_to(temp[i] if temp.ndim else temp, v.shape)
+            post = self.posterior(v, load, tau[i], None, ti)
+            out["wear_mean"][i] = post.wear_mean
+            out["wear_map"][i] = post.wear_map
+            out["wear"][i] = post.wear_map if self.point == "map" else post.wear_mean
+            out["wear_std"][i] = post.wear_std
+            out["temperature"][i] = post.temperature_map if self.point == "map" else post.temperature_mean
+            out["temperature_std"][i] = post.temperature_std
+        return out
+
+    # -- the common interface --------------------------------------------------------
+    def estimate(self, observations: ObservationTable) -> WearResult:
+        """w and T from all rows of one cycle; see the module docstring."""
+        rows = prepare_rows(observations, noise_std=self.noise_std, default_load=self.default_load,
+                            use_temperature=self.use_temperature)
+        known = rows.known_temperature
+        temp = rows.temperature if known.any() else None
+        post = self.posterior(rows.speed, rows.load, rows.tau_f, rows.noise_std, temp)
+        est = post.wear_map if self.point == "map" else post.wear_mean
+        t_est = post.temperature_map if self.point == "map" else post.temperature_mean
+        t_rows = (np.where(known, rows.temperature, np.nanmean(rows.temperature)) if known.any()
+                  else np.full(len(rows), t_est))
+        per_row = self._per_row(rows, t_rows)
+        return WearResult(
+            wear=est,
+            wear_std=post.wear_std,
+            wear_low=post.wear_low,
+            wear_high=post.wear_high,
+            method=self.name,
+            temperature=t_est,
+            temperature_std=post.temperature_std,
+            speeds=tuple(float(s) for s in rows.speed),
+            per_speed_wear=tuple(float(w) for w in per_row),
+            info={
+                "point": self.point,
+                "prior": self.prior.label if not known.any() else "measured",
+                "wear_mean": post.wear_mean,
+                "wear_map": post.wear_map,
+                "temperature_map": post.temperature_map,
+                "posterior_modes": post.n_modes,
+                "interval": "central 95% credible interval of the marginal posterior of w",
+                "known_temperature": [bool(k) for k in known],
+                "per_speed_wear": "each row's least-squares w at the estimated temperature",
+            },
+        )
+
+    def _per_row(self, rows: Rows, temps: Array) -> Array:
+        f = self.model.evaluate(self.params, speed=rows.speed[:, None], load_torque=rows.load[:, None],
+                                temperature=temps[:, None], wear=self.w_grid[None, :])
+        return np.asarray(self.w_grid[np.argmin((rows.tau_f[:, None] - f) ** 2, axis=1)], dtype=float)
+
+
+def _count_modes(keep: Index) -> int:
+    """Separate regions of w (runs of kept coarse cells) that hold posterior mass."""
+    if keep.size == 0:
+        return 0
+    runs = np.split(keep, np.flatnonzero(np.diff(keep) > 1) + 1)
+    return len(runs)

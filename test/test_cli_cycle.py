@@ -1,0 +1,89 @@
+"""``jointwear cycle design``: the chosen speeds, the bound, the comparison with the paper's choice, bad arguments."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from jointwear_ros.cli import main
+from jointwear_ros.estimation.crb import crb_multi_speed, crb_per_speed
+from jointwear_ros.estimation.design import design_cycle
+from jointwear_ros.model import load_parameter_set, paper_wear_model
+
+CANDS = "0,20,40,60,100,160,220"
+
+
+def run_json(capsys, *args):
+    rc = main(["cycle", "design", *args, "--json"])
+    out = capsys.readouterr()
+    assert rc == 0, out.err
+    return json.loads(out.out)
+
+
+def test_design_json_gives_speeds_and_bound_that_beat_the_papers_best_single_speed(capsys):
+    d = run_json(capsys, "--budget", "50", "--speeds-candidates", CANDS)
+    assert len(d["speeds"]) == 3  # floor(50 / 14)
+    assert set(d["speeds"]) <= {0.0, 20.0, 40.0, 60.0, 100.0, 160.0, 220.0}
+    # the bound printed is the shared-T bound of the speeds printed
+    m, p = paper_wear_model(), load_parameter_set("ref-2011r")
+    assert d["bound_std"] == pytest.approx(np.sqrt(crb_multi_speed(m, p, d["speeds"], 35.0)), rel=1e-9)
+    # the paper's best single speed, from the per-speed bound, repeated as often
+    cands = [float(x) for x in CANDS.split(",")]
+    best = cands[int(np.argmin(crb_per_speed(m, p, cands, 35.0)))]
+    assert d["best_single_speed"] == best
+    repeated = np.sqrt(crb_multi_speed(m, p, [best] * 3, 35.0))
+    assert d["bound_std"] <= repeated * (1 + 1e-9)
+    assert d["bound_std"] < np.sqrt(crb_per_speed(m, p, [best], 35.0)[0])
+    assert d["known_temperature_bound_std"] <= d["bound_std"]
+
+
+def test_seconds_per_speed_sets_the_number_of_speeds(capsys):
+    d = run_json(capsys, "--budget", "40", "--seconds-per-speed", "10", "--speeds-candidates", "0,40,100")
+    assert len(d["speeds"]) == 4 and d["seconds"] == 40.0
+
+
+def test_no_repeats_chooses_distinct_speeds(capsys):
+    d = run_json(capsys, "--budget", "42", "--no-repeats", "--speeds-candidates", CANDS)
+    assert len(set(d["speeds"])) == 3
+
+
+def test_design_is_no_worse_than_an_obvious_spread_of_speeds():
+    cands = [0.0, 20.0, 40.0, 60.0, 100.0, 160.0]
+    d = design_cycle(budget=56.0, candidates=cands)
+    m, p = paper_wear_model(), load_parameter_set("ref-2011r")
+    spread = np.sqrt(crb_multi_speed(m, p, [0.0, 40.0, 100.0, 160.0], 35.0))
+    assert d.bound_std <= spread * 1.01
+
+
+def test_design_table_names_the_speeds_and_the_comparison(capsys):
+    rc = main(["cycle", "design", "--budget", "30", "--speeds-candidates", "0,40,100"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "2 speeds x 14 s" in out
+    assert "bound std on w of this cycle" in out and "paper's best single speed" in out
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["--budget", "5"], "shorter than one speed"),
+        (["--budget", "abc"], "not a number"),
+        (["--budget", "-10"], "positive"),
+        (["--seconds-per-speed", "0"], "positive"),
+        (["--speeds-candidates", "0,-4"], "negative"),
+        (["--speeds-candidates", "0:280"], "START:STOP:COUNT"),
+        (["--prior", "foo"], "temperature distribution"),
+        (["--params", "nope"], "parameter set"),
+        (["--budget", "9000", "--seconds-per-speed", "1"], "at most"),
+        (["--wear", "500"], "valid range"),
+        (["--no-repeats", "--speeds-candidates", "0,10"], "distinct"),
+        (["--noise-std", "0"], "positive"),
+    ],
+)
+def test_bad_arguments_give_one_line_and_exit_code_2(capsys, args, match):
+    rc = main(["cycle", "design", *args])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.count("\n") == 1 and match in err

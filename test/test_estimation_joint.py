@@ -1,0 +1,126 @@
+"""Joint wear and temperature estimation over the speeds of one cycle (one shared unknown T)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jointwear_ros.errors import InputDataError
+from jointwear_ros.estimation import make_estimator
+from jointwear_ros.estimation.crb import crb_multi_speed
+from jointwear_ros.estimation.joint import JointEstimator
+from jointwear_ros.model import load_parameter_set, paper_wear_model
+from jointwear_ros.types import ObservationTable, WearEstimator
+
+MODEL = paper_wear_model()
+PARAMS = MODEL.make_params(load_parameter_set("ref-2011r"))
+SPEEDS = np.array([0.0, 20.0, 40.0, 60.0, 100.0, 150.0])
+
+
+def friction(speed, wear=35.0, temperature=40.0, load=0.1):
+    return MODEL.evaluate(PARAMS, speed=speed, load_torque=load, temperature=temperature, wear=wear)
+
+
+def table(speed, tau, temperature=None, load=0.1):
+    cols = dict(speed=speed, tau_f=tau, load_torque=load)
+    if temperature is not None:
+        cols["temperature"] = temperature
+    return ObservationTable.from_arrays(**cols)
+
+
+@pytest.mark.parametrize(("w0", "t0"), [(35.0, 40.0), (10.0, 28.0), (60.0, 52.0), (80.0, 33.0)])
+def test_noise_free_observations_give_back_true_wear_and_temperature(w0, t0):
+    obs = table(SPEEDS, friction(SPEEDS, w0, t0))
+    res = JointEstimator(point="map").estimate(obs)
+    assert res.wear == pytest.approx(w0, abs=1e-3)
+    assert res.temperature == pytest.approx(t0, abs=1e-2)
+    mean = JointEstimator().estimate(obs)
+    assert mean.wear == pytest.approx(w0, abs=0.35)
+    assert mean.temperature == pytest.approx(t0, abs=0.8)
+    assert mean.wear_low < w0 < mean.wear_high
+    assert 0.0 < mean.wear_std < 1.5 and 0.0 < mean.temperature_std < 2.0
+
+
+def test_measured_temperature_fixes_t_and_gives_back_true_wear():
+    tau = friction(SPEEDS, 35.0, 44.0)
+    res = JointEstimator(point="map").estimate(table(SPEEDS, tau, temperature=44.0))
+    assert res.wear == pytest.approx(35.0, abs=1e-4)
+    assert res.temperature == 44.0 and res.temperature_std == 0.0
+    assert res.info["prior"] == "measured"
+    np.testing.assert_allclose(res.per_speed_wear, 35.0, atol=1.0 / 32.0)
+    # a measurement on some rows only: the cycle's T is their mean
+    part = JointEstimator(point="map").estimate(table(SPEEDS, tau, temperature=[44.0] + [np.nan] * 5))
+    assert part.wear == pytest.approx(35.0, abs=1e-4)
+    # the measurement can be ignored on request
+    unk = JointEstimator(use_temperature=False).estimate(table(SPEEDS, tau, temperature=44.0))
+    assert unk.info["prior"] != "measured" and unk.temperature_std > 0
+
+
+def test_joint_estimator_is_built_by_the_factory_and_follows_the_protocol():
+    est = make_estimator("joint", prior="uniform:30:50", noise_std=0.002)
+    assert isinstance(est, WearEstimator) and est.name == "joint"
+    res = est.estimate(table(SPEEDS, friction(SPEEDS, 35.0, 41.0)))
+    assert res.method == "joint" and len(res.per_speed_wear) == SPEEDS.size
+    assert res.to_dict()["temperature"] == pytest.approx(res.temperature)
+
+
+def test_spread_of_estimates_is_near_the_multi_speed_bound_and_unbiased():
+    rng = np.random.default_rng(11)
+    runs = 200
+    temps = rng.uniform(25.0, 55.0, runs)
+    tau = friction(SPEEDS[None, :], 35.0, temps[:, None]) + rng.normal(0.0, 0.0015, (runs, SPEEDS.size))
+    out = JointEstimator().estimate_arrays(SPEEDS, 0.1, tau)
+    bound_std = np.sqrt(crb_multi_speed(MODEL, PARAMS, SPEEDS, 35.0))
+    std = out["wear"].std(ddof=1)
+    # sampling error of a std from 200 runs is ~5 %; of a mean ~0.06
+    assert 0.8 * bound_std < std < 1.25 * bound_std
+    assert abs(out["wear"].mean() - 35.0) < 0.25
+    # the reported posterior std is calibrated
+    assert out["wear_std"].mean() == pytest.approx(std, rel=0.2)
+    assert np.abs(out["temperature"] - temps).mean() < 2.0
+
+
+def test_bimodal_likelihood_keeps_both_modes():
+    # at 100 rad/s the wear term first falls (viscous part) then rises: a friction just below
+    # the unworn value is explained by a small w and by a larger one
+    v = np.array([100.0])
+    w = np.linspace(0.0, 100.0, 20001)
+    g = friction(v[0], w) - friction(v[0], 0.0)
+    z = 0.5 * g.min()
+    roots = w[np.flatnonzero(np.diff(np.sign(g - z)))]
+    assert roots.size == 2
+    est = JointEstimator(point="map", noise_std=2e-5)
+    res = est.estimate(table(v, friction(v, 0.0) + z, temperature=40.0))
+    assert res.info["posterior_modes"] == 2
+    assert min(abs(res.wear - r) for r in roots) < 0.05
+    assert res.wear_low <= roots[0] + 0.1 and res.wear_high >= roots[1] - 0.1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"point": "median"}, "point"),
+        ({"prior": "weird:1"}, "temperature distribution"),
+        ({"noise_std": -1.0}, "noise_std"),
+        ({"wear_step": 0.0}, "wear_step"),
+        ({"wear_range": (10.0, 5.0)}, "wear_range"),
+        ({"n_temperature": 1}, "n_temperature"),
+    ],
+)
+def test_joint_estimator_rejects_bad_options(kwargs, match):
+    with pytest.raises(InputDataError, match=match):
+        JointEstimator(**kwargs)
+
+
+def test_joint_estimator_rejects_bad_observations():
+    est = JointEstimator()
+    with pytest.raises(InputDataError, match="empty"):
+        est.estimate(table([], []))
+    with pytest.raises(InputDataError, match="negative"):
+        est.estimate(table([-5.0, 40.0], [0.1, 0.1]))
+    with pytest.raises(InputDataError, match="not finite"):
+        est.estimate(table([5.0, 40.0], [np.nan, 0.1]))
+    with pytest.raises(InputDataError, match="load_torque"):
+        est.estimate(ObservationTable.from_arrays(speed=[40.0], tau_f=[0.1]))
+    with pytest.raises(InputDataError, match="columns"):
+        est.estimate_arrays(SPEEDS, 0.1, np.zeros((3, 2)))
