@@ -99,16 +99,17 @@ def test_bad_settings_are_refused(field, value):
 
 # -- the state machine on an ideal joint ----------------------------------------
 class IdealJoint:
-    """A kinematic joint: velocity = gain × command (lagging ``lag`` ticks), effort fixed."""
+    """A kinematic joint: velocity = gain × command (+ ``sag`` rad/s when commanded to rest), effort fixed."""
 
-    def __init__(self, gain: float = 1.0, effort: float = 20.0, position: float = 0.0):
+    def __init__(self, gain: float = 1.0, effort: float = 20.0, position: float = 0.0, sag: float = 0.0):
         self.gain = gain
         self.effort = effort
         self.position = position
         self.velocity = 0.0
+        self.sag = sag
 
     def step(self, command: float, dt: float) -> None:
-        self.velocity = self.gain * command
+        self.velocity = self.gain * command if command != 0.0 else self.sag
         self.position += self.velocity * dt
 
 
@@ -168,6 +169,23 @@ def test_runner_refuses_to_start_twice():
         runner.start(plan_cycle(CFG, [20.0]), 2, 0.0)
 
 
+def test_late_joint_states_make_the_approach_overshoot_and_it_is_repeated():
+    # readings arrive 80 ms late (a busy executor) but look fresh: approaches overshoot
+    queue: list[JointReading] = []
+
+    def late(t, r):
+        queue.append(r)
+        return replace(queue[max(0, len(queue) - 9)], stamp=t)
+
+    runner = CycleRunner(CFG)
+    plan = plan_cycle(CFG, [10.0, 160.0], start_position=0.0)
+    runner.start(plan, 1, 0.0)
+    log = _run(runner, IdealJoint(), hook=late)
+    assert runner.state == CycleState.DONE, runner.message
+    approaches = [b for (_, a, *_r), (_, b, *_s) in zip(log, log[1:]) if a != b and b == Phase.APPROACH]
+    assert len(approaches) > 2  # at least one speed needed a second approach
+
+
 # -- every watchdog trip ----------------------------------------------------------
 def _trip(hook=None, joint=None, config=CFG, speeds=(20.0,)):
     runner = CycleRunner(config)
@@ -187,6 +205,16 @@ def test_watchdog_trips_on_stale_joint_state():
     runner = _trip(hook)
     assert runner.state == CycleState.FAILED and runner.command == 0.0
     assert re.search(r"watchdog: joint state of joint_1 stale for 0\.2[5-9]\d* s \(state_timeout 0\.25 s\)", runner.message)
+
+
+def test_stale_check_in_sim_time_also_needs_wall_time_age():
+    runner = CycleRunner(CFG)
+    runner.start(plan_cycle(CFG, [20.0]), 1, 0.0)
+    old = JointReading(0.0, 0.0, 0.0, 0.0)
+    runner.update(0.5, old, wall_age=0.05)  # clock jumped ahead of a fresh reading: not stale
+    assert runner.running
+    runner.update(0.6, old, wall_age=0.3)
+    assert runner.state == CycleState.FAILED and "stale for 0.600 s" in runner.message
 
 
 def test_watchdog_trips_on_missing_joint_state():
@@ -221,6 +249,12 @@ def test_watchdog_trips_on_non_finite_state():
 def test_watchdog_trips_outside_the_joint_limits():
     runner = _trip(hook=lambda t, r: replace(r, position=1.6) if t > 0.5 else r)
     assert runner.state == CycleState.FAILED and "outside the joint limits" in runner.message
+
+
+def test_watchdog_trips_when_the_joint_cannot_be_positioned_at_the_sweep_start():
+    runner = _trip(joint=IdealJoint(sag=-0.1))  # drifts 0.1 rad/s whenever commanded to rest
+    assert runner.state == CycleState.FAILED
+    assert "after 4 approaches, not within 0.01 rad of the sweep start" in runner.message
 
 
 def test_watchdog_trips_when_a_move_does_not_finish():
