@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from dataclasses import replace
@@ -137,7 +138,7 @@ def test_runner_goes_through_every_phase_of_every_speed_to_done():
     assert runner.status().cycle_id == 7 and "done" in runner.message
     for i in range(2):
         phases = [p for (_, p, k, *_rest) in log if k == i]
-        seq = [phases[0]] + [b for a, b in zip(phases, phases[1:]) if a != b]
+        seq = [phases[0]] + [b for a, b in itertools.pairwise(phases) if a != b]
         assert seq == [Phase.APPROACH, Phase.SETTLE, Phase.FORWARD, Phase.SETTLE, Phase.REVERSE, Phase.SETTLE]
     # inside the window the command is the sweep speed, constant, in each direction
     for i, sp in enumerate(plan.speeds):
@@ -147,7 +148,7 @@ def test_runner_goes_through_every_phase_of_every_speed_to_done():
             assert np.allclose(cmds, sign * sp.velocity)
     # speeds_done never goes back, the joint never leaves the planned extent
     done = [k for (_, _, k, *_rest) in log]
-    assert all(b >= a for a, b in zip(done, done[1:]))
+    assert all(b >= a for a, b in itertools.pairwise(done))
     lo, hi = plan.extent
     assert all(lo - 0.01 <= x <= hi + 0.01 for (*_a, x, _v) in log)
 
@@ -182,7 +183,7 @@ def test_late_joint_states_make_the_approach_overshoot_and_it_is_repeated():
     runner.start(plan, 1, 0.0)
     log = _run(runner, IdealJoint(), hook=late)
     assert runner.state == CycleState.DONE, runner.message
-    approaches = [b for (_, a, *_r), (_, b, *_s) in zip(log, log[1:]) if a != b and b == Phase.APPROACH]
+    approaches = [b for (_, a, *_r), (_, b, *_s) in itertools.pairwise(log) if a != b and b == Phase.APPROACH]
     assert len(approaches) > 2  # at least one speed needed a second approach
 
 
@@ -277,7 +278,7 @@ def test_cycle_on_the_simulated_joint_reaches_done_and_observes_friction(rate):
         if k % every == 0:
             s = sim.sample()
             sim.set_command(runner.update(sim.time, JointReading(sim.time, s.position, s.velocity, s.effort)))
-        t, p, v, e = sim.run(1, dt)
+        _t, p, _v, e = sim.run(1, dt)
         rows.append((p[0], e[0], runner.phase, runner.speeds_done))
         k += 1
     assert runner.state == CycleState.DONE, runner.message

@@ -9,6 +9,7 @@ command topics.
 
 from __future__ import annotations
 
+import itertools
 import math
 import signal
 import subprocess
@@ -51,7 +52,7 @@ class Child:
     """A node in its own process (``python -m jointwear_ros.nodes.<name>``), stopped with SIGINT."""
 
     def __init__(self, name: str, params: dict[str, object]):
-        self.log = tempfile.NamedTemporaryFile(prefix=f"{name}-", suffix=".log", delete=False)  # noqa: SIM115
+        self.log = tempfile.NamedTemporaryFile(prefix=f"{name}-", suffix=".log", delete=False)
         cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args",
                "--params-file", str(ROOT / "config" / f"{name}.yaml")]
         for k, v in params.items():
@@ -253,7 +254,7 @@ class TestSimulatedCell:
         for k, speed in enumerate((40.0, 160.0)):
             phases = [m.phase for m in running if m.speeds_done == k]
             assert all(m.current_speed == speed for m in running if m.speeds_done == k)
-            seq = [phases[0]] + [b for a, b in zip(phases, phases[1:]) if a != b]
+            seq = [phases[0]] + [b for a, b in itertools.pairwise(phases) if a != b]
             # an approach that overshoots (late joint states on a busy machine) is repeated
             assert seq[-4:] == [Phase.FORWARD, Phase.SETTLE, Phase.REVERSE, Phase.SETTLE]
             assert seq[:-4] and seq[:-4] == [Phase.APPROACH, Phase.SETTLE] * (len(seq[:-4]) // 2)

@@ -22,10 +22,10 @@ from dataclasses import dataclass
 from ..errors import JointwearError
 
 __all__ = [
+    "DEFAULT_SPEEDS",
     "CycleConfig",
     "CyclePlan",
     "CycleRequestError",
-    "DEFAULT_SPEEDS",
     "SpeedPlan",
     "move_duration",
     "plan_cycle",

@@ -38,7 +38,7 @@ from ..errors import ParameterError
 from ..sim import JointSim, JointSimConfig
 from .runtime import ParamDecl, declare_parameters, run_node
 
-__all__ = ["JointSimNode", "PARAMETERS", "main"]
+__all__ = ["PARAMETERS", "JointSimNode", "main"]
 
 #: Parameters of the node (defaults as in ``config/joint_sim.yaml``).
 PARAMETERS: tuple[ParamDecl, ...] = (
@@ -91,7 +91,7 @@ def parse_effects(text: str) -> tuple[str, ...]:
 
 def _stamp(t: float) -> TimeMsg:
     sec = math.floor(t)
-    return TimeMsg(sec=int(sec), nanosec=min(int(round((t - sec) * 1e9)), 999_999_999))
+    return TimeMsg(sec=int(sec), nanosec=min(round((t - sec) * 1e9), 999_999_999))
 
 
 class JointSimNode(Node):
@@ -146,7 +146,7 @@ class JointSimNode(Node):
 
         if self.publish_clock:
             self._wall = Clock(clock_type=ClockType.STEADY_TIME)
-            self.epoch = math.floor(time.time())
+            self.epoch = float(math.floor(time.time()))
             self._wall0 = time.monotonic()
             self.create_timer(float(p["tick_period"]), self._tick, clock=self._wall)
         else:

@@ -47,7 +47,7 @@ import numpy as np
 from ..errors import ParameterError
 from .friction import FrictionTable
 
-__all__ = ["JointSim", "JointSimConfig", "JointSample"]
+__all__ = ["JointSample", "JointSim", "JointSimConfig"]
 
 
 @dataclass(frozen=True)
