@@ -266,3 +266,23 @@ def test_status_running_after_last_speed_does_not_open_a_speed():
     core = FrictionObserverCore(CFG)
     core.on_status(0.0, 1, STATE_RUNNING, 0, 10.0, 2, 2, 0.0, 0.1, "joint_1")
     assert core.active_segment is None
+
+
+def test_observer_names_a_clock_mismatch_between_status_and_joint_states(cycle):
+    statuses = [(s[0] + 1000.0, *s[1:]) for s in cycle.statuses]  # status stamped by another clock
+    out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
+    assert out.observations == []
+    assert "same clock (use_sim_time)" in out.rejections[0].reason
+
+
+def test_process_pending_handles_finished_speeds_but_not_the_running_one(cycle):
+    core = FrictionObserverCore(CFG)
+    end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    for s in cycle.statuses:
+        if s[0] <= end + 0.2:
+            core.on_status(*s)
+    keep = cycle.stamps <= end + 0.2
+    core.on_joint_states(cycle.stamps[keep], cycle.position[keep], cycle.velocity[keep], cycle.effort[keep])
+    out = core.process_pending()
+    assert len(out.observations) == 1 and core.active_segment is not None
+    assert core.process_pending() == ([], [])

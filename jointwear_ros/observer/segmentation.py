@@ -103,6 +103,13 @@ def measure_segment(
                 f"no samples inside the window {centre:g} ± {half:g} rad: the joint was at "
                 f"[{float(p.min()):.3f}, {float(p.max()):.3f}] rad during this speed"
             )
+        if stamps.size:
+            lo, hi = float(stamps.min()), float(stamps.max())
+            return reject(
+                f"no joint-state samples during this speed [{segment.t_start:.3f}, {segment.t_end:.3f}) s; the "
+                f"buffered samples are stamped [{lo:.3f}, {hi:.3f}] s: are /joint_states and the status stamped "
+                "by the same clock (use_sim_time)?"
+            )
         return reject("no joint-state samples during this speed (is /joint_states arriving, with the right joint name?)")
 
     v_motor = velocity * cfg.gear_ratio
