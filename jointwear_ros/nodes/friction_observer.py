@@ -56,6 +56,8 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               "fraction of the moving window samples that must be at speed", 0.0, 1.0),
     ParamDecl("min_samples", _DEFAULTS.min_samples, "at-speed samples needed per direction"),
     ParamDecl("edge_trim", _DEFAULTS.edge_trim, "fraction of the half width trimmed off each window edge", 0.0, 0.99),
+    ParamDecl("pass_gap", _DEFAULTS.pass_gap, "s without samples that separates two passes through the window",
+              1e-4, 10.0),
     ParamDecl("n_batches", _DEFAULTS.n_batches, "batches of the batch-means standard error"),
     ParamDecl("reorder_margin", _DEFAULTS.reorder_margin, "s the inputs may be out of stamp order", 0.0, 60.0),
     ParamDecl("poll_grace", _DEFAULTS.poll_grace, "s of silence on every input after which finished speeds are processed",
