@@ -31,6 +31,7 @@ Pure numpy; no ROS import.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -136,7 +137,7 @@ def measure_segment(
         bounds = np.concatenate(([0], breaks, [mov.size]))
         keep = np.zeros(mov.size, dtype=bool)
         others: list[tuple[float, int]] = []
-        for a, b in zip(bounds[:-1], bounds[1:]):
+        for a, b in itertools.pairwise(bounds.tolist()):
             med = float(np.median(vm[a:b]))
             if abs(med - v_cmd) <= tol:
                 keep[a:b] = True
