@@ -151,3 +151,21 @@ def test_unknown_method_is_reported():
     mon = WearMonitor(MonitorConfig(method="nonsense"))
     (r,) = _run(mon, 1, 10.0)
     assert r.result is None and "unknown wear estimation method" in r.message
+
+
+def test_estimator_gets_the_window_std_plus_the_sweep_to_sweep_scatter():
+    seen = []
+
+    def spy(method, seed):
+        class E:
+            name = "spy"
+
+            def estimate(self, table):
+                seen.append(table["tau_f_std"].copy())
+                return WearResult(wear=1.0, wear_std=0.1, wear_low=0.8, wear_high=1.2, method="spy")
+
+        return E()
+
+    mon = WearMonitor(MonitorConfig(observation_noise_std=0.0015), estimator_factory=spy)
+    (r,) = _run(mon, 1, 10.0)
+    assert r.level == OK and seen[0] == pytest.approx([math.hypot(3e-4, 0.0015)] * 3)

@@ -61,6 +61,10 @@ class MonitorConfig:
     done_timeout : s after DONE/ABORTED/FAILED before a cycle with missing observations is estimated.
     idle_timeout : s after the last observation of a cycle whose status was never seen.
     min_observations : observations needed for an estimate.
+    observation_noise_std : sweep-to-sweep scatter of tau_f (normalized; the paper's sigma_e = 0.0015).
+        An observation's ``tau_f_std`` is the standard error from its window samples; it cannot see
+        what stays constant over one sweep (lubricant film, position-dependent friction), so the
+        estimator is given ``sqrt(tau_f_std^2 + observation_noise_std^2)``.
     estimator_options : extra keyword arguments for the estimator (``n_samples``, ``temperature_range``, ...).
     """
 
@@ -74,6 +78,7 @@ class MonitorConfig:
     done_timeout: float = 2.0
     idle_timeout: float = 30.0
     min_observations: int = 1
+    observation_noise_std: float = 0.0015
     estimator_options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -87,6 +92,9 @@ class MonitorConfig:
             value = float(getattr(self, name))
             if not (math.isfinite(value) and value >= 0):
                 raise InputDataError(f"{name} = {value!r} must be a number of seconds >= 0")
+        sig = float(self.observation_noise_std)
+        if not (math.isfinite(sig) and sig >= 0):
+            raise InputDataError(f"observation_noise_std = {sig!r} must be a number >= 0 (normalized torque)")
         if int(self.min_observations) < 1:
             raise InputDataError(f"min_observations = {self.min_observations!r} must be at least 1")
 
@@ -146,13 +154,17 @@ def cycle_seed(seed: int, cycle_id: int) -> int:
 
 
 def observations_table(observations: list[FrictionObservationData] | tuple[FrictionObservationData, ...],
-                       *, use_temperature: bool = True, source: str = "") -> ObservationTable:
-    """The estimator input (standard observation columns) of a list of observations."""
+                       *, use_temperature: bool = True, noise_std: float = 0.0, source: str = "") -> ObservationTable:
+    """The estimator input (standard observation columns) of a list of observations.
+
+    ``tau_f_std`` becomes ``sqrt(tau_f_std^2 + noise_std^2)`` (a non-finite one becomes ``noise_std``).
+    """
     obs = list(observations)
     temp = [o.temperature if use_temperature else math.nan for o in obs]
+    std = [math.hypot(o.tau_f_std, noise_std) if math.isfinite(o.tau_f_std) else noise_std for o in obs]
     return ObservationTable.from_arrays(
         source=source,
-        speed=[o.speed for o in obs], tau_f=[o.tau_f for o in obs], tau_f_std=[o.tau_f_std for o in obs],
+        speed=[o.speed for o in obs], tau_f=[o.tau_f for o in obs], tau_f_std=std,
         load_torque=[o.load_torque for o in obs], temperature=temp, position=[o.position for o in obs],
         time=[o.stamp for o in obs], cycle=[float(o.cycle_id) for o in obs],
         tau_plus=[o.tau_plus for o in obs], tau_minus=[o.tau_minus for o in obs],
@@ -272,7 +284,8 @@ class WearMonitor:
                                            cfg.alarm_threshold))
         # order by speed so the estimate does not depend on the arrival order of observations
         obs = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
-        table = observations_table(obs, use_temperature=cfg.use_measured_temperature, source=f"cycle {cid}")
+        table = observations_table(obs, use_temperature=cfg.use_measured_temperature,
+                                   noise_std=cfg.observation_noise_std, source=f"cycle {cid}")
         try:
             est = self._factory(cfg.method, cycle_seed(cfg.seed, cid))
             res = est.estimate(table)

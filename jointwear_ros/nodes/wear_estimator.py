@@ -49,6 +49,8 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("done_timeout", _D.done_timeout, "s after DONE before a cycle with missing speeds is estimated", 0.0, 600.0),
     ParamDecl("idle_timeout", _D.idle_timeout, "s after the last observation of a cycle without status", 0.0, 3600.0),
     ParamDecl("min_observations", _D.min_observations, "observations needed for an estimate"),
+    ParamDecl("observation_noise_std", _D.observation_noise_std,
+              "sweep-to-sweep scatter of tau_f added to each observation's window standard error", 0.0, 1.0),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications", 0.01, 60.0),
     ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation input"),
     ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus input"),
