@@ -1,0 +1,336 @@
+"""rosbag2 (MCAP) bags of a jointwear graph: read, summarise, convert messages.
+
+Reading uses rosbags (``AnyReader``) with the jointwear typestore; no ROS
+runtime is needed. Every problem with a bag (missing path, not a bag,
+truncated file, a type that cannot be decoded) raises
+:class:`~jointwear_ros.errors.InputDataError` with a one-line message naming
+the bag and what to do.
+
+The converters turn rosbags-deserialized messages (or rclpy messages: the
+field names are the same) into the plain values the observer core and the
+wear monitor take, keeping the ``.msg`` field names.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rosbags.typesys import get_types_from_msg
+from rosbags.typesys.store import Typestore
+
+from ..errors import InputDataError
+from .typestore import jointwear_typestore
+
+__all__ = [
+    "ESTIMATE_TYPE",
+    "JOINT_STATE_TYPE",
+    "OBSERVATION_TYPE",
+    "STATUS_TYPE",
+    "TEMPERATURE_TYPE",
+    "BagInfo",
+    "BagMessage",
+    "bag_info",
+    "ensure_msgtype",
+    "estimate_fields",
+    "find_bags",
+    "joint_sample",
+    "message_fields",
+    "msg_search_dirs",
+    "read_messages",
+    "stamp_seconds",
+    "status_fields",
+    "temperature_value",
+]
+
+JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
+STATUS_TYPE = "jointwear_msgs/msg/TestCycleStatus"
+TEMPERATURE_TYPE = "sensor_msgs/msg/Temperature"
+OBSERVATION_TYPE = "jointwear_msgs/msg/FrictionObservation"
+ESTIMATE_TYPE = "jointwear_msgs/msg/WearEstimate"
+
+
+# --------------------------------------------------------------------------- types
+
+
+def msg_search_dirs() -> list[Path]:
+    """``share`` directories that may hold ``<pkg>/msg/<Type>.msg`` files (ament prefixes)."""
+    dirs = [Path(sys.prefix) / "share"]
+    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
+        if prefix:
+            dirs.append(Path(prefix) / "share")
+    return dirs
+
+
+def _referenced_types(obj: Any) -> Iterator[str]:
+    if isinstance(obj, str):
+        if obj.count("/") == 2 and "/msg/" in obj:
+            yield obj
+    elif isinstance(obj, (tuple, list)):
+        for item in obj:
+            yield from _referenced_types(item)
+
+
+def ensure_msgtype(store: Typestore, msgtype: str, search_dirs: Sequence[Path] | None = None) -> bool:
+    """Make ``msgtype`` known to ``store``, loading its ``.msg`` (and dependencies) if needed.
+
+    Returns False when no definition can be found; the store is then unchanged.
+    """
+    if msgtype in store.fielddefs:
+        return True
+    dirs = list(search_dirs) if search_dirs is not None else msg_search_dirs()
+    pending: dict[str, Any] = {}
+
+    def load(name: str) -> bool:
+        if name in store.fielddefs or name in pending:
+            return True
+        parts = name.split("/")
+        if len(parts) != 3:
+            return False
+        pkg, kind, typ = parts
+        for d in dirs:
+            f = d / pkg / kind / f"{typ}.msg"
+            if f.is_file():
+                try:
+                    types = get_types_from_msg(f.read_text(), name)
+                except Exception:  # an unparsable definition is "not found"
+                    return False
+                pending.update(types)
+                return all(load(ref) for ref in _referenced_types(types[name]))
+        return False
+
+    if not load(msgtype):
+        return False
+    try:
+        store.register(pending)
+    except Exception:
+        return False
+    return msgtype in store.fielddefs
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def _bag_dir(path: Path) -> Path:
+    if path.is_file() and path.suffix == ".mcap" and (path.parent / "metadata.yaml").is_file():
+        return path.parent
+    return path
+
+
+def _check_bag_path(path: Path) -> Path:
+    if not path.exists():
+        raise InputDataError(f"{path}: no such bag; give a rosbag2 directory (with metadata.yaml)")
+    p = _bag_dir(path)
+    if p.is_dir() and not (p / "metadata.yaml").is_file():
+        raise InputDataError(
+            f"{p}: not a rosbag2 bag (no metadata.yaml); give the bag directory the recorder wrote"
+        )
+    if p.is_file() and p.suffix not in (".mcap", ".db3", ".bag"):
+        raise InputDataError(f"{p}: not a bag (expected a rosbag2 directory or an .mcap file)")
+    return p
+
+
+@dataclass(frozen=True)
+class BagMessage:
+    """One message of a bag: topic, type, log time (ns) and the deserialized message."""
+
+    topic: str
+    msgtype: str
+    log_time: int
+    msg: Any
+
+
+def read_messages(
+    path: str | os.PathLike[str],
+    topics: Iterable[str] | None = None,
+    msgtypes: Iterable[str] | None = None,
+    store: Typestore | None = None,
+) -> Iterator[BagMessage]:
+    """Yield the bag's messages in log-time order, deserialized with rosbags.
+
+    ``topics``/``msgtypes`` restrict what is read (``None``: everything).
+    Raises :class:`InputDataError` for a missing path, a directory that is not a
+    bag, a truncated or corrupt file, or a message that cannot be decoded.
+    """
+    from rosbags.highlevel import AnyReader
+
+    p = _check_bag_path(Path(path))
+    want_topics = None if topics is None else set(topics)
+    want_types = None if msgtypes is None else set(msgtypes)
+    ts = store if store is not None else jointwear_typestore()
+    current = "opening"
+    try:
+        with AnyReader([p], default_typestore=ts) as reader:
+            conns = [
+                c for c in reader.connections
+                if (want_topics is None or c.topic in want_topics) and (want_types is None or c.msgtype in want_types)
+            ]
+            if not conns:
+                return
+            for conn, t, raw in reader.messages(connections=conns):
+                current = f"a {conn.msgtype} message on {conn.topic} at log time {t} ns"
+                yield BagMessage(conn.topic, conn.msgtype, int(t), reader.deserialize(raw, conn.msgtype))
+    except InputDataError:
+        raise
+    except GeneratorExit:
+        raise
+    except Exception as exc:  # any reader failure is a bad-input message
+        text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputDataError(
+            f"{p}: cannot read the bag ({current}: {type(exc).__name__}: {text}); "
+            "is it complete (closed by the recorder) and a rosbag2 MCAP/SQLite bag?"
+        ) from None
+
+
+@dataclass(frozen=True)
+class BagInfo:
+    """Summary of a bag: path, storage, per-topic type and count, start and duration."""
+
+    path: str
+    storage: str
+    version: int
+    start_ns: int
+    duration_ns: int
+    message_count: int
+    topics: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "path": self.path,
+            "storage": self.storage,
+            "version": self.version,
+            "start_s": self.start_ns * 1e-9,
+            "duration_s": self.duration_ns * 1e-9,
+            "message_count": self.message_count,
+            "topics": self.topics,
+        }
+
+
+def bag_info(path: str | os.PathLike[str]) -> BagInfo:
+    """Topics (type, message count), duration and storage of a bag (from its index/metadata)."""
+    from rosbags.highlevel import AnyReader
+
+    p = _check_bag_path(Path(path))
+    try:
+        with AnyReader([p], default_typestore=jointwear_typestore()) as reader:
+            topics: dict[str, dict[str, Any]] = {}
+            for c in reader.connections:
+                entry = topics.setdefault(c.topic, {"type": c.msgtype, "count": 0})
+                entry["count"] += int(c.msgcount)
+            storage, version = "unknown", 0
+            meta = p / "metadata.yaml" if p.is_dir() else None
+            if meta is not None and meta.is_file():
+                import yaml
+
+                info = (yaml.safe_load(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
+                storage = str(info.get("storage_identifier", "unknown"))
+                version = int(info.get("version", 0))
+            return BagInfo(
+                path=str(p),
+                storage=storage,
+                version=version,
+                start_ns=int(reader.start_time) if reader.message_count else 0,
+                duration_ns=int(reader.duration) if reader.message_count else 0,
+                message_count=int(reader.message_count),
+                topics=dict(sorted(topics.items())),
+            )
+    except InputDataError:
+        raise
+    except Exception as exc:
+        text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputDataError(f"{p}: cannot read the bag ({type(exc).__name__}: {text})") from None
+
+
+def find_bags(root: str | os.PathLike[str]) -> list[Path]:
+    """Bag directories (holding ``metadata.yaml``) under ``root``, oldest first."""
+    r = Path(root)
+    if not r.is_dir():
+        return []
+    found = [m.parent for m in r.rglob("metadata.yaml")]
+    return sorted(found, key=lambda d: (d.stat().st_mtime, str(d)))
+
+
+# --------------------------------------------------------------------------- conversion
+
+
+def stamp_seconds(header_or_stamp: Any) -> float:
+    """Seconds of a ``std_msgs/Header`` or ``builtin_interfaces/Time``."""
+    st = getattr(header_or_stamp, "stamp", header_or_stamp)
+    return float(st.sec) + 1e-9 * float(st.nanosec)
+
+
+def joint_sample(msg: Any, joint_name: str) -> tuple[float, float, float, float] | None:
+    """``(stamp, position, velocity, effort)`` of ``joint_name`` in a JointState, or None.
+
+    None when the joint is absent or one of the three arrays is too short (a
+    JointState may leave velocity or effort empty).
+    """
+    names = list(msg.name)
+    try:
+        i = names.index(joint_name)
+    except ValueError:
+        return None
+    pos, vel, eff = msg.position, msg.velocity, msg.effort
+    if len(pos) <= i or len(vel) <= i or len(eff) <= i:
+        return None
+    return stamp_seconds(msg.header), float(pos[i]), float(vel[i]), float(eff[i])
+
+
+def status_fields(msg: Any) -> dict[str, Any]:
+    """Keyword arguments of ``FrictionObserverCore.on_status`` / ``WearMonitor.on_status``."""
+    return {
+        "stamp": stamp_seconds(msg.header),
+        "cycle_id": int(msg.cycle_id),
+        "state": int(msg.state),
+        "phase": int(msg.phase),
+        "current_speed_motor": float(msg.current_speed),
+        "speeds_done": int(msg.speeds_done),
+        "speeds_total": int(msg.speeds_total),
+        "window_center": float(msg.window_center),
+        "window_half_width": float(msg.window_half_width),
+        "joint_name": str(msg.joint_name),
+    }
+
+
+def temperature_value(msg: Any) -> tuple[float, float]:
+    """``(stamp, celsius)`` of a ``sensor_msgs/Temperature``."""
+    return stamp_seconds(msg.header), float(msg.temperature)
+
+
+def message_fields(msg: Any, names: Sequence[str]) -> dict[str, Any]:
+    """The named fields of a message as plain Python values (arrays as float lists)."""
+    out: dict[str, Any] = {}
+    for n in names:
+        v = getattr(msg, n)
+        if hasattr(v, "tolist"):
+            v = [float(x) for x in v.tolist()]
+        elif isinstance(v, (list, tuple)):
+            v = [float(x) for x in v]
+        elif isinstance(v, bool):
+            v = bool(v)
+        elif isinstance(v, int):
+            v = int(v)
+        elif isinstance(v, float):
+            v = float(v)
+        out[n] = v
+    return out
+
+
+OBSERVATION_FIELDS = (
+    "joint_name", "cycle_id", "speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus",
+    "load_torque", "temperature", "position", "samples_plus", "samples_minus",
+)
+ESTIMATE_FIELDS = (
+    "joint_name", "cycle_id", "method", "wear", "wear_std", "wear_low", "wear_high",
+    "temperature_estimate", "speeds", "per_speed_wear", "alarm_threshold", "alarm",
+)
+
+
+def estimate_fields(msg: Any) -> dict[str, Any]:
+    """The fields of a WearEstimate message (without the header) as plain values."""
+    return message_fields(msg, ESTIMATE_FIELDS)
+
