@@ -13,6 +13,7 @@ wear monitor take, keeping the ``.msg`` field names.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from collections.abc import Iterable, Iterator, Sequence
@@ -34,6 +35,7 @@ __all__ = [
     "TEMPERATURE_TYPE",
     "BagInfo",
     "BagMessage",
+    "ReplayResult",
     "bag_info",
     "ensure_msgtype",
     "estimate_fields",
@@ -41,7 +43,11 @@ __all__ = [
     "joint_sample",
     "message_fields",
     "msg_search_dirs",
+    "node_params_from_yaml",
+    "parameter_value",
     "read_messages",
+    "recorded_node_params",
+    "replay_bag",
     "stamp_seconds",
     "status_fields",
     "temperature_value",
@@ -334,3 +340,246 @@ def estimate_fields(msg: Any) -> dict[str, Any]:
     """The fields of a WearEstimate message (without the header) as plain values."""
     return message_fields(msg, ESTIMATE_FIELDS)
 
+
+
+# --------------------------------------------------------------------------- node parameters
+
+
+def _nest(flat: dict[str, Any]) -> dict[str, Any]:
+    """``{"a.b": 1}`` -> ``{"a": {"b": 1}}`` (ROS dotted parameter names to nested mappings)."""
+    out: dict[str, Any] = {}
+    for key, value in flat.items():
+        parts = key.split(".")
+        d = out
+        for part in parts[:-1]:
+            nxt = d.get(part)
+            if not isinstance(nxt, dict):
+                nxt = {}
+                d[part] = nxt
+            d = nxt
+        d[parts[-1]] = value
+    return out
+
+
+def _flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(_flatten(value, name + "."))
+        else:
+            out[name] = value
+    return out
+
+
+def node_params_from_yaml(path: str | os.PathLike[str], node_name: str) -> dict[str, Any]:
+    """The ``ros__parameters`` of ``node_name`` in a ROS 2 params file, flattened to dotted names.
+
+    Accepts ``node_name``, ``/node_name`` and the ``/**`` wildcard section.
+    """
+    import yaml
+
+    p = Path(path)
+    try:
+        doc = yaml.safe_load(p.read_text())
+    except FileNotFoundError:
+        raise InputDataError(f"{p}: no such parameter file") from None
+    except yaml.YAMLError as exc:
+        raise InputDataError(f"{p}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(doc, dict):
+        raise InputDataError(f"{p}: not a ROS 2 parameter file (expected '<node>: ros__parameters: ...')")
+    out: dict[str, Any] = {}
+    for key in ("/**", node_name, f"/{node_name}"):
+        section = doc.get(key)
+        if isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict):
+            out.update(_flatten(section["ros__parameters"]))
+    return out
+
+
+_PARAM_VALUE_FIELDS = {
+    1: "bool_value", 2: "integer_value", 3: "double_value", 4: "string_value", 5: "byte_array_value",
+    6: "bool_array_value", 7: "integer_array_value", 8: "double_array_value", 9: "string_array_value",
+}
+
+
+def parameter_value(value: Any) -> Any:
+    """The Python value of an ``rcl_interfaces/ParameterValue`` (None when NOT_SET)."""
+    name = _PARAM_VALUE_FIELDS.get(int(value.type))
+    if name is None:
+        return None
+    v = getattr(value, name)
+    if hasattr(v, "tolist"):
+        return v.tolist()
+    return list(v) if isinstance(v, (list, tuple)) else v
+
+
+def recorded_node_params(events: Iterable[Any], node_name: str) -> dict[str, Any]:
+    """Parameters of ``node_name`` as its ``ParameterEvent`` messages declared or changed them."""
+    out: dict[str, Any] = {}
+    for ev in events:
+        if str(ev.node).lstrip("/") != node_name.lstrip("/"):
+            continue
+        for param in (*ev.new_parameters, *ev.changed_parameters):
+            value = parameter_value(param.value)
+            if value is not None:
+                out[str(param.name)] = value
+        for param in ev.deleted_parameters:
+            out.pop(str(param.name), None)
+    return out
+
+
+# --------------------------------------------------------------------------- offline replay
+
+
+@dataclass
+class ReplayResult:
+    """What :func:`replay_bag` found: replayed and recorded observations/estimates, and their differences."""
+
+    bag: str
+    observations: list[Any]
+    rejections: list[Any]
+    cycles: list[Any]
+    recorded_observations: list[dict[str, Any]]
+    recorded_estimates: list[dict[str, Any]]
+    samples: int
+    statuses: int
+    observer_params: dict[str, Any]
+    monitor_params: dict[str, Any]
+
+    def comparison(self) -> dict[str, Any]:
+        """Replayed vs recorded: observations matched by (cycle_id, speed), estimates by cycle_id."""
+        numeric = ("tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position",
+                   "samples_plus", "samples_minus")
+        rec = {(int(o["cycle_id"]), round(float(o["speed"]), 9)): o for o in self.recorded_observations}
+        matched, max_diff, missing = 0, 0.0, []
+        for o in self.observations:
+            r = rec.get((int(o.cycle_id), round(float(o.speed), 9)))
+            if r is None:
+                missing.append(f"cycle {o.cycle_id} speed {o.speed:g}")
+                continue
+            matched += 1
+            for f in numeric:
+                a, b = float(getattr(o, f)), float(r[f])
+                if math.isnan(a) and math.isnan(b):
+                    continue
+                max_diff = max(max_diff, abs(a - b)) if math.isfinite(a - b) else math.inf
+        est = {int(e["cycle_id"]): e for e in self.recorded_estimates}
+        e_matched, e_diff = 0, 0.0
+        for c in self.cycles:
+            e = est.get(int(c.cycle_id))
+            if e is None or c.result is None:
+                continue
+            e_matched += 1
+            for a, b in ((c.result.wear, e["wear"]), (c.result.wear_std, e["wear_std"]),
+                         (c.result.wear_low, e["wear_low"]), (c.result.wear_high, e["wear_high"])):
+                d = abs(float(a) - float(b))
+                e_diff = max(e_diff, d) if math.isfinite(d) else (e_diff if math.isnan(a) and math.isnan(b) else math.inf)
+        return {
+            "observations": {
+                "recorded": len(self.recorded_observations), "replayed": len(self.observations),
+                "matched": matched, "max_abs_diff": max_diff if matched else None,
+                "not_recorded": missing,
+            },
+            "estimates": {
+                "recorded": len(self.recorded_estimates), "replayed": sum(c.result is not None for c in self.cycles),
+                "matched": e_matched, "max_abs_diff": e_diff if e_matched else None,
+            },
+        }
+
+
+def replay_bag(
+    path: str | os.PathLike[str],
+    observer_params: dict[str, Any],
+    monitor_params: dict[str, Any],
+    *,
+    use_recorded_params: bool = True,
+    joint_states_topic: str = "/joint_states",
+    status_topic: str = "/test_cycle/status",
+    temperature_topic: str = "/joint_temperature",
+    observations_topic: str = "/jointwear/friction_observations",
+    estimate_topic: str = "/jointwear/wear_estimate",
+    observer_node: str = "friction_observer",
+    monitor_node: str = "wear_estimator",
+    overrides: dict[str, Any] | None = None,
+) -> ReplayResult:
+    """Re-run the friction observer core and the wear monitor on a bag, offline, in log-time order.
+
+    ``observer_params``/``monitor_params`` are flattened ROS parameters (e.g.
+    from the nodes' config files); with ``use_recorded_params`` the values
+    the live nodes declared (``/parameter_events`` in the bag) take precedence.
+    ``overrides`` (e.g. ``{"method": "bayes"}``) apply to the monitor last.
+    """
+    from ..monitor import MonitorConfig, WearMonitor
+    from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig
+
+    p = _check_bag_path(Path(path))
+    obs_params = dict(observer_params)
+    mon_params = dict(monitor_params)
+    if use_recorded_params:
+        events = [m.msg for m in read_messages(p, topics=["/parameter_events"])]
+        obs_params.update(recorded_node_params(events, observer_node))
+        mon_params.update(recorded_node_params(events, monitor_node))
+    if overrides:
+        mon_params.update(overrides)
+    try:
+        ocfg = ObserverConfig.from_mapping(_nest(obs_params))
+        mcfg = MonitorConfig.from_mapping(_nest(mon_params))
+    except (TypeError, ValueError) as exc:
+        raise InputDataError(f"{p}: observer/estimator parameters are malformed ({exc})") from None
+    core = FrictionObserverCore(ocfg)
+    monitor = WearMonitor(mcfg)
+    joint = ocfg.joint_name
+    observations: list[FrictionObservationData] = []
+    rejections: list[Any] = []
+    cycles: list[Any] = []
+    recorded_obs: list[dict[str, Any]] = []
+    recorded_est: list[dict[str, Any]] = []
+    samples = statuses = 0
+
+    def take(out: Any) -> None:
+        observations.extend(out.observations)
+        rejections.extend(out.rejections)
+        for o in out.observations:
+            cycles.extend(monitor.add(o))
+
+    topics = [joint_states_topic, status_topic, temperature_topic, observations_topic, estimate_topic]
+    last = -math.inf
+    seen_js = False
+    for m in read_messages(p, topics=topics):
+        if m.topic == joint_states_topic and m.msgtype == JOINT_STATE_TYPE:
+            seen_js = True
+            s = joint_sample(m.msg, joint)
+            if s is not None:
+                samples += 1
+                last = max(last, s[0])
+                take(core.on_joint_state(*s))
+        elif m.topic == status_topic and m.msgtype == STATUS_TYPE:
+            statuses += 1
+            f = status_fields(m.msg)
+            last = max(last, f["stamp"])
+            take(core.on_status(**f))
+            cycles.extend(monitor.on_status(f["stamp"], f["cycle_id"], f["state"], f["speeds_done"],
+                                            f["speeds_total"], f["joint_name"]))
+        elif m.topic == temperature_topic and m.msgtype == TEMPERATURE_TYPE:
+            take(core.on_temperature(*temperature_value(m.msg)))
+        elif m.topic == observations_topic and m.msgtype == OBSERVATION_TYPE:
+            d = message_fields(m.msg, OBSERVATION_FIELDS)
+            d["stamp"] = stamp_seconds(m.msg.header)
+            recorded_obs.append(d)
+        elif m.topic == estimate_topic and m.msgtype == ESTIMATE_TYPE:
+            d = estimate_fields(m.msg)
+            d["stamp"] = stamp_seconds(m.msg.header)
+            recorded_est.append(d)
+    if not seen_js:
+        raise InputDataError(
+            f"{p}: no {JOINT_STATE_TYPE} messages on {joint_states_topic}; "
+            "record /joint_states (and /test_cycle/status) to replay the observer"
+        )
+    take(core.flush())
+    if math.isfinite(last):
+        cycles.extend(monitor.poll(last + mcfg.done_timeout + mcfg.idle_timeout + 1.0))
+    return ReplayResult(
+        bag=str(p), observations=observations, rejections=rejections, cycles=cycles,
+        recorded_observations=recorded_obs, recorded_estimates=recorded_est, samples=samples,
+        statuses=statuses, observer_params=obs_params, monitor_params=mon_params,
+    )
