@@ -112,7 +112,7 @@ def test_estimate_is_deterministic_and_independent_of_arrival_order():
     b = WearMonitor(MonitorConfig(seed=11))
     ra = _run(a, 5, 33.0)[0]
     b.on_status(9.0, 5, STATE_RUNNING, 0, len(SPEEDS), "joint_1")
-    rb = [r for o in reversed(_obs(5, 33.0)) for r in b.add(o)][0]
+    rb = next(r for o in reversed(_obs(5, 33.0)) for r in b.add(o))
     assert ra.result is not None and rb.result is not None
     assert ra.result.wear == rb.result.wear and ra.result.wear_std == rb.result.wear_std
     assert ra.values == rb.values

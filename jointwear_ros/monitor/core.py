@@ -191,9 +191,14 @@ class WearMonitor:
         return make_estimator(method, params=self.config.params, seed=seed, **dict(self.config.estimator_options))
 
     # -- inputs -----------------------------------------------------------------------
-    def add(self, observation: FrictionObservationData) -> list[CycleResult]:
-        """One observation; returns the cycle's result when this completes it."""
+    def add(self, observation: FrictionObservationData, now: float | None = None) -> list[CycleResult]:
+        """One observation; returns the cycle's result when this completes it.
+
+        ``now`` is the time of receipt on the clock :meth:`poll` is given
+        (default: the observation's stamp); the idle timeout counts from it.
+        """
         o = observation
+        t_rx = o.stamp if now is None else float(now)
         if o.joint_name and o.joint_name != self.config.joint_name:
             return []
         cid = int(o.cycle_id)
@@ -205,14 +210,18 @@ class WearMonitor:
             return []
         cyc = self._cycles.setdefault(cid, _Cycle())
         cyc.observations.append(o)
-        cyc.last_obs = o.stamp if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, o.stamp)
+        cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
         if cyc.speeds_total > 0 and len(cyc.observations) >= cyc.speeds_total:
-            return [self._finish(cid, o.stamp)]
+            return [self._finish(cid, t_rx)]
         return []
 
     def on_status(self, stamp: float, cycle_id: int, state: int, speeds_done: int = 0, speeds_total: int = 0,
                   joint_name: str = "") -> list[CycleResult]:
-        """A ``TestCycleStatus``: learns ``speeds_total``, starts the timeout on DONE/ABORTED/FAILED."""
+        """A ``TestCycleStatus``: learns ``speeds_total``, starts the timeout on DONE/ABORTED/FAILED.
+
+        ``stamp`` is on the clock :meth:`poll` is given (the node passes its
+        clock at receipt, a replay the log time).
+        """
         if joint_name and joint_name != self.config.joint_name:
             return []
         cid = int(cycle_id)
