@@ -64,6 +64,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--temperature", default=None, help="joint temperature of the simulator, degC (default: config)")
     p.add_argument("--method", default=None, help="wear estimator method (default: config/wear_estimator.yaml)")
     p.add_argument("--timeout", default="180", help="wall seconds to wait for the estimate (default 180)")
+    p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                   help="override a node parameter, e.g. joint_sim.temperature=30 (repeatable)")
     p.add_argument("--domain-id", type=int, default=None,
                    help="ROS_DOMAIN_ID of the cell (default: $ROS_DOMAIN_ID, else a random free-ish one)")
     p.set_defaults(func=cmd_demo)
@@ -311,6 +313,7 @@ def run_demo(
     method: str | None = None,
     timeout: float = 180.0,
     domain_id: int | None = None,
+    overrides: dict[str, dict[str, Any]] | None = None,
 ) -> DemoResult:
     """Run the simulated cell for one test cycle; see the module docstring."""
     from ..io.bags import ESTIMATE_FIELDS, OBSERVATION_FIELDS, find_bags
@@ -340,6 +343,8 @@ def run_demo(
         "friction_observer": {"use_sim_time": True},
         "wear_estimator": {"use_sim_time": True, **({"method": method} if method else {})},
     }
+    for node, values in (overrides or {}).items():
+        params[node].update(values)
     children: list[Child] = []
     op: _Operator | None = None
     try:
@@ -371,18 +376,22 @@ def run_demo(
         def have_estimate() -> bool:
             return any(e.cycle_id == cycle_id for e in op.estimates)  # type: ignore[union-attr]
 
-        op.spin_until(have_estimate, timeout, children, f"the WearEstimate of cycle {cycle_id}", tick)
-        est = next(e for e in op.estimates if e.cycle_id == cycle_id)
+        def diags_of_cycle() -> list[Any]:
+            return [d for d in op.diagnostics  # type: ignore[union-attr]
+                    if ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
 
-        def have_diag() -> bool:
-            return any(("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}
-                       for d in op.diagnostics)  # type: ignore[union-attr]
+        def finished() -> bool:
+            # an estimate, or the estimator's verdict that there is none (no "wear" key)
+            return have_estimate() or any("wear" not in {kv.key for kv in d.values} for d in diags_of_cycle())
 
+        op.spin_until(finished, timeout, children, f"the WearEstimate of cycle {cycle_id}", tick)
+        est = next((e for e in op.estimates if e.cycle_id == cycle_id), None)
         try:
-            op.spin_until(have_diag, 15.0, children, f"the /diagnostics status of cycle {cycle_id}")
-            diag = [d for d in op.diagnostics if ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}][-1]
-            level = _LEVELS.get(int.from_bytes(diag.level, "little") if isinstance(diag.level, bytes) else int(diag.level),
-                                str(diag.level))
+            op.spin_until(lambda: bool(diags_of_cycle()), 15.0, children,
+                          f"the /diagnostics status of cycle {cycle_id}")
+            diag = diags_of_cycle()[-1]
+            raw = diag.level
+            level = _LEVELS.get(raw[0] if isinstance(raw, bytes) else int(raw), str(raw))
             dmsg = str(diag.message)
         except DemoError as exc:
             level, dmsg = "UNKNOWN", str(exc)
@@ -390,14 +399,16 @@ def run_demo(
         observations.sort(key=lambda o: o["speed"])
         final = op.status
         final_state = _STATES.get(final.state, str(final.state)) if final is not None and final.cycle_id == cycle_id else "?"
-        estimate = _msg_dict(est, ESTIMATE_FIELDS)
+        estimate = _msg_dict(est, ESTIMATE_FIELDS) if est is not None else {}
         time.sleep(0.5)  # the recorder gets the estimate and diagnostics too
     finally:
         if op is not None:
             op.close()
         if children:
             _progress("stopping the nodes")
-            stop_children(children)
+            # the clock source (joint_sim) last: sim-time nodes need /clock to wind down
+            stop_children([c for c in children if c.name != "joint_sim"])
+            stop_children([c for c in children if c.name == "joint_sim"])
     bags = [b for b in find_bags(bagdir) if b not in bags_before]
     bag = str(bags[-1]) if bags else None
     if bag is None:
@@ -407,6 +418,33 @@ def run_demo(
         diagnostic_message=dmsg, final_state=final_state, true_wear=float(wear), bag=bag,
         wall_seconds=time.monotonic() - t_start, logs=str(logdir),
     )
+
+
+def _param_value(text: str) -> Any:
+    """A parameter value as ROS would read it from ``-p``: bool, int, float, else string."""
+    low = text.strip().lower()
+    if low in ("true", "false"):
+        return low == "true"
+    for conv in (int, float):
+        try:
+            return conv(text)
+        except ValueError:
+            pass
+    return text
+
+
+def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, Any]]:
+    """``["joint_sim.temperature=30"]`` -> ``{"joint_sim": {"temperature": 30}}`` (nodes checked)."""
+    out: dict[str, dict[str, Any]] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        node, dot, name = key.strip().partition(".")
+        if not sep or not dot or not name:
+            raise UsageError(f"--set {item!r}: expected NODE.PARAM=VALUE, e.g. joint_sim.temperature=30")
+        if node not in DEMO_NODES:
+            raise UsageError(f"--set {item!r}: unknown node {node!r}; nodes: {', '.join(DEMO_NODES)}")
+        out.setdefault(node, {})[name] = _param_value(value)
+    return out
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -423,19 +461,24 @@ def cmd_demo(args: argparse.Namespace) -> int:
     temperature = parse_float(args.temperature, "--temperature") if args.temperature is not None else None
     if args.domain_id is not None and not 0 <= args.domain_id <= 232:
         raise UsageError(f"--domain-id: {args.domain_id} is outside 0-232")
-    res = run_demo(wear, speeds, Path(args.out), rtf, temperature, args.method, timeout, args.domain_id)
+    res = run_demo(wear, speeds, Path(args.out), rtf, temperature, args.method, timeout, args.domain_id,
+                   parse_overrides(args.set))
+    rc = 0 if res.estimate else 1
     if args.json:
         print_json(res.as_dict())
-        return 0
+        return rc
     rows = [[o["speed"], o["tau_f"], o["tau_f_std"], o["load_torque"], o["temperature"], o["samples_plus"],
              o["samples_minus"]] for o in res.observations]
     print(f"friction observations of cycle {res.cycle_id} ({res.final_state}):")
     print(format_table(["speed", "tau_f", "tau_f_std", "load", "temp", "n+", "n-"], rows) if rows else "  none")
     e = res.estimate
-    z = (e["wear"] - res.true_wear) / e["wear_std"] if e.get("wear_std") and math.isfinite(e["wear_std"]) else math.nan
-    print(f"wear estimate: {e['wear']:.2f} ± {e['wear_std']:.2f} ({e['method']}); true wear {res.true_wear:g} "
-          f"({z:+.1f} std)")
+    if e:
+        z = (e["wear"] - res.true_wear) / e["wear_std"] if e["wear_std"] > 0 else math.nan
+        print(f"wear estimate: {e['wear']:.2f} ± {e['wear_std']:.2f} ({e['method']}); true wear {res.true_wear:g} "
+              f"({z:+.1f} std)")
+    else:
+        print(f"wear estimate: none (cycle {res.final_state}); true wear {res.true_wear:g}")
     print(f"diagnostic level: {res.diagnostic_level} ({res.diagnostic_message})")
     print(f"bag: {res.bag}")
     print(f"logs: {res.logs}; {res.wall_seconds:.1f} s wall")
-    return 0
+    return rc

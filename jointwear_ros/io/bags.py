@@ -272,16 +272,18 @@ def stamp_seconds(header_or_stamp: Any) -> float:
 def joint_sample(msg: Any, joint_name: str) -> tuple[float, float, float, float] | None:
     """``(stamp, position, velocity, effort)`` of ``joint_name`` in a JointState, or None.
 
-    None when the joint is absent or one of the three arrays is too short (a
-    JointState may leave velocity or effort empty).
+    None, as the live friction_observer skips it, when the joint is absent, the
+    message has no effort, or the position/velocity/effort arrays do not match
+    ``name`` in length.
     """
     names = list(msg.name)
     try:
         i = names.index(joint_name)
     except ValueError:
         return None
+    n = len(names)
     pos, vel, eff = msg.position, msg.velocity, msg.effort
-    if len(pos) <= i or len(vel) <= i or len(eff) <= i:
+    if len(eff) == 0 or len(pos) != n or len(vel) != n or len(eff) != n:
         return None
     return stamp_seconds(msg.header), float(pos[i]), float(vel[i]), float(eff[i])
 
@@ -493,11 +495,11 @@ def replay_bag(
     monitor_params: dict[str, Any],
     *,
     use_recorded_params: bool = True,
-    joint_states_topic: str = "/joint_states",
-    status_topic: str = "/test_cycle/status",
-    temperature_topic: str = "/joint_temperature",
-    observations_topic: str = "/jointwear/friction_observations",
-    estimate_topic: str = "/jointwear/wear_estimate",
+    joint_states_topic: str = "",
+    status_topic: str = "",
+    temperature_topic: str | None = None,
+    observations_topic: str = "",
+    estimate_topic: str = "",
     observer_node: str = "friction_observer",
     monitor_node: str = "wear_estimator",
     overrides: dict[str, Any] | None = None,
@@ -508,7 +510,13 @@ def replay_bag(
     from the nodes' config files); with ``use_recorded_params`` the values
     the live nodes declared (``/parameter_events`` in the bag) take precedence.
     ``overrides`` (e.g. ``{"method": "bayes"}``) apply to the monitor last.
+    Topics default to the nodes' parameters (the temperature is used only when
+    the observer had a ``temperature_topic``, as live). Header stamps of 0 and
+    the monitor's clock are replaced by the log time, as the live nodes use
+    their clock at receipt.
     """
+    import json
+
     from ..monitor import MonitorConfig, WearMonitor
     from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig
 
@@ -521,11 +529,26 @@ def replay_bag(
         mon_params.update(recorded_node_params(events, monitor_node))
     if overrides:
         mon_params.update(overrides)
+    mon_tree = _nest(mon_params)
+    opts = mon_tree.get("estimator_options", {})
+    if isinstance(opts, str):  # the wear_estimator node takes a JSON object string
+        try:
+            mon_tree["estimator_options"] = dict(json.loads(opts)) if opts.strip() else {}
+        except (ValueError, TypeError) as exc:
+            raise InputDataError(f"estimator_options = {opts!r} is not a JSON object: {exc}") from None
     try:
         ocfg = ObserverConfig.from_mapping(_nest(obs_params))
-        mcfg = MonitorConfig.from_mapping(_nest(mon_params))
+        mcfg = MonitorConfig.from_mapping(mon_tree)
     except (TypeError, ValueError) as exc:
         raise InputDataError(f"{p}: observer/estimator parameters are malformed ({exc})") from None
+    # the topics the live nodes used (their parameters), unless given
+    joint_states_topic = joint_states_topic or str(obs_params.get("joint_states_topic", "/joint_states"))
+    status_topic = status_topic or str(obs_params.get("status_topic", "/test_cycle/status"))
+    if temperature_topic is None:
+        temperature_topic = str(obs_params.get("temperature_topic", ""))
+    observations_topic = observations_topic or str(obs_params.get("observations_topic",
+                                                                  "/jointwear/friction_observations"))
+    estimate_topic = estimate_topic or str(mon_params.get("estimate_topic", "/jointwear/wear_estimate"))
     core = FrictionObserverCore(ocfg)
     monitor = WearMonitor(mcfg)
     joint = ocfg.joint_name
@@ -535,33 +558,39 @@ def replay_bag(
     recorded_obs: list[dict[str, Any]] = []
     recorded_est: list[dict[str, Any]] = []
     samples = statuses = 0
+    now = -math.inf
 
     def take(out: Any) -> None:
         observations.extend(out.observations)
         rejections.extend(out.rejections)
         for o in out.observations:
-            cycles.extend(monitor.add(o))
+            cycles.extend(monitor.add(o, now=now))
 
-    topics = [joint_states_topic, status_topic, temperature_topic, observations_topic, estimate_topic]
-    last = -math.inf
+    def stamp_or_now(t: float) -> float:  # the live observer stamps header-less messages on receipt
+        return t if t > 0 else now
+
+    topics = [joint_states_topic, status_topic, observations_topic, estimate_topic]
+    if temperature_topic:
+        topics.append(temperature_topic)
     seen_js = False
     for m in read_messages(p, topics=topics):
+        now = max(now, m.log_time * 1e-9)
         if m.topic == joint_states_topic and m.msgtype == JOINT_STATE_TYPE:
             seen_js = True
             s = joint_sample(m.msg, joint)
             if s is not None:
                 samples += 1
-                last = max(last, s[0])
-                take(core.on_joint_state(*s))
+                take(core.on_joint_state(stamp_or_now(s[0]), *s[1:]))
         elif m.topic == status_topic and m.msgtype == STATUS_TYPE:
             statuses += 1
             f = status_fields(m.msg)
-            last = max(last, f["stamp"])
+            f["stamp"] = stamp_or_now(f["stamp"])
             take(core.on_status(**f))
-            cycles.extend(monitor.on_status(f["stamp"], f["cycle_id"], f["state"], f["speeds_done"],
+            cycles.extend(monitor.on_status(now, f["cycle_id"], f["state"], f["speeds_done"],
                                             f["speeds_total"], f["joint_name"]))
         elif m.topic == temperature_topic and m.msgtype == TEMPERATURE_TYPE:
-            take(core.on_temperature(*temperature_value(m.msg)))
+            t, c = temperature_value(m.msg)
+            take(core.on_temperature(stamp_or_now(t), c))
         elif m.topic == observations_topic and m.msgtype == OBSERVATION_TYPE:
             d = message_fields(m.msg, OBSERVATION_FIELDS)
             d["stamp"] = stamp_seconds(m.msg.header)
@@ -570,14 +599,16 @@ def replay_bag(
             d = estimate_fields(m.msg)
             d["stamp"] = stamp_seconds(m.msg.header)
             recorded_est.append(d)
+        if now > -math.inf and m.topic != joint_states_topic:
+            cycles.extend(monitor.poll(now))
     if not seen_js:
         raise InputDataError(
             f"{p}: no {JOINT_STATE_TYPE} messages on {joint_states_topic}; "
             "record /joint_states (and /test_cycle/status) to replay the observer"
         )
     take(core.flush())
-    if math.isfinite(last):
-        cycles.extend(monitor.poll(last + mcfg.done_timeout + mcfg.idle_timeout + 1.0))
+    if math.isfinite(now):
+        cycles.extend(monitor.poll(now + mcfg.done_timeout + mcfg.idle_timeout + 1.0))
     return ReplayResult(
         bag=str(p), observations=observations, rejections=rejections, cycles=cycles,
         recorded_observations=recorded_obs, recorded_estimates=recorded_est, samples=samples,
