@@ -15,11 +15,13 @@ Parameters: see ``config/friction_observer.yaml`` and ``docs/nodes-observer-esti
 from __future__ import annotations
 
 import math
+import time
 from collections import Counter
 from typing import Any
 
 from builtin_interfaces.msg import Time
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
@@ -54,11 +56,14 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               "fraction of the moving window samples that must be at speed", 0.0, 1.0),
     ParamDecl("min_samples", _DEFAULTS.min_samples, "at-speed samples needed per direction"),
     ParamDecl("edge_trim", _DEFAULTS.edge_trim, "fraction of the half width trimmed off each window edge", 0.0, 0.99),
+    ParamDecl("pass_gap", _DEFAULTS.pass_gap, "s without samples that separates two passes through the window",
+              1e-4, 10.0),
     ParamDecl("n_batches", _DEFAULTS.n_batches, "batches of the batch-means standard error"),
     ParamDecl("reorder_margin", _DEFAULTS.reorder_margin, "s the inputs may be out of stamp order", 0.0, 60.0),
-    ParamDecl("poll_grace", _DEFAULTS.poll_grace, "s extra wait when inputs fall silent", 0.0, 60.0),
+    ParamDecl("poll_grace", _DEFAULTS.poll_grace, "s of silence on every input after which finished speeds are processed",
+              0.0, 60.0),
     ParamDecl("max_buffer_seconds", _DEFAULTS.max_buffer_seconds, "s of joint states kept at most", 1.0, 3600.0),
-    ParamDecl("poll_period", 0.5, "s between checks for finished speeds when inputs fall silent", 0.01, 60.0),
+    ParamDecl("poll_period", 0.5, "s (wall) between checks for silent inputs", 0.01, 60.0),
 )
 
 
@@ -123,13 +128,15 @@ class FrictionObserverNode(Node):
         self.observations_published = 0
         self.rejections: list[str] = []
         self._index_cache: tuple[tuple[str, ...], int] | None = None
+        self._last_rx = time.monotonic()
         qos = high_rate_qos()
         self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos)
         self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, qos)
         self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, qos)
         if p["temperature_topic"]:
             self.create_subscription(Temperature, str(p["temperature_topic"]), self._on_temperature, qos)
-        self.create_timer(float(p["poll_period"]), self._on_poll)
+        # wall-clock timer: it must fire even when /clock (use_sim_time) stops
+        self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(
             f"observing {self.joint_name} on {p['joint_states_topic']} (gear {p['gear_ratio']:g}, torque scale "
             f"{p['torque_scale']:g} N·m); status {p['status_topic']}; temperature "
@@ -172,11 +179,13 @@ class FrictionObserverNode(Node):
         if not (math.isfinite(p) and math.isfinite(v) and math.isfinite(e)):
             self._bad(f"non-finite value for {self.joint_name}: position {p}, velocity {v}, effort {e}")
             return
+        self._last_rx = time.monotonic()
         out = self.core.on_joint_state(self._stamp(msg.header.stamp), p, v, e)
         if out.observations or out.rejections:
             self._emit(out)
 
     def _on_status(self, msg: TestCycleStatus) -> None:
+        self._last_rx = time.monotonic()
         out = self.core.on_status(
             self._stamp(msg.header.stamp), int(msg.cycle_id), int(msg.state), int(msg.phase),
             float(msg.current_speed), int(msg.speeds_done), int(msg.speeds_total), float(msg.window_center),
@@ -188,7 +197,10 @@ class FrictionObserverNode(Node):
         self._emit(self.core.on_temperature(self._stamp(msg.header.stamp), float(msg.temperature)))
 
     def _on_poll(self) -> None:
-        self._emit(self.core.poll(self.get_clock().now().nanoseconds * 1e-9))
+        # Finished speeds are processed when a later-stamped message arrives; when the inputs fall
+        # silent (end of a recording, a stopped driver) nothing will, so process them after poll_grace.
+        if self.core.pending_segments and time.monotonic() - self._last_rx > self.core.config.poll_grace:
+            self._emit(self.core.process_pending())
 
     def _emit(self, out: ObserverOutput) -> None:
         for o in out.observations:
@@ -205,7 +217,8 @@ class FrictionObserverNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``friction_observer``."""
-    return run_node(FrictionObserverNode, args)
+    # 2 kHz of JointState: the C++ events executor keeps the CPU use low (bench/bench_observer.py)
+    return run_node(FrictionObserverNode, args, events=True)
 
 
 if __name__ == "__main__":

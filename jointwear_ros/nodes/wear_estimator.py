@@ -22,6 +22,7 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -122,7 +123,8 @@ class WearEstimatorNode(Node):
         self.diag_pub = self.create_publisher(DiagnosticArray, str(p["diagnostics_topic"]), 10)
         self.create_subscription(FrictionObservation, str(p["observations_topic"]), self._on_observation, reliable)
         self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, reliable)
-        self.create_timer(float(p["diagnostics_period"]), self._on_timer)
+        # wall-clock timer: diagnostics keep coming (not stale) even when /clock (use_sim_time) stops
+        self.create_timer(float(p["diagnostics_period"]), self._on_timer, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(
             f"estimating wear of {self.joint_name} with method {cfg.method!r} ({cfg.params}); "
             f"WARN at {cfg.warn_threshold:g}, ERROR at {cfg.alarm_threshold:g}; "

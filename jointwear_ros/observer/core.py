@@ -225,6 +225,12 @@ class FrictionObserverCore:
             return self._process(lambda seg: seg.t_end + cfg.reorder_margin + cfg.poll_grace < now)
         return ObserverOutput([], [])
 
+    def process_pending(self) -> ObserverOutput:
+        """Process every finished speed now (the inputs fell silent; nothing more will arrive)."""
+        if not self._pending:
+            return ObserverOutput([], [])
+        return self._process(lambda seg: True)
+
     def flush(self) -> ObserverOutput:
         """End of input: process every finished speed; a speed still running is rejected."""
         out = self._process(lambda seg: True)

@@ -5,13 +5,17 @@ effort N·m) and the stamps [t_start, t_end) of one speed of a test cycle:
 
 1. window: samples with ``t_start <= t < t_end`` and
    ``|position - centre| <= half_width * (1 - edge_trim)``;
-2. direction d = +1 (forward), -1 (reverse): window samples with ``d * v > 0``;
-3. at speed: those with ``|v_motor - d * v_cmd| <= tol``,
-   ``tol = max(speed_tolerance * v_cmd, speed_tolerance_min)``;
-4. checks, each failing with a reason: at least ``min_samples`` at speed;
-   at least ``min_constant_fraction`` of the moving samples at speed, and
-   their speed std at most ``max(max_speed_std * v_cmd, max_speed_std_min)``
-   ("speed not constant"); ``u+ > u-`` ("wrong direction");
+2. direction d = +1 (forward), -1 (reverse): window samples with ``d * v > 0``,
+   cut into passes (runs in stamp order without a gap over ``pass_gap``);
+   passes whose median ``|v_motor|`` is within ``tol`` of ``v_cmd`` are the
+   sweeps of this speed (an approach move crossing the window at another
+   speed is left out), ``tol = max(speed_tolerance * v_cmd, speed_tolerance_min)``;
+3. at speed: samples of those passes with ``|v_motor - d * v_cmd| <= tol``;
+4. checks, each failing with a reason: a pass at this speed ("speed not
+   reached"); at least ``min_samples`` at speed ("too few samples"); at least
+   ``min_constant_fraction`` of the pass samples at speed, and their speed
+   std at most ``max(max_speed_std * v_cmd, max_speed_std_min)`` ("speed not
+   constant"); ``u+ > u-`` ("wrong direction");
 5. ``u± = mean(effort) / torque_scale`` over the at-speed samples,
    ``tau_f = (u+ - u-) / 2`` (Eq. 5), ``tau_m = |(u+ + u-) / 2|``.
 
@@ -27,6 +31,7 @@ Pure numpy; no ROS import.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -103,6 +108,13 @@ def measure_segment(
                 f"no samples inside the window {centre:g} ± {half:g} rad: the joint was at "
                 f"[{float(p.min()):.3f}, {float(p.max()):.3f}] rad during this speed"
             )
+        if stamps.size:
+            lo, hi = float(stamps.min()), float(stamps.max())
+            return reject(
+                f"no joint-state samples during this speed [{segment.t_start:.3f}, {segment.t_end:.3f}) s; the "
+                f"buffered samples are stamped [{lo:.3f}, {hi:.3f}] s: are /joint_states and the status stamped "
+                "by the same clock (use_sim_time)?"
+            )
         return reject("no joint-state samples during this speed (is /joint_states arriving, with the right joint name?)")
 
     v_motor = velocity * cfg.gear_ratio
@@ -115,22 +127,36 @@ def measure_segment(
     last_stamp = -math.inf
     for d in (1, -1):
         name = _DIRECTION_NAMES[d]
-        moving = in_window & (d * velocity > 0)
-        n_moving = int(np.count_nonzero(moving))
-        at_speed = moving & (np.abs(v_motor - d * v_cmd) <= tol)
-        idx = np.flatnonzero(at_speed)
+        mov = np.flatnonzero(in_window & (d * velocity > 0))
+        if mov.size == 0:
+            return reject(f"too few samples in {name} window: none moving {name} inside it; need {cfg.min_samples}")
+        mov = mov[np.argsort(stamps[mov], kind="stable")]
+        vm = np.abs(v_motor[mov])
+        # passes through the window: runs of samples without a gap longer than pass_gap
+        breaks = np.flatnonzero(np.diff(stamps[mov]) > cfg.pass_gap) + 1
+        bounds = np.concatenate(([0], breaks, [mov.size]))
+        keep = np.zeros(mov.size, dtype=bool)
+        others: list[tuple[float, int]] = []
+        for a, b in itertools.pairwise(bounds.tolist()):
+            med = float(np.median(vm[a:b]))
+            if abs(med - v_cmd) <= tol:
+                keep[a:b] = True
+            else:
+                others.append((med, int(b - a)))
+        if not keep.any():
+            seen = ", ".join(f"{m:.3g} rad/s ({n} samples)" for m, n in others[:4])
+            return reject(f"speed not reached in {name} window: no pass at {v_cmd:g} ± {tol:.3g} rad/s; "
+                          f"passes at median {seen}")
+        cand = mov[keep]
+        n_moving = int(cand.size)
+        idx = cand[np.abs(v_motor[cand] - d * v_cmd) <= tol]
         n_at = int(idx.size)
         if n_at < cfg.min_samples:
-            detail = (f"{n_at} of {n_moving} samples moving {name} in the window are within ±{tol:.3g} rad/s "
-                      f"of {v_cmd:g} rad/s")
-            if n_moving >= cfg.min_samples and n_at < cfg.min_constant_fraction * n_moving:
-                vm = np.abs(v_motor[moving])
-                return reject(f"speed not constant in {name} window: {detail} (mean |v| {float(vm.mean()):.3g} rad/s)")
-            return reject(f"too few samples in {name} window: {detail}; need {cfg.min_samples}")
+            return reject(f"too few samples in {name} window: {n_at} of {n_moving} samples of its pass(es) within "
+                          f"±{tol:.3g} rad/s of {v_cmd:g} rad/s; need {cfg.min_samples}")
         if n_at < cfg.min_constant_fraction * n_moving:
-            vm = np.abs(v_motor[moving])
             return reject(
-                f"speed not constant in {name} window: std {float(vm.std()):.3g} rad/s; only "
+                f"speed not constant in {name} window: std {float(np.abs(v_motor[cand]).std()):.3g} rad/s; only "
                 f"{100.0 * n_at / n_moving:.0f}% of {n_moving} samples within ±{tol:.3g} rad/s of {v_cmd:g} rad/s "
                 f"(need {100.0 * cfg.min_constant_fraction:.0f}%)"
             )
@@ -138,14 +164,12 @@ def measure_segment(
         v_std = float(vs.std())
         if v_std > std_limit:
             return reject(f"speed not constant in {name} window: std {v_std:.3g} rad/s > {std_limit:.3g} rad/s")
-        ts = stamps[idx]
-        order = np.argsort(ts, kind="stable")
-        u = effort[idx][order] / cfg.torque_scale
+        u = effort[idx] / cfg.torque_scale  # in stamp order
         means[d] = float(u.mean())
         ses[d] = batch_means_se(u, cfg.n_batches)
         counts[d] = n_at
         speeds[d] = float(np.abs(vs).mean())
-        last_stamp = max(last_stamp, float(ts[order[-1]]))
+        last_stamp = max(last_stamp, float(stamps[idx[-1]]))
 
     u_plus, u_minus = means[1], means[-1]
     tau_f = 0.5 * (u_plus - u_minus)

@@ -60,6 +60,7 @@ class ObserverConfig:
         be at speed, else "speed not constant".
     min_samples : at-speed samples needed in each direction's window.
     edge_trim : fraction of the half width trimmed off each window edge (0 = use the whole window).
+    pass_gap : s without a sample moving in a direction inside the window that separates two passes.
     n_batches : batches for the batch-means standard error of u+ and u-.
     reorder_margin : how far (s) status, temperature and joint-state messages may be out of stamp
         order on arrival; a finished speed is processed once a message stamped this much later
@@ -79,6 +80,7 @@ class ObserverConfig:
     min_constant_fraction: float = 0.8
     min_samples: int = 20
     edge_trim: float = 0.0
+    pass_gap: float = 0.05
     n_batches: int = 10
     reorder_margin: float = 0.5
     poll_grace: float = 1.0
@@ -86,7 +88,7 @@ class ObserverConfig:
     idle_keep_seconds: float = 2.0
 
     def __post_init__(self) -> None:
-        positive = ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "max_buffer_seconds")
+        positive = ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "max_buffer_seconds", "pass_gap")
         for name in positive:
             value = float(getattr(self, name))
             if not (math.isfinite(value) and value > 0):
