@@ -3,9 +3,10 @@
 Topics are discovered at run time (``get_topic_names_and_types`` every
 ``discovery_period`` seconds, so topics that appear later are recorded too),
 filtered by the ``include``/``exclude`` regular expressions, and subscribed
-with ``raw=True`` and a QoS matched to their publishers (RELIABLE depth 1000
-when every publisher is reliable, else BEST_EFFORT; TRANSIENT_LOCAL when every
-publisher offers it). The bytes are written unchanged by a writer thread with
+with ``raw=True`` and a QoS matched to their publishers (RELIABLE when every
+publisher is reliable, else BEST_EFFORT; TRANSIENT_LOCAL when every publisher
+offers it; KEEP_LAST ``queue_depth``, default 10000, so that a few seconds
+without CPU at 2 kHz lose nothing). The bytes are written unchanged by a writer thread with
 rosbags (``metadata.yaml`` version 9, MCAP storage, message definitions from
 the typestore), so the callbacks only enqueue.
 
@@ -46,7 +47,6 @@ from .runtime import ParamDecl, declare_parameters, run_node
 __all__ = ["RecorderNode", "main", "message_class"]
 
 _STATUS_RUNNING, _STATUS_ENDS = 1, (2, 3, 4)
-_DEPTH = 1000
 
 
 def message_class(msgtype: str) -> Any:
@@ -139,6 +139,7 @@ class RecorderNode(Node):
         ParamDecl("discovery_period", 0.5, "seconds between graph scans for new topics", 0.05, 60.0),
         ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus topic that drives split: cycle"),
         ParamDecl("cycle_tail", 5.0, "seconds (node clock) recorded after a cycle ends", 0.0, 3600.0),
+        ParamDecl("queue_depth", 10000, "subscription history depth: messages buffered while the recorder is busy"),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -216,7 +217,7 @@ class RecorderNode(Node):
             latched = all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in pubs)
             qos = QoSProfile(
                 history=HistoryPolicy.KEEP_LAST,
-                depth=_DEPTH,
+                depth=max(int(self.p["queue_depth"]), 1),
                 reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
                 durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
             )
@@ -368,7 +369,8 @@ class RecorderNode(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    return run_node(RecorderNode, args)
+    # rclpy's C++ EventsExecutor: about half the CPU per message of the Python executor
+    return run_node(RecorderNode, args, events=True)
 
 
 if __name__ == "__main__":  # pragma: no cover
