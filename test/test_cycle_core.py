@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from dataclasses import replace
@@ -99,16 +100,17 @@ def test_bad_settings_are_refused(field, value):
 
 # -- the state machine on an ideal joint ----------------------------------------
 class IdealJoint:
-    """A kinematic joint: velocity = gain × command (lagging ``lag`` ticks), effort fixed."""
+    """A kinematic joint: velocity = gain × command (+ ``sag`` rad/s when commanded to rest), effort fixed."""
 
-    def __init__(self, gain: float = 1.0, effort: float = 20.0, position: float = 0.0):
+    def __init__(self, gain: float = 1.0, effort: float = 20.0, position: float = 0.0, sag: float = 0.0):
         self.gain = gain
         self.effort = effort
         self.position = position
         self.velocity = 0.0
+        self.sag = sag
 
     def step(self, command: float, dt: float) -> None:
-        self.velocity = self.gain * command
+        self.velocity = self.gain * command if command != 0.0 else self.sag
         self.position += self.velocity * dt
 
 
@@ -136,7 +138,7 @@ def test_runner_goes_through_every_phase_of_every_speed_to_done():
     assert runner.status().cycle_id == 7 and "done" in runner.message
     for i in range(2):
         phases = [p for (_, p, k, *_rest) in log if k == i]
-        seq = [phases[0]] + [b for a, b in zip(phases, phases[1:]) if a != b]
+        seq = [phases[0]] + [b for a, b in itertools.pairwise(phases) if a != b]
         assert seq == [Phase.APPROACH, Phase.SETTLE, Phase.FORWARD, Phase.SETTLE, Phase.REVERSE, Phase.SETTLE]
     # inside the window the command is the sweep speed, constant, in each direction
     for i, sp in enumerate(plan.speeds):
@@ -146,7 +148,7 @@ def test_runner_goes_through_every_phase_of_every_speed_to_done():
             assert np.allclose(cmds, sign * sp.velocity)
     # speeds_done never goes back, the joint never leaves the planned extent
     done = [k for (_, _, k, *_rest) in log]
-    assert all(b >= a for a, b in zip(done, done[1:]))
+    assert all(b >= a for a, b in itertools.pairwise(done))
     lo, hi = plan.extent
     assert all(lo - 0.01 <= x <= hi + 0.01 for (*_a, x, _v) in log)
 
@@ -168,6 +170,23 @@ def test_runner_refuses_to_start_twice():
         runner.start(plan_cycle(CFG, [20.0]), 2, 0.0)
 
 
+def test_late_joint_states_make_the_approach_overshoot_and_it_is_repeated():
+    # readings arrive 80 ms late (a busy executor) but look fresh: approaches overshoot
+    queue: list[JointReading] = []
+
+    def late(t, r):
+        queue.append(r)
+        return replace(queue[max(0, len(queue) - 9)], stamp=t)
+
+    runner = CycleRunner(CFG)
+    plan = plan_cycle(CFG, [10.0, 160.0], start_position=0.0)
+    runner.start(plan, 1, 0.0)
+    log = _run(runner, IdealJoint(), hook=late)
+    assert runner.state == CycleState.DONE, runner.message
+    approaches = [b for (_, a, *_r), (_, b, *_s) in itertools.pairwise(log) if a != b and b == Phase.APPROACH]
+    assert len(approaches) > 2  # at least one speed needed a second approach
+
+
 # -- every watchdog trip ----------------------------------------------------------
 def _trip(hook=None, joint=None, config=CFG, speeds=(20.0,)):
     runner = CycleRunner(config)
@@ -187,6 +206,16 @@ def test_watchdog_trips_on_stale_joint_state():
     runner = _trip(hook)
     assert runner.state == CycleState.FAILED and runner.command == 0.0
     assert re.search(r"watchdog: joint state of joint_1 stale for 0\.2[5-9]\d* s \(state_timeout 0\.25 s\)", runner.message)
+
+
+def test_stale_check_in_sim_time_also_needs_wall_time_age():
+    runner = CycleRunner(CFG)
+    runner.start(plan_cycle(CFG, [20.0]), 1, 0.0)
+    old = JointReading(0.0, 0.0, 0.0, 0.0)
+    runner.update(0.5, old, wall_age=0.05)  # clock jumped ahead of a fresh reading: not stale
+    assert runner.running
+    runner.update(0.6, old, wall_age=0.3)
+    assert runner.state == CycleState.FAILED and "stale for 0.600 s" in runner.message
 
 
 def test_watchdog_trips_on_missing_joint_state():
@@ -223,6 +252,12 @@ def test_watchdog_trips_outside_the_joint_limits():
     assert runner.state == CycleState.FAILED and "outside the joint limits" in runner.message
 
 
+def test_watchdog_trips_when_the_joint_cannot_be_positioned_at_the_sweep_start():
+    runner = _trip(joint=IdealJoint(sag=-0.1))  # drifts 0.1 rad/s whenever commanded to rest
+    assert runner.state == CycleState.FAILED
+    assert "after 4 approaches, not within 0.01 rad of the sweep start" in runner.message
+
+
 def test_watchdog_trips_when_a_move_does_not_finish():
     runner = _trip(joint=IdealJoint(gain=0.0))  # a joint that does not move
     assert runner.state == CycleState.FAILED and "approach move" in runner.message and "not finished" in runner.message
@@ -243,7 +278,7 @@ def test_cycle_on_the_simulated_joint_reaches_done_and_observes_friction(rate):
         if k % every == 0:
             s = sim.sample()
             sim.set_command(runner.update(sim.time, JointReading(sim.time, s.position, s.velocity, s.effort)))
-        t, p, v, e = sim.run(1, dt)
+        _t, p, _v, e = sim.run(1, dt)
         rows.append((p[0], e[0], runner.phase, runner.speeds_done))
         k += 1
     assert runner.state == CycleState.DONE, runner.message

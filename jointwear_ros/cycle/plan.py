@@ -22,10 +22,10 @@ from dataclasses import dataclass
 from ..errors import JointwearError
 
 __all__ = [
+    "DEFAULT_SPEEDS",
     "CycleConfig",
     "CyclePlan",
     "CycleRequestError",
-    "DEFAULT_SPEEDS",
     "SpeedPlan",
     "move_duration",
     "plan_cycle",
@@ -73,6 +73,9 @@ class CycleConfig:
         Largest allowed ``|effort|``, N·m joint side.
     position_tolerance
         A move has arrived within this distance of its target, rad.
+    approach_tolerance
+        The joint must stand within this distance of a sweep start before the
+        sweep begins (else the approach is repeated), rad.
     move_timeout_factor
         A move taking longer than this × its planned duration + 2 s fails.
     """
@@ -93,13 +96,15 @@ class CycleConfig:
     speed_tolerance: float = 0.05
     effort_limit: float = 150.0
     position_tolerance: float = 1e-3
+    approach_tolerance: float = 0.01
     move_timeout_factor: float = 3.0
 
     def check(self) -> None:
         """Raise :class:`CycleRequestError` on settings that cannot plan a cycle."""
         positive = (
             "gear_ratio", "window_half_width", "max_speed", "acceleration", "approach_speed",
-            "state_timeout", "speed_tolerance", "effort_limit", "position_tolerance", "move_timeout_factor",
+            "state_timeout", "speed_tolerance", "effort_limit", "position_tolerance", "approach_tolerance",
+            "move_timeout_factor",
         )
         for name in positive:
             val = getattr(self, name)

@@ -10,12 +10,17 @@ follow the measured position and the joint stops at each target.
 
 Watchdog (any trip: command 0, state FAILED, the reason in ``message``):
 
-- the joint reading is older than ``state_timeout`` (or missing),
+- the joint reading is older than ``state_timeout`` (or missing; with
+  simulated time also in wall time, see :meth:`CycleRunner.update`),
 - ``|effort| > effort_limit``,
 - the speed at the window start (first sample inside the window during a
   sweep) is off by more than ``speed_tolerance`` (relative),
 - a reading is not finite, the joint leaves ``joint_limits``, or a move takes
-  longer than ``move_timeout_factor`` × its planned time + 2 s.
+  longer than ``move_timeout_factor`` × its planned time + 2 s,
+- the joint is still not within ``approach_tolerance`` of a sweep start after
+  ``MAX_APPROACHES`` approach moves (an approach that overshoots, e.g. on
+  late joint states, is repeated, each time at half the speed, before the sweep starts: a sweep that starts
+  inside its run-up would not reach constant speed before the window).
 """
 
 from __future__ import annotations
@@ -94,6 +99,8 @@ class CycleRunner:
 
     #: Slowest command while a move has not arrived, as a fraction of its cruise speed.
     CREEP = 0.05
+    #: Approach moves tried before the cycle fails for not reaching a sweep start.
+    MAX_APPROACHES = 4
 
     def __init__(self, config: CycleConfig | None = None) -> None:
         self.config = config if config is not None else CycleConfig()
@@ -106,6 +113,7 @@ class CycleRunner:
         self.message = "idle"
         self.command = 0.0
         self._step = 0
+        self._approaches = 0
         self._move: _Move | None = None
         self._settle_until = 0.0
         self._started = False
@@ -127,6 +135,7 @@ class CycleRunner:
         self.message = f"running: {plan.summary()}"
         self.command = 0.0
         self._step = 0
+        self._approaches = 0
         self._move = None
         self._started = False
         self._t_start = now
@@ -175,12 +184,19 @@ class CycleRunner:
         )
 
     # -- the machine ---------------------------------------------------------
-    def update(self, now: float, reading: JointReading | None) -> float:
-        """Advance the machine; return the velocity command (joint rad/s; 0 unless running)."""
+    def update(self, now: float, reading: JointReading | None, wall_age: float | None = None) -> float:
+        """Advance the machine; return the velocity command (joint rad/s; 0 unless running).
+
+        ``wall_age`` (optional) is the wall-clock age of ``reading``. Give it when
+        ``now`` is simulated time: a busy executor can apply a clock update
+        before the joint state that came with it, so the reading looks old in
+        sim time although it is not; the reading is then stale only if it is
+        also older than ``state_timeout`` in wall time.
+        """
         if not self.running or self.plan is None:
             self.command = 0.0
             return 0.0
-        reason = self._watchdog(now, reading)
+        reason = self._watchdog(now, reading, wall_age)
         if reason is not None:
             self._finish(CycleState.FAILED, f"watchdog: {reason}")
             return 0.0
@@ -188,12 +204,12 @@ class CycleRunner:
         self.command = self._advance(now, reading)
         return self.command if self.running else 0.0
 
-    def _watchdog(self, now: float, r: JointReading | None) -> str | None:
+    def _watchdog(self, now: float, r: JointReading | None, wall_age: float | None = None) -> str | None:
         cfg = self.config
         if r is None:
             return f"no joint state for {cfg.joint_name}"
         age = now - r.stamp
-        if age > cfg.state_timeout:
+        if age > cfg.state_timeout and (wall_age is None or wall_age > cfg.state_timeout):
             return f"joint state of {cfg.joint_name} stale for {age:.3f} s (state_timeout {cfg.state_timeout:g} s)"
         if not (math.isfinite(r.position) and math.isfinite(r.velocity) and math.isfinite(r.effort)):
             return (
@@ -225,11 +241,26 @@ class CycleRunner:
                 self.phase = Phase.SETTLE
                 if now < self._settle_until:
                     return 0.0
+                if k == 1 and abs(r.position - sp.start) > cfg.approach_tolerance:
+                    # the approach overshot (or fell short): a shorter, slower move back to the start
+                    self._approaches += 1
+                    if self._approaches > self.MAX_APPROACHES:
+                        self._finish(
+                            CycleState.FAILED,
+                            f"watchdog: joint at {r.position:.3f} rad after {self.MAX_APPROACHES} approaches, "
+                            f"not within {cfg.approach_tolerance:g} rad of the sweep start {sp.start:.3f} rad",
+                        )
+                        return 0.0
+                    self._move = None
+                    self._started = False
+                    self._step = 0
+                    continue
                 self._next_step()
                 continue
             if self._move is None:
                 if k == 0:
-                    target, cruise, phase = sp.start, cfg.approach_speed, Phase.APPROACH
+                    # each repeated approach at half the speed of the one before
+                    target, cruise, phase = sp.start, cfg.approach_speed * 0.5**self._approaches, Phase.APPROACH
                 elif k == 2:
                     target, cruise, phase = sp.end, sp.velocity, Phase.FORWARD
                 else:
@@ -271,6 +302,7 @@ class CycleRunner:
     def _next_step(self) -> None:
         self._move = None
         self._started = False
+        self._approaches = 0 if self._step == 1 else self._approaches
         self._step += 1
         if self._step > 5:
             self._step = 0

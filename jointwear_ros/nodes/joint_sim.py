@@ -38,7 +38,7 @@ from ..errors import ParameterError
 from ..sim import JointSim, JointSimConfig
 from .runtime import ParamDecl, declare_parameters, run_node
 
-__all__ = ["JointSimNode", "PARAMETERS", "main"]
+__all__ = ["PARAMETERS", "JointSimNode", "main"]
 
 #: Parameters of the node (defaults as in ``config/joint_sim.yaml``).
 PARAMETERS: tuple[ParamDecl, ...] = (
@@ -65,6 +65,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("inertia", 5.0e-4, "motor-side inertia, normalized torque per rad/s^2", 1e-9, 1e3),
     ParamDecl("kp", 0.05, "velocity PI proportional gain, normalized torque per motor rad/s", 0.0, 1e3),
     ParamDecl("ki", 1.0, "velocity PI integral gain, normalized torque per motor rad", 0.0, 1e6),
+    ParamDecl("accel_limit", 8.0, "reference acceleration limit of the drive, joint rad/s^2 (0: none)", 0.0, 1e6),
     ParamDecl("torque_limit", 1.0, "saturation of the applied torque, normalized", 1e-6, 1e3),
     ParamDecl("noise_std", 0.0015, "target scatter sigma_e of (u+ - u-)/2, normalized", 0.0, 1.0),
     ParamDecl("effort_noise_std", 0.003, "white noise on each effort sample, normalized", 0.0, 1.0),
@@ -90,7 +91,7 @@ def parse_effects(text: str) -> tuple[str, ...]:
 
 def _stamp(t: float) -> TimeMsg:
     sec = math.floor(t)
-    return TimeMsg(sec=int(sec), nanosec=min(int(round((t - sec) * 1e9)), 999_999_999))
+    return TimeMsg(sec=int(sec), nanosec=min(round((t - sec) * 1e9), 999_999_999))
 
 
 class JointSimNode(Node):
@@ -115,6 +116,7 @@ class JointSimNode(Node):
             kp=float(p["kp"]),
             ki=float(p["ki"]),
             torque_limit=float(p["torque_limit"]),
+            accel_limit=float(p["accel_limit"]),
             noise_std=float(p["noise_std"]),
             effort_noise_std=float(p["effort_noise_std"]),
             initial_position=float(p["initial_position"]),
@@ -144,7 +146,7 @@ class JointSimNode(Node):
 
         if self.publish_clock:
             self._wall = Clock(clock_type=ClockType.STEADY_TIME)
-            self.epoch = math.floor(time.time())
+            self.epoch = float(math.floor(time.time()))
             self._wall0 = time.monotonic()
             self.create_timer(float(p["tick_period"]), self._tick, clock=self._wall)
         else:

@@ -61,7 +61,13 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("steady_time", 0.3, "time at constant speed before the window, s", 0.0, 100.0),
     ParamDecl("settle_time", 0.3, "time at rest after each move, s", 0.0, 100.0),
     ParamDecl("state_timeout", 0.25, "watchdog: joint state older than this (s) stops the cycle", 1e-3, 100.0),
+    ParamDecl(
+        "state_timeout_wall", 1.0,
+        "watchdog: no joint state for this many wall-clock s stops the cycle (catches a clock source that died)",
+        1e-3, 100.0,
+    ),
     ParamDecl("speed_tolerance", 0.05, "watchdog: relative speed error allowed at the window start", 1e-4, 10.0),
+    ParamDecl("approach_tolerance", 0.01, "the joint must stand this close to a sweep start, rad", 1e-4, 1.0),
     ParamDecl("effort_limit", 150.0, "watchdog: largest allowed |effort|, N·m", 1e-3, 1e9),
     ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0),
     ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0),
@@ -69,6 +75,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("simulator", False, "the joint is the simulator (joint_sim): motion allowed without motion_enabled"),
 )
 
+_RELIABLE_1 = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_100 = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -100,6 +107,7 @@ class TestCycleNode(Node):
             state_timeout=float(p["state_timeout"]),
             speed_tolerance=float(p["speed_tolerance"]),
             effort_limit=float(p["effort_limit"]),
+            approach_tolerance=float(p["approach_tolerance"]),
         )
         self.config.check()
         self.runner = CycleRunner(self.config)
@@ -107,6 +115,7 @@ class TestCycleNode(Node):
         self.next_cycle_id = 1
         self.reading: JointReading | None = None
         self._wall_last_state: float | None = None
+        self.state_timeout_wall = float(p["state_timeout_wall"])
         self._last_status_key: tuple[Any, ...] | None = None
         self._last_status_time = -math.inf
         self.status_period = 1.0 / float(p["status_rate"])
@@ -115,7 +124,8 @@ class TestCycleNode(Node):
 
         self.cmd_pub = self.create_publisher(Float64MultiArray, str(p["command_topic"]), _RELIABLE_10)
         self.status_pub = self.create_publisher(TestCycleStatus, "~/status", _RELIABLE_100)
-        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, _RELIABLE_100)
+        # only the newest state matters here: depth 1 never queues stale positions behind a busy executor
+        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, _RELIABLE_1)
         self.create_service(RunTestCycle, "~/run", self._on_run)
         self.create_service(Trigger, "~/abort", self._on_abort)
         self.create_timer(1.0 / float(p["command_rate"]), self._tick)
@@ -182,6 +192,8 @@ class TestCycleNode(Node):
             )
         now = self._now()
         r = self.reading
+        speeds = [float(v) for v in req.speeds]
+        plan = plan_cycle(self.config, speeds, req.position, None if r is None else r.position)
         if r is None and not req.dry_run:
             raise CycleRequestError(
                 f"no joint state for {self.joint_name} received yet on {self.get_parameter('joint_states_topic').value}; "
@@ -192,8 +204,6 @@ class TestCycleNode(Node):
                 f"the joint state of {self.joint_name} is {now - r.stamp:.2f} s old (state_timeout "
                 f"{self.config.state_timeout:g} s); is the driver still publishing?"
             )
-        speeds = [float(v) for v in req.speeds]
-        plan = plan_cycle(self.config, speeds, req.position, None if r is None else r.position)
         if req.dry_run:
             return f"dry run OK: {plan.summary()}; plan duration {plan.duration:.1f} s"
         cycle_id = self.next_cycle_id
@@ -246,7 +256,10 @@ class TestCycleNode(Node):
 
     def _tick(self) -> None:
         if self.runner.running:
-            cmd = self.runner.update(self._now(), self.reading)
+            wall_age = None
+            if self.get_parameter("use_sim_time").value and self._wall_last_state is not None:
+                wall_age = time.monotonic() - self._wall_last_state
+            cmd = self.runner.update(self._now(), self.reading, wall_age)
             self._send(cmd)
             if not self.runner.running:
                 self._report_end()
@@ -254,8 +267,11 @@ class TestCycleNode(Node):
 
     def _report_end(self) -> None:
         st = self.runner.status()
-        log = self.get_logger().info if st.state == CycleState.DONE else self.get_logger().error
-        log(f"cycle {st.cycle_id} {st.state.name}: {st.message}; zero velocity sent")
+        text = f"cycle {st.cycle_id} {st.state.name}: {st.message}; zero velocity sent"
+        if st.state == CycleState.DONE:
+            self.get_logger().info(text)
+        else:
+            self.get_logger().error(text)
 
     def _wall_watchdog(self) -> None:
         # node time may stop with the joint-state source (a simulator that is also the clock)
@@ -263,10 +279,10 @@ class TestCycleNode(Node):
             return
         last = self._wall_last_state
         age = math.inf if last is None else time.monotonic() - last
-        if age > self.config.state_timeout:
+        if age > self.state_timeout_wall:
             self.runner.fail(
                 f"watchdog: no joint state of {self.joint_name} for {age:.3f} s wall time "
-                f"(state_timeout {self.config.state_timeout:g} s)"
+                f"(state_timeout_wall {self.state_timeout_wall:g} s)"
             )
             self._send(0.0)
             self._report_end()
@@ -277,10 +293,11 @@ class TestCycleNode(Node):
         if self.runner.abort("node shutting down"):
             self._publish_status(force=True)
         self._send(0.0)
-        try:
-            self.cmd_pub.wait_for_all_acked(Duration(seconds=0.5))
-        except Exception:  # pragma: no cover - best effort on the way out
-            pass
+        for pub in (self.cmd_pub, self.status_pub):
+            try:
+                pub.wait_for_all_acked(Duration(seconds=0.5))
+            except Exception:  # pragma: no cover - best effort on the way out
+                pass
 
 
 def main(args: Sequence[str] | None = None) -> int:

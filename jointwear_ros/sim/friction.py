@@ -96,8 +96,8 @@ class FrictionTable:
         self.hidden_effects = tuple(effects)
         self.lube_hours = float(lube_hours)
 
-        n = int(math.ceil(max_speed / speed_step)) + 1
-        v = np.arange(n) * speed_step
+        n = math.ceil(max_speed / speed_step) + 1
+        v: Array = np.arange(n, dtype=float) * speed_step
         self.speed_step = float(speed_step)
         self.max_speed = float(v[-1])
         a = self._model(v, 0.0)
@@ -106,8 +106,8 @@ class FrictionTable:
         if not np.allclose(half, a + 0.5 * b, rtol=0.0, atol=1e-12):
             raise ModelError(f"model {self.model.spec!r} is not linear in |tau_m|; the simulator's table needs that")
         p0, p1 = position_range
-        npos = int(math.ceil((p1 - p0) / position_step)) + 1
-        pos = p0 + np.arange(npos) * position_step
+        npos = math.ceil((p1 - p0) / position_step) + 1
+        pos: Array = p0 + np.arange(npos, dtype=float) * position_step
         ptab = np.zeros(npos)
         k_time = 0.0
         for e in effects:

@@ -10,6 +10,7 @@ Dynamics (motor side)::
     J * dv/dt = u - tau_g(phi) - sign(v) * (tau_f(|v|, |tau_g|, phi, t) + o_k)
     tau_g(phi) = g * cos(phi - phi_g)                       (gravity, normalized)
     u = sat(Kp * (v_ref - v) + Ki * integral(v_ref - v))    (velocity PI, anti-windup)
+    v_ref follows the command with at most accel_limit         (drive reference ramp)
     dphi/dt = v / gear_ratio                                (joint position)
 
 ``tau_f`` is the full friction model (:class:`~jointwear_ros.sim.friction.FrictionTable`:
@@ -46,7 +47,7 @@ import numpy as np
 from ..errors import ParameterError
 from .friction import FrictionTable
 
-__all__ = ["JointSim", "JointSimConfig", "JointSample"]
+__all__ = ["JointSample", "JointSim", "JointSimConfig"]
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,11 @@ class JointSimConfig:
         Half width of the stick band around ``v = 0``, motor rad/s.
     initial_position
         Joint position at start, rad.
+    accel_limit
+        The drive's reference acceleration limit, joint rad/s^2: the velocity
+        reference follows the command at most this fast, so a command that
+        arrives in steps (a stream at 50-100 Hz, a late message) does not
+        kick the torque. 0 disables it.
     """
 
     gear_ratio: float = 100.0
@@ -101,6 +107,7 @@ class JointSimConfig:
     effort_noise_std: float = 0.003
     stick_speed: float = 0.05
     initial_position: float = 0.0
+    accel_limit: float = 8.0
 
     def check(self) -> None:
         """Raise :class:`ParameterError` on a value the simulator cannot run with."""
@@ -109,7 +116,7 @@ class JointSimConfig:
             val = getattr(self, name)
             if not (math.isfinite(val) and val > 0):
                 raise ParameterError(f"joint sim: {name} must be finite and > 0, got {val}")
-        nonneg = ("kp", "ki", "noise_std", "effort_noise_std", "lube_hours")
+        nonneg = ("kp", "ki", "noise_std", "effort_noise_std", "lube_hours", "accel_limit")
         for name in nonneg:
             val = getattr(self, name)
             if not (math.isfinite(val) and val >= 0):
@@ -170,6 +177,7 @@ class JointSim:
         self.torque = 0.0  # applied u, normalized
         self._integral = 0.0
         self.command = 0.0  # joint side, rad/s
+        self.reference = 0.0  # velocity reference of the PI loop, motor side, rad/s
         self._cmd_sign = 0
         self.offset = 0.0
         self._offset_std = math.sqrt(2.0) * cfg.noise_std
@@ -199,7 +207,15 @@ class JointSim:
         """Advance one fixed step of ``dt`` seconds (semi-implicit Euler)."""
         cfg = self.config
         v = self.speed
-        e = self.command * cfg.gear_ratio - v
+        target = self.command * cfg.gear_ratio
+        ref = self.reference
+        if cfg.accel_limit > 0.0 and ref != target:
+            dmax = cfg.accel_limit * cfg.gear_ratio * dt
+            ref = min(target, ref + dmax) if target > ref else max(target, ref - dmax)
+        else:
+            ref = target
+        self.reference = ref
+        e = ref - v
         u_raw = cfg.kp * e + self._integral
         lim = cfg.torque_limit
         u = lim if u_raw > lim else (-lim if u_raw < -lim else u_raw)
