@@ -59,6 +59,11 @@ def declare_parameters(node: Node, decls: Sequence[ParamDecl]) -> dict[str, Any]
     return out
 
 
+def context_ok(executor: SingleThreadedExecutor | MultiThreadedExecutor) -> bool:
+    """True while the executor's context is valid (not shut down)."""
+    return bool(executor.context.ok())
+
+
 def run_node(
     factory: Callable[[], Node],
     args: Sequence[str] | None = None,
@@ -99,7 +104,11 @@ def run_node(
         else:
             executor = MultiThreadedExecutor() if multithreaded else SingleThreadedExecutor()
             executor.add_node(node)
-            executor.spin()
+            # spin_once with a wall-clock timeout, not spin(): a node on sim time whose
+            # /clock has stopped would block in rcl_wait forever and never run the
+            # Python signal handler, so SIGINT/SIGTERM could not stop it.
+            while context_ok(executor):
+                executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception as exc:  # construction or a callback failed: say so, stop cleanly
