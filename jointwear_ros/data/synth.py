@@ -37,7 +37,7 @@ from ..errors import InputDataError
 from ..model import load_parameter_set, parse_model_spec, stribeck_shape
 from ..types import ObservationTable
 
-__all__ = ["HIDDEN_EFFECTS", "HiddenEffect", "synth_observations", "DEFAULT_SPEEDS", "NOISE_STD"]
+__all__ = ["DEFAULT_SPEEDS", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]
 
 Array = npt.NDArray[np.float64]
 

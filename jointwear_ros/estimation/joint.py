@@ -9,7 +9,8 @@ joint temperature, so the K observations share ONE unknown T:
 :class:`JointEstimator` computes the posterior ``p(w, T | y)`` on a grid: T on
 the prior's quadrature nodes (Gauss-Legendre in probability space; as many as
 :func:`~jointwear_ros.estimation.crb.temperature_nodes` needs to resolve the
-likelihood's width in T), w on a uniform grid over [0, 100]. A coarse pass (w
+likelihood's width in T: two nodes per sigma of the friction's spread over the
+prior), w on a uniform grid over [0, 100]. A coarse pass (w
 step 0.5) finds every region of w holding posterior mass (the wear effect is
 not monotone in w for v > 0, so the posterior can have two modes); a fine pass
 (step 1/32) over those regions only gives the posterior moments. Reported:
@@ -192,7 +193,7 @@ class JointEstimator:
         if temps is None:
             n = self.n_temperature or temperature_nodes(self.model, self.params, speed, 35.0,
                                                         load=float(np.mean(load)), noise_std=self.noise_std,
-                                                        prior=self.prior)
+                                                        prior=self.prior, density=2.0)
             temps, _ = self.prior.quadrature(n)
         g = _Grid(self.model, self.params, speed, load, temps, self.w_grid)
         self._cache[key] = g

@@ -22,7 +22,6 @@ import math
 import os
 import shutil
 import tempfile
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -34,14 +33,14 @@ from ..types import OBSERVATION_COLUMNS, ObservationTable
 from .typestore import jointwear_typestore
 
 __all__ = [
-    "FRICTION_OBSERVATION_TYPE",
     "DEFAULT_OBSERVATION_TOPIC",
-    "read_table",
-    "read_csv",
+    "FRICTION_OBSERVATION_TYPE",
     "read_bag",
-    "write_table",
-    "write_csv",
+    "read_csv",
+    "read_table",
     "write_bag",
+    "write_csv",
+    "write_table",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -154,7 +153,9 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
 
     ``topic`` restricts to one topic (default: every topic of that type).
     Columns: the message's fields, ``cycle`` (cycle_id) and ``time`` (header
-    stamp, s). ``temperature`` may be NaN (unknown).
+    stamp, s). ``speed`` and ``tau_f`` must be finite; NaN in another field
+    means unknown (a field NaN in every message is left out); infinity is an
+    error.
     """
     from rosbags.highlevel import AnyReader
 
@@ -174,23 +175,26 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
                     f"{src}: no {FRICTION_OBSERVATION_TYPE} messages {want}in the bag; topics: {present}"
                 )
             for i, (conn, _t, raw) in enumerate(reader.messages(connections=conns), start=1):
-                msg = reader.deserialize(raw, conn.msgtype)
+                msg: Any = reader.deserialize(raw, conn.msgtype)
                 data["cycle"].append(float(msg.cycle_id))
                 data["time"].append(float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec))
                 for f in fields:
                     val = float(getattr(msg, f))
-                    if f != "temperature" and not math.isfinite(val):
+                    if (f in _REQUIRED and not math.isfinite(val)) or math.isinf(val):
                         raise InputDataError(
                             f"{src}: column {f!r}, row {i} (message {i} on {conn.topic}): {val!r} is not finite"
                         )
                     data[f].append(val)
     except InputDataError:
         raise
-    except Exception as exc:  # noqa: BLE001 - any reader failure is a bad-input message
+    except Exception as exc:
         raise InputDataError(f"{src}: cannot read the bag ({type(exc).__name__}: {exc})") from None
     if not data["speed"]:
         raise InputDataError(f"{src}: the bag holds no {FRICTION_OBSERVATION_TYPE} messages")
-    return ObservationTable({k: np.asarray(v, dtype=float) for k, v in data.items()}, source=src)
+    cols = {k: np.asarray(v, dtype=float) for k, v in data.items()}
+    # a field that is NaN in every message was not measured: leave the column out
+    cols = {k: v for k, v in cols.items() if k in _REQUIRED or not np.all(np.isnan(v))}
+    return ObservationTable(cols, source=src)
 
 
 def _fmt(v: float) -> str:
@@ -243,6 +247,16 @@ def write_bag(
            ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position")}
     cyc = table.get("cycle", 0.0)
     tim = table["time"] if "time" in table else np.arange(n, dtype=float)
+    src = table.source or "observations"
+    for name, values in (("speed", col["speed"]), ("tau_f", col["tau_f"]), ("time", tim)):
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise InputDataError(f"{src}: column {name!r}, row {int(bad[0]) + 1}: {float(values[bad[0]])!r} is not finite; "
+                                 "a FrictionObservation needs a finite value")
+    bad = np.flatnonzero(~((cyc >= 0) & (cyc < 2**32) & (cyc == np.round(cyc))))
+    if bad.size:
+        raise InputDataError(f"{src}: column 'cycle', row {int(bad[0]) + 1}: {float(cyc[bad[0]])!r} is not a cycle id "
+                             "(an integer 0 .. 4294967295, the message's uint32 cycle_id)")
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=p.name + ".", dir=p.parent)) / "bag"
     try:
@@ -251,7 +265,7 @@ def write_bag(
             for i in range(n):
                 t = max(float(tim[i]), 0.0)
                 sec = int(t)
-                nsec = int(round((t - sec) * 1e9)) % 1_000_000_000
+                nsec = round((t - sec) * 1e9) % 1_000_000_000
                 msg = Msg(
                     header=Header(stamp=Time(sec=sec, nanosec=nsec), frame_id=""),
                     joint_name=joint_name,

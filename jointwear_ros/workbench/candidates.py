@@ -49,24 +49,24 @@ from ..model import MODEL_SPECS, STRIBECK_EXPONENT, TERMS, Model, ParamSpec, Ter
 from ..types import ObservationTable
 
 __all__ = [
-    "CandidateTerm",
-    "Lin",
-    "XStribeck",
-    "XViscous",
-    "ExpViscous",
-    "Ripple",
-    "Interaction",
-    "SHAPES",
-    "PAPER_CANDIDATES",
     "ENTRY_POINT_GROUP",
     "NON_CANDIDATE_COLUMNS",
-    "resolve_term",
-    "parse_spec",
+    "PAPER_CANDIDATES",
+    "SHAPES",
+    "CandidateTerm",
+    "ExpViscous",
+    "Interaction",
+    "Lin",
+    "Ripple",
+    "XStribeck",
+    "XViscous",
     "candidate_library",
     "candidate_variables",
-    "linear_params",
-    "start_grid",
     "describe_term",
+    "linear_params",
+    "parse_spec",
+    "resolve_term",
+    "start_grid",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -359,7 +359,7 @@ def _load_class(target: str, what: str) -> Term:
     mod_name, _, cls_name = target.partition(":")
     try:
         mod = importlib.import_module(mod_name)
-    except Exception as exc:  # noqa: BLE001 - any import failure is the user's to fix
+    except Exception as exc:
         raise ModelError(f"user term {what!r}: cannot import module {mod_name!r} ({exc})") from None
     obj: Any = mod
     for part in cls_name.split("."):
@@ -370,7 +370,7 @@ def _load_class(target: str, what: str) -> Term:
         raise ModelError(f"user term {what!r}: {cls_name!r} is not a jointwear_ros.model.Term subclass")
     try:
         term = obj()
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         raise ModelError(f"user term {what!r}: {cls_name}() failed: {exc}") from None
     # the spec string must round-trip: name the term by where it came from
     if getattr(term, "name", "") != what:
@@ -381,7 +381,7 @@ def _load_class(target: str, what: str) -> Term:
 def _entry_point(name: str) -> str | None:
     try:
         eps = metadata.entry_points(group=ENTRY_POINT_GROUP)
-    except Exception:  # noqa: BLE001 - a broken environment is not the user's spec error
+    except Exception:
         return None
     for ep in eps:
         if ep.name == name:
@@ -476,12 +476,12 @@ def candidate_library(
             if term.name in have or (dup is not None and dup in {t.name for t in out} | have):
                 continue
             out.append(term)
-    partners = [v for v in ("load_torque", "temperature") if v in vars_]
+    partners: list[str] = [v for v in ("load_torque", "temperature") if v in vars_]
     pairs: list[tuple[str, str]] = []
-    for y in partners:
+    for partner in partners:
         for v in vars_:
-            if v != y and (y, v) not in pairs and (v, y) not in pairs:
-                pairs.append((v, y))
+            if v != partner and (partner, v) not in pairs and (v, partner) not in pairs:
+                pairs.append((v, partner))
     for v, y in pairs:
         term = Interaction(v, y)
         if term.name not in have:

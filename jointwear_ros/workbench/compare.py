@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -15,9 +16,9 @@ __all__ = [
     "SPEED_BAND_EDGES",
     "BandError",
     "ResidualStructure",
-    "noise_floor",
-    "band_rmse",
     "band_label",
+    "band_rmse",
+    "noise_floor",
     "residual_structure",
 ]
 
@@ -50,7 +51,7 @@ def band_rmse(speed: Array, residuals: Array, edges: Sequence[float] = SPEED_BAN
     v = np.abs(np.asarray(speed, dtype=float))
     r = np.asarray(residuals, dtype=float)
     out = []
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    for lo, hi in itertools.pairwise(edges):
         m = (v >= lo) & (v < hi)
         if m.any():
             out.append(BandError(float(lo), float(hi), int(m.sum()), float(np.sqrt(np.mean(r[m] ** 2)))))

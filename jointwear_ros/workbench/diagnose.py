@@ -20,6 +20,7 @@ When no candidate is significant the diagnosis says so.
 
 from __future__ import annotations
 
+import itertools
 import math
 import sys
 from collections.abc import Callable, Sequence
@@ -138,8 +139,16 @@ class Diagnosis:
         }
 
 
+#: Evaluation budget of each start of a candidate fit. Candidates that are nearly
+#: redundant with a term already in the model (exp_viscous(temperature) on top of
+#: temp_viscous) crawl along a flat valley for thousands of evaluations without
+#: changing the SSR in any digit that matters for ranking.
+CANDIDATE_MAX_NFEV = 100
+
+
 def fit_candidate(
-    base: FitResult, term: Term, table: ObservationTable, *, folds: Array | None = None, cv_folds: int = 5
+    base: FitResult, term: Term, table: ObservationTable, *, folds: Array | None = None, cv_folds: int = 5,
+    max_nfev: int | None = CANDIDATE_MAX_NFEV,
 ) -> FitResult:
     """Fit ``base.model + term``, warm-started at the base fit, ``term`` started on its grid."""
     model = Model([*base.model.terms, term])
@@ -151,14 +160,14 @@ def fit_candidate(
         s = {n: 0.0 for n in term.param_names if n in lin}
         s.update(g)
         starts.append(s)
-    return fit_model(model, table, params, starts=starts, folds=folds, cv_folds=cv_folds)
+    return fit_model(model, table, params, starts=starts, folds=folds, cv_folds=cv_folds, max_nfev=max_nfev)
 
 
 def _speed_region(speed: Array, r0: Array, r1: Array) -> tuple[float, float]:
     v = np.abs(speed)
     edges = SPEED_BAND_EDGES
     gains = []
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    for lo, hi in itertools.pairwise(edges):
         m = (v >= lo) & (v < hi)
         gains.append(float(np.sum(r0[m] ** 2 - r1[m] ** 2)) / max(int(m.sum()), 1) if m.any() else math.nan)
     g = np.asarray(gains)

@@ -28,9 +28,12 @@ from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import ObservationTable
 
-__all__ = ["FitResult", "fit_model", "group_folds", "model_inputs", "information_criteria"]
+__all__ = ["FitResult", "fit_model", "group_folds", "information_criteria", "model_inputs"]
 
 Array = npt.NDArray[np.float64]
+
+#: Solver tolerance while comparing several starts (the best is then solved to 1e-10).
+SCOUT_TOL = 1e-8
 
 
 @dataclass
@@ -118,14 +121,14 @@ def model_inputs(model: Model, table: ObservationTable) -> dict[str, Array]:
         bad = np.flatnonzero(~np.isfinite(col))
         if bad.size:
             raise InputDataError(
-                f"{src}: column {var!r}, row {int(bad[0]) + 1}: value {col[bad[0]]!r} is not finite "
+                f"{src}: column {var!r}, row {int(bad[0]) + 1}: value {float(col[bad[0]])!r} is not finite "
                 f"({bad.size} such rows); model {model.spec!r} needs it"
             )
         out[var] = col
     y = table.tau_f
     bad = np.flatnonzero(~np.isfinite(y))
     if bad.size:
-        raise InputDataError(f"{src}: column 'tau_f', row {int(bad[0]) + 1}: value {y[bad[0]]!r} is not finite")
+        raise InputDataError(f"{src}: column 'tau_f', row {int(bad[0]) + 1}: value {float(y[bad[0]])!r} is not finite")
     return out
 
 
@@ -173,11 +176,11 @@ class _Problem:
             hi = np.where(np.isfinite(self.ub), self.ub - 1e-12 * (1 + np.abs(self.ub)), np.inf)
         return np.clip(theta, lo, hi)
 
-    def solve(self, theta0: Array, max_nfev: int | None = None) -> Any:
+    def solve(self, theta0: Array, max_nfev: int | None = None, tol: float = 1e-10) -> Any:
         with np.errstate(all="ignore"):
             return least_squares(
                 self.f, self.clip(theta0), jac=self.jac, bounds=(self.lb, self.ub), method="trf",
-                x_scale="jac", max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10,
+                x_scale="jac", max_nfev=max_nfev, xtol=tol, ftol=tol, gtol=tol,
             )
 
 
@@ -260,6 +263,7 @@ def fit_model(
     cv_folds: int = 5,
     folds: Array | None = None,
     cv_max_nfev: int | None = 60,
+    max_nfev: int | None = None,
 ) -> FitResult:
     """Fit ``model`` to ``table`` by nonlinear least squares.
 
@@ -326,9 +330,11 @@ def fit_model(
             costs = [float(np.sum(prob.f(t) ** 2)) for t in candidates]
         order = np.argsort(np.where(np.isfinite(costs), costs, np.inf))
         keep = [candidates[i] for i in order[: max(n_starts, 1) if starts is None else 3]]
+        # several starts: solve each to a loose tolerance, then polish the best one
+        tol = SCOUT_TOL if len(keep) > 1 else 1e-10
         for t in keep:
             try:
-                sol = prob.solve(t)
+                sol = prob.solve(t, max_nfev=max_nfev, tol=tol)
             except (ValueError, np.linalg.LinAlgError) as exc:
                 message = f"solver failed from a start: {exc}"
                 continue
@@ -336,6 +342,14 @@ def fit_model(
                 continue
             if best is None or sol.cost < best.cost:
                 best = sol
+        if best is not None and tol != 1e-10:
+            try:
+                polished = prob.solve(best.x, max_nfev=max_nfev)
+                if np.isfinite(polished.cost) and polished.cost <= best.cost:
+                    polished.nfev += best.nfev
+                    best = polished
+            except (ValueError, np.linalg.LinAlgError) as exc:
+                message = f"solver failed polishing the best start: {exc}"
         theta = best.x if best is not None else prob.clip(theta_base)
         success = bool(best is not None and best.status > 0)
         message = best.message if best is not None else (message or "no start gave a finite cost")
@@ -376,6 +390,11 @@ def fit_model(
     )
 
 
+#: Solver tolerance of the cross-validation refits: each fold's held-out
+#: prediction is needed to a few significant digits, not to the last bit.
+CV_TOL = 1e-6
+
+
 def _cross_validate(
     model: Model, x: Mapping[str, Array], y: Array, params: Parameters, folds: Array, theta: Array,
     max_nfev: int | None,
@@ -389,7 +408,7 @@ def _cross_validate(
         prob = _Problem(model, xt, y[train], params)
         if prob.free and train.sum() > 0:
             try:
-                sol = prob.solve(theta, max_nfev=max_nfev)
+                sol = prob.solve(theta, max_nfev=max_nfev, tol=CV_TOL)
                 th = sol.x if np.isfinite(sol.cost) else theta
             except (ValueError, np.linalg.LinAlgError):
                 th = theta

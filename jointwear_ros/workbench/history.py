@@ -22,7 +22,7 @@ from ..types import ObservationTable
 from .compare import band_rmse, noise_floor
 from .fit import FitResult
 
-__all__ = ["ModelVersion", "History", "HISTORY_FORMAT"]
+__all__ = ["HISTORY_FORMAT", "History", "ModelVersion"]
 
 HISTORY_FORMAT = "jointwear-model-history/1"
 
@@ -68,7 +68,7 @@ class ModelVersion:
             params={n: p.value for n, p in fit.params.items()},
             data=table.source,
             note=note,
-            created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            created=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         )
 
 

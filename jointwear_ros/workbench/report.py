@@ -32,7 +32,7 @@ from .diagnose import Diagnosis
 from .fit import FitResult
 from .history import History
 
-__all__ = ["plot_fit", "plot_residuals", "plot_band_errors", "plot_error_fall", "write_report", "residual_columns"]
+__all__ = ["plot_band_errors", "plot_error_fall", "plot_fit", "plot_residuals", "residual_columns", "write_report"]
 
 Array = npt.NDArray[np.float64]
 

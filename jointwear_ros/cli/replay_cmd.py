@@ -1,0 +1,223 @@
+"""``jointwear replay BAG``: re-run the friction observer and the wear monitor on a recorded bag.
+
+Offline (the default) no ROS runtime is used: the bag is read with rosbags,
+``/joint_states``, ``/test_cycle/status`` and ``/joint_temperature`` are fed
+in log-time order to the same pure cores the live nodes run
+(:class:`~jointwear_ros.observer.FrictionObserverCore`,
+:class:`~jointwear_ros.monitor.WearMonitor`), with the parameters the live
+nodes declared (recorded ``/parameter_events``) over the config files. The
+result is compared with the FrictionObservation and WearEstimate messages
+recorded in the bag.
+
+``--publish`` plays the bag onto a live graph instead (raw CDR bytes, log-time
+spacing divided by ``--rate``) and publishes ``/clock`` from the log times.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputDataError
+from . import UsageError
+from .common import format_table, parse_float, print_json
+
+__all__ = ["config_path", "register", "replay_summary"]
+
+
+def config_path(name: str) -> Path:
+    """``config/<name>`` of the source tree, or of the installed package share directory."""
+    candidates = [
+        Path(__file__).resolve().parents[2] / "config" / name,
+        Path(sys.prefix) / "share" / "jointwear_ros" / "config" / name,
+    ]
+    for c in candidates:
+        if c.is_file():
+            return c
+    return candidates[0]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "replay",
+        help="re-run the friction observer and wear estimator on a recorded bag (offline), or play it",
+        description="Re-run the friction observer core and the wear monitor on a rosbag2/MCAP bag in log-time "
+                    "order, offline (no ROS runtime), and compare with the observations and estimate recorded "
+                    "live. With --publish, play the bag onto a live ROS graph with /clock.",
+    )
+    p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (as the recorder writes it)")
+    p.add_argument("--json", action="store_true", help="print JSON (fields observations, wear, comparison, ...)")
+    p.add_argument("--method", default=None, help="estimator method instead of the recorded/configured one")
+    p.add_argument("--observer-params", default=None, metavar="YAML",
+                   help="friction_observer params file (default config/friction_observer.yaml)")
+    p.add_argument("--estimator-params", default=None, metavar="YAML",
+                   help="wear_estimator params file (default config/wear_estimator.yaml)")
+    p.add_argument("--ignore-recorded-params", action="store_true",
+                   help="use only the params files, not the parameters recorded in /parameter_events")
+    p.add_argument("--publish", action="store_true", help="play the bag onto a live ROS graph instead")
+    p.add_argument("--rate", default="1.0", help="with --publish: playback speed factor (default 1 = recorded speed)")
+    p.add_argument("--topics", default=None,
+                   help="with --publish: comma list of topics to play (default: all but /clock, /rosout, "
+                        "/parameter_events)")
+    p.set_defaults(func=cmd_replay)
+
+
+def _params(path: str | None, default_name: str, node: str) -> dict[str, Any]:
+    from ..io.bags import node_params_from_yaml
+
+    if path is not None:
+        return node_params_from_yaml(path, node)
+    f = config_path(default_name)
+    return node_params_from_yaml(f, node) if f.is_file() else {}
+
+
+def replay_summary(result: Any) -> dict[str, Any]:
+    """The JSON of a replay: observations, rejections, the last cycle's wear and level, all cycles, comparison."""
+    from ..monitor import LEVEL_NAMES
+
+    cycles = []
+    for c in result.cycles:
+        cycles.append({
+            "cycle_id": c.cycle_id,
+            "wear": None if c.result is None else
+            {"estimate": c.result.wear, "std": c.result.wear_std, "method": c.result.method,
+             "low": c.result.wear_low, "high": c.result.wear_high, "temperature": c.result.temperature},
+            "diagnostic_level": LEVEL_NAMES.get(c.level, str(c.level)),
+            "message": c.message,
+        })
+    last = next((c for c in reversed(cycles) if c["wear"] is not None), cycles[-1] if cycles else None)
+    return {
+        "bag": result.bag,
+        "observations": [o.to_dict() for o in result.observations],
+        "rejections": [str(r) for r in result.rejections],
+        "wear": None if last is None else last["wear"],
+        "diagnostic_level": None if last is None else last["diagnostic_level"],
+        "cycles": cycles,
+        "comparison": result.comparison(),
+        "joint_state_samples": result.samples,
+    }
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    if args.publish:
+        return _publish(args)
+    from ..io.bags import replay_bag
+
+    overrides = {"method": args.method} if args.method else None
+    result = replay_bag(
+        args.bag,
+        _params(args.observer_params, "friction_observer.yaml", "friction_observer"),
+        _params(args.estimator_params, "wear_estimator.yaml", "wear_estimator"),
+        use_recorded_params=not args.ignore_recorded_params,
+        overrides=overrides,
+    )
+    summary = replay_summary(result)
+    if args.json:
+        print_json(summary)
+        return 0
+    print(f"bag: {result.bag}  ({result.samples} joint-state samples, {result.statuses} status messages)")
+    rows = [[o.cycle_id, o.speed, o.tau_f, o.tau_f_std, o.load_torque, o.temperature, o.samples_plus, o.samples_minus]
+            for o in result.observations]
+    if rows:
+        print(format_table(["cycle", "speed", "tau_f", "tau_f_std", "load", "temp", "n+", "n-"], rows))
+    else:
+        print("no friction observations")
+    for r in result.rejections:
+        print(f"rejected: {r}")
+    for c in summary["cycles"]:
+        w = c["wear"]
+        est = "no estimate" if w is None else f"wear {w['estimate']:.2f} ± {w['std']:.2f} ({w['method']})"
+        print(f"cycle {c['cycle_id']}: {est}, level {c['diagnostic_level']}: {c['message']}")
+    cmp_ = summary["comparison"]
+    o, e = cmp_["observations"], cmp_["estimates"]
+    if o["recorded"] or e["recorded"]:
+        od = "n/a" if o["max_abs_diff"] is None else f"{o['max_abs_diff']:.3g}"
+        ed = "n/a" if e["max_abs_diff"] is None else f"{e['max_abs_diff']:.3g}"
+        print(f"vs recorded: observations {o['matched']}/{o['recorded']} matched, max |diff| {od}; "
+              f"estimates {e['matched']}/{e['recorded']} matched, max |diff| {ed}")
+    else:
+        print("the bag holds no recorded FrictionObservation/WearEstimate messages to compare with")
+    return 0
+
+
+# --------------------------------------------------------------------------- --publish
+
+
+def _publish(args: argparse.Namespace) -> int:
+    """Play the bag's raw messages onto the graph with /clock from the log times."""
+    from rosbags.highlevel import AnyReader
+
+    from ..io.bags import _check_bag_path
+    from ..io.typestore import jointwear_typestore
+
+    rate = parse_float(args.rate, "--rate")
+    if not rate > 0:
+        raise UsageError(f"--rate: {args.rate!r} must be > 0")
+    bag = _check_bag_path(Path(args.bag))
+    try:
+        import rclpy
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from rosgraph_msgs.msg import Clock
+
+        from ..nodes.recorder import message_class
+    except ImportError as exc:
+        raise InputDataError(f"--publish needs rclpy (the ROS 2 wheels): {exc}") from None
+    skip = {"/clock", "/rosout", "/parameter_events"}
+    wanted = None if args.topics is None else {t.strip() for t in args.topics.split(",") if t.strip()}
+    rclpy.init()
+    node = rclpy.create_node("jointwear_replay")
+    played = 0
+    try:
+        with AnyReader([bag], default_typestore=jointwear_typestore()) as reader:
+            pubs: dict[int, Any] = {}
+            conns = []
+            for c in reader.connections:
+                if (wanted is not None and c.topic not in wanted) or (wanted is None and c.topic in skip):
+                    continue
+                try:
+                    cls = message_class(c.msgtype)
+                except Exception as exc:
+                    print(f"jointwear replay: not playing {c.topic}: type {c.msgtype} not importable ({exc})",
+                          file=sys.stderr)
+                    continue
+                qos_list = getattr(c.ext, "offered_qos_profiles", []) or []
+                latched = any(getattr(q.durability, "name", "") == "TRANSIENT_LOCAL" for q in qos_list)
+                qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                                 durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+                pubs[c.id] = node.create_publisher(cls, c.topic, qos)
+                conns.append(c)
+            clock_pub = node.create_publisher(Clock, "/clock", 10)
+            print(f"jointwear replay: playing {len(conns)} topics of {bag} at {rate:g}x", file=sys.stderr)
+            time.sleep(0.5)  # let subscribers match the new publishers
+            t0_log: int | None = None
+            t0_wall = time.monotonic()
+            last_clock = -1
+            for conn, t, raw in reader.messages(connections=conns):
+                if t0_log is None:
+                    t0_log = t
+                due = t0_wall + (t - t0_log) * 1e-9 / rate
+                delay = due - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+                if t != last_clock:
+                    msg = Clock()
+                    msg.clock.sec, msg.clock.nanosec = divmod(int(t), 1_000_000_000)
+                    clock_pub.publish(msg)
+                    last_clock = t
+                pubs[conn.id].publish(bytes(raw))
+                played += 1
+    except InputDataError:
+        raise
+    except KeyboardInterrupt:
+        raise
+    except Exception as exc:
+        raise InputDataError(f"{bag}: cannot play the bag ({type(exc).__name__}: {exc})") from None
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    print(f"jointwear replay: published {played} messages", file=sys.stderr)
+    return 0
+

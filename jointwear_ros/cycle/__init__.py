@@ -1,0 +1,37 @@
+"""Test-cycle planning, limit checks and the watchdog state machine (pure: no ROS, no clocks).
+
+:func:`plan_cycle` validates a request against the joint limits and speed
+limits and plans the sweeps; :class:`CycleRunner` runs a plan when fed
+``(now, joint reading)`` and returns the velocity command. The ``test_cycle``
+node wraps them.
+"""
+
+from __future__ import annotations
+
+from .plan import (
+    DEFAULT_SPEEDS,
+    CycleConfig,
+    CyclePlan,
+    CycleRequestError,
+    SpeedPlan,
+    move_duration,
+    plan_cycle,
+    run_up,
+)
+from .runner import CycleRunner, CycleState, CycleStatusView, JointReading, Phase
+
+__all__ = [
+    "DEFAULT_SPEEDS",
+    "CycleConfig",
+    "CyclePlan",
+    "CycleRequestError",
+    "CycleRunner",
+    "CycleState",
+    "CycleStatusView",
+    "JointReading",
+    "Phase",
+    "SpeedPlan",
+    "move_duration",
+    "plan_cycle",
+    "run_up",
+]

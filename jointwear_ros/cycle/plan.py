@@ -1,0 +1,249 @@
+"""Test-cycle planning and limit checks (pure).
+
+For each speed ``v`` (motor side; joint ``w = v / gear_ratio``) the cycle
+
+1. approaches ``A = c - h - r(w)`` (from wherever the joint is),
+2. settles, sweeps forward ``A -> B = c + h + r(w)`` at ``w``, settles,
+3. sweeps in reverse ``B -> A`` at ``w``, settles,
+
+where ``c`` is the window centre, ``h`` its half width and the **run-up**
+``r(w) = w^2 / (2 a) + w * steady_time`` is the distance to accelerate at ``a``
+and then hold the speed for ``steady_time`` before the window, so the speed is
+constant (the velocity loop settled) everywhere inside ``[c - h, c + h]``; the
+same distance after the window is where the joint brakes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from ..errors import JointwearError
+
+__all__ = [
+    "DEFAULT_SPEEDS",
+    "CycleConfig",
+    "CyclePlan",
+    "CycleRequestError",
+    "SpeedPlan",
+    "move_duration",
+    "plan_cycle",
+    "run_up",
+]
+
+#: Default cycle speeds, motor side, rad/s (the project's shared defaults).
+DEFAULT_SPEEDS: tuple[float, ...] = (10.0, 20.0, 30.0, 40.0, 50.0, 80.0, 120.0, 160.0)
+
+
+class CycleRequestError(JointwearError):
+    """A test-cycle request cannot be run as asked (the message says why and what to do)."""
+
+
+@dataclass(frozen=True)
+class CycleConfig:
+    """Settings of the test cycle (defaults: the shared defaults of the project).
+
+    Attributes
+    ----------
+    joint_name, gear_ratio
+        The joint driven; motor speed = joint speed × gear_ratio.
+    speeds
+        Default speeds, motor side, rad/s.
+    window_half_width, position
+        Observation window half width and default centre, joint side, rad.
+    joint_limits
+        Allowed joint positions, rad; every planned position must stay
+        ``limit_margin`` inside.
+    max_speed
+        Largest allowed speed, motor side, rad/s.
+    acceleration
+        Joint acceleration of every move, rad/s^2.
+    approach_speed
+        Joint speed of approach moves, rad/s.
+    steady_time
+        Time at constant speed before the window, s (part of the run-up).
+    settle_time
+        Time at rest after each move, s.
+    state_timeout
+        A joint state older than this (s) trips the watchdog.
+    speed_tolerance
+        Relative speed error allowed at the window start (0.05 = 5 %).
+    effort_limit
+        Largest allowed ``|effort|``, N·m joint side.
+    position_tolerance
+        A move has arrived within this distance of its target, rad.
+    approach_tolerance
+        The joint must stand within this distance of a sweep start before the
+        sweep begins (else the approach is repeated), rad.
+    move_timeout_factor
+        A move taking longer than this × its planned duration + 2 s fails.
+    """
+
+    joint_name: str = "joint_1"
+    gear_ratio: float = 100.0
+    speeds: tuple[float, ...] = DEFAULT_SPEEDS
+    window_half_width: float = 0.1
+    position: float = 0.0
+    joint_limits: tuple[float, float] = (-1.5, 1.5)
+    max_speed: float = 280.0
+    acceleration: float = 4.0
+    approach_speed: float = 0.5
+    steady_time: float = 0.3
+    settle_time: float = 0.3
+    limit_margin: float = 0.02
+    state_timeout: float = 0.25
+    speed_tolerance: float = 0.05
+    effort_limit: float = 150.0
+    position_tolerance: float = 1e-3
+    approach_tolerance: float = 0.01
+    move_timeout_factor: float = 3.0
+
+    def check(self) -> None:
+        """Raise :class:`CycleRequestError` on settings that cannot plan a cycle."""
+        positive = (
+            "gear_ratio", "window_half_width", "max_speed", "acceleration", "approach_speed",
+            "state_timeout", "speed_tolerance", "effort_limit", "position_tolerance", "approach_tolerance",
+            "move_timeout_factor",
+        )
+        for name in positive:
+            val = getattr(self, name)
+            if not (math.isfinite(val) and val > 0):
+                raise CycleRequestError(f"test cycle setting {name} must be finite and > 0, got {val}")
+        for name in ("steady_time", "settle_time", "limit_margin"):
+            val = getattr(self, name)
+            if not (math.isfinite(val) and val >= 0):
+                raise CycleRequestError(f"test cycle setting {name} must be finite and >= 0, got {val}")
+        lo, hi = self.joint_limits
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo + 2 * self.limit_margin < hi):
+            raise CycleRequestError(
+                f"joint_limits [{lo}, {hi}] must be finite with low + 2 × limit_margin < high"
+            )
+
+
+def run_up(velocity: float, config: CycleConfig) -> float:
+    """Distance (rad) to reach ``velocity`` (joint rad/s) and hold it ``steady_time`` before the window."""
+    w = abs(velocity)
+    return w * w / (2.0 * config.acceleration) + w * config.steady_time
+
+
+def move_duration(distance: float, cruise: float, accel: float) -> float:
+    """Time (s) of a trapezoidal move over ``distance`` at ``cruise`` speed and ``accel``."""
+    d = abs(distance)
+    if d == 0.0:
+        return 0.0
+    if d >= cruise * cruise / accel:
+        return d / cruise + cruise / accel
+    return 2.0 * math.sqrt(d / accel)
+
+
+@dataclass(frozen=True)
+class SpeedPlan:
+    """One speed of the cycle: the sweep between ``start`` and ``end`` (joint side, rad)."""
+
+    speed: float  # motor side, rad/s
+    velocity: float  # joint side, rad/s
+    start: float  # A = c - h - run-up
+    end: float  # B = c + h + run-up
+    run_up: float
+    duration: float  # approach + sweeps + settles, s
+
+
+@dataclass(frozen=True)
+class CyclePlan:
+    """A validated cycle: the speeds in order, the window, the estimated duration."""
+
+    speeds: tuple[SpeedPlan, ...]
+    center: float
+    half_width: float
+    start_position: float
+    duration: float
+
+    @property
+    def extent(self) -> tuple[float, float]:
+        """Lowest and highest planned joint position, rad."""
+        return (min(s.start for s in self.speeds), max(s.end for s in self.speeds))
+
+    def summary(self) -> str:
+        """One line: speeds, window, positions used, duration."""
+        sp = [s.speed for s in self.speeds]
+        lo, hi = self.extent
+        return (
+            f"{len(sp)} speed(s) {', '.join(f'{v:g}' for v in sp)} rad/s (motor), window "
+            f"{self.center:g} ± {self.half_width:g} rad, positions [{lo:.3f}, {hi:.3f}] rad, "
+            f"about {self.duration:.1f} s"
+        )
+
+
+def plan_cycle(
+    config: CycleConfig,
+    speeds: Sequence[float] | None = None,
+    center: float | None = None,
+    start_position: float | None = None,
+) -> CyclePlan:
+    """Validate a request and plan it; raise :class:`CycleRequestError` with the reason if it cannot run.
+
+    Parameters
+    ----------
+    config
+        The cycle settings.
+    speeds
+        Motor-side speeds, rad/s; ``None`` or empty: ``config.speeds``.
+    center
+        Window centre, joint rad; ``None``: ``config.position``.
+    start_position
+        Where the joint is now (for the first approach); ``None``: the centre.
+    """
+    config.check()
+    sp = list(config.speeds if speeds is None or len(speeds) == 0 else speeds)
+    c = config.position if center is None else float(center)
+    if not math.isfinite(c):
+        raise CycleRequestError(f"position (window centre) {c} is not finite; give a joint angle in rad")
+    lo, hi = config.joint_limits
+    m = config.limit_margin
+    h = config.window_half_width
+    for i, v in enumerate(sp):
+        if not math.isfinite(v):
+            raise CycleRequestError(f"speed #{i + 1} = {v} is not finite; give speeds in rad/s (motor side)")
+        if v <= 0.0:
+            raise CycleRequestError(
+                f"speed #{i + 1} = {v:g} rad/s must be > 0 (motor side; the cycle sweeps both directions itself)"
+            )
+        if v > config.max_speed:
+            raise CycleRequestError(
+                f"speed #{i + 1} = {v:g} rad/s (motor side) exceeds max_speed {config.max_speed:g} rad/s"
+            )
+    if not (lo + m <= c - h and c + h <= hi - m):
+        raise CycleRequestError(
+            f"window {c:g} ± {h:g} rad is outside the joint limits [{lo:g}, {hi:g}] rad "
+            f"(margin {m:g}); choose a position nearer the middle"
+        )
+    pos = c if start_position is None else float(start_position)
+    if not math.isfinite(pos):
+        raise CycleRequestError(f"current joint position {pos} is not finite; check /joint_states")
+    if not lo <= pos <= hi:
+        raise CycleRequestError(
+            f"joint is at {pos:.3f} rad, outside the limits [{lo:g}, {hi:g}] rad; move it inside first"
+        )
+    a = config.acceleration
+    plans: list[SpeedPlan] = []
+    total = 0.0
+    for i, v in enumerate(sp):
+        w = v / config.gear_ratio
+        r = run_up(w, config)
+        start, end = c - h - r, c + h + r
+        if start < lo + m or end > hi - m:
+            raise CycleRequestError(
+                f"speed #{i + 1} = {v:g} rad/s needs positions [{start:.3f}, {end:.3f}] rad (window {c:g} ± {h:g} "
+                f"plus run-up {r:.3f} rad), beyond the joint limits [{lo:g}, {hi:g}] rad (margin {m:g}); "
+                "use a lower speed or a position nearer the middle"
+            )
+        dur = (
+            move_duration(start - pos, config.approach_speed, a)
+            + 2.0 * move_duration(end - start, w, a)
+            + 3.0 * config.settle_time
+        )
+        plans.append(SpeedPlan(float(v), w, start, end, r, dur))
+        total += dur
+        pos = start
+    return CyclePlan(tuple(plans), c, h, float(c if start_position is None else start_position), total)

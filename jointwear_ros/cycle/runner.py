@@ -1,0 +1,309 @@
+"""The test-cycle state machine and watchdog (pure; fed time and joint states).
+
+:class:`CycleRunner` is driven by :meth:`CycleRunner.update` with the current time
+and the latest joint reading (both in one clock: the node's, which may be sim
+time). It returns the velocity command to send (joint rad/s) and keeps the
+state and phase that the status topic reports. Moves are position-feedback
+trapezoids: ``w_cmd = min(cruise, a * t_move, sqrt(2 a * remaining))`` (never
+below a small creep speed until the target is reached), so braking points
+follow the measured position and the joint stops at each target.
+
+Watchdog (any trip: command 0, state FAILED, the reason in ``message``):
+
+- the joint reading is older than ``state_timeout`` (or missing; with
+  simulated time also in wall time, see :meth:`CycleRunner.update`),
+- ``|effort| > effort_limit``,
+- the speed at the window start (first sample inside the window during a
+  sweep) is off by more than ``speed_tolerance`` (relative),
+- a reading is not finite, the joint leaves ``joint_limits``, or a move takes
+  longer than ``move_timeout_factor`` × its planned time + 2 s,
+- the joint is still not within ``approach_tolerance`` of a sweep start after
+  ``MAX_APPROACHES`` approach moves (an approach that overshoots, e.g. on
+  late joint states, is repeated, each time at half the speed, before the sweep starts: a sweep that starts
+  inside its run-up would not reach constant speed before the window).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+from .plan import CycleConfig, CyclePlan, move_duration
+
+__all__ = ["CycleRunner", "CycleState", "CycleStatusView", "JointReading", "Phase"]
+
+
+class CycleState(IntEnum):
+    """Cycle states (values equal ``TestCycleStatus`` constants)."""
+
+    IDLE = 0
+    RUNNING = 1
+    DONE = 2
+    ABORTED = 3
+    FAILED = 4
+
+
+class Phase(IntEnum):
+    """Phases of a running cycle (values equal ``TestCycleStatus.PHASE_*``)."""
+
+    NONE = 0
+    APPROACH = 1
+    FORWARD = 2
+    REVERSE = 3
+    SETTLE = 4
+
+
+@dataclass(frozen=True)
+class JointReading:
+    """The latest joint state: when it arrived (``stamp``, runner clock) and its joint-side values."""
+
+    stamp: float
+    position: float
+    velocity: float
+    effort: float
+
+
+@dataclass(frozen=True)
+class CycleStatusView:
+    """What the status topic reports (fields of ``TestCycleStatus`` without header/joint name)."""
+
+    cycle_id: int
+    state: CycleState
+    phase: Phase
+    current_speed: float
+    speeds_done: int
+    speeds_total: int
+    window_center: float
+    window_half_width: float
+    message: str
+
+
+@dataclass
+class _Move:
+    target: float
+    cruise: float
+    t_start: float
+    planned: float
+    phase: Phase
+    direction: int = 0
+    checked_window: bool = False
+
+
+class CycleRunner:
+    """Runs one cycle at a time; see the module docstring.
+
+    The step sequence per speed is APPROACH, SETTLE, FORWARD, SETTLE, REVERSE,
+    SETTLE; ``speeds_done`` advances after the last settle of each speed.
+    """
+
+    #: Slowest command while a move has not arrived, as a fraction of its cruise speed.
+    CREEP = 0.05
+    #: Approach moves tried before the cycle fails for not reaching a sweep start.
+    MAX_APPROACHES = 4
+
+    def __init__(self, config: CycleConfig | None = None) -> None:
+        self.config = config if config is not None else CycleConfig()
+        self.config.check()
+        self.state = CycleState.IDLE
+        self.phase = Phase.NONE
+        self.cycle_id = 0
+        self.plan: CyclePlan | None = None
+        self.speeds_done = 0
+        self.message = "idle"
+        self.command = 0.0
+        self._step = 0
+        self._approaches = 0
+        self._move: _Move | None = None
+        self._settle_until = 0.0
+        self._started = False
+
+    # -- control -------------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self.state == CycleState.RUNNING
+
+    def start(self, plan: CyclePlan, cycle_id: int, now: float) -> None:
+        """Start running ``plan`` (a cycle must not be running)."""
+        if self.running:
+            raise RuntimeError("a cycle is already running")
+        self.plan = plan
+        self.cycle_id = int(cycle_id)
+        self.state = CycleState.RUNNING
+        self.phase = Phase.APPROACH
+        self.speeds_done = 0
+        self.message = f"running: {plan.summary()}"
+        self.command = 0.0
+        self._step = 0
+        self._approaches = 0
+        self._move = None
+        self._started = False
+        self._t_start = now
+
+    def abort(self, reason: str = "aborted by operator") -> bool:
+        """Stop a running cycle (state ABORTED); False if none was running."""
+        if not self.running:
+            return False
+        self._finish(CycleState.ABORTED, reason)
+        return True
+
+    def fail(self, reason: str) -> bool:
+        """Trip: stop a running cycle with state FAILED; False if none was running."""
+        if not self.running:
+            return False
+        self._finish(CycleState.FAILED, reason)
+        return True
+
+    def _finish(self, state: CycleState, message: str) -> None:
+        self.state = state
+        self.phase = Phase.NONE
+        self.message = message
+        self.command = 0.0
+        self._move = None
+
+    # -- status --------------------------------------------------------------
+    @property
+    def current_speed(self) -> float:
+        """Motor speed of the speed being swept (0 when not running)."""
+        if not self.running or self.plan is None:
+            return 0.0
+        return self.plan.speeds[min(self.speeds_done, len(self.plan.speeds) - 1)].speed
+
+    def status(self) -> CycleStatusView:
+        plan = self.plan
+        return CycleStatusView(
+            cycle_id=self.cycle_id,
+            state=self.state,
+            phase=self.phase,
+            current_speed=self.current_speed,
+            speeds_done=self.speeds_done,
+            speeds_total=0 if plan is None else len(plan.speeds),
+            window_center=self.config.position if plan is None else plan.center,
+            window_half_width=self.config.window_half_width if plan is None else plan.half_width,
+            message=self.message,
+        )
+
+    # -- the machine ---------------------------------------------------------
+    def update(self, now: float, reading: JointReading | None, wall_age: float | None = None) -> float:
+        """Advance the machine; return the velocity command (joint rad/s; 0 unless running).
+
+        ``wall_age`` (optional) is the wall-clock age of ``reading``. Give it when
+        ``now`` is simulated time: a busy executor can apply a clock update
+        before the joint state that came with it, so the reading looks old in
+        sim time although it is not; the reading is then stale only if it is
+        also older than ``state_timeout`` in wall time.
+        """
+        if not self.running or self.plan is None:
+            self.command = 0.0
+            return 0.0
+        reason = self._watchdog(now, reading, wall_age)
+        if reason is not None:
+            self._finish(CycleState.FAILED, f"watchdog: {reason}")
+            return 0.0
+        assert reading is not None
+        self.command = self._advance(now, reading)
+        return self.command if self.running else 0.0
+
+    def _watchdog(self, now: float, r: JointReading | None, wall_age: float | None = None) -> str | None:
+        cfg = self.config
+        if r is None:
+            return f"no joint state for {cfg.joint_name}"
+        age = now - r.stamp
+        if age > cfg.state_timeout and (wall_age is None or wall_age > cfg.state_timeout):
+            return f"joint state of {cfg.joint_name} stale for {age:.3f} s (state_timeout {cfg.state_timeout:g} s)"
+        if not (math.isfinite(r.position) and math.isfinite(r.velocity) and math.isfinite(r.effort)):
+            return (
+                f"joint state of {cfg.joint_name} not finite (position {r.position}, velocity {r.velocity}, "
+                f"effort {r.effort})"
+            )
+        if abs(r.effort) > cfg.effort_limit:
+            return f"|effort| {abs(r.effort):.1f} N·m > effort_limit {cfg.effort_limit:g} N·m at {r.position:.3f} rad"
+        lo, hi = cfg.joint_limits
+        if not lo <= r.position <= hi:
+            return f"joint at {r.position:.3f} rad, outside the joint limits [{lo:g}, {hi:g}] rad"
+        return None
+
+    def _advance(self, now: float, r: JointReading) -> float:
+        plan = self.plan
+        assert plan is not None
+        cfg = self.config
+        while True:
+            if self.speeds_done >= len(plan.speeds):
+                self._finish(CycleState.DONE, f"done: {len(plan.speeds)} speed(s) in {now - self._t_start:.1f} s")
+                return 0.0
+            sp = plan.speeds[self.speeds_done]
+            # steps of one speed: 0 approach, 1 settle, 2 forward, 3 settle, 4 reverse, 5 settle
+            k = self._step
+            if k in (1, 3, 5):
+                if not self._started:
+                    self._started = True
+                    self._settle_until = now + cfg.settle_time
+                self.phase = Phase.SETTLE
+                if now < self._settle_until:
+                    return 0.0
+                if k == 1 and abs(r.position - sp.start) > cfg.approach_tolerance:
+                    # the approach overshot (or fell short): a shorter, slower move back to the start
+                    self._approaches += 1
+                    if self._approaches > self.MAX_APPROACHES:
+                        self._finish(
+                            CycleState.FAILED,
+                            f"watchdog: joint at {r.position:.3f} rad after {self.MAX_APPROACHES} approaches, "
+                            f"not within {cfg.approach_tolerance:g} rad of the sweep start {sp.start:.3f} rad",
+                        )
+                        return 0.0
+                    self._move = None
+                    self._started = False
+                    self._step = 0
+                    continue
+                self._next_step()
+                continue
+            if self._move is None:
+                if k == 0:
+                    # each repeated approach at half the speed of the one before
+                    target, cruise, phase = sp.start, cfg.approach_speed * 0.5**self._approaches, Phase.APPROACH
+                elif k == 2:
+                    target, cruise, phase = sp.end, sp.velocity, Phase.FORWARD
+                else:
+                    target, cruise, phase = sp.start, sp.velocity, Phase.REVERSE
+                planned = move_duration(target - r.position, cruise, cfg.acceleration)
+                d = 0 if target == r.position else (1 if target > r.position else -1)
+                self._move = _Move(target, cruise, now, planned, phase, d)
+            mv = self._move
+            self.phase = mv.phase
+            rem = (mv.target - r.position) * mv.direction
+            if mv.direction == 0 or rem <= cfg.position_tolerance:
+                self._next_step()
+                continue
+            if now - mv.t_start > cfg.move_timeout_factor * mv.planned + 2.0:
+                self._finish(
+                    CycleState.FAILED,
+                    f"watchdog: {mv.phase.name.lower()} move to {mv.target:.3f} rad not finished after "
+                    f"{now - mv.t_start:.1f} s (planned {mv.planned:.1f} s); joint at {r.position:.3f} rad",
+                )
+                return 0.0
+            if mv.phase in (Phase.FORWARD, Phase.REVERSE) and not mv.checked_window:
+                edge = plan.center - plan.half_width * mv.direction
+                if (r.position - edge) * mv.direction >= 0.0:
+                    mv.checked_window = True
+                    want = mv.direction * mv.cruise
+                    if abs(r.velocity - want) > cfg.speed_tolerance * mv.cruise:
+                        self._finish(
+                            CycleState.FAILED,
+                            f"watchdog: speed not reached at the window start ({edge:.3f} rad): "
+                            f"{r.velocity:.4f} rad/s vs {want:.4f} rad/s ± {100 * cfg.speed_tolerance:g} % "
+                            f"(speed {sp.speed:g} rad/s motor)",
+                        )
+                        return 0.0
+            a = cfg.acceleration
+            w = min(mv.cruise, a * (now - mv.t_start) + self.CREEP * mv.cruise, math.sqrt(2.0 * a * rem))
+            w = max(w, self.CREEP * mv.cruise)
+            return mv.direction * w
+
+    def _next_step(self) -> None:
+        self._move = None
+        self._started = False
+        self._approaches = 0 if self._step == 1 else self._approaches
+        self._step += 1
+        if self._step > 5:
+            self._step = 0
+            self.speeds_done += 1

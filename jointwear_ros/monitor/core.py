@@ -1,0 +1,315 @@
+"""The wear monitor: friction observations of a test cycle → wear estimate → diagnostic level.
+
+:class:`WearMonitor` gathers observations per ``cycle_id``. It estimates a
+cycle when it holds ``speeds_total`` observations of it (known from the status
+stream), or ``done_timeout`` seconds after the cycle's DONE (or ABORTED/FAILED)
+status, or -- when no status of the cycle was seen -- ``idle_timeout`` seconds
+after its last observation. The estimate uses the configured method through
+:func:`~jointwear_ros.estimation.make_estimator`; its random seed derives from
+the configured seed and the cycle id, so a replay gives the same estimate.
+Measured temperatures are used when present and ``use_measured_temperature``
+is true; otherwise the temperature column is dropped and the estimator treats
+T as unknown (Eq. 11).
+
+The diagnostic level follows ``diagnostic_msgs/DiagnosticStatus``: OK (0)
+below ``warn_threshold``, WARN (1) in ``[warn_threshold, alarm_threshold)``,
+ERROR (2) at ``w_hat >= alarm_threshold``. A cycle that could not be
+estimated (no observations, estimator error) is reported as WARN with the
+reason.
+
+Pure numpy; no ROS import.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputDataError, JointwearError
+from ..estimation import make_estimator
+from ..observer.types import STATE_ABORTED, STATE_DONE, STATE_FAILED, FrictionObservationData
+from ..types import ObservationTable, WearEstimator, WearResult
+
+__all__ = ["ERROR", "LEVEL_NAMES", "OK", "WARN", "CycleResult", "MonitorConfig", "WearMonitor",
+           "cycle_seed", "diagnostic_level", "observations_table"]
+
+#: ``diagnostic_msgs/DiagnosticStatus`` level byte values.
+OK = 0
+WARN = 1
+ERROR = 2
+LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR"}
+
+_ENDED = (STATE_DONE, STATE_ABORTED, STATE_FAILED)
+
+
+@dataclass(frozen=True)
+class MonitorConfig:
+    """Settings of :class:`WearMonitor`.
+
+    Attributes
+    ----------
+    joint_name : the joint; observations of other joints are ignored.
+    method : estimator name for :func:`~jointwear_ros.estimation.make_estimator`.
+    params : friction-model parameter set name.
+    seed : base seed; each cycle's estimator gets a seed derived from it and the cycle id.
+    warn_threshold, alarm_threshold : wear levels of WARN and ERROR.
+    use_measured_temperature : use the observations' temperature when finite.
+    done_timeout : s after DONE/ABORTED/FAILED before a cycle with missing observations is estimated.
+    idle_timeout : s after the last observation of a cycle whose status was never seen.
+    min_observations : observations needed for an estimate.
+    observation_noise_std : sweep-to-sweep scatter of tau_f (normalized; the paper's sigma_e = 0.0015).
+        An observation's ``tau_f_std`` is the standard error from its window samples; it cannot see
+        what stays constant over one sweep (lubricant film, position-dependent friction), so the
+        estimator is given ``sqrt(tau_f_std^2 + observation_noise_std^2)``.
+    estimator_options : extra keyword arguments for the estimator (``n_samples``, ``temperature_range``, ...).
+    """
+
+    joint_name: str = "joint_1"
+    method: str = "paper"
+    params: str = "ref-2011r"
+    seed: int = 0
+    warn_threshold: float = 30.0
+    alarm_threshold: float = 35.0
+    use_measured_temperature: bool = True
+    done_timeout: float = 2.0
+    idle_timeout: float = 30.0
+    min_observations: int = 1
+    observation_noise_std: float = 0.0015
+    estimator_options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        w, a = float(self.warn_threshold), float(self.alarm_threshold)
+        if not (math.isfinite(w) and math.isfinite(a) and w <= a):
+            raise InputDataError(
+                f"warn_threshold = {self.warn_threshold!r}, alarm_threshold = {self.alarm_threshold!r}: "
+                "need finite thresholds with warn_threshold <= alarm_threshold (wear 0-100)"
+            )
+        for name in ("done_timeout", "idle_timeout"):
+            value = float(getattr(self, name))
+            if not (math.isfinite(value) and value >= 0):
+                raise InputDataError(f"{name} = {value!r} must be a number of seconds >= 0")
+        sig = float(self.observation_noise_std)
+        if not (math.isfinite(sig) and sig >= 0):
+            raise InputDataError(f"observation_noise_std = {sig!r} must be a number >= 0 (normalized torque)")
+        if int(self.min_observations) < 1:
+            raise InputDataError(f"min_observations = {self.min_observations!r} must be at least 1")
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> MonitorConfig:
+        """A config from a mapping (ROS parameters, YAML); unknown keys are ignored."""
+        names = {f.name for f in fields(cls)} - {"estimator_options"}
+        kwargs: dict[str, Any] = {}
+        for key, value in values.items():
+            if key in names:
+                default = getattr(cls, key)
+                kwargs[key] = type(default)(value)
+        if "estimator_options" in values:
+            kwargs["estimator_options"] = dict(values["estimator_options"])
+        return cls(**kwargs)
+
+
+@dataclass(frozen=True)
+class CycleResult:
+    """The outcome of one cycle: the estimate (None when there is none) and its diagnostic status."""
+
+    cycle_id: int
+    joint_name: str
+    stamp: float
+    result: WearResult | None
+    level: int
+    message: str
+    values: tuple[tuple[str, str], ...]
+    observations: tuple[FrictionObservationData, ...] = ()
+    alarm_threshold: float = 35.0
+
+    @property
+    def level_name(self) -> str:
+        return LEVEL_NAMES.get(self.level, str(self.level))
+
+    @property
+    def alarm(self) -> bool:
+        return self.level == ERROR and self.result is not None
+
+
+def diagnostic_level(wear: float, warn_threshold: float, alarm_threshold: float) -> int:
+    """OK below ``warn_threshold``, WARN in [warn, alarm), ERROR at ``wear >= alarm_threshold``.
+
+    >>> [diagnostic_level(w, 30.0, 35.0) for w in (29.99, 30.0, 34.99, 35.0)]
+    [0, 1, 1, 2]
+    """
+    if wear >= alarm_threshold:
+        return ERROR
+    if wear >= warn_threshold:
+        return WARN
+    return OK
+
+
+def cycle_seed(seed: int, cycle_id: int) -> int:
+    """A per-cycle seed from the configured seed and the cycle id (stable across runs)."""
+    return int(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, int(cycle_id) & 0xFFFFFFFF]).generate_state(1)[0])
+
+
+def observations_table(observations: list[FrictionObservationData] | tuple[FrictionObservationData, ...],
+                       *, use_temperature: bool = True, noise_std: float = 0.0, source: str = "") -> ObservationTable:
+    """The estimator input (standard observation columns) of a list of observations.
+
+    ``tau_f_std`` becomes ``sqrt(tau_f_std^2 + noise_std^2)`` (a non-finite one becomes ``noise_std``).
+    """
+    obs = list(observations)
+    temp = [o.temperature if use_temperature else math.nan for o in obs]
+    std = [math.hypot(o.tau_f_std, noise_std) if math.isfinite(o.tau_f_std) else noise_std for o in obs]
+    return ObservationTable.from_arrays(
+        source=source,
+        speed=[o.speed for o in obs], tau_f=[o.tau_f for o in obs], tau_f_std=std,
+        load_torque=[o.load_torque for o in obs], temperature=temp, position=[o.position for o in obs],
+        time=[o.stamp for o in obs], cycle=[float(o.cycle_id) for o in obs],
+        tau_plus=[o.tau_plus for o in obs], tau_minus=[o.tau_minus for o in obs],
+    )
+
+
+@dataclass
+class _Cycle:
+    observations: list[FrictionObservationData] = field(default_factory=list)
+    speeds_total: int = 0
+    ended_at: float = math.nan
+    end_state: int = -1
+    last_obs: float = math.nan
+
+
+EstimatorFactory = Callable[[str, int], WearEstimator]
+
+
+class WearMonitor:
+    """Observations per cycle → :class:`CycleResult`; see the module docstring.
+
+    ``estimator_factory(method, seed)`` builds the estimator of one cycle
+    (default: :func:`make_estimator` with the configured parameter set and
+    options).
+    """
+
+    def __init__(self, config: MonitorConfig | None = None, estimator_factory: EstimatorFactory | None = None) -> None:
+        self.config = config if config is not None else MonitorConfig()
+        self._factory = estimator_factory or self._default_factory
+        self._cycles: dict[int, _Cycle] = {}
+        self._finished: dict[int, float] = {}
+        self.last: CycleResult | None = None
+        self.ignored: list[str] = []
+
+    def _default_factory(self, method: str, seed: int) -> WearEstimator:
+        return make_estimator(method, params=self.config.params, seed=seed, **dict(self.config.estimator_options))
+
+    # -- inputs -----------------------------------------------------------------------
+    def add(self, observation: FrictionObservationData, now: float | None = None) -> list[CycleResult]:
+        """One observation; returns the cycle's result when this completes it.
+
+        ``now`` is the time of receipt on the clock :meth:`poll` is given
+        (default: the observation's stamp); the idle timeout counts from it.
+        """
+        o = observation
+        t_rx = o.stamp if now is None else float(now)
+        if o.joint_name and o.joint_name != self.config.joint_name:
+            return []
+        cid = int(o.cycle_id)
+        if cid in self._finished:
+            self.ignored.append(f"observation of cycle {cid} at {o.speed:g} rad/s came after its estimate; ignored")
+            return []
+        if not (math.isfinite(o.speed) and math.isfinite(o.tau_f)):
+            self.ignored.append(f"observation of cycle {cid}: speed {o.speed!r}, tau_f {o.tau_f!r} not finite; ignored")
+            return []
+        cyc = self._cycles.setdefault(cid, _Cycle())
+        cyc.observations.append(o)
+        cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
+        if cyc.speeds_total > 0 and len(cyc.observations) >= cyc.speeds_total:
+            return [self._finish(cid, t_rx)]
+        return []
+
+    def on_status(self, stamp: float, cycle_id: int, state: int, speeds_done: int = 0, speeds_total: int = 0,
+                  joint_name: str = "") -> list[CycleResult]:
+        """A ``TestCycleStatus``: learns ``speeds_total``, starts the timeout on DONE/ABORTED/FAILED.
+
+        ``stamp`` is on the clock :meth:`poll` is given (the node passes its
+        clock at receipt, a replay the log time).
+        """
+        if joint_name and joint_name != self.config.joint_name:
+            return []
+        cid = int(cycle_id)
+        if cid == 0 or cid in self._finished:
+            return []
+        cyc = self._cycles.setdefault(cid, _Cycle())
+        if speeds_total > 0:
+            cyc.speeds_total = int(speeds_total)
+        if state in _ENDED and not math.isfinite(cyc.ended_at):
+            cyc.ended_at = float(stamp)
+            cyc.end_state = int(state)
+        if cyc.speeds_total > 0 and len(cyc.observations) >= cyc.speeds_total:
+            return [self._finish(cid, float(stamp))]
+        return self.poll(float(stamp))
+
+    def poll(self, now: float) -> list[CycleResult]:
+        """Estimate the cycles whose timeout has passed at ``now`` (same clock as the stamps)."""
+        cfg = self.config
+        due: list[int] = []
+        for cid, cyc in self._cycles.items():
+            if math.isfinite(cyc.ended_at):
+                if now >= cyc.ended_at + cfg.done_timeout:
+                    due.append(cid)
+            elif math.isfinite(cyc.last_obs) and now >= cyc.last_obs + cfg.idle_timeout:
+                due.append(cid)
+        return [self._finish(cid, now) for cid in sorted(due)]
+
+    # -- estimation ---------------------------------------------------------------------
+    def _finish(self, cid: int, stamp: float) -> CycleResult:
+        cfg = self.config
+        cyc = self._cycles.pop(cid)
+        self._finished[cid] = stamp
+        if len(self._finished) > 1000:  # bounded memory: forget the oldest
+            for old in sorted(self._finished)[:500]:
+                del self._finished[old]
+        obs = tuple(cyc.observations)
+        partial = ""
+        if cyc.speeds_total > 0 and len(obs) < cyc.speeds_total:
+            partial = f"; {len(obs)} of {cyc.speeds_total} speeds observed"
+        ended = {STATE_ABORTED: " (cycle ABORTED)", STATE_FAILED: " (cycle FAILED)"}.get(cyc.end_state, "")
+        base: list[tuple[str, str]] = [("cycle_id", str(cid)), ("n_observations", str(len(obs))),
+                                       ("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
+                                       ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
+        if len(obs) < cfg.min_observations:
+            msg = (f"cycle {cid}{ended}: no wear estimate, {len(obs)} friction observations "
+                   f"(need {cfg.min_observations}); see the friction_observer log for rejected windows")
+            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base), obs,
+                                           cfg.alarm_threshold))
+        # order by speed so the estimate does not depend on the arrival order of observations
+        obs = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
+        table = observations_table(obs, use_temperature=cfg.use_measured_temperature,
+                                   noise_std=cfg.observation_noise_std, source=f"cycle {cid}")
+        try:
+            est = self._factory(cfg.method, cycle_seed(cfg.seed, cid))
+            res = est.estimate(table)
+        except JointwearError as exc:
+            msg = f"cycle {cid}{ended}: wear estimation failed: {exc}"
+            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base), obs,
+                                           cfg.alarm_threshold))
+        level = diagnostic_level(res.wear, cfg.warn_threshold, cfg.alarm_threshold)
+        what = {OK: "wear below the warning band", WARN: f"wear in the warning band [{cfg.warn_threshold:g}, "
+                f"{cfg.alarm_threshold:g})", ERROR: f"wear at or above the alarm threshold {cfg.alarm_threshold:g}"}
+        msg = f"{what[level]}: {res.wear:.1f} ± {res.wear_std:.1f} (cycle {cid}{ended}{partial})"
+        values = [("wear", f"{res.wear:.3f}"), ("wear_std", f"{res.wear_std:.3f}"),
+                  ("wear_low", f"{res.wear_low:.3f}"), ("wear_high", f"{res.wear_high:.3f}"),
+                  ("method", res.method), ("cycle_id", str(cid)),
+                  ("temperature_estimate", f"{res.temperature:.2f}"), ("n_observations", str(len(obs))),
+                  ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
+                  ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
+        return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values), obs,
+                                       cfg.alarm_threshold))
+
+    def _store(self, result: CycleResult) -> CycleResult:
+        self.last = result
+        return result
+
+    @property
+    def open_cycles(self) -> tuple[int, ...]:
+        return tuple(sorted(self._cycles))

@@ -1,0 +1,225 @@
+"""friction_observer: /joint_states + test-cycle status → one FrictionObservation per speed.
+
+A thin rclpy adapter over :class:`~jointwear_ros.observer.FrictionObserverCore`
+(the same core the offline replay runs). It picks the joint by name from each
+``sensor_msgs/JointState``, feeds its position, velocity and effort with the
+header stamp, feeds ``TestCycleStatus`` and (optionally) ``sensor_msgs/Temperature``,
+publishes each finished observation on ``/jointwear/friction_observations`` and
+logs every rejected window with its reason. A bad JointState (joint missing,
+array lengths that do not match ``name``, no effort, NaN) is logged with the
+reason, counted and skipped.
+
+Parameters: see ``config/friction_observer.yaml`` and ``docs/nodes-observer-estimator.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter
+from typing import Any
+
+from builtin_interfaces.msg import Time
+from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState, Temperature
+
+from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput
+from .runtime import ParamDecl, declare_parameters, run_node
+
+__all__ = [
+    "FrictionObserverNode",
+    "main",
+    "observation_from_msg",
+    "observation_to_msg",
+    "seconds_to_stamp",
+    "stamp_to_seconds",
+]
+
+_DEFAULTS = ObserverConfig()
+
+PARAMETERS: tuple[ParamDecl, ...] = (
+    ParamDecl("joint_name", _DEFAULTS.joint_name, "joint observed (looked up by name in each JointState)"),
+    ParamDecl("gear_ratio", _DEFAULTS.gear_ratio, "motor speed = joint speed x gear_ratio", 1e-6, 1e6),
+    ParamDecl("torque_scale", _DEFAULTS.torque_scale, "N·m (joint side) per normalized torque unit", 1e-9, 1e9),
+    ParamDecl("joint_states_topic", "/joint_states", "sensor_msgs/JointState input"),
+    ParamDecl("status_topic", "/test_cycle/status", "jointwear_msgs/TestCycleStatus input"),
+    ParamDecl("temperature_topic", "", "sensor_msgs/Temperature input (degC); empty = no temperature"),
+    ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation output"),
+    ParamDecl("speed_tolerance", _DEFAULTS.speed_tolerance, "at speed: |v - v_cmd| <= this x v_cmd", 1e-6, 10.0),
+    ParamDecl("speed_tolerance_min", _DEFAULTS.speed_tolerance_min, "floor of that tolerance, rad/s motor", 0.0, 1e6),
+    ParamDecl("max_speed_std", _DEFAULTS.max_speed_std, "speed std limit over the at-speed samples, x v_cmd", 1e-6, 10.0),
+    ParamDecl("max_speed_std_min", _DEFAULTS.max_speed_std_min, "floor of that limit, rad/s motor", 0.0, 1e6),
+    ParamDecl("min_constant_fraction", _DEFAULTS.min_constant_fraction,
+              "fraction of the moving window samples that must be at speed", 0.0, 1.0),
+    ParamDecl("min_samples", _DEFAULTS.min_samples, "at-speed samples needed per direction"),
+    ParamDecl("edge_trim", _DEFAULTS.edge_trim, "fraction of the half width trimmed off each window edge", 0.0, 0.99),
+    ParamDecl("pass_gap", _DEFAULTS.pass_gap, "s without samples that separates two passes through the window",
+              1e-4, 10.0),
+    ParamDecl("n_batches", _DEFAULTS.n_batches, "batches of the batch-means standard error"),
+    ParamDecl("reorder_margin", _DEFAULTS.reorder_margin, "s the inputs may be out of stamp order", 0.0, 60.0),
+    ParamDecl("poll_grace", _DEFAULTS.poll_grace, "s of silence on every input after which finished speeds are processed",
+              0.0, 60.0),
+    ParamDecl("max_buffer_seconds", _DEFAULTS.max_buffer_seconds, "s of joint states kept at most", 1.0, 3600.0),
+    ParamDecl("poll_period", 0.5, "s (wall) between checks for silent inputs", 0.01, 60.0),
+)
+
+
+def stamp_to_seconds(stamp: Any) -> float:
+    """``builtin_interfaces/Time`` → float seconds."""
+    return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
+
+
+def seconds_to_stamp(t: float) -> Time:
+    """Float seconds → ``builtin_interfaces/Time`` (clamped at 0)."""
+    if not math.isfinite(t) or t <= 0:
+        return Time(sec=0, nanosec=0)
+    sec = math.floor(t)
+    nsec = min(round((t - sec) * 1e9), 999_999_999)
+    return Time(sec=int(sec), nanosec=nsec)
+
+
+def observation_to_msg(o: FrictionObservationData) -> FrictionObservation:
+    """The message of an observation (header stamp = ``o.stamp``)."""
+    m = FrictionObservation()
+    m.header.stamp = seconds_to_stamp(o.stamp)
+    m.joint_name = o.joint_name
+    m.cycle_id = int(o.cycle_id)
+    m.speed = float(o.speed)
+    m.tau_f = float(o.tau_f)
+    m.tau_f_std = float(o.tau_f_std)
+    m.tau_plus = float(o.tau_plus)
+    m.tau_minus = float(o.tau_minus)
+    m.load_torque = float(o.load_torque)
+    m.temperature = float(o.temperature)
+    m.position = float(o.position)
+    m.samples_plus = int(o.samples_plus)
+    m.samples_minus = int(o.samples_minus)
+    return m
+
+
+def observation_from_msg(m: Any) -> FrictionObservationData:
+    """An observation from a ``FrictionObservation`` (rclpy or rosbags-deserialized)."""
+    return FrictionObservationData(
+        stamp=stamp_to_seconds(m.header.stamp), joint_name=str(m.joint_name), cycle_id=int(m.cycle_id),
+        speed=float(m.speed), tau_f=float(m.tau_f), tau_f_std=float(m.tau_f_std), tau_plus=float(m.tau_plus),
+        tau_minus=float(m.tau_minus), load_torque=float(m.load_torque), temperature=float(m.temperature),
+        position=float(m.position), samples_plus=int(m.samples_plus), samples_minus=int(m.samples_minus),
+    )
+
+
+def high_rate_qos() -> QoSProfile:
+    """RELIABLE, KEEP_LAST 1000: every sample of a 2 kHz stream reaches the observer."""
+    return QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
+
+
+class FrictionObserverNode(Node):
+    """The friction observer node (see the module docstring)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("friction_observer", **kwargs)
+        p = declare_parameters(self, PARAMETERS)
+        self.params = p
+        self.core = FrictionObserverCore(ObserverConfig.from_mapping(p))
+        self.joint_name: str = str(p["joint_name"])
+        self.bad_messages: Counter[str] = Counter()
+        self.observations_published = 0
+        self.rejections: list[str] = []
+        self._index_cache: tuple[tuple[str, ...], int] | None = None
+        self._last_rx = time.monotonic()
+        qos = high_rate_qos()
+        self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos)
+        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, qos)
+        self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, qos)
+        if p["temperature_topic"]:
+            self.create_subscription(Temperature, str(p["temperature_topic"]), self._on_temperature, qos)
+        # wall-clock timer: it must fire even when /clock (use_sim_time) stops
+        self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.get_logger().info(
+            f"observing {self.joint_name} on {p['joint_states_topic']} (gear {p['gear_ratio']:g}, torque scale "
+            f"{p['torque_scale']:g} N·m); status {p['status_topic']}; temperature "
+            f"{p['temperature_topic'] or 'none'}; publishing {p['observations_topic']}"
+        )
+
+    # -- callbacks -----------------------------------------------------------------
+    def _stamp(self, header_stamp: Any) -> float:
+        t = stamp_to_seconds(header_stamp)
+        if t > 0:
+            return t
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _bad(self, reason: str) -> None:
+        self.bad_messages[reason.split(":")[0]] += 1
+        self.get_logger().warning(f"JointState skipped: {reason}", throttle_duration_sec=5.0)
+
+    def _on_joint_state(self, msg: JointState) -> None:
+        names = msg.name
+        cache = self._index_cache
+        if cache is not None and len(names) > cache[1] and names[cache[1]] == self.joint_name:
+            i = cache[1]
+        else:
+            try:
+                i = list(names).index(self.joint_name)
+            except ValueError:
+                self._bad(f"joint {self.joint_name!r} not in name {list(names)!r}; set joint_name")
+                return
+            self._index_cache = (tuple(names), i)
+        n = len(names)
+        pos, vel, eff = msg.position, msg.velocity, msg.effort
+        if len(eff) == 0:
+            self._bad("no effort: the observer needs the applied torque in JointState.effort")
+            return
+        if len(pos) != n or len(vel) != n or len(eff) != n:
+            self._bad(f"array lengths: name {n}, position {len(pos)}, velocity {len(vel)}, effort {len(eff)}; "
+                      "each must match name")
+            return
+        p, v, e = float(pos[i]), float(vel[i]), float(eff[i])
+        if not (math.isfinite(p) and math.isfinite(v) and math.isfinite(e)):
+            self._bad(f"non-finite value for {self.joint_name}: position {p}, velocity {v}, effort {e}")
+            return
+        self._last_rx = time.monotonic()
+        out = self.core.on_joint_state(self._stamp(msg.header.stamp), p, v, e)
+        if out.observations or out.rejections:
+            self._emit(out)
+
+    def _on_status(self, msg: TestCycleStatus) -> None:
+        self._last_rx = time.monotonic()
+        out = self.core.on_status(
+            self._stamp(msg.header.stamp), int(msg.cycle_id), int(msg.state), int(msg.phase),
+            float(msg.current_speed), int(msg.speeds_done), int(msg.speeds_total), float(msg.window_center),
+            float(msg.window_half_width), str(msg.joint_name),
+        )
+        self._emit(out)
+
+    def _on_temperature(self, msg: Temperature) -> None:
+        self._emit(self.core.on_temperature(self._stamp(msg.header.stamp), float(msg.temperature)))
+
+    def _on_poll(self) -> None:
+        # Finished speeds are processed when a later-stamped message arrives; when the inputs fall
+        # silent (end of a recording, a stopped driver) nothing will, so process them after poll_grace.
+        if self.core.pending_segments and time.monotonic() - self._last_rx > self.core.config.poll_grace:
+            self._emit(self.core.process_pending())
+
+    def _emit(self, out: ObserverOutput) -> None:
+        for o in out.observations:
+            self.pub.publish(observation_to_msg(o))
+            self.observations_published += 1
+            self.get_logger().info(
+                f"cycle {o.cycle_id}: {o.speed:.1f} rad/s tau_f = {o.tau_f:.5f} ± {o.tau_f_std:.5f}, "
+                f"tau_m = {o.load_torque:.4f}, samples {o.samples_plus}/{o.samples_minus}"
+            )
+        for r in out.rejections:
+            self.rejections.append(str(r))
+            self.get_logger().warning(f"window rejected: {r}")
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``friction_observer``."""
+    # 2 kHz of JointState: the C++ events executor keeps the CPU use low (bench/bench_observer.py)
+    return run_node(FrictionObserverNode, args, events=True)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,309 @@
+"""``test_cycle``: runs a friction test cycle on one joint when asked by service call.
+
+Services: ``~/run`` (``jointwear_msgs/srv/RunTestCycle``; answers at once with
+accepted, cycle_id and the plan or the reason for refusal) and ``~/abort``
+(``std_srvs/srv/Trigger``). Publishes ``~/status`` (``TestCycleStatus``) on
+every change and at ``status_rate``. While a cycle runs it streams velocity
+commands (``Float64MultiArray``, data[0] joint rad/s) at ``command_rate`` (forward
+command controllers hold the last command forever) and sends zero on finish,
+abort, error, watchdog trip and node exit.
+
+Safety: ``motion_enabled`` must be true to move a real joint; a simulated cell
+is marked with ``simulator: true``. The watchdog (see
+:mod:`jointwear_ros.cycle.runner`) runs in node time (``use_sim_time``
+honoured); a second check in wall time catches a joint-state source that
+stops together with the clock it provides.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from jointwear_msgs.msg import TestCycleStatus
+from jointwear_msgs.srv import RunTestCycle
+from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
+
+from ..cycle import (
+    DEFAULT_SPEEDS,
+    CycleConfig,
+    CycleRequestError,
+    CycleRunner,
+    CycleState,
+    JointReading,
+    plan_cycle,
+)
+from .runtime import ParamDecl, declare_parameters, run_node
+
+__all__ = ["PARAMETERS", "TestCycleNode", "main"]
+
+PARAMETERS: tuple[ParamDecl, ...] = (
+    ParamDecl("joint_name", "joint_1", "the joint this node drives (looked up by name in /joint_states)"),
+    ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)"),
+    ParamDecl("joint_states_topic", "/joint_states", "joint state topic"),
+    ParamDecl("gear_ratio", 100.0, "motor speed / joint speed", 1e-3, 1e6),
+    ParamDecl("speeds", list(DEFAULT_SPEEDS), "default speeds, motor side, rad/s"),
+    ParamDecl("window_half_width", 0.1, "observation window half width, joint rad", 1e-4, 10.0),
+    ParamDecl("position", 0.0, "default window centre, joint rad", -100.0, 100.0),
+    ParamDecl("joint_limits", [-1.5, 1.5], "allowed joint positions [low, high], rad"),
+    ParamDecl("limit_margin", 0.02, "planned positions stay this far inside the limits, rad", 0.0, 10.0),
+    ParamDecl("max_speed", 280.0, "largest allowed speed, motor side, rad/s", 1e-3, 1e6),
+    ParamDecl("acceleration", 4.0, "joint acceleration of every move, rad/s^2", 1e-3, 1e4),
+    ParamDecl("approach_speed", 0.5, "joint speed of approach moves, rad/s", 1e-3, 100.0),
+    ParamDecl("steady_time", 0.3, "time at constant speed before the window, s", 0.0, 100.0),
+    ParamDecl("settle_time", 0.3, "time at rest after each move, s", 0.0, 100.0),
+    ParamDecl("state_timeout", 0.25, "watchdog: joint state older than this (s) stops the cycle", 1e-3, 100.0),
+    ParamDecl(
+        "state_timeout_wall", 1.0,
+        "watchdog: no joint state for this many wall-clock s stops the cycle (catches a clock source that died)",
+        1e-3, 100.0,
+    ),
+    ParamDecl("speed_tolerance", 0.05, "watchdog: relative speed error allowed at the window start", 1e-4, 10.0),
+    ParamDecl("approach_tolerance", 0.01, "the joint must stand this close to a sweep start, rad", 1e-4, 1.0),
+    ParamDecl("effort_limit", 150.0, "watchdog: largest allowed |effort|, N·m", 1e-3, 1e9),
+    ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0),
+    ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0),
+    ParamDecl("motion_enabled", False, "allow motion of a real joint (not needed when simulator is true)"),
+    ParamDecl("simulator", False, "the joint is the simulator (joint_sim): motion allowed without motion_enabled"),
+)
+
+_RELIABLE_1 = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+_RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+_RELIABLE_100 = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+
+
+class TestCycleNode(Node):
+    """The test-cycle node (see the module docstring)."""
+
+    __test__ = False  # not a pytest test class
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("test_cycle", **kwargs)
+        p = declare_parameters(self, PARAMETERS)
+        limits = [float(x) for x in p["joint_limits"]]
+        if len(limits) != 2:
+            raise CycleRequestError(f"joint_limits must be [low, high], got {limits}")
+        self.config = CycleConfig(
+            joint_name=str(p["joint_name"]),
+            gear_ratio=float(p["gear_ratio"]),
+            speeds=tuple(float(v) for v in p["speeds"]),
+            window_half_width=float(p["window_half_width"]),
+            position=float(p["position"]),
+            joint_limits=(limits[0], limits[1]),
+            max_speed=float(p["max_speed"]),
+            acceleration=float(p["acceleration"]),
+            approach_speed=float(p["approach_speed"]),
+            steady_time=float(p["steady_time"]),
+            settle_time=float(p["settle_time"]),
+            limit_margin=float(p["limit_margin"]),
+            state_timeout=float(p["state_timeout"]),
+            speed_tolerance=float(p["speed_tolerance"]),
+            effort_limit=float(p["effort_limit"]),
+            approach_tolerance=float(p["approach_tolerance"]),
+        )
+        self.config.check()
+        self.runner = CycleRunner(self.config)
+        self.joint_name = self.config.joint_name
+        self.next_cycle_id = 1
+        self.reading: JointReading | None = None
+        self._wall_last_state: float | None = None
+        self.state_timeout_wall = float(p["state_timeout_wall"])
+        self._last_status_key: tuple[Any, ...] | None = None
+        self._last_status_time = -math.inf
+        self.status_period = 1.0 / float(p["status_rate"])
+        self.commands_sent = 0
+        self.last_command: float | None = None
+
+        self.cmd_pub = self.create_publisher(Float64MultiArray, str(p["command_topic"]), _RELIABLE_10)
+        self.status_pub = self.create_publisher(TestCycleStatus, "~/status", _RELIABLE_100)
+        # only the newest state matters here: depth 1 never queues stale positions behind a busy executor
+        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, _RELIABLE_1)
+        self.create_service(RunTestCycle, "~/run", self._on_run)
+        self.create_service(Trigger, "~/abort", self._on_abort)
+        self.create_timer(1.0 / float(p["command_rate"]), self._tick)
+        self._wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(0.05, self._wall_watchdog, clock=self._wall)
+        self._publish_status(force=True)
+        self.get_logger().info(
+            f"test cycle for {self.joint_name}: speeds {list(self.config.speeds)} rad/s (motor), window "
+            f"{self.config.position:g} ± {self.config.window_half_width:g} rad, limits {limits} rad"
+            + (", simulator" if p["simulator"] else f", motion_enabled={p['motion_enabled']}")
+        )
+
+    # -- time ----------------------------------------------------------------
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    # -- inputs --------------------------------------------------------------
+    def _on_joint_state(self, msg: JointState) -> None:
+        try:
+            i = list(msg.name).index(self.joint_name)
+        except ValueError:
+            return
+        try:
+            pos = float(msg.position[i])
+            vel = float(msg.velocity[i]) if len(msg.velocity) > i else math.nan
+            eff = float(msg.effort[i]) if len(msg.effort) > i else math.nan
+        except IndexError:
+            self.get_logger().warning(
+                f"JointState names {self.joint_name} but has no position for it; ignored", throttle_duration_sec=2.0
+            )
+            return
+        self.reading = JointReading(self._now(), pos, vel, eff)
+        self._wall_last_state = time.monotonic()
+
+    def _on_run(self, req: RunTestCycle.Request, resp: RunTestCycle.Response) -> RunTestCycle.Response:
+        resp.accepted = False
+        resp.cycle_id = 0
+        try:
+            resp.message = self._start(req)
+            resp.accepted = True
+            resp.cycle_id = 0 if req.dry_run else self.runner.cycle_id
+        except CycleRequestError as exc:
+            resp.message = f"refused: {exc}"
+            self.get_logger().warning(f"run request refused: {exc}")
+        return resp
+
+    def _start(self, req: RunTestCycle.Request) -> str:
+        if self.runner.running:
+            st = self.runner.status()
+            raise CycleRequestError(
+                f"cycle {st.cycle_id} is running (speed {st.speeds_done + 1} of {st.speeds_total}); "
+                "wait for it to finish or call ~/abort"
+            )
+        joint = req.joint_name or self.joint_name
+        if joint != self.joint_name:
+            raise CycleRequestError(f"unknown joint {joint!r}: this node drives {self.joint_name!r}")
+        simulator = bool(self.get_parameter("simulator").value)
+        enabled = bool(self.get_parameter("motion_enabled").value)
+        if not req.dry_run and not simulator and not enabled:
+            raise CycleRequestError(
+                f"motion is disabled for {self.joint_name}: make sure the cell is clear and the velocity "
+                f"controller is active, then enable with 'ros2 param set {self.get_fully_qualified_name()} "
+                "motion_enabled true' (or start with -p motion_enabled:=true)"
+            )
+        now = self._now()
+        r = self.reading
+        speeds = [float(v) for v in req.speeds]
+        plan = plan_cycle(self.config, speeds, req.position, None if r is None else r.position)
+        if r is None and not req.dry_run:
+            raise CycleRequestError(
+                f"no joint state for {self.joint_name} received yet on {self.get_parameter('joint_states_topic').value}; "
+                "is the joint_state_broadcaster (or joint_sim) running?"
+            )
+        if r is not None and not req.dry_run and now - r.stamp > self.config.state_timeout:
+            raise CycleRequestError(
+                f"the joint state of {self.joint_name} is {now - r.stamp:.2f} s old (state_timeout "
+                f"{self.config.state_timeout:g} s); is the driver still publishing?"
+            )
+        if req.dry_run:
+            return f"dry run OK: {plan.summary()}; plan duration {plan.duration:.1f} s"
+        cycle_id = self.next_cycle_id
+        self.next_cycle_id += 1
+        self.runner.start(plan, cycle_id, now)
+        self.get_logger().info(f"cycle {cycle_id} started: {plan.summary()}")
+        self._publish_status(force=True)
+        return f"cycle {cycle_id} started: {plan.summary()}"
+
+    def _on_abort(self, req: Trigger.Request, resp: Trigger.Response) -> Trigger.Response:
+        cid = self.runner.cycle_id
+        if self.runner.abort("aborted by operator"):
+            self._send(0.0)
+            self._publish_status(force=True)
+            self.get_logger().warning(f"cycle {cid} aborted by operator")
+            resp.success = True
+            resp.message = f"cycle {cid} aborted; zero velocity sent"
+        else:
+            resp.success = False
+            resp.message = f"no cycle running (state {self.runner.state.name})"
+        return resp
+
+    # -- outputs -------------------------------------------------------------
+    def _send(self, velocity: float) -> None:
+        self.cmd_pub.publish(Float64MultiArray(data=[float(velocity)]))
+        self.commands_sent += 1
+        self.last_command = float(velocity)
+
+    def _publish_status(self, force: bool = False) -> None:
+        st = self.runner.status()
+        key = (st.cycle_id, st.state, st.phase, st.current_speed, st.speeds_done, st.speeds_total, st.message)
+        now = self._now()
+        if not force and key == self._last_status_key and now - self._last_status_time < self.status_period:
+            return
+        msg = TestCycleStatus()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.joint_name = self.joint_name
+        msg.cycle_id = st.cycle_id
+        msg.state = int(st.state)
+        msg.phase = int(st.phase)
+        msg.current_speed = float(st.current_speed)
+        msg.speeds_done = st.speeds_done
+        msg.speeds_total = st.speeds_total
+        msg.window_center = float(st.window_center)
+        msg.window_half_width = float(st.window_half_width)
+        msg.message = st.message
+        self.status_pub.publish(msg)
+        self._last_status_key = key
+        self._last_status_time = now
+
+    def _tick(self) -> None:
+        if self.runner.running:
+            wall_age = None
+            if self.get_parameter("use_sim_time").value and self._wall_last_state is not None:
+                wall_age = time.monotonic() - self._wall_last_state
+            cmd = self.runner.update(self._now(), self.reading, wall_age)
+            self._send(cmd)
+            if not self.runner.running:
+                self._report_end()
+        self._publish_status()
+
+    def _report_end(self) -> None:
+        st = self.runner.status()
+        text = f"cycle {st.cycle_id} {st.state.name}: {st.message}; zero velocity sent"
+        if st.state == CycleState.DONE:
+            self.get_logger().info(text)
+        else:
+            self.get_logger().error(text)
+
+    def _wall_watchdog(self) -> None:
+        # node time may stop with the joint-state source (a simulator that is also the clock)
+        if not self.runner.running:
+            return
+        last = self._wall_last_state
+        age = math.inf if last is None else time.monotonic() - last
+        if age > self.state_timeout_wall:
+            self.runner.fail(
+                f"watchdog: no joint state of {self.joint_name} for {age:.3f} s wall time "
+                f"(state_timeout_wall {self.state_timeout_wall:g} s)"
+            )
+            self._send(0.0)
+            self._report_end()
+            self._publish_status(force=True)
+
+    def on_shutdown(self) -> None:
+        """Called by ``run_node`` on exit: stop a running cycle and send zero velocity."""
+        if self.runner.abort("node shutting down"):
+            self._publish_status(force=True)
+        self._send(0.0)
+        for pub in (self.cmd_pub, self.status_pub):
+            try:
+                pub.wait_for_all_acked(Duration(seconds=0.5))
+            except Exception:  # pragma: no cover - best effort on the way out
+                pass
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Console entry point ``test_cycle``."""
+    return run_node(TestCycleNode, args)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,184 @@
+"""Plain data types of the friction observer: configuration, observation, rejection, segment.
+
+Pure Python; no ROS import. :class:`FrictionObservationData` has the fields of
+``jointwear_msgs/msg/FrictionObservation`` with the header reduced to its stamp
+(``stamp``, seconds), so the nodes and the bag reader convert field by field.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from typing import Any, NamedTuple
+
+from ..errors import InputDataError
+
+__all__ = [
+    "CYCLE_STATES",
+    "STATE_ABORTED",
+    "STATE_DONE",
+    "STATE_FAILED",
+    "STATE_IDLE",
+    "STATE_RUNNING",
+    "FrictionObservationData",
+    "ObserverConfig",
+    "ObserverOutput",
+    "Rejection",
+    "SpeedSegment",
+]
+
+#: ``TestCycleStatus`` state constants (same values as the .msg).
+STATE_IDLE = 0
+STATE_RUNNING = 1
+STATE_DONE = 2
+STATE_ABORTED = 3
+STATE_FAILED = 4
+CYCLE_STATES = {STATE_IDLE: "IDLE", STATE_RUNNING: "RUNNING", STATE_DONE: "DONE",
+                STATE_ABORTED: "ABORTED", STATE_FAILED: "FAILED"}
+
+
+@dataclass(frozen=True)
+class ObserverConfig:
+    """Settings of :class:`~jointwear_ros.observer.FrictionObserverCore`.
+
+    Speeds and tolerances are motor side (rad/s), positions joint side (rad),
+    times in seconds of the message stamps.
+
+    Attributes
+    ----------
+    joint_name : the joint observed; statuses naming another joint are ignored.
+    gear_ratio : motor speed = joint speed x gear_ratio.
+    torque_scale : N·m (joint side) per normalized torque unit: u = effort / torque_scale.
+    speed_tolerance : a sample is "at speed" when ``|v - (±v_cmd)| <= max(speed_tolerance * v_cmd,
+        speed_tolerance_min)``.
+    speed_tolerance_min : floor of that tolerance, rad/s motor side.
+    max_speed_std : the at-speed samples of a direction must have a speed standard deviation of at
+        most ``max(max_speed_std * v_cmd, max_speed_std_min)``, else "speed not constant".
+    max_speed_std_min : floor of that limit, rad/s motor side.
+    min_constant_fraction : at least this fraction of the window samples moving in a direction must
+        be at speed, else "speed not constant".
+    min_samples : at-speed samples needed in each direction's window.
+    edge_trim : fraction of the half width trimmed off each window edge (0 = use the whole window).
+    pass_gap : s without a sample moving in a direction inside the window that separates two passes.
+    n_batches : batches for the batch-means standard error of u+ and u-.
+    reorder_margin : how far (s) status, temperature and joint-state messages may be out of stamp
+        order on arrival; a finished speed is processed once a message stamped this much later
+        than its end has been seen.
+    poll_grace : extra wait (s) before :meth:`poll` processes a finished speed on the clock alone.
+    max_buffer_seconds : joint-state history kept at most (s) while a speed runs.
+    idle_keep_seconds : joint-state history kept (s) while no speed runs.
+    """
+
+    joint_name: str = "joint_1"
+    gear_ratio: float = 100.0
+    torque_scale: float = 200.0
+    speed_tolerance: float = 0.1
+    speed_tolerance_min: float = 1.0
+    max_speed_std: float = 0.05
+    max_speed_std_min: float = 0.5
+    min_constant_fraction: float = 0.8
+    min_samples: int = 20
+    edge_trim: float = 0.0
+    pass_gap: float = 0.05
+    n_batches: int = 10
+    reorder_margin: float = 0.5
+    poll_grace: float = 1.0
+    max_buffer_seconds: float = 120.0
+    idle_keep_seconds: float = 2.0
+
+    def __post_init__(self) -> None:
+        positive = ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "max_buffer_seconds", "pass_gap")
+        for name in positive:
+            value = float(getattr(self, name))
+            if not (math.isfinite(value) and value > 0):
+                raise InputDataError(f"observer setting {name} = {value!r} must be a positive number")
+        nonneg = ("speed_tolerance_min", "max_speed_std_min", "reorder_margin", "poll_grace", "idle_keep_seconds")
+        for name in nonneg:
+            value = float(getattr(self, name))
+            if not (math.isfinite(value) and value >= 0):
+                raise InputDataError(f"observer setting {name} = {value!r} must be a number >= 0")
+        if not 0.0 <= float(self.edge_trim) < 1.0:
+            raise InputDataError(f"observer setting edge_trim = {self.edge_trim!r} must be in [0, 1) (fraction of the half width)")
+        if not 0.0 <= float(self.min_constant_fraction) <= 1.0:
+            raise InputDataError(f"observer setting min_constant_fraction = {self.min_constant_fraction!r} must be in [0, 1]")
+        if int(self.min_samples) < 2:
+            raise InputDataError(f"observer setting min_samples = {self.min_samples!r} must be at least 2")
+        if int(self.n_batches) < 2:
+            raise InputDataError(f"observer setting n_batches = {self.n_batches!r} must be at least 2")
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> ObserverConfig:
+        """A config from a mapping (ROS parameters, YAML); unknown keys are ignored."""
+        names = {f.name: f.type for f in fields(cls)}
+        kwargs: dict[str, Any] = {}
+        for key, value in values.items():
+            if key not in names:
+                continue
+            default = getattr(cls, key)
+            kwargs[key] = type(default)(value)
+        return cls(**kwargs)
+
+
+@dataclass(frozen=True)
+class FrictionObservationData:
+    """One static friction observation: the fields of ``FrictionObservation.msg``.
+
+    ``stamp`` is the header stamp (s): the stamp of the last sample of the
+    reverse window. Torques are normalized, ``speed`` is motor side.
+    """
+
+    stamp: float
+    joint_name: str
+    cycle_id: int
+    speed: float
+    tau_f: float
+    tau_f_std: float
+    tau_plus: float
+    tau_minus: float
+    load_torque: float
+    temperature: float
+    position: float
+    samples_plus: int
+    samples_minus: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """A speed whose windows did not give an observation, and why."""
+
+    stamp: float
+    joint_name: str
+    cycle_id: int
+    speed_index: int
+    speed: float
+    reason: str
+
+    def __str__(self) -> str:
+        return f"cycle {self.cycle_id} speed #{self.speed_index + 1} ({self.speed:g} rad/s): {self.reason}"
+
+
+class ObserverOutput(NamedTuple):
+    """What each call of the observer core returns: finished observations and rejections."""
+
+    observations: list[FrictionObservationData]
+    rejections: list[Rejection]
+
+
+@dataclass(frozen=True)
+class SpeedSegment:
+    """One speed of a test cycle as the status stream delimits it: stamps [t_start, t_end)."""
+
+    cycle_id: int
+    speed_index: int
+    speed: float
+    window_center: float
+    window_half_width: float
+    t_start: float
+    t_end: float = math.inf
+    speeds_total: int = 0
+    completed: bool = True
+    end_state: int = STATE_RUNNING

@@ -1,0 +1,171 @@
+"""The wear monitor: estimates per cycle, thresholds, timeouts, determinism."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import pytest
+
+from jointwear_ros.errors import InputDataError
+from jointwear_ros.model import load_parameter_set, paper_wear_model
+from jointwear_ros.monitor import ERROR, OK, WARN, MonitorConfig, WearMonitor, diagnostic_level
+from jointwear_ros.observer import STATE_ABORTED, STATE_DONE, STATE_RUNNING, FrictionObservationData
+from jointwear_ros.types import WearResult
+
+SPEEDS = (30.0, 40.0, 50.0)
+MODEL, PARAMS = paper_wear_model(), load_parameter_set("ref-2011r")
+
+
+def _obs(cycle_id: int, wear: float, temperature: float = math.nan, speeds=SPEEDS, t0: float = 10.0):
+    out = []
+    for i, v in enumerate(speeds):
+        tau = float(MODEL.evaluate(PARAMS, speed=v, load_torque=0.1, temperature=40.0, wear=wear))
+        out.append(FrictionObservationData(
+            stamp=t0 + i, joint_name="joint_1", cycle_id=cycle_id, speed=v, tau_f=tau, tau_f_std=3e-4,
+            tau_plus=0.1 + tau, tau_minus=0.1 - tau, load_torque=0.1, temperature=temperature, position=0.0,
+            samples_plus=500, samples_minus=500))
+    return out
+
+
+def _run(monitor, cycle_id, wear, **kw):
+    monitor.on_status(9.0, cycle_id, STATE_RUNNING, 0, len(SPEEDS), "joint_1")
+    results = []
+    for o in _obs(cycle_id, wear, **kw):
+        results += monitor.add(o)
+    return results
+
+
+def test_levels_at_the_thresholds():
+    assert diagnostic_level(29.999, 30, 35) == OK
+    assert diagnostic_level(30.0, 30, 35) == WARN
+    assert diagnostic_level(34.999, 30, 35) == WARN
+    assert diagnostic_level(35.0, 30, 35) == ERROR
+
+
+@pytest.mark.parametrize(("wear", "level"), [(5.0, OK), (32.5, WARN), (45.0, ERROR)])
+def test_monitor_estimates_a_complete_cycle_with_its_level(wear, level):
+    mon = WearMonitor(MonitorConfig(seed=1))
+    results = _run(mon, 7, wear, temperature=40.0)
+    assert len(results) == 1
+    r = results[0]
+    assert isinstance(r.result, WearResult)
+    assert r.result.wear == pytest.approx(wear, abs=0.5)
+    assert r.level == level and r.cycle_id == 7
+    keys = dict(r.values)
+    for k in ("wear", "wear_std", "method", "cycle_id", "temperature_estimate", "n_observations"):
+        assert k in keys
+    assert keys["method"] == mon.config.method and keys["cycle_id"] == "7" and keys["n_observations"] == "3"
+    assert r.alarm == (level == ERROR)
+    assert mon.last is r
+
+
+def test_monitor_thresholds_are_configurable():
+    mon = WearMonitor(MonitorConfig(warn_threshold=10.0, alarm_threshold=20.0))
+    assert _run(mon, 1, 15.0, temperature=40.0)[0].level == WARN
+
+
+def test_unknown_temperature_uses_the_uncertain_temperature_estimator():
+    mon = WearMonitor(MonitorConfig(method="paper", seed=3))
+    r = _run(mon, 1, 35.0)[0]
+    assert r.result is not None and r.result.info["known_temperature"] == [False] * 3
+    assert abs(r.result.wear - 35.0) < 3 * r.result.wear_std + 1.0
+    mon2 = WearMonitor(MonitorConfig(method="paper", seed=3, use_measured_temperature=False))
+    r2 = _run(mon2, 1, 35.0, temperature=40.0)[0]
+    assert r2.result is not None and r2.result.info["known_temperature"] == [False] * 3
+
+
+def test_cycle_is_estimated_after_timeout_following_done():
+    mon = WearMonitor(MonitorConfig(done_timeout=2.0))
+    mon.on_status(9.0, 4, STATE_RUNNING, 0, 5, "joint_1")
+    for o in _obs(4, 20.0, temperature=40.0):
+        assert mon.add(o) == []
+    assert mon.on_status(20.0, 4, STATE_DONE, 5, 5, "joint_1") == []
+    assert mon.poll(21.9) == []
+    results = mon.poll(22.0)
+    assert len(results) == 1 and results[0].level == OK
+    assert "3 of 5 speeds observed" in results[0].message
+    assert mon.poll(30.0) == []  # once only
+    assert mon.add(_obs(4, 20.0)[0]) == [] and "after its estimate" in mon.ignored[-1]
+
+
+def test_aborted_cycle_without_observations_is_reported_as_warning():
+    mon = WearMonitor(MonitorConfig(done_timeout=1.0))
+    mon.on_status(1.0, 9, STATE_RUNNING, 0, 8, "joint_1")
+    mon.on_status(2.0, 9, STATE_ABORTED, 0, 8, "joint_1")
+    (r,) = mon.poll(3.5)
+    assert r.result is None and r.level == WARN
+    assert "ABORTED" in r.message and "0 friction observations" in r.message
+
+
+def test_cycle_without_status_is_estimated_after_idle_timeout():
+    mon = WearMonitor(MonitorConfig(idle_timeout=5.0))
+    for o in _obs(2, 10.0, temperature=40.0):
+        assert mon.add(o) == []
+    assert mon.poll(16.0) == []
+    (r,) = mon.poll(17.0)
+    assert r.result is not None and r.level == OK
+
+
+def test_estimate_is_deterministic_and_independent_of_arrival_order():
+    a = WearMonitor(MonitorConfig(seed=11))
+    b = WearMonitor(MonitorConfig(seed=11))
+    ra = _run(a, 5, 33.0)[0]
+    b.on_status(9.0, 5, STATE_RUNNING, 0, len(SPEEDS), "joint_1")
+    rb = next(r for o in reversed(_obs(5, 33.0)) for r in b.add(o))
+    assert ra.result is not None and rb.result is not None
+    assert ra.result.wear == rb.result.wear and ra.result.wear_std == rb.result.wear_std
+    assert ra.values == rb.values
+    c = WearMonitor(MonitorConfig(seed=12))
+    rc = _run(c, 5, 33.0)[0]
+    assert rc.result is not None and rc.result.wear != ra.result.wear  # the seed matters (T unknown)
+
+
+def test_observations_of_another_joint_are_ignored():
+    mon = WearMonitor()
+    o = replace(_obs(1, 10.0)[0], joint_name="joint_2")
+    assert mon.add(o) == [] and mon.open_cycles == ()
+
+
+def test_estimator_failure_is_reported_not_raised():
+    def broken(method, seed):
+        class E:
+            name = "broken"
+
+            def estimate(self, table):
+                raise InputDataError("no good")
+
+        return E()
+
+    mon = WearMonitor(MonitorConfig(), estimator_factory=broken)
+    (r,) = _run(mon, 1, 10.0)
+    assert r.result is None and r.level == WARN and "no good" in r.message
+
+
+def test_config_rejects_inverted_thresholds():
+    with pytest.raises(InputDataError, match="warn_threshold <= alarm_threshold"):
+        MonitorConfig(warn_threshold=40.0, alarm_threshold=35.0)
+
+
+def test_unknown_method_is_reported():
+    mon = WearMonitor(MonitorConfig(method="nonsense"))
+    (r,) = _run(mon, 1, 10.0)
+    assert r.result is None and "unknown wear estimation method" in r.message
+
+
+def test_estimator_gets_the_window_std_plus_the_sweep_to_sweep_scatter():
+    seen = []
+
+    def spy(method, seed):
+        class E:
+            name = "spy"
+
+            def estimate(self, table):
+                seen.append(table["tau_f_std"].copy())
+                return WearResult(wear=1.0, wear_std=0.1, wear_low=0.8, wear_high=1.2, method="spy")
+
+        return E()
+
+    mon = WearMonitor(MonitorConfig(observation_noise_std=0.0015), estimator_factory=spy)
+    (r,) = _run(mon, 1, 10.0)
+    assert r.level == OK and seen[0] == pytest.approx([math.hypot(3e-4, 0.0015)] * 3)

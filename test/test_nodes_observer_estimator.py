@@ -1,0 +1,227 @@
+"""friction_observer and wear_estimator on a real rclpy graph (loopback DDS), fed a synthetic test cycle."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
+from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from sensor_msgs.msg import JointState, Temperature  # noqa: E402
+
+from jointwear_ros.nodes.friction_observer import (  # noqa: E402
+    FrictionObserverNode,
+    high_rate_qos,
+    observation_from_msg,
+    observation_to_msg,
+    seconds_to_stamp,
+)
+from jointwear_ros.nodes.wear_estimator import WearEstimatorNode  # noqa: E402
+from jointwear_ros.observer import ObserverConfig, observe_arrays  # noqa: E402
+from jointwear_ros.observer.synthetic import synthetic_cycle  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[1]
+NS = "/jw_obs_test"
+TOPICS = {
+    "joint_states_topic": f"{NS}/joint_states",
+    "status_topic": f"{NS}/status",
+    "temperature_topic": f"{NS}/temperature",
+    "observations_topic": f"{NS}/observations",
+}
+
+
+@pytest.fixture(scope="module")
+def ctx():
+    c = rclpy.Context()
+    rclpy.init(context=c)
+    yield c
+    rclpy.try_shutdown(context=c)
+
+
+def _spin_until(executor, predicate, timeout=20.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and not predicate():
+        executor.spin_once(timeout_sec=0.02)
+    return predicate()
+
+
+def _joint_state(t, names, pos, vel, eff):
+    m = JointState()
+    m.header.stamp = seconds_to_stamp(t)
+    m.name = list(names)
+    m.position = [float(x) for x in pos]
+    m.velocity = [float(x) for x in vel]
+    m.effort = [float(x) for x in eff]
+    return m
+
+
+def _status(s):
+    m = CycleStatus()
+    m.header.stamp = seconds_to_stamp(s[0])
+    m.cycle_id, m.state, m.phase = s[1], s[2], s[3]
+    m.current_speed, m.speeds_done, m.speeds_total = s[4], s[5], s[6]
+    m.window_center, m.window_half_width, m.joint_name = s[7], s[8], s[9]
+    return m
+
+
+def test_observation_message_round_trip():
+    cyc = synthetic_cycle(speeds=(40,), rate=500.0, seed=2)
+    out = observe_arrays(ObserverConfig(), cyc.stamps, cyc.position, cyc.velocity, cyc.effort, cyc.statuses)
+    o = out.observations[0]
+    back = observation_from_msg(observation_to_msg(o))
+    assert back.stamp == pytest.approx(o.stamp, abs=1e-9)
+    assert back == type(o)(**{**o.to_dict(), "stamp": back.stamp})
+
+
+def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
+    wear = 45.0
+    cyc = synthetic_cycle(speeds=(20, 40, 80), wear=wear, rate=500.0, seed=5, temperature_rate=2.0, cycle_id=3)
+    obs_node = FrictionObserverNode(context=ctx, parameter_overrides=[
+        Parameter(k, value=v) for k, v in TOPICS.items()])
+    est_node = WearEstimatorNode(context=ctx, parameter_overrides=[
+        Parameter("observations_topic", value=TOPICS["observations_topic"]),
+        Parameter("status_topic", value=TOPICS["status_topic"]),
+        Parameter("estimate_topic", value=f"{NS}/wear_estimate"),
+        Parameter("diagnostics_topic", value=f"{NS}/diagnostics"),
+        Parameter("hardware_id", value="cell7/robot2"),
+        Parameter("diagnostics_period", value=0.2),
+    ])
+    io = rclpy.create_node("jw_obs_test_io", context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    for n in (obs_node, est_node, io):
+        ex.add_node(n)
+    got_obs, got_est, got_diag = [], [], []
+    try:
+        js_pub = io.create_publisher(JointState, TOPICS["joint_states_topic"], high_rate_qos())
+        st_pub = io.create_publisher(CycleStatus, TOPICS["status_topic"], high_rate_qos())
+        tp_pub = io.create_publisher(Temperature, TOPICS["temperature_topic"], high_rate_qos())
+        io.create_subscription(FrictionObservation, TOPICS["observations_topic"], got_obs.append, high_rate_qos())
+        io.create_subscription(WearEstimate, f"{NS}/wear_estimate", got_est.append, 10)
+        io.create_subscription(DiagnosticArray, f"{NS}/diagnostics", got_diag.append, 10)
+        assert _spin_until(ex, lambda: js_pub.get_subscription_count() > 0 and st_pub.get_subscription_count() > 1
+                           and tp_pub.get_subscription_count() > 0)
+
+        # the idle diagnostics come first: OK, "no test cycle estimated yet"
+        assert _spin_until(ex, lambda: len(got_diag) > 0)
+        first = got_diag[0].status[0]
+        assert first.name == "wear_estimator: joint_1" and first.level == DiagnosticStatus.OK
+
+        # bad JointState messages: logged and skipped, the node keeps running
+        t_bad = float(cyc.stamps[0]) - 5.0
+        bad = [
+            _joint_state(t_bad, ["joint_1", "joint_2"], [0.0], [0.0, 0.0], [0.0, 0.0]),  # lengths differ
+            _joint_state(t_bad, ["joint_1"], [0.0], [0.0], []),  # no effort
+            _joint_state(t_bad, ["joint_1"], [math.nan], [0.0], [0.0]),  # NaN
+            _joint_state(t_bad, ["joint_9"], [0.0], [0.0], [0.0]),  # joint missing
+        ]
+        for m in bad:
+            js_pub.publish(m)
+        assert _spin_until(ex, lambda: sum(obs_node.bad_messages.values()) == len(bad))
+        assert set(obs_node.bad_messages) == {"array lengths", "no effort", "non-finite value for joint_1",
+                                             "joint 'joint_1' not in name ['joint_9']; set joint_name"}
+
+        # the cycle, in stamp order; another joint in the message first, as a broadcaster would send it
+        events = [(s[0], 0, s) for s in cyc.statuses] + [(t[0], 1, t) for t in cyc.temperatures]
+        events += [(float(t), 2, i) for i, t in enumerate(cyc.stamps)]
+        events.sort(key=lambda e: (e[0], e[1]))
+        sent = 0
+        for _, kind, a in events:
+            if kind == 0:
+                st_pub.publish(_status(a))
+            elif kind == 1:
+                m = Temperature()
+                m.header.stamp = seconds_to_stamp(a[0])
+                m.temperature = a[1]
+                tp_pub.publish(m)
+            else:
+                i = a
+                js_pub.publish(_joint_state(cyc.stamps[i], ["joint_0", "joint_1"], [0.3, cyc.position[i]],
+                                            [0.0, cyc.velocity[i]], [1.0, cyc.effort[i]]))
+                sent += 1
+                if sent % 200 == 0:  # let the observer keep up (KEEP_LAST 1000)
+                    assert _spin_until(ex, lambda n=sent: obs_node.core.samples_seen >= n)
+        assert _spin_until(ex, lambda: len(got_obs) == 3 and len(got_est) == 1
+                           and obs_node.core.samples_seen == cyc.stamps.size)
+        assert obs_node.rejections == []
+
+        offline = observe_arrays(ObserverConfig(), cyc.stamps, cyc.position, cyc.velocity, cyc.effort,
+                                 cyc.statuses, cyc.temperatures)
+        live = [observation_from_msg(m) for m in got_obs]
+        assert [o.speed for o in live] == pytest.approx([o.speed for o in offline.observations], rel=1e-12)
+        assert [o.tau_f for o in live] == pytest.approx([o.tau_f for o in offline.observations], rel=1e-12)
+        for o, truth in zip(live, cyc.tau_f_true):
+            assert o.tau_f == pytest.approx(truth, abs=4 * o.tau_f_std + 2e-4)
+            assert o.temperature == pytest.approx(40.0) and o.cycle_id == 3
+
+        e = got_est[0]
+        assert e.cycle_id == 3 and e.joint_name == "joint_1" and e.method == "paper"
+        assert abs(e.wear - wear) < 3 * e.wear_std + 1.0
+        assert e.alarm and e.alarm_threshold == 35.0 and len(e.speeds) == 3
+
+        # /diagnostics: ERROR with the key/values, republished periodically
+        def errors():
+            return [a.status[0] for a in got_diag if a.status[0].level == DiagnosticStatus.ERROR]
+
+        assert _spin_until(ex, lambda: len(errors()) >= 3, timeout=10.0)
+        s = errors()[-1]
+        assert s.name == "wear_estimator: joint_1" and s.hardware_id == "cell7/robot2"
+        kv = {v.key: v.value for v in s.values}
+        assert float(kv["wear"]) == pytest.approx(e.wear, abs=1e-3)
+        assert kv["method"] == "paper" and kv["cycle_id"] == "3" and kv["n_observations"] == "3"
+        assert {"wear_std", "temperature_estimate"} <= set(kv)
+        assert "alarm threshold 35" in s.message
+    finally:
+        ex.shutdown()
+        for n in (obs_node, est_node, io):
+            n.destroy_node()
+
+
+def test_console_scripts_start_with_their_params_files_and_stop_on_sigint(ctx):
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    bindir = Path(sys.executable).parent
+    procs = []
+    probe = rclpy.create_node("jw_obs_probe", context=ctx)
+    try:
+        for name in ("friction_observer", "wear_estimator"):
+            procs.append(subprocess.Popen(
+                [str(bindir / name), "--ros-args", "--params-file", str(ROOT / "config" / f"{name}.yaml"),
+                 "-r", f"__ns:={NS}_cli"],
+                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(probe)
+
+        def up():
+            names = set(probe.get_node_names())
+            return {"friction_observer", "wear_estimator"} <= names
+
+        ok = _spin_until(ex, up, timeout=30.0)
+        ex.shutdown()
+        for p in procs:
+            assert p.poll() is None, p.communicate()[0]
+        assert ok, "the nodes did not appear on the graph"
+    finally:
+        outputs = []
+        for p in procs:
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+        for p in procs:
+            try:
+                outputs.append(p.communicate(timeout=15)[0])
+            except subprocess.TimeoutExpired:
+                p.kill()
+                outputs.append(p.communicate()[0])
+        probe.destroy_node()
+    assert [p.returncode for p in procs] == [0, 0], outputs

@@ -1,0 +1,362 @@
+"""joint_sim and test_cycle on a real graph (rclpy over loopback DDS).
+
+The simulated cell runs as child processes (their ``python -m`` entry points,
+exactly as ``ros2 run`` would start them), joint_sim as the clock source at 4x
+real time and every node on ``use_sim_time``; the test talks to it as an
+operator would: the ``~/run`` and ``~/abort`` services and the status and
+command topics.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.srv import RunTestCycle  # noqa: E402
+from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
+from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
+from rcl_interfaces.srv import SetParameters  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import JointState, Temperature  # noqa: E402
+from std_msgs.msg import Float64MultiArray  # noqa: E402
+from std_srvs.srv import Trigger  # noqa: E402
+
+from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
+from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[1]
+QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+SIM_PARAMS = {"publish_clock": True, "real_time_factor": 4.0, "use_sim_time": True}
+CYCLE_PARAMS = {"simulator": True, "use_sim_time": True}
+
+
+def _fmt(v: object) -> str:
+    return ("true" if v else "false") if isinstance(v, bool) else str(v)
+
+
+class Child:
+    """A node in its own process (``python -m jointwear_ros.nodes.<name>``), stopped with SIGINT."""
+
+    def __init__(self, name: str, params: dict[str, object]):
+        self.log = tempfile.NamedTemporaryFile(prefix=f"{name}-", suffix=".log", delete=False)
+        cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args",
+               "--params-file", str(ROOT / "config" / f"{name}.yaml")]
+        for k, v in params.items():
+            cmd += ["-p", f"{k}:={_fmt(v)}"]
+        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT)
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 10.0) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        return int(self.proc.returncode)
+
+    def output(self) -> str:
+        return Path(self.log.name).read_text(errors="replace")
+
+    def close(self) -> None:
+        self.stop()
+        self.log.close()
+        Path(self.log.name).unlink(missing_ok=True)
+
+
+class Operator:
+    """The test's node: service clients, status and command listeners."""
+
+    def __init__(self, context):
+        self.node = rclpy.create_node("operator", context=context)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.status: list[CycleStatus] = []
+        self.commands: list[float] = []
+        self.joint_states = 0
+        self.node.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
+        self.node.create_subscription(
+            Float64MultiArray, "/velocity_controller/commands", lambda m: self.commands.append(m.data[0] if len(m.data) else math.nan), QOS
+        )
+        self.node.create_subscription(JointState, "/joint_states", self._on_js, 1)
+        self.run_client = self.node.create_client(RunTestCycle, "/test_cycle/run")
+        self.abort_client = self.node.create_client(Trigger, "/test_cycle/abort")
+        self.param_client = self.node.create_client(SetParameters, "/test_cycle/set_parameters")
+
+    def _on_js(self, msg: JointState) -> None:
+        self.joint_states += 1
+
+    def spin_until(self, predicate: Callable[[], bool], timeout: float = 20.0) -> bool:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end and not predicate():
+            self.executor.spin_once(timeout_sec=0.02)
+        return predicate()
+
+    def call(self, client, request, timeout: float = 15.0):
+        assert self.spin_until(client.service_is_ready, timeout), f"service {client.srv_name} not available"
+        fut = client.call_async(request)
+        assert self.spin_until(fut.done, timeout), f"no answer from {client.srv_name}"
+        return fut.result()
+
+    def run(self, **kwargs) -> RunTestCycle.Response:
+        return self.call(self.run_client, RunTestCycle.Request(**kwargs))
+
+    def start(self, timeout: float = 20.0, **kwargs) -> RunTestCycle.Response:
+        """Request a cycle, retrying while test_cycle has not seen a joint state yet (it may start later than us)."""
+        end = time.monotonic() + timeout
+        while True:
+            resp = self.run(**kwargs)
+            if resp.accepted or "no joint state" not in resp.message or time.monotonic() > end:
+                assert resp.accepted and resp.cycle_id > 0, resp.message
+                return resp
+            self.spin_until(lambda: False, 0.2)
+
+    def wait_phase(self, cycle_id: int, phase: int, timeout: float = 20.0) -> None:
+        def seen() -> bool:
+            return any(m.cycle_id == cycle_id and (m.phase == phase or m.state > CycleState.RUNNING) for m in self.status)
+
+        assert self.spin_until(seen, timeout), f"cycle {cycle_id} never reached phase {phase}"
+        last = next(m for m in reversed(self.status) if m.cycle_id == cycle_id)
+        assert last.state == CycleState.RUNNING, f"cycle {cycle_id} ended early: {last.message}"
+
+    def set_param(self, name: str, value: bool) -> None:
+        p = ParameterMsg(name=name, value=ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=value))
+        res = self.call(self.param_client, SetParameters.Request(parameters=[p]))
+        assert res.results[0].successful
+
+    def last_state(self, cycle_id: int | None = None) -> int | None:
+        for m in reversed(self.status):
+            if cycle_id is None or m.cycle_id == cycle_id:
+                return m.state
+        return None
+
+    def wait_state(self, cycle_id: int, states: tuple[int, ...], timeout: float = 30.0) -> CycleStatus:
+        assert self.spin_until(lambda: self.last_state(cycle_id) in states, timeout), (
+            f"cycle {cycle_id} did not reach {states}; last status: {self.status[-1] if self.status else None}"
+        )
+        return next(m for m in reversed(self.status) if m.cycle_id == cycle_id)
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+
+
+@pytest.fixture(scope="module")
+def context():
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    yield ctx
+    rclpy.try_shutdown(context=ctx)
+
+
+@pytest.fixture
+def operator(context) -> Iterator[Operator]:
+    op = Operator(context)
+    yield op
+    op.close()
+
+
+@pytest.fixture(scope="class")
+def cell(context) -> Iterator[tuple[Child, Child]]:
+    sim = Child("joint_sim", SIM_PARAMS)
+    cyc = Child("test_cycle", CYCLE_PARAMS)
+    yield sim, cyc
+    codes = (cyc.stop(), sim.stop())
+    out = f"{cyc.output()}\n{sim.output()}"
+    cyc.close()
+    sim.close()
+    assert codes == (0, 0), f"exit codes {codes}\n{out}"
+
+
+def _ready(op: Operator) -> None:
+    assert op.spin_until(lambda: op.joint_states > 20 and op.run_client.service_is_ready() and op.status, 30.0), (
+        "cell did not come up"
+    )
+
+
+# -- the service refuses bad requests -----------------------------------------------
+BAD_REQUESTS = [
+    ({"joint_name": "joint_9"}, "unknown joint 'joint_9': this node drives 'joint_1'"),
+    ({"speeds": [20.0, math.nan]}, "speed #2 = nan is not finite"),
+    ({"speeds": [math.inf]}, "speed #1 = inf is not finite"),
+    ({"speeds": [-10.0]}, "must be > 0"),
+    ({"speeds": [400.0]}, "exceeds max_speed 280"),
+    ({"position": 1.45}, "window 1.45 ± 0.1 rad is outside the joint limits [-1.5, 1.5]"),
+    ({"position": 1.0}, "beyond the joint limits"),
+    ({"position": math.nan}, "position (window centre) nan is not finite"),
+]
+
+
+@pytest.mark.usefixtures("cell")
+class TestSimulatedCell:
+    """One simulated cell (joint_sim at 4x real time + test_cycle) for these tests, stopped after them."""
+
+    def test_service_refuses_bad_requests_with_clear_messages(self, cell, operator):
+        _ready(operator)
+        for kwargs, text in BAD_REQUESTS:
+            resp = operator.run(**kwargs)
+            assert not resp.accepted and resp.cycle_id == 0, kwargs
+            assert resp.message.startswith("refused: ") and text in resp.message, (kwargs, resp.message)
+        # nothing moved: no command was streamed
+        assert operator.commands == []
+
+
+    def test_dry_run_plans_without_moving(self, cell, operator):
+        _ready(operator)
+        resp = operator.run(dry_run=True)
+        assert resp.accepted and resp.cycle_id == 0
+        assert "dry run OK" in resp.message and "8 speed(s)" in resp.message and "plan duration" in resp.message
+        operator.spin_until(lambda: False, 0.3)
+        assert operator.commands == [] and operator.last_state() == CycleState.IDLE
+
+
+    def test_real_joint_needs_motion_enabled(self, cell, operator):
+        _ready(operator)
+        operator.set_param("simulator", False)
+        try:
+            resp = operator.run(speeds=[20.0])
+            assert not resp.accepted and "motion is disabled" in resp.message and "motion_enabled true" in resp.message
+            assert operator.run(speeds=[20.0], dry_run=True).accepted  # planning needs no motion
+        finally:
+            operator.set_param("simulator", True)
+
+
+    def test_full_cycle_reaches_done_with_a_consistent_status_sequence(self, cell, operator):
+        _ready(operator)
+        resp = operator.start(speeds=[40.0, 160.0])
+        cid = resp.cycle_id
+        # a second request while running is refused
+        busy = operator.run(speeds=[20.0])
+        assert not busy.accepted and f"cycle {cid} is running" in busy.message and "~/abort" in busy.message
+        final = operator.wait_state(cid, (CycleState.DONE, CycleState.FAILED, CycleState.ABORTED), 40.0)
+        assert final.state == CycleState.DONE, final.message
+        mine = [m for m in operator.status if m.cycle_id == cid]
+        assert all(m.joint_name == "joint_1" and m.speeds_total == 2 for m in mine)
+        assert all(m.window_center == 0.0 and m.window_half_width == pytest.approx(0.1) for m in mine)
+        done = [m.speeds_done for m in mine]
+        assert done == sorted(done) and done[-1] == 2
+        running = [m for m in mine if m.state == CycleState.RUNNING]
+        assert {m.current_speed for m in running} == {40.0, 160.0}
+        for k, speed in enumerate((40.0, 160.0)):
+            phases = [m.phase for m in running if m.speeds_done == k]
+            assert all(m.current_speed == speed for m in running if m.speeds_done == k)
+            seq = [phases[0]] + [b for a, b in itertools.pairwise(phases) if a != b]
+            # an approach that overshoots (late joint states on a busy machine) is repeated
+            assert seq[-4:] == [Phase.FORWARD, Phase.SETTLE, Phase.REVERSE, Phase.SETTLE]
+            assert seq[:-4] and seq[:-4] == [Phase.APPROACH, Phase.SETTLE] * (len(seq[:-4]) // 2)
+        states = [m.state for m in mine]
+        assert states.index(CycleState.DONE) == len(states) - 1 or set(states[states.index(CycleState.DONE):]) == {
+            CycleState.DONE
+        }
+        assert operator.spin_until(lambda: operator.commands and operator.commands[-1] == 0.0, 5.0)
+        assert max(abs(c) for c in operator.commands) == pytest.approx(1.6)
+
+
+    def test_abort_stops_the_cycle_with_zero(self, cell, operator):
+        _ready(operator)
+        resp = operator.start(speeds=[10.0])
+        operator.wait_phase(resp.cycle_id, Phase.FORWARD)
+        ans = operator.call(operator.abort_client, Trigger.Request())
+        assert ans.success and f"cycle {resp.cycle_id} aborted" in ans.message
+        final = operator.wait_state(resp.cycle_id, (CycleState.ABORTED,), 10.0)
+        assert final.message == "aborted by operator" and final.phase == Phase.NONE
+        assert operator.spin_until(lambda: operator.commands[-1] == 0.0, 5.0)
+        n = len(operator.commands)
+        operator.spin_until(lambda: False, 0.5)
+        assert operator.commands[n:] == []  # no more streaming after the stop
+        again = operator.call(operator.abort_client, Trigger.Request())
+        assert not again.success and "no cycle running" in again.message
+
+
+# -- the watchdog and the exit path, each on a cell of its own ----------------------
+def test_watchdog_stops_the_joint_when_joint_states_stop(context, operator):
+    # no sim time here: node time is wall time (0.5 s: tolerant of a loaded machine)
+    cyc = Child("test_cycle", {"simulator": True, "state_timeout": 0.5})
+    sim = None
+    try:
+        assert operator.spin_until(lambda: operator.run_client.service_is_ready(), 30.0)
+        early = operator.run(speeds=[20.0])
+        assert not early.accepted and "no joint state for joint_1 received yet" in early.message
+        sim = Child("joint_sim", {})
+        assert operator.spin_until(lambda: operator.joint_states > 20, 30.0)
+        resp = operator.start(speeds=[10.0])
+        operator.wait_phase(resp.cycle_id, Phase.FORWARD)
+        sim.stop(signal.SIGKILL)
+        final = operator.wait_state(resp.cycle_id, (CycleState.FAILED,), 10.0)
+        assert final.message.startswith("watchdog: ") and "joint_1" in final.message
+        assert "stale" in final.message or "no joint state" in final.message
+        assert operator.spin_until(lambda: operator.commands[-1] == 0.0, 5.0)
+    finally:
+        if sim is not None:
+            sim.close()
+        code, out = cyc.stop(), cyc.output()
+        cyc.close()
+        assert code == 0, out
+
+
+def test_zero_velocity_is_sent_when_test_cycle_exits_mid_cycle(context, operator):
+    sim = Child("joint_sim", SIM_PARAMS)
+    cyc = Child("test_cycle", CYCLE_PARAMS)
+    try:
+        _ready(operator)
+        resp = operator.start(speeds=[10.0])
+        operator.wait_phase(resp.cycle_id, Phase.FORWARD)
+        assert operator.spin_until(lambda: operator.commands and operator.commands[-1] > 0.0, 5.0)
+        assert cyc.stop(signal.SIGINT) == 0, cyc.output()
+        assert operator.spin_until(lambda: operator.commands[-1] == 0.0, 5.0)
+        final = operator.wait_state(resp.cycle_id, (CycleState.ABORTED,), 5.0)
+        assert final.message == "node shutting down"
+    finally:
+        cyc.close()
+        sim.close()
+
+
+# -- joint_sim on its own, in this process ----------------------------------------
+def test_joint_sim_ignores_bad_commands_and_stops_after_the_command_timeout(context, operator):
+    from rclpy.parameter import Parameter
+
+    from jointwear_ros.nodes.joint_sim import JointSimNode
+
+    node = JointSimNode(
+        context=context,
+        parameter_overrides=[Parameter("command_timeout", value=0.3), Parameter("wear", value=20.0)],
+    )
+    operator.executor.add_node(node)
+    temps: list[Temperature] = []
+    last: list[JointState] = []
+    operator.node.create_subscription(Temperature, "/joint_temperature", temps.append, QOS)
+    operator.node.create_subscription(JointState, "/joint_states", lambda m: last.__setitem__(slice(None), [m]), QOS)
+    pub = operator.node.create_publisher(Float64MultiArray, "/velocity_controller/commands", QOS)
+    try:
+        assert operator.spin_until(lambda: pub.get_subscription_count() > 0 and last and temps, 20.0)
+        assert temps[-1].temperature == 40.0 and temps[-1].header.frame_id == "joint_1"
+        for bad in ([], [math.nan], [math.inf, 0.0]):
+            pub.publish(Float64MultiArray(data=bad))
+        assert operator.spin_until(lambda: node.bad_commands == 3, 10.0)
+        assert node.sim.command == 0.0
+        # a valid command moves the joint; streaming it keeps it moving
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            pub.publish(Float64MultiArray(data=[0.2]))
+            operator.spin_until(lambda: False, 0.05)
+        assert last[-1].name == ["joint_1"] and last[-1].velocity[0] == pytest.approx(0.2, rel=0.05)
+        # no more commands: the sim brings the joint to rest by itself
+        assert operator.spin_until(lambda: abs(last[-1].velocity[0]) < 1e-6, 10.0)
+        assert node.sim.command == 0.0
+    finally:
+        operator.executor.remove_node(node)
+        node.destroy_node()

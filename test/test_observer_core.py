@@ -1,0 +1,313 @@
+"""The friction observer core on synthetic test-cycle streams generated from the friction model."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from jointwear_ros.errors import InputDataError
+from jointwear_ros.observer import (
+    STATE_ABORTED,
+    STATE_RUNNING,
+    FrictionObservationData,
+    FrictionObserverCore,
+    ObserverConfig,
+    SpeedSegment,
+    batch_means_se,
+    measure_segment,
+    observe_arrays,
+)
+from jointwear_ros.observer.synthetic import synthetic_cycle
+
+CFG = ObserverConfig()
+
+
+def _run(cycle, config=CFG, temperatures=()):
+    return observe_arrays(config, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, cycle.statuses,
+                          temperatures or cycle.temperatures)
+
+
+def _feed_events(core, events, cycle):
+    """Feed (arrival_key, kind, payload) events in arrival order; collect every output."""
+    obs, rej = [], []
+    for _, kind, a in events:
+        if kind == "status":
+            out = core.on_status(*a)
+        elif kind == "temp":
+            out = core.on_temperature(*a)
+        else:
+            out = core.on_joint_state(cycle.stamps[a], cycle.position[a], cycle.velocity[a], cycle.effort[a])
+        obs += out.observations
+        rej += out.rejections
+    out = core.flush()
+    return obs + out.observations, rej + out.rejections
+
+
+def _arrivals(stamps, shift, jitter, rng):
+    """Arrival keys of one topic: stamp + delay, jittered, but in publication order (DDS keeps it per topic)."""
+    keys = np.asarray(stamps, dtype=float) + shift + rng.uniform(-jitter, jitter, len(stamps))
+    return np.maximum.accumulate(keys) if len(keys) else keys
+
+
+def _events(cycle, shift_status=0.0, jitter=0.0, seed=0, sample_step=1):
+    rng = np.random.default_rng(seed)
+    ev = []
+    for key, s in zip(_arrivals([s[0] for s in cycle.statuses], shift_status, jitter, rng), cycle.statuses):
+        ev.append((float(key), "status", s))
+    for key, t in zip(_arrivals([t[0] for t in cycle.temperatures], 0.0, jitter, rng), cycle.temperatures):
+        ev.append((float(key), "temp", t))
+    idx = np.arange(0, cycle.stamps.size, sample_step)
+    for i, ts in zip(idx, cycle.stamps[idx]):
+        ev.append((float(ts), "js", int(i)))
+    ev.sort(key=lambda e: e[0])
+    return ev
+
+
+@pytest.fixture(scope="module")
+def cycle():
+    return synthetic_cycle(speeds=(10, 30, 50, 120), wear=20.0, load=0.1, seed=3, temperature_rate=5.0)
+
+
+def test_observer_recovers_friction_and_load_of_each_speed(cycle):
+    out = _run(cycle)
+    assert out.rejections == []
+    assert [round(o.speed) for o in out.observations] == [10, 30, 50, 120]
+    for o, truth in zip(out.observations, cycle.tau_f_true):
+        assert isinstance(o, FrictionObservationData)
+        assert o.tau_f == pytest.approx(truth, abs=4 * o.tau_f_std + 1e-4)
+        assert o.tau_f_std < 2e-3
+        assert o.load_torque == pytest.approx(cycle.window_load_true, abs=3e-3)
+        assert o.tau_f == pytest.approx((o.tau_plus - o.tau_minus) / 2, rel=1e-12)
+        assert o.load_torque == pytest.approx(abs(o.tau_plus + o.tau_minus) / 2, rel=1e-12)
+        assert o.temperature == pytest.approx(40.0)
+        assert o.position == 0.0 and o.cycle_id == 1 and o.joint_name == "joint_1"
+        assert o.samples_plus >= CFG.min_samples and o.samples_minus >= CFG.min_samples
+
+
+def test_observer_is_unbiased_with_noiseless_torque():
+    c = synthetic_cycle(speeds=(20, 80), noise_std=1e-9, inertia=0.0, seed=0)
+    out = _run(c)
+    # the load |tau_g| = 0.1 cos(phi) varies over the window: compare with the model at the window mean load
+    from jointwear_ros.model import load_parameter_set, paper_wear_model
+
+    truth = paper_wear_model().evaluate(load_parameter_set("ref-2011r"), speed=c.speeds,
+                                        load_torque=c.window_load_true, temperature=40.0, wear=20.0)
+    for o, t in zip(out.observations, truth):
+        assert o.tau_f == pytest.approx(t, abs=2e-6)
+        assert o.load_torque == pytest.approx(c.window_load_true, abs=1e-5)
+        assert math.isnan(o.temperature)
+
+
+def test_tau_f_std_matches_scatter_over_seeds():
+    z = []
+    for seed in range(12):
+        c = synthetic_cycle(speeds=(20, 50), seed=100 + seed, noise_corr=0.9)
+        out = _run(c)
+        z += [(o.tau_f - t) / o.tau_f_std for o, t in zip(out.observations, c.tau_f_true)]
+    # batch means with 10 batches: z follows roughly a t distribution (std ~1.1-1.3), never far off
+    assert 0.6 < float(np.std(z)) < 1.8
+    assert abs(float(np.mean(z))) < 0.8
+
+
+def test_batch_means_se_accounts_for_autocorrelation():
+    rng = np.random.default_rng(0)
+    white = rng.normal(size=20000)
+    from scipy.signal import lfilter
+
+    ar = lfilter([1.0], [1.0, -0.95], white) * math.sqrt(1 - 0.95**2)
+    naive = ar.std() / math.sqrt(ar.size)
+    assert batch_means_se(ar, 10) > 3 * naive  # AR(1) 0.95: true se is ~6x the naive one
+    assert batch_means_se(white, 10) == pytest.approx(white.std() / math.sqrt(white.size), rel=0.6)
+
+
+def test_observer_rejects_window_without_constant_speed(cycle):
+    # velocity ripple of ±20 % across the window: not a constant-speed sweep
+    vel = cycle.velocity * (1 + 0.2 * np.sin(2 * np.pi * 3.0 * cycle.stamps))
+    out = observe_arrays(CFG, cycle.stamps, cycle.position, vel, cycle.effort, cycle.statuses)
+    assert out.observations == []
+    assert len(out.rejections) == 4
+    # a whole sweep shorter than a ripple period is off on average: "speed not reached"
+    assert all(r.reason.startswith(("speed not constant in forward window", "speed not reached in forward window"))
+               for r in out.rejections)
+    assert "std" in out.rejections[0].reason and "within" in out.rejections[0].reason
+
+
+def test_observer_rejects_speed_std_above_limit(cycle):
+    cfg = replace(CFG, speed_tolerance=0.3, max_speed_std=0.02, max_speed_std_min=0.05, min_constant_fraction=0.5)
+    rng = np.random.default_rng(1)
+    vel = cycle.velocity + rng.normal(0, 0.04, cycle.velocity.size) * np.abs(cycle.velocity)
+    out = observe_arrays(cfg, cycle.stamps, cycle.position, vel, cycle.effort, cycle.statuses)
+    assert out.rejections and all("speed not constant" in r.reason and "std" in r.reason and ">" in r.reason
+                                  for r in out.rejections)
+
+
+def test_observer_rejects_too_few_samples(cycle):
+    cfg = replace(CFG, min_samples=5000)
+    out = _run(cycle, cfg)
+    assert out.observations == []
+    assert out.rejections[0].reason.startswith("too few samples in forward window")
+    assert "need 5000" in out.rejections[0].reason
+
+
+def test_observer_rejects_wrong_direction(cycle):
+    out = observe_arrays(CFG, cycle.stamps, cycle.position, -cycle.velocity, cycle.effort, cycle.statuses)
+    assert out.observations == []
+    assert all(r.reason.startswith("wrong direction") for r in out.rejections)
+
+
+def test_observer_rejects_window_the_joint_never_reached(cycle):
+    statuses = [(*s[:7], 1.0, *s[8:]) for s in cycle.statuses]  # window centre at 1.0 rad
+    out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
+    assert out.observations == []
+    assert "no samples inside the window 1 ± 0.1 rad" in out.rejections[0].reason
+
+
+def test_observer_rejects_speed_cut_by_abort(cycle):
+    t_cut = cycle.statuses[len(cycle.statuses) // 3][0]
+    statuses = [s for s in cycle.statuses if s[0] < t_cut]
+    last = statuses[-1]
+    statuses.append((t_cut, last[1], STATE_ABORTED, 0, 0.0, last[5], last[6], last[7], last[8], last[9]))
+    out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
+    assert any(r.reason == "cycle ABORTED before this speed finished" for r in out.rejections)
+    assert len(out.observations) == last[5]  # the speeds finished before the abort
+
+
+def test_observer_ignores_status_of_another_joint(cycle):
+    statuses = [(*s[:9], "joint_2") for s in cycle.statuses]
+    out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
+    assert out.observations == [] and out.rejections == []
+
+
+def test_observations_are_independent_of_message_interleaving(cycle):
+    reference = _run(cycle)
+    for shift, jitter, seed in [(0.0, 0.0, 0), (0.45, 0.0, 1), (-0.45, 0.0, 2), (0.0, 0.45, 3), (0.2, 0.25, 4)]:
+        core = FrictionObserverCore(CFG)
+        obs, rej = _feed_events(core, _events(cycle, shift, jitter, seed), cycle)
+        assert obs == reference.observations, (shift, jitter)
+        assert rej == reference.rejections
+
+
+def test_batched_and_per_sample_feeding_agree(cycle):
+    reference = _run(cycle)
+    core = FrictionObserverCore(CFG)
+    obs, _ = _feed_events(core, _events(cycle), cycle)
+    assert obs == reference.observations
+    assert core.buffered_samples < 4 * 4096  # the buffer is trimmed after the cycle
+
+
+def test_observation_is_emitted_once_inputs_pass_the_margin(cycle):
+    core = FrictionObserverCore(CFG)
+    first_end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    emitted_at = None
+    for _, kind, a in _events(cycle):
+        out = (core.on_status(*a) if kind == "status" else core.on_temperature(*a) if kind == "temp"
+               else core.on_joint_state(cycle.stamps[a], cycle.position[a], cycle.velocity[a], cycle.effort[a]))
+        if out.observations:
+            emitted_at = core._max_stamp
+            break
+    assert emitted_at is not None
+    assert first_end + CFG.reorder_margin < emitted_at < first_end + CFG.reorder_margin + 0.01
+
+
+def test_poll_processes_a_finished_speed_when_inputs_stop(cycle):
+    core = FrictionObserverCore(CFG)
+    end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    keep = cycle.stamps <= end
+    for s in cycle.statuses:
+        if s[0] <= end:
+            core.on_status(*s)
+    core.on_joint_states(cycle.stamps[keep], cycle.position[keep], cycle.velocity[keep], cycle.effort[keep])
+    assert len(core.pending_segments) == 1
+    assert core.poll(end + 0.6).observations == []
+    out = core.poll(end + CFG.reorder_margin + CFG.poll_grace + 0.1)
+    assert len(out.observations) == 1 and out.observations[0].speed == pytest.approx(10.0, rel=0.01)
+
+
+def test_non_finite_samples_are_skipped(cycle):
+    eff = cycle.effort.copy()
+    eff[::97] = np.nan
+    out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, eff, cycle.statuses)
+    assert len(out.observations) == 4
+    core = FrictionObserverCore(CFG)
+    core.on_joint_state(1.0, math.nan, 0.0, 0.0)
+    assert core.samples_skipped == 1 and core.buffered_samples == 0
+
+
+def test_measure_segment_reports_invalid_speed():
+    seg = SpeedSegment(cycle_id=1, speed_index=0, speed=0.0, window_center=0.0, window_half_width=0.1, t_start=0.0,
+                       t_end=1.0)
+    z = np.zeros(10)
+    r = measure_segment(z, z, z, z, seg, CFG)
+    assert "not a positive number" in r.reason
+
+
+@pytest.mark.parametrize(("field", "value", "match"), [
+    ("gear_ratio", 0.0, "gear_ratio"), ("edge_trim", 1.0, "edge_trim"), ("min_samples", 1, "min_samples"),
+    ("torque_scale", math.nan, "torque_scale"),
+])
+def test_config_rejects_bad_settings(field, value, match):
+    with pytest.raises(InputDataError, match=match):
+        ObserverConfig(**{field: value})
+
+
+def test_config_from_mapping_ignores_unknown_keys():
+    cfg = ObserverConfig.from_mapping({"gear_ratio": 50, "joint_name": "j2", "use_sim_time": True})
+    assert cfg.gear_ratio == 50.0 and cfg.joint_name == "j2"
+
+
+def test_edge_trim_uses_fewer_samples(cycle):
+    full = _run(cycle).observations[0]
+    trimmed = _run(cycle, replace(CFG, edge_trim=0.5)).observations[0]
+    assert trimmed.samples_plus == pytest.approx(full.samples_plus / 2, rel=0.05)
+
+
+def test_status_running_after_last_speed_does_not_open_a_speed():
+    core = FrictionObserverCore(CFG)
+    core.on_status(0.0, 1, STATE_RUNNING, 0, 10.0, 2, 2, 0.0, 0.1, "joint_1")
+    assert core.active_segment is None
+
+
+def test_observer_names_a_clock_mismatch_between_status_and_joint_states(cycle):
+    statuses = [(s[0] + 1000.0, *s[1:]) for s in cycle.statuses]  # status stamped by another clock
+    out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
+    assert out.observations == []
+    assert "same clock (use_sim_time)" in out.rejections[0].reason
+
+
+def test_process_pending_handles_finished_speeds_but_not_the_running_one(cycle):
+    core = FrictionObserverCore(CFG)
+    end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    for s in cycle.statuses:
+        if s[0] <= end + 0.2:
+            core.on_status(*s)
+    keep = cycle.stamps <= end + 0.2
+    core.on_joint_states(cycle.stamps[keep], cycle.position[keep], cycle.velocity[keep], cycle.effort[keep])
+    out = core.process_pending()
+    assert len(out.observations) == 1 and core.active_segment is not None
+    assert core.process_pending() == ([], [])
+
+
+def test_an_approach_move_crossing_the_window_at_another_speed_is_left_out():
+    # the joint starts right of the window and approaches the first sweep start through it at 50 rad/s
+    c = synthetic_cycle(speeds=(160,), rate=1000.0, seed=4)
+    rng = np.random.default_rng(0)
+    t0 = c.stamps[0]
+    n_app = 400  # 0.4 s at 0.5 rad/s joint (50 rad/s motor) from +0.1 to -0.1 rad
+    app_t = t0 - 0.45 + np.arange(n_app) / 1000.0
+    app_p = 0.1 - 0.5 * (app_t - app_t[0])
+    app_v = np.full(n_app, -0.5)
+    app_e = 200.0 * (0.1 - 0.08 + rng.normal(0, 0.01, n_app))
+    t = np.concatenate([app_t, c.stamps])
+    status = [(app_t[0] - 0.01, *c.statuses[0][1:])]
+    out = observe_arrays(CFG, t, np.concatenate([app_p, c.position]), np.concatenate([app_v, c.velocity]),
+                         np.concatenate([app_e, c.effort]), status + c.statuses)
+    assert out.rejections == []
+    (o,) = out.observations
+    assert o.tau_f == pytest.approx(c.tau_f_true[0], abs=4 * o.tau_f_std + 2e-4)
+    statuses = [(s[0], s[1], s[2], s[3], 50.0, *s[5:]) for s in status + c.statuses]
+    out50 = observe_arrays(CFG, t, np.concatenate([app_p, c.position]), np.concatenate([app_v, c.velocity]),
+                           np.concatenate([app_e, c.effort]), statuses)
+    assert "speed not reached in forward window" in out50.rejections[0].reason

@@ -1,0 +1,194 @@
+"""The recorder on a real graph (rclpy over loopback DDS): every topic, raw CDR, MCAP, metadata v9."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+rclpy = pytest.importorskip("rclpy")
+from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64MultiArray, String  # noqa: E402
+
+from jointwear_ros.io.bags import bag_info, read_messages  # noqa: E402
+from jointwear_ros.nodes.recorder import RecorderNode  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+BEST_EFFORT = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+@pytest.fixture()
+def ros():
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    yield ctx, ex
+    ex.shutdown()
+    rclpy.try_shutdown(context=ctx)
+
+
+def _spin_until(ex, predicate, timeout=20.0) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and not predicate():
+        ex.spin_once(timeout_sec=0.02)
+    return bool(predicate())
+
+
+def _recorder(ctx, ex, out: Path, **params) -> RecorderNode:
+    overrides = [Parameter("output_dir", value=str(out)), Parameter("discovery_period", value=0.1)]
+    overrides += [Parameter(k, value=v) for k, v in params.items()]
+    node = RecorderNode(context=ctx, parameter_overrides=overrides)
+    ex.add_node(node)
+    return node
+
+
+def _joint_state(i: int) -> JointState:
+    m = JointState()
+    m.header.stamp.sec, m.header.stamp.nanosec = i // 500, (i % 500) * 2_000_000
+    m.name = ["joint_0", "joint_1"]
+    m.position = [0.0, 0.001 * i]
+    m.velocity = [0.0, 0.5]
+    m.effort = [0.0, 12.5 + 0.01 * i]
+    return m
+
+
+def _read_with_mcap(bag: Path) -> tuple[dict[str, int], dict[str, tuple[str, bytes]]]:
+    from mcap.reader import make_reader
+
+    files = sorted(bag.glob("*.mcap"))
+    assert len(files) == 1, files
+    counts: dict[str, int] = {}
+    schemas: dict[str, tuple[str, bytes]] = {}
+    with files[0].open("rb") as fh:
+        reader = make_reader(fh)
+        for schema, channel, _message in reader.iter_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            schemas[channel.topic] = (schema.encoding, schema.data)
+            assert channel.message_encoding == "cdr"
+    return counts, schemas
+
+
+def test_recorder_records_every_topic_including_late_ones_into_an_mcap_bag_readable_by_rosbags_and_mcap(ros, tmp_path):
+    ctx, ex = ros
+    pub_node = rclpy.create_node("recorder_test_pub", context=ctx)
+    ex.add_node(pub_node)
+    latched = pub_node.create_publisher(String, "/test_rec/latched", LATCHED)
+    latched.publish(String(data="configuration v1"))
+    js = pub_node.create_publisher(JointState, "/joint_states", RELIABLE)
+    cmd = pub_node.create_publisher(Float64MultiArray, "/velocity_controller/commands", RELIABLE)
+    noisy = pub_node.create_publisher(String, "/test_rec/best_effort", BEST_EFFORT)
+    ignored = pub_node.create_publisher(String, "/test_rec/ignored", RELIABLE)
+
+    rec = _recorder(ctx, ex, tmp_path, exclude=["^/test_rec/ignored$"])
+    assert _spin_until(ex, lambda: {"/joint_states", "/velocity_controller/commands", "/test_rec/latched",
+                                    "/test_rec/best_effort"} <= set(rec.recorded_topics))
+    assert _spin_until(ex, lambda: js.get_subscription_count() >= 1 and cmd.get_subscription_count() >= 1)
+    n_js, n_cmd = 300, 30
+    for i in range(n_js):
+        js.publish(_joint_state(i))
+        if i % 10 == 0:
+            cmd.publish(Float64MultiArray(data=[0.01 * i]))
+        noisy.publish(String(data=f"n{i}"))
+        ignored.publish(String(data="never recorded"))
+        if i % 50 == 0:
+            ex.spin_once(timeout_sec=0.0)
+
+    # a topic that appears while the recorder runs, of a jointwear type
+    late = pub_node.create_publisher(CycleStatus, "/test_cycle/status", RELIABLE)
+    assert _spin_until(ex, lambda: "/test_cycle/status" in rec.recorded_topics)
+    assert _spin_until(ex, lambda: late.get_subscription_count() >= 1)
+    for k in range(5):
+        st = CycleStatus(joint_name="joint_1", cycle_id=3, state=CycleStatus.RUNNING, speeds_done=k, speeds_total=8)
+        late.publish(st)
+    assert _spin_until(ex, lambda: rec.received.get("/joint_states", 0) == n_js
+                       and rec.received.get("/velocity_controller/commands", 0) == n_cmd
+                       and rec.received.get("/test_cycle/status", 0) == 5), rec.received
+    rec.on_shutdown()
+    assert rec.write_errors == 0
+    bags = rec.bags
+    assert len(bags) == 1
+    bag = bags[0]
+
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["version"] == 9
+    assert meta["storage_identifier"] == "mcap"
+    meta_counts = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
+    assert meta_counts["/joint_states"] == n_js
+    assert meta_counts["/velocity_controller/commands"] == n_cmd
+    assert meta_counts["/test_cycle/status"] == 5
+    assert meta_counts["/test_rec/latched"] == 1
+    assert 1 <= meta_counts["/test_rec/best_effort"] <= n_js
+    assert "/test_rec/ignored" not in meta_counts
+
+    # rosbags: counts, types and values read back
+    info = bag_info(bag)
+    assert info.version == 9 and info.topics["/joint_states"] == {"type": "sensor_msgs/msg/JointState", "count": n_js}
+    states = [m.msg for m in read_messages(bag, topics=["/joint_states"])]
+    assert [round(s.effort[1], 6) for s in states] == [round(12.5 + 0.01 * i, 6) for i in range(n_js)]
+    statuses = [m.msg for m in read_messages(bag, topics=["/test_cycle/status"])]
+    assert [s.speeds_done for s in statuses] == [0, 1, 2, 3, 4]
+    assert statuses[0].joint_name == "joint_1"
+    latched_msgs = [m.msg.data for m in read_messages(bag, topics=["/test_rec/latched"])]
+    assert latched_msgs == ["configuration v1"]
+    log_times = [m.log_time for m in read_messages(bag)]
+    assert log_times == sorted(log_times)
+
+    # the mcap library: same counts, real ros2msg schemas
+    counts, schemas = _read_with_mcap(bag)
+    assert counts == meta_counts
+    enc, text = schemas["/test_cycle/status"]
+    assert enc == "ros2msg" and b"uint32 speeds_done" in text and b"std_msgs/Header header" in text
+    enc, text = schemas["/joint_states"]
+    assert enc == "ros2msg" and b"float64[] effort" in text
+    pub_node.destroy_node()
+    rec.destroy_node()
+
+
+def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
+    ctx, ex = ros
+    pub_node = rclpy.create_node("recorder_test_cycles", context=ctx)
+    ex.add_node(pub_node)
+    status = pub_node.create_publisher(CycleStatus, "/test_cycle/status", RELIABLE)
+    js = pub_node.create_publisher(JointState, "/joint_states", RELIABLE)
+    rec = _recorder(ctx, ex, tmp_path, split="cycle", cycle_tail=0.0, include=["^/test_cycle/status$", "^/joint_states$"])
+    assert _spin_until(ex, lambda: len(rec.recorded_topics) == 2)
+    assert _spin_until(ex, lambda: status.get_subscription_count() >= 1 and js.get_subscription_count() >= 1)
+
+    sent = 0
+
+    def send(state: int, cycle: int, joint_states: int) -> None:
+        nonlocal sent
+        # status first (received before the samples: subscriptions are served in no fixed order)
+        status.publish(CycleStatus(joint_name="joint_1", cycle_id=cycle, state=state, speeds_total=2))
+        sent += 1
+        assert _spin_until(ex, lambda: sum(rec.received.values()) == sent)
+        for i in range(joint_states):
+            js.publish(_joint_state(i))
+        sent += joint_states
+        assert _spin_until(ex, lambda: sum(rec.received.values()) == sent)
+
+    send(CycleStatus.IDLE, 0, 5)          # before any cycle: not recorded
+    send(CycleStatus.RUNNING, 1, 10)
+    send(CycleStatus.DONE, 1, 0)
+    assert _spin_until(ex, lambda: len(rec.bags) == 1 and rec._bag is None)
+    send(CycleStatus.RUNNING, 2, 7)
+    send(CycleStatus.FAILED, 2, 0)
+    rec.on_shutdown()
+    bags = rec.bags
+    assert [b.name.endswith(f"_cycle{c}") for b, c in zip(bags, (1, 2))] == [True, True]
+    counts = [bag_info(b).topics for b in bags]
+    assert counts[0] == {"/joint_states": {"type": "sensor_msgs/msg/JointState", "count": 10},
+                         "/test_cycle/status": {"type": "jointwear_msgs/msg/TestCycleStatus", "count": 2}}
+    assert counts[1]["/joint_states"]["count"] == 7 and counts[1]["/test_cycle/status"]["count"] == 2
+    assert rec.dropped == 6
+    pub_node.destroy_node()
+    rec.destroy_node()

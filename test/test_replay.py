@@ -1,0 +1,172 @@
+"""Offline replay of bags (no ROS runtime): same observations and estimate as recorded; bad bags are one-line errors."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer
+
+from jointwear_ros.cli import main as cli_main
+from jointwear_ros.cli.replay_cmd import config_path
+from jointwear_ros.io.bags import bag_info, node_params_from_yaml, replay_bag
+from jointwear_ros.io.typestore import jointwear_typestore
+from jointwear_ros.monitor import MonitorConfig, WearMonitor
+from jointwear_ros.observer import ObserverConfig, observe_arrays
+from jointwear_ros.observer.synthetic import synthetic_cycle
+
+SPEEDS = (20.0, 80.0, 160.0)
+
+
+def _time(store, t: float):
+    sec = int(np.floor(t))
+    return store.types["builtin_interfaces/msg/Time"](sec=sec, nanosec=round((t - sec) * 1e9) % 1_000_000_000)
+
+
+def _header(store, t: float):
+    return store.types["std_msgs/msg/Header"](stamp=_time(store, t), frame_id="")
+
+
+def _monitor_config() -> MonitorConfig:
+    params = node_params_from_yaml(config_path("wear_estimator.yaml"), "wear_estimator")
+    params["estimator_options"] = {}
+    return MonitorConfig.from_mapping(params)
+
+
+def _observer_config() -> ObserverConfig:
+    return ObserverConfig.from_mapping(node_params_from_yaml(config_path("friction_observer.yaml"), "friction_observer"))
+
+
+@pytest.fixture(scope="module")
+def synthetic_bag(tmp_path_factory) -> tuple[Path, list, object]:
+    """A bag as the recorder writes it: /joint_states (with a second joint), status, and the
+    observations/estimate computed by the observer's vectorised offline path and the monitor."""
+    cyc = synthetic_cycle(SPEEDS, wear=25.0, rate=500.0, noise_std=0.002, seed=3, t0=50.0)
+    out = observe_arrays(_observer_config(), cyc.stamps, cyc.position, cyc.velocity, cyc.effort, cyc.statuses)
+    assert len(out.observations) == len(SPEEDS), out.rejections
+    monitor = WearMonitor(_monitor_config())
+    results = []
+    for o in out.observations:
+        results += monitor.add(o, now=o.stamp)
+    results += monitor.on_status(cyc.statuses[-1][0], 1, cyc.statuses[-1][2], len(SPEEDS), len(SPEEDS), "joint_1")
+    results += monitor.poll(1e12)
+    assert len(results) == 1 and results[0].result is not None
+
+    store = jointwear_typestore()
+    T = store.types
+    path = tmp_path_factory.mktemp("replay") / "bag"
+    msgs: list[tuple[float, str, str, object]] = []
+    for t, p, v, e in zip(cyc.stamps, cyc.position, cyc.velocity, cyc.effort):
+        msgs.append((t, "/joint_states", "sensor_msgs/msg/JointState", T["sensor_msgs/msg/JointState"](
+            header=_header(store, t), name=["joint_0", "joint_1"], position=np.array([0.5, p]),
+            velocity=np.array([0.0, v]), effort=np.array([3.0, e]))))
+    for st in cyc.statuses:
+        t, cid, state, phase, speed, done, total, centre, hw, joint = st
+        msgs.append((t, "/test_cycle/status", "jointwear_msgs/msg/TestCycleStatus", T["jointwear_msgs/msg/TestCycleStatus"](
+            header=_header(store, t), joint_name=joint, cycle_id=cid, state=state, phase=phase, current_speed=speed,
+            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="")))
+    for o in out.observations:
+        d = o.to_dict()
+        t = d.pop("stamp")
+        msgs.append((t + 0.01, "/jointwear/friction_observations", "jointwear_msgs/msg/FrictionObservation",
+                     T["jointwear_msgs/msg/FrictionObservation"](header=_header(store, t), **d)))
+    r = results[0].result
+    msgs.append((results[0].stamp + 0.02, "/jointwear/wear_estimate", "jointwear_msgs/msg/WearEstimate",
+                 T["jointwear_msgs/msg/WearEstimate"](
+                     header=_header(store, results[0].stamp), joint_name="joint_1", cycle_id=1, method=r.method,
+                     wear=r.wear, wear_std=r.wear_std, wear_low=r.wear_low, wear_high=r.wear_high,
+                     temperature_estimate=r.temperature, speeds=np.array(r.speeds, dtype=float),
+                     per_speed_wear=np.array(r.per_speed_wear, dtype=float), alarm_threshold=35.0,
+                     alarm=bool(r.wear >= 35.0))))
+    msgs.sort(key=lambda m: m[0])
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conns = {}
+        for t, topic, typ, msg in msgs:
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, typ, typestore=store)
+            w.write(conns[topic], round(t * 1e9), store.serialize_cdr(msg, typ))
+    return path, out.observations, results[0]
+
+
+def test_replay_of_a_bag_gives_the_recorded_observations_and_estimate(synthetic_bag):
+    path, observations, result = synthetic_bag
+    rep = replay_bag(path, node_params_from_yaml(config_path("friction_observer.yaml"), "friction_observer"),
+                     node_params_from_yaml(config_path("wear_estimator.yaml"), "wear_estimator"))
+    assert [o.to_dict() for o in rep.observations] == [o.to_dict() for o in observations]
+    assert len(rep.cycles) == 1
+    assert rep.cycles[0].result.wear == result.result.wear
+    assert rep.cycles[0].result.wear_std == result.result.wear_std
+    cmp_ = rep.comparison()
+    assert cmp_["observations"]["matched"] == len(SPEEDS) and cmp_["observations"]["max_abs_diff"] == 0.0
+    assert cmp_["estimates"]["matched"] == 1 and cmp_["estimates"]["max_abs_diff"] == 0.0
+
+
+def test_replay_command_prints_json_with_the_demo_fields(synthetic_bag, capsys):
+    path, observations, result = synthetic_bag
+    assert cli_main(["replay", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {"bag", "observations", "wear", "diagnostic_level", "comparison"} <= set(out)
+    assert [o["speed"] for o in out["observations"]] == [o.speed for o in observations]
+    assert out["wear"]["estimate"] == pytest.approx(result.result.wear, abs=0)
+    assert out["wear"]["method"] == result.result.method
+    assert out["comparison"]["estimates"]["max_abs_diff"] == 0.0
+
+
+def test_replay_with_another_method_uses_it_on_the_same_observations(synthetic_bag, capsys):
+    path, _, _ = synthetic_bag
+    assert cli_main(["replay", str(path), "--json", "--method", "paper-grid"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["wear"]["method"] == "paper-grid"
+    assert out["comparison"]["observations"]["max_abs_diff"] == 0.0
+
+
+def test_bag_info_lists_topics_and_counts(synthetic_bag, capsys):
+    path, observations, _ = synthetic_bag
+    info = bag_info(path)
+    assert info.version == 9 and info.storage == "mcap"
+    assert info.topics["/jointwear/friction_observations"]["count"] == len(observations)
+    assert cli_main(["bag", "info", str(path), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["topics"]["/jointwear/wear_estimate"]["count"] == 1
+
+
+def _one_line_error(args: list[str], capsys) -> str:
+    rc = cli_main(args)
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.count("\n") == 1 and err.startswith("jointwear: error: ")
+    return err
+
+
+def test_replay_of_a_missing_path_is_a_one_line_error(tmp_path, capsys):
+    err = _one_line_error(["replay", str(tmp_path / "nope")], capsys)
+    assert "no such bag" in err
+
+
+def test_replay_of_a_directory_that_is_not_a_bag_is_a_one_line_error(tmp_path, capsys):
+    (tmp_path / "notes.txt").write_text("hello")
+    err = _one_line_error(["replay", str(tmp_path)], capsys)
+    assert "not a rosbag2 bag (no metadata.yaml)" in err
+
+
+def test_replay_of_a_truncated_bag_is_a_one_line_error(synthetic_bag, tmp_path, capsys):
+    path, _, _ = synthetic_bag
+    broken = tmp_path / "broken"
+    shutil.copytree(path, broken)
+    mcap = next(broken.glob("*.mcap"))
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[: len(data) // 2])
+    err = _one_line_error(["replay", str(broken)], capsys)
+    assert "cannot read the bag" in err and str(broken) in err
+
+
+def test_replay_of_a_bag_without_joint_states_is_a_one_line_error(tmp_path, capsys):
+    store = jointwear_typestore()
+    path = tmp_path / "other"
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c = w.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
+        w.write(c, 1, store.serialize_cdr(store.types["std_msgs/msg/String"](data="hi"), "std_msgs/msg/String"))
+    err = _one_line_error(["replay", str(path)], capsys)
+    assert "no sensor_msgs/msg/JointState messages on /joint_states" in err
