@@ -172,7 +172,7 @@ def _wear_term(model: Model, params: Parameters, speeds: Array, load: float, wea
     return np.asarray(full - base, dtype=float)
 
 
-def reference_wear(model: Model, params: Parameters, speeds: Sequence[float], load: float,
+def reference_wear(model: Model, params: Parameters, speeds: npt.ArrayLike, load: float,
                    profile: npt.ArrayLike, step: float = 0.05) -> Array:
     """Eq. (16): per row of ``profile`` (k, speeds), the w fitting it best with the model's wear term.
 
@@ -182,7 +182,7 @@ def reference_wear(model: Model, params: Parameters, speeds: Sequence[float], lo
     v = np.asarray(speeds, dtype=float)
     prof = np.atleast_2d(np.asarray(profile, dtype=float))
     lo, hi = WEAR_RANGE
-    grid = np.linspace(lo, hi, int(round((hi - lo) / step)) + 1)
+    grid = np.linspace(lo, hi, round((hi - lo) / step) + 1)
     g = _wear_term(model, params, v, load, grid)  # (grid, speeds)
     sse = (prof * prof).sum(axis=1)[:, None] - 2.0 * prof @ g.T + (g * g).sum(axis=1)[None, :]
     best = np.argmin(sse, axis=1)
