@@ -102,7 +102,7 @@ def test_study_case_cli_json_and_plot(tmp_path, capsys):
 def test_study_case_cli_table_and_bad_arguments(capsys):
     rc = main(["study", "case", "--speeds", "40", "--methods", "paper", "--quiet"])
     out = capsys.readouterr().out
-    assert rc == 0 and "best at 40 rad/s" in out and "first alarm" in out
+    assert rc == 0 and "best at 40.0 rad/s" in out and "first alarm" in out
     for args in (["--mismatch", "0.7"], ["--methods", "joint"], ["--speeds", "a,b"]):
         rc = main(["study", "case", *args, "--quiet"])
         err = capsys.readouterr().err

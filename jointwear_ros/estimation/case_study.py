@@ -284,14 +284,14 @@ class CaseStudyResult:
             "dw = w_hat - w* (w* = Eq. 16 fit of the wear profile over all speeds)",
         ]
         for name, d in self.methods.items():
-            rows = [[f"{v:g}", float(d["mean"][i]), float(d["worst"][i]), float(d["std"][i])]
+            rows = [[f"{v:.1f}", float(d["mean"][i]), float(d["worst"][i]), float(d["std"][i])]
                     for i, v in enumerate(self.speeds) if i % every == 0 or i == d["best_index"]]
             lines.append("")
             lines.append(f"{name}:")
             lines.append(format_table(["speed", "mean dw", "worst |dw|", "std dw"], rows, ".2f"))
             b, det = d["best"], d["detection"]
             lines.append(
-                f"{name}: best at {d['best_speed']:g} rad/s: bias {b['mean']:+.2f}, worst {b['worst']:.2f}, "
+                f"{name}: best at {d['best_speed']:.1f} rad/s: bias {b['mean']:+.2f}, worst {b['worst']:.2f}, "
                 f"std {b['std']:.2f}; threshold {s.threshold:g}: first alarm k = {det['first_alarm']}, "
                 f"confirmed ({s.confirm} in a row) k = {det['first_confirmed']}, "
                 f"false alarms before k = {self.crossing_index}: {det['false_alarms']}, misses after: {det['misses']}"
