@@ -366,7 +366,7 @@ class RecorderNode(Node):
         if self._stopped:
             return
         self._stopped = True
-        saved: dict[int, Any] = {}
+        saved: dict[signal.Signals, Any] = {}
         try:  # a second Ctrl-C must not interrupt closing the bag
             for sig in (signal.SIGINT, signal.SIGTERM):
                 saved[sig] = signal.signal(sig, signal.SIG_IGN)
