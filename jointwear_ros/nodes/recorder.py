@@ -109,9 +109,23 @@ class _Bag:
         self._writer.open()
         self._conns: dict[str, Any] = {}
         self._last = -1
+        self._pre_clock: list[_Item] = []
         self.count = 0
 
     def write(self, item: _Item) -> None:
+        # Under use_sim_time the node's clock reads 0 until the first /clock arrives:
+        # hold those messages and stamp them with the first real time, so the bag's
+        # start time and duration are the cycle's, not 1970's (their order is kept).
+        if item.stamp <= 0:
+            self._pre_clock.append(item)
+            return
+        if self._pre_clock:
+            held, self._pre_clock = self._pre_clock, []
+            for h in held:
+                self._write(_Item(h.topic, h.msgtype, item.stamp, h.data))
+        self._write(item)
+
+    def _write(self, item: _Item) -> None:
         conn = self._conns.get(item.topic)
         if conn is None:
             conn = self._writer.add_connection(
@@ -126,6 +140,9 @@ class _Bag:
         self.count += 1
 
     def close(self) -> None:
+        held, self._pre_clock = self._pre_clock, []
+        for h in held:  # no clock ever came: keep them at time 0 rather than lose them
+            self._write(h)
         self._writer.close()
 
 
@@ -349,7 +366,7 @@ class RecorderNode(Node):
         if self._stopped:
             return
         self._stopped = True
-        saved: dict[int, Any] = {}
+        saved: dict[signal.Signals, Any] = {}
         try:  # a second Ctrl-C must not interrupt closing the bag
             for sig in (signal.SIGINT, signal.SIGTERM):
                 saved[sig] = signal.signal(sig, signal.SIG_IGN)
