@@ -52,6 +52,7 @@ def test_demo_bag_holds_the_whole_run_and_reads_back(demos):
     assert res.bag is not None
     info = bag_info(res.bag)
     assert info.version == 9 and info.storage == "mcap"
+    assert 0 < info.duration_ns < 600e9, info.duration_ns  # sim time throughout (nothing logged at time 0)
     for topic in ("/joint_states", "/test_cycle/status", "/velocity_controller/commands", "/clock",
                   "/jointwear/friction_observations", "/jointwear/wear_estimate", "/diagnostics"):
         assert info.topics.get(topic, {}).get("count", 0) > 0, topic
@@ -59,6 +60,28 @@ def test_demo_bag_holds_the_whole_run_and_reads_back(demos):
     logs = Path(res.logs)
     assert {p.name for p in logs.glob("*.log")} >= {"recorder.log", "joint_sim.log", "test_cycle.log",
                                                     "friction_observer.log", "wear_estimator.log"}
+
+
+def test_demo_bag_reads_back_with_the_mcap_library_as_with_rosbags(demos):
+    from mcap.reader import make_reader
+
+    from jointwear_ros.io.typestore import jointwear_typestore
+
+    res = demos[20.0]
+    info = bag_info(res.bag)
+    [mcap_file] = sorted(Path(res.bag).glob("*.mcap"))
+    store = jointwear_typestore()
+    counts: dict[str, int] = {}
+    observations = []
+    with mcap_file.open("rb") as fh:
+        for schema, channel, message in make_reader(fh).iter_messages():
+            assert channel.message_encoding == "cdr" and schema.encoding == "ros2msg", channel.topic
+            assert schema.name == info.topics[channel.topic]["type"], channel.topic
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.topic == "/jointwear/friction_observations":
+                observations.append(store.deserialize_cdr(message.data, schema.name))
+    assert counts == {t: v["count"] for t, v in info.topics.items()}
+    assert sorted(o.tau_f for o in observations) == sorted(o["tau_f"] for o in res.observations)
 
 
 def test_the_diagnostics_carry_the_estimate_and_the_temperature_estimate(demos):

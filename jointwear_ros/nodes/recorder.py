@@ -14,7 +14,9 @@ the typestore), so the callbacks only enqueue.
 starts a bag when ``/test_cycle/status`` shows a new ``cycle_id`` RUNNING and
 closes it ``cycle_tail`` seconds after that cycle's DONE/ABORTED/FAILED (so
 the cycle's WearEstimate is in it) or when the next cycle starts. On shutdown
-the open bag is closed properly. A failed write is logged and counted; it does
+the open bag is closed properly. Log times are the node's clock (sim time with
+``use_sim_time``); messages received before the first ``/clock`` (ROS time 0)
+are logged at the first real time instead, so a bag never spans from 1970. A failed write is logged and counted; it does
 not stop the node.
 """
 
@@ -110,8 +112,20 @@ class _Bag:
         self._conns: dict[str, Any] = {}
         self._last = -1
         self.count = 0
+        # received at ROS time 0: use_sim_time and no /clock yet; logged at the first real time
+        self._pending: list[_Item] = []
 
     def write(self, item: _Item) -> None:
+        if item.stamp <= 0 and self._last < 0:
+            self._pending.append(item)
+            return
+        if self._pending:
+            pending, self._pending = self._pending, []
+            for p in pending:
+                self._write(_Item(p.topic, p.msgtype, item.stamp, p.data))
+        self._write(item)
+
+    def _write(self, item: _Item) -> None:
         conn = self._conns.get(item.topic)
         if conn is None:
             conn = self._writer.add_connection(
@@ -126,6 +140,9 @@ class _Bag:
         self.count += 1
 
     def close(self) -> None:
+        pending, self._pending = self._pending, []
+        for p in pending:  # the clock never started: keep them at time 0
+            self._write(p)
         self._writer.close()
 
 
