@@ -14,9 +14,7 @@ the typestore), so the callbacks only enqueue.
 starts a bag when ``/test_cycle/status`` shows a new ``cycle_id`` RUNNING and
 closes it ``cycle_tail`` seconds after that cycle's DONE/ABORTED/FAILED (so
 the cycle's WearEstimate is in it) or when the next cycle starts. On shutdown
-the open bag is closed properly. Log times are the node's clock (sim time with
-``use_sim_time``); messages received before the first ``/clock`` (ROS time 0)
-are logged at the first real time instead, so a bag never spans from 1970. A failed write is logged and counted; it does
+the open bag is closed properly. A failed write is logged and counted; it does
 not stop the node.
 """
 
@@ -111,18 +109,20 @@ class _Bag:
         self._writer.open()
         self._conns: dict[str, Any] = {}
         self._last = -1
+        self._pre_clock: list[_Item] = []
         self.count = 0
-        # received at ROS time 0: use_sim_time and no /clock yet; logged at the first real time
-        self._pending: list[_Item] = []
 
     def write(self, item: _Item) -> None:
-        if item.stamp <= 0 and self._last < 0:
-            self._pending.append(item)
+        # Under use_sim_time the node's clock reads 0 until the first /clock arrives:
+        # hold those messages and stamp them with the first real time, so the bag's
+        # start time and duration are the cycle's, not 1970's (their order is kept).
+        if item.stamp <= 0:
+            self._pre_clock.append(item)
             return
-        if self._pending:
-            pending, self._pending = self._pending, []
-            for p in pending:
-                self._write(_Item(p.topic, p.msgtype, item.stamp, p.data))
+        if self._pre_clock:
+            held, self._pre_clock = self._pre_clock, []
+            for h in held:
+                self._write(_Item(h.topic, h.msgtype, item.stamp, h.data))
         self._write(item)
 
     def _write(self, item: _Item) -> None:
@@ -140,9 +140,9 @@ class _Bag:
         self.count += 1
 
     def close(self) -> None:
-        pending, self._pending = self._pending, []
-        for p in pending:  # the clock never started: keep them at time 0
-            self._write(p)
+        held, self._pre_clock = self._pre_clock, []
+        for h in held:  # no clock ever came: keep them at time 0 rather than lose them
+            self._write(h)
         self._writer.close()
 
 
@@ -366,7 +366,7 @@ class RecorderNode(Node):
         if self._stopped:
             return
         self._stopped = True
-        saved: dict[int, Any] = {}
+        saved: dict[signal.Signals, Any] = {}
         try:  # a second Ctrl-C must not interrupt closing the bag
             for sig in (signal.SIGINT, signal.SIGTERM):
                 saved[sig] = signal.signal(sig, signal.SIG_IGN)
