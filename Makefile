@@ -48,10 +48,10 @@ $(VENV)/.stamp-pkg: $(VENV)/.stamp-msgs setup.py setup.cfg
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e . 2>&1 | { grep -v "is ignored: it is neither" || true; }
 	@touch $@
 
-# Until the node suite lands, the main job is a smoke demo of the model core.
+# The main job: the simulated cell (five nodes on loopback DDS), one 8-speed test
+# cycle by service call, the wear estimate, the diagnostic level and the MCAP bag.
 demo: env
-	$(VENV)/bin/jointwear model curve --params ref-2011r --load 0.1 --temperature 40 --wear 35 \
-	  --speeds 0,10,25,47,80,150,280 --plot out/demo/friction_curve_w35.png
+	$(VENV)/bin/jointwear demo --out out/demo
 
 test: env
 	$(PY) -m pytest -q test

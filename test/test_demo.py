@@ -19,7 +19,7 @@ pytest.importorskip("rclpy")
 
 from jointwear_ros.cli.demo_cmd import run_demo
 from jointwear_ros.cli.replay_cmd import config_path
-from jointwear_ros.io.bags import bag_info, node_params_from_yaml, replay_bag
+from jointwear_ros.io.bags import bag_info, node_params_from_yaml, read_messages, replay_bag
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -61,6 +61,46 @@ def test_demo_bag_holds_the_whole_run_and_reads_back(demos):
     logs = Path(res.logs)
     assert {p.name for p in logs.glob("*.log")} >= {"recorder.log", "joint_sim.log", "test_cycle.log",
                                                     "friction_observer.log", "wear_estimator.log"}
+
+
+def test_demo_bag_reads_back_with_the_mcap_library_as_with_rosbags(demos):
+    from mcap.reader import make_reader
+
+    from jointwear_ros.io.typestore import jointwear_typestore
+
+    res = demos[20.0]
+    info = bag_info(res.bag)
+    [mcap_file] = sorted(Path(res.bag).glob("*.mcap"))
+    store = jointwear_typestore()
+    counts: dict[str, int] = {}
+    observations = []
+    with mcap_file.open("rb") as fh:
+        for schema, channel, message in make_reader(fh).iter_messages():
+            assert channel.message_encoding == "cdr" and schema.encoding == "ros2msg", channel.topic
+            assert schema.name == info.topics[channel.topic]["type"], channel.topic
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.topic == "/jointwear/friction_observations":
+                observations.append(store.deserialize_cdr(message.data, schema.name))
+    assert counts == {t: v["count"] for t, v in info.topics.items()}
+    assert sorted(o.tau_f for o in observations) == sorted(o["tau_f"] for o in res.observations)
+
+
+def test_the_diagnostics_carry_the_estimate_and_the_temperature_estimate(demos):
+    res = demos[20.0]
+    wanted = {"wear", "wear_std", "method", "cycle_id", "temperature_estimate"}
+    found = []
+    for m in read_messages(res.bag, topics=["/diagnostics"]):
+        for st in m.msg.status:
+            kv = {v.key: v.value for v in st.values}
+            if st.name == "wear_estimator: joint_1" and kv.get("cycle_id") == str(res.cycle_id):
+                found.append(kv)
+    assert found, "no /diagnostics status of the cycle in the bag"
+    kv = found[-1]
+    assert wanted <= set(kv), sorted(wanted - set(kv))
+    assert kv["method"] == res.estimate["method"]
+    if res.estimate["method"] == "joint":  # estimates T: the simulator runs at 40 degC (config)
+        assert abs(float(kv["temperature_estimate"]) - 40.0) < 5.0, kv["temperature_estimate"]
+        assert res.as_dict()["wear"]["temperature"] == res.estimate["temperature_estimate"]
 
 
 def test_record_then_replay_gives_equal_observations_and_estimate(demos):

@@ -189,6 +189,30 @@ def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
     assert counts[0] == {"/joint_states": {"type": "sensor_msgs/msg/JointState", "count": 10},
                          "/test_cycle/status": {"type": "jointwear_msgs/msg/TestCycleStatus", "count": 2}}
     assert counts[1]["/joint_states"]["count"] == 7 and counts[1]["/test_cycle/status"]["count"] == 2
+    for b, c in zip(bags, counts):  # each per-cycle bag reads back with the mcap library too
+        assert _read_with_mcap(b)[0] == {t: v["count"] for t, v in c.items()}
     assert rec.dropped == 6
     pub_node.destroy_node()
     rec.destroy_node()
+
+
+def test_messages_received_before_the_sim_clock_starts_are_logged_at_its_first_time(tmp_path):
+    # use_sim_time without /clock yet: ROS time reads 0; those messages must not stretch the bag to 1970
+    from jointwear_ros.io.typestore import jointwear_typestore
+    from jointwear_ros.nodes.recorder import _Bag, _Item
+
+    store = jointwear_typestore()
+    data = bytes(store.serialize_cdr(store.types["std_msgs/msg/String"](data="x"), "std_msgs/msg/String"))
+    t0 = 1_795_000_000_000_000_000
+    bag = _Bag(tmp_path / "b", store, {})
+    for stamp in (0, 0, t0, t0 + 10):
+        bag.write(_Item("/s", "std_msgs/msg/String", stamp, data))
+    bag.close()
+    info = bag_info(tmp_path / "b")
+    assert info.message_count == 4 and info.start_ns == t0 and info.duration_ns < 100
+    assert [m.log_time for m in read_messages(tmp_path / "b")] == [t0, t0 + 1, t0 + 2, t0 + 10]
+
+    never = _Bag(tmp_path / "c", store, {})  # the clock never started: kept, at time 0
+    never.write(_Item("/s", "std_msgs/msg/String", 0, data))
+    never.close()
+    assert [m.log_time for m in read_messages(tmp_path / "c")] == [0]

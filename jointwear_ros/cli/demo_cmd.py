@@ -189,7 +189,8 @@ class DemoResult:
             "observations": self.observations,
             "wear": {"estimate": self.estimate.get("wear"), "std": self.estimate.get("wear_std"),
                      "method": self.estimate.get("method"), "low": self.estimate.get("wear_low"),
-                     "high": self.estimate.get("wear_high")},
+                     "high": self.estimate.get("wear_high"),
+                     "temperature": self.estimate.get("temperature_estimate")},
             "true_wear": self.true_wear,
             "diagnostic_level": self.diagnostic_level,
             "diagnostic_message": self.diagnostic_message,
@@ -476,6 +477,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
         z = (e["wear"] - res.true_wear) / e["wear_std"] if e["wear_std"] > 0 else math.nan
         print(f"wear estimate: {e['wear']:.2f} ± {e['wear_std']:.2f} ({e['method']}); true wear {res.true_wear:g} "
               f"({z:+.1f} std)")
+        t = e.get("temperature_estimate")
+        if t is not None and math.isfinite(t):
+            print(f"joint temperature estimate: {t:.1f} degC (from the friction curve; no sensor used)")
     else:
         print(f"wear estimate: none (cycle {res.final_state}); true wear {res.true_wear:g}")
     print(f"diagnostic level: {res.diagnostic_level} ({res.diagnostic_message})")
