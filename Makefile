@@ -60,7 +60,7 @@ bench: env
 	$(PY) bench/run_all.py
 
 lint: env
-	$(VENV)/bin/ruff check jointwear_ros test tools bench
+	$(VENV)/bin/ruff check jointwear_ros test tools bench launch
 	$(VENV)/bin/mypy
 
 clean:

@@ -361,7 +361,7 @@ def run_demo(
         if not accepted:
             raise DemoError(f"/test_cycle/run refused the request: {message}")
         _progress(f"cycle {cycle_id} accepted: {message}")
-        shown = [None]
+        shown: list[tuple[int, int] | None] = [None]
 
         def tick() -> None:
             st = op.status if op is not None else None
@@ -369,7 +369,7 @@ def run_demo(
                 return
             key = (st.state, st.speeds_done)
             if key != shown[0]:
-                shown[0] = key  # type: ignore[assignment]
+                shown[0] = key
                 state = _STATES.get(st.state, str(st.state))
                 extra = f": {st.message}" if st.state in (3, 4) and st.message else ""
                 _progress(f"cycle {cycle_id} {state}, speeds done {st.speeds_done}/{st.speeds_total}{extra}")

@@ -22,10 +22,10 @@ __all__ = [
     "DEFAULT_PARAMS",
     "WEAR_RANGE",
     "Rows",
-    "resolve_model",
-    "prepare_rows",
     "combine_rows",
     "make_rng",
+    "prepare_rows",
+    "resolve_model",
 ]
 
 Array = npt.NDArray[np.float64]

@@ -27,7 +27,7 @@ import numpy.typing as npt
 from ..errors import ModelError
 from ..model import Model, Parameters
 
-__all__ = ["WearInverse", "TemperatureTable", "base_friction"]
+__all__ = ["TemperatureTable", "WearInverse", "base_friction"]
 
 Array = npt.NDArray[np.float64]
 

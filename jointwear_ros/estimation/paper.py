@@ -34,7 +34,7 @@ from ..types import ObservationTable, WearResult
 from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, Rows, combine_rows, make_rng, prepare_rows, resolve_model
 from .inverse import TemperatureTable, WearInverse, base_friction
 
-__all__ = ["PaperEstimator", "PaperGridEstimator", "PAPER_TEMPERATURE_RANGE", "PAPER_N_SAMPLES"]
+__all__ = ["PAPER_N_SAMPLES", "PAPER_TEMPERATURE_RANGE", "PaperEstimator", "PaperGridEstimator"]
 
 Array = npt.NDArray[np.float64]
 
@@ -246,7 +246,7 @@ class PaperGridEstimator(_PaperBase):
         if not (grid_step > 0 and math.isfinite(grid_step)):
             raise InputDataError(f"grid_step = {grid_step!r} must be a positive number")
         lo, hi = self.wear_range
-        n = int(round((hi - lo) / grid_step)) + 1
+        n = round((hi - lo) / grid_step) + 1
         self.grid = np.linspace(lo, hi, n)
         self.grid_step = (hi - lo) / (n - 1)
 

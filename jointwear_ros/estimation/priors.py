@@ -25,7 +25,7 @@ from scipy.special import roots_legendre
 
 from ..errors import InputDataError
 
-__all__ = ["TemperaturePrior", "parse_temperature_prior", "uniform_prior", "normal_prior"]
+__all__ = ["TemperaturePrior", "normal_prior", "parse_temperature_prior", "uniform_prior"]
 
 Array = npt.NDArray[np.float64]
 
