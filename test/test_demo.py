@@ -136,3 +136,57 @@ def test_replay_command_on_the_demo_bag_prints_the_demo_fields(demos):
     out = json.loads(proc.stdout)
     assert out["wear"]["estimate"] == res.estimate["wear"]
     assert out["comparison"]["estimates"]["max_abs_diff"] == 0.0
+
+
+def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos):
+    """`jointwear replay --publish`: every played message arrives, /clock follows the log times."""
+    import time
+
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
+
+    from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
+
+    res = demos[20.0]
+    info = bag_info(res.bag)
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = rclpy.create_node("replay_listener", context=ctx)
+    got: dict[str, list] = {"obs": [], "status": [], "clock": []}
+    qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    node.create_subscription(FrictionObservation, "/jointwear/friction_observations",
+                             lambda m: got["obs"].append(m.tau_f), qos)
+    node.create_subscription(TestCycleStatus, "/test_cycle/status", lambda m: got["status"].append(m.state), qos)
+    node.create_subscription(Clock, "/clock", lambda m: got["clock"].append(m.clock.sec * 10**9 + m.clock.nanosec),
+                             QoSProfile(depth=1000))
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    proc = subprocess.Popen(
+        [str(Path(sys.executable).with_name("jointwear")), "replay", str(res.bag), "--publish", "--rate", "50",
+         "--delay", "3", "--topics", "/jointwear/friction_observations,/test_cycle/status"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 90.0
+        while proc.poll() is None and time.monotonic() < deadline:
+            ex.spin_once(timeout_sec=0.05)
+        end = time.monotonic() + 2.0
+        while time.monotonic() < end:  # the last messages in flight
+            ex.spin_once(timeout_sec=0.05)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        ex.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=ctx)
+    out, err = proc.communicate()
+    assert proc.returncode == 0, err
+    n_obs = info.topics["/jointwear/friction_observations"]["count"]
+    n_status = info.topics["/test_cycle/status"]["count"]
+    assert f"published {n_obs + n_status} messages" in err
+    assert sorted(got["obs"]) == sorted(o["tau_f"] for o in res.observations)
+    assert len(got["status"]) == n_status
+    clock = got["clock"]
+    assert clock and clock == sorted(clock)
+    assert info.start_ns <= clock[0] and clock[-1] <= info.start_ns + info.duration_ns

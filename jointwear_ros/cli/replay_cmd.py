@@ -58,6 +58,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--ignore-recorded-params", action="store_true",
                    help="use only the params files, not the parameters recorded in /parameter_events")
     p.add_argument("--publish", action="store_true", help="play the bag onto a live ROS graph instead")
+    p.add_argument("--delay", default="0.5",
+                   help="with --publish: seconds to wait after creating the publishers so that "
+                        "subscribers match before the first message (default 0.5)")
     p.add_argument("--rate", default="1.0", help="with --publish: playback speed factor (default 1 = recorded speed)")
     p.add_argument("--topics", default=None,
                    help="with --publish: comma list of topics to play (default: all but /clock, /rosout, "
@@ -156,6 +159,9 @@ def _publish(args: argparse.Namespace) -> int:
     rate = parse_float(args.rate, "--rate")
     if not rate > 0:
         raise UsageError(f"--rate: {args.rate!r} must be > 0")
+    delay_s = parse_float(args.delay, "--delay")
+    if not 0 <= delay_s <= 3600:
+        raise UsageError(f"--delay: {args.delay!r} must be between 0 and 3600 s")
     bag = _check_bag_path(Path(args.bag))
     try:
         import rclpy
@@ -191,7 +197,7 @@ def _publish(args: argparse.Namespace) -> int:
                 conns.append(c)
             clock_pub = node.create_publisher(Clock, "/clock", 10)
             print(f"jointwear replay: playing {len(conns)} topics of {bag} at {rate:g}x", file=sys.stderr)
-            time.sleep(0.5)  # let subscribers match the new publishers
+            time.sleep(delay_s)  # let subscribers match the new publishers
             t0_log: int | None = None
             t0_wall = time.monotonic()
             last_clock = -1
