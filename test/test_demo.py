@@ -143,11 +143,10 @@ def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos):
     import time
 
     import rclpy
+    from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
-
-    from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
 
     res = demos[20.0]
     info = bag_info(res.bag)
@@ -180,7 +179,7 @@ def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos):
         ex.shutdown()
         node.destroy_node()
         rclpy.shutdown(context=ctx)
-    out, err = proc.communicate()
+    _out, err = proc.communicate()
     assert proc.returncode == 0, err
     n_obs = info.topics["/jointwear/friction_observations"]["count"]
     n_status = info.topics["/test_cycle/status"]["count"]
