@@ -63,6 +63,16 @@ def test_design_table_names_the_speeds_and_the_comparison(capsys):
     assert rc == 0
     assert "2 speeds x 14 s" in out
     assert "bound std on w of this cycle" in out and "paper's best single speed" in out
+    assert "speed 0 cannot be swept" in out  # 0 was a candidate and is in the design
+
+
+def test_default_candidates_give_a_cycle_the_test_cycle_node_accepts(capsys):
+    from jointwear_ros.cycle import CycleConfig, plan_cycle
+
+    rc = main(["cycle", "design", "--budget", "42", "--json"])
+    speeds = json.loads(capsys.readouterr().out)["speeds"]
+    assert rc == 0 and len(speeds) == 3 and min(speeds) > 0
+    plan_cycle(CycleConfig(), speeds)  # raises CycleRequestError for a speed a cycle cannot run
 
 
 @pytest.mark.parametrize(
@@ -87,3 +97,14 @@ def test_bad_arguments_give_one_line_and_exit_code_2(capsys, args, match):
     err = capsys.readouterr().err
     assert rc == 2
     assert err.count("\n") == 1 and match in err
+
+
+def test_output_piped_into_head_is_not_a_traceback():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    exe = Path(sys.executable).with_name("jointwear")
+    p = subprocess.run(f"'{exe}' model curve --speeds 0:280:2000 --json | head -c 10", shell=True,
+                       capture_output=True, text=True, timeout=60)
+    assert p.stdout.startswith("{") and "Traceback" not in p.stderr and "BrokenPipe" not in p.stderr, p.stderr

@@ -18,7 +18,7 @@ from .common import format_table, parse_float, parse_float_list, print_json
 
 __all__ = ["register"]
 
-DEFAULT_CANDIDATES = "0:280:57"
+DEFAULT_CANDIDATES = "5:280:56"  # every 5 rad/s; a test cycle cannot sweep at 0
 #: Largest cycle the search handles in reasonable time.
 MAX_SPEEDS = 64
 
@@ -108,4 +108,10 @@ def cmd_design(args: argparse.Namespace) -> int:
           f"repeated {d.n_speeds}x {d.repeated_best_bound_std:.3f}")
     print(f"design / repeated best single speed: {d.bound_std / d.repeated_best_bound_std:.3f} "
           f"({d.gain:.2f}x smaller std)")
+    speeds = ",".join(f"{v:g}" for v in sorted(d.speeds))
+    if all(v > 0 for v in d.speeds):
+        print(f"run it: jointwear demo --speeds {speeds}   "
+              f"(on a cell: RunTestCycle speeds: [{speeds.replace(',', ', ')}])")
+    else:
+        print("note: speed 0 cannot be swept by a test cycle; use candidates > 0 to run this design")
     return 0
