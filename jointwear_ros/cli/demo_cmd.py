@@ -305,6 +305,11 @@ def _msg_dict(msg: Any, names: Sequence[str]) -> dict[str, Any]:
     return message_fields(msg, names)
 
 
+def _after(deadline: float) -> Callable[[], bool]:
+    """A predicate that turns true at ``deadline`` (time.monotonic)."""
+    return lambda: time.monotonic() > deadline
+
+
 def run_demo(
     wear: float,
     speeds: Sequence[float] | None,
@@ -357,7 +362,16 @@ def run_demo(
         missing = _ready_conditions(op)
         op.spin_until(lambda: not missing(), 60.0, children, "the nodes to connect")
         _progress(f"graph connected after {time.monotonic() - t_start:.1f} s; calling /test_cycle/run")
-        accepted, cycle_id, message = op.call_run(speeds or [], children, 30.0)
+        # As an operator would: a refusal because the joint state is not there yet or late
+        # (nodes still starting on a loaded machine) is retried for a while; any other is final.
+        retry_end = time.monotonic() + 20.0
+        while True:
+            accepted, cycle_id, message = op.call_run(speeds or [], children, 30.0)
+            transient = "no joint state" in message or "s old (state_timeout" in message
+            if accepted or not transient or time.monotonic() > retry_end:
+                break
+            _progress(f"/test_cycle/run refused ({message}); retrying in 1 s")
+            op.spin_until(_after(time.monotonic() + 1.0), 5.0, children, "a retry")
         if not accepted:
             raise DemoError(f"/test_cycle/run refused the request: {message}")
         _progress(f"cycle {cycle_id} accepted: {message}")
