@@ -215,6 +215,13 @@ def _publish(args: argparse.Namespace) -> int:
                     last_clock = t
                 pubs[conn.id].publish(bytes(raw))
                 played += 1
+            # reliable subscribers get the last messages before this process goes away
+            from rclpy.duration import Duration
+
+            unacked = [c.topic for c in conns if not pubs[c.id].wait_for_all_acked(Duration(seconds=5))]
+            if unacked:
+                print(f"jointwear replay: not every subscriber acknowledged the last messages of "
+                      f"{', '.join(unacked)} within 5 s", file=sys.stderr)
     except InputDataError:
         raise
     except KeyboardInterrupt:
