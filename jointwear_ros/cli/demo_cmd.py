@@ -31,6 +31,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+import yaml
+
 from ..errors import JointwearError
 from . import UsageError
 from .common import format_table, parse_float, parse_float_list, print_json
@@ -305,6 +307,15 @@ def _msg_dict(msg: Any, names: Sequence[str]) -> dict[str, Any]:
     return message_fields(msg, names)
 
 
+def _config_done_timeout() -> float:
+    """done_timeout of config/wear_estimator.yaml (2 s if it cannot be read)."""
+    try:
+        values = yaml.safe_load(config_path("wear_estimator.yaml").read_text())
+        return float(values["wear_estimator"]["ros__parameters"]["done_timeout"])
+    except Exception:
+        return 2.0
+
+
 def _after(deadline: float) -> Callable[[], bool]:
     """A predicate that turns true at ``deadline`` (time.monotonic)."""
     return lambda: time.monotonic() > deadline
@@ -347,7 +358,10 @@ def run_demo(
         "joint_sim": sim_params,
         "test_cycle": {"use_sim_time": True, "simulator": True},
         "friction_observer": {"use_sim_time": True},
-        "wear_estimator": {"use_sim_time": True, **({"method": method} if method else {})},
+        # The last speed's observation comes just after DONE; done_timeout runs in sim time,
+        # so scale it to keep the config's grace in wall seconds on a loaded machine.
+        "wear_estimator": {"use_sim_time": True, "done_timeout": _config_done_timeout() * float(real_time_factor),
+                           **({"method": method} if method else {})},
     }
     for node, values in (overrides or {}).items():
         params[node].update(values)
