@@ -134,7 +134,7 @@ def test_replay_command_on_the_demo_bag_prints_the_demo_fields(demos):
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
-    assert out["wear"]["estimate"] == res.estimate["wear"]
+    assert out["wear"]["estimate"] == res.estimate["wear"], out["comparison"]
     assert out["comparison"]["estimates"]["max_abs_diff"] == 0.0
 
 

@@ -106,14 +106,18 @@ class Operator:
             self.executor.spin_once(timeout_sec=0.02)
         return predicate()
 
-    def call(self, client, request, timeout: float = 15.0):
+    def call(self, client, request, timeout: float = 15.0, attempts: int = 1):
+        """Call and wait; ``attempts`` > 1 re-sends a request that is safe to repeat: right after
+        discovery the first response can be lost (the client's response reader not yet matched)."""
         assert self.spin_until(client.service_is_ready, timeout), f"service {client.srv_name} not available"
-        fut = client.call_async(request)
-        assert self.spin_until(fut.done, timeout), f"no answer from {client.srv_name}"
-        return fut.result()
+        for _ in range(attempts):
+            fut = client.call_async(request)
+            if self.spin_until(fut.done, timeout / attempts):
+                return fut.result()
+        raise AssertionError(f"no answer from {client.srv_name}")
 
-    def run(self, **kwargs) -> RunTestCycle.Response:
-        return self.call(self.run_client, RunTestCycle.Request(**kwargs))
+    def run(self, attempts: int = 1, **kwargs) -> RunTestCycle.Response:
+        return self.call(self.run_client, RunTestCycle.Request(**kwargs), attempts=attempts)
 
     def start(self, timeout: float = 20.0, **kwargs) -> RunTestCycle.Response:
         """Request a cycle, retrying while test_cycle has not seen a joint state yet (it may start later than us)."""
@@ -289,7 +293,7 @@ def test_watchdog_stops_the_joint_when_joint_states_stop(context, operator):
     sim = None
     try:
         assert operator.spin_until(lambda: operator.run_client.service_is_ready(), 30.0)
-        early = operator.run(speeds=[20.0])
+        early = operator.run(speeds=[20.0], attempts=3)  # a refusal: safe to re-send
         assert not early.accepted and "no joint state for joint_1 received yet" in early.message
         sim = Child("joint_sim", {})
         assert operator.spin_until(lambda: operator.joint_states > 20, 30.0)

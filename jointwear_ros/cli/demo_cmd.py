@@ -264,11 +264,28 @@ class _Operator:
         return {i.node_name for i in self.node.get_subscriptions_info_by_topic(topic)}
 
     def call_run(self, speeds: Sequence[float], children: Sequence[Child], timeout: float) -> tuple[bool, int, str]:
+        self._warm_up(speeds, children, timeout)
         req = self.Request(joint_name=self.joint_name, speeds=[float(s) for s in speeds], position=0.0, dry_run=False)
         fut = self.client.call_async(req)
         self.spin_until(fut.done, timeout, children, "the answer of /test_cycle/run")
         resp = fut.result()
         return bool(resp.accepted), int(resp.cycle_id), str(resp.message)
+
+    def _warm_up(self, speeds: Sequence[float], children: Sequence[Child], timeout: float) -> None:
+        """A dry run, re-sent every 3 s until answered: right after discovery a service's first
+        response can be lost (the client's response reader not yet matched), and a dry run is
+        safe to repeat where the real request is not."""
+        req = self.Request(joint_name=self.joint_name, speeds=[float(s) for s in speeds], position=0.0, dry_run=True)
+        end = time.monotonic() + timeout
+        while True:
+            fut = self.client.call_async(req)
+            try:
+                self.spin_until(fut.done, 3.0, children, "the answer of /test_cycle/run (dry run)")
+                return
+            except DemoError as exc:
+                if "timed out" not in str(exc) or time.monotonic() > end:
+                    raise  # a node died, or no answer at all
+                _progress("no answer from /test_cycle/run yet; asking again")
 
     def close(self) -> None:
         try:
