@@ -1,6 +1,8 @@
 """The demo on a real graph: five node processes over loopback DDS, a cycle by service call, the estimate.
 
-Few speeds and sim time 4x faster than wall time keep it quick; the checks are
+Few speeds and sim time 2x faster than wall time keep it quick (at 4x a loaded CI machine most likely
+stalled the recorder past the 1000-deep /joint_states history now and then, and the
+bag, hence the replay, missed samples the live observer had); the checks are
 the issue's: the estimate within 3 standard deviations of the true wear, the
 diagnostic level OK / OK-or-WARN / ERROR at wear 0 / 20 / 40, and the bag's
 offline replay equal to the live run.
@@ -32,7 +34,7 @@ def demos(tmp_path_factory):
     out = {}
     for wear in LEVELS:
         d = tmp_path_factory.mktemp(f"demo_w{wear:g}")
-        out[wear] = run_demo(wear, SPEEDS, d, real_time_factor=4.0, timeout=120.0)
+        out[wear] = run_demo(wear, SPEEDS, d, real_time_factor=2.0, timeout=120.0)
     return out
 
 
