@@ -157,8 +157,13 @@ class TestCycleNode(Node):
                 f"JointState names {self.joint_name} but has no position for it; ignored", throttle_duration_sec=2.0
             )
             return
-        self.reading = JointReading(self._now(), pos, vel, eff)
+        now = self._now()
         self._wall_last_state = time.monotonic()
+        if now <= 0.0:
+            # use_sim_time and no /clock yet: the receipt time would be 0 and the state look
+            # 1.8e9 s old; wait for a state received on a running clock
+            return
+        self.reading = JointReading(now, pos, vel, eff)
 
     def _on_run(self, req: RunTestCycle.Request, resp: RunTestCycle.Response) -> RunTestCycle.Response:
         resp.accepted = False
