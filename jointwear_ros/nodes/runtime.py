@@ -83,10 +83,12 @@ def run_node(
     stop: list[int] = []
 
     def _terminate(signum: int, frame: object) -> None:
-        if events:  # the spin_once loop checks the flag: no exception inside a C++-called callback
-            stop.append(signum)
-            return
-        raise KeyboardInterrupt
+        # Only set a flag, checked by the spin_once loops below. Raising KeyboardInterrupt here
+        # (what rclpy's own handler amounts to) lands wherever the main thread happens to be,
+        # including inside a pybind11 conversion while rclpy takes a message; pybind11 then
+        # reports "Unable to convert call argument '0' to Python object" instead, and a clean
+        # SIGINT looked like a crash (exit code 1, seen in CI on test_cycle).
+        stop.append(signum)
 
     signal.signal(signal.SIGTERM, _terminate)
     signal.signal(signal.SIGINT, _terminate)
@@ -95,8 +97,6 @@ def run_node(
     try:
         node = factory()
         events_executor = _events_executor() if events else None
-        if events and events_executor is None:
-            events = False  # fall back: the handler must raise again
         if events_executor is not None:
             events_executor.add_node(node)
             while rclpy.ok() and not stop:
@@ -107,7 +107,7 @@ def run_node(
             # spin_once with a wall-clock timeout, not spin(): a node on sim time whose
             # /clock has stopped would block in rcl_wait forever and never run the
             # Python signal handler, so SIGINT/SIGTERM could not stop it.
-            while context_ok(executor):
+            while context_ok(executor) and not stop:
                 executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
