@@ -86,7 +86,43 @@ def test_cycle_is_estimated_after_timeout_following_done():
     assert len(results) == 1 and results[0].level == OK
     assert "3 of 5 speeds observed" in results[0].message
     assert mon.poll(30.0) == []  # once only
-    assert mon.add(_obs(4, 20.0)[0]) == [] and "after its estimate" in mon.ignored[-1]
+    assert mon.add(_obs(4, 20.0)[0]) == [] and "received twice" in mon.ignored[-1]
+
+
+def test_a_late_observation_revises_the_cycle_estimate():
+    mon = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5))
+    speeds = (20.0, 30.0, 40.0, 50.0)
+    obs = _obs(4, 36.0, temperature=40.0, speeds=speeds)
+    mon.on_status(9.0, 4, STATE_RUNNING, 0, 4, "joint_1")
+    for o in obs[:3]:
+        assert mon.add(o) == []
+    mon.on_status(20.0, 4, STATE_DONE, 4, 4, "joint_1")
+    (first,) = mon.poll(22.0)
+    assert first.revision == 0 and "3 of 4 speeds observed" in first.message
+    assert "revision" not in dict(first.values)
+    (rev,) = mon.add(obs[3], now=22.5)  # the last speed, after the estimate
+    assert rev.cycle_id == 4 and rev.revision == 1 and mon.last is rev
+    assert "revision 1" in rev.message and "late observation(s) at 50 rad/s" in rev.message
+    assert "speeds observed" not in rev.message
+    assert dict(rev.values)["revision"] == "1" and dict(rev.values)["n_observations"] == "4"
+    assert rev.result is not None and rev.result.speeds == speeds
+    # the revision equals what an on-time cycle with all four speeds gives
+    on_time = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5))
+    on_time.on_status(9.0, 4, STATE_RUNNING, 0, 4, "joint_1")
+    (full,) = [r for o in obs for r in on_time.add(o)]
+    assert full.result is not None and rev.result.wear == full.result.wear
+    # a repeat, and an observation beyond the cycle's speeds, are ignored with the reason
+    assert mon.add(obs[3]) == [] and "received twice" in mon.ignored[-1]
+    extra = replace(obs[0], speed=60.0, stamp=30.0)
+    assert mon.add(extra) == [] and "already has all 4 speeds" in mon.ignored[-1]
+
+
+def test_finished_cycles_are_remembered_up_to_a_bound():
+    mon = WearMonitor(MonitorConfig(seed=2))
+    mon.max_finished_cycles = 4
+    for cid in range(1, 8):
+        assert len(_run(mon, cid, 10.0, temperature=40.0)) == 1
+    assert len(mon._finished) <= 4 and 7 in mon._finished
 
 
 def test_aborted_cycle_without_observations_is_reported_as_warning():

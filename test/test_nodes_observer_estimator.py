@@ -189,6 +189,60 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
             n.destroy_node()
 
 
+def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ctx):
+    """The last speed's observation arrives after done_timeout: a first estimate from the speeds in
+    hand (WARN-level text says which are missing), then a revised WearEstimate and /diagnostics."""
+    ns = "/jw_late_test"
+    cyc = synthetic_cycle(speeds=(20, 40, 80), wear=20.0, rate=500.0, seed=8, cycle_id=5)
+    obs = observe_arrays(ObserverConfig(), cyc.stamps, cyc.position, cyc.velocity, cyc.effort, cyc.statuses).observations
+    assert len(obs) == 3
+    est_node = WearEstimatorNode(context=ctx, parameter_overrides=[
+        Parameter("observations_topic", value=f"{ns}/observations"),
+        Parameter("status_topic", value=f"{ns}/status"),
+        Parameter("estimate_topic", value=f"{ns}/wear_estimate"),
+        Parameter("diagnostics_topic", value=f"{ns}/diagnostics"),
+        Parameter("diagnostics_period", value=0.1),
+        Parameter("done_timeout", value=0.3),
+    ])
+    io = rclpy.create_node("jw_late_test_io", context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    for n in (est_node, io):
+        ex.add_node(n)
+    got_est, got_diag = [], []
+    try:
+        ob_pub = io.create_publisher(FrictionObservation, f"{ns}/observations", high_rate_qos())
+        st_pub = io.create_publisher(CycleStatus, f"{ns}/status", high_rate_qos())
+        io.create_subscription(WearEstimate, f"{ns}/wear_estimate", got_est.append, 10)
+        io.create_subscription(DiagnosticArray, f"{ns}/diagnostics", got_diag.append, 10)
+        assert _spin_until(ex, lambda: ob_pub.get_subscription_count() > 0 and st_pub.get_subscription_count() > 0)
+        running, done = cyc.statuses[0], cyc.statuses[-1]
+        st_pub.publish(_status(running))
+        for o in obs[:2]:
+            ob_pub.publish(observation_to_msg(o))
+        st_pub.publish(_status(done))
+        assert _spin_until(ex, lambda: len(got_est) == 1, timeout=10.0)
+        assert list(got_est[0].speeds) == [20.0, 40.0]
+        ob_pub.publish(observation_to_msg(obs[2]))  # late
+        assert _spin_until(ex, lambda: len(got_est) == 2, timeout=10.0)
+        rev = got_est[1]
+        assert rev.cycle_id == 5 and list(rev.speeds) == [20.0, 40.0, 80.0]
+        assert abs(rev.wear - 20.0) < 3 * rev.wear_std + 1.0
+
+        def revised():
+            return [a.status[0] for a in got_diag if ("revision", "1") in {(v.key, v.value) for v in a.status[0].values}]
+
+        assert _spin_until(ex, lambda: bool(revised()), timeout=10.0)
+        d = revised()[-1]
+        kv = {v.key: v.value for v in d.values}
+        assert kv["n_observations"] == "3" and float(kv["wear"]) == pytest.approx(rev.wear, abs=1e-3)
+        assert "late observation(s) at 80 rad/s" in d.message
+        assert est_node.ignored_messages == 0
+    finally:
+        ex.shutdown()
+        for n in (est_node, io):
+            n.destroy_node()
+
+
 def test_console_scripts_start_with_their_params_files_and_stop_on_sigint(ctx):
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     bindir = Path(sys.executable).parent

@@ -40,10 +40,36 @@ def _observer_config() -> ObserverConfig:
     return ObserverConfig.from_mapping(node_params_from_yaml(config_path("friction_observer.yaml"), "friction_observer"))
 
 
+def _estimate_msg(store, res):
+    r = res.result
+    return (res.stamp + 0.02, "/jointwear/wear_estimate", "jointwear_msgs/msg/WearEstimate",
+            store.types["jointwear_msgs/msg/WearEstimate"](
+                header=_header(store, res.stamp), joint_name="joint_1", cycle_id=res.cycle_id, method=r.method,
+                wear=r.wear, wear_std=r.wear_std, wear_low=r.wear_low, wear_high=r.wear_high,
+                temperature_estimate=r.temperature, speeds=np.array(r.speeds, dtype=float),
+                per_speed_wear=np.array(r.per_speed_wear, dtype=float), alarm_threshold=35.0,
+                alarm=bool(r.wear >= 35.0)))
+
+
+def _write(path: Path, store, msgs) -> None:
+    msgs = sorted(msgs, key=lambda m: m[0])
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conns = {}
+        for t, topic, typ, msg in msgs:
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, typ, typestore=store)
+            w.write(conns[topic], round(t * 1e9), store.serialize_cdr(msg, typ))
+
+
 @pytest.fixture(scope="module")
 def synthetic_bag(tmp_path_factory) -> tuple[Path, list, object]:
     """A bag as the recorder writes it: /joint_states (with a second joint), status, and the
     observations/estimate computed by the observer's vectorised offline path and the monitor."""
+    path, observations, result, _, _ = _synthetic(tmp_path_factory)
+    return path, observations, result
+
+
+def _synthetic(tmp_path_factory):
     cyc = synthetic_cycle(SPEEDS, wear=25.0, rate=500.0, noise_std=0.002, seed=3, t0=50.0)
     out = observe_arrays(_observer_config(), cyc.stamps, cyc.position, cyc.velocity, cyc.effort, cyc.statuses)
     assert len(out.observations) == len(SPEEDS), out.rejections
@@ -73,22 +99,8 @@ def synthetic_bag(tmp_path_factory) -> tuple[Path, list, object]:
         t = d.pop("stamp")
         msgs.append((t + 0.01, "/jointwear/friction_observations", "jointwear_msgs/msg/FrictionObservation",
                      T["jointwear_msgs/msg/FrictionObservation"](header=_header(store, t), **d)))
-    r = results[0].result
-    msgs.append((results[0].stamp + 0.02, "/jointwear/wear_estimate", "jointwear_msgs/msg/WearEstimate",
-                 T["jointwear_msgs/msg/WearEstimate"](
-                     header=_header(store, results[0].stamp), joint_name="joint_1", cycle_id=1, method=r.method,
-                     wear=r.wear, wear_std=r.wear_std, wear_low=r.wear_low, wear_high=r.wear_high,
-                     temperature_estimate=r.temperature, speeds=np.array(r.speeds, dtype=float),
-                     per_speed_wear=np.array(r.per_speed_wear, dtype=float), alarm_threshold=35.0,
-                     alarm=bool(r.wear >= 35.0))))
-    msgs.sort(key=lambda m: m[0])
-    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
-        conns = {}
-        for t, topic, typ, msg in msgs:
-            if topic not in conns:
-                conns[topic] = w.add_connection(topic, typ, typestore=store)
-            w.write(conns[topic], round(t * 1e9), store.serialize_cdr(msg, typ))
-    return path, out.observations, results[0]
+    _write(path, store, [*msgs, _estimate_msg(store, results[0])])
+    return path, out.observations, results[0], msgs, store
 
 
 def test_replay_of_a_bag_gives_the_recorded_observations_and_estimate(synthetic_bag):
@@ -102,6 +114,27 @@ def test_replay_of_a_bag_gives_the_recorded_observations_and_estimate(synthetic_
     cmp_ = rep.comparison()
     assert cmp_["observations"]["matched"] == len(SPEEDS) and cmp_["observations"]["max_abs_diff"] == 0.0
     assert cmp_["estimates"]["matched"] == 1 and cmp_["estimates"]["max_abs_diff"] == 0.0
+
+
+def test_replay_compares_the_newest_estimate_of_a_cycle_revised_live(tmp_path_factory):
+    """Live, the last observation came after the estimate: a first estimate from 2 of 3 speeds, then
+    the revision with all three. Replay (on time, all three) must match the revision, not the first."""
+    _, observations, result, msgs, store = _synthetic(tmp_path_factory)
+    live = WearMonitor(_monitor_config())
+    live.on_status(0.0, 1, 1, 0, len(SPEEDS), "joint_1")
+    for o in observations[:-1]:
+        assert live.add(o, now=o.stamp) == []
+    t_end = observations[-1].stamp
+    (first,) = live.on_status(t_end, 1, 2, len(SPEEDS), len(SPEEDS), "joint_1") + live.poll(t_end + 5.0)
+    (revised,) = live.add(observations[-1], now=t_end + 6.0)
+    assert revised.revision == 1 and first.result.wear != revised.result.wear
+    assert revised.result.wear == result.result.wear
+    path = tmp_path_factory.mktemp("revised") / "bag"
+    _write(path, store, [*msgs, _estimate_msg(store, first), _estimate_msg(store, revised)])
+    rep = replay_bag(path, node_params_from_yaml(config_path("friction_observer.yaml"), "friction_observer"),
+                     node_params_from_yaml(config_path("wear_estimator.yaml"), "wear_estimator"))
+    est = rep.comparison()["estimates"]
+    assert est["recorded"] == 2 and est["matched"] == 1 and est["max_abs_diff"] == 0.0
 
 
 def test_replay_command_prints_json_with_the_demo_fields(synthetic_bag, capsys):

@@ -90,6 +90,7 @@ def replay_summary(result: Any) -> dict[str, Any]:
              "low": c.result.wear_low, "high": c.result.wear_high, "temperature": c.result.temperature},
             "diagnostic_level": LEVEL_NAMES.get(c.level, str(c.level)),
             "message": c.message,
+            "revision": c.revision,
         })
     last = next((c for c in reversed(cycles) if c["wear"] is not None), cycles[-1] if cycles else None)
     return {

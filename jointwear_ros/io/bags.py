@@ -449,7 +449,11 @@ class ReplayResult:
     monitor_params: dict[str, Any]
 
     def comparison(self) -> dict[str, Any]:
-        """Replayed vs recorded: observations matched by (cycle_id, speed), estimates by cycle_id."""
+        """Replayed vs recorded: observations matched by (cycle_id, speed), estimates by cycle_id.
+
+        A cycle re-estimated after a late observation has several results on
+        each side; the newest of each is compared (what a consumer keeps).
+        """
         numeric = ("tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position",
                    "samples_plus", "samples_minus")
         rec = {(int(o["cycle_id"]), round(float(o["speed"]), 9)): o for o in self.recorded_observations}
@@ -465,11 +469,12 @@ class ReplayResult:
                 if math.isnan(a) and math.isnan(b):
                     continue
                 max_diff = max(max_diff, abs(a - b)) if math.isfinite(a - b) else math.inf
-        est = {int(e["cycle_id"]): e for e in self.recorded_estimates}
+        est = {int(e["cycle_id"]): e for e in self.recorded_estimates}  # the newest per cycle
+        newest = {int(c.cycle_id): c for c in self.cycles if c.result is not None}
         e_matched, e_diff = 0, 0.0
-        for c in self.cycles:
-            e = est.get(int(c.cycle_id))
-            if e is None or c.result is None:
+        for cid, c in newest.items():
+            e = est.get(cid)
+            if e is None:
                 continue
             e_matched += 1
             for a, b in ((c.result.wear, e["wear"]), (c.result.wear_std, e["wear_std"]),
@@ -484,6 +489,7 @@ class ReplayResult:
             },
             "estimates": {
                 "recorded": len(self.recorded_estimates), "replayed": sum(c.result is not None for c in self.cycles),
+                "revisions": sum(getattr(c, "revision", 0) > 0 for c in self.cycles),
                 "matched": e_matched, "max_abs_diff": e_diff if e_matched else None,
             },
         }

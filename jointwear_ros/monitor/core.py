@@ -7,6 +7,14 @@ status, or -- when no status of the cycle was seen -- ``idle_timeout`` seconds
 after its last observation. The estimate uses the configured method through
 :func:`~jointwear_ros.estimation.make_estimator`; its random seed derives from
 the configured seed and the cycle id, so a replay gives the same estimate.
+An observation that arrives after its cycle was estimated (a speed the estimate
+lacked: the observer was slow, or ``done_timeout`` too short) is not lost: the
+cycle is re-estimated with it and a *revision* of the result is returned (same
+``cycle_id``, ``revision`` 1, 2, ...; the message says which speed came late).
+Consumers keep the newest result per cycle. A repeated observation (same speed
+and stamp) or one beyond the cycle's ``speeds_total`` is ignored with a reason in
+:attr:`WearMonitor.ignored`. Finished cycles are remembered up to
+``max_finished_cycles``.
 Measured temperatures are used when present and ``use_measured_temperature``
 is true; otherwise the temperature column is dropped and the estimator treats
 T as unknown (Eq. 11).
@@ -125,6 +133,8 @@ class CycleResult:
     values: tuple[tuple[str, str], ...]
     observations: tuple[FrictionObservationData, ...] = ()
     alarm_threshold: float = 35.0
+    #: 0 for the first result of a cycle; n for its n-th re-estimate after a late observation
+    revision: int = 0
 
     @property
     def level_name(self) -> str:
@@ -178,6 +188,8 @@ class _Cycle:
     ended_at: float = math.nan
     end_state: int = -1
     last_obs: float = math.nan
+    revision: int = 0
+    late: list[float] = field(default_factory=list)
 
 
 EstimatorFactory = Callable[[str, int], WearEstimator]
@@ -195,7 +207,9 @@ class WearMonitor:
         self.config = config if config is not None else MonitorConfig()
         self._factory = estimator_factory or self._default_factory
         self._cycles: dict[int, _Cycle] = {}
-        self._finished: dict[int, float] = {}
+        #: estimated cycles, kept so that a late observation can revise their estimate
+        self._finished: dict[int, _Cycle] = {}
+        self.max_finished_cycles = 1000
         self.last: CycleResult | None = None
         self.ignored: list[str] = []
 
@@ -208,18 +222,19 @@ class WearMonitor:
 
         ``now`` is the time of receipt on the clock :meth:`poll` is given
         (default: the observation's stamp); the idle timeout counts from it.
+        An observation of an already estimated cycle returns its revised result.
         """
         o = observation
         t_rx = o.stamp if now is None else float(now)
         if o.joint_name and o.joint_name != self.config.joint_name:
             return []
         cid = int(o.cycle_id)
-        if cid in self._finished:
-            self.ignored.append(f"observation of cycle {cid} at {o.speed:g} rad/s came after its estimate; ignored")
-            return []
         if not (math.isfinite(o.speed) and math.isfinite(o.tau_f)):
             self.ignored.append(f"observation of cycle {cid}: speed {o.speed!r}, tau_f {o.tau_f!r} not finite; ignored")
             return []
+        done = self._finished.get(cid)
+        if done is not None:
+            return self._revise(cid, done, o, t_rx)
         cyc = self._cycles.setdefault(cid, _Cycle())
         cyc.observations.append(o)
         cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
@@ -263,25 +278,47 @@ class WearMonitor:
 
     # -- estimation ---------------------------------------------------------------------
     def _finish(self, cid: int, stamp: float) -> CycleResult:
-        cfg = self.config
         cyc = self._cycles.pop(cid)
-        self._finished[cid] = stamp
-        if len(self._finished) > 1000:  # bounded memory: forget the oldest
-            for old in sorted(self._finished)[:500]:
+        self._finished[cid] = cyc
+        if len(self._finished) > self.max_finished_cycles:  # bounded memory: forget the oldest
+            for old in sorted(self._finished)[: max(len(self._finished) - self.max_finished_cycles // 2, 1)]:
                 del self._finished[old]
+        return self._estimate(cid, cyc, stamp)
+
+    def _revise(self, cid: int, cyc: _Cycle, o: FrictionObservationData, stamp: float) -> list[CycleResult]:
+        if any(p.speed == o.speed and p.stamp == o.stamp for p in cyc.observations):
+            self.ignored.append(f"observation of cycle {cid} at {o.speed:g} rad/s received twice; the repeat is ignored")
+            return []
+        if cyc.speeds_total > 0 and len(cyc.observations) >= cyc.speeds_total:
+            self.ignored.append(
+                f"observation of cycle {cid} at {o.speed:g} rad/s came after its estimate, which already has all "
+                f"{cyc.speeds_total} speeds; ignored"
+            )
+            return []
+        cyc.observations.append(o)
+        cyc.revision += 1
+        cyc.late.append(float(o.speed))
+        return [self._estimate(cid, cyc, stamp)]
+
+    def _estimate(self, cid: int, cyc: _Cycle, stamp: float) -> CycleResult:
+        cfg = self.config
         obs = tuple(cyc.observations)
         partial = ""
         if cyc.speeds_total > 0 and len(obs) < cyc.speeds_total:
             partial = f"; {len(obs)} of {cyc.speeds_total} speeds observed"
         ended = {STATE_ABORTED: " (cycle ABORTED)", STATE_FAILED: " (cycle FAILED)"}.get(cyc.end_state, "")
+        if cyc.revision:
+            partial += (f"; revision {cyc.revision}: re-estimated with late observation(s) at "
+                        + ", ".join(f"{v:g}" for v in cyc.late) + " rad/s")
+        rev = [("revision", str(cyc.revision))] if cyc.revision else []
         base: list[tuple[str, str]] = [("cycle_id", str(cid)), ("n_observations", str(len(obs))),
                                        ("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
                                        ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
         if len(obs) < cfg.min_observations:
             msg = (f"cycle {cid}{ended}: no wear estimate, {len(obs)} friction observations "
                    f"(need {cfg.min_observations}); see the friction_observer log for rejected windows")
-            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base), obs,
-                                           cfg.alarm_threshold))
+            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base + rev), obs,
+                                           cfg.alarm_threshold, cyc.revision))
         # order by speed so the estimate does not depend on the arrival order of observations
         obs = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
         table = observations_table(obs, use_temperature=cfg.use_measured_temperature,
@@ -291,8 +328,8 @@ class WearMonitor:
             res = est.estimate(table)
         except JointwearError as exc:
             msg = f"cycle {cid}{ended}: wear estimation failed: {exc}"
-            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base), obs,
-                                           cfg.alarm_threshold))
+            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base + rev), obs,
+                                           cfg.alarm_threshold, cyc.revision))
         level = diagnostic_level(res.wear, cfg.warn_threshold, cfg.alarm_threshold)
         what = {OK: "wear below the warning band", WARN: f"wear in the warning band [{cfg.warn_threshold:g}, "
                 f"{cfg.alarm_threshold:g})", ERROR: f"wear at or above the alarm threshold {cfg.alarm_threshold:g}"}
@@ -303,8 +340,8 @@ class WearMonitor:
                   ("temperature_estimate", f"{res.temperature:.2f}"), ("n_observations", str(len(obs))),
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
-        return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values), obs,
-                                       cfg.alarm_threshold))
+        return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values + rev), obs,
+                                       cfg.alarm_threshold, cyc.revision))
 
     def _store(self, result: CycleResult) -> CycleResult:
         self.last = result
