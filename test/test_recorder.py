@@ -216,3 +216,75 @@ def test_messages_received_before_the_sim_clock_starts_are_logged_at_its_first_t
     never.write(_Item("/s", "std_msgs/msg/String", 0, data))
     never.close()
     assert [m.log_time for m in read_messages(tmp_path / "c")] == [0]
+
+
+def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_the_bag(tmp_path, capsys):
+    """A recorder process frozen (SIGSTOP) while a reliable publisher with a short history keeps
+    publishing: DDS reports the overflowed samples as lost; the recorder logs them and notes them in
+    the bag's metadata, and ``bag info`` / ``replay`` show the bag as incomplete."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from jointwear_ros.cli import main as cli_main
+    from jointwear_ros.nodes.runtime import loopback_env
+
+    topic = "/jw_loss_test/joint_states"
+    env = loopback_env(domain_id=int(os.environ.get("ROS_DOMAIN_ID", "0")))
+    log = tmp_path / "recorder.log"
+    with log.open("w") as fh:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "jointwear_ros.nodes.recorder", "--ros-args", "-p", f"output_dir:={tmp_path / 'bags'}",
+             "-p", "discovery_period:=0.1", "-p", f"include:=['^{topic}$']"],
+            env=env, stdout=fh, stderr=subprocess.STDOUT,
+        )
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = rclpy.create_node("jw_loss_pub", context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    try:
+        pub = node.create_publisher(JointState, topic, QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE))
+        assert _spin_until(ex, lambda: pub.get_subscription_count() > 0, 30.0), log.read_text()
+        sent = 0
+
+        def burst(n: int) -> None:
+            nonlocal sent
+            for _ in range(n):
+                pub.publish(_joint_state(sent))
+                sent += 1
+                if sent % 10 == 0:
+                    ex.spin_once(timeout_sec=0.001)
+
+        burst(100)
+        assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
+        proc.send_signal(signal.SIGSTOP)
+        try:
+            burst(3000)  # more than the history (20) and the transport buffers hold: most cannot reach it
+            time.sleep(0.3)
+        finally:
+            proc.send_signal(signal.SIGCONT)
+        burst(100)
+        assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
+        time.sleep(0.5)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        rc = proc.wait(30)
+        ex.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+    out = log.read_text()
+    assert rc == 0, out
+    assert "lost before reaching the recorder" in out and "INCOMPLETE" in out, out
+    (bag,) = [m.parent for m in (tmp_path / "bags").rglob("metadata.yaml")]
+    info = bag_info(bag)
+    recorded, lost = info.topics[topic]["count"], info.messages_lost.get(topic, 0)
+    assert lost > 0 and recorded + lost == sent == 3200, (recorded, lost, sent)
+    capsys.readouterr()
+    assert cli_main(["bag", "info", str(bag), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["messages_lost"] == {topic: lost}
+    assert cli_main(["bag", "info", str(bag)]) == 0
+    assert f"INCOMPLETE: the recorder was told these messages were lost before it received them: {topic} {lost}" \
+        in capsys.readouterr().out

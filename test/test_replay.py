@@ -51,9 +51,11 @@ def _estimate_msg(store, res):
                 alarm=bool(r.wear >= 35.0)))
 
 
-def _write(path: Path, store, msgs) -> None:
+def _write(path: Path, store, msgs, custom: dict[str, str] | None = None) -> None:
     msgs = sorted(msgs, key=lambda m: m[0])
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        for k, v in (custom or {}).items():
+            w.set_custom_data(k, v)
         conns = {}
         for t, topic, typ, msg in msgs:
             if topic not in conns:
@@ -135,6 +137,25 @@ def test_replay_compares_the_newest_estimate_of_a_cycle_revised_live(tmp_path_fa
                      node_params_from_yaml(config_path("wear_estimator.yaml"), "wear_estimator"))
     est = rep.comparison()["estimates"]
     assert est["recorded"] == 2 and est["matched"] == 1 and est["max_abs_diff"] == 0.0
+
+
+def test_replay_and_bag_info_flag_a_bag_whose_recorder_lost_messages(tmp_path_factory, capsys):
+    from jointwear_ros.io.bags import LOST_KEY
+
+    _, _, _, msgs, store = _synthetic(tmp_path_factory)
+    path = tmp_path_factory.mktemp("lossy") / "bag"
+    _write(path, store, msgs, {LOST_KEY: json.dumps({"/joint_states": 12})})
+    assert bag_info(path).messages_lost == {"/joint_states": 12}
+    assert cli_main(["replay", str(path), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["messages_lost"] == {"/joint_states": 12}
+    assert cli_main(["replay", str(path)]) == 0
+    assert "INCOMPLETE bag, messages lost while recording: /joint_states 12" in capsys.readouterr().out
+    clean = tmp_path_factory.mktemp("clean") / "bag"
+    _write(clean, store, msgs)
+    assert bag_info(clean).messages_lost == {}
+    garbled = tmp_path_factory.mktemp("garbled") / "bag"
+    _write(garbled, store, msgs, {LOST_KEY: "not json"})
+    assert bag_info(garbled).messages_lost == {"(unreadable count)": 1}
 
 
 def test_replay_command_prints_json_with_the_demo_fields(synthetic_bag, capsys):

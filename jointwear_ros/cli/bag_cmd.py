@@ -31,4 +31,8 @@ def cmd_info(args: argparse.Namespace) -> int:
           f"{info.duration_ns * 1e-9:.3f} s from {info.start_ns * 1e-9:.3f} s")
     rows = [[t, v["type"], v["count"]] for t, v in info.topics.items()]
     print(format_table(["topic", "type", "count"], rows))
+    if info.messages_lost:
+        print("INCOMPLETE: the recorder was told these messages were lost before it received them: "
+              + ", ".join(f"{t} {n}" for t, n in info.messages_lost.items())
+              + " (a publisher's history overflowed while the recorder was stalled)")
     return 0

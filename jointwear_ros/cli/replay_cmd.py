@@ -102,6 +102,7 @@ def replay_summary(result: Any) -> dict[str, Any]:
         "cycles": cycles,
         "comparison": result.comparison(),
         "joint_state_samples": result.samples,
+        "messages_lost": result.messages_lost,
     }
 
 
@@ -123,6 +124,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
         print_json(summary)
         return 0
     print(f"bag: {result.bag}  ({result.samples} joint-state samples, {result.statuses} status messages)")
+    if result.messages_lost:
+        print("warning: INCOMPLETE bag, messages lost while recording: "
+              + ", ".join(f"{t} {n}" for t, n in result.messages_lost.items())
+              + "; the replay may differ from the live run")
     rows = [[o.cycle_id, o.speed, o.tau_f, o.tau_f_std, o.load_torque, o.temperature, o.samples_plus, o.samples_minus]
             for o in result.observations]
     if rows:

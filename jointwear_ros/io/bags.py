@@ -13,6 +13,7 @@ wear monitor take, keeping the ``.msg`` field names.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import sys
@@ -27,9 +28,13 @@ from rosbags.typesys.store import Typestore
 from ..errors import InputDataError
 from .typestore import jointwear_typestore
 
+#: ``custom_data`` key of a bag's metadata.yaml where the recorder notes lost messages (JSON ``{topic: count}``)
+LOST_KEY = "jointwear.messages_lost"
+
 __all__ = [
     "ESTIMATE_TYPE",
     "JOINT_STATE_TYPE",
+    "LOST_KEY",
     "OBSERVATION_TYPE",
     "STATUS_TYPE",
     "TEMPERATURE_TYPE",
@@ -42,6 +47,7 @@ __all__ = [
     "find_bags",
     "joint_sample",
     "message_fields",
+    "messages_lost",
     "msg_search_dirs",
     "node_params_from_yaml",
     "parameter_value",
@@ -203,6 +209,8 @@ class BagInfo:
     duration_ns: int
     message_count: int
     topics: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: per topic, messages the recorder was told were lost before reception (metadata custom_data)
+    messages_lost: dict[str, int] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -213,6 +221,7 @@ class BagInfo:
             "duration_s": self.duration_ns * 1e-9,
             "message_count": self.message_count,
             "topics": self.topics,
+            "messages_lost": self.messages_lost,
         }
 
 
@@ -227,7 +236,7 @@ def bag_info(path: str | os.PathLike[str]) -> BagInfo:
             for c in reader.connections:
                 entry = topics.setdefault(c.topic, {"type": c.msgtype, "count": 0})
                 entry["count"] += int(c.msgcount)
-            storage, version = "unknown", 0
+            storage, version, lost = "unknown", 0, {}
             meta = p / "metadata.yaml" if p.is_dir() else None
             if meta is not None and meta.is_file():
                 import yaml
@@ -235,6 +244,7 @@ def bag_info(path: str | os.PathLike[str]) -> BagInfo:
                 info = (yaml.safe_load(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
                 storage = str(info.get("storage_identifier", "unknown"))
                 version = int(info.get("version", 0))
+                lost = messages_lost(info.get("custom_data"))
             return BagInfo(
                 path=str(p),
                 storage=storage,
@@ -243,12 +253,44 @@ def bag_info(path: str | os.PathLike[str]) -> BagInfo:
                 duration_ns=int(reader.duration) if reader.message_count else 0,
                 message_count=int(reader.message_count),
                 topics=dict(sorted(topics.items())),
+                messages_lost=lost,
             )
     except InputDataError:
         raise
     except Exception as exc:
         text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputDataError(f"{p}: cannot read the bag ({type(exc).__name__}: {text})") from None
+
+
+def _bag_messages_lost(p: Path) -> dict[str, int]:
+    meta = p / "metadata.yaml" if p.is_dir() else None
+    if meta is None or not meta.is_file():
+        return {}
+    import yaml
+
+    try:
+        info = (yaml.safe_load(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
+    except (yaml.YAMLError, OSError, AttributeError):
+        return {}  # the reader reports a broken metadata.yaml
+    return messages_lost(info.get("custom_data") if isinstance(info, dict) else None)
+
+
+def messages_lost(custom_data: Any) -> dict[str, int]:
+    """The recorder's per-topic lost-message counts from a bag's ``custom_data`` ({} when none).
+
+    >>> messages_lost({"jointwear.messages_lost": '{"/joint_states": 2500}'})
+    {'/joint_states': 2500}
+    """
+    if not isinstance(custom_data, dict):
+        return {}
+    text = custom_data.get(LOST_KEY)
+    if not isinstance(text, str):
+        return {}
+    try:
+        value = json.loads(text)
+        return {str(k): int(v) for k, v in value.items() if int(v) > 0}
+    except (ValueError, TypeError, AttributeError):
+        return {"(unreadable count)": 1}
 
 
 def find_bags(root: str | os.PathLike[str]) -> list[Path]:
@@ -447,6 +489,8 @@ class ReplayResult:
     statuses: int
     observer_params: dict[str, Any]
     monitor_params: dict[str, Any]
+    #: per topic, messages the recorder was told were lost while recording (the bag is incomplete)
+    messages_lost: dict[str, int] = field(default_factory=dict)
 
     def comparison(self) -> dict[str, Any]:
         """Replayed vs recorded: observations matched by (cycle_id, speed), estimates by cycle_id.
@@ -619,4 +663,5 @@ def replay_bag(
         bag=str(p), observations=observations, rejections=rejections, cycles=cycles,
         recorded_observations=recorded_obs, recorded_estimates=recorded_est, samples=samples,
         statuses=statuses, observer_params=obs_params, monitor_params=mon_params,
+        messages_lost=_bag_messages_lost(p),
     )

@@ -7,7 +7,10 @@ header stamp, feeds ``TestCycleStatus`` and (optionally) ``sensor_msgs/Temperatu
 publishes each finished observation on ``/jointwear/friction_observations`` and
 logs every rejected window with its reason. A bad JointState (joint missing,
 array lengths that do not match ``name``, no effort, NaN) is logged with the
-reason, counted and skipped.
+reason, counted and skipped. Messages DDS reports lost before reception (the
+publisher's history overflowed while this node was stalled) are logged and
+counted per topic (``lost_messages``): the observations of that stretch rest on
+fewer samples.
 
 Parameters: see ``config/friction_observer.yaml`` and ``docs/nodes-observer-estimator.md``.
 """
@@ -22,6 +25,7 @@ from typing import Any
 from builtin_interfaces.msg import Time
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
@@ -125,16 +129,20 @@ class FrictionObserverNode(Node):
         self.core = FrictionObserverCore(ObserverConfig.from_mapping(p))
         self.joint_name: str = str(p["joint_name"])
         self.bad_messages: Counter[str] = Counter()
+        #: per topic, messages DDS reported lost before they reached this node
+        self.lost_messages: Counter[str] = Counter()
         self.observations_published = 0
         self.rejections: list[str] = []
         self._index_cache: tuple[tuple[str, ...], int] | None = None
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
         self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos)
-        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, qos)
-        self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, qos)
-        if p["temperature_topic"]:
-            self.create_subscription(Temperature, str(p["temperature_topic"]), self._on_temperature, qos)
+        for msg_type, topic, cb in ((JointState, p["joint_states_topic"], self._on_joint_state),
+                                    (TestCycleStatus, p["status_topic"], self._on_status),
+                                    (Temperature, p["temperature_topic"], self._on_temperature)):
+            if topic:
+                self.create_subscription(msg_type, str(topic), cb, qos, event_callbacks=SubscriptionEventCallbacks(
+                    message_lost=self._lost_callback(str(topic))))
         # wall-clock timer: it must fire even when /clock (use_sim_time) stops
         self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(
@@ -144,6 +152,21 @@ class FrictionObserverNode(Node):
         )
 
     # -- callbacks -----------------------------------------------------------------
+    def _lost_callback(self, topic: str) -> Any:
+        def cb(info: Any) -> None:
+            # the events executor may repeat the event with total_count_change 0: count from the total
+            change = int(info.total_count) - self.lost_messages[topic]
+            if change <= 0:
+                return
+            self.lost_messages[topic] += change
+            self.get_logger().warning(
+                f"{change} message(s) on {topic} lost before reaching the observer ({info.total_count} in all): "
+                "the publisher's history overflowed while this node was stalled; observations of that "
+                "stretch rest on fewer samples", throttle_duration_sec=2.0,
+            )
+
+        return cb
+
     def _stamp(self, header_stamp: Any) -> float:
         t = stamp_to_seconds(header_stamp)
         if t > 0:

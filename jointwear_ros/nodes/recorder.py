@@ -16,11 +16,21 @@ closes it ``cycle_tail`` seconds after that cycle's DONE/ABORTED/FAILED (so
 the cycle's WearEstimate is in it) or when the next cycle starts. On shutdown
 the open bag is closed properly. A failed write is logged and counted; it does
 not stop the node.
+
+Messages lost before they reach the recorder (a reliable publisher's history
+overflowed while the recorder was stalled; best-effort samples dropped) are
+reported by DDS through the subscription's ``message_lost`` event: the recorder
+logs them, counts them per topic (:attr:`RecorderNode.lost`) and writes the
+counts of each bag into its ``metadata.yaml`` (``custom_data``, key
+``jointwear.messages_lost``, JSON ``{topic: count}``), which ``jointwear bag
+info`` and ``jointwear replay`` show: such a bag is incomplete, and a replay of
+it may differ from the live run.
 """
 
 from __future__ import annotations
 
 import importlib
+import json
 import queue
 import re
 import signal
@@ -33,6 +43,7 @@ from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.duration import Duration
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
@@ -40,7 +51,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from ..io.bags import STATUS_TYPE, ensure_msgtype
+from ..io.bags import LOST_KEY, STATUS_TYPE, ensure_msgtype
 from ..io.typestore import JOINTWEAR_MSG_TYPES, msg_definition_dirs
 from .runtime import ParamDecl, declare_parameters, run_node
 
@@ -98,6 +109,14 @@ class _Item:
     data: bytes
 
 
+@dataclass(frozen=True)
+class _Lost:
+    """``count`` messages of ``topic`` lost before reception (queued in stream order)."""
+
+    topic: str
+    count: int
+
+
 class _Bag:
     """One open rosbag2 writer; connections are added as topics first arrive."""
 
@@ -111,6 +130,7 @@ class _Bag:
         self._last = -1
         self._pre_clock: list[_Item] = []
         self.count = 0
+        self.lost: dict[str, int] = {}
 
     def write(self, item: _Item) -> None:
         # Under use_sim_time the node's clock reads 0 until the first /clock arrives:
@@ -143,6 +163,8 @@ class _Bag:
         held, self._pre_clock = self._pre_clock, []
         for h in held:  # no clock ever came: keep them at time 0 rather than lose them
             self._write(h)
+        if self.lost:
+            self._writer.set_custom_data(LOST_KEY, json.dumps(dict(sorted(self.lost.items()))))
         self._writer.close()
 
 
@@ -175,13 +197,15 @@ class RecorderNode(Node):
         self._offered: dict[str, list[Qos]] = {}
         self._subs: dict[str, Any] = {}
         self._skipped: set[str] = set()
-        self._queue: queue.SimpleQueue[_Item | None] = queue.SimpleQueue()
+        self._queue: queue.SimpleQueue[_Item | _Lost | None] = queue.SimpleQueue()
         self._bag: _Bag | None = None
         self._bags: list[Path] = []
         self._cycle: int | None = None
         self._cycle_end: float | None = None
         self.write_errors = 0
         self.received: dict[str, int] = {}
+        #: per topic, messages DDS reported lost before they reached the recorder
+        self.lost: dict[str, int] = {}
         self.dropped = 0
         self._lock = threading.Lock()
         self._stopped = False
@@ -240,7 +264,8 @@ class RecorderNode(Node):
             )
             self._offered[topic] = [_to_bag_qos(p.qos_profile) for p in pubs]
             self._subs[topic] = self.create_subscription(
-                cls, topic, self._callback(topic, msgtype), qos, raw=True
+                cls, topic, self._callback(topic, msgtype), qos, raw=True,
+                event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_callback(topic)),
             )
             self.get_logger().info(
                 f"recording {topic} ({msgtype}, {'reliable' if reliable else 'best effort'}"
@@ -261,6 +286,27 @@ class RecorderNode(Node):
         def cb(data: bytes) -> None:
             received[topic] += 1
             q.put(_Item(topic, msgtype, clock.now().nanoseconds, bytes(data)))
+
+        return cb
+
+    def _lost_callback(self, topic: str) -> Any:
+        logger = self.get_logger()
+        lost = self.lost
+        lost[topic] = 0
+
+        def cb(info: Any) -> None:
+            # some executors repeat the event with total_count_change 0: count from the total
+            total = int(info.total_count)
+            change = total - lost[topic]
+            if change <= 0:
+                return
+            lost[topic] = total
+            self._queue.put(_Lost(topic, change))
+            logger.warning(
+                f"{change} message(s) on {topic} lost before reaching the recorder ({total} in all): the "
+                "publisher's history overflowed while the recorder was stalled (CPU starved?); the bag "
+                "is incomplete there", throttle_duration_sec=2.0,
+            )
 
         return cb
 
@@ -307,7 +353,14 @@ class RecorderNode(Node):
             return
         try:
             bag.close()
-            self.get_logger().info(f"bag {bag.path} closed ({bag.count} messages)")
+            if bag.lost:
+                lost = ", ".join(f"{t} {n}" for t, n in sorted(bag.lost.items()))
+                self.get_logger().error(
+                    f"bag {bag.path} closed ({bag.count} messages); INCOMPLETE, messages lost before "
+                    f"reception: {lost} (noted in its metadata.yaml)"
+                )
+            else:
+                self.get_logger().info(f"bag {bag.path} closed ({bag.count} messages)")
         except Exception as exc:
             self.write_errors += 1
             self.get_logger().error(f"closing bag {bag.path} failed: {exc}")
@@ -320,7 +373,11 @@ class RecorderNode(Node):
             self.get_logger().warning(f"undecodable status message on {item.topic}: {exc}", throttle_duration_sec=5.0)
             return None
 
-    def _handle(self, item: _Item) -> None:
+    def _handle(self, item: _Item | _Lost) -> None:
+        if isinstance(item, _Lost):
+            if self._bag is not None:
+                self._bag.lost[item.topic] = self._bag.lost.get(item.topic, 0) + item.count
+            return
         if self.p["split"] == "cycle" and item.topic == self.p["status_topic"] and item.msgtype == STATUS_TYPE:
             st = self._status(item)
             if st is not None:
