@@ -166,7 +166,8 @@ def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos):
     ex.add_node(node)
     proc = subprocess.Popen(
         [str(Path(sys.executable).with_name("jointwear")), "replay", str(res.bag), "--publish", "--rate", "50",
-         "--delay", "3", "--topics", "/jointwear/friction_observations,/test_cycle/status"],
+         "--wait-for-subscribers", "1", "--delay", "0.5",
+         "--topics", "/jointwear/friction_observations,/test_cycle/status"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 90.0
@@ -191,3 +192,14 @@ def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos):
     clock = got["clock"]
     assert clock and clock == sorted(clock)
     assert info.start_ns <= clock[0] and clock[-1] <= info.start_ns + info.duration_ns
+
+
+def test_replay_publish_without_the_awaited_subscribers_is_a_one_line_error(demos):
+    proc = subprocess.run(
+        [str(Path(sys.executable).with_name("jointwear")), "replay", str(demos[20.0].bag), "--publish",
+         "--topics", "/jointwear/wear_estimate", "--wait-for-subscribers", "1", "--wait-timeout", "1"],
+        capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith("jointwear: error: --wait-for-subscribers 1: after 1 s still too few subscribers on "
+                           "/jointwear/wear_estimate (0)"), proc.stderr

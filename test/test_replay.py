@@ -199,6 +199,16 @@ def test_replay_of_a_missing_path_is_a_one_line_error(tmp_path, capsys):
     assert "no such bag" in err
 
 
+@pytest.mark.parametrize(("flag", "value", "says"), [
+    ("--wait-for-subscribers", "two", "must be a whole number >= 0"),
+    ("--wait-for-subscribers", "-1", "must be a whole number >= 0"),
+    ("--wait-timeout", "0", "must be between 0 and 86400 s"),
+])
+def test_replay_publish_rejects_bad_wait_options(synthetic_bag, capsys, flag, value, says):
+    err = _one_line_error(["replay", str(synthetic_bag[0]), "--publish", flag, value], capsys)
+    assert flag in err and says in err
+
+
 def test_replay_of_a_directory_that_is_not_a_bag_is_a_one_line_error(tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("hello")
     err = _one_line_error(["replay", str(tmp_path)], capsys)

@@ -61,6 +61,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--delay", default="0.5",
                    help="with --publish: seconds to wait after creating the publishers so that "
                         "subscribers match before the first message (default 0.5)")
+    p.add_argument("--wait-for-subscribers", default="0", metavar="N",
+                   help="with --publish: before playing, wait until every played topic has at least N matched "
+                        "subscribers (default 0: do not wait), at most --wait-timeout seconds")
+    p.add_argument("--wait-timeout", default="60",
+                   help="with --wait-for-subscribers: give up after this many seconds, exit code 2 (default 60)")
     p.add_argument("--rate", default="1.0", help="with --publish: playback speed factor (default 1 = recorded speed)")
     p.add_argument("--topics", default=None,
                    help="with --publish: comma list of topics to play (default: all but /clock, /rosout, "
@@ -168,6 +173,15 @@ def _publish(args: argparse.Namespace) -> int:
     delay_s = parse_float(args.delay, "--delay")
     if not 0 <= delay_s <= 3600:
         raise UsageError(f"--delay: {args.delay!r} must be between 0 and 3600 s")
+    try:
+        min_subs = int(args.wait_for_subscribers)
+    except ValueError:
+        min_subs = -1
+    if min_subs < 0:
+        raise UsageError(f"--wait-for-subscribers: {args.wait_for_subscribers!r} must be a whole number >= 0")
+    wait_timeout = parse_float(args.wait_timeout, "--wait-timeout")
+    if not 0 < wait_timeout <= 86400:
+        raise UsageError(f"--wait-timeout: {args.wait_timeout!r} must be between 0 and 86400 s")
     bag = _check_bag_path(Path(args.bag))
     try:
         import rclpy
@@ -202,6 +216,8 @@ def _publish(args: argparse.Namespace) -> int:
                 pubs[c.id] = node.create_publisher(cls, c.topic, qos)
                 conns.append(c)
             clock_pub = node.create_publisher(Clock, "/clock", 10)
+            if min_subs:
+                _wait_for_subscribers({c.topic: pubs[c.id] for c in conns}, min_subs, wait_timeout)
             print(f"jointwear replay: playing {len(conns)} topics of {bag} at {rate:g}x", file=sys.stderr)
             time.sleep(delay_s)  # let subscribers match the new publishers
             t0_log: int | None = None
@@ -239,4 +255,21 @@ def _publish(args: argparse.Namespace) -> int:
         rclpy.try_shutdown()
     print(f"jointwear replay: published {played} messages", file=sys.stderr)
     return 0
+
+
+def _wait_for_subscribers(pubs: dict[str, Any], n: int, timeout: float) -> None:
+    """Block until each publisher has ``n`` matched subscriptions; InputDataError after ``timeout`` s."""
+    print(f"jointwear replay: waiting for {n} subscriber(s) on each of {len(pubs)} topics", file=sys.stderr)
+    end = time.monotonic() + timeout
+    while True:
+        short = {t: p.get_subscription_count() for t, p in pubs.items() if p.get_subscription_count() < n}
+        if not short:
+            return
+        if time.monotonic() > end:
+            raise InputDataError(
+                f"--wait-for-subscribers {n}: after {timeout:g} s still too few subscribers on "
+                + ", ".join(f"{t} ({c})" for t, c in sorted(short.items()))
+                + "; start the consumers (same ROS_DOMAIN_ID) or lower N"
+            )
+        time.sleep(0.05)
 
