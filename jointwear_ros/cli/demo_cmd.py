@@ -469,8 +469,10 @@ def run_demo(
             op.close()
         if children:
             _progress("stopping the nodes")
-            # the clock source (joint_sim) last: sim-time nodes need /clock to wind down
-            stop_children([c for c in children if c.name != "joint_sim"])
+            # the producers first (each waits until the recorder acknowledged its last messages),
+            # then the recorder, the clock source (joint_sim) last: sim-time nodes need /clock
+            stop_children([c for c in children if c.name not in ("joint_sim", "recorder")])
+            stop_children([c for c in children if c.name == "recorder"])
             stop_children([c for c in children if c.name == "joint_sim"])
     bags = [b for b in find_bags(bagdir) if b not in bags_before]
     bag = str(bags[-1]) if bags else None

@@ -25,6 +25,7 @@ from typing import Any
 from builtin_interfaces.msg import Time
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
 from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -224,6 +225,13 @@ class FrictionObserverNode(Node):
         # silent (end of a recording, a stopped driver) nothing will, so process them after poll_grace.
         if self.core.pending_segments and time.monotonic() - self._last_rx > self.core.config.poll_grace:
             self._emit(self.core.process_pending())
+
+    def on_shutdown(self) -> None:
+        """Called by ``run_node`` on exit: let reliable subscribers get the last observations."""
+        try:
+            self.pub.wait_for_all_acked(Duration(seconds=0.5))
+        except Exception:  # pragma: no cover - best effort on the way out
+            pass
 
     def _emit(self, out: ObserverOutput) -> None:
         for o in out.observations:

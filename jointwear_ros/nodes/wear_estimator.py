@@ -23,6 +23,7 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate
 from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -170,6 +171,14 @@ class WearEstimatorNode(Node):
                 f"{self.joint_name}: {r.level_name}: {r.message}"
             )
             self._publish_diagnostics()
+
+    def on_shutdown(self) -> None:
+        """Called by ``run_node`` on exit: let reliable subscribers (the recorder) get the last results."""
+        for pub in (self.estimate_pub, self.diag_pub):
+            try:
+                pub.wait_for_all_acked(Duration(seconds=0.5))
+            except Exception:  # pragma: no cover - best effort on the way out
+                pass
 
     def _publish_diagnostics(self) -> None:
         arr = DiagnosticArray()
