@@ -73,7 +73,8 @@ def format_table(headers: Sequence[str], rows: Sequence[Sequence[Any]], floatfmt
 
     def fmt(v: Any) -> str:
         if isinstance(v, (float, np.floating)):
-            return "nan" if not math.isfinite(float(v)) else format(float(v), floatfmt)
+            x = float(v)
+            return format(x, floatfmt) if math.isfinite(x) else ("nan" if math.isnan(x) else ("inf" if x > 0 else "-inf"))
         return str(v)
 
     cells = [[fmt(v) for v in r] for r in rows]

@@ -66,6 +66,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--seed", default="0", help="random seed (default 0)")
     p.add_argument("--tolerance", default="1.0", help="robustness: |bias| counted as unbiased (default 1.0)")
     p.add_argument("--mismatch", default="0.03", help="case: relative spread of the second joint's parameters (default 0.03)")
+    p.add_argument("--hcr", action="store_true",
+                   help="run: add the Hammersley-Chapman-Robbins bound per speed (where the CRB cannot be reached)")
     p.add_argument("--histogram", action="store_true", help="run: include the histogram of estimates in the JSON")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--plot", metavar="DIR", help="write the figures (PNG) into DIR")
@@ -200,7 +202,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     setup = StudySetup(speeds=speeds, runs=runs, true_wear=wear, load=load, noise_std=noise,
                        true_temperature=true_t, seed=seed)
     unit = "cycles" if args.method == "joint" else "speeds"
-    res = run_study(est, setup, model=paper_wear_model(), params=params,
+    if args.hcr and args.method == "joint":
+        raise UsageError("--hcr: the HCR bound is per speed; a joint study has one multi-speed bound (crb)")
+    res = run_study(est, setup, model=paper_wear_model(), params=params, hcr=bool(args.hcr),
                     progress=_Bar(f"study {args.method} ({unit})", args.quiet))
     if args.plot:
         _plot_study(res, Path(args.plot))
@@ -214,7 +218,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
     q = res.quantiles
     rows = [[lab, float(b), float(v), float(c), float(m), float(q[0.025][i]), float(q[0.5][i]), float(q[0.975][i])]
             for i, (lab, b, v, c, m) in enumerate(zip(res.rows, res.bias, res.variance, res.crb, res.mse))]
-    print(format_table(["speed", "bias", "variance", "crb", "mse", "q2.5", "median", "q97.5"], rows, ".3f"))
+    headers = ["speed", "bias", "variance", "crb", "mse", "q2.5", "median", "q97.5"]
+    if res.hcr is not None and res.twin_wear is not None:
+        headers[4:4] = ["hcr", "twin w"]
+        for r, h, tw in zip(rows, res.hcr, res.twin_wear):
+            r[4:4] = [float(h), float(tw)]
+    print(format_table(headers, rows, ".3f"))
+    if res.hcr is not None:
+        print("hcr: Hammersley-Chapman-Robbins bound; where it is far above crb the CRB cannot be reached "
+              "(another wear gives nearly the same friction); inf: 'twin w' gives exactly the same friction")
     for k, val in res.extra.items():
         print(f"{k}: {val:.4g}" if isinstance(val, float) else f"{k}: {val}")
     return 0
@@ -315,6 +327,13 @@ def _plot_study(res: Any, out: Path) -> None:
         ax.semilogy(v, res.mse, "s-", ms=2, lw=0.8, label="mean-squared error")
         if np.isfinite(res.crb).any():
             ax.semilogy(v, res.crb, "k--", label="Cramer-Rao bound")
+        if res.hcr is not None:
+            finite = np.isfinite(res.hcr)
+            ax.semilogy(v[finite], res.hcr[finite], ":", color="tab:red", lw=1.5,
+                        label="Hammersley-Chapman-Robbins bound")
+            if (~finite).any():
+                ax.axvspan(float(v[~finite].min()), float(v[~finite].max()), color="tab:red", alpha=0.08,
+                           label="a twin wear gives the same friction")
         ax.set_xlabel("speed v, motor side [rad/s]")
     else:
         ax.bar(["variance", "mse", "multi-speed CRB"], [res.variance[0], res.mse[0], res.crb[0]])

@@ -147,6 +147,10 @@ class StudyResult:
     hist_edges: Array
     hist_counts: npt.NDArray[np.int64]
     extra: dict[str, Any] = field(default_factory=dict)
+    #: the Hammersley-Chapman-Robbins bound per speed (``hcr=True``; inf where w0 has a twin wear)
+    hcr: Array | None = None
+    #: per speed, the wear giving exactly the friction of the true wear (NaN where none)
+    twin_wear: Array | None = None
 
     @property
     def rows(self) -> list[str]:
@@ -178,6 +182,13 @@ class StudyResult:
             "crb": self.crb,
             "quantiles": {f"{q:g}": a for q, a in self.quantiles.items()},
         }
+        if self.hcr is not None:
+            out["hcr"] = self.hcr  # JSON null = infinite (see twin_wear)
+            out["twin_wear"] = self.twin_wear
+            out["hcr_meaning"] = ("Hammersley-Chapman-Robbins bound on the variance of an unbiased estimate: "
+                                  "equal to crb where the CRB is reachable, far above it where another wear "
+                                  "gives nearly the same friction, null (infinite) where one (twin_wear) "
+                                  "gives exactly the same")
         out.update(self.extra)
         if histogram:
             out["histogram"] = {"edges": self.hist_edges, "counts": self.hist_counts}
@@ -239,6 +250,7 @@ def run_study(
     model: Model | None = None,
     params: Parameters | Mapping[str, float] | str | None = None,
     crb: bool = True,
+    hcr: bool = False,
     progress: Progress | None = None,
     rng: np.random.Generator | None = None,
 ) -> StudyResult:
@@ -255,6 +267,10 @@ def run_study(
         The model generating the data (default Eq. 9 with ``ref-2011r``).
     crb
         Compute the bound column (under the true temperature distribution).
+    hcr
+        Also compute the Hammersley-Chapman-Robbins bound per speed
+        (:func:`~jointwear_ros.estimation.hcr.hcr_per_speed`), which shows
+        where the CRB cannot be reached; per-speed studies only.
     progress
         Called as ``progress(done, total)`` after each speed (or cycle chunk).
     rng
@@ -299,6 +315,15 @@ def run_study(
                                   noise_std=setup.noise_std, prior=prior)
     else:
         bound = np.full(est.shape[1], math.nan)
+    hcr_arr = twin = None
+    if hcr:
+        if cycle:
+            raise InputDataError("the HCR bound is per speed; it is not computed for a joint (cycle) study")
+        from .hcr import hcr_per_speed
+
+        h = hcr_per_speed(m, p, setup.speeds, setup.true_wear, load=setup.load, noise_std=setup.noise_std,
+                          prior=prior)
+        hcr_arr, twin = h.bound, h.twin_wear
     return StudyResult(
         method=str(getattr(estimator, "name", type(estimator).__name__)),
         mode="cycle" if cycle else "per-speed",
@@ -309,7 +334,7 @@ def run_study(
         true_temperature=prior.label,
         assumed_temperature=_assumed_label(estimator),
         bias=bias, variance=var, mse=mse, crb=np.asarray(bound, dtype=float),
-        quantiles=qs, hist_edges=edges, hist_counts=counts, extra=extra,
+        quantiles=qs, hist_edges=edges, hist_counts=counts, extra=extra, hcr=hcr_arr, twin_wear=twin,
     )
 
 
