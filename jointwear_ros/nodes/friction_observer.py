@@ -26,13 +26,12 @@ from builtin_interfaces.msg import Time
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
-from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 
 from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput
-from .runtime import ParamDecl, declare_parameters, run_node
+from .runtime import ParamDecl, declare_parameters, run_node, subscribe_reporting_loss
 
 __all__ = [
     "FrictionObserverNode",
@@ -142,8 +141,7 @@ class FrictionObserverNode(Node):
                                     (TestCycleStatus, p["status_topic"], self._on_status),
                                     (Temperature, p["temperature_topic"], self._on_temperature)):
             if topic:
-                self.create_subscription(msg_type, str(topic), cb, qos, event_callbacks=SubscriptionEventCallbacks(
-                    message_lost=self._lost_callback(str(topic))))
+                subscribe_reporting_loss(self, msg_type, str(topic), cb, qos, self._lost_callback(str(topic)))
         # wall-clock timer: it must fire even when /clock (use_sim_time) stops
         self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(

@@ -43,7 +43,6 @@ from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.duration import Duration
-from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
@@ -53,7 +52,7 @@ from rosbags.typesys.store import Typestore
 
 from ..io.bags import LOST_KEY, STATUS_TYPE, ensure_msgtype
 from ..io.typestore import JOINTWEAR_MSG_TYPES, msg_definition_dirs
-from .runtime import ParamDecl, declare_parameters, run_node
+from .runtime import ParamDecl, declare_parameters, run_node, subscribe_reporting_loss
 
 __all__ = ["RecorderNode", "main", "message_class"]
 
@@ -263,9 +262,8 @@ class RecorderNode(Node):
                 durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
             )
             self._offered[topic] = [_to_bag_qos(p.qos_profile) for p in pubs]
-            self._subs[topic] = self.create_subscription(
-                cls, topic, self._callback(topic, msgtype), qos, raw=True,
-                event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_callback(topic)),
+            self._subs[topic] = subscribe_reporting_loss(
+                self, cls, topic, self._callback(topic, msgtype), qos, self._lost_callback(topic), raw=True
             )
             self.get_logger().info(
                 f"recording {topic} ({msgtype}, {'reliable' if reliable else 'best effort'}"

@@ -23,7 +23,7 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, Si
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-__all__ = ["ParamDecl", "declare_parameters", "loopback_env", "run_node"]
+__all__ = ["ParamDecl", "declare_parameters", "loopback_env", "run_node", "subscribe_reporting_loss"]
 
 
 def loopback_env(domain_id: int | None = None, base: Mapping[str, str] | None = None) -> dict[str, str]:
@@ -57,6 +57,27 @@ def declare_parameters(node: Node, decls: Sequence[ParamDecl]) -> dict[str, Any]
         node.declare_parameter(d.name, d.default, desc)
         out[d.name] = node.get_parameter(d.name).value
     return out
+
+
+def subscribe_reporting_loss(node: Node, msg_type: Any, topic: str, callback: Callable[..., None], qos: Any,
+                             on_lost: Callable[[Any], None], **kwargs: Any) -> Any:
+    """``node.create_subscription`` with a ``message_lost`` event callback.
+
+    DDS reports samples it dropped before they reached this subscription (a
+    reliable writer's history overflowed while the reader was stalled; best
+    effort gaps) through that event. An RMW that does not offer it gets a plain
+    subscription and one warning: the node works, it just cannot report loss.
+    """
+    from rclpy.event_handler import SubscriptionEventCallbacks, UnsupportedEventTypeError
+
+    try:
+        return node.create_subscription(msg_type, topic, callback, qos,
+                                         event_callbacks=SubscriptionEventCallbacks(message_lost=on_lost), **kwargs)
+    except UnsupportedEventTypeError:
+        node.get_logger().warning(
+            f"this RMW does not report lost messages; losses on {topic} cannot be detected", once=True
+        )
+        return node.create_subscription(msg_type, topic, callback, qos, **kwargs)
 
 
 def context_ok(executor: SingleThreadedExecutor | MultiThreadedExecutor) -> bool:
