@@ -117,6 +117,34 @@ def test_a_late_observation_revises_the_cycle_estimate():
     assert mon.add(extra) == [] and "already has all 4 speeds" in mon.ignored[-1]
 
 
+def test_a_cycle_id_reused_after_a_test_cycle_restart_is_a_new_cycle():
+    mon = WearMonitor(MonitorConfig(seed=4))
+    (old,) = _run(mon, 1, 10.0, temperature=40.0)
+    # test_cycle restarted: its next cycle is cycle 1 again, RUNNING, at another wear
+    (new,) = _run(mon, 1, 45.0, temperature=40.0)
+    assert "reuses the id" in mon.ignored[-1]
+    assert new.revision == 0 and new.result is not None and new.result.wear == pytest.approx(45.0, abs=0.5)
+    assert old.result is not None and old.result.wear == pytest.approx(10.0, abs=0.5)
+    assert mon.last is new
+
+
+def test_a_revision_of_an_older_cycle_does_not_replace_the_newest_status():
+    mon = WearMonitor(MonitorConfig(done_timeout=1.0, seed=6))
+    speeds = (20.0, 30.0, 40.0, 50.0)
+    late = _obs(2, 20.0, temperature=40.0, speeds=speeds)
+    mon.on_status(1.0, 2, STATE_RUNNING, 0, 4, "joint_1")
+    for o in late[:3]:
+        mon.add(o)
+    mon.on_status(5.0, 2, STATE_DONE, 4, 4, "joint_1")
+    (first,) = mon.poll(7.0)
+    assert mon.last is first and "3 of 4 speeds observed" in first.message
+    (newer,) = _run(mon, 3, 40.0, temperature=40.0)
+    assert mon.last is newer
+    (rev,) = mon.add(late[3], now=60.0)  # cycle 2's last speed, very late
+    assert rev.cycle_id == 2 and rev.revision == 1
+    assert mon.last is newer  # the status stays with the newest cycle
+
+
 def test_finished_cycles_are_remembered_up_to_a_bound():
     mon = WearMonitor(MonitorConfig(seed=2))
     mon.max_finished_cycles = 4

@@ -14,7 +14,12 @@ cycle is re-estimated with it and a *revision* of the result is returned (same
 Consumers keep the newest result per cycle. A repeated observation (same speed
 and stamp) or one beyond the cycle's ``speeds_total`` is ignored with a reason in
 :attr:`WearMonitor.ignored`. Finished cycles are remembered up to
-``max_finished_cycles``.
+``max_finished_cycles``. A RUNNING status of an already estimated cycle id is a
+new cycle that reuses the id (the test_cycle node was restarted and counts
+from 1 again): the old record is dropped and the new cycle starts afresh.
+:attr:`WearMonitor.last` is the newest result of the most recently *started*
+estimate, so a revision of an older cycle does not replace a newer cycle's
+status.
 Measured temperatures are used when present and ``use_measured_temperature``
 is true; otherwise the temperature column is dropped and the estimator treats
 T as unknown (Eq. 11).
@@ -39,7 +44,7 @@ import numpy as np
 
 from ..errors import InputDataError, JointwearError
 from ..estimation import make_estimator
-from ..observer.types import STATE_ABORTED, STATE_DONE, STATE_FAILED, FrictionObservationData
+from ..observer.types import STATE_ABORTED, STATE_DONE, STATE_FAILED, STATE_RUNNING, FrictionObservationData
 from ..types import ObservationTable, WearEstimator, WearResult
 
 __all__ = ["ERROR", "LEVEL_NAMES", "OK", "WARN", "CycleResult", "MonitorConfig", "WearMonitor",
@@ -190,6 +195,7 @@ class _Cycle:
     last_obs: float = math.nan
     revision: int = 0
     late: list[float] = field(default_factory=list)
+    order: int = 0  # when the cycle was first estimated (1, 2, ...)
 
 
 EstimatorFactory = Callable[[str, int], WearEstimator]
@@ -210,6 +216,8 @@ class WearMonitor:
         #: estimated cycles, kept so that a late observation can revise their estimate
         self._finished: dict[int, _Cycle] = {}
         self.max_finished_cycles = 1000
+        self._order = 0
+        self._last_order = 0
         self.last: CycleResult | None = None
         self.ignored: list[str] = []
 
@@ -252,6 +260,10 @@ class WearMonitor:
         if joint_name and joint_name != self.config.joint_name:
             return []
         cid = int(cycle_id)
+        if cid in self._finished and state == STATE_RUNNING:
+            del self._finished[cid]  # the id is reused by a new cycle (test_cycle restarted)
+            self.ignored.append(f"cycle {cid} RUNNING again: a new cycle reuses the id of an estimated one "
+                                "(test_cycle restarted?); the new cycle is estimated on its own")
         if cid == 0 or cid in self._finished:
             return []
         cyc = self._cycles.setdefault(cid, _Cycle())
@@ -279,6 +291,8 @@ class WearMonitor:
     # -- estimation ---------------------------------------------------------------------
     def _finish(self, cid: int, stamp: float) -> CycleResult:
         cyc = self._cycles.pop(cid)
+        self._order += 1
+        cyc.order = self._order
         self._finished[cid] = cyc
         if len(self._finished) > self.max_finished_cycles:  # bounded memory: forget the oldest
             for old in sorted(self._finished)[: max(len(self._finished) - self.max_finished_cycles // 2, 1)]:
@@ -300,6 +314,7 @@ class WearMonitor:
         cyc.late.append(float(o.speed))
         return [self._estimate(cid, cyc, stamp)]
 
+
     def _estimate(self, cid: int, cyc: _Cycle, stamp: float) -> CycleResult:
         cfg = self.config
         obs = tuple(cyc.observations)
@@ -318,7 +333,7 @@ class WearMonitor:
             msg = (f"cycle {cid}{ended}: no wear estimate, {len(obs)} friction observations "
                    f"(need {cfg.min_observations}); see the friction_observer log for rejected windows")
             return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base + rev), obs,
-                                           cfg.alarm_threshold, cyc.revision))
+                                           cfg.alarm_threshold, cyc.revision), cyc.order)
         # order by speed so the estimate does not depend on the arrival order of observations
         obs = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
         table = observations_table(obs, use_temperature=cfg.use_measured_temperature,
@@ -329,7 +344,7 @@ class WearMonitor:
         except JointwearError as exc:
             msg = f"cycle {cid}{ended}: wear estimation failed: {exc}"
             return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base + rev), obs,
-                                           cfg.alarm_threshold, cyc.revision))
+                                           cfg.alarm_threshold, cyc.revision), cyc.order)
         level = diagnostic_level(res.wear, cfg.warn_threshold, cfg.alarm_threshold)
         what = {OK: "wear below the warning band", WARN: f"wear in the warning band [{cfg.warn_threshold:g}, "
                 f"{cfg.alarm_threshold:g})", ERROR: f"wear at or above the alarm threshold {cfg.alarm_threshold:g}"}
@@ -341,10 +356,11 @@ class WearMonitor:
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
         return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values + rev), obs,
-                                       cfg.alarm_threshold, cyc.revision))
+                                       cfg.alarm_threshold, cyc.revision), cyc.order)
 
-    def _store(self, result: CycleResult) -> CycleResult:
-        self.last = result
+    def _store(self, result: CycleResult, order: int) -> CycleResult:
+        if order >= self._last_order:  # a revision of an older cycle does not replace a newer one
+            self.last, self._last_order = result, order
         return result
 
     @property

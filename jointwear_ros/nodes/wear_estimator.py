@@ -153,8 +153,11 @@ class WearEstimatorNode(Node):
 
     def _on_status(self, msg: TestCycleStatus) -> None:
         # timeouts run on this node's clock at receipt, whatever clock stamped the messages
+        n_ignored = len(self.monitor.ignored)
         self._handle(self.monitor.on_status(self._now(), int(msg.cycle_id), int(msg.state), int(msg.speeds_done),
                                             int(msg.speeds_total), str(msg.joint_name)))
+        for note in self.monitor.ignored[n_ignored:]:
+            self.get_logger().warning(note)
 
     def _on_timer(self) -> None:
         self._handle(self.monitor.poll(self._now()))
@@ -165,7 +168,8 @@ class WearEstimatorNode(Node):
             self.results.append(r)
             if r.result is not None:
                 self.estimate_pub.publish(estimate_to_msg(r))
-            self._status = diagnostic_status(self.status_name, self.hardware_id, r.level, r.message, r.values)
+            if r is self.monitor.last:  # a revision of an older cycle does not replace a newer cycle's status
+                self._status = diagnostic_status(self.status_name, self.hardware_id, r.level, r.message, r.values)
             log = self.get_logger()
             (log.info if r.level == OK else log.warning if r.level == 1 else log.error)(
                 f"{self.joint_name}: {r.level_name}: {r.message}"
