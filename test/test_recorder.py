@@ -182,9 +182,16 @@ def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
     assert _spin_until(ex, lambda: len(rec.bags) == 1 and rec._bag is None)
     send(CycleStatus.RUNNING, 2, 7)
     send(CycleStatus.FAILED, 2, 0)
+    assert _spin_until(ex, lambda: len(rec.bags) == 2 and rec._bag is None)
+    send(CycleStatus.RUNNING, 1, 4)  # test_cycle restarted: it counts from cycle 1 again, a new bag
+    send(CycleStatus.DONE, 1, 0)
+    assert _spin_until(ex, lambda: len(rec.bags) == 3 and rec._bag is None)
+    send(CycleStatus.RUNNING, 1, 3)  # restarted once more: cycle 1 right after a cycle 1
+    send(CycleStatus.DONE, 1, 0)
     rec.on_shutdown()
     bags = rec.bags
-    assert [b.name.endswith(f"_cycle{c}") for b, c in zip(bags, (1, 2))] == [True, True]
+    assert [b.name.split("_cycle")[-1].split("_")[0] for b in bags] == ["1", "2", "1", "1"]
+    assert [bag_info(b).topics["/joint_states"]["count"] for b in bags[2:]] == [4, 3]
     counts = [bag_info(b).topics for b in bags]
     assert counts[0] == {"/joint_states": {"type": "sensor_msgs/msg/JointState", "count": 10},
                          "/test_cycle/status": {"type": "jointwear_msgs/msg/TestCycleStatus", "count": 2}}

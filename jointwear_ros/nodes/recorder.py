@@ -201,6 +201,7 @@ class RecorderNode(Node):
         self._bags: list[Path] = []
         self._cycle: int | None = None
         self._cycle_end: float | None = None
+        self._cycle_ended = False  # the current cycle id has ended: RUNNING with that id again is a new cycle
         self.write_errors = 0
         self.received: dict[str, int] = {}
         #: per topic, messages DDS reported lost before they reached the recorder
@@ -380,12 +381,14 @@ class RecorderNode(Node):
             st = self._status(item)
             if st is not None:
                 cycle, state = st
-                if state == _STATUS_RUNNING and cycle != self._cycle:
+                # a RUNNING status after the cycle ended is a new cycle even with the same id
+                # (a restarted test_cycle counts from 1 again)
+                if state == _STATUS_RUNNING and (cycle != self._cycle or self._cycle_ended):
                     self._close_bag()
-                    self._cycle, self._cycle_end = cycle, None
+                    self._cycle, self._cycle_end, self._cycle_ended = cycle, None, False
                     self._open_bag(cycle)
-                elif state in _STATUS_ENDS and cycle == self._cycle and self._cycle_end is None:
-                    self._cycle_end = item.stamp * 1e-9
+                elif state in _STATUS_ENDS and cycle == self._cycle and not self._cycle_ended:
+                    self._cycle_end, self._cycle_ended = item.stamp * 1e-9, True
         bag = self._bag
         if bag is None:
             self.dropped += 1
