@@ -29,6 +29,22 @@ def test_python_package_declares_its_runtime_ros_dependencies():
     assert {"rclpy", "jointwear_msgs", "sensor_msgs", "std_msgs", "std_srvs", "diagnostic_msgs"} <= deps
 
 
+def test_every_ros_package_the_code_imports_is_an_exec_depend():
+    """rosdep installs what package.xml lists: every ROS package imported by the nodes and the launch file."""
+    deps = {d.name for d in catkin_pkg.parse_package(ROOT / "package.xml").exec_depends}
+    ros_packages = {"rclpy", "rcl_interfaces", "ament_index_python", "launch", "launch_ros", "std_msgs", "std_srvs",
+                    "sensor_msgs", "diagnostic_msgs", "rosgraph_msgs", "builtin_interfaces", "jointwear_msgs"}
+    imported = set()
+    for path in [*ROOT.glob("jointwear_ros/**/*.py"), *ROOT.glob("launch/*.py")]:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                imported.update(a.name.split(".")[0] for a in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                imported.add(node.module.split(".")[0])
+    missing = sorted((imported & ros_packages) - deps)
+    assert not missing, f"imported but not in package.xml: {missing}"
+
+
 def test_interface_package_generates_every_definition_it_ships():
     cmake = (ROOT / "msg_defs" / "CMakeLists.txt").read_text()
     defs = [*(ROOT / "msg_defs").glob("msg/*.msg"), *(ROOT / "msg_defs").glob("srv/*.srv")]

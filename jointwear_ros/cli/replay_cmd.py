@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputDataError
+from ..resources import find_resource, resource_dirs
 from . import UsageError
 from .common import format_table, parse_float, print_json
 
@@ -29,15 +30,9 @@ __all__ = ["config_path", "register", "replay_summary"]
 
 
 def config_path(name: str) -> Path:
-    """``config/<name>`` of the source tree, or of the installed package share directory."""
-    candidates = [
-        Path(__file__).resolve().parents[2] / "config" / name,
-        Path(sys.prefix) / "share" / "jointwear_ros" / "config" / name,
-    ]
-    for c in candidates:
-        if c.is_file():
-            return c
-    return candidates[0]
+    """``config/<name>`` of the source tree, or of the installed package share directory (ament index)."""
+    found = find_resource("jointwear_ros", Path("config") / name)
+    return found if found is not None else resource_dirs("jointwear_ros")[0] / "config" / name
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

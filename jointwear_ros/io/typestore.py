@@ -1,20 +1,21 @@
 """A rosbags typestore with ROS 2 Jazzy's types plus ``jointwear_msgs``.
 
-The ``jointwear_msgs`` definitions are read from their ``.msg`` files: the
-installed ``share/jointwear_msgs/msg`` of the running prefix, or the source
-tree's ``msg_defs/msg``. No ROS runtime is needed.
+The ``jointwear_msgs`` definitions are read from their ``.msg`` files, found
+through :func:`jointwear_ros.resources.resource_dirs` (the source tree's
+``msg_defs/msg`` in a checkout, else the ament index and prefixes'
+``share/jointwear_msgs/msg``). No ROS runtime is needed.
 """
 
 from __future__ import annotations
 
 import functools
-import sys
 from pathlib import Path
 
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from ..errors import JointwearError
+from ..resources import resource_dirs
 
 __all__ = ["JOINTWEAR_MSG_TYPES", "jointwear_typestore", "msg_definition_dirs"]
 
@@ -22,10 +23,7 @@ JOINTWEAR_MSG_TYPES = ("FrictionObservation", "WearEstimate", "TestCycleStatus")
 
 
 def msg_definition_dirs() -> list[Path]:
-    return [
-        Path(sys.prefix) / "share" / "jointwear_msgs" / "msg",
-        Path(__file__).resolve().parents[2] / "msg_defs" / "msg",
-    ]
+    return [d / "msg" for d in resource_dirs("jointwear_msgs")]
 
 
 @functools.lru_cache(maxsize=1)

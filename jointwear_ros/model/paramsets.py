@@ -5,22 +5,23 @@ which the set is meaningful) and ``parameters`` (name -> value). Units and
 bounds come from the terms' :class:`~jointwear_ros.model.parameters.ParamSpec`.
 
 Sets are looked up, in order, in ``$JOINTWEAR_PARAMS_PATH`` (``:``-separated
-directories), the source tree's ``config/params``, and the installed
-``share/jointwear_ros/config/params`` of the running prefix. A path to a
-``.yaml`` file is accepted too.
+directories), then ``config/params`` of every place
+:func:`jointwear_ros.resources.resource_dirs` names (the source tree of a
+development checkout, the ament index, the ament prefixes and the running
+prefix). A path to a ``.yaml`` file is accepted too.
 """
 
 from __future__ import annotations
 
 import math
 import os
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
 
 from ..errors import ParameterSetError
+from ..resources import resource_dirs
 from .parameters import Parameter, Parameters
 from .terms import TERMS
 
@@ -64,8 +65,7 @@ def _search_dirs() -> list[Path]:
     env = os.environ.get("JOINTWEAR_PARAMS_PATH")
     if env:
         dirs.extend(Path(d) for d in env.split(os.pathsep) if d)
-    dirs.append(Path(__file__).resolve().parents[2] / "config" / "params")
-    dirs.append(Path(sys.prefix) / "share" / "jointwear_ros" / "config" / "params")
+    dirs.extend(d / "config" / "params" for d in resource_dirs("jointwear_ros"))
     return dirs
 
 
