@@ -132,3 +132,11 @@ def test_default_load_option_fills_a_missing_load_column():
     res = make_estimator("paper", default_load=0.1).estimate(
         ObservationTable.from_arrays(speed=[40.0], tau_f=tau, temperature=[40.0]))
     assert res.wear == pytest.approx(35.0, abs=1e-6)
+
+
+def test_make_estimator_names_an_unknown_option_and_keeps_a_real_type_error():
+    """A caller's wrong option is InputDataError (exit 2); a TypeError inside an estimator is not disguised."""
+    with pytest.raises(InputDataError, match="takes no option frobnicate"):
+        make_estimator("joint", frobnicate=1)
+    with pytest.raises(TypeError):  # a wrongly typed value reaches the constructor and fails there, unmapped
+        make_estimator("paper-grid", grid_step="coarse")

@@ -9,6 +9,7 @@ Pure numpy/scipy; no ROS import.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping
 from typing import Any
 
@@ -58,21 +59,27 @@ __all__ = [
 ]
 
 
-def _estimator_classes() -> dict[str, type]:
-    classes: dict[str, type] = {"paper": PaperEstimator, "paper-grid": PaperGridEstimator}
-    try:
-        from .bayes import BayesEstimator
+_ESTIMATOR_CLASSES: dict[str, type] = {
+    "paper": PaperEstimator,
+    "paper-grid": PaperGridEstimator,
+    "bayes": BayesEstimator,
+    "joint": JointEstimator,
+}
 
-        classes["bayes"] = BayesEstimator
-    except ImportError:  # pragma: no cover - during development only
-        pass
-    try:
-        from .joint import JointEstimator
 
-        classes["joint"] = JointEstimator
-    except ImportError:  # pragma: no cover
-        pass
-    return classes
+def _accepted_options(cls: type) -> set[str]:
+    """Keyword options of ``cls`` and of the bases its ``**options`` are handed on to."""
+    names: set[str] = set()
+    for klass in cls.__mro__:
+        init = klass.__dict__.get("__init__")
+        if init is None:
+            continue
+        sig = inspect.signature(init)
+        names.update(n for n, p in sig.parameters.items()
+                     if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD) and n not in ("self", "model", "params"))
+        if not any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values()):
+            break
+    return names
 
 
 #: Method names accepted by :func:`make_estimator`.
@@ -95,12 +102,14 @@ def make_estimator(
     >>> est.name
     'paper'
     """
-    classes = _estimator_classes()
     key = str(method).strip().lower()
-    if key not in classes:
+    if key not in _ESTIMATOR_CLASSES:
         raise InputDataError(f"unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
-    try:
-        est = classes[key](model, params, **options)
-    except TypeError as exc:
-        raise InputDataError(f"estimator {key!r}: {exc}") from None
-    return est  # type: ignore[no-any-return]
+    cls = _ESTIMATOR_CLASSES[key]
+    # an option the estimator does not take is the caller's mistake (exit 2); any other TypeError is a bug
+    # inside the estimator and keeps its traceback
+    unknown = sorted(set(options) - _accepted_options(cls))
+    if unknown:
+        raise InputDataError(f"estimator {key!r} takes no option {', '.join(unknown)}; "
+                             f"it takes {', '.join(sorted(_accepted_options(cls)))}")
+    return cls(model, params, **options)  # type: ignore[no-any-return]
