@@ -5,11 +5,11 @@ from __future__ import annotations
 import json
 import math
 import sys
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from ..fmt import format_table
 from . import UsageError
 
 __all__ = ["format_table", "parse_float", "parse_float_list", "print_json"]
@@ -66,20 +66,3 @@ def print_json(obj: Any) -> None:
     """Print ``obj`` as JSON (numpy arrays and scalars converted; NaN/inf -> null)."""
     json.dump(_clean(obj), sys.stdout, indent=2)
     sys.stdout.write("\n")
-
-
-def format_table(headers: Sequence[str], rows: Sequence[Sequence[Any]], floatfmt: str = ".5f") -> str:
-    """A plain aligned text table."""
-
-    def fmt(v: Any) -> str:
-        if isinstance(v, (float, np.floating)):
-            x = float(v)
-            return format(x, floatfmt) if math.isfinite(x) else ("nan" if math.isnan(x) else ("inf" if x > 0 else "-inf"))
-        return str(v)
-
-    cells = [[fmt(v) for v in r] for r in rows]
-    widths = [max([len(h)] + [len(r[i]) for r in cells]) for i, h in enumerate(headers)]
-    lines = ["  ".join(h.rjust(w) for h, w in zip(headers, widths))]
-    lines.append("  ".join("-" * w for w in widths))
-    lines.extend("  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in cells)
-    return "\n".join(lines)

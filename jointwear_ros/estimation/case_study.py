@@ -56,6 +56,7 @@ import numpy.typing as npt
 from scipy.optimize import minimize_scalar
 
 from ..errors import InputDataError
+from ..fmt import format_table
 from ..model import Model, Parameters
 from ..types import ObservationTable
 from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, make_rng, resolve_model
@@ -275,8 +276,6 @@ class CaseStudyResult:
 
     def summary_text(self, every: int = 1) -> str:
         """A readable report: per method a per-speed table and the best speed with its detection."""
-        from ..cli.common import format_table
-
         s = self.setup
         lines = [
             f"case study: {s.n_indices} indices, w crosses {s.alarm_wear:g} at k = {self.crossing_index}; "

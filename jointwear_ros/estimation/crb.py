@@ -67,10 +67,13 @@ __all__ = [
     "CRB_METHODS",
     "DEFAULT_CRB_PRIOR",
     "FisherResult",
+    "check_crb_inputs",
     "crb_known_temperature",
     "crb_multi_speed",
     "crb_per_speed",
     "fisher_information",
+    "friction_and_wear_slope",
+    "log_quadrature_weights",
     "temperature_nodes",
 ]
 
@@ -121,9 +124,10 @@ class FisherResult:
 
 
 # -- input checks ----------------------------------------------------------------
-def _check_inputs(
+def check_crb_inputs(
     speeds: npt.ArrayLike, wear: float, load: float, noise_std: float, prior: TemperaturePrior | str, method: str
 ) -> tuple[Array, float, float, float, TemperaturePrior, str]:
+    """Validated ``(speeds, wear, load, noise_std, prior, method)`` of a bound computation, or InputDataError."""
     v = np.atleast_1d(np.asarray(speeds, dtype=float)).ravel()
     if v.size == 0:
         raise InputDataError("speeds: empty; the bound needs at least one speed (rad/s, motor side)")
@@ -148,7 +152,7 @@ def _check_inputs(
     return v, w, abs(tm), sig, pr, key
 
 
-def _curves(model: Model, params: Parameters, speed: Array, load: float, temps: Array, wear: float
+def friction_and_wear_slope(model: Model, params: Parameters, speed: Array, load: float, temps: Array, wear: float
             ) -> tuple[Array, Array]:
     """f and df/dw on the (speed, T) grid: arrays of shape (K, n)."""
     v = speed[:, None]
@@ -177,7 +181,7 @@ def temperature_nodes(model: Model, params: Parameters, speeds: npt.ArrayLike, w
     pr = parse_temperature_prior(prior)
     lo, hi = pr.support(1.0 - 1e-6)
     t = np.linspace(lo, hi, 129)
-    f, _ = _curves(model, params, v, abs(float(load)), t, float(wear))
+    f, _ = friction_and_wear_slope(model, params, v, abs(float(load)), t, float(wear))
     spread = float(np.sqrt(np.sum((f.max(axis=1) - f.min(axis=1)) ** 2)))
     n = math.ceil(float(density) * spread / float(noise_std)) + _MIN_NODES
     n = 16 * math.ceil(n / 16)  # a multiple of 16: the prior's cached Gauss-Legendre rules get reused
@@ -213,7 +217,8 @@ def _gauss_hermite(n: int) -> tuple[Array, Array]:
     return x, g / g.sum()
 
 
-def _log_weights(wts: Array) -> Array:
+def log_quadrature_weights(wts: Array) -> Array:
+    """log of quadrature weights, -inf where a weight is zero (no warning)."""
     with np.errstate(divide="ignore"):
         return np.log(np.maximum(wts, 0.0))
 
@@ -224,7 +229,7 @@ def _per_speed_quadrature(f: Array, a: Array, wts: Array, sig: float, n_noise: i
     x, g = _gauss_hermite(int(n_noise))
     e = sig * x
     y = (f[:, None] + e[None, :]).reshape(-1, 1)
-    s = _scores(y, f[None, :], a[None, :], _log_weights(wts), sig).reshape(f.size, e.size)
+    s = _scores(y, f[None, :], a[None, :], log_quadrature_weights(wts), sig).reshape(f.size, e.size)
     return float(np.sum(wts[:, None] * g[None, :] * s * s))
 
 
@@ -277,7 +282,7 @@ def fisher_information(
         Seed of the (quasi-)random points; the result is a pure function of the inputs.
     """
     m, p = resolve_model(model, params)
-    v, w, tm, sig, pr, key = _check_inputs(speeds, wear, load, noise_std, prior, method)
+    v, w, tm, sig, pr, key = check_crb_inputs(speeds, wear, load, noise_std, prior, method)
     for name, val in (("n_temperature", n_temperature), ("n_noise", n_noise), ("n_samples", n_samples)):
         if val is not None and int(val) < 2:
             raise InputDataError(f"{name} = {val!r} must be at least 2")
@@ -291,12 +296,12 @@ def fisher_information(
             m, p, vs, w, load=tm, noise_std=sig, prior=pr)
         nodes.append(n)
         tq, wq = pr.quadrature(n)
-        f, a = _curves(m, p, vs, tm, tq, w)
-        logpi = _log_weights(wq)
+        f, a = friction_and_wear_slope(m, p, vs, tm, tq, w)
+        logpi = log_quadrature_weights(wq)
         if key == "monte-carlo":
             ns = int(n_samples) if n_samples is not None else 20_000
             t_out = pr.sample(rng, ns)
-            f_out, _ = _curves(m, p, vs, tm, t_out, w)
+            f_out, _ = friction_and_wear_slope(m, p, vs, tm, t_out, w)
             y = f_out.T + sig * rng.standard_normal((ns, vs.size))
             s2 = _scores(y, f, a, logpi, sig) ** 2
             info[gi] = float(s2.mean())
@@ -321,7 +326,7 @@ def _shared_qmc(m: Model, p: Parameters, vs: Array, tm: float, w: float, sig: fl
         u = qmc.Sobol(d=k + 1, scramble=True, seed=np.random.default_rng([seed, r])).random(per)
         u = np.clip(u, 1e-12, 1.0 - 1e-12)
         t_out = np.asarray(pr.dist.ppf(u[:, 0]), dtype=float)
-        f_out, _ = _curves(m, p, vs, tm, t_out, w)
+        f_out, _ = friction_and_wear_slope(m, p, vs, tm, t_out, w)
         y = f_out.T + sig * norm.ppf(u[:, 1:])
         means[r] = float(np.mean(_scores(y, f, a, logpi, sig) ** 2))
     return float(means.mean()), float(means.std(ddof=1) / math.sqrt(n_scrambles))
@@ -403,10 +408,10 @@ def crb_known_temperature(
     ``sigma^2 / sum_k (df/dw)_k^2`` (a float).
     """
     m, p = resolve_model(model, params)
-    v, w, tm, sig, _, _ = _check_inputs(speeds, wear, load, noise_std, DEFAULT_CRB_PRIOR, "quadrature")
+    v, w, tm, sig, _, _ = check_crb_inputs(speeds, wear, load, noise_std, DEFAULT_CRB_PRIOR, "quadrature")
     if not math.isfinite(float(temperature)):
         raise InputDataError(f"temperature = {temperature!r} must be finite (degC)")
-    _, a = _curves(m, p, v, tm, np.array([float(temperature)]), w)
+    _, a = friction_and_wear_slope(m, p, v, tm, np.array([float(temperature)]), w)
     info = a[:, 0] ** 2 / sig**2
     with np.errstate(divide="ignore"):
         if shared:

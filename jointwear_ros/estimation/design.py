@@ -41,11 +41,11 @@ from ..model import Model, Parameters
 from ._common import DEFAULT_NOISE_STD, resolve_model
 from .crb import (
     DEFAULT_CRB_PRIOR,
-    _curves,
-    _log_weights,
     crb_known_temperature,
     crb_per_speed,
     fisher_information,
+    friction_and_wear_slope,
+    log_quadrature_weights,
     temperature_nodes,
 )
 from .priors import TemperaturePrior, parse_temperature_prior
@@ -116,13 +116,13 @@ class _SearchBound:
         spread_nodes = max(temperature_nodes(model, params, np.full(n, c), wear, load=load, noise_std=sigma,
                                              prior=prior, density=1.0) for c in candidates)
         temps, wq = prior.quadrature(spread_nodes)
-        f, a = _curves(model, params, candidates, load, temps, wear)
+        f, a = friction_and_wear_slope(model, params, candidates, load, temps, wear)
         self.f, self.a = f.astype(np.float32), a.astype(np.float32)
-        self.logpi = _log_weights(wq).astype(np.float32)
+        self.logpi = log_quadrature_weights(wq).astype(np.float32)
         u = qmc.Sobol(d=n + 1, scramble=True, seed=np.random.default_rng(seed)).random(_SEARCH_POINTS)
         u = np.clip(u, 1e-12, 1.0 - 1e-12)
         t_out = np.asarray(prior.dist.ppf(u[:, 0]), dtype=float)
-        f_out, _ = _curves(model, params, candidates, load, t_out, wear)
+        f_out, _ = friction_and_wear_slope(model, params, candidates, load, t_out, wear)
         self.f_out = f_out.astype(np.float32)
         self.z = (sigma * norm.ppf(u[:, 1:])).astype(np.float32)
         self.sigma = sigma

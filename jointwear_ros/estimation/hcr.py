@@ -72,7 +72,7 @@ from scipy.special import logsumexp
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, resolve_model
-from .crb import DEFAULT_CRB_PRIOR, _check_inputs, crb_per_speed, temperature_nodes
+from .crb import DEFAULT_CRB_PRIOR, check_crb_inputs, crb_per_speed, temperature_nodes
 from .inverse import WearInverse
 from .priors import TemperaturePrior
 
@@ -172,7 +172,7 @@ def hcr_per_speed(
 ) -> HCRResult:
     """The HCR bound on var(w_hat) from ONE observation at each speed, T ~ prior (see the module docstring)."""
     m, p = resolve_model(model, params)
-    v, w0, tm, sig, pr, _ = _check_inputs(speeds, wear, load, noise_std, prior, "quadrature")
+    v, w0, tm, sig, pr, _ = check_crb_inputs(speeds, wear, load, noise_std, prior, "quadrature")
     lo, hi = (float(x) for x in wear_range)
     if not lo <= w0 <= hi:
         raise InputDataError(f"wear = {wear!r} must lie in the wear range [{lo:g}, {hi:g}]")
