@@ -1,0 +1,146 @@
+"""The message contract in one place: the constants of the ``.msg``/``.srv`` files and the conversions.
+
+``jointwear_msgs`` defines the graph's contract (``msg_defs/msg/*.msg``, ``msg_defs/srv/*.srv``);
+``diagnostic_msgs/DiagnosticStatus`` the level bytes. This module mirrors their constants as
+:class:`enum.IntEnum` (so ``CycleState.RUNNING == 1`` and a message field compares directly) and
+holds the conversions between messages and the cores' plain dataclasses. It imports no ROS
+package: the conversions read any object with the message's field names (an rclpy message or
+a rosbags-deserialized one) and write into a message class the caller passes, so the live
+nodes, the bag reader, replay, the recorder and the CLI share them.
+
+>>> CycleState.RUNNING == 1, CycleState(4).name
+(True, 'FAILED')
+>>> DiagnosticLevel.for_wear(31.0, warn=30.0, alarm=35.0).name
+'WARN'
+>>> seconds_to_stamp_fields(12.25)
+(12, 250000000)
+>>> stamp_to_seconds(type("Stamp", (), {"sec": 12, "nanosec": 250000000})())
+12.25
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Callable
+from dataclasses import fields
+from typing import Any, TypeVar
+
+from .observer.types import FrictionObservationData
+
+__all__ = [
+    "CyclePhase",
+    "CycleState",
+    "DiagnosticLevel",
+    "RefusalReason",
+    "observation_from_msg",
+    "observation_to_msg",
+    "seconds_to_stamp_fields",
+    "stamp_to_seconds",
+]
+
+
+class CycleState(enum.IntEnum):
+    """``TestCycleStatus.state`` (IDLE, RUNNING, DONE, ABORTED, FAILED)."""
+
+    IDLE = 0
+    RUNNING = 1
+    DONE = 2
+    ABORTED = 3
+    FAILED = 4
+
+    @property
+    def ended(self) -> bool:
+        """DONE, ABORTED or FAILED: the cycle will not sweep again."""
+        return self in (CycleState.DONE, CycleState.ABORTED, CycleState.FAILED)
+
+
+class CyclePhase(enum.IntEnum):
+    """``TestCycleStatus.phase`` (its ``PHASE_*`` constants)."""
+
+    NONE = 0
+    APPROACH = 1
+    FORWARD = 2
+    REVERSE = 3
+    SETTLE = 4
+
+
+class DiagnosticLevel(enum.IntEnum):
+    """``diagnostic_msgs/DiagnosticStatus.level`` byte values."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+    STALE = 3
+
+    @classmethod
+    def for_wear(cls, wear: float, warn: float, alarm: float) -> DiagnosticLevel:
+        """OK below ``warn``, WARN in ``[warn, alarm)``, ERROR at ``wear >= alarm``; a NaN wear is WARN."""
+        if not math.isfinite(wear):
+            return cls.WARN
+        if wear >= alarm:
+            return cls.ERROR
+        if wear >= warn:
+            return cls.WARN
+        return cls.OK
+
+
+class RefusalReason(enum.IntEnum):
+    """``RunTestCycle.Response.reason``: why a request was refused (``NONE`` when accepted)."""
+
+    NONE = 0
+    BUSY = 1
+    MOTION_DISABLED = 2
+    WRONG_JOINT = 3
+    STATE_MISSING = 4
+    STATE_STALE = 5
+    BAD_SPEEDS = 6
+    OUTSIDE_LIMITS = 7
+    BAD_REQUEST = 8
+
+    @property
+    def retryable(self) -> bool:
+        """A refusal an operator retries after a moment (the cell is still starting or busy)."""
+        return self in (RefusalReason.BUSY, RefusalReason.STATE_MISSING, RefusalReason.STATE_STALE)
+
+
+def stamp_to_seconds(stamp: Any) -> float:
+    """``builtin_interfaces/Time`` (or a header: its ``stamp``) -> seconds."""
+    st = getattr(stamp, "stamp", stamp)
+    return float(st.sec) + 1e-9 * float(st.nanosec)
+
+
+def seconds_to_stamp_fields(t: float) -> tuple[int, int]:
+    """Seconds -> ``(sec, nanosec)`` of a ``builtin_interfaces/Time``; negative or non-finite -> ``(0, 0)``."""
+    if not math.isfinite(t) or t <= 0:
+        return 0, 0
+    sec = math.floor(t)
+    nsec = round((t - sec) * 1e9)
+    if nsec >= 1_000_000_000:
+        sec, nsec = sec + 1, nsec - 1_000_000_000
+    return int(sec), int(nsec)
+
+
+_OBS_FIELDS = tuple(f.name for f in fields(FrictionObservationData) if f.name != "stamp")
+_INT_FIELDS = {"cycle_id", "samples_plus", "samples_minus"}
+
+M = TypeVar("M")
+
+
+def observation_from_msg(msg: Any) -> FrictionObservationData:
+    """A ``FrictionObservation`` message (rclpy or rosbags) -> :class:`FrictionObservationData`."""
+    values: dict[str, Any] = {"stamp": stamp_to_seconds(msg.header.stamp)}
+    for name in _OBS_FIELDS:
+        raw = getattr(msg, name)
+        values[name] = str(raw) if name == "joint_name" else (int(raw) if name in _INT_FIELDS else float(raw))
+    return FrictionObservationData(**values)
+
+
+def observation_to_msg(obs: FrictionObservationData, msg_type: Callable[[], M]) -> M:
+    """Fill a new ``msg_type()`` (the generated ``FrictionObservation`` class) from ``obs``."""
+    msg: Any = msg_type()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = seconds_to_stamp_fields(obs.stamp)
+    for name in _OBS_FIELDS:
+        value = getattr(obs, name)
+        setattr(msg, name, str(value) if name == "joint_name" else (int(value) if name in _INT_FIELDS else float(value)))
+    return msg  # type: ignore[no-any-return]
