@@ -258,3 +258,15 @@ def test_the_index_lists_every_doc_and_its_links_resolve():
         broken = [link for link in _links(md) if "://" not in link and not (md.parent / link).exists()]
         assert not broken, f"{md.name}: broken links {broken}"
     assert "docs/index.md" in (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+@pytest.mark.ros
+def test_the_guides_node_stops_with_the_reason_when_its_path_cannot_be_written(workspace, tmp_path):
+    blocker = tmp_path / "not_a_dir"
+    blocker.write_text("a file where the log's directory should be\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(workspace), os.environ.get("PYTHONPATH", "")]))
+    r = subprocess.run([sys.executable, "-m", "my_jointwear.wear_log", "--ros-args", "-p",
+                        f"path:={blocker / 'wear.csv'}"], cwd=tmp_path, env=env, capture_output=True, text=True,
+                       timeout=60)
+    assert r.returncode == 1
+    assert f"parameter path = '{blocker / 'wear.csv'}': cannot append to it" in r.stderr
