@@ -1,6 +1,6 @@
 """Joint estimation over one cycle's speeds against the paper's estimator at its best single speed.
 
-Setting (issue 4): w0 = 35, sigma_e = 0.0015, tau_m = 0.1, true T ~ U(25, 55) drawn
+Setting (the paper's Section 5.1): w0 = 35, sigma_e = 0.0015, tau_m = 0.1, true T ~ U(25, 55) drawn
 once per cycle and shared by the cycle's speeds; at most 6 speeds. Printed: bias,
 std of w_hat, the multi-speed bound and the ratio std / bound, the time per cycle;
 beside it, in the same run and on the same temperatures, the paper's estimator

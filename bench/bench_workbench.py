@@ -2,7 +2,7 @@
 
 Usage: python bench/run_all.py workbench   (or python bench/bench_workbench.py [--repeat N])
 
-Issue 3 asks for diagnose on 400 observations with the whole library in at
+The workbench's target: diagnose on 400 observations with the whole library in at
 most 10 s on the project's 2-core machine. Each case is run ``--repeat`` times;
 the table gives the median wall time and the median CPU time of this process
 (the machine is shared: wall time grows with other people's load, CPU time

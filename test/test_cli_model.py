@@ -1,4 +1,4 @@
-"""``jointwear model curve``: the issue's exact command, table, plot and argument errors."""
+"""``jointwear model curve``: the README's command, table, plot and argument errors."""
 
 from __future__ import annotations
 

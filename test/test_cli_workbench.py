@@ -1,5 +1,5 @@
 """``jointwear model fit|diagnose|compare|add|report`` and ``jointwear data synth|effects|show``:
-the issue's JSON contracts, reports, history, and one-line errors with exit code 2."""
+the documented JSON contracts (docs/workbench.md), reports, history, and one-line errors with exit code 2."""
 
 from __future__ import annotations
 

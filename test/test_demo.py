@@ -3,7 +3,7 @@
 Few speeds and sim time 2x faster than wall time keep it quick (at 4x a loaded CI machine most likely
 stalled the recorder past the 1000-deep /joint_states history now and then, and the
 bag, hence the replay, missed samples the live observer had); the checks are
-the issue's: the estimate within 3 standard deviations of the true wear, the
+the demo's acceptance: the estimate within 3 standard deviations of the true wear, the
 diagnostic level OK / OK-or-WARN / ERROR at wear 0 / 20 / 40, and the bag's
 offline replay equal to the live run.
 """

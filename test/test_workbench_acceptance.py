@@ -1,4 +1,4 @@
-"""Issue 3 acceptance: the workbench finds what is missing, on data the project generates.
+"""The workbench acceptance: the workbench finds what is missing, on data the project generates.
 
 * the standard model on data from the paper model (varying T and tau_m): diagnose
   names load or temperature first; adding the proposed terms one by one, as a

@@ -338,7 +338,7 @@ def run_study(
     )
 
 
-# -- robustness (issue item 3c) ------------------------------------------------------
+# -- robustness: T outside the assumed range -------------------------------------------
 @dataclass(frozen=True)
 class RobustnessRow:
     """One (scenario, method, speed) cell of the robustness study."""
