@@ -428,9 +428,12 @@ def recover_bag(src: str | os.PathLike[str], out: str | os.PathLike[str] | None 
     custom = {str(k): str(v) for k, v in (custom or {}).items() if k not in (OPEN_KEY, RECOVERED_KEY)}
 
     tmp = dst.parent / f".{dst.name}.partial-{os.getpid()}"
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    writer = McapBagWriter(tmp, name=dst.name, fsync=False, custom_data=custom)
+    try:
+        if tmp.exists():
+            shutil.rmtree(tmp)
+        writer = McapBagWriter(tmp, name=dst.name, fsync=False, custom_data=custom)
+    except OSError as exc:
+        raise InputDataError(f"{dst}: cannot write the recovered bag there ({exc.strerror or exc})") from None
     try:
         report = _copy(sources, writer, old_qos)
         report_custom = {
@@ -440,9 +443,12 @@ def recover_bag(src: str | os.PathLike[str], out: str | os.PathLike[str] | None 
         writer.custom_data[RECOVERED_KEY] = json.dumps(report_custom, sort_keys=True)
         writer.close()
         os.replace(tmp, dst)
-    except BaseException:
+    except BaseException as exc:
         writer.abort()
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError):
+            raise InputDataError(f"{dst}: writing the recovered bag failed ({exc.strerror or exc}); "
+                                 "nothing was left there") from None
         raise
     topics = {t.name: {"type": t.msgtype, "count": t.count} for t in writer.topics()}
     return RecoverReport(
