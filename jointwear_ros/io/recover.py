@@ -85,7 +85,9 @@ class McapScan:
 
     path: str
     size: int
-    #: the file starts with the MCAP magic and a header record
+    #: the file starts with the MCAP magic
+    magic: bool = False
+    #: the magic is followed by a header record
     header: bool = False
     profile: str = ""
     #: a footer and the closing magic were found: the writer finished the file
@@ -111,7 +113,8 @@ class McapScan:
         """(offset, what) of every defect, in file order."""
         out: list[tuple[int, str]] = []
         if not self.header:
-            out.append((0, "no MCAP magic and header at the start" if self.size else "the file is empty (0 bytes)"))
+            out.append((0, "the file is empty (0 bytes)" if not self.size else
+                        "no MCAP header after the magic" if self.magic else "no MCAP magic at the start"))
         for c in self.skipped_chunks:
             out.append((int(c["offset"]), f"chunk of {c['length']} bytes {c['reason']}"))
         for d in self.damaged:
@@ -187,6 +190,7 @@ def _walk(buf: Any, size: int, scan: McapScan, emit: Callable[[Any], None], Head
         if size < 8 and MAGIC.startswith(bytes(buf[:size])):
             scan.truncated_bytes, scan.truncated_at, scan.truncated_reason = size, 0, "cut inside the magic"
         return
+    scan.magic = True
     pos = 8
     crc = zlib.crc32(MAGIC)
     crc_valid = True  # false once bytes were skipped: the running CRC no longer covers the file
@@ -509,7 +513,7 @@ def _copy(sources: list[Path], writer: Any, old_qos: dict[str, list[Any]]) -> di
         truncated += scan.truncated_bytes
         complete = complete and scan.complete
         crcs.append(scan.data_crc)
-        if not scan.header and scan.size:
+        if scan.size and not scan.magic and not scan.truncated_bytes:
             damaged.append({"file": f.name, "offset": 0, "length": scan.size, "reason": "not an MCAP file"})
     data_crc = "mismatch" if "mismatch" in crcs else ("ok" if crcs and all(c == "ok" for c in crcs) else "absent")
     return {"skipped": skipped, "damaged": damaged, "truncated": truncated, "orphaned": orphaned,
