@@ -244,7 +244,7 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
     with log.open("w") as fh:
         proc = subprocess.Popen(
             [sys.executable, "-m", "jointwear_ros.nodes.recorder", "--ros-args", "-p", f"output_dir:={tmp_path / 'bags'}",
-             "-p", "discovery_period:=0.1", "-p", f"include:=['^{topic}$']"],
+             "-p", "discovery_period:=0.1", "-p", f"include:=['^{topic}$']", "-p", "diagnostics_period:=0.2"],
             env=env, stdout=fh, stderr=subprocess.STDOUT,
         )
     ctx = rclpy.Context()
@@ -252,6 +252,10 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
     node = rclpy.create_node("jw_loss_pub", context=ctx)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    diags: list = []
+    node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: diags.extend(m.status), 100)
     try:
         pub = node.create_publisher(JointState, topic, QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE))
         assert _spin_until(ex, lambda: pub.get_subscription_count() > 0, 30.0), log.read_text()
@@ -267,6 +271,8 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
 
         burst(100)
         assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
+        assert _spin_until(ex, lambda: bool(diags), 20.0)  # healthy before the stall
+        assert [d.level for d in diags] == [b"\x00"] * len(diags)
         proc.send_signal(signal.SIGSTOP)
         try:
             burst(3000)  # more than the history (20) and the transport buffers hold: most cannot reach it
@@ -275,7 +281,8 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
             proc.send_signal(signal.SIGCONT)
         burst(100)
         assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
-        time.sleep(0.5)
+        # the recorder's health turns WARN with the count (before: OK)
+        assert _spin_until(ex, lambda: any(d.level == b"\x01" for d in diags), 10.0), [d.message for d in diags]
     finally:
         proc.send_signal(signal.SIGINT)
         rc = proc.wait(30)
@@ -289,6 +296,10 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
     info = bag_info(bag)
     recorded, lost = info.topics[topic]["count"], info.messages_lost.get(topic, 0)
     assert lost > 0 and recorded + lost == sent == 3200, (recorded, lost, sent)
+    assert diags[0].message == "recording" and diags[0].name == f"recorder: {bag.name}"
+    warn = [d for d in diags if d.level == b"\x01"][-1]
+    assert warn.message == f"{lost} message(s) lost before reaching the recorder (bag incomplete)"
+    assert {kv.key: kv.value for kv in warn.values}["messages_lost"] == str(lost)
     capsys.readouterr()
     assert cli_main(["bag", "info", str(bag), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["messages_lost"] == {topic: lost}
