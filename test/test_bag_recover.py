@@ -116,9 +116,10 @@ def test_bag_info_and_replay_refuse_a_bag_with_20_kb_zeroed_in_the_middle(closed
     offset = int(err.split("damaged at byte ")[1].split(":")[0])
     assert mid - (1 << 20) <= offset <= mid + 20_000  # at the damage (the chunk holding its start)
     assert f"jointwear bag recover {bag}" in err
-    assert cli_main(["replay", str(bag)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "damaged at byte" in err
+    for replay in (["replay", str(bag)], ["replay", str(bag), "--publish"]):
+        assert cli_main(replay) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and f"{f}: damaged at byte {offset}" in err
 
     out = tmp_path / "zeroed_rec"
     before = _digest(bag)

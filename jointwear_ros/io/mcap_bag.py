@@ -64,7 +64,13 @@ class TopicInfo:
 
 def bag_metadata(mcap_name: str, topics: Sequence[TopicInfo], start_ns: int, end_ns: int,
                  custom_data: Mapping[str, str] | None = None, compression: str = "") -> dict[str, Any]:
-    """The ``metadata.yaml`` document (rosbag2 version 9, MCAP storage) for one MCAP file."""
+    """The ``metadata.yaml`` document (rosbag2 version 9, MCAP storage) for one MCAP file.
+
+    >>> doc = bag_metadata("b.mcap", [TopicInfo("/joint_states", "sensor_msgs/msg/JointState", count=3)], 10, 30)
+    >>> info = doc["rosbag2_bagfile_information"]
+    >>> info["version"], info["message_count"], info["duration"], info["files"][0]["path"]
+    (9, 3, {'nanoseconds': 20}, 'b.mcap')
+    """
     count = sum(t.count for t in topics)
     start = int(start_ns) if count else 0
     duration = max(0, int(end_ns) - int(start_ns)) if count else 0

@@ -110,7 +110,13 @@ class McapScan:
 
     @property
     def problems(self) -> list[tuple[int, str]]:
-        """(offset, what) of every defect, in file order."""
+        """(offset, what) of every defect, in file order.
+
+        >>> McapScan("x.mcap", 100, magic=True, header=True).problems
+        [(100, 'no footer: the file was not closed by its writer')]
+        >>> McapScan("x.mcap", 0).problems
+        [(0, 'the file is empty (0 bytes)')]
+        """
         out: list[tuple[int, str]] = []
         if not self.header:
             out.append((0, "the file is empty (0 bytes)" if not self.size else
