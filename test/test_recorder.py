@@ -368,3 +368,19 @@ def test_recorder_health_warns_on_low_disk_space_only_below_the_threshold(ros, t
     for r in (ok, low):
         r.on_shutdown()
         r.destroy_node()
+
+
+def test_recorder_that_cannot_create_its_bag_reports_error_and_records_nothing(ros, tmp_path):
+    ctx, ex = ros
+    (tmp_path / "a_file").write_text("not a directory")
+    out = tmp_path / "a_file" / "bags"
+    rec = _recorder(ctx, ex, out, include=["^/nothing$"])
+    assert rec.fatal is not None and rec.bags == [] and rec.write_errors == 1
+    level, message, values = rec.health()
+    assert level == 2 and message.startswith(f"recording stopped: {out}/jointwear_") and "(ENOTDIR)" in message
+    assert dict(values)["write_errors"] == "1"
+    ok = _recorder(ctx, ex, tmp_path / "fine", include=["^/nothing$"])
+    assert ok.fatal is None and ok.health()[0] == 0
+    for r in (rec, ok):
+        r.on_shutdown()
+        r.destroy_node()

@@ -457,6 +457,7 @@ class RecorderNode(Node):
             self._synced_closed += bag.synced
             bag.abort()
         self.fatal = f"{path}: {why}"
+        self._last_bag_name = path.name
         self.get_logger().error(
             f"recording stopped: {self.fatal}; {self.synced} message(s) are on disk in complete chunks "
             f"(`jointwear bag recover {path}` rebuilds the bag); the recorder exits with an error"
