@@ -71,7 +71,8 @@ def closed_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_the_writer_produces_a_checked_bag_that_rosbags_and_mcap_read_completely(closed_bag):
     (scan,) = check_bag(closed_bag)
-    assert scan.complete and scan.data_crc == "ok" and scan.problems == [] and scan.chunks_without_crc == 0
+    assert scan.complete and scan.data_crc == "ok" and scan.summary_crc == "ok" and scan.problems == []
+    assert scan.chunks_without_crc == 0
     assert scan.chunks == 40 and scan.messages == 20000  # one chunk per sync of 500
     meta = yaml.safe_load((closed_bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert meta["version"] == 9 and meta["message_count"] == 20000 and meta["custom_data"] is None
@@ -82,6 +83,19 @@ def test_the_writer_produces_a_checked_bag_that_rosbags_and_mcap_read_completely
         reader = make_reader(fh)
         assert reader.get_summary().statistics.message_count == 20000
         assert sum(1 for _ in reader.iter_messages()) == 20000
+
+
+def test_a_changed_byte_in_the_summary_is_reported_and_recover_does_not_need_the_summary(closed_bag, tmp_path):
+    bag = tmp_path / "summary"
+    shutil.copytree(closed_bag, bag)
+    f = bag / "bag.mcap"
+    data = bytearray(f.read_bytes())
+    data[len(data) - 37 - 10] ^= 0xFF  # inside the last summary-offset record, before the footer
+    f.write_bytes(bytes(data))
+    with pytest.raises(InputDataError, match=r"bag\.mcap: damaged at byte \d+: summary section CRC mismatch"):
+        check_bag(bag)
+    rep = recover_bag(bag, tmp_path / "summary_rec")
+    assert rep.messages == 20000 and rep.data_crc == "ok" and rep.skipped_chunks == [] and rep.damaged == []
 
 
 def test_an_open_bag_says_so_in_its_metadata_and_is_refused_by_bag_info(tmp_path, capsys):
@@ -163,8 +177,9 @@ def test_a_chunk_failing_its_crc_is_skipped_and_reported_never_read_as_valid(tmp
     assert rep.messages == 2500 and rep.topics == {"/joint_states": {"type": JS, "count": 2500}}
 
 
-def test_recover_of_a_file_cut_anywhere_gives_exactly_the_complete_chunks_before_the_cut(closed_bag, tmp_path):
-    data = (closed_bag / "bag.mcap").read_bytes()
+def test_recover_of_a_file_cut_anywhere_gives_exactly_the_complete_chunks_before_the_cut(tmp_path):
+    _write_bag(tmp_path / "whole", 5000)
+    data = (tmp_path / "whole" / "whole.mcap").read_bytes()
     chunk_ends = []  # end offset of each chunk record, in order (500 messages each)
     pos = 8
     while pos < len(data):
@@ -237,3 +252,36 @@ def test_a_bag_directory_without_metadata_points_to_recover(tmp_path, closed_bag
     rep = json.loads(capsys.readouterr().out)
     assert rep["bag"] == str(tmp_path / "nometa_recovered") and rep["messages"] == 20000
     assert rep["source_complete"] and rep["data_crc"] == "ok" and rep["skipped_chunks"] == []
+
+
+def test_random_damage_never_yields_an_invented_or_altered_message(tmp_path):
+    """Seeded random damage (zeros, random bytes, a cut) anywhere in a bag: recover never fails with
+    anything but its own error, and every message it returns is one that was written, value for value,
+    in order; the check always reports the damage."""
+    src = tmp_path / "src"
+    _write_bag(src, 1500, sync_every=150)
+    data = (src / "src.mcap").read_bytes()
+    rng = random.Random(2026)
+    for k in range(40):
+        bad = bytearray(data)
+        start = rng.randrange(0, len(bad))
+        length = rng.choice([1, 7, 100, 2000, 20000])
+        kind = rng.choice(["zeros", "random", "cut"])
+        if kind == "zeros":
+            bad[start:start + length] = bytes(len(bad[start:start + length]))
+        elif kind == "random":
+            bad[start:start + length] = rng.randbytes(len(bad[start:start + length]))
+        else:
+            del bad[start:]
+        if bytes(bad) == data:
+            continue
+        d = tmp_path / f"d{k}"
+        d.mkdir()
+        (d / "d.mcap").write_bytes(bytes(bad))
+        with pytest.raises(InputDataError, match=r"d\.mcap: damaged at byte \d+"):
+            check_bag(d)
+        rep = recover_bag(d, tmp_path / f"d{k}_rec")
+        got = _indices(tmp_path / f"d{k}_rec")  # checks each payload against its index
+        assert got == sorted(set(got)) and rep.messages == len(got) <= 1500, (k, kind, start, length)
+        if start > len(data) // 2:  # damage in the second half spares the first chunk
+            assert got[:150] == list(range(150)), (k, kind, start, length)

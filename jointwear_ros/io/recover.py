@@ -94,6 +94,9 @@ class McapScan:
     complete: bool = False
     #: ``ok``, ``mismatch`` or ``absent`` (no DataEnd, or its CRC is 0)
     data_crc: str = "absent"
+    #: the footer's summary CRC: ``ok``, ``mismatch`` or ``absent``
+    summary_crc: str = "absent"
+    summary_start: int = 0
     chunks: int = 0
     chunks_without_crc: int = 0
     messages: int = 0
@@ -127,6 +130,8 @@ class McapScan:
             out.append((int(d["offset"]), f"{d['length']} unreadable bytes ({d['reason']})"))
         if self.data_crc == "mismatch":
             out.append((self.data_end, "data section CRC mismatch"))
+        if self.summary_crc == "mismatch":
+            out.append((self.summary_start, "summary section CRC mismatch (indexes and statistics)"))
         if self.truncated_bytes:
             out.append((int(self.truncated_at or 0),
                         f"the file ends in an incomplete record ({self.truncated_bytes} bytes: {self.truncated_reason})"))
@@ -258,10 +263,16 @@ def _walk(buf: Any, size: int, scan: McapScan, emit: Callable[[Any], None], Head
             scan.data_end, in_data = pos, False
         elif op == _OP_FOOTER:
             try:
-                _read_record(Footer, body)
+                footer = _read_record(Footer, body)
                 scan.complete = end + 8 <= size and bytes(buf[end:end + 8]) == MAGIC
+                if footer.summary_crc:
+                    # the CRC runs from the summary start through the footer's summary_offset_start field
+                    first = int(footer.summary_start) or pos
+                    ok = first <= pos and zlib.crc32(buf[first:pos + 25]) == footer.summary_crc
+                    scan.summary_crc = "ok" if ok else "mismatch"
+                    scan.summary_start = first
             except Exception:
-                pass
+                scan.damaged.append({"offset": pos, "length": 9 + length, "reason": "the footer does not decode"})
             pos = end
             break
         elif in_data:
