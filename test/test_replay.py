@@ -224,7 +224,7 @@ def test_replay_of_a_truncated_bag_is_a_one_line_error(synthetic_bag, tmp_path, 
     mcap.write_bytes(data[: len(data) // 2])
     err = _one_line_error(["replay", str(broken)], capsys)
     # the CRC/structure check names the file, the offset and the way out
-    assert f"{mcap}: damaged at byte " in err and f"jointwear bag recover {broken}" in err
+    assert f"{mcap}: unfinished at byte " in err and f"jointwear bag recover {broken}" in err
 
 
 def test_replay_of_a_bag_without_joint_states_is_a_one_line_error(tmp_path, capsys):

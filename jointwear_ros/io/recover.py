@@ -112,6 +112,12 @@ class McapScan:
     data_end: int = 0
 
     @property
+    def unfinished_only(self) -> bool:
+        """The file is intact as far as it goes but was never closed (a live or killed recording)."""
+        return (self.header and not self.complete and not self.skipped_chunks and not self.damaged
+                and self.data_crc != "mismatch")
+
+    @property
     def problems(self) -> list[tuple[int, str]]:
         """(offset, what) of every defect, in file order.
 
@@ -355,6 +361,11 @@ def check_bag(path: str | os.PathLike[str]) -> list[McapScan]:
         if problems:
             offset, what = problems[0]
             more = f" (and {len(problems) - 1} more defect(s))" if len(problems) > 1 else ""
+            if s.unfinished_only:
+                raise InputDataError(
+                    f"{f}: unfinished at byte {offset}: {what} (still being recorded, or the recorder was "
+                    f"killed or ran out of disk); `jointwear bag recover {bag}` rebuilds a readable bag from it"
+                )
             raise InputDataError(
                 f"{f}: damaged at byte {offset}: {what}{more}; "
                 f"`jointwear bag recover {bag}` rebuilds a readable bag from the intact chunks"
