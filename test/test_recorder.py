@@ -356,7 +356,7 @@ def test_recorder_writes_every_message_of_a_long_stream_exactly_once_in_order_an
     rec.destroy_node()
 
 
-def test_recorder_health_warns_on_low_disk_space_only_below_the_threshold(ros, tmp_path):
+def test_recorder_health_warns_on_low_disk_space_and_writer_backlog_only_above_the_thresholds(ros, tmp_path):
     ctx, ex = ros
     ok = _recorder(ctx, ex, tmp_path / "a", include=["^/nothing$"])
     level, message, values = ok.health()
@@ -365,6 +365,9 @@ def test_recorder_health_warns_on_low_disk_space_only_below_the_threshold(ros, t
     level, message, values = low.health()
     assert values[0] == ("bag", str(low.bags[0])) and float(dict(values)["free_disk_mb"]) < 1.0e9
     assert level == 1 and message.startswith("low disk space: ") and "min_free_disk_mb" in message
+    ok.p["warn_backlog"] = -1  # any backlog (even none) is above this threshold
+    level, message, values = ok.health()
+    assert level == 1 and message.startswith("writer behind: ") and int(dict(values)["queue_backlog"]) >= 0
     for r in (ok, low):
         r.on_shutdown()
         r.destroy_node()

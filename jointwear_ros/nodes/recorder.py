@@ -24,8 +24,8 @@ Health: every ``diagnostics_period`` the recorder publishes a
 ``DiagnosticStatus`` named ``recorder: <bag name>`` on ``/diagnostics`` (rate,
 messages recorded / on disk / lost / dropped, queue backlog, write errors,
 free disk space): OK while recording, WARN when messages were lost before
-reception or the disk has less than ``min_free_disk_mb`` free, ERROR after a
-write error.
+reception, the disk has less than ``min_free_disk_mb`` free or more than
+``warn_backlog`` messages wait in the writer queue; ERROR after a write error.
 
 ``split: session`` writes one bag for the node's lifetime; ``split: cycle``
 starts a bag when ``/test_cycle/status`` shows a new ``cycle_id`` RUNNING and
@@ -234,6 +234,8 @@ class RecorderNode(Node):
         ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output (recorder health)"),
         ParamDecl("diagnostics_period", 1.0, "seconds between health reports on diagnostics_topic", 0.1, 60.0),
         ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the output directory)"),
+        ParamDecl("warn_backlog", 2000, "WARN on /diagnostics when more messages than this wait in the writer queue "
+                  "(they are at risk in a crash)"),
         ParamDecl("min_free_disk_mb", 1024.0, "WARN on /diagnostics when the output disk has less free space (MiB)",
                   0.0, 1.0e9),
     )
@@ -565,6 +567,7 @@ class RecorderNode(Node):
         lost = sum(self.lost.values())
         free_mb = _free_mb(self._out)
         low_disk = free_mb is not None and free_mb < float(self.p["min_free_disk_mb"])
+        backlog = self._queue.qsize()
         values = [
             ("bag", str(bag.path) if bag is not None else ""),
             ("rate_hz", f"{rate:.1f}"),
@@ -572,7 +575,7 @@ class RecorderNode(Node):
             ("messages_on_disk", str(self.synced)),
             ("messages_lost", str(lost)),
             ("messages_dropped", str(self.dropped)),
-            ("queue_backlog", str(self._queue.qsize())),
+            ("queue_backlog", str(backlog)),
             ("write_errors", str(self.write_errors)),
             ("free_disk_mb", f"{free_mb:.0f}" if free_mb is not None else "unknown"),
             ("topics", str(len(self._subs))),
@@ -583,6 +586,8 @@ class RecorderNode(Node):
             return 1, f"{lost} message(s) lost before reaching the recorder (bag incomplete)", values
         if low_disk:
             return 1, f"low disk space: {free_mb:.0f} MiB free (< min_free_disk_mb)", values
+        if backlog > int(self.p["warn_backlog"]):
+            return 1, f"writer behind: {backlog} messages queued (> warn_backlog), at risk in a crash", values
         if bag is None:
             return 0, "waiting for a test cycle" if self.p["split"] == "cycle" else "no bag open", values
         return 0, "recording", values
