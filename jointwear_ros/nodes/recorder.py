@@ -293,7 +293,6 @@ class RecorderNode(Node):
         self._thread = threading.Thread(target=self._write_loop, name="recorder-writer", daemon=True)
         self._thread.start()
         self._timer = self.create_timer(float(self.p["discovery_period"]), self.discover)
-        self._diag_timer = self.create_timer(float(self.p["diagnostics_period"]), self.publish_diagnostics)
         self.discover()
 
     # ----------------------------------------------------------------- discovery
@@ -537,7 +536,11 @@ class RecorderNode(Node):
         return self.get_clock().now().nanoseconds * 1e-9 - self._cycle_end >= float(self.p["cycle_tail"])
 
     def _write_loop(self) -> None:
+        # the health report is published from this thread too (not an executor timer): it keeps coming
+        # while callbacks are busy, and the EventsExecutor is left with one timer (discovery)
+        diag_period = float(self.p["diagnostics_period"])
         self._next_sync = time.monotonic() + float(self.p["flush_period"])
+        next_diag = time.monotonic() + diag_period
         while True:
             try:
                 item = self._queue.get(timeout=0.1)
@@ -547,8 +550,12 @@ class RecorderNode(Node):
                 break
             if item:
                 self._handle(item)
-            if time.monotonic() >= self._next_sync:
+            now = time.monotonic()
+            if now >= self._next_sync:
                 self._sync()
+            if now >= next_diag:
+                next_diag = now + diag_period
+                self.publish_diagnostics()
             if self._tail_done():
                 self._close_bag()
                 self._cycle_end = None
@@ -621,7 +628,6 @@ class RecorderNode(Node):
         except ValueError:  # not the main thread
             pass
         self._timer.cancel()
-        self._diag_timer.cancel()
         for sub in self._subs.values():
             self.destroy_subscription(sub)
         self._queue.put(None)
