@@ -73,6 +73,8 @@ def test_the_writer_produces_a_checked_bag_that_rosbags_and_mcap_read_completely
     (scan,) = check_bag(closed_bag)
     assert scan.complete and scan.data_crc == "ok" and scan.summary_crc == "ok" and scan.problems == []
     assert scan.chunks_without_crc == 0
+    assert bag_info(closed_bag).check == [{"file": "bag.mcap", "chunks": 40, "chunks_without_crc": 0,
+                                           "data_crc": "ok", "summary_crc": "ok"}]
     assert scan.chunks == 40 and scan.messages == 20000  # one chunk per sync of 500
     meta = yaml.safe_load((closed_bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert meta["version"] == 9 and meta["message_count"] == 20000 and meta["custom_data"] is None

@@ -48,6 +48,11 @@ def cmd_info(args: argparse.Namespace) -> int:
     print(f"bag: {info.path}")
     print(f"storage: {info.storage} (metadata version {info.version}), {info.message_count} messages, "
           f"{info.duration_ns * 1e-9:.3f} s from {info.start_ns * 1e-9:.3f} s")
+    for c in info.check:
+        crcs = ("chunk CRCs ok" if not c["chunks_without_crc"] else
+                f"{c['chunks_without_crc']} of {c['chunks']} chunks without CRC (structure checked only)")
+        print(f"check: {c['file']}: {c['chunks']} chunks, {crcs}, data CRC {c['data_crc']}, "
+              f"summary CRC {c['summary_crc']}")
     rows = [[t, v["type"], v["count"]] for t, v in info.topics.items()]
     print(format_table(["topic", "type", "count"], rows))
     if info.messages_lost:

@@ -216,6 +216,9 @@ class BagInfo:
     topics: dict[str, dict[str, Any]] = field(default_factory=dict)
     #: per topic, messages the recorder was told were lost before reception (metadata custom_data)
     messages_lost: dict[str, int] = field(default_factory=dict)
+    #: per MCAP file, what the integrity check found (``file``, ``chunks``, ``chunks_without_crc``,
+    #: ``data_crc``, ``summary_crc``: ok / absent); empty when not checked
+    check: list[dict[str, Any]] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -227,6 +230,7 @@ class BagInfo:
             "message_count": self.message_count,
             "topics": self.topics,
             "messages_lost": self.messages_lost,
+            "check": self.check,
         }
 
 
@@ -243,8 +247,11 @@ def bag_info(path: str | os.PathLike[str], check: bool = True) -> BagInfo:
     from .recover import check_bag
 
     p = _check_bag_path(Path(path))
-    if check:
-        check_bag(p)
+    checked = [
+        {"file": Path(sc.path).name, "chunks": sc.chunks, "chunks_without_crc": sc.chunks_without_crc,
+         "data_crc": sc.data_crc, "summary_crc": sc.summary_crc}
+        for sc in (check_bag(p) if check else [])
+    ]
     try:
         with AnyReader([p], default_typestore=jointwear_typestore()) as reader:
             topics: dict[str, dict[str, Any]] = {}
@@ -269,6 +276,7 @@ def bag_info(path: str | os.PathLike[str], check: bool = True) -> BagInfo:
                 message_count=int(reader.message_count),
                 topics=dict(sorted(topics.items())),
                 messages_lost=lost,
+                check=checked,
             )
     except InputDataError:
         raise
