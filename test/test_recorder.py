@@ -244,7 +244,7 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
     with log.open("w") as fh:
         proc = subprocess.Popen(
             [sys.executable, "-m", "jointwear_ros.nodes.recorder", "--ros-args", "-p", f"output_dir:={tmp_path / 'bags'}",
-             "-p", "discovery_period:=0.1", "-p", f"include:=['^{topic}$']"],
+             "-p", "discovery_period:=0.1", "-p", f"include:=['^{topic}$']", "-p", "diagnostics_period:=0.2"],
             env=env, stdout=fh, stderr=subprocess.STDOUT,
         )
     ctx = rclpy.Context()
@@ -252,6 +252,10 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
     node = rclpy.create_node("jw_loss_pub", context=ctx)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    diags: list = []
+    node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: diags.extend(m.status), 100)
     try:
         pub = node.create_publisher(JointState, topic, QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE))
         assert _spin_until(ex, lambda: pub.get_subscription_count() > 0, 30.0), log.read_text()
@@ -267,6 +271,8 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
 
         burst(100)
         assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
+        assert _spin_until(ex, lambda: bool(diags), 20.0)  # healthy before the stall
+        assert [d.level for d in diags] == [b"\x00"] * len(diags)
         proc.send_signal(signal.SIGSTOP)
         try:
             burst(3000)  # more than the history (20) and the transport buffers hold: most cannot reach it
@@ -275,7 +281,14 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
             proc.send_signal(signal.SIGCONT)
         burst(100)
         assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
-        time.sleep(0.5)
+        # the recorder's health turns WARN with the count (before: OK), and once it has taken every
+        # delivered message its counts add up (waited for: the last messages may still be in its queue)
+
+        def accounted() -> bool:
+            last = {kv.key: kv.value for kv in diags[-1].values} if diags else {}
+            return diags[-1].level == b"\x01" and int(last["messages_recorded"]) + int(last["messages_lost"]) == sent
+
+        assert _spin_until(ex, accounted, 20.0), [(d.message, d.values) for d in diags[-2:]]
     finally:
         proc.send_signal(signal.SIGINT)
         rc = proc.wait(30)
@@ -289,9 +302,94 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
     info = bag_info(bag)
     recorded, lost = info.topics[topic]["count"], info.messages_lost.get(topic, 0)
     assert lost > 0 and recorded + lost == sent == 3200, (recorded, lost, sent)
+    assert diags[0].message == "recording" and diags[0].name == f"recorder: {bag.name}"
+    warn = [d for d in diags if d.level == b"\x01"][-1]
+    assert warn.message == f"{lost} message(s) lost before reaching the recorder (bag incomplete)"
+    assert {kv.key: kv.value for kv in warn.values}["messages_lost"] == str(lost)
     capsys.readouterr()
     assert cli_main(["bag", "info", str(bag), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["messages_lost"] == {topic: lost}
     assert cli_main(["bag", "info", str(bag)]) == 0
     assert f"INCOMPLETE: the recorder was told these messages were lost before it received them: {topic} {lost}" \
         in capsys.readouterr().out
+
+
+def test_recorder_writes_every_message_of_a_long_stream_exactly_once_in_order_and_reports_it_on_diagnostics(
+        ros, tmp_path):
+    """3000 reliable messages (more than enough for a recorder that drops one in a thousand to fail):
+    the bag holds exactly the published sequence, and /diagnostics shows them recorded and on disk."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    ctx, ex = ros
+    pub_node = rclpy.create_node("recorder_test_exact", context=ctx)
+    ex.add_node(pub_node)
+    js = pub_node.create_publisher(JointState, "/jw_exact/joint_states", RELIABLE)
+    statuses: list = []
+    pub_node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: statuses.extend(m.status), 100)
+    rec = _recorder(ctx, ex, tmp_path, include=["^/jw_exact/joint_states$"], diagnostics_period=0.2,
+                    flush_period=0.2)
+    assert _spin_until(ex, lambda: js.get_subscription_count() >= 1)
+    n = 3000
+    for i in range(n):
+        js.publish(_joint_state(i))
+        if i % 20 == 0:
+            ex.spin_once(timeout_sec=0.0)
+    assert js.wait_for_all_acked(rclpy.duration.Duration(seconds=20.0))
+    assert _spin_until(ex, lambda: rec.received.get("/jw_exact/joint_states", 0) == n), rec.received
+    bag = rec.bags[0]
+
+    def on_disk() -> list:
+        return [s for s in statuses if s.name == f"recorder: {bag.name}"
+                and {kv.key: kv.value for kv in s.values}.get("messages_on_disk") == str(n)]
+
+    assert _spin_until(ex, lambda: bool(on_disk())), [(s.name, s.message, s.values) for s in statuses[-3:]]
+    st = on_disk()[-1]
+    values = {kv.key: kv.value for kv in st.values}
+    assert st.level == b"\x00" and st.message == "recording" and st.hardware_id == str(tmp_path)
+    assert values["messages_recorded"] == str(n) and values["messages_lost"] == "0"
+    assert values["write_errors"] == "0" and values["bag"] == str(bag) and float(values["free_disk_mb"]) > 0
+    # while open, metadata.yaml already lists what is on disk
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["message_count"] == n and meta["custom_data"] == {"jointwear.recording": "open"}
+    rec.on_shutdown()
+    assert rec.write_errors == 0 and rec.recorded == n and rec.dropped == 0
+    got = [m.msg for m in read_messages(bag, topics=["/jw_exact/joint_states"])]
+    assert [round(m.effort[1], 6) for m in got] == [round(12.5 + 0.01 * i, 6) for i in range(n)]
+    assert [m.header.stamp.sec * 500 + m.header.stamp.nanosec // 2_000_000 for m in got] == list(range(n))
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["message_count"] == n and meta["custom_data"] is None  # closed
+    pub_node.destroy_node()
+    rec.destroy_node()
+
+
+def test_recorder_health_warns_on_low_disk_space_and_writer_backlog_only_above_the_thresholds(ros, tmp_path):
+    ctx, ex = ros
+    ok = _recorder(ctx, ex, tmp_path / "a", include=["^/nothing$"])
+    level, message, values = ok.health()
+    assert (level, message) == (0, "recording")
+    low = _recorder(ctx, ex, tmp_path / "b", include=["^/nothing$"], min_free_disk_mb=1.0e9)
+    level, message, values = low.health()
+    assert values[0] == ("bag", str(low.bags[0])) and float(dict(values)["free_disk_mb"]) < 1.0e9
+    assert level == 1 and message.startswith("low disk space: ") and "min_free_disk_mb" in message
+    ok.p["warn_backlog"] = -1  # any backlog (even none) is above this threshold
+    level, message, values = ok.health()
+    assert level == 1 and message.startswith("writer behind: ") and int(dict(values)["queue_backlog"]) >= 0
+    for r in (ok, low):
+        r.on_shutdown()
+        r.destroy_node()
+
+
+def test_recorder_that_cannot_create_its_bag_reports_error_and_records_nothing(ros, tmp_path):
+    ctx, ex = ros
+    (tmp_path / "a_file").write_text("not a directory")
+    out = tmp_path / "a_file" / "bags"
+    rec = _recorder(ctx, ex, out, include=["^/nothing$"])
+    assert rec.fatal is not None and rec.bags == [] and rec.write_errors == 1
+    level, message, values = rec.health()
+    assert level == 2 and message.startswith(f"recording stopped: {out}/jointwear_") and "(ENOTDIR)" in message
+    assert dict(values)["write_errors"] == "1"
+    ok = _recorder(ctx, ex, tmp_path / "fine", include=["^/nothing$"])
+    assert ok.fatal is None and ok.health()[0] == 0
+    for r in (rec, ok):
+        r.on_shutdown()
+        r.destroy_node()

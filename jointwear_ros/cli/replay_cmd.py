@@ -178,6 +178,9 @@ def _publish(args: argparse.Namespace) -> int:
     if not 0 < wait_timeout <= 86400:
         raise UsageError(f"--wait-timeout: {args.wait_timeout!r} must be between 0 and 86400 s")
     bag = _check_bag_path(Path(args.bag))
+    from ..io.recover import check_bag
+
+    check_bag(bag)  # a damaged bag is refused with the file and offset before anything is published
     try:
         import rclpy
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy

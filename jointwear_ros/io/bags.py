@@ -138,6 +138,11 @@ def _check_bag_path(path: Path) -> Path:
         raise InputDataError(f"{path}: no such bag; give a rosbag2 directory (with metadata.yaml)")
     p = _bag_dir(path)
     if p.is_dir() and not (p / "metadata.yaml").is_file():
+        if any(p.glob("*.mcap")):
+            raise InputDataError(
+                f"{p}: no metadata.yaml beside its .mcap file (recorder killed?); "
+                f"`jointwear bag recover {p}` rebuilds a readable bag"
+            )
         raise InputDataError(
             f"{p}: not a rosbag2 bag (no metadata.yaml); give the bag directory the recorder wrote"
         )
@@ -211,6 +216,9 @@ class BagInfo:
     topics: dict[str, dict[str, Any]] = field(default_factory=dict)
     #: per topic, messages the recorder was told were lost before reception (metadata custom_data)
     messages_lost: dict[str, int] = field(default_factory=dict)
+    #: per MCAP file, what the integrity check found (``file``, ``chunks``, ``chunks_without_crc``,
+    #: ``data_crc``, ``summary_crc``: ok / absent); empty when not checked
+    check: list[dict[str, Any]] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -222,14 +230,28 @@ class BagInfo:
             "message_count": self.message_count,
             "topics": self.topics,
             "messages_lost": self.messages_lost,
+            "check": self.check,
         }
 
 
-def bag_info(path: str | os.PathLike[str]) -> BagInfo:
-    """Topics (type, message count), duration and storage of a bag (from its index/metadata)."""
+def bag_info(path: str | os.PathLike[str], check: bool = True) -> BagInfo:
+    """Topics (type, message count), duration and storage of a bag (from its index/metadata).
+
+    With ``check`` every MCAP file is first walked record by record (chunk and
+    data-section CRCs, a footer): a damaged or unfinished bag raises
+    :class:`InputDataError` naming the file and byte offset (see
+    :func:`~jointwear_ros.io.recover.check_bag`).
+    """
     from rosbags.highlevel import AnyReader
 
+    from .recover import check_bag
+
     p = _check_bag_path(Path(path))
+    checked = [
+        {"file": Path(sc.path).name, "chunks": sc.chunks, "chunks_without_crc": sc.chunks_without_crc,
+         "data_crc": sc.data_crc, "summary_crc": sc.summary_crc}
+        for sc in (check_bag(p) if check else [])
+    ]
     try:
         with AnyReader([p], default_typestore=jointwear_typestore()) as reader:
             topics: dict[str, dict[str, Any]] = {}
@@ -254,6 +276,7 @@ def bag_info(path: str | os.PathLike[str]) -> BagInfo:
                 message_count=int(reader.message_count),
                 topics=dict(sorted(topics.items())),
                 messages_lost=lost,
+                check=checked,
             )
     except InputDataError:
         raise
@@ -569,8 +592,10 @@ def replay_bag(
 
     from ..monitor import MonitorConfig, WearMonitor
     from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig
+    from .recover import check_bag
 
     p = _check_bag_path(Path(path))
+    check_bag(p)  # a damaged bag is refused with its offset, never replayed as if whole
     obs_params = dict(observer_params)
     mon_params = dict(monitor_params)
     if use_recorded_params:

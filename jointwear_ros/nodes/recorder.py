@@ -6,16 +6,32 @@ filtered by the ``include``/``exclude`` regular expressions, and subscribed
 with ``raw=True`` and a QoS matched to their publishers (RELIABLE when every
 publisher is reliable, else BEST_EFFORT; TRANSIENT_LOCAL when every publisher
 offers it; KEEP_LAST ``queue_depth``, default 10000, so that a few seconds
-without CPU at 2 kHz lose nothing). The bytes are written unchanged by a writer thread with
-rosbags (``metadata.yaml`` version 9, MCAP storage, message definitions from
-the typestore), so the callbacks only enqueue.
+without CPU at 2 kHz lose nothing). The bytes are written unchanged by a writer thread
+(the callbacks only enqueue) into a rosbag2 bag: ``metadata.yaml`` version 9 and
+an MCAP file written with the ``mcap`` library (zstd chunks with CRCs, message
+definitions from the typestore; :class:`~jointwear_ros.io.mcap_bag.McapBagWriter`).
+
+Crash safety: every ``flush_period`` (0.5 s) the writer thread ends the open
+chunk, flushes and fsyncs the file and rewrites ``metadata.yaml`` with the
+counts on disk; a chunk is also closed when it reaches ``chunk_size``. A
+SIGKILL, a power cut or a full disk therefore risks only the last period (plus
+what was still queued); ``jointwear bag recover`` rebuilds an indexed bag from
+what is on disk. A write error (disk full, file size limit, permission, I/O)
+stops recording: the recorder logs the cause, closes the file as it stands,
+reports ERROR on ``/diagnostics`` and the process exits with status 1.
+
+Health: every ``diagnostics_period`` the recorder publishes a
+``DiagnosticStatus`` named ``recorder: <bag name>`` on ``/diagnostics`` (rate,
+messages recorded / on disk / lost / dropped, queue backlog, write errors,
+free disk space): OK while recording, WARN when messages were lost before
+reception, the disk has less than ``min_free_disk_mb`` free or more than
+``warn_backlog`` messages wait in the writer queue; ERROR after a write error.
 
 ``split: session`` writes one bag for the node's lifetime; ``split: cycle``
 starts a bag when ``/test_cycle/status`` shows a new ``cycle_id`` RUNNING and
 closes it ``cycle_tail`` seconds after that cycle's DONE/ABORTED/FAILED (so
 the cycle's WearEstimate is in it) or when the next cycle starts. On shutdown
-the open bag is closed properly. A failed write is logged and counted; it does
-not stop the node.
+the open bag is closed properly (its MCAP summary and indexes written).
 
 Messages lost before they reach the recorder (a reliable publisher's history
 overflowed while the recorder was stalled; best-effort samples dropped) are
@@ -29,11 +45,15 @@ it may differ from the live run.
 
 from __future__ import annotations
 
+import errno
 import importlib
 import json
+import os
 import queue
 import re
+import shutil
 import signal
+import sys
 import threading
 import time
 from dataclasses import dataclass
@@ -41,16 +61,17 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from ..io.bags import LOST_KEY, STATUS_TYPE, ensure_msgtype
+from ..io.mcap_bag import COMPRESSIONS, McapBagWriter, qos_profiles_v9
 from ..io.typestore import JOINTWEAR_MSG_TYPES, msg_definition_dirs
 from .runtime import ParamDecl, declare_parameters, run_node, subscribe_reporting_loss
 
@@ -117,19 +138,30 @@ class _Lost:
 
 
 class _Bag:
-    """One open rosbag2 writer; connections are added as topics first arrive."""
+    """One open bag (:class:`~jointwear_ros.io.mcap_bag.McapBagWriter`); connections are added as topics arrive.
 
-    def __init__(self, path: Path, store: Typestore, offered: dict[str, list[Qos]]) -> None:
+    :meth:`sync` ends the open chunk, flushes and fsyncs the file and rewrites
+    metadata.yaml: what was written before the last sync survives a SIGKILL or
+    a full disk (``jointwear bag recover`` rebuilds the bag from it).
+    """
+
+    def __init__(self, path: Path, store: Typestore, offered: dict[str, list[Qos]], *,
+                 chunk_size: int = 1 << 20, compression: str = "zstd", fsync: bool = True) -> None:
         self.path = path
         self._store = store
         self._offered = offered
-        self._writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
-        self._writer.open()
-        self._conns: dict[str, Any] = {}
+        self._writer = McapBagWriter(path, chunk_size=chunk_size, compression=compression, fsync=fsync)
+        self._conns: dict[str, int] = {}
         self._last = -1
         self._pre_clock: list[_Item] = []
         self.count = 0
         self.lost: dict[str, int] = {}
+        self._lost_noted: dict[str, int] = {}
+
+    @property
+    def synced(self) -> int:
+        """Messages on disk in complete chunks (safe from a crash)."""
+        return self._writer.synced_count
 
     def write(self, item: _Item) -> None:
         # Under use_sim_time the node's clock reads 0 until the first /clock arrives:
@@ -147,9 +179,12 @@ class _Bag:
     def _write(self, item: _Item) -> None:
         conn = self._conns.get(item.topic)
         if conn is None:
+            msgdef, _ = self._store.generate_msgdef(item.msgtype, ros_version=2)
             conn = self._writer.add_connection(
-                item.topic, item.msgtype, typestore=self._store,
-                offered_qos_profiles=self._offered.get(item.topic, ()),
+                item.topic, item.msgtype, msgdef,
+                encoding="ros2idl" if msgdef.startswith("=" * 80 + "\nIDL: ") else "ros2msg",
+                rihs01=self._store.hash_rihs01(item.msgtype),
+                offered_qos_profiles=qos_profiles_v9(self._offered.get(item.topic, ())),
             )
             self._conns[item.topic] = conn
         # strictly increasing log times keep the receive order in log-time order
@@ -158,13 +193,26 @@ class _Bag:
         self._last = stamp
         self.count += 1
 
+    def _note_lost(self) -> None:
+        if self.lost != self._lost_noted:
+            self._writer.custom_data[LOST_KEY] = json.dumps(dict(sorted(self.lost.items())))
+            self._lost_noted = dict(self.lost)
+
+    def sync(self) -> None:
+        """Make everything written so far durable (raises OSError when the disk refuses)."""
+        self._note_lost()
+        self._writer.sync()
+
     def close(self) -> None:
         held, self._pre_clock = self._pre_clock, []
         for h in held:  # no clock ever came: keep them at time 0 rather than lose them
             self._write(h)
-        if self.lost:
-            self._writer.set_custom_data(LOST_KEY, json.dumps(dict(sorted(self.lost.items()))))
+        self._note_lost()
         self._writer.close()
+
+    def abort(self) -> None:
+        """Close the file after a write error, without a summary (what was synced stays recoverable)."""
+        self._writer.abort()
 
 
 class RecorderNode(Node):
@@ -178,6 +226,18 @@ class RecorderNode(Node):
         ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus topic that drives split: cycle"),
         ParamDecl("cycle_tail", 5.0, "seconds (node clock) recorded after a cycle ends", 0.0, 3600.0),
         ParamDecl("queue_depth", 10000, "subscription history depth: messages buffered while the recorder is busy"),
+        ParamDecl("flush_period", 0.5, "seconds between syncs (end chunk, flush, fsync, metadata.yaml): at most "
+                  "this much recording is at risk in a crash", 0.05, 60.0),
+        ParamDecl("chunk_size", 1048576, "an MCAP chunk is also closed when its data exceeds this many bytes"),
+        ParamDecl("compression", "zstd", "chunk compression: zstd, lz4 or none"),
+        ParamDecl("fsync", True, "fsync the bag at each sync (survives power loss, not only a killed process)"),
+        ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output (recorder health)"),
+        ParamDecl("diagnostics_period", 1.0, "seconds between health reports on diagnostics_topic", 0.1, 60.0),
+        ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the output directory)"),
+        ParamDecl("warn_backlog", 2000, "WARN on /diagnostics when more messages than this wait in the writer queue "
+                  "(they are at risk in a crash)"),
+        ParamDecl("min_free_disk_mb", 1024.0, "WARN on /diagnostics when the output disk has less free space (MiB)",
+                  0.0, 1.0e9),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -190,6 +250,13 @@ class RecorderNode(Node):
         if self.p["split"] not in ("session", "cycle"):
             self.get_logger().error(f"split {self.p['split']!r} is not 'session' or 'cycle'; using 'session'")
             self.p["split"] = "session"
+        if self.p["compression"] not in COMPRESSIONS:
+            self.get_logger().error(f"compression {self.p['compression']!r} is not one of "
+                                    f"{', '.join(COMPRESSIONS)}; using 'zstd'")
+            self.p["compression"] = "zstd"
+        if int(self.p["chunk_size"]) < 1024:
+            self.get_logger().error(f"chunk_size {self.p['chunk_size']} is below 1024 bytes; using 1048576")
+            self.p["chunk_size"] = 1048576
         self._include = self._compile("include")
         self._exclude = self._compile("exclude")
         self._store = _recorder_typestore()
@@ -203,13 +270,24 @@ class RecorderNode(Node):
         self._cycle_end: float | None = None
         self._cycle_ended = False  # the current cycle id has ended: RUNNING with that id again is a new cycle
         self.write_errors = 0
+        #: the write error that stopped recording (None while healthy); the process then exits non-zero
+        self.fatal: str | None = None
+        #: a process running this node stops itself after a fatal write error (set by ``main``)
+        self.stop_process_on_fatal = False
         self.received: dict[str, int] = {}
         #: per topic, messages DDS reported lost before they reached the recorder
         self.lost: dict[str, int] = {}
         self.dropped = 0
+        #: messages written to bags (all bags) and, of those, made durable by a sync
+        self.recorded = 0
+        self._synced_closed = 0
+        self._last_bag_name = ""
         self._lock = threading.Lock()
         self._stopped = False
         self._out = Path(self.p["output_dir"]).expanduser()
+        self._hardware_id = str(self.p["hardware_id"]) or str(self._out)
+        self.diag_pub = self.create_publisher(DiagnosticArray, str(self.p["diagnostics_topic"]), 10)
+        self._diag_last = (time.monotonic(), 0)
         if self.p["split"] == "session":
             self._open_bag(None)
         self._thread = threading.Thread(target=self._write_loop, name="recorder-writer", daemon=True)
@@ -332,17 +410,21 @@ class RecorderNode(Node):
         return path
 
     def _open_bag(self, cycle: int | None) -> None:
+        if self.fatal is not None:
+            return
         path = self._new_path(cycle)
         try:
             self._out.mkdir(parents=True, exist_ok=True)
-            bag = _Bag(path, self._store, self._offered)
-        except Exception as exc:
-            self.write_errors += 1
-            self.get_logger().error(f"cannot open bag {path}: {exc}; messages are dropped until the next bag")
+            bag = _Bag(path, self._store, self._offered, chunk_size=int(self.p["chunk_size"]),
+                       compression=str(self.p["compression"]), fsync=bool(self.p["fsync"]))
+        except OSError as exc:
+            self._fail(path, f"cannot create the bag: {_os_error(exc)}")
             return
         with self._lock:
             self._bag = bag
             self._bags.append(path)
+            self._last_bag_name = path.name
+        self._next_sync = time.monotonic() + float(self.p["flush_period"])
         self.get_logger().info(f"bag {path} opened")
 
     def _close_bag(self) -> None:
@@ -352,17 +434,48 @@ class RecorderNode(Node):
             return
         try:
             bag.close()
-            if bag.lost:
-                lost = ", ".join(f"{t} {n}" for t, n in sorted(bag.lost.items()))
-                self.get_logger().error(
-                    f"bag {bag.path} closed ({bag.count} messages); INCOMPLETE, messages lost before "
-                    f"reception: {lost} (noted in its metadata.yaml)"
-                )
-            else:
-                self.get_logger().info(f"bag {bag.path} closed ({bag.count} messages)")
-        except Exception as exc:
-            self.write_errors += 1
-            self.get_logger().error(f"closing bag {bag.path} failed: {exc}")
+        except OSError as exc:
+            self._synced_closed += bag.synced
+            bag.abort()
+            self._fail(bag.path, f"closing the bag failed: {_os_error(exc)}")
+            return
+        self._synced_closed += bag.count
+        if bag.lost:
+            lost = ", ".join(f"{t} {n}" for t, n in sorted(bag.lost.items()))
+            self.get_logger().error(
+                f"bag {bag.path} closed ({bag.count} messages); INCOMPLETE, messages lost before "
+                f"reception: {lost} (noted in its metadata.yaml)"
+            )
+        else:
+            self.get_logger().info(f"bag {bag.path} closed ({bag.count} messages)")
+
+    def _fail(self, path: Path, why: str) -> None:
+        """A write error: stop recording, keep what is on disk, report ERROR, stop the process (``main``)."""
+        self.write_errors += 1
+        with self._lock:
+            bag, self._bag = self._bag, None
+        if bag is not None:
+            self._synced_closed += bag.synced
+            bag.abort()
+        self.fatal = f"{path}: {why}"
+        self._last_bag_name = path.name
+        self.get_logger().error(
+            f"recording stopped: {self.fatal}; {self.synced} message(s) are on disk in complete chunks "
+            f"(`jointwear bag recover {path}` rebuilds the bag); the recorder exits with an error"
+        )
+        self.publish_diagnostics()
+        try:
+            self.diag_pub.wait_for_all_acked(Duration(seconds=1.0))
+        except Exception:  # pragma: no cover - best effort on the way out
+            pass
+        if self.stop_process_on_fatal:
+            os.kill(os.getpid(), signal.SIGTERM)  # run_node's handler: a clean stop, then main returns 1
+
+    @property
+    def synced(self) -> int:
+        """Messages made durable (complete chunks, fsynced) in all bags so far."""
+        bag = self._bag
+        return self._synced_closed + (bag.synced if bag is not None else 0)
 
     def _status(self, item: _Item) -> tuple[int, int] | None:
         try:
@@ -376,6 +489,9 @@ class RecorderNode(Node):
         if isinstance(item, _Lost):
             if self._bag is not None:
                 self._bag.lost[item.topic] = self._bag.lost.get(item.topic, 0) + item.count
+            return
+        if self.fatal is not None:
+            self.dropped += 1
             return
         if self.p["split"] == "cycle" and item.topic == self.p["status_topic"] and item.msgtype == STATUS_TYPE:
             st = self._status(item)
@@ -395,9 +511,24 @@ class RecorderNode(Node):
             return
         try:
             bag.write(item)
-        except Exception as exc:  # a failed write never stops the recorder
+        except OSError as exc:  # disk full, file too large, I/O error: the bag cannot go on
+            self._fail(bag.path, f"write failed ({item.topic}): {_os_error(exc)}")
+            return
+        except Exception as exc:  # a message that cannot be written (e.g. no definition): skip it
             self.write_errors += 1
             self.get_logger().error(f"write to {bag.path} failed ({item.topic}): {exc}", throttle_duration_sec=5.0)
+            return
+        self.recorded += 1
+
+    def _sync(self) -> None:
+        bag = self._bag
+        self._next_sync = time.monotonic() + float(self.p["flush_period"])
+        if bag is None:
+            return
+        try:
+            bag.sync()
+        except OSError as exc:
+            self._fail(bag.path, f"flushing to disk failed: {_os_error(exc)}")
 
     def _tail_done(self) -> bool:
         if self._cycle_end is None or self._bag is None:
@@ -405,19 +536,85 @@ class RecorderNode(Node):
         return self.get_clock().now().nanoseconds * 1e-9 - self._cycle_end >= float(self.p["cycle_tail"])
 
     def _write_loop(self) -> None:
+        # the health report is published from this thread too (not an executor timer): it keeps coming
+        # while callbacks are busy, and the EventsExecutor is left with one timer (discovery)
+        diag_period = float(self.p["diagnostics_period"])
+        self._next_sync = time.monotonic() + float(self.p["flush_period"])
+        next_diag = time.monotonic() + diag_period
         while True:
             try:
-                item = self._queue.get(timeout=0.2)
+                item = self._queue.get(timeout=0.1)
             except queue.Empty:
                 item = False  # type: ignore[assignment]
             if item is None:
                 break
             if item:
                 self._handle(item)
+            now = time.monotonic()
+            if now >= self._next_sync:
+                self._sync()
+            if now >= next_diag:
+                next_diag = now + diag_period
+                self.publish_diagnostics()
             if self._tail_done():
                 self._close_bag()
                 self._cycle_end = None
         self._close_bag()
+
+    # ----------------------------------------------------------------- health
+
+    def health(self) -> tuple[int, str, list[tuple[str, str]]]:
+        """(level, message, key/values) of the recorder's DiagnosticStatus."""
+        now = time.monotonic()
+        t0, n0 = self._diag_last
+        recorded = self.recorded
+        rate = (recorded - n0) / (now - t0) if now > t0 else 0.0
+        self._diag_last = (now, recorded)
+        bag = self._bag
+        lost = sum(self.lost.values())
+        free_mb = _free_mb(self._out)
+        low_disk = free_mb is not None and free_mb < float(self.p["min_free_disk_mb"])
+        backlog = self._queue.qsize()
+        values = [
+            ("bag", str(bag.path) if bag is not None else ""),
+            ("rate_hz", f"{rate:.1f}"),
+            ("messages_recorded", str(recorded)),
+            ("messages_on_disk", str(self.synced)),
+            ("messages_lost", str(lost)),
+            ("messages_dropped", str(self.dropped)),
+            ("queue_backlog", str(backlog)),
+            ("write_errors", str(self.write_errors)),
+            ("free_disk_mb", f"{free_mb:.0f}" if free_mb is not None else "unknown"),
+            ("topics", str(len(self._subs))),
+        ]
+        if self.fatal is not None:
+            return 2, f"recording stopped: {self.fatal}", values
+        if lost:
+            return 1, f"{lost} message(s) lost before reaching the recorder (bag incomplete)", values
+        if low_disk:
+            return 1, f"low disk space: {free_mb:.0f} MiB free (< min_free_disk_mb)", values
+        if backlog > int(self.p["warn_backlog"]):
+            return 1, f"writer behind: {backlog} messages queued (> warn_backlog), at risk in a crash", values
+        if bag is None:
+            return 0, "waiting for a test cycle" if self.p["split"] == "cycle" else "no bag open", values
+        return 0, "recording", values
+
+    def publish_diagnostics(self) -> None:
+        """Publish the recorder's health (``recorder: <bag>``) on the diagnostics topic."""
+        level, message, values = self.health()
+        s = DiagnosticStatus()
+        s.level = bytes([level])
+        s.name = f"recorder: {self._last_bag_name or '(no bag)'}"
+        s.hardware_id = self._hardware_id
+        s.message = message
+        s.values = [KeyValue(key=k, value=v) for k, v in values]
+        arr = DiagnosticArray()
+        arr.header.stamp = self.get_clock().now().to_msg()
+        arr.status = [s]
+        try:
+            self.diag_pub.publish(arr)
+        except Exception:  # the context is shutting down
+            pass
 
     def on_shutdown(self) -> None:
         """Stop discovery, write what is queued, close the bag (idempotent)."""
@@ -439,13 +636,48 @@ class RecorderNode(Node):
             self._thread.join(timeout=0.5)
         if self._thread.is_alive():
             self.get_logger().error("writer thread did not finish within 30 s; the bag may be incomplete")
+        self.publish_diagnostics()  # the final state (ERROR after a write error)
+        try:
+            self.diag_pub.wait_for_all_acked(Duration(seconds=0.5))
+        except Exception:  # pragma: no cover - best effort on the way out
+            pass
         for sig, handler in saved.items():
             signal.signal(sig, handler)
 
 
+def _os_error(exc: OSError) -> str:
+    name = errno.errorcode.get(exc.errno or 0, "")
+    return f"{exc.strerror or exc} ({name})" if name else str(exc)
+
+
+def _free_mb(path: Path) -> float | None:
+    p = path
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    try:
+        return shutil.disk_usage(p).free / 2**20
+    except OSError:
+        return None
+
+
 def main(args: list[str] | None = None) -> int:
+    """Console script ``recorder``: exit status 1 after a write error (disk full, file too large, ...)."""
+    # a file-size limit (RLIMIT_FSIZE) must fail the write (EFBIG), not kill the process unreported
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    made: list[RecorderNode] = []
+
+    def factory() -> RecorderNode:
+        node = RecorderNode()
+        node.stop_process_on_fatal = True
+        made.append(node)
+        return node
+
     # rclpy's C++ EventsExecutor: about half the CPU per message of the Python executor
-    return run_node(RecorderNode, args, events=True)
+    rc = run_node(factory, args, events=True)
+    if made and made[0].fatal is not None:
+        print(f"recorder: error: {made[0].fatal}", file=sys.stderr)
+        return 1
+    return rc
 
 
 if __name__ == "__main__":  # pragma: no cover
