@@ -249,6 +249,20 @@ class WearMonitor:
         except JointwearError:  # an unknown set fails at estimation, with its reason in the result
             self.valid_ranges = {}
 
+    def reconfigure(self, config: MonitorConfig) -> None:
+        """Use ``config`` from the next estimate on (a live parameter change).
+
+        Raises :class:`~jointwear_ros.errors.JointwearError` (nothing changed)
+        when the joint differs, or the method, parameter set or estimator
+        options cannot build an estimator.
+        """
+        if config.joint_name != self.config.joint_name:
+            raise InputDataError(f"joint_name cannot change ({self.config.joint_name!r} -> {config.joint_name!r})")
+        make_estimator(config.method, params=config.params, seed=0, **dict(config.estimator_options))
+        valid = dict(load_parameter_set_info(config.params).valid)
+        self.config = config
+        self.valid_ranges = valid
+
     def _default_factory(self, method: str, seed: int) -> WearEstimator:
         return make_estimator(method, params=self.config.params, seed=seed, **dict(self.config.estimator_options))
 

@@ -26,6 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from ..errors import InputDataError
 from .segmentation import measure_segment
 from .types import (
     CYCLE_STATES,
@@ -131,6 +132,24 @@ class FrictionObserverCore:
         self._trim_at = 0  # buffer size at which the next idle trim runs
         self.samples_seen = 0
         self.samples_skipped = 0
+
+    def reconfigure(self, config: ObserverConfig) -> None:
+        """Use ``config`` from now on; only between speeds (nothing active or pending), same joint.
+
+        Raises :class:`~jointwear_ros.errors.InputDataError` with the reason
+        otherwise: a speed being observed must be measured with the settings
+        it started with, or live and replayed observations would differ.
+        """
+        if config.joint_name != self.config.joint_name:
+            raise InputDataError(f"joint_name cannot change ({self.config.joint_name!r} -> {config.joint_name!r})")
+        busy = ([self._active] if self._active is not None else []) + self._pending
+        if busy:
+            seg = busy[0]
+            raise InputDataError(
+                f"cycle {seg.cycle_id} speed #{seg.speed_index + 1} is being observed; change the observer "
+                "settings between cycles"
+            )
+        self.config = config
 
     # -- inputs ------------------------------------------------------------------
     def on_status(
