@@ -42,14 +42,12 @@ import math
 from collections.abc import Mapping
 from dataclasses import replace
 
-from ..observer.types import FrictionObservationData
+from ..observer.types import PLAUSIBLE_TEMPERATURE, FrictionObservationData
 
 __all__ = ["ABSOLUTE_ZERO", "PLAUSIBLE_TEMPERATURE", "screen_observation"]
 
 #: degC
 ABSOLUTE_ZERO = -273.15
-#: Temperatures a robot joint can have, degC; outside: a sensor fault.
-PLAUSIBLE_TEMPERATURE = (-50.0, 200.0)
 
 
 def screen_observation(

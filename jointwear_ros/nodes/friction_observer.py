@@ -280,7 +280,8 @@ class FrictionObserverNode(Node):
 
     # -- health and run-time parameters -----------------------------------------------
     def _counts(self) -> tuple[int, int, int]:
-        return len(self.rejections), sum(self.bad_messages.values()), sum(self.lost_messages.values())
+        bad = sum(self.bad_messages.values()) + self.core.temperatures_skipped
+        return len(self.rejections), bad, sum(self.lost_messages.values())
 
     def _report(self) -> Report:
         rej, bad, lost = self._counts()
@@ -289,6 +290,7 @@ class FrictionObserverNode(Node):
                   ("rejected_windows", str(rej)), ("bad_messages", str(bad)), ("lost_messages", str(lost)),
                   ("rejected_windows_this_cycle", str(rej - r0)), ("lost_messages_this_cycle", str(lost - l0)),
                   ("samples_seen", str(self.core.samples_seen)), ("samples_skipped", str(self.core.samples_skipped)),
+                  ("temperatures_skipped", str(self.core.temperatures_skipped)),
                   ("buffered_samples", str(self.core.buffered_samples))]
         if (rej - r0, bad - b0, lost - l0) != (0, 0, 0):
             text = (f"cycle {self._cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} lost "

@@ -30,6 +30,7 @@ from ..errors import InputDataError
 from .segmentation import measure_segment
 from .types import (
     CYCLE_STATES,
+    PLAUSIBLE_TEMPERATURE,
     STATE_DONE,
     STATE_RUNNING,
     FrictionObservationData,
@@ -132,6 +133,7 @@ class FrictionObserverCore:
         self._trim_at = 0  # buffer size at which the next idle trim runs
         self.samples_seen = 0
         self.samples_skipped = 0
+        self.temperatures_skipped = 0
 
     def reconfigure(self, config: ObserverConfig) -> None:
         """Use ``config`` from now on; only between speeds (nothing active or pending), same joint.
@@ -226,8 +228,18 @@ class FrictionObserverCore:
         return self._advance(float(t.max()))
 
     def on_temperature(self, stamp: float, celsius: float) -> ObserverOutput:
-        """A joint temperature sample (degC); non-finite values are skipped."""
-        if math.isfinite(stamp) and math.isfinite(celsius):
+        """A joint temperature sample (degC); non-finite and physically impossible values are skipped.
+
+        A reading outside :data:`~jointwear_ros.observer.types.PLAUSIBLE_TEMPERATURE`
+        (-300 degC, 1000 degC) is a sensor fault: averaged with the good readings
+        of a speed it would give a plausible-looking wrong temperature, so it is
+        left out and counted in :attr:`temperatures_skipped`.
+        """
+        lo, hi = PLAUSIBLE_TEMPERATURE
+        if not (math.isfinite(celsius) and lo <= celsius <= hi):
+            self.temperatures_skipped += 1
+            return ObserverOutput([], [])
+        if math.isfinite(stamp):
             self._temp_t.append(float(stamp))
             self._temp_v.append(float(celsius))
             return self._advance(float(stamp))
