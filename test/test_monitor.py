@@ -70,6 +70,7 @@ def test_unknown_temperature_uses_the_uncertain_temperature_estimator():
     r = _run(mon, 1, 35.0)[0]
     assert r.result is not None and r.result.info["known_temperature"] == [False] * 3
     assert abs(r.result.wear - 35.0) < 3 * r.result.wear_std + 1.0
+    assert 0.5 < r.result.wear_std < 4.0  # honest, and bounded: a huge std would pass the line above
     mon2 = WearMonitor(MonitorConfig(method="paper", seed=3, use_measured_temperature=False))
     r2 = _run(mon2, 1, 35.0, temperature=40.0)[0]
     assert r2.result is not None and r2.result.info["known_temperature"] == [False] * 3

@@ -169,6 +169,7 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
         e = got_est[0]
         assert e.cycle_id == 3 and e.joint_name == "joint_1" and e.method == "paper"
         assert abs(e.wear - wear) < 3 * e.wear_std + 1.0
+        assert 0.5 < e.wear_std < 4.0  # bounded: a huge reported std would pass the line above
         assert e.alarm and e.alarm_threshold == 35.0 and len(e.speeds) == 3
 
         # /diagnostics: ERROR with the key/values, republished periodically
@@ -227,6 +228,7 @@ def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ctx):
         rev = got_est[1]
         assert rev.cycle_id == 5 and list(rev.speeds) == [20.0, 40.0, 80.0]
         assert abs(rev.wear - 20.0) < 3 * rev.wear_std + 1.0
+        assert 1.0 < rev.wear_std < 6.0  # T unknown here: wider, still bounded
 
         def revised():
             return [a.status[0] for a in got_diag if ("revision", "1") in {(v.key, v.value) for v in a.status[0].values}]
