@@ -459,6 +459,16 @@ def test_joint_sim_ignores_bad_commands_and_stops_after_the_command_timeout(cont
         # no more commands: the sim brings the joint to rest by itself
         assert operator.spin_until(lambda: abs(last[-1].velocity[0]) < 1e-6, 10.0)
         assert node.sim.command == 0.0
+        # run-time parameters: physical ones apply at once, identity ones are refused with the reason
+        res = node.set_parameters_atomically([Parameter("wear", value=45.0), Parameter("temperature", value=30.0)])
+        assert res.successful and node.sim.config.wear == 45.0 and node.sim.config.temperature == 30.0
+        assert operator.spin_until(lambda: temps[-1].temperature == 30.0, 5.0)
+        res = node.set_parameters_atomically([Parameter("hidden_effects", value="bogus")])
+        assert not res.successful and "unknown hidden effect(s) bogus" in res.reason
+        res = node.set_parameters_atomically([Parameter("params", value="paper-printed")])
+        assert not res.successful and "read-only" in res.reason
+        res = node.set_parameters_atomically([Parameter("wear", value=500.0)])  # outside the declared range
+        assert not res.successful and node.sim.config.wear == 45.0
     finally:
         operator.executor.remove_node(node)
         node.destroy_node()
