@@ -221,8 +221,9 @@ def test_five_cycles_through_one_graph_reach_diagnostics_with_the_right_level(co
         e1 = full_cycle(10.0, OK, False)
         e2 = full_cycle(45.0, ERROR, True)
 
-        # cycle 3: aborted just after it started: no estimate, WARN from the estimator and from test_cycle
-        cid3 = op.run_cycle(speeds=SPEEDS)
+        # cycle 3: aborted just after it started: no estimate, WARN from the estimator and from test_cycle.
+        # At 2 rad/s the first sweep alone takes ~10 s of sim time: no observation can come before the abort.
+        cid3 = op.run_cycle(speeds=[2.0])
         op.spin_until(lambda: op.last_state(cid3) == CycleState.RUNNING, 20.0, "cycle 3 running")
         assert op.call(op.abort_client, Trigger.Request()).success
         op.spin_until(lambda: op.diag_of("wear_estimator", cid3, WARN), 30.0, "WARN of the aborted cycle")
