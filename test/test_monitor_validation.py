@@ -73,3 +73,15 @@ def test_prepare_rows_refuses_a_temperature_below_absolute_zero(bad):
     t = ObservationTable.from_arrays(speed=[40.0], tau_f=[0.09], load_torque=[0.1], tau_f_std=[-1e-3])
     with pytest.raises(InputDataError, match="tau_f_std -0.001 is negative"):
         prepare_rows(t)
+
+
+def test_a_flood_of_bad_observations_keeps_memory_bounded():
+    mon = WearMonitor(MonitorConfig())
+    for i in range(5000):
+        assert mon.add(_obs(math.nan, 0.09, 1e-4, 0.1, 40.0, cycle_id=1, stamp=float(i))) == []
+    assert mon.rejected_count == 5000 and mon.notes_total == 5000
+    assert len(mon.ignored) == mon.max_notes == 1000
+    assert mon.notes_since(4998) == mon.ignored[-2:] and mon.notes_since(5000) == []
+    (r,) = mon.on_status(6000.0, 1, STATE_DONE, 0, 3, "joint_1")  # 5000 heard >= 3 speeds: estimated now
+    assert r.result is None and dict(r.values)["observations_rejected"] == "5000"
+    assert len(r.rejected) == 5 and "and 4995 more" in r.message

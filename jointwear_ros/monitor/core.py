@@ -151,9 +151,10 @@ class CycleResult:
     alarm_threshold: float = 35.0
     #: 0 for the first result of a cycle; n for its n-th re-estimate after a late observation
     revision: int = 0
-    #: reasons of the observations of this cycle that were dropped before estimation
+    #: reasons of the observations of this cycle that were dropped before estimation (the first 5;
+    #: the count is the ``observations_rejected`` value)
     rejected: tuple[str, ...] = ()
-    #: reasons of the observations whose temperature was made unknown
+    #: reasons of the observations whose temperature was made unknown (the first 5)
     temperature_unknown: tuple[str, ...] = ()
 
     @property
@@ -211,16 +212,36 @@ class _Cycle:
     revision: int = 0
     late: list[float] = field(default_factory=list)
     order: int = 0  # when the cycle was first estimated (1, 2, ...)
-    rejected: list[str] = field(default_factory=list)
+    rejected: list[str] = field(default_factory=list)  # the first _MAX_REASONS reasons
     temperature_unknown: list[str] = field(default_factory=list)
+    n_rejected: int = 0
+    n_temperature_unknown: int = 0
+
+    def reject(self, why: str) -> None:
+        self.n_rejected += 1
+        if len(self.rejected) < _MAX_REASONS:
+            self.rejected.append(why)
+
+    def unknown_temperature(self, why: str) -> None:
+        self.n_temperature_unknown += 1
+        if len(self.temperature_unknown) < _MAX_REASONS:
+            self.temperature_unknown.append(why)
 
     @property
     def heard(self) -> int:
         """Observations received for this cycle, dropped ones included."""
-        return len(self.observations) + len(self.rejected)
+        return len(self.observations) + self.n_rejected
 
 
 EstimatorFactory = Callable[[str, int], WearEstimator]
+
+#: reasons kept per cycle and kind (the counts are exact; a flood of bad messages stays small)
+_MAX_REASONS = 5
+
+
+def _reasons(kept: list[str], total: int) -> str:
+    more = f"; and {total - len(kept)} more" if total > len(kept) else ""
+    return "; ".join(kept) + more
 
 
 class WearMonitor:
@@ -241,13 +262,28 @@ class WearMonitor:
         self._order = 0
         self._last_order = 0
         self.last: CycleResult | None = None
+        #: notes on ignored or corrected inputs, newest last (the last ``max_notes`` are kept)
         self.ignored: list[str] = []
+        #: notes made in all (``ignored`` is bounded: a flood of bad messages must not grow memory)
+        self.notes_total = 0
+        self.max_notes = 1000
         #: observations dropped by the screening, in all
         self.rejected_count = 0
         try:
             self.valid_ranges: dict[str, tuple[float, float]] = dict(load_parameter_set_info(self.config.params).valid)
         except JointwearError:  # an unknown set fails at estimation, with its reason in the result
             self.valid_ranges = {}
+
+    def _note(self, text: str) -> None:
+        self.ignored.append(text)
+        self.notes_total += 1
+        if len(self.ignored) > self.max_notes:
+            del self.ignored[: len(self.ignored) - self.max_notes]
+
+    def notes_since(self, total: int) -> list[str]:
+        """The notes made after :attr:`notes_total` was ``total`` (newest last)."""
+        k = self.notes_total - int(total)
+        return list(self.ignored[-k:]) if k > 0 else []
 
     def reconfigure(self, config: MonitorConfig) -> None:
         """Use ``config`` from the next estimate on (a live parameter change).
@@ -281,13 +317,13 @@ class WearMonitor:
         cid = int(o.cycle_id)
         kept, why = screen_observation(o, self.valid_ranges, use_temperature=self.config.use_measured_temperature)
         if why:
-            self.ignored.append(f"observation of cycle {cid}: {why}")
+            self._note(f"observation of cycle {cid}: {why}")
         done = self._finished.get(cid)
         if kept is None:
             self.rejected_count += 1
             if done is None:
                 cyc = self._cycles.setdefault(cid, _Cycle())
-                cyc.rejected.append(why)
+                cyc.reject(why)
                 cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
                 if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
                     return [self._finish(cid, t_rx)]
@@ -297,7 +333,7 @@ class WearMonitor:
         cyc = self._cycles.setdefault(cid, _Cycle())
         cyc.observations.append(kept)
         if why:
-            cyc.temperature_unknown.append(why)
+            cyc.unknown_temperature(why)
         cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
         if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
             return [self._finish(cid, t_rx)]
@@ -315,7 +351,7 @@ class WearMonitor:
         cid = int(cycle_id)
         if cid in self._finished and state == STATE_RUNNING:
             del self._finished[cid]  # the id is reused by a new cycle (test_cycle restarted)
-            self.ignored.append(f"cycle {cid} RUNNING again: a new cycle reuses the id of an estimated one "
+            self._note(f"cycle {cid} RUNNING again: a new cycle reuses the id of an estimated one "
                                 "(test_cycle restarted?); the new cycle is estimated on its own")
         if cid == 0 or cid in self._finished:
             return []
@@ -355,17 +391,17 @@ class WearMonitor:
     def _revise(self, cid: int, cyc: _Cycle, o: FrictionObservationData, stamp: float,
                 why: str = "") -> list[CycleResult]:
         if any(p.speed == o.speed and p.stamp == o.stamp for p in cyc.observations):
-            self.ignored.append(f"observation of cycle {cid} at {o.speed:g} rad/s received twice; the repeat is ignored")
+            self._note(f"observation of cycle {cid} at {o.speed:g} rad/s received twice; the repeat is ignored")
             return []
         if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
-            self.ignored.append(
+            self._note(
                 f"observation of cycle {cid} at {o.speed:g} rad/s came after its estimate, which already has all "
                 f"{cyc.speeds_total} speeds; ignored"
             )
             return []
         cyc.observations.append(o)
         if why:
-            cyc.temperature_unknown.append(why)
+            cyc.unknown_temperature(why)
         cyc.revision += 1
         cyc.late.append(float(o.speed))
         return [self._estimate(cid, cyc, stamp)]
@@ -382,13 +418,13 @@ class WearMonitor:
             partial += (f"; revision {cyc.revision}: re-estimated with late observation(s) at "
                         + ", ".join(f"{v:g}" for v in cyc.late) + " rad/s")
         rev = [("revision", str(cyc.revision))] if cyc.revision else []
-        if cyc.rejected:
-            rev.append(("observations_rejected", str(len(cyc.rejected))))
-            partial += f"; {len(cyc.rejected)} observation(s) rejected: " + "; ".join(cyc.rejected)
-        if cyc.temperature_unknown:
-            rev.append(("temperatures_unknown", str(len(cyc.temperature_unknown))))
-            partial += (f"; {len(cyc.temperature_unknown)} temperature(s) used as unknown: "
-                        + "; ".join(cyc.temperature_unknown))
+        if cyc.n_rejected:
+            rev.append(("observations_rejected", str(cyc.n_rejected)))
+            partial += f"; {cyc.n_rejected} observation(s) rejected: " + _reasons(cyc.rejected, cyc.n_rejected)
+        if cyc.n_temperature_unknown:
+            rev.append(("temperatures_unknown", str(cyc.n_temperature_unknown)))
+            partial += (f"; {cyc.n_temperature_unknown} temperature(s) used as unknown: "
+                        + _reasons(cyc.temperature_unknown, cyc.n_temperature_unknown))
         extra = {"rejected": tuple(cyc.rejected), "temperature_unknown": tuple(cyc.temperature_unknown)}
         base: list[tuple[str, str]] = [("cycle_id", str(cid)), ("n_observations", str(len(obs))),
                                        ("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),

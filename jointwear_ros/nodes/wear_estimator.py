@@ -171,18 +171,20 @@ class WearEstimatorNode(Node):
             self.ignored_messages += 1
             self.get_logger().warning(f"FrictionObservation skipped: {exc}")
             return
-        n_ignored = len(self.monitor.ignored)
+        before, dropped = self.monitor.notes_total, self.monitor.rejected_count
         self._handle(self.monitor.add(obs, now=self._now()))
-        if len(self.monitor.ignored) > n_ignored:
-            self.ignored_messages += 1
-            self.get_logger().warning(self.monitor.ignored[-1])
+        notes = self.monitor.notes_since(before)
+        for note in notes:
+            self.get_logger().warning(note)
+        if self.monitor.rejected_count > dropped or (notes and "used as unknown" not in notes[-1]):
+            self.ignored_messages += 1  # dropped (screening), a repeat, or beyond the cycle's speeds
 
     def _on_status(self, msg: TestCycleStatus) -> None:
         # timeouts run on this node's clock at receipt, whatever clock stamped the messages
-        n_ignored = len(self.monitor.ignored)
+        before = self.monitor.notes_total
         self._handle(self.monitor.on_status(self._now(), int(msg.cycle_id), int(msg.state), int(msg.speeds_done),
                                             int(msg.speeds_total), str(msg.joint_name)))
-        for note in self.monitor.ignored[n_ignored:]:
+        for note in self.monitor.notes_since(before):
             self.get_logger().warning(note)
 
     def _on_timer(self) -> None:
