@@ -150,7 +150,9 @@ class FrictionObserverNode(Node):
         #: per topic, messages DDS reported lost before they reached this node
         self.lost_messages: Counter[str] = Counter()
         self.observations_published = 0
+        #: the last 1000 rejected windows (reasons); ``rejections_total`` counts them all
         self.rejections: list[str] = []
+        self.rejections_total = 0
         # what happened during the current cycle (the diagnostics' WARN reasons)
         self._cycle_id = 0
         self._cycle_marks = (0, 0, 0)  # rejections, bad, lost at its start
@@ -273,6 +275,9 @@ class FrictionObserverNode(Node):
             )
         for r in out.rejections:
             self.rejections.append(str(r))
+            self.rejections_total += 1
+            if len(self.rejections) > 1000:
+                del self.rejections[:-1000]
             self._last_problem = f"window rejected: {r}"
             self.get_logger().warning(f"window rejected: {r}")
         if out.observations or out.rejections:
@@ -281,7 +286,7 @@ class FrictionObserverNode(Node):
     # -- health and run-time parameters -----------------------------------------------
     def _counts(self) -> tuple[int, int, int]:
         bad = sum(self.bad_messages.values()) + self.core.temperatures_skipped
-        return len(self.rejections), bad, sum(self.lost_messages.values())
+        return self.rejections_total, bad, sum(self.lost_messages.values())
 
     def _report(self) -> Report:
         rej, bad, lost = self._counts()
