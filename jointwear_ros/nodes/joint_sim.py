@@ -21,7 +21,7 @@ simulated joint running into its limits.
 Run-time parameters: the physical settings (``wear``, ``temperature``,
 gravity, hidden effects, gains, noise, ...) and ``command_timeout``,
 ``max_velocity``, ``real_time_factor``, ``max_lag``, ``temperature_rate`` apply at
-once (``ros2 param set /joint_sim wear 40``: the next sample has the new
+once (``ros2 param set /joint_sim wear 40.0``: the next sample has the new
 friction); an invalid value is refused with the reason. The joint's identity
 and wiring (``joint_name``, topics, ``gear_ratio``, ``torque_scale``, ``params``,
 ``seed``, ``publish_*``, ``initial_position``, ``tick_period``) are read at
