@@ -303,5 +303,7 @@ def test_plan_refuses_a_crawl_too_many_speeds_and_an_endless_cycle():
     assert len(plan_cycle(cfg, [20.0] * 32).speeds) == 32
     with pytest.raises(CycleRequestError, match=r"about 13\d\d s, more than max_duration 600 s"):
         plan_cycle(CycleConfig(max_duration=600.0), [1.0] * 32)
+    with pytest.raises(CycleRequestError, match="no speeds to sweep"):
+        plan_cycle(CycleConfig(speeds=()))
     with pytest.raises(CycleRequestError, match="min_speed 300 rad/s must not exceed max_speed 280"):
         plan_cycle(CycleConfig(min_speed=300.0), [20.0])

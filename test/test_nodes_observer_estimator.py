@@ -348,6 +348,14 @@ def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ctx)
         assert not res.successful and "unknown wear estimation method 'nonsense'" in res.reason
         res = node.set_parameters_atomically([Parameter("estimator_options", value="[1, 2]")])
         assert not res.successful and "not a JSON object" in res.reason
+        res = node.set_parameters_atomically([Parameter("estimator_options", value='{"n_samples": 50}')])
+        assert res.successful, res.reason
+        assert dict(node.monitor.config.estimator_options) == {"n_samples": 50}
+        res = node.set_parameters_atomically([Parameter("estimator_options", value='{"no_such_option": 1}')])
+        assert not res.successful and "no_such_option" in res.reason
+        assert dict(node.monitor.config.estimator_options) == {"n_samples": 50}
+        res = node.set_parameters_atomically([Parameter("estimator_options", value="")])
+        assert res.successful and dict(node.monitor.config.estimator_options) == {}
         res = node.set_parameters_atomically([Parameter("observations_topic", value="/x")])
         assert not res.successful and "read-only" in res.reason
         assert node.monitor.config.warn_threshold == 30.0 and node.monitor.config.method == "paper"

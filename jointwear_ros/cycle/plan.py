@@ -219,6 +219,8 @@ def plan_cycle(
     lo, hi = config.joint_limits
     m = config.limit_margin
     h = config.window_half_width
+    if not sp:
+        raise CycleRequestError("no speeds to sweep: give at least one speed (motor side, rad/s) or set speeds")
     if len(sp) > config.max_speeds:
         raise CycleRequestError(
             f"{len(sp)} speeds asked for; at most max_speeds = {config.max_speeds} per cycle: split them over "

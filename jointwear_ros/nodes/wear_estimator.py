@@ -147,15 +147,14 @@ class WearEstimatorNode(Node):
         return self.diag.status
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
-        values = {k: v for k, v in changes.items() if k != "estimator_options"}
         cfg = self.monitor.config
+        merged: dict[str, Any] = {f: getattr(cfg, f) for f in (
+            "joint_name", "method", "params", "seed", "warn_threshold", "alarm_threshold", "use_measured_temperature",
+            "done_timeout", "idle_timeout", "min_observations", "observation_noise_std", "estimator_options")}
+        merged.update(changes)
         if "estimator_options" in changes:
-            values["estimator_options"] = _options(str(changes["estimator_options"]))
-        base = {f: getattr(cfg, f) for f in ("method", "params", "seed", "warn_threshold", "alarm_threshold",
-                                             "use_measured_temperature", "done_timeout", "idle_timeout",
-                                             "min_observations", "observation_noise_std")}
-        new = MonitorConfig.from_mapping(dict(base, joint_name=cfg.joint_name,
-                                              estimator_options=cfg.estimator_options, **values))
+            merged["estimator_options"] = _options(str(changes["estimator_options"]))
+        new = MonitorConfig.from_mapping(merged)
         self.monitor.reconfigure(new)  # raises with the reason when the method/params/options are unusable
         if not self.results:
             self.diag.update(OK, "no test cycle estimated yet", self._idle_values(new))
