@@ -359,6 +359,18 @@ class TestCycleNode(Node):
 
     # -- run-time parameters -------------------------------------------------
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
+        # safety first: a stop request stops the cycle even if other changes in the same call are refused
+        simulator = bool(changes.get("simulator", self.get_parameter("simulator").value))
+        enabled = bool(changes.get("motion_enabled", self.get_parameter("motion_enabled").value))
+        if self.runner.running and (("motion_enabled" in changes and not enabled) or not (simulator or enabled)):
+            why = ("motion_enabled set to false" if "motion_enabled" in changes and not enabled
+                   else "simulator set to false while motion_enabled is false")
+            cid = self.runner.cycle_id
+            self.runner.abort(f"stopped: {why} at run time")
+            self._send(0.0)
+            self._publish_status(force=True)
+            self.get_logger().warning(f"cycle {cid} stopped: {why}; zero velocity sent")
+            self._note_end()
         cycle = {k: _cycle_value(k, v) for k, v in changes.items() if k in _CYCLE_FIELDS}
         if cycle and self.runner.running:
             return (f"cycle {self.runner.cycle_id} is running: {', '.join(sorted(cycle))} cannot change during a "
@@ -378,17 +390,6 @@ class TestCycleNode(Node):
         self.config = new
         self.runner.config = new
         self.state_timeout_wall = wall
-        simulator = bool(changes.get("simulator", self.get_parameter("simulator").value))
-        enabled = bool(changes.get("motion_enabled", self.get_parameter("motion_enabled").value))
-        if self.runner.running and (("motion_enabled" in changes and not enabled) or not (simulator or enabled)):
-            why = ("motion_enabled set to false" if "motion_enabled" in changes and not enabled
-                   else "simulator set to false while motion_enabled is false")
-            cid = self.runner.cycle_id
-            self.runner.abort(f"stopped: {why} at run time")
-            self._send(0.0)
-            self._publish_status(force=True)
-            self.get_logger().warning(f"cycle {cid} stopped: {why}; zero velocity sent")
-            self._note_end()
         return None
 
     def _wall_watchdog(self) -> None:
