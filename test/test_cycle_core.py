@@ -290,3 +290,20 @@ def test_cycle_on_the_simulated_joint_reaches_done_and_observes_friction(rate):
         assert (up - um) / 2 == pytest.approx(sim.true_friction(speed, 0.0), abs=4 * 0.0015)
         assert (up + um) / 2 == pytest.approx(0.1, abs=4 * 0.0015)
 
+
+
+def test_plan_refuses_a_crawl_too_many_speeds_and_an_endless_cycle():
+    from jointwear_ros.cycle import CycleConfig, CycleRequestError, plan_cycle
+
+    cfg = CycleConfig()
+    with pytest.raises(CycleRequestError, match=r"speed #1 = 1e-06 rad/s \(motor side\) is below min_speed 1 rad/s"):
+        plan_cycle(cfg, [1e-6])
+    with pytest.raises(CycleRequestError, match="1000 speeds asked for; at most max_speeds = 32"):
+        plan_cycle(cfg, [20.0] * 1000)
+    assert len(plan_cycle(cfg, [20.0] * 32).speeds) == 32
+    with pytest.raises(CycleRequestError, match=r"about 13\d\d s, more than max_duration 600 s"):
+        plan_cycle(CycleConfig(max_duration=600.0), [1.0] * 32)
+    with pytest.raises(CycleRequestError, match="no speeds to sweep"):
+        plan_cycle(CycleConfig(speeds=()))
+    with pytest.raises(CycleRequestError, match="min_speed 300 rad/s must not exceed max_speed 280"):
+        plan_cycle(CycleConfig(min_speed=300.0), [20.0])

@@ -70,6 +70,7 @@ def test_unknown_temperature_uses_the_uncertain_temperature_estimator():
     r = _run(mon, 1, 35.0)[0]
     assert r.result is not None and r.result.info["known_temperature"] == [False] * 3
     assert abs(r.result.wear - 35.0) < 3 * r.result.wear_std + 1.0
+    assert 0.5 < r.result.wear_std < 4.0  # honest, and bounded: a huge std would pass the line above
     mon2 = WearMonitor(MonitorConfig(method="paper", seed=3, use_measured_temperature=False))
     r2 = _run(mon2, 1, 35.0, temperature=40.0)[0]
     assert r2.result is not None and r2.result.info["known_temperature"] == [False] * 3
@@ -233,3 +234,80 @@ def test_estimator_gets_the_window_std_plus_the_sweep_to_sweep_scatter():
     mon = WearMonitor(MonitorConfig(observation_noise_std=0.0015), estimator_factory=spy)
     (r,) = _run(mon, 1, 10.0)
     assert r.level == OK and seen[0] == pytest.approx([math.hypot(3e-4, 0.0015)] * 3)
+
+
+def _fixed(wear):
+    """An estimator factory whose estimate is exactly ``wear`` (to probe the thresholds)."""
+    def factory(method, seed):
+        class E:
+            name = "fixed"
+
+            def estimate(self, table):
+                return WearResult(wear=wear, wear_std=0.5, wear_low=wear - 1, wear_high=wear + 1, method="fixed")
+
+        return E()
+
+    return factory
+
+
+@pytest.mark.parametrize(("wear", "level", "alarm"), [
+    (29.999, OK, False), (30.0, WARN, False), (34.999, WARN, False), (35.0, ERROR, True), (35.001, ERROR, True)])
+def test_level_and_alarm_at_exactly_the_thresholds(wear, level, alarm):
+    (r,) = _run(WearMonitor(MonitorConfig(), estimator_factory=_fixed(wear)), 1, 10.0)
+    assert r.level == level and r.alarm is alarm
+    assert r.result is not None and r.result.wear == wear
+
+
+# -- screening: a bad observation is dropped (or its temperature made unknown), the cycle still estimated --
+@pytest.mark.parametrize("temperature", [-300.0, 1000.0, math.inf, -math.inf, 70.0, 5.0])
+def test_one_impossible_temperature_does_not_hide_the_alarm(temperature):
+    mon = WearMonitor(MonitorConfig(seed=1, use_measured_temperature=True))
+    mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
+    obs = _obs(1, 40.0, temperature=40.0)
+    obs[1] = replace(obs[1], temperature=temperature)
+    (r,) = [x for o in obs for x in mon.add(o)]
+    assert r.level == ERROR and r.alarm
+    assert r.result is not None and r.result.wear == pytest.approx(40.0, abs=1.5)
+    assert 0.5 < r.result.wear_std < 5.0  # an honest spread, not the std near 0 of the bug
+    assert r.result.info["known_temperature"] == [True, False, True]
+    assert r.rejected == () and len(r.temperature_unknown) == 1
+    assert dict(r.values)["temperatures_unknown"] == "1" and "observations_rejected" not in dict(r.values)
+    assert "used as unknown" in r.message and "used as unknown" in mon.ignored[-1]
+    assert dict(r.values)["n_observations"] == "3"
+
+
+@pytest.mark.parametrize(("field", "value", "why"), [
+    ("speed", -40.0, "speed -40 rad/s must be finite and > 0"), ("speed", 0.0, "speed 0 rad/s"),
+    ("speed", math.nan, "speed nan"), ("speed", math.inf, "speed inf"), ("speed", 400.0, "valid range [0, 280]"),
+    ("tau_f", math.nan, "tau_f nan"), ("tau_f", -0.05, "is negative"), ("tau_f_std", -1e-3, "tau_f_std -0.001"),
+    ("tau_f_std", math.inf, "tau_f_std inf"), ("load_torque", math.nan, "load_torque nan"),
+    ("load_torque", 3.0, "|load_torque| 3")])
+def test_a_non_physical_observation_is_dropped_and_the_rest_estimated(field, value, why):
+    mon = WearMonitor(MonitorConfig(seed=1))
+    mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
+    obs = _obs(1, 40.0, temperature=40.0)
+    obs[1] = replace(obs[1], **{field: value})
+    results = [x for o in obs for x in mon.add(o)]
+    (r,) = results  # the dropped one still counts: the cycle completes at its third observation
+    assert r.level == ERROR and r.alarm and r.result is not None
+    assert r.result.speeds == (30.0, 50.0)
+    assert r.result.wear == pytest.approx(40.0, abs=1.5)
+    assert len(r.rejected) == 1 and why in r.rejected[0] and "dropped" in r.rejected[0]
+    assert dict(r.values)["observations_rejected"] == "1" and dict(r.values)["n_observations"] == "2"
+    assert "1 observation(s) rejected" in r.message and why in r.message
+    assert mon.rejected_count == 1 and why in mon.ignored[-1]
+
+
+def test_a_cycle_whose_observations_are_all_dropped_is_a_warning_with_the_reasons():
+    mon = WearMonitor(MonitorConfig(seed=1))
+    mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
+    (r,) = [x for o in _obs(1, 40.0) for x in mon.add(replace(o, tau_f=math.nan))]
+    assert r.result is None and r.level == WARN and not r.alarm
+    assert "0 friction observations" in r.message and "3 observation(s) rejected" in r.message
+
+
+def test_nan_tau_f_std_means_not_given_and_is_kept():
+    mon = WearMonitor(MonitorConfig(seed=1))
+    mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
+    (r,) = [x for o in _obs(1, 40.0, temperature=40.0) for x in mon.add(replace(o, tau_f_std=math.nan))]
+    assert r.rejected == () and r.result is not None and r.level == ERROR

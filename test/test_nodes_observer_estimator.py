@@ -169,6 +169,7 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
         e = got_est[0]
         assert e.cycle_id == 3 and e.joint_name == "joint_1" and e.method == "paper"
         assert abs(e.wear - wear) < 3 * e.wear_std + 1.0
+        assert 0.5 < e.wear_std < 4.0  # bounded: a huge reported std would pass the line above
         assert e.alarm and e.alarm_threshold == 35.0 and len(e.speeds) == 3
 
         # /diagnostics: ERROR with the key/values, republished periodically
@@ -227,6 +228,7 @@ def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ctx):
         rev = got_est[1]
         assert rev.cycle_id == 5 and list(rev.speeds) == [20.0, 40.0, 80.0]
         assert abs(rev.wear - 20.0) < 3 * rev.wear_std + 1.0
+        assert 1.0 < rev.wear_std < 6.0  # T unknown here: wider, still bounded
 
         def revised():
             return [a.status[0] for a in got_diag if ("revision", "1") in {(v.key, v.value) for v in a.status[0].values}]
@@ -279,3 +281,137 @@ def test_console_scripts_start_with_their_params_files_and_stop_on_sigint(ctx):
                 outputs.append(p.communicate()[0])
         probe.destroy_node()
     assert [p.returncode for p in procs] == [0, 0], outputs
+
+
+# -- the alarm flag, levels in sequence, run-time parameters ----------------------------------
+def _cycle_result(wear, level, cycle_id=1):
+    from jointwear_ros.monitor import CycleResult
+    from jointwear_ros.types import WearResult
+
+    res = WearResult(wear=wear, wear_std=1.0, wear_low=wear - 2, wear_high=wear + 2, method="paper",
+                     temperature=40.0, speeds=(30.0, 40.0), per_speed_wear=(wear, wear))
+    return CycleResult(cycle_id, "joint_1", 10.0, res, level, f"level {level}", (("cycle_id", str(cycle_id)),))
+
+
+@pytest.mark.parametrize(("wear", "alarm"), [(34.999, False), (35.0, True), (35.001, True), (10.0, False)])
+def test_wear_estimate_alarm_is_set_at_exactly_the_threshold_and_not_below(wear, alarm):
+    from jointwear_ros.nodes.wear_estimator import estimate_to_msg
+
+    m = estimate_to_msg(_cycle_result(wear, 2 if alarm else 1))
+    assert m.alarm is alarm and m.alarm_threshold == 35.0 and m.wear == wear
+
+
+def test_estimator_node_logs_every_level_in_sequence_and_keeps_running(ctx):
+    """rclpy keys severity by call site: one line choosing info/warning/error died at the second level."""
+    node = WearEstimatorNode(context=ctx, parameter_overrides=[
+        Parameter("estimate_topic", value=f"{NS}/seq_estimate"), Parameter("diagnostics_topic", value=f"{NS}/seq_diag")])
+    try:
+        for cid, (wear, level) in enumerate([(10.0, 0), (45.0, 2), (32.0, 1), (10.0, 0), (45.0, 2)], start=1):
+            r = _cycle_result(wear, level, cid)
+            node.monitor.last = r
+            node._handle([r])
+            assert node.diag.level == level and node.diag.status.message == f"level {level}"
+    finally:
+        node.destroy_node()
+
+
+def _model_observation(cycle_id, speed, wear, temperature=40.0, stamp=1.0):
+    from jointwear_ros.model import load_parameter_set, paper_wear_model
+    from jointwear_ros.observer import FrictionObservationData
+
+    tau = float(paper_wear_model().evaluate(load_parameter_set("ref-2011r"), speed=speed, load_torque=0.1,
+                                            temperature=40.0, wear=wear))
+    return FrictionObservationData(stamp=stamp, joint_name="joint_1", cycle_id=cycle_id, speed=speed, tau_f=tau,
+                                   tau_f_std=3e-4, tau_plus=0.1 + tau, tau_minus=0.1 - tau, load_torque=0.1,
+                                   temperature=temperature, position=0.0, samples_plus=500, samples_minus=500)
+
+
+def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ctx):
+    ns = "/jw_param_test"
+    node = WearEstimatorNode(context=ctx, parameter_overrides=[
+        Parameter("observations_topic", value=f"{ns}/observations"), Parameter("status_topic", value=f"{ns}/status"),
+        Parameter("estimate_topic", value=f"{ns}/estimate"), Parameter("diagnostics_topic", value=f"{ns}/diag")])
+    io = rclpy.create_node("jw_param_test_io", context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    for n in (node, io):
+        ex.add_node(n)
+    got = []
+    try:
+        pub = io.create_publisher(FrictionObservation, f"{ns}/observations", high_rate_qos())
+        io.create_subscription(WearEstimate, f"{ns}/estimate", got.append, 10)
+        assert _spin_until(ex, lambda: pub.get_subscription_count() > 0 and node.estimate_pub.get_subscription_count() > 0)
+
+        # invalid changes: refused with the reason, nothing changes
+        res = node.set_parameters_atomically([Parameter("warn_threshold", value=40.0)])
+        assert not res.successful and "warn_threshold <= alarm_threshold" in res.reason
+        res = node.set_parameters_atomically([Parameter("method", value="nonsense")])
+        assert not res.successful and "unknown wear estimation method 'nonsense'" in res.reason
+        res = node.set_parameters_atomically([Parameter("estimator_options", value="[1, 2]")])
+        assert not res.successful and "not a JSON object" in res.reason
+        res = node.set_parameters_atomically([Parameter("estimator_options", value='{"n_samples": 50}')])
+        assert res.successful, res.reason
+        assert dict(node.monitor.config.estimator_options) == {"n_samples": 50}
+        res = node.set_parameters_atomically([Parameter("estimator_options", value='{"no_such_option": 1}')])
+        assert not res.successful and "no_such_option" in res.reason
+        assert dict(node.monitor.config.estimator_options) == {"n_samples": 50}
+        res = node.set_parameters_atomically([Parameter("estimator_options", value="")])
+        assert res.successful and dict(node.monitor.config.estimator_options) == {}
+        res = node.set_parameters_atomically([Parameter("observations_topic", value="/x")])
+        assert not res.successful and "read-only" in res.reason
+        assert node.monitor.config.warn_threshold == 30.0 and node.monitor.config.method == "paper"
+
+        # a valid change applies from the next estimate: wear 25 is OK at 30/35, ERROR at 15/20
+        res = node.set_parameters_atomically([Parameter("warn_threshold", value=15.0),
+                                              Parameter("alarm_threshold", value=20.0)])
+        assert res.successful, res.reason
+        assert (node.monitor.config.warn_threshold, node.monitor.config.alarm_threshold) == (15.0, 20.0)
+        node.monitor.on_status(0.0, 7, 1, 0, 3, "joint_1")
+        for i, v in enumerate((30.0, 40.0, 50.0)):
+            pub.publish(observation_to_msg(_model_observation(7, v, 25.0, stamp=100.0 + i)))
+        assert _spin_until(ex, lambda: len(got) == 1, timeout=10.0)
+        assert got[0].alarm and got[0].alarm_threshold == 20.0 and node.diag.level == 2
+        res = node.set_parameters_atomically([Parameter("warn_threshold", value=30.0),
+                                              Parameter("alarm_threshold", value=35.0)])
+        assert res.successful
+        node.monitor.on_status(0.0, 8, 1, 0, 3, "joint_1")
+        for i, v in enumerate((30.0, 40.0, 50.0)):
+            pub.publish(observation_to_msg(_model_observation(8, v, 25.0, stamp=200.0 + i)))
+        assert _spin_until(ex, lambda: len(got) == 2, timeout=10.0)
+        assert not got[1].alarm and got[1].alarm_threshold == 35.0 and node.diag.level == 0
+    finally:
+        ex.shutdown()
+        for n in (node, io):
+            n.destroy_node()
+
+
+def test_observer_node_reports_its_health_and_refuses_changes_during_a_speed(ctx):
+    ns = "/jw_obs_health"
+    topics = {k: v.replace(NS, ns) for k, v in TOPICS.items()}
+    node = FrictionObserverNode(context=ctx, parameter_overrides=[Parameter(k, value=v) for k, v in topics.items()]
+                                + [Parameter("diagnostics_period", value=0.2)])
+    try:
+        assert node.diag.level == 0 and node.diag.status.name == "friction_observer: joint_1"
+        res = node.set_parameters_atomically([Parameter("min_samples", value=50)])
+        assert res.successful and node.core.config.min_samples == 50
+        res = node.set_parameters_atomically([Parameter("min_samples", value=1)])
+        assert not res.successful and "min_samples = 1 must be at least 2" in res.reason
+        res = node.set_parameters_atomically([Parameter("joint_name", value="joint_2")])
+        assert not res.successful and "read-only" in res.reason
+        # a speed is being observed: no change until it is done
+        node._on_status(_status((10.0, 3, 1, 2, 40.0, 0, 2, 0.0, 0.1, "joint_1")))
+        res = node.set_parameters_atomically([Parameter("min_samples", value=20)])
+        assert not res.successful and "cycle 3 speed #1 is being observed" in res.reason
+        assert node.core.config.min_samples == 50
+        # a bad JointState during cycle 3: WARN with the reason, the counts in the key/values
+        node._on_joint_state(_joint_state(10.5, ["joint_1"], [math.nan], [0.0], [0.0]))
+        node.core.on_temperature(10.6, -300.0)
+        node.diag.set(*node._report())
+        kv = {v.key: v.value for v in node.diag.status.values}
+        assert node.diag.level == 1 and "cycle 3" in node.diag.message and "non-finite value" in node.diag.message
+        assert kv["bad_messages"] == "2" and kv["temperatures_skipped"] == "1" and kv["cycle_id"] == "3"
+        # the next cycle starts clean
+        node._on_status(_status((20.0, 4, 1, 2, 40.0, 0, 2, 0.0, 0.1, "joint_1")))
+        node.diag.set(*node._report())
+        assert node.diag.level == 0
+    finally:
+        node.destroy_node()

@@ -22,12 +22,14 @@ from pathlib import Path
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
 from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
-from rcl_interfaces.srv import SetParameters  # noqa: E402
+from rcl_interfaces.srv import SetParameters, SetParametersAtomically  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
@@ -88,6 +90,8 @@ class Operator:
         self.status: list[CycleStatus] = []
         self.commands: list[float] = []
         self.joint_states = 0
+        self.diag: list = []  # DiagnosticStatus of test_cycle
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, QOS)
         self.node.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
         self.node.create_subscription(
             Float64MultiArray, "/velocity_controller/commands", lambda m: self.commands.append(m.data[0] if len(m.data) else math.nan), QOS
@@ -96,9 +100,19 @@ class Operator:
         self.run_client = self.node.create_client(RunTestCycle, "/test_cycle/run")
         self.abort_client = self.node.create_client(Trigger, "/test_cycle/abort")
         self.param_client = self.node.create_client(SetParameters, "/test_cycle/set_parameters")
+        self.atomic_client = self.node.create_client(SetParametersAtomically, "/test_cycle/set_parameters_atomically")
 
     def _on_js(self, msg: JointState) -> None:
         self.joint_states += 1
+
+    def _on_diag(self, msg: DiagnosticArray) -> None:
+        self.diag += [s for s in msg.status if s.name == "test_cycle: joint_1"]
+
+    def set_params(self, **values):
+        """Set test_cycle parameters at run time, all or none (``~/set_parameters_atomically``); [the result]."""
+        req = SetParametersAtomically.Request(
+            parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()])
+        return [self.call(self.atomic_client, req).result]
 
     def spin_until(self, predicate: Callable[[], bool], timeout: float = 20.0) -> bool:
         end = time.monotonic() + timeout
@@ -124,7 +138,9 @@ class Operator:
         end = time.monotonic() + timeout
         while True:
             resp = self.run(**kwargs)
-            if resp.accepted or "no joint state" not in resp.message or time.monotonic() > end:
+            # as an operator (and the demo) would: retry while the joint state is missing or late
+            late = "no joint state" in resp.message or "joint state of joint_1 is" in resp.message
+            if resp.accepted or not late or time.monotonic() > end:
                 assert resp.accepted and resp.cycle_id > 0, resp.message
                 return resp
             self.spin_until(lambda: False, 0.2)
@@ -202,7 +218,13 @@ BAD_REQUESTS = [
     ({"position": 1.45}, "window 1.45 ± 0.1 rad is outside the joint limits [-1.5, 1.5]"),
     ({"position": 1.0}, "beyond the joint limits"),
     ({"position": math.nan}, "position (window centre) nan is not finite"),
+    ({"speeds": [1e-6]}, "speed #1 = 1e-06 rad/s (motor side) is below min_speed 1 rad/s"),
+    ({"speeds": [20.0] * 1000}, "1000 speeds asked for; at most max_speeds = 32"),
 ]
+
+
+def _level(s) -> int:
+    return s.level[0] if isinstance(s.level, bytes) else int(s.level)
 
 
 @pytest.mark.usefixtures("cell")
@@ -270,6 +292,54 @@ class TestSimulatedCell:
         assert max(abs(c) for c in operator.commands) == pytest.approx(1.6)
 
 
+    def test_motion_enabled_false_stops_a_running_cycle_at_once(self, cell, operator):
+        _ready(operator)
+        resp = operator.start(speeds=[10.0])
+        operator.wait_phase(resp.cycle_id, Phase.FORWARD)
+        ok = operator.spin_until(lambda: operator.commands and operator.commands[-1] > 0.0, 5.0)
+        assert ok, (operator.commands[-5:], operator.status[-1])
+        (res,) = operator.set_params(motion_enabled=False)
+        assert res.successful
+        final = operator.wait_state(resp.cycle_id, (CycleState.ABORTED,), 5.0)
+        assert final.message == "stopped: motion_enabled set to false at run time"
+        assert operator.spin_until(lambda: operator.commands[-1] == 0.0, 5.0)
+        n = len(operator.commands)
+        operator.spin_until(lambda: False, 0.5)
+        assert operator.commands[n:] == []  # the stream stopped with the zero
+        assert operator.spin_until(lambda: operator.diag and "motion_enabled set to false" in operator.diag[-1].message, 5.0)
+        assert _level(operator.diag[-1]) == 1  # WARN: aborted
+        # a simulator may still move with motion_enabled false (as before), so the next cycle is accepted
+        assert operator.run(speeds=[20.0], dry_run=True).accepted
+
+    def test_cycle_settings_apply_to_the_next_request_and_are_refused_during_a_cycle(self, cell, operator):
+        _ready(operator)
+        (alone,) = operator.set_params(max_speed=50.0)  # the default speeds go up to 160: refused
+        assert not alone.successful and "speed #6 = 80 rad/s (motor side) exceeds max_speed 50" in alone.reason
+        res = operator.set_params(max_speed=50.0, speeds=[10.0, 20.0, 30.0, 40.0, 50.0])
+        assert [r.successful for r in res] == [True], res
+        try:
+            refused = operator.run(speeds=[160.0])
+            assert not refused.accepted and "exceeds max_speed 50" in refused.message
+            resp = operator.start(speeds=[40.0])
+            (busy,) = operator.set_params(max_speed=280.0)
+            assert not busy.successful
+            assert f"cycle {resp.cycle_id} is running: max_speed cannot change during a cycle" in busy.reason
+            final = operator.wait_state(resp.cycle_id, (CycleState.DONE, CycleState.FAILED, CycleState.ABORTED), 40.0)
+            assert final.state == CycleState.DONE, final.message
+        finally:
+            assert operator.spin_until(lambda: operator.last_state() != CycleState.RUNNING, 30.0)
+            back = operator.set_params(max_speed=280.0, speeds=[10.0, 20.0, 30.0, 40.0, 50.0, 80.0, 120.0, 160.0])
+            assert all(r.successful for r in back), back
+        assert operator.run(speeds=[160.0], dry_run=True).accepted
+        # invalid values and start-up-only parameters are refused with the reason, nothing changes
+        (bad,) = operator.set_params(joint_limits=[1.0, -1.0])
+        assert not bad.successful and "joint_limits [1.0, -1.0] must be finite" in bad.reason
+        (bad,) = operator.set_params(min_speed=500.0)
+        assert not bad.successful and "must not exceed max_speed" in bad.reason
+        (ro,) = operator.set_params(joint_name="joint_2")
+        assert not ro.successful and "read-only" in ro.reason
+        assert operator.run(speeds=[160.0], dry_run=True).accepted
+
     def test_abort_stops_the_cycle_with_zero(self, cell, operator):
         _ready(operator)
         resp = operator.start(speeds=[10.0])
@@ -310,6 +380,34 @@ def test_watchdog_stops_the_joint_when_joint_states_stop(context, operator):
         code, out = cyc.stop(), cyc.output()
         cyc.close()
         assert code == 0, out
+
+
+def test_a_simulator_that_died_is_a_watchdog_error_and_then_a_stale_state_refusal(context, operator):
+    # on sim time the simulator is also the clock: when it dies, node time stops and its last
+    # joint state never ages in node time; the refusal must come from wall time
+    sim = Child("joint_sim", SIM_PARAMS)
+    cyc = Child("test_cycle", CYCLE_PARAMS)
+    try:
+        _ready(operator)
+        resp = operator.start(speeds=[10.0])
+        operator.wait_phase(resp.cycle_id, Phase.FORWARD)
+        sim.stop(signal.SIGKILL)
+        final = operator.wait_state(resp.cycle_id, (CycleState.FAILED,), 10.0)
+        assert final.message.startswith("watchdog: ")
+        assert operator.spin_until(lambda: any(_level(s) == 2 and "watchdog" in s.message for s in operator.diag), 5.0)
+        err = next(s for s in operator.diag if _level(s) == 2)
+        kv = {v.key: v.value for v in err.values}
+        assert kv["state"] == "FAILED" and kv["cycle_id"] == str(resp.cycle_id) and "watchdog" in kv["last_fault"]
+        operator.spin_until(lambda: False, 3.0)  # joint_sim died 3 s ago
+        late = operator.run(speeds=[20.0])
+        assert not late.accepted and late.cycle_id == 0
+        assert "joint state of joint_1 is stale: none received for" in late.message
+        assert operator.last_state() == CycleState.FAILED  # nothing was started
+    finally:
+        code, out = cyc.stop(), cyc.output()
+        cyc.close()
+        sim.close()
+    assert code == 0, out
 
 
 def test_zero_velocity_is_sent_when_test_cycle_exits_mid_cycle(context, operator):
@@ -361,6 +459,16 @@ def test_joint_sim_ignores_bad_commands_and_stops_after_the_command_timeout(cont
         # no more commands: the sim brings the joint to rest by itself
         assert operator.spin_until(lambda: abs(last[-1].velocity[0]) < 1e-6, 10.0)
         assert node.sim.command == 0.0
+        # run-time parameters: physical ones apply at once, identity ones are refused with the reason
+        res = node.set_parameters_atomically([Parameter("wear", value=45.0), Parameter("temperature", value=30.0)])
+        assert res.successful and node.sim.config.wear == 45.0 and node.sim.config.temperature == 30.0
+        assert operator.spin_until(lambda: temps[-1].temperature == 30.0, 5.0)
+        res = node.set_parameters_atomically([Parameter("hidden_effects", value="bogus")])
+        assert not res.successful and "unknown hidden effect(s) bogus" in res.reason
+        res = node.set_parameters_atomically([Parameter("params", value="paper-printed")])
+        assert not res.successful and "read-only" in res.reason
+        res = node.set_parameters_atomically([Parameter("wear", value=500.0)])  # outside the declared range
+        assert not res.successful and node.sim.config.wear == 45.0
     finally:
         operator.executor.remove_node(node)
         node.destroy_node()

@@ -102,14 +102,25 @@ def test_observer_is_unbiased_with_noiseless_torque():
 
 
 def test_tau_f_std_matches_scatter_over_seeds():
-    z = []
-    for seed in range(12):
-        c = synthetic_cycle(speeds=(20, 50), seed=100 + seed, noise_corr=0.9)
+    """The reported tau_f_std is the real scatter of tau_f, within a band that a 30 % error fails.
+
+    Calibration (400 observations per set, 20 disjoint seed sets, AR(1) 0.9 noise): the ratio
+    rms(reported std) / rms(tau_f - truth) was 0.933 on average (batch means with 10 batches
+    under-report slightly), standard deviation 0.036, range 0.862-0.996. The band [0.80, 1.10] is
+    3.7 and 4.6 of those deviations away; a std under-reported by 30 % gives ~0.65, over-reported
+    by 30 % ~1.21: both fail.
+    """
+    err, rep = [], []
+    for seed in range(100, 200):
+        c = synthetic_cycle(speeds=(20, 35, 50, 80), seed=seed, noise_corr=0.9)
         out = _run(c)
-        z += [(o.tau_f - t) / o.tau_f_std for o, t in zip(out.observations, c.tau_f_true)]
-    # batch means with 10 batches: z follows roughly a t distribution (std ~1.1-1.3), never far off
-    assert 0.6 < float(np.std(z)) < 1.8
-    assert abs(float(np.mean(z))) < 0.8
+        assert len(out.observations) == 4
+        err += [o.tau_f - t for o, t in zip(out.observations, c.tau_f_true)]
+        rep += [o.tau_f_std for o in out.observations]
+    ratio = math.sqrt(float(np.mean(np.square(rep)))) / math.sqrt(float(np.mean(np.square(err))))
+    assert 0.80 < ratio < 1.10, ratio
+    z = np.asarray(err) / np.asarray(rep)
+    assert abs(float(np.mean(z))) < 0.25  # unbiased: the mean of 400 z values is within ~4 standard errors
 
 
 def test_batch_means_se_accounts_for_autocorrelation():
@@ -311,3 +322,37 @@ def test_an_approach_move_crossing_the_window_at_another_speed_is_left_out():
     out50 = observe_arrays(CFG, t, np.concatenate([app_p, c.position]), np.concatenate([app_v, c.velocity]),
                            np.concatenate([app_e, c.effort]), statuses)
     assert "speed not reached in forward window" in out50.rejections[0].reason
+
+
+def test_memory_stays_bounded_over_a_long_idle_at_500_hz():
+    """Ten idle minutes at 500 Hz (300,000 samples, simulated time) keep a few seconds of history."""
+    core = FrictionObserverCore(CFG)
+    rate, n = 500.0, 300_000
+    peak = 0
+    for i in range(n):
+        t = 100.0 + i / rate
+        core.on_joint_state(t, 0.0, 0.0, 0.0)
+        if i % 10 == 0:
+            core.on_temperature(t, 40.0)
+        peak = max(peak, core.buffered_samples)
+    assert core.samples_seen == n
+    # idle_keep_seconds of history plus one trim chunk (4096 samples) at most
+    bound = int(CFG.idle_keep_seconds * rate) + 4096 + 1
+    assert peak <= bound, peak
+    assert len(core._temp_t) <= int(CFG.idle_keep_seconds * rate / 10) + 4096 // 10 + 1
+
+
+def test_memory_stays_bounded_when_a_speed_never_ends():
+    """A RUNNING status and then silence on the status topic: at most max_buffer_seconds are kept."""
+    cfg = replace(CFG, max_buffer_seconds=20.0)
+    core = FrictionObserverCore(cfg)
+    core.on_status(100.0, 1, STATE_RUNNING, 2, 40.0, 0, 1, 0.0, 0.1, "joint_1")
+    rate = 500.0
+    t = np.arange(60_000) / rate + 100.0  # 120 s
+    peak = 0
+    for k in range(0, t.size, 500):
+        sl = slice(k, k + 500)
+        core.on_joint_states(t[sl], np.zeros(500), np.zeros(500), np.zeros(500))
+        peak = max(peak, core.buffered_samples)
+    assert core.samples_seen == t.size
+    assert peak <= int(cfg.max_buffer_seconds * rate) + 4096 + 500, peak

@@ -164,3 +164,24 @@ def test_same_seed_gives_the_same_run():
         sim.set_command(0.5)
         runs.append(sim.run(300, 2e-3))
     assert runs[0] == runs[1]
+
+
+def test_reconfigure_changes_the_wear_live_and_keeps_the_state():
+    from dataclasses import replace
+
+    sim = JointSim(JointSimConfig(wear=0.0), seed=1)
+    sim.set_command(0.4)
+    for _ in range(500):
+        sim.step(0.002)
+    pos, t = sim.position, sim.time
+    before = sim.friction(40.0, 0.1, 0.0, 0.0)
+    sim.reconfigure(replace(sim.config, wear=45.0))
+    assert sim.position == pos and sim.time == t and sim.config.wear == 45.0
+    ref = FrictionTable("ref-2011r", "paper+wear", temperature=40.0, wear=45.0)
+    assert sim.friction(40.0, 0.1, 0.0, 0.0) == pytest.approx(ref(40.0, 0.1, 0.0, 0.0), rel=1e-12)
+    assert sim.friction(40.0, 0.1, 0.0, 0.0) > before + 0.015  # the paper's ~0.017 increase at w = 35..45
+    with pytest.raises(ParameterError, match="gear_ratio cannot change on a running simulation"):
+        sim.reconfigure(replace(sim.config, gear_ratio=50.0))
+    with pytest.raises(ParameterError, match="wear must be finite"):
+        sim.reconfigure(replace(sim.config, wear=math.nan))
+    assert sim.config.wear == 45.0

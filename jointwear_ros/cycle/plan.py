@@ -78,6 +78,14 @@ class CycleConfig:
         sweep begins (else the approach is repeated), rad.
     move_timeout_factor
         A move taking longer than this × its planned duration + 2 s fails.
+    min_speed
+        Slowest speed a cycle sweeps, motor side, rad/s (a crawl of 1e-6 rad/s
+        would plan a cycle of ~4e7 s).
+    max_speeds
+        Most speeds one request may ask for (every status message carries the
+        plan; the estimators gain little beyond a few tens).
+    max_duration
+        Longest planned cycle, s.
     """
 
     joint_name: str = "joint_1"
@@ -98,13 +106,16 @@ class CycleConfig:
     position_tolerance: float = 1e-3
     approach_tolerance: float = 0.01
     move_timeout_factor: float = 3.0
+    min_speed: float = 1.0
+    max_speeds: int = 32
+    max_duration: float = 3600.0
 
     def check(self) -> None:
         """Raise :class:`CycleRequestError` on settings that cannot plan a cycle."""
         positive = (
             "gear_ratio", "window_half_width", "max_speed", "acceleration", "approach_speed",
             "state_timeout", "speed_tolerance", "effort_limit", "position_tolerance", "approach_tolerance",
-            "move_timeout_factor",
+            "move_timeout_factor", "min_speed", "max_duration",
         )
         for name in positive:
             val = getattr(self, name)
@@ -114,6 +125,12 @@ class CycleConfig:
             val = getattr(self, name)
             if not (math.isfinite(val) and val >= 0):
                 raise CycleRequestError(f"test cycle setting {name} must be finite and >= 0, got {val}")
+        if not self.min_speed <= self.max_speed:
+            raise CycleRequestError(
+                f"test cycle setting min_speed {self.min_speed:g} rad/s must not exceed max_speed {self.max_speed:g} rad/s"
+            )
+        if int(self.max_speeds) < 1:
+            raise CycleRequestError(f"test cycle setting max_speeds must be at least 1, got {self.max_speeds}")
         lo, hi = self.joint_limits
         if not (math.isfinite(lo) and math.isfinite(hi) and lo + 2 * self.limit_margin < hi):
             raise CycleRequestError(
@@ -202,12 +219,24 @@ def plan_cycle(
     lo, hi = config.joint_limits
     m = config.limit_margin
     h = config.window_half_width
+    if not sp:
+        raise CycleRequestError("no speeds to sweep: give at least one speed (motor side, rad/s) or set speeds")
+    if len(sp) > config.max_speeds:
+        raise CycleRequestError(
+            f"{len(sp)} speeds asked for; at most max_speeds = {config.max_speeds} per cycle: split them over "
+            "several cycles"
+        )
     for i, v in enumerate(sp):
         if not math.isfinite(v):
             raise CycleRequestError(f"speed #{i + 1} = {v} is not finite; give speeds in rad/s (motor side)")
         if v <= 0.0:
             raise CycleRequestError(
                 f"speed #{i + 1} = {v:g} rad/s must be > 0 (motor side; the cycle sweeps both directions itself)"
+            )
+        if v < config.min_speed:
+            raise CycleRequestError(
+                f"speed #{i + 1} = {v:g} rad/s (motor side) is below min_speed {config.min_speed:g} rad/s, the "
+                "slowest speed the cycle sweeps"
             )
         if v > config.max_speed:
             raise CycleRequestError(
@@ -246,4 +275,9 @@ def plan_cycle(
         plans.append(SpeedPlan(float(v), w, start, end, r, dur))
         total += dur
         pos = start
+    if total > config.max_duration:
+        raise CycleRequestError(
+            f"the cycle would take about {total:.0f} s, more than max_duration {config.max_duration:g} s; "
+            "use fewer or faster speeds"
+        )
     return CyclePlan(tuple(plans), c, h, float(c if start_position is None else start_position), total)

@@ -18,6 +18,7 @@ from ..model import Model, Parameters, load_parameter_set, paper_wear_model
 from ..types import ObservationTable, WearResult
 
 __all__ = [
+    "ABSOLUTE_ZERO",
     "DEFAULT_NOISE_STD",
     "DEFAULT_PARAMS",
     "WEAR_RANGE",
@@ -34,6 +35,8 @@ Array = npt.NDArray[np.float64]
 DEFAULT_NOISE_STD = 0.0015
 #: Parameter set used when none is given.
 DEFAULT_PARAMS = "ref-2011r"
+#: Absolute zero, degC: a temperature below it is a sensor fault, never a joint's temperature.
+ABSOLUTE_ZERO = -273.15
 #: The wear scale of the paper: 0 (new) to 100 (failure).
 WEAR_RANGE = (0.0, 100.0)
 
@@ -89,7 +92,10 @@ def prepare_rows(
 
     Raises :class:`~jointwear_ros.errors.InputDataError` naming the row and the
     value when the table is empty, a speed is negative or not finite, a
-    friction value is not finite, or a load torque is missing.
+    friction value is not finite, a load torque is missing, a temperature is
+    infinite or below absolute zero, or a ``tau_f_std`` is negative.
+    (The wear monitor screens live observations before this, dropping or
+    correcting them one by one: :mod:`jointwear_ros.monitor.validation`.)
     """
     if not isinstance(table, ObservationTable):
         raise InputDataError(
@@ -139,6 +145,13 @@ def prepare_rows(
         if bad.size:
             i = int(bad[0])
             raise InputDataError(f"{where}: row {i}: temperature {float(temp[i])!r} is infinite; use NaN for unknown")
+        bad = np.flatnonzero(temp < ABSOLUTE_ZERO)
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(
+                f"{where}: row {i}: temperature {float(temp[i]):g} degC is below absolute zero; "
+                "a sensor fault: use NaN for unknown"
+            )
     else:
         temp = np.full(n, math.nan)
     if not (math.isfinite(noise_std) and noise_std > 0):
@@ -146,6 +159,13 @@ def prepare_rows(
     sig = np.full(n, float(noise_std))
     if "tau_f_std" in table:
         given = np.asarray(table["tau_f_std"], dtype=float)
+        bad = np.flatnonzero(given < 0)
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(
+                f"{where}: row {i} (speed {speed[i]:g} rad/s): tau_f_std {given[i]:g} is negative; "
+                "give the standard deviation (>= 0, NaN = not given)"
+            )
         ok = np.isfinite(given) & (given > 0)
         sig[ok] = given[ok]
     return Rows(speed=speed.copy(), tau_f=tau.copy(), load=load, temperature=temp, noise_std=sig, source=where)

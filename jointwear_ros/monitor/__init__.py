@@ -17,11 +17,13 @@ from .core import (
     diagnostic_level,
     observations_table,
 )
+from .validation import PLAUSIBLE_TEMPERATURE, screen_observation
 
 __all__ = [
     "ERROR",
     "LEVEL_NAMES",
     "OK",
+    "PLAUSIBLE_TEMPERATURE",
     "WARN",
     "CycleResult",
     "MonitorConfig",
@@ -29,4 +31,5 @@ __all__ = [
     "cycle_seed",
     "diagnostic_level",
     "observations_table",
+    "screen_observation",
 ]

@@ -24,6 +24,15 @@ Measured temperatures are used when present and ``use_measured_temperature``
 is true; otherwise the temperature column is dropped and the estimator treats
 T as unknown (Eq. 11).
 
+Every observation is screened first (:func:`~jointwear_ros.monitor.validation.screen_observation`):
+a non-physical speed, friction, std or load drops it, an impossible or
+out-of-range temperature makes its temperature unknown. Either way the reason
+is appended to :attr:`WearMonitor.ignored`, counted in the cycle's result
+(``CycleResult.rejected``, key ``observations_rejected`` /
+``temperatures_unknown``) and named in its message; the rest of the cycle is
+estimated. A dropped observation still counts towards the cycle's
+``speeds_total`` (the cycle is estimated as soon as every speed was heard of).
+
 The diagnostic level follows ``diagnostic_msgs/DiagnosticStatus``: OK (0)
 below ``warn_threshold``, WARN (1) in ``[warn_threshold, alarm_threshold)``,
 ERROR (2) at ``w_hat >= alarm_threshold``. A cycle that could not be
@@ -44,8 +53,10 @@ import numpy as np
 
 from ..errors import InputDataError, JointwearError
 from ..estimation import make_estimator
+from ..model.paramsets import load_parameter_set_info
 from ..observer.types import STATE_ABORTED, STATE_DONE, STATE_FAILED, STATE_RUNNING, FrictionObservationData
 from ..types import ObservationTable, WearEstimator, WearResult
+from .validation import screen_observation
 
 __all__ = ["ERROR", "LEVEL_NAMES", "OK", "WARN", "CycleResult", "MonitorConfig", "WearMonitor",
            "cycle_seed", "diagnostic_level", "observations_table"]
@@ -140,6 +151,11 @@ class CycleResult:
     alarm_threshold: float = 35.0
     #: 0 for the first result of a cycle; n for its n-th re-estimate after a late observation
     revision: int = 0
+    #: reasons of the observations of this cycle that were dropped before estimation (the first 5;
+    #: the count is the ``observations_rejected`` value)
+    rejected: tuple[str, ...] = ()
+    #: reasons of the observations whose temperature was made unknown (the first 5)
+    temperature_unknown: tuple[str, ...] = ()
 
     @property
     def level_name(self) -> str:
@@ -196,9 +212,36 @@ class _Cycle:
     revision: int = 0
     late: list[float] = field(default_factory=list)
     order: int = 0  # when the cycle was first estimated (1, 2, ...)
+    rejected: list[str] = field(default_factory=list)  # the first _MAX_REASONS reasons
+    temperature_unknown: list[str] = field(default_factory=list)
+    n_rejected: int = 0
+    n_temperature_unknown: int = 0
+
+    def reject(self, why: str) -> None:
+        self.n_rejected += 1
+        if len(self.rejected) < _MAX_REASONS:
+            self.rejected.append(why)
+
+    def unknown_temperature(self, why: str) -> None:
+        self.n_temperature_unknown += 1
+        if len(self.temperature_unknown) < _MAX_REASONS:
+            self.temperature_unknown.append(why)
+
+    @property
+    def heard(self) -> int:
+        """Observations received for this cycle, dropped ones included."""
+        return len(self.observations) + self.n_rejected
 
 
 EstimatorFactory = Callable[[str, int], WearEstimator]
+
+#: reasons kept per cycle and kind (the counts are exact; a flood of bad messages stays small)
+_MAX_REASONS = 5
+
+
+def _reasons(kept: list[str], total: int) -> str:
+    more = f"; and {total - len(kept)} more" if total > len(kept) else ""
+    return "; ".join(kept) + more
 
 
 class WearMonitor:
@@ -219,7 +262,42 @@ class WearMonitor:
         self._order = 0
         self._last_order = 0
         self.last: CycleResult | None = None
+        #: notes on ignored or corrected inputs, newest last (the last ``max_notes`` are kept)
         self.ignored: list[str] = []
+        #: notes made in all (``ignored`` is bounded: a flood of bad messages must not grow memory)
+        self.notes_total = 0
+        self.max_notes = 1000
+        #: observations dropped by the screening, in all
+        self.rejected_count = 0
+        try:
+            self.valid_ranges: dict[str, tuple[float, float]] = dict(load_parameter_set_info(self.config.params).valid)
+        except JointwearError:  # an unknown set fails at estimation, with its reason in the result
+            self.valid_ranges = {}
+
+    def _note(self, text: str) -> None:
+        self.ignored.append(text)
+        self.notes_total += 1
+        if len(self.ignored) > self.max_notes:
+            del self.ignored[: len(self.ignored) - self.max_notes]
+
+    def notes_since(self, total: int) -> list[str]:
+        """The notes made after :attr:`notes_total` was ``total`` (newest last)."""
+        k = self.notes_total - int(total)
+        return list(self.ignored[-k:]) if k > 0 else []
+
+    def reconfigure(self, config: MonitorConfig) -> None:
+        """Use ``config`` from the next estimate on (a live parameter change).
+
+        Raises :class:`~jointwear_ros.errors.JointwearError` (nothing changed)
+        when the joint differs, or the method, parameter set or estimator
+        options cannot build an estimator.
+        """
+        if config.joint_name != self.config.joint_name:
+            raise InputDataError(f"joint_name cannot change ({self.config.joint_name!r} -> {config.joint_name!r})")
+        make_estimator(config.method, params=config.params, seed=0, **dict(config.estimator_options))
+        valid = dict(load_parameter_set_info(config.params).valid)
+        self.config = config
+        self.valid_ranges = valid
 
     def _default_factory(self, method: str, seed: int) -> WearEstimator:
         return make_estimator(method, params=self.config.params, seed=seed, **dict(self.config.estimator_options))
@@ -237,16 +315,27 @@ class WearMonitor:
         if o.joint_name and o.joint_name != self.config.joint_name:
             return []
         cid = int(o.cycle_id)
-        if not (math.isfinite(o.speed) and math.isfinite(o.tau_f)):
-            self.ignored.append(f"observation of cycle {cid}: speed {o.speed!r}, tau_f {o.tau_f!r} not finite; ignored")
-            return []
+        kept, why = screen_observation(o, self.valid_ranges, use_temperature=self.config.use_measured_temperature)
+        if why:
+            self._note(f"observation of cycle {cid}: {why}")
         done = self._finished.get(cid)
+        if kept is None:
+            self.rejected_count += 1
+            if done is None:
+                cyc = self._cycles.setdefault(cid, _Cycle())
+                cyc.reject(why)
+                cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
+                if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
+                    return [self._finish(cid, t_rx)]
+            return []
         if done is not None:
-            return self._revise(cid, done, o, t_rx)
+            return self._revise(cid, done, kept, t_rx, why)
         cyc = self._cycles.setdefault(cid, _Cycle())
-        cyc.observations.append(o)
+        cyc.observations.append(kept)
+        if why:
+            cyc.unknown_temperature(why)
         cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
-        if cyc.speeds_total > 0 and len(cyc.observations) >= cyc.speeds_total:
+        if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
             return [self._finish(cid, t_rx)]
         return []
 
@@ -262,7 +351,7 @@ class WearMonitor:
         cid = int(cycle_id)
         if cid in self._finished and state == STATE_RUNNING:
             del self._finished[cid]  # the id is reused by a new cycle (test_cycle restarted)
-            self.ignored.append(f"cycle {cid} RUNNING again: a new cycle reuses the id of an estimated one "
+            self._note(f"cycle {cid} RUNNING again: a new cycle reuses the id of an estimated one "
                                 "(test_cycle restarted?); the new cycle is estimated on its own")
         if cid == 0 or cid in self._finished:
             return []
@@ -272,7 +361,7 @@ class WearMonitor:
         if state in _ENDED and not math.isfinite(cyc.ended_at):
             cyc.ended_at = float(stamp)
             cyc.end_state = int(state)
-        if cyc.speeds_total > 0 and len(cyc.observations) >= cyc.speeds_total:
+        if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
             return [self._finish(cid, float(stamp))]
         return self.poll(float(stamp))
 
@@ -299,17 +388,20 @@ class WearMonitor:
                 del self._finished[old]
         return self._estimate(cid, cyc, stamp)
 
-    def _revise(self, cid: int, cyc: _Cycle, o: FrictionObservationData, stamp: float) -> list[CycleResult]:
+    def _revise(self, cid: int, cyc: _Cycle, o: FrictionObservationData, stamp: float,
+                why: str = "") -> list[CycleResult]:
         if any(p.speed == o.speed and p.stamp == o.stamp for p in cyc.observations):
-            self.ignored.append(f"observation of cycle {cid} at {o.speed:g} rad/s received twice; the repeat is ignored")
+            self._note(f"observation of cycle {cid} at {o.speed:g} rad/s received twice; the repeat is ignored")
             return []
-        if cyc.speeds_total > 0 and len(cyc.observations) >= cyc.speeds_total:
-            self.ignored.append(
+        if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
+            self._note(
                 f"observation of cycle {cid} at {o.speed:g} rad/s came after its estimate, which already has all "
                 f"{cyc.speeds_total} speeds; ignored"
             )
             return []
         cyc.observations.append(o)
+        if why:
+            cyc.unknown_temperature(why)
         cyc.revision += 1
         cyc.late.append(float(o.speed))
         return [self._estimate(cid, cyc, stamp)]
@@ -326,14 +418,22 @@ class WearMonitor:
             partial += (f"; revision {cyc.revision}: re-estimated with late observation(s) at "
                         + ", ".join(f"{v:g}" for v in cyc.late) + " rad/s")
         rev = [("revision", str(cyc.revision))] if cyc.revision else []
+        if cyc.n_rejected:
+            rev.append(("observations_rejected", str(cyc.n_rejected)))
+            partial += f"; {cyc.n_rejected} observation(s) rejected: " + _reasons(cyc.rejected, cyc.n_rejected)
+        if cyc.n_temperature_unknown:
+            rev.append(("temperatures_unknown", str(cyc.n_temperature_unknown)))
+            partial += (f"; {cyc.n_temperature_unknown} temperature(s) used as unknown: "
+                        + _reasons(cyc.temperature_unknown, cyc.n_temperature_unknown))
+        extra = {"rejected": tuple(cyc.rejected), "temperature_unknown": tuple(cyc.temperature_unknown)}
         base: list[tuple[str, str]] = [("cycle_id", str(cid)), ("n_observations", str(len(obs))),
                                        ("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
                                        ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
         if len(obs) < cfg.min_observations:
             msg = (f"cycle {cid}{ended}: no wear estimate, {len(obs)} friction observations "
-                   f"(need {cfg.min_observations}); see the friction_observer log for rejected windows")
+                   f"(need {cfg.min_observations}); see the friction_observer log for rejected windows{partial}")
             return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base + rev), obs,
-                                           cfg.alarm_threshold, cyc.revision), cyc.order)
+                                           cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
         # order by speed so the estimate does not depend on the arrival order of observations
         obs = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
         table = observations_table(obs, use_temperature=cfg.use_measured_temperature,
@@ -342,9 +442,9 @@ class WearMonitor:
             est = self._factory(cfg.method, cycle_seed(cfg.seed, cid))
             res = est.estimate(table)
         except JointwearError as exc:
-            msg = f"cycle {cid}{ended}: wear estimation failed: {exc}"
+            msg = f"cycle {cid}{ended}: wear estimation failed: {exc}{partial}"
             return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base + rev), obs,
-                                           cfg.alarm_threshold, cyc.revision), cyc.order)
+                                           cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
         level = diagnostic_level(res.wear, cfg.warn_threshold, cfg.alarm_threshold)
         what = {OK: "wear below the warning band", WARN: f"wear in the warning band [{cfg.warn_threshold:g}, "
                 f"{cfg.alarm_threshold:g})", ERROR: f"wear at or above the alarm threshold {cfg.alarm_threshold:g}"}
@@ -356,7 +456,7 @@ class WearMonitor:
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
         return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values + rev), obs,
-                                       cfg.alarm_threshold, cyc.revision), cyc.order)
+                                       cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
 
     def _store(self, result: CycleResult, order: int) -> CycleResult:
         if order >= self._last_order:  # a revision of an older cycle does not replace a newer one

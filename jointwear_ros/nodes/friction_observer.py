@@ -12,6 +12,18 @@ publisher's history overflowed while this node was stalled) are logged and
 counted per topic (``lost_messages``): the observations of that stretch rest on
 fewer samples.
 
+Diagnostics: ``friction_observer: <joint>`` on ``/diagnostics`` with the
+counts (observations, rejected windows, bad and lost messages, samples): WARN
+while the current cycle has had a rejected window, a lost or a bad message,
+with the latest reason as the message; OK otherwise. The counts of "the
+current cycle" restart when a new cycle id appears on the status topic.
+
+Run-time parameters: the observer settings (tolerances, ``min_samples``,
+``gear_ratio``, ...) can change between cycles; while a speed is being
+observed a change is refused with the reason (live and replayed
+observations must use the same settings). ``joint_name``, the topics and
+the periods are read at start-up only (read-only parameters).
+
 Parameters: see ``config/friction_observer.yaml`` and ``docs/nodes-observer-estimator.md``.
 """
 
@@ -31,7 +43,8 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 
 from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput
-from .runtime import ParamDecl, declare_parameters, run_node, subscribe_reporting_loss
+from .diagnostics import OK, WARN, NodeDiagnostics, Report
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node, subscribe_reporting_loss
 
 __all__ = [
     "FrictionObserverNode",
@@ -45,13 +58,14 @@ __all__ = [
 _DEFAULTS = ObserverConfig()
 
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", _DEFAULTS.joint_name, "joint observed (looked up by name in each JointState)"),
+    ParamDecl("joint_name", _DEFAULTS.joint_name, "joint observed (looked up by name in each JointState)",
+              read_only=True),
     ParamDecl("gear_ratio", _DEFAULTS.gear_ratio, "motor speed = joint speed x gear_ratio", 1e-6, 1e6),
     ParamDecl("torque_scale", _DEFAULTS.torque_scale, "N·m (joint side) per normalized torque unit", 1e-9, 1e9),
-    ParamDecl("joint_states_topic", "/joint_states", "sensor_msgs/JointState input"),
-    ParamDecl("status_topic", "/test_cycle/status", "jointwear_msgs/TestCycleStatus input"),
-    ParamDecl("temperature_topic", "", "sensor_msgs/Temperature input (degC); empty = no temperature"),
-    ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation output"),
+    ParamDecl("joint_states_topic", "/joint_states", "sensor_msgs/JointState input", read_only=True),
+    ParamDecl("status_topic", "/test_cycle/status", "jointwear_msgs/TestCycleStatus input", read_only=True),
+    ParamDecl("temperature_topic", "", "sensor_msgs/Temperature input (degC); empty = no temperature", read_only=True),
+    ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation output", read_only=True),
     ParamDecl("speed_tolerance", _DEFAULTS.speed_tolerance, "at speed: |v - v_cmd| <= this x v_cmd", 1e-6, 10.0),
     ParamDecl("speed_tolerance_min", _DEFAULTS.speed_tolerance_min, "floor of that tolerance, rad/s motor", 0.0, 1e6),
     ParamDecl("max_speed_std", _DEFAULTS.max_speed_std, "speed std limit over the at-speed samples, x v_cmd", 1e-6, 10.0),
@@ -67,8 +81,12 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("poll_grace", _DEFAULTS.poll_grace, "s of silence on every input after which finished speeds are processed",
               0.0, 60.0),
     ParamDecl("max_buffer_seconds", _DEFAULTS.max_buffer_seconds, "s of joint states kept at most", 1.0, 3600.0),
-    ParamDecl("poll_period", 0.5, "s (wall) between checks for silent inputs", 0.01, 60.0),
+    ParamDecl("poll_period", 0.5, "s (wall) between checks for silent inputs", 0.01, 60.0, read_only=True),
+    ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
+              read_only=True),
 )
+#: Parameters that can change at run time (between cycles)
+LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
 
 def stamp_to_seconds(stamp: Any) -> float:
@@ -132,7 +150,13 @@ class FrictionObserverNode(Node):
         #: per topic, messages DDS reported lost before they reached this node
         self.lost_messages: Counter[str] = Counter()
         self.observations_published = 0
+        #: the last 1000 rejected windows (reasons); ``rejections_total`` counts them all
         self.rejections: list[str] = []
+        self.rejections_total = 0
+        # what happened during the current cycle (the diagnostics' WARN reasons)
+        self._cycle_id = 0
+        self._cycle_marks = (0, 0, 0)  # rejections, bad, lost at its start
+        self._last_problem = ""
         self._index_cache: tuple[tuple[str, ...], int] | None = None
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
@@ -144,6 +168,10 @@ class FrictionObserverNode(Node):
                 subscribe_reporting_loss(self, msg_type, str(topic), cb, qos, self._lost_callback(str(topic)))
         # wall-clock timer: it must fire even when /clock (use_sim_time) stops
         self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.diag = NodeDiagnostics(self, f"friction_observer: {self.joint_name}", self.joint_name,
+                                    period=float(p["diagnostics_period"]), refresh=self._report)
+        self.diag.update(*self._report())
+        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
         self.get_logger().info(
             f"observing {self.joint_name} on {p['joint_states_topic']} (gear {p['gear_ratio']:g}, torque scale "
             f"{p['torque_scale']:g} N·m); status {p['status_topic']}; temperature "
@@ -158,6 +186,7 @@ class FrictionObserverNode(Node):
             if change <= 0:
                 return
             self.lost_messages[topic] += change
+            self._last_problem = f"{change} message(s) lost on {topic}"
             self.get_logger().warning(
                 f"{change} message(s) on {topic} lost before reaching the observer ({info.total_count} in all): "
                 "the publisher's history overflowed while this node was stalled; observations of that "
@@ -174,6 +203,7 @@ class FrictionObserverNode(Node):
 
     def _bad(self, reason: str) -> None:
         self.bad_messages[reason.split(":")[0]] += 1
+        self._last_problem = f"bad JointState: {reason}"
         self.get_logger().warning(f"JointState skipped: {reason}", throttle_duration_sec=5.0)
 
     def _on_joint_state(self, msg: JointState) -> None:
@@ -208,6 +238,10 @@ class FrictionObserverNode(Node):
 
     def _on_status(self, msg: TestCycleStatus) -> None:
         self._last_rx = time.monotonic()
+        if int(msg.cycle_id) != self._cycle_id and int(msg.cycle_id) > 0 and msg.joint_name in ("", self.joint_name):
+            self._cycle_id = int(msg.cycle_id)
+            self._cycle_marks = self._counts()
+            self._last_problem = ""
         out = self.core.on_status(
             self._stamp(msg.header.stamp), int(msg.cycle_id), int(msg.state), int(msg.phase),
             float(msg.current_speed), int(msg.speeds_done), int(msg.speeds_total), float(msg.window_center),
@@ -241,7 +275,39 @@ class FrictionObserverNode(Node):
             )
         for r in out.rejections:
             self.rejections.append(str(r))
+            self.rejections_total += 1
+            if len(self.rejections) > 1000:
+                del self.rejections[:-1000]
+            self._last_problem = f"window rejected: {r}"
             self.get_logger().warning(f"window rejected: {r}")
+        if out.observations or out.rejections:
+            self.diag.update(*self._report())
+
+    # -- health and run-time parameters -----------------------------------------------
+    def _counts(self) -> tuple[int, int, int]:
+        bad = sum(self.bad_messages.values()) + self.core.temperatures_skipped
+        return self.rejections_total, bad, sum(self.lost_messages.values())
+
+    def _report(self) -> Report:
+        rej, bad, lost = self._counts()
+        r0, b0, l0 = self._cycle_marks
+        values = [("cycle_id", str(self._cycle_id)), ("observations", str(self.observations_published)),
+                  ("rejected_windows", str(rej)), ("bad_messages", str(bad)), ("lost_messages", str(lost)),
+                  ("rejected_windows_this_cycle", str(rej - r0)), ("lost_messages_this_cycle", str(lost - l0)),
+                  ("samples_seen", str(self.core.samples_seen)), ("samples_skipped", str(self.core.samples_skipped)),
+                  ("temperatures_skipped", str(self.core.temperatures_skipped)),
+                  ("buffered_samples", str(self.core.buffered_samples))]
+        if (rej - r0, bad - b0, lost - l0) != (0, 0, 0):
+            text = (f"cycle {self._cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} lost "
+                    f"message(s); latest: {self._last_problem}")
+            return WARN, text, values
+        return OK, f"{self.observations_published} observation(s), {rej} window(s) rejected in all", values
+
+    def _on_parameters(self, changes: dict[str, Any]) -> str | None:
+        cfg = self.core.config
+        current = {f: getattr(cfg, f) for f in cfg.__dataclass_fields__}
+        self.core.reconfigure(ObserverConfig.from_mapping(dict(current, **changes)))
+        return None
 
 
 def main(args: list[str] | None = None) -> int:

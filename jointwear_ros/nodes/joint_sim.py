@@ -17,6 +17,19 @@ Unlike a real forward command controller, which holds the last command forever,
 the simulator brings the joint to rest when no command has arrived for
 ``command_timeout`` seconds (sim time), so a crashed client never leaves the
 simulated joint running into its limits.
+
+Run-time parameters: the physical settings (``wear``, ``temperature``,
+gravity, hidden effects, gains, noise, ...) and ``command_timeout``,
+``max_velocity``, ``real_time_factor``, ``max_lag``, ``temperature_rate`` apply at
+once (``ros2 param set /joint_sim wear 40.0``: the next sample has the new
+friction); an invalid value is refused with the reason. The joint's identity
+and wiring (``joint_name``, topics, ``gear_ratio``, ``torque_scale``, ``params``,
+``seed``, ``publish_*``, ``initial_position``, ``tick_period``) are read at
+start-up only (read-only parameters).
+
+Diagnostics: ``joint_sim: <joint>`` on ``/diagnostics`` (OK; WARN while bad
+velocity commands arrive), key/values wear, temperature, sim_time,
+samples_published, bad_commands.
 """
 
 from __future__ import annotations
@@ -24,6 +37,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 
 from builtin_interfaces.msg import Time as TimeMsg
 from rclpy.clock import Clock, ClockType
@@ -36,20 +50,21 @@ from std_msgs.msg import Float64MultiArray
 from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
 from ..sim import JointSim, JointSimConfig
-from .runtime import ParamDecl, declare_parameters, run_node
+from .diagnostics import OK, WARN, NodeDiagnostics, Report
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node
 
-__all__ = ["PARAMETERS", "JointSimNode", "main"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "JointSimNode", "main"]
 
 #: Parameters of the node (defaults as in ``config/joint_sim.yaml``).
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", "joint_1", "name of the simulated joint in /joint_states"),
-    ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)"),
-    ParamDecl("gear_ratio", 100.0, "motor speed / joint speed", 1e-3, 1e6),
-    ParamDecl("torque_scale", 200.0, "N·m (joint side) per normalized torque unit", 1e-6, 1e9),
-    ParamDecl("publish_rate", 500.0, "JointState rate = integration rate, Hz (sim time)", 50.0, 20000.0),
-    ParamDecl("publish_temperature", True, "publish /joint_temperature"),
+    ParamDecl("joint_name", "joint_1", "name of the simulated joint in /joint_states", read_only=True),
+    ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)", read_only=True),
+    ParamDecl("gear_ratio", 100.0, "motor speed / joint speed", 1e-3, 1e6, read_only=True),
+    ParamDecl("torque_scale", 200.0, "N·m (joint side) per normalized torque unit", 1e-6, 1e9, read_only=True),
+    ParamDecl("publish_rate", 500.0, "JointState rate = integration rate, Hz (sim time)", 50.0, 20000.0, read_only=True),
+    ParamDecl("publish_temperature", True, "publish /joint_temperature", read_only=True),
     ParamDecl("temperature_rate", 10.0, "temperature publish rate, Hz (sim time)", 0.1, 1000.0),
-    ParamDecl("publish_clock", False, "be the clock source: publish /clock, step on wall time × real_time_factor"),
+    ParamDecl("publish_clock", False, "be the clock source: publish /clock, step on wall time × real_time_factor", read_only=True),
     ParamDecl("real_time_factor", 1.0, "sim seconds per wall second (with publish_clock)", 0.01, 100.0),
     ParamDecl("command_timeout", 0.5, "sim s without a command after which the sim decelerates to 0", 0.0, 1e6),
     ParamDecl("max_velocity", 3.0, "largest accepted |command|, joint rad/s (larger ones are clamped)", 0.0, 1e3),
@@ -59,9 +74,9 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("gravity_angle", 0.0, "joint angle of the largest gravity torque, rad", -10.0, 10.0),
     ParamDecl("hidden_effects", "", "comma-separated hidden friction effects: " + ", ".join(HIDDEN_EFFECTS)),
     ParamDecl("lube_hours", 0.0, "hours since lubrication (lubrication effect)", 0.0, 1e6),
-    ParamDecl("params", "ref-2011r", "friction parameter set"),
-    ParamDecl("seed", 0, "seed of the noise generator"),
-    ParamDecl("initial_position", 0.0, "joint position at start, rad", -100.0, 100.0),
+    ParamDecl("params", "ref-2011r", "friction parameter set", read_only=True),
+    ParamDecl("seed", 0, "seed of the noise generator", read_only=True),
+    ParamDecl("initial_position", 0.0, "joint position at start, rad", -100.0, 100.0, read_only=True),
     ParamDecl("inertia", 5.0e-4, "motor-side inertia, normalized torque per rad/s^2", 1e-9, 1e3),
     ParamDecl("kp", 0.05, "velocity PI proportional gain, normalized torque per motor rad/s", 0.0, 1e3),
     ParamDecl("ki", 1.0, "velocity PI integral gain, normalized torque per motor rad", 0.0, 1e6),
@@ -69,9 +84,16 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("torque_limit", 1.0, "saturation of the applied torque, normalized", 1e-6, 1e3),
     ParamDecl("noise_std", 0.0015, "target scatter sigma_e of (u+ - u-)/2, normalized", 0.0, 1.0),
     ParamDecl("effort_noise_std", 0.003, "white noise on each effort sample, normalized", 0.0, 1.0),
-    ParamDecl("tick_period", 0.005, "wall-clock period of the stepping timer, s", 1e-4, 1.0),
+    ParamDecl("tick_period", 0.005, "wall-clock period of the stepping timer, s", 1e-4, 1.0, read_only=True),
     ParamDecl("max_lag", 0.1, "largest sim-time backlog stepped in one tick, s (beyond: the sim slows)", 1e-3, 10.0),
+    ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
+              read_only=True),
 )
+#: JointSimConfig fields that can change on a running simulation
+_SIM_FIELDS = ("inertia", "gravity_torque", "gravity_angle", "temperature", "wear", "hidden_effects", "lube_hours",
+               "kp", "ki", "accel_limit", "torque_limit", "noise_std", "effort_noise_std")
+#: Parameters that can change at run time
+LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
 _RELIABLE_1000 = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -131,6 +153,7 @@ class JointSimNode(Node):
         self.temperature_period = 1.0 / float(p["temperature_rate"])
         self.bad_commands = 0
         self.samples_published = 0
+        self._bad_reported = 0
         self._last_command_time: float | None = None
         self._timed_out = True
         self._next_temperature = 0.0
@@ -156,12 +179,54 @@ class JointSimNode(Node):
                 )
             self.epoch = self.get_clock().now().nanoseconds * 1e-9
             self.create_timer(float(p["tick_period"]), self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.diag = NodeDiagnostics(self, f"joint_sim: {self.joint_name}", self.joint_name,
+                                    period=float(p["diagnostics_period"]), refresh=self._report)
+        self.diag.update(*self._report())
+        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
         self.get_logger().info(
             f"simulating {self.joint_name}: wear {cfg.wear:g}, {cfg.temperature:g} degC, gravity {cfg.gravity_torque:g}, "
             f"{1.0 / self.dt:g} Hz"
             + (f", clock source at {self.rtf:g}x real time" if self.publish_clock else "")
             + (f", hidden effects {', '.join(cfg.hidden_effects)}" if cfg.hidden_effects else "")
         )
+
+    # -- health and run-time parameters ----------------------------------------
+    def _report(self) -> Report:
+        cfg = self.sim.config
+        new_bad = self.bad_commands - self._bad_reported
+        self._bad_reported = self.bad_commands
+        values = [("wear", f"{cfg.wear:g}"), ("temperature", f"{cfg.temperature:g}"), ("sim_time", f"{self.sim.time:.3f}"),
+                  ("samples_published", str(self.samples_published)), ("bad_commands", str(self.bad_commands))]
+        if new_bad:
+            return WARN, f"{new_bad} bad velocity command(s) ignored since the last report", values
+        return OK, f"simulating {self.joint_name} at wear {cfg.wear:g}, {cfg.temperature:g} degC", values
+
+    def _on_parameters(self, changes: dict[str, object]) -> str | None:
+        sim_changes: dict[str, object] = {}
+        for k, v in changes.items():
+            if k == "hidden_effects":
+                sim_changes[k] = parse_effects(str(v))
+            elif k in _SIM_FIELDS:
+                sim_changes[k] = float(v)  # type: ignore[arg-type]
+        if "temperature_rate" in changes and not float(changes["temperature_rate"]) > 0:  # type: ignore[arg-type]
+            return f"temperature_rate {changes['temperature_rate']!r} must be > 0 Hz"
+        if sim_changes:
+            self.sim.reconfigure(replace(self.sim.config, **sim_changes))  # type: ignore[arg-type]
+        if "command_timeout" in changes:
+            self.command_timeout = float(changes["command_timeout"])  # type: ignore[arg-type]
+        if "max_velocity" in changes:
+            self.max_velocity = float(changes["max_velocity"])  # type: ignore[arg-type]
+        if "max_lag" in changes:
+            self.max_lag = float(changes["max_lag"])  # type: ignore[arg-type]
+        if "temperature_rate" in changes:
+            self.temperature_period = 1.0 / float(changes["temperature_rate"])  # type: ignore[arg-type]
+        if "real_time_factor" in changes:
+            rtf = float(changes["real_time_factor"])  # type: ignore[arg-type]
+            if self.publish_clock:  # keep sim time continuous: sim.time = (now - wall0) * rtf
+                self._wall0 = time.monotonic() - self.sim.time / rtf
+            self.rtf = rtf
+        self.diag.update(*self._report())
+        return None
 
     # -- inputs --------------------------------------------------------------
     def _reject(self, why: str) -> None:

@@ -18,12 +18,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import rclpy
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-__all__ = ["ParamDecl", "declare_parameters", "loopback_env", "run_node", "subscribe_reporting_loss"]
+__all__ = ["ParamDecl", "declare_parameters", "loopback_env", "on_parameter_change", "run_node",
+           "subscribe_reporting_loss"]
 
 
 def loopback_env(domain_id: int | None = None, base: Mapping[str, str] | None = None) -> dict[str, str]:
@@ -44,6 +45,7 @@ class ParamDecl:
     description: str
     min: float | None = None
     max: float | None = None
+    #: read at start-up only: a run-time change is refused by rclpy with "parameter is read-only"
     read_only: bool = False
 
 
@@ -51,12 +53,50 @@ def declare_parameters(node: Node, decls: Sequence[ParamDecl]) -> dict[str, Any]
     """Declare each parameter with a descriptor; return name -> current value."""
     out: dict[str, Any] = {}
     for d in decls:
-        desc = ParameterDescriptor(description=d.description, read_only=d.read_only)
+        text = d.description + (" (read at start-up: restart the node to change it)" if d.read_only else "")
+        desc = ParameterDescriptor(description=text, read_only=d.read_only)
         if d.min is not None and d.max is not None and isinstance(d.default, float):
             desc.floating_point_range = [FloatingPointRange(from_value=float(d.min), to_value=float(d.max))]
         node.declare_parameter(d.name, d.default, desc)
         out[d.name] = node.get_parameter(d.name).value
     return out
+
+
+ParameterHandler = Callable[[dict[str, Any]], "str | None"]
+
+
+def on_parameter_change(node: Node, handler: ParameterHandler, names: Sequence[str]) -> None:
+    """Route run-time changes of ``names`` to ``handler``: apply when safe, refuse with a reason.
+
+    ``handler({name: new_value, ...})`` gets the changed parameters among
+    ``names`` (others, like rclpy's own ``use_sim_time``, pass through), applies
+    them and returns ``None``, or returns the reason for refusing them (or
+    raises a ``JointwearError``/``ValueError``, whose message is the reason);
+    a refusal leaves every parameter as it was and answers the set_parameters
+    call with ``successful=False`` and that reason, and logs it. Parameters
+    declared ``read_only`` never get here: rclpy refuses them itself.
+    """
+    from ..errors import JointwearError
+
+    watched = frozenset(names)
+    log = node.get_logger()
+
+    def callback(params: list[Any]) -> SetParametersResult:
+        changes = {p.name: p.value for p in params if p.name in watched}
+        if not changes:
+            return SetParametersResult(successful=True)
+        try:
+            reason = handler(changes)
+        except (JointwearError, ValueError, TypeError) as exc:
+            reason = str(exc)
+        text = ", ".join(f"{k} := {v!r}" for k, v in changes.items())
+        if reason:
+            log.warning(f"parameter change refused ({text}): {reason}")
+            return SetParametersResult(successful=False, reason=reason)
+        log.info(f"parameter change applied: {text}")
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(callback)
 
 
 def subscribe_reporting_loss(node: Node, msg_type: Any, topic: str, callback: Callable[..., None], qos: Any,

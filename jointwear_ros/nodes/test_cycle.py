@@ -12,7 +12,24 @@ Safety: ``motion_enabled`` must be true to move a real joint; a simulated cell
 is marked with ``simulator: true``. The watchdog (see
 :mod:`jointwear_ros.cycle.runner`) runs in node time (``use_sim_time``
 honoured); a second check in wall time catches a joint-state source that
-stops together with the clock it provides.
+stops together with the clock it provides. A request is refused when the
+joint state is older than ``state_timeout`` in node time or
+``state_timeout_wall`` in wall time (a simulator that died stops the sim
+clock too, so its last state never looks old in sim time).
+
+Run-time parameters: setting ``motion_enabled`` to false stops a running
+cycle at once (zero command, state ABORTED with the reason), also on a
+simulator. The cycle settings (speeds, limits, ``max_speed``, timeouts,
+tolerances, ...) apply to the next request; while a cycle runs a change is
+refused with the reason (the running plan and its watchdog were checked
+with the old values). Topics, ``joint_name``, ``gear_ratio`` and the rates are
+read at start-up only (read-only parameters).
+
+Diagnostics: ``test_cycle: <joint>`` on ``/diagnostics``: OK while idle,
+running or after a DONE cycle; WARN after an ABORTED cycle; ERROR after a
+FAILED one (a watchdog stop), with the reason as the message; key/values
+state, cycle_id, speeds_done, speeds_total, last_fault, refused_requests,
+commands_sent.
 """
 
 from __future__ import annotations
@@ -20,6 +37,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 from jointwear_msgs.msg import TestCycleStatus
@@ -41,21 +59,28 @@ from ..cycle import (
     JointReading,
     plan_cycle,
 )
-from .runtime import ParamDecl, declare_parameters, run_node
+from ..errors import JointwearError
+from .diagnostics import ERROR, OK, WARN, NodeDiagnostics
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node
 
-__all__ = ["PARAMETERS", "TestCycleNode", "main"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "TestCycleNode", "main"]
 
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", "joint_1", "the joint this node drives (looked up by name in /joint_states)"),
-    ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)"),
-    ParamDecl("joint_states_topic", "/joint_states", "joint state topic"),
-    ParamDecl("gear_ratio", 100.0, "motor speed / joint speed", 1e-3, 1e6),
+    ParamDecl("joint_name", "joint_1", "the joint this node drives (looked up by name in /joint_states)",
+              read_only=True),
+    ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)",
+              read_only=True),
+    ParamDecl("joint_states_topic", "/joint_states", "joint state topic", read_only=True),
+    ParamDecl("gear_ratio", 100.0, "motor speed / joint speed", 1e-3, 1e6, read_only=True),
     ParamDecl("speeds", list(DEFAULT_SPEEDS), "default speeds, motor side, rad/s"),
     ParamDecl("window_half_width", 0.1, "observation window half width, joint rad", 1e-4, 10.0),
     ParamDecl("position", 0.0, "default window centre, joint rad", -100.0, 100.0),
     ParamDecl("joint_limits", [-1.5, 1.5], "allowed joint positions [low, high], rad"),
     ParamDecl("limit_margin", 0.02, "planned positions stay this far inside the limits, rad", 0.0, 10.0),
     ParamDecl("max_speed", 280.0, "largest allowed speed, motor side, rad/s", 1e-3, 1e6),
+    ParamDecl("min_speed", 1.0, "smallest allowed speed, motor side, rad/s", 1e-3, 1e6),
+    ParamDecl("max_speeds", 32, "most speeds in one cycle"),
+    ParamDecl("max_duration", 3600.0, "longest planned cycle, s", 1.0, 1e6),
     ParamDecl("acceleration", 4.0, "joint acceleration of every move, rad/s^2", 1e-3, 1e4),
     ParamDecl("approach_speed", 0.5, "joint speed of approach moves, rad/s", 1e-3, 100.0),
     ParamDecl("steady_time", 0.3, "time at constant speed before the window, s", 0.0, 100.0),
@@ -69,11 +94,34 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("speed_tolerance", 0.05, "watchdog: relative speed error allowed at the window start", 1e-4, 10.0),
     ParamDecl("approach_tolerance", 0.01, "the joint must stand this close to a sweep start, rad", 1e-4, 1.0),
     ParamDecl("effort_limit", 150.0, "watchdog: largest allowed |effort|, N·m", 1e-3, 1e9),
-    ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0),
-    ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0),
-    ParamDecl("motion_enabled", False, "allow motion of a real joint (not needed when simulator is true)"),
+    ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0,
+              read_only=True),
+    ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0, read_only=True),
+    ParamDecl("motion_enabled", False, "allow motion of a real joint (not needed when simulator is true); "
+              "setting it false stops a running cycle at once"),
     ParamDecl("simulator", False, "the joint is the simulator (joint_sim): motion allowed without motion_enabled"),
+    ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
+              read_only=True),
 )
+#: Parameter name -> CycleConfig field, for the settings that apply from the next request
+_CYCLE_FIELDS = ("speeds", "window_half_width", "position", "joint_limits", "limit_margin", "max_speed", "min_speed",
+                 "max_speeds", "max_duration", "acceleration", "approach_speed", "steady_time", "settle_time",
+                 "state_timeout", "speed_tolerance", "effort_limit", "approach_tolerance")
+#: Parameters that can change at run time
+LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
+
+
+def _cycle_value(name: str, value: Any) -> Any:
+    if name == "speeds":
+        return tuple(float(v) for v in value)
+    if name == "joint_limits":
+        limits = [float(x) for x in value]
+        if len(limits) != 2:
+            raise CycleRequestError(f"joint_limits must be [low, high], got {limits}")
+        return (limits[0], limits[1])
+    if name == "max_speeds":
+        return int(value)
+    return float(value)
 
 _RELIABLE_1 = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -88,28 +136,13 @@ class TestCycleNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("test_cycle", **kwargs)
         p = declare_parameters(self, PARAMETERS)
-        limits = [float(x) for x in p["joint_limits"]]
-        if len(limits) != 2:
-            raise CycleRequestError(f"joint_limits must be [low, high], got {limits}")
+        limits = list(_cycle_value("joint_limits", p["joint_limits"]))
         self.config = CycleConfig(
-            joint_name=str(p["joint_name"]),
-            gear_ratio=float(p["gear_ratio"]),
-            speeds=tuple(float(v) for v in p["speeds"]),
-            window_half_width=float(p["window_half_width"]),
-            position=float(p["position"]),
-            joint_limits=(limits[0], limits[1]),
-            max_speed=float(p["max_speed"]),
-            acceleration=float(p["acceleration"]),
-            approach_speed=float(p["approach_speed"]),
-            steady_time=float(p["steady_time"]),
-            settle_time=float(p["settle_time"]),
-            limit_margin=float(p["limit_margin"]),
-            state_timeout=float(p["state_timeout"]),
-            speed_tolerance=float(p["speed_tolerance"]),
-            effort_limit=float(p["effort_limit"]),
-            approach_tolerance=float(p["approach_tolerance"]),
+            joint_name=str(p["joint_name"]), gear_ratio=float(p["gear_ratio"]),
+            **{name: _cycle_value(name, p[name]) for name in _CYCLE_FIELDS},
         )
         self.config.check()
+        plan_cycle(self.config)  # the default speeds must be plannable
         self.runner = CycleRunner(self.config)
         self.joint_name = self.config.joint_name
         self.next_cycle_id = 1
@@ -121,6 +154,8 @@ class TestCycleNode(Node):
         self.status_period = 1.0 / float(p["status_rate"])
         self.commands_sent = 0
         self.last_command: float | None = None
+        self.refused_requests = 0
+        self.last_fault = ""
 
         self.cmd_pub = self.create_publisher(Float64MultiArray, str(p["command_topic"]), _RELIABLE_10)
         self.status_pub = self.create_publisher(TestCycleStatus, "~/status", _RELIABLE_100)
@@ -131,7 +166,11 @@ class TestCycleNode(Node):
         self.create_timer(1.0 / float(p["command_rate"]), self._tick)
         self._wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(0.05, self._wall_watchdog, clock=self._wall)
+        self.diag = NodeDiagnostics(self, f"test_cycle: {self.joint_name}", self.joint_name,
+                                    period=float(p["diagnostics_period"]), message="idle")
+        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
         self._publish_status(force=True)
+        self._update_diagnostics()
         self.get_logger().info(
             f"test cycle for {self.joint_name}: speeds {list(self.config.speeds)} rad/s (motor), window "
             f"{self.config.position:g} ± {self.config.window_half_width:g} rad, limits {limits} rad"
@@ -174,7 +213,9 @@ class TestCycleNode(Node):
             resp.cycle_id = 0 if req.dry_run else self.runner.cycle_id
         except CycleRequestError as exc:
             resp.message = f"refused: {exc}"
+            self.refused_requests += 1
             self.get_logger().warning(f"run request refused: {exc}")
+            self._update_diagnostics()
         return resp
 
     def _start(self, req: RunTestCycle.Request) -> str:
@@ -209,6 +250,13 @@ class TestCycleNode(Node):
                 f"the joint state of {self.joint_name} is {now - r.stamp:.2f} s old (state_timeout "
                 f"{self.config.state_timeout:g} s); is the driver still publishing?"
             )
+        wall_age = math.inf if self._wall_last_state is None else time.monotonic() - self._wall_last_state
+        if r is not None and not req.dry_run and wall_age > self.state_timeout_wall:
+            # on sim time a simulator that died stops the clock too: its last state never ages in node time
+            raise CycleRequestError(
+                f"the joint state of {self.joint_name} is stale: none received for {wall_age:.2f} s of wall time "
+                f"(state_timeout_wall {self.state_timeout_wall:g} s); is the driver (or joint_sim) still running?"
+            )
         if req.dry_run:
             return f"dry run OK: {plan.summary()}; plan duration {plan.duration:.1f} s"
         cycle_id = self.next_cycle_id
@@ -216,6 +264,7 @@ class TestCycleNode(Node):
         self.runner.start(plan, cycle_id, now)
         self.get_logger().info(f"cycle {cycle_id} started: {plan.summary()}")
         self._publish_status(force=True)
+        self._update_diagnostics()
         return f"cycle {cycle_id} started: {plan.summary()}"
 
     def _on_abort(self, req: Trigger.Request, resp: Trigger.Response) -> Trigger.Response:
@@ -224,6 +273,7 @@ class TestCycleNode(Node):
             self._send(0.0)
             self._publish_status(force=True)
             self.get_logger().warning(f"cycle {cid} aborted by operator")
+            self._note_end()
             resp.success = True
             resp.message = f"cycle {cid} aborted; zero velocity sent"
         else:
@@ -256,6 +306,8 @@ class TestCycleNode(Node):
         msg.window_half_width = float(st.window_half_width)
         msg.message = st.message
         self.status_pub.publish(msg)
+        if key != self._last_status_key and hasattr(self, "diag"):
+            self._update_diagnostics(publish=False)  # the periodic republication shows the progress
         self._last_status_key = key
         self._last_status_time = now
 
@@ -273,10 +325,72 @@ class TestCycleNode(Node):
     def _report_end(self) -> None:
         st = self.runner.status()
         text = f"cycle {st.cycle_id} {st.state.name}: {st.message}; zero velocity sent"
+        # one call site per severity (rclpy keys a logger's severity by call site)
         if st.state == CycleState.DONE:
             self.get_logger().info(text)
+        elif st.state == CycleState.ABORTED:
+            self.get_logger().warning(text)
         else:
             self.get_logger().error(text)
+        self._note_end()
+
+    def _note_end(self) -> None:
+        st = self.runner.status()
+        if st.state in (CycleState.ABORTED, CycleState.FAILED):
+            self.last_fault = f"cycle {st.cycle_id} {st.state.name}: {st.message}"
+        self._update_diagnostics()
+
+    def _update_diagnostics(self, publish: bool = True) -> None:
+        st = self.runner.status()
+        level = {CycleState.ABORTED: WARN, CycleState.FAILED: ERROR}.get(st.state, OK)
+        if st.state == CycleState.RUNNING:
+            message = f"cycle {st.cycle_id} running: speed {st.speeds_done + 1} of {st.speeds_total}"
+        elif st.state == CycleState.IDLE:
+            message = "idle"
+        else:
+            message = f"cycle {st.cycle_id} {st.state.name}: {st.message}"
+        values = [("state", st.state.name), ("cycle_id", str(st.cycle_id)), ("speeds_done", str(st.speeds_done)),
+                  ("speeds_total", str(st.speeds_total)), ("last_fault", self.last_fault or "none"),
+                  ("refused_requests", str(self.refused_requests)), ("commands_sent", str(self.commands_sent))]
+        if publish:
+            self.diag.update(level, message, values)
+        else:
+            self.diag.set(level, message, values)
+
+    # -- run-time parameters -------------------------------------------------
+    def _on_parameters(self, changes: dict[str, Any]) -> str | None:
+        # safety first: a stop request stops the cycle even if other changes in the same call are refused
+        simulator = bool(changes.get("simulator", self.get_parameter("simulator").value))
+        enabled = bool(changes.get("motion_enabled", self.get_parameter("motion_enabled").value))
+        if self.runner.running and (("motion_enabled" in changes and not enabled) or not (simulator or enabled)):
+            why = ("motion_enabled set to false" if "motion_enabled" in changes and not enabled
+                   else "simulator set to false while motion_enabled is false")
+            cid = self.runner.cycle_id
+            self.runner.abort(f"stopped: {why} at run time")
+            self._send(0.0)
+            self._publish_status(force=True)
+            self.get_logger().warning(f"cycle {cid} stopped: {why}; zero velocity sent")
+            self._note_end()
+        cycle = {k: _cycle_value(k, v) for k, v in changes.items() if k in _CYCLE_FIELDS}
+        if cycle and self.runner.running:
+            return (f"cycle {self.runner.cycle_id} is running: {', '.join(sorted(cycle))} cannot change during a "
+                    "cycle (its plan and watchdog use the old values); set it again when the cycle has ended, or "
+                    "call ~/abort first")
+        new = self.config
+        if cycle:
+            new = replace(self.config, **cycle)
+            try:
+                new.check()
+                plan_cycle(new)  # the default speeds must still be plannable
+            except JointwearError as exc:
+                return str(exc)
+        wall = float(changes.get("state_timeout_wall", self.state_timeout_wall))
+        if not (math.isfinite(wall) and wall > 0):
+            return f"state_timeout_wall {wall!r} must be a number of seconds > 0"
+        self.config = new
+        self.runner.config = new
+        self.state_timeout_wall = wall
+        return None
 
     def _wall_watchdog(self) -> None:
         # node time may stop with the joint-state source (a simulator that is also the clock)

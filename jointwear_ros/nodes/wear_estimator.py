@@ -8,8 +8,16 @@ its DONE status, publishes a ``jointwear_msgs/WearEstimate`` and a
 ``wear_estimator: <joint>``: level OK below ``warn_threshold``, WARN in
 ``[warn_threshold, alarm_threshold)``, ERROR at ``w_hat >= alarm_threshold``;
 key/values wear, wear_std, method, cycle_id, temperature_estimate,
-n_observations. The last status is republished every ``diagnostics_period``
-so aggregators do not mark it stale.
+n_observations (and observations_rejected / temperatures_unknown when the
+screening dropped an observation or made its temperature unknown, see
+:mod:`jointwear_ros.monitor.validation`). The last status is republished
+every ``diagnostics_period`` so aggregators do not mark it stale.
+
+Run-time parameter changes (``ros2 param set``) of the estimator settings
+(thresholds, method, parameter set, timeouts, ...) are checked and apply
+from the next estimate; an invalid one is refused with the reason. Topics,
+``joint_name``, ``hardware_id`` and ``diagnostics_period`` are read at
+start-up only (read-only parameters).
 
 Parameters: see ``config/wear_estimator.yaml`` and ``docs/nodes-observer-estimator.md``.
 """
@@ -20,7 +28,6 @@ import json
 import math
 from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
@@ -28,17 +35,18 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..errors import InputDataError
-from ..monitor import OK, CycleResult, MonitorConfig, WearMonitor
+from ..monitor import ERROR, OK, WARN, CycleResult, MonitorConfig, WearMonitor
+from .diagnostics import NodeDiagnostics, diagnostic_status
 from .friction_observer import observation_from_msg, seconds_to_stamp
-from .runtime import ParamDecl, declare_parameters, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node
 
-__all__ = ["WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
 
 _D = MonitorConfig()
 
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", _D.joint_name, "joint whose wear is estimated"),
-    ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the joint name)"),
+    ParamDecl("joint_name", _D.joint_name, "joint whose wear is estimated", read_only=True),
+    ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the joint name)", read_only=True),
     ParamDecl("method", _D.method, "estimator: paper, paper-grid, bayes, joint"),
     ParamDecl("params", _D.params, "friction-model parameter set"),
     ParamDecl("seed", _D.seed, "base seed; each cycle's seed derives from it and the cycle id"),
@@ -52,12 +60,26 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("min_observations", _D.min_observations, "observations needed for an estimate"),
     ParamDecl("observation_noise_std", _D.observation_noise_std,
               "sweep-to-sweep scatter of tau_f added to each observation's window standard error", 0.0, 1.0),
-    ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications", 0.01, 60.0),
-    ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation input"),
-    ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus input"),
-    ParamDecl("estimate_topic", "/jointwear/wear_estimate", "WearEstimate output"),
-    ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output"),
+    ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications", 0.01, 60.0, read_only=True),
+    ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation input", read_only=True),
+    ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus input", read_only=True),
+    ParamDecl("estimate_topic", "/jointwear/wear_estimate", "WearEstimate output", read_only=True),
+    ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output", read_only=True),
 )
+#: Parameters that apply at run time (from the next estimate)
+LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
+
+
+def _options(text: str) -> dict[str, Any]:
+    if not text:
+        return {}
+    try:
+        value = json.loads(str(text))
+    except ValueError as exc:
+        raise InputDataError(f"parameter estimator_options = {text!r} is not a JSON object: {exc}") from None
+    if not isinstance(value, dict):
+        raise InputDataError(f"parameter estimator_options = {text!r} is not a JSON object")
+    return value
 
 
 def estimate_to_msg(r: CycleResult) -> WearEstimate:
@@ -82,18 +104,6 @@ def estimate_to_msg(r: CycleResult) -> WearEstimate:
     return m
 
 
-def diagnostic_status(name: str, hardware_id: str, level: int, message: str,
-                      values: tuple[tuple[str, str], ...] | list[tuple[str, str]]) -> DiagnosticStatus:
-    """A DiagnosticStatus (level as the message's byte value)."""
-    s = DiagnosticStatus()
-    s.level = bytes([int(level)])
-    s.name = name
-    s.hardware_id = hardware_id
-    s.message = message
-    s.values = [KeyValue(key=k, value=v) for k, v in values]
-    return s
-
-
 class WearEstimatorNode(Node):
     """The wear estimator node (see the module docstring)."""
 
@@ -101,39 +111,54 @@ class WearEstimatorNode(Node):
         super().__init__("wear_estimator", **kwargs)
         p = declare_parameters(self, PARAMETERS)
         self.params = p
-        options: dict[str, Any] = {}
-        if p["estimator_options"]:
-            try:
-                options = dict(json.loads(str(p["estimator_options"])))
-            except (ValueError, TypeError) as exc:
-                raise InputDataError(
-                    f"parameter estimator_options = {p['estimator_options']!r} is not a JSON object: {exc}"
-                ) from None
-        cfg = MonitorConfig.from_mapping(dict(p, estimator_options=options))
+        cfg = MonitorConfig.from_mapping(dict(p, estimator_options=_options(str(p["estimator_options"]))))
         self.monitor = WearMonitor(cfg)
         self.joint_name = cfg.joint_name
         self.status_name = f"wear_estimator: {self.joint_name}"
         self.hardware_id = str(p["hardware_id"]) or self.joint_name
         self.results: list[CycleResult] = []
         self.ignored_messages = 0
-        self._status = diagnostic_status(
-            self.status_name, self.hardware_id, OK, "no test cycle estimated yet",
-            [("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
-             ("alarm_threshold", f"{cfg.alarm_threshold:g}")],
-        )
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
         self.estimate_pub = self.create_publisher(WearEstimate, str(p["estimate_topic"]), 10)
-        self.diag_pub = self.create_publisher(DiagnosticArray, str(p["diagnostics_topic"]), 10)
+        # republished on a wall-clock timer: diagnostics keep coming (not stale) even when /clock stops
+        self.diag = NodeDiagnostics(self, self.status_name, self.hardware_id, topic=str(p["diagnostics_topic"]),
+                                    period=float(p["diagnostics_period"]), message="no test cycle estimated yet",
+                                    values=self._idle_values(cfg))
+        self.diag_pub = self.diag.pub
         self.create_subscription(FrictionObservation, str(p["observations_topic"]), self._on_observation, reliable)
         self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, reliable)
-        # wall-clock timer: diagnostics keep coming (not stale) even when /clock (use_sim_time) stops
         self.create_timer(float(p["diagnostics_period"]), self._on_timer, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
         self.get_logger().info(
             f"estimating wear of {self.joint_name} with method {cfg.method!r} ({cfg.params}); "
             f"WARN at {cfg.warn_threshold:g}, ERROR at {cfg.alarm_threshold:g}; "
             f"measured temperature {'used' if cfg.use_measured_temperature else 'ignored'}"
         )
-        self._publish_diagnostics()
+        self.diag.publish()
+
+    @staticmethod
+    def _idle_values(cfg: MonitorConfig) -> list[tuple[str, str]]:
+        return [("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
+                ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
+
+    @property
+    def _status(self) -> Any:
+        """The DiagnosticStatus now reported."""
+        return self.diag.status
+
+    def _on_parameters(self, changes: dict[str, Any]) -> str | None:
+        cfg = self.monitor.config
+        merged: dict[str, Any] = {f: getattr(cfg, f) for f in (
+            "joint_name", "method", "params", "seed", "warn_threshold", "alarm_threshold", "use_measured_temperature",
+            "done_timeout", "idle_timeout", "min_observations", "observation_noise_std", "estimator_options")}
+        merged.update(changes)
+        if "estimator_options" in changes:
+            merged["estimator_options"] = _options(str(changes["estimator_options"]))
+        new = MonitorConfig.from_mapping(merged)
+        self.monitor.reconfigure(new)  # raises with the reason when the method/params/options are unusable
+        if not self.results:
+            self.diag.update(OK, "no test cycle estimated yet", self._idle_values(new))
+        return None
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -145,23 +170,24 @@ class WearEstimatorNode(Node):
             self.ignored_messages += 1
             self.get_logger().warning(f"FrictionObservation skipped: {exc}")
             return
-        n_ignored = len(self.monitor.ignored)
+        before, dropped = self.monitor.notes_total, self.monitor.rejected_count
         self._handle(self.monitor.add(obs, now=self._now()))
-        if len(self.monitor.ignored) > n_ignored:
-            self.ignored_messages += 1
-            self.get_logger().warning(self.monitor.ignored[-1])
+        notes = self.monitor.notes_since(before)
+        for note in notes:
+            self.get_logger().warning(note)
+        if self.monitor.rejected_count > dropped or (notes and "used as unknown" not in notes[-1]):
+            self.ignored_messages += 1  # dropped (screening), a repeat, or beyond the cycle's speeds
 
     def _on_status(self, msg: TestCycleStatus) -> None:
         # timeouts run on this node's clock at receipt, whatever clock stamped the messages
-        n_ignored = len(self.monitor.ignored)
+        before = self.monitor.notes_total
         self._handle(self.monitor.on_status(self._now(), int(msg.cycle_id), int(msg.state), int(msg.speeds_done),
                                             int(msg.speeds_total), str(msg.joint_name)))
-        for note in self.monitor.ignored[n_ignored:]:
+        for note in self.monitor.notes_since(before):
             self.get_logger().warning(note)
 
     def _on_timer(self) -> None:
         self._handle(self.monitor.poll(self._now()))
-        self._publish_diagnostics()
 
     def _handle(self, results: list[CycleResult]) -> None:
         for r in results:
@@ -169,12 +195,19 @@ class WearEstimatorNode(Node):
             if r.result is not None:
                 self.estimate_pub.publish(estimate_to_msg(r))
             if r is self.monitor.last:  # a revision of an older cycle does not replace a newer cycle's status
-                self._status = diagnostic_status(self.status_name, self.hardware_id, r.level, r.message, r.values)
-            log = self.get_logger()
-            (log.info if r.level == OK else log.warning if r.level == 1 else log.error)(
-                f"{self.joint_name}: {r.level_name}: {r.message}"
-            )
-            self._publish_diagnostics()
+                self.diag.set(r.level, r.message, r.values)
+            self._log_result(r)
+            self.diag.publish()
+
+    def _log_result(self, r: CycleResult) -> None:
+        # rclpy keys a logger's severity by call site: one line per severity, never one line that picks it
+        text = f"{self.joint_name}: {r.level_name}: {r.message}"
+        if r.level == ERROR:
+            self.get_logger().error(text)
+        elif r.level == WARN:
+            self.get_logger().warning(text)
+        else:
+            self.get_logger().info(text)
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: let reliable subscribers (the recorder) get the last results."""
@@ -185,10 +218,7 @@ class WearEstimatorNode(Node):
                 pass
 
     def _publish_diagnostics(self) -> None:
-        arr = DiagnosticArray()
-        arr.header.stamp = self.get_clock().now().to_msg()
-        arr.status = [self._status]
-        self.diag_pub.publish(arr)
+        self.diag.publish()
 
 
 def main(args: list[str] | None = None) -> int:

@@ -26,9 +26,11 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from ..errors import InputDataError
 from .segmentation import measure_segment
 from .types import (
     CYCLE_STATES,
+    PLAUSIBLE_TEMPERATURE,
     STATE_DONE,
     STATE_RUNNING,
     FrictionObservationData,
@@ -131,6 +133,25 @@ class FrictionObserverCore:
         self._trim_at = 0  # buffer size at which the next idle trim runs
         self.samples_seen = 0
         self.samples_skipped = 0
+        self.temperatures_skipped = 0
+
+    def reconfigure(self, config: ObserverConfig) -> None:
+        """Use ``config`` from now on; only between speeds (nothing active or pending), same joint.
+
+        Raises :class:`~jointwear_ros.errors.InputDataError` with the reason
+        otherwise: a speed being observed must be measured with the settings
+        it started with, or live and replayed observations would differ.
+        """
+        if config.joint_name != self.config.joint_name:
+            raise InputDataError(f"joint_name cannot change ({self.config.joint_name!r} -> {config.joint_name!r})")
+        busy = ([self._active] if self._active is not None else []) + self._pending
+        if busy:
+            seg = busy[0]
+            raise InputDataError(
+                f"cycle {seg.cycle_id} speed #{seg.speed_index + 1} is being observed; change the observer "
+                "settings between cycles"
+            )
+        self.config = config
 
     # -- inputs ------------------------------------------------------------------
     def on_status(
@@ -207,8 +228,18 @@ class FrictionObserverCore:
         return self._advance(float(t.max()))
 
     def on_temperature(self, stamp: float, celsius: float) -> ObserverOutput:
-        """A joint temperature sample (degC); non-finite values are skipped."""
-        if math.isfinite(stamp) and math.isfinite(celsius):
+        """A joint temperature sample (degC); non-finite and physically impossible values are skipped.
+
+        A reading outside :data:`~jointwear_ros.observer.types.PLAUSIBLE_TEMPERATURE`
+        (-300 degC, 1000 degC) is a sensor fault: averaged with the good readings
+        of a speed it would give a plausible-looking wrong temperature, so it is
+        left out and counted in :attr:`temperatures_skipped`.
+        """
+        lo, hi = PLAUSIBLE_TEMPERATURE
+        if not (math.isfinite(celsius) and lo <= celsius <= hi):
+            self.temperatures_skipped += 1
+            return ObserverOutput([], [])
+        if math.isfinite(stamp):
             self._temp_t.append(float(stamp))
             self._temp_v.append(float(celsius))
             return self._advance(float(stamp))

@@ -16,6 +16,7 @@ from ..errors import InputDataError
 
 __all__ = [
     "CYCLE_STATES",
+    "PLAUSIBLE_TEMPERATURE",
     "STATE_ABORTED",
     "STATE_DONE",
     "STATE_FAILED",
@@ -34,6 +35,8 @@ STATE_RUNNING = 1
 STATE_DONE = 2
 STATE_ABORTED = 3
 STATE_FAILED = 4
+#: Temperatures a robot joint can have, degC; a reading outside is a sensor fault (not used).
+PLAUSIBLE_TEMPERATURE = (-50.0, 200.0)
 CYCLE_STATES = {STATE_IDLE: "IDLE", STATE_RUNNING: "RUNNING", STATE_DONE: "DONE",
                 STATE_ABORTED: "ABORTED", STATE_FAILED: "FAILED"}
 

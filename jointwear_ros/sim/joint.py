@@ -185,6 +185,32 @@ class JointSim:
         self._wi = 0
         self.sweeps = 0
 
+    def reconfigure(self, config: JointSimConfig) -> None:
+        """Apply new settings now, keeping the state (position, speed, integrator, time).
+
+        The friction table is rebuilt when a friction setting changed (wear,
+        temperature, hidden effects, ...): a live change of the simulated wear.
+        ``gear_ratio``, ``torque_scale``, ``params``, ``model`` and
+        ``initial_position`` define the joint and cannot change on a running
+        simulation (:class:`ParameterError`).
+        """
+        config.check()
+        old = self.config
+        fixed = ("gear_ratio", "torque_scale", "params", "model", "initial_position")
+        changed = [n for n in fixed if getattr(config, n) != getattr(old, n)]
+        if changed:
+            raise ParameterError(
+                f"joint sim: {', '.join(changed)} cannot change on a running simulation; restart it with the new value"
+            )
+        friction = ("temperature", "wear", "hidden_effects", "lube_hours")
+        if any(getattr(config, n) != getattr(old, n) for n in friction):
+            self.friction = FrictionTable(config.params, config.model, temperature=config.temperature, wear=config.wear,
+                                          hidden_effects=config.hidden_effects, lube_hours=config.lube_hours)
+        self.config = config
+        self._offset_std = math.sqrt(2.0) * config.noise_std
+        if config.effort_noise_std != old.effort_noise_std:
+            self._white, self._wi = [], 0
+
     # -- inputs --------------------------------------------------------------
     def set_command(self, velocity: float) -> None:
         """Set the velocity command, joint side rad/s (non-finite values are refused)."""

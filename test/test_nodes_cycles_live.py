@@ -1,0 +1,276 @@
+"""Cycle after cycle through one live graph: the alarm gets through, the nodes keep running.
+
+joint_sim (clock source at 4x real time), test_cycle, friction_observer and
+wear_estimator run as child processes (``python -m``, as ``ros2 run`` starts
+them) over real DDS on loopback and are started once. The test is the
+operator: it sets joint_sim's wear at run time (``/joint_sim/set_parameters``)
+between cycles and runs five cycles whose wear_estimator levels must be
+OK -> ERROR -> WARN -> OK -> ERROR:
+
+1. wear 10: OK, ``WearEstimate.alarm`` false;
+2. wear 45: ERROR, alarm true (the first change of level killed the node once);
+3. aborted right after it started: WARN (no estimate), test_cycle WARN;
+4. wear 10 again: OK, alarm false, test_cycle OK again;
+5. wear 45 with one impossible temperature: the observer's output is relayed
+   through the test (``observations_topic`` remapped), which sets the
+   temperature of the cycle's first observation to -300 degC; bad readings
+   (-300, 1000, inf degC) are also published on /joint_temperature. Still
+   ERROR, alarm true; the estimator reports the temperature it made unknown,
+   the observer the readings it skipped.
+
+Every node must still be running at the end and stop cleanly on SIGINT.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
+from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.srv import RunTestCycle  # noqa: E402
+from rcl_interfaces.srv import SetParameters  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import Temperature  # noqa: E402
+from std_srvs.srv import Trigger  # noqa: E402
+
+from jointwear_ros.cycle import CycleState  # noqa: E402
+from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[1]
+QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+RAW = "/jw_live/raw_observations"
+SPEEDS = [30.0, 40.0, 50.0]
+OK, WARN, ERROR = 0, 1, 2
+
+
+def _fmt(v: object) -> str:
+    return ("true" if v else "false") if isinstance(v, bool) else str(v)
+
+
+class Child:
+    """A node in its own process, stopped with SIGINT."""
+
+    def __init__(self, name: str, params: dict[str, object]):
+        self.name = name
+        self.log = tempfile.NamedTemporaryFile(prefix=f"{name}-", suffix=".log", delete=False)
+        cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args",
+               "--params-file", str(ROOT / "config" / f"{name}.yaml")]
+        for k, v in params.items():
+            cmd += ["-p", f"{k}:={_fmt(v)}"]
+        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT)
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(15)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        return int(self.proc.returncode)
+
+    def output(self) -> str:
+        return Path(self.log.name).read_text(errors="replace")
+
+    def close(self) -> None:
+        self.stop()
+        self.log.close()
+        Path(self.log.name).unlink(missing_ok=True)
+
+
+class Operator:
+    """Service clients, parameter clients, listeners, and the observation relay (the fault injector)."""
+
+    def __init__(self, context, children: list[Child]):
+        self.children = children
+        self.node = rclpy.create_node("jw_live_operator", context=context)
+        self.ex = SingleThreadedExecutor(context=context)
+        self.ex.add_node(self.node)
+        self.status: list[CycleStatus] = []
+        self.estimates: list[WearEstimate] = []
+        self.diag: dict[str, list] = {}
+        self.relayed: list[FrictionObservation] = []
+        self.corrupt_cycle = 0  # the relay sets the temperature of this cycle's first observation to -300
+        n = self.node
+        n.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
+        n.create_subscription(WearEstimate, "/jointwear/wear_estimate", self.estimates.append, QOS)
+        n.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, QOS)
+        n.create_subscription(FrictionObservation, RAW, self._relay, QOS)
+        self.obs_pub = n.create_publisher(FrictionObservation, "/jointwear/friction_observations", QOS)
+        self.temp_pub = n.create_publisher(Temperature, "/joint_temperature", 10)
+        self.run_client = n.create_client(RunTestCycle, "/test_cycle/run")
+        self.abort_client = n.create_client(Trigger, "/test_cycle/abort")
+        self.param_clients = {name: n.create_client(SetParameters, f"/{name}/set_parameters")
+                              for name in ("joint_sim", "test_cycle", "wear_estimator", "friction_observer")}
+
+    def _on_diag(self, msg: DiagnosticArray) -> None:
+        for s in msg.status:
+            self.diag.setdefault(s.name, []).append(s)
+
+    def _relay(self, msg: FrictionObservation) -> None:
+        if msg.cycle_id == self.corrupt_cycle and not any(m.cycle_id == msg.cycle_id for m in self.relayed):
+            msg.temperature = -300.0
+        self.relayed.append(msg)
+        self.obs_pub.publish(msg)
+
+    def spin_until(self, predicate: Callable[[], bool], timeout: float, what: str) -> None:
+        end = time.monotonic() + timeout
+        while not predicate():
+            dead = [c.name for c in self.children if not c.alive()]
+            assert not dead, f"{dead} exited while waiting for {what}:\n" + "\n".join(
+                c.output()[-3000:] for c in self.children if not c.alive())
+            assert time.monotonic() < end, f"timed out waiting for {what}"
+            self.ex.spin_once(timeout_sec=0.02)
+
+    def call(self, client, request, timeout: float = 20.0):
+        self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
+        fut = client.call_async(request)
+        self.spin_until(fut.done, timeout, f"answer of {client.srv_name}")
+        return fut.result()
+
+    def set_params(self, node: str, **values: object):
+        req = SetParameters.Request(parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()])
+        return self.call(self.param_clients[node], req).results
+
+    def run_cycle(self, **kwargs) -> int:
+        """Request a cycle, re-sending while test_cycle has no (fresh) joint state yet."""
+        end = time.monotonic() + 30.0
+        while True:
+            fut = self.run_client.call_async(RunTestCycle.Request(**kwargs))
+            self.spin_until(fut.done, 20.0, "/test_cycle/run")
+            resp = fut.result()
+            if resp.accepted:
+                return int(resp.cycle_id)
+            assert "joint state" in resp.message and time.monotonic() < end, resp.message
+            pause = time.monotonic() + 0.2
+            self.spin_until(lambda p=pause: time.monotonic() > p, 5.0, "a pause")
+
+    def last_state(self, cid: int) -> int | None:
+        return next((m.state for m in reversed(self.status) if m.cycle_id == cid), None)
+
+    def diag_of(self, prefix: str, cid: int | None = None, level: int | None = None):
+        out = []
+        for name, items in self.diag.items():
+            if name.startswith(prefix):
+                for s in items:
+                    kv = {v.key: v.value for v in s.values}
+                    if (cid is None or kv.get("cycle_id") == str(cid)) and (level is None or _level(s) == level):
+                        out.append(s)
+        return out
+
+
+def _level(s) -> int:
+    return s.level[0] if isinstance(s.level, bytes) else int(s.level)
+
+
+@pytest.fixture(scope="module")
+def context():
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    yield ctx
+    rclpy.try_shutdown(context=ctx)
+
+
+def test_five_cycles_through_one_graph_reach_diagnostics_with_the_right_level(context):
+    sim_time = {"use_sim_time": True}
+    children = [
+        Child("joint_sim", {"publish_clock": True, "real_time_factor": 4.0, "wear": 10.0, **sim_time}),
+        Child("test_cycle", {"simulator": True, **sim_time}),
+        Child("friction_observer", {"temperature_topic": "/joint_temperature", "observations_topic": RAW, **sim_time}),
+        Child("wear_estimator", {"use_measured_temperature": True, "diagnostics_period": 0.5, **sim_time}),
+    ]
+    op = Operator(context, children)
+    try:
+        op.spin_until(lambda: op.obs_pub.get_subscription_count() > 0 and op.run_client.service_is_ready()
+                      and op.diag_of("wear_estimator: joint_1") and op.diag_of("friction_observer: joint_1")
+                      and op.diag_of("test_cycle: joint_1") and op.diag_of("joint_sim: joint_1"), 60.0, "the graph")
+
+        def full_cycle(wear: float, level: int, alarm: bool) -> WearEstimate:
+            (res,) = op.set_params("joint_sim", wear=wear)
+            assert res.successful, res.reason
+            cid = op.run_cycle(speeds=SPEEDS)
+            op.spin_until(lambda: op.last_state(cid) in (CycleState.DONE, CycleState.FAILED, CycleState.ABORTED),
+                          90.0, f"cycle {cid} to end")
+            assert op.last_state(cid) == CycleState.DONE, [m.message for m in op.status if m.cycle_id == cid][-1]
+            op.spin_until(lambda: any(e.cycle_id == cid for e in op.estimates), 30.0, f"the estimate of cycle {cid}")
+            op.spin_until(lambda: op.diag_of("wear_estimator", cid, level), 10.0, f"diagnostics of cycle {cid}")
+            (est,) = [e for e in op.estimates if e.cycle_id == cid]
+            assert est.alarm is alarm and est.alarm_threshold == 35.0
+            assert abs(est.wear - wear) < 6.0 and 0.2 < est.wear_std < 5.0, (est.wear, est.wear_std)
+            assert len(est.speeds) == 3
+            return est
+
+        e1 = full_cycle(10.0, OK, False)
+        e2 = full_cycle(45.0, ERROR, True)
+
+        # cycle 3: aborted just after it started: no estimate, WARN from the estimator and from test_cycle.
+        # At 2 rad/s the first sweep alone takes ~10 s of sim time: no observation can come before the abort.
+        cid3 = op.run_cycle(speeds=[2.0])
+        op.spin_until(lambda: op.last_state(cid3) == CycleState.RUNNING, 20.0, "cycle 3 running")
+        assert op.call(op.abort_client, Trigger.Request()).success
+        op.spin_until(lambda: op.diag_of("wear_estimator", cid3, WARN), 30.0, "WARN of the aborted cycle")
+        assert "ABORTED" in op.diag_of("wear_estimator", cid3, WARN)[-1].message
+        op.spin_until(lambda: op.diag_of("test_cycle", cid3, WARN), 10.0, "test_cycle WARN after the abort")
+        assert not any(e.cycle_id == cid3 for e in op.estimates)
+
+        e4 = full_cycle(10.0, OK, False)
+        op.spin_until(lambda: op.diag_of("test_cycle", e4.cycle_id, OK), 10.0, "test_cycle OK again")
+        tc = {v.key: v.value for v in op.diag_of("test_cycle", e4.cycle_id, OK)[-1].values}
+        assert tc["state"] == "DONE" and f"cycle {cid3} ABORTED" in tc["last_fault"]
+
+        # cycle 5: one observation's temperature is -300 degC, and bad readings reach the observer
+        op.corrupt_cycle = e4.cycle_id + 1
+        for bad in (-300.0, 1000.0, math.inf):
+            m = Temperature()
+            m.header.frame_id = "joint_1"
+            m.temperature = bad
+            op.temp_pub.publish(m)
+        e5 = full_cycle(45.0, ERROR, True)
+        assert e5.cycle_id == op.corrupt_cycle
+        assert next(m.temperature for m in op.relayed if m.cycle_id == e5.cycle_id) == -300.0
+        s5 = op.diag_of("wear_estimator", e5.cycle_id, ERROR)[-1]
+        kv = {v.key: v.value for v in s5.values}
+        assert kv["temperatures_unknown"] == "1" and kv["n_observations"] == "3"
+        assert "below absolute zero" in s5.message
+
+        # the levels, in order, as /diagnostics showed them per cycle
+        order = [e1.cycle_id, e2.cycle_id, cid3, e4.cycle_id, e5.cycle_id]
+        firsts = []
+        for cid in order:
+            levels = [_level(s) for s in op.diag_of("wear_estimator", cid)]
+            firsts.append(levels[0])
+        assert firsts == [OK, ERROR, WARN, OK, ERROR]
+
+        def observer_counts() -> dict[str, str]:
+            return {v.key: v.value for v in op.diag_of("friction_observer: joint_1")[-1].values}
+
+        op.spin_until(lambda: observer_counts()["observations"] == "12", 10.0, "the observer's count")
+        assert observer_counts()["temperatures_skipped"] == "3"
+        assert all(c.alive() for c in children)
+    finally:
+        codes = {c.name: c.stop() for c in children}
+        logs = {c.name: c.output() for c in children}
+        op.ex.shutdown()
+        op.node.destroy_node()
+        for c in children:
+            c.close()
+    assert codes == dict.fromkeys(codes, 0), (codes, {k: v[-2000:] for k, v in logs.items()})
+    assert not any("severity cannot be changed" in text for text in logs.values())
