@@ -112,3 +112,21 @@ def test_model_evaluates_physical_inputs_to_finite_friction_and_refuses_the_rest
         return
     # finite physical inputs can still overflow the exponentials far outside the valid range
     assert max(abs(speed), abs(load), abs(temperature), abs(wear)) > 1e3, (inputs, tau)
+
+
+# -- the bound ----------------------------------------------------------------------
+@pytest.mark.parametrize(("prior", "noise"), [("uniform:25:55", 1e-12), ("uniform:25:55", 1e-5), ("uniform:-200:-100", 0.0015)])
+def test_bound_refuses_an_unresolvable_temperature_quadrature(prior, noise):
+    """Beyond one quadrature node per noise std the bound comes out far too small (the issue's
+    "bound std 0.000"); it is refused instead."""
+    from jointwear_ros.estimation.crb import temperature_nodes
+
+    with pytest.raises(JointwearError, match="the bound's quadrature resolves at most"):
+        temperature_nodes(_MODEL, _PARAMS["ref-2011r"], [40.0, 95.0], 35.0, noise_std=noise, prior=prior)
+
+
+def test_bound_quadrature_at_the_papers_settings_is_resolved():
+    from jointwear_ros.estimation.crb import temperature_nodes
+
+    n = temperature_nodes(_MODEL, _PARAMS["ref-2011r"], [40.0, 95.0], 35.0, noise_std=0.0015, prior="uniform:25:55")
+    assert 48 <= n <= 1536

@@ -10,8 +10,8 @@ import math
 import sys
 from collections import Counter
 
-from ..estimation.design import PAPER_SECONDS_PER_SPEED, design_cycle
 from ..errors import JointwearError
+from ..estimation.design import PAPER_SECONDS_PER_SPEED, design_cycle
 from ..estimation.priors import parse_temperature_prior
 from ..model import load_parameter_set_info, paper_wear_model
 from . import UsageError
