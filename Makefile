@@ -18,7 +18,7 @@ export MPLBACKEND ?= Agg
 
 MSG_SRCS := $(wildcard msg_defs/msg/*.msg msg_defs/srv/*.srv) msg_defs/CMakeLists.txt msg_defs/package.xml
 
-.PHONY: all env demo test bench lint clean distclean
+.PHONY: all env demo test bench lint mutation clean distclean
 
 all: env
 
@@ -58,6 +58,11 @@ test: env
 
 bench: env
 	$(PY) bench/run_all.py
+
+# Plant each known bug in a copy of the package and check that the tests catch it
+# (tools/mutation_check.py; minutes: the node and recorder tests run once per bug).
+mutation: env
+	$(PY) tools/mutation_check.py
 
 lint: env
 	$(VENV)/bin/ruff check jointwear_ros test tools bench launch

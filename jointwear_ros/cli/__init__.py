@@ -3,7 +3,11 @@
 Each sub-command lives in its own module ``*_cmd.py`` in this package with a
 ``register(subparsers)`` function; they are found at start-up. Any
 :class:`~jointwear_ros.errors.JointwearError` becomes a one-line message on
-stderr and exit code 2, as do argument errors.
+stderr and exit code 2, as do argument errors; sub-commands check their
+arguments (output paths included) before they start any work. An error of the
+environment met half-way (disk full, out of memory) is one line and exit code 2
+too; an unexpected error (a bug) is one line and exit code 1. ``--verbose``
+adds the traceback.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import importlib
 import os
 import pkgutil
 import sys
+import traceback
 from collections.abc import Sequence
 
 from ..errors import JointwearError
@@ -25,6 +30,7 @@ COMMAND_MODULES: tuple[str, ...] = tuple(
 )
 
 EXIT_USAGE = 2
+EXIT_INTERNAL = 1
 
 
 class UsageError(JointwearError):
@@ -43,6 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="jointwear",
         description="Robot-joint wear diagnosis from static friction (ROS 2 Jazzy).",
     )
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="on an error, print the traceback as well as the one-line message")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for mod in COMMAND_MODULES:
@@ -50,21 +58,44 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _fail(args: argparse.Namespace, message: str, code: int) -> int:
+    if getattr(args, "verbose", False):
+        traceback.print_exc(file=sys.stderr)
+    print(f"jointwear: {_one_line(message)}", file=sys.stderr)
+    return code
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    # --verbose is accepted anywhere on the line, not only before the sub-command
+    verbose = "--verbose" in words
+    args = parser.parse_args([w for w in words if w != "--verbose"])
+    args.verbose = bool(args.verbose or verbose)
     try:
         rc = args.func(args)
     except JointwearError as exc:
-        print(f"jointwear: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("jointwear: interrupted", file=sys.stderr)
-        return 130
+        return _fail(args, f"error: {exc}", EXIT_USAGE)
+    except MemoryError:
+        return _fail(args, "error: out of memory; ask for a smaller job (fewer runs, speeds, cycles or samples)",
+                     EXIT_USAGE)
     except BrokenPipeError:  # output piped into head, less, ...: not an error
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except OSError as exc:  # disk full, a file removed under us, ...: the environment, not a bug
+        where = f"{exc.filename}: " if exc.filename else ""
+        return _fail(args, f"error: {where}{exc.strerror or exc}", EXIT_USAGE)
+    except KeyboardInterrupt:
+        print("jointwear: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a bug: say so in one line; --verbose shows where
+        hint = "" if getattr(args, "verbose", False) else " (run with --verbose for the traceback)"
+        return _fail(args, f"internal error: {type(exc).__name__}: {exc}{hint}", EXIT_INTERNAL)
     return int(rc or 0)
 
 

@@ -1,10 +1,18 @@
-"""Argument parsing helpers shared by the sub-commands."""
+"""Argument checks shared by the sub-commands.
+
+Every check here runs before a command starts any work or writes anything, and
+raises :class:`~jointwear_ros.cli.UsageError` (one line on stderr, exit code 2)
+naming the option, the value and what to do.
+"""
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import sys
+import tempfile
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -12,7 +20,24 @@ import numpy as np
 from ..fmt import format_table
 from . import UsageError
 
-__all__ = ["format_table", "parse_float", "parse_float_list", "print_json"]
+__all__ = [
+    "ABSOLUTE_ZERO",
+    "MAX_LIST",
+    "check_input_file",
+    "check_output_dir",
+    "check_output_file",
+    "check_temperature_prior",
+    "format_table",
+    "parse_float",
+    "parse_float_list",
+    "parse_int",
+    "print_json",
+]
+
+#: Most values a comma list or START:STOP:COUNT range may give (speeds, candidates).
+MAX_LIST = 10_000
+#: 0 K in degC: no temperature distribution may reach below it.
+ABSOLUTE_ZERO = -273.15
 
 
 def parse_float(text: str, what: str) -> float:
@@ -25,8 +50,31 @@ def parse_float(text: str, what: str) -> float:
     return value
 
 
-def parse_float_list(text: str, what: str) -> list[float]:
-    """``"0,10,25"`` -> [0, 10, 25]; ``"0:280:56"`` -> 56 values from 0 to 280 inclusive."""
+def parse_int(text: str | int, what: str, lo: int, hi: int | None = None) -> int:
+    """An integer in ``[lo, hi]`` (``hi`` None: no upper bound), else :class:`UsageError`."""
+    try:
+        n = int(str(text).strip())
+    except (TypeError, ValueError):
+        raise UsageError(f"{what}: {text!r} is not an integer") from None
+    if n < lo:
+        raise UsageError(f"{what}: {n} must be at least {lo}")
+    if hi is not None and n > hi:
+        raise UsageError(f"{what}: {n} is more than the {hi:,} this command handles")
+    return n
+
+
+def parse_float_list(text: str, what: str, max_count: int = MAX_LIST) -> list[float]:
+    """``"0,10,25"`` -> [0, 10, 25]; ``"0:280:56"`` -> 56 values from 0 to 280 inclusive.
+
+    At most ``max_count`` values.
+
+    >>> parse_float_list("0:280:5", "--speeds")
+    [0.0, 70.0, 140.0, 210.0, 280.0]
+    >>> parse_float_list("0:280:1000000000", "--speeds")
+    Traceback (most recent call last):
+    ...
+    jointwear_ros.cli.UsageError: --speeds: count 1000000000 in '0:280:1000000000' is more than the 10,000 values allowed
+    """
     text = text.strip()
     if not text:
         raise UsageError(f"{what}: empty list")
@@ -41,8 +89,112 @@ def parse_float_list(text: str, what: str) -> list[float]:
             raise UsageError(f"{what}: count {parts[2]!r} in {text!r} is not an integer") from None
         if n < 1:
             raise UsageError(f"{what}: count in {text!r} must be at least 1")
+        if n > max_count:
+            raise UsageError(f"{what}: count {n} in {text!r} is more than the {max_count:,} values allowed")
         return [float(x) for x in np.linspace(lo, hi, n)]
-    return [parse_float(t, what) for t in text.split(",")]
+    items = text.split(",")
+    if len(items) > max_count:
+        raise UsageError(f"{what}: {len(items)} values are more than the {max_count:,} allowed")
+    return [parse_float(t, what) for t in items]
+
+
+# -- files ----------------------------------------------------------------------------
+def _existing_ancestor(p: Path) -> Path:
+    q = p.absolute()
+    while not q.exists() and q != q.parent:
+        q = q.parent
+    return q
+
+
+def _probe_dir(d: Path, flag: str, value: str) -> None:
+    """``d`` is an existing directory we can create a file in (tried for real: root passes os.access)."""
+    if not os.access(d, os.W_OK | os.X_OK):
+        raise UsageError(f"{flag}: {value!r}: directory {str(d)!r} is not writable")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".jointwear-probe-", dir=d)
+    except OSError as exc:
+        raise UsageError(f"{flag}: {value!r}: cannot create files in {str(d)!r} ({exc.strerror})") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
+def check_output_dir(value: str | os.PathLike[str] | None, flag: str) -> Path | None:
+    """An output directory that exists (and is writable) or can be created; nothing is created.
+
+    >>> check_output_dir(__file__, "--plot")
+    Traceback (most recent call last):
+    ...
+    jointwear_ros.cli.UsageError: --plot: '...common.py' exists and is not a directory
+    """
+    if value is None or str(value) == "":
+        return None if value is None else _empty(flag)
+    p = Path(value)
+    text = str(value)
+    if p.exists() and not p.is_dir():
+        raise UsageError(f"{flag}: {text!r} exists and is not a directory")
+    anc = _existing_ancestor(p)
+    if not anc.is_dir():
+        raise UsageError(f"{flag}: {text!r}: {str(anc)!r} is a file, not a directory; give another path")
+    _probe_dir(anc, flag, text)
+    return p
+
+
+def check_output_file(value: str | os.PathLike[str] | None, flag: str, suffix: str | None = None) -> Path | None:
+    """An output file whose directory exists (and is writable) or can be created; nothing is created."""
+    if value is None or str(value) == "":
+        return None if value is None else _empty(flag)
+    p = Path(value)
+    text = str(value)
+    if suffix is not None and not text.lower().endswith(suffix):
+        raise UsageError(f"{flag}: {text!r} must name a {suffix} file")
+    if p.is_dir():
+        raise UsageError(f"{flag}: {text!r} is a directory; give a file name")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise UsageError(f"{flag}: {text!r} exists and is not writable")
+    anc = _existing_ancestor(p.parent)
+    if not anc.is_dir():
+        raise UsageError(f"{flag}: {text!r}: {str(anc)!r} is a file, not a directory; give another path")
+    _probe_dir(anc, flag, text)
+    return p
+
+
+def check_input_file(value: str | os.PathLike[str], flag: str) -> Path:
+    """A regular file that exists and can be read."""
+    text = str(value)
+    if text == "":
+        _empty(flag)
+    p = Path(value)
+    if not p.exists():
+        raise UsageError(f"{flag}: {text!r}: no such file")
+    if p.is_dir():
+        raise UsageError(f"{flag}: {text!r} is a directory; give a file")
+    if not os.access(p, os.R_OK):
+        raise UsageError(f"{flag}: {text!r} is not readable")
+    return p
+
+
+def _empty(flag: str) -> Any:
+    raise UsageError(f"{flag}: empty path")
+
+
+# -- temperature distributions ---------------------------------------------------------
+def check_temperature_prior(prior: Any, flag: str, valid: tuple[float, float] | None, set_name: str = "") -> None:
+    """Refuse a temperature distribution that is non-physical or outside a parameter set's range.
+
+    Its central 95 % must lie within ``valid`` (the set's temperature range,
+    where the model means something), and none of it below absolute zero.
+    """
+    lo, hi = (float(x) for x in prior.support(0.95))
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise UsageError(f"{flag}: {prior.label} is not a finite temperature range")
+    if float(prior.support(1.0 - 1e-9)[0]) < ABSOLUTE_ZERO:
+        raise UsageError(f"{flag}: {prior.label} reaches below absolute zero ({ABSOLUTE_ZERO} degC)")
+    if valid is not None and (lo < valid[0] or hi > valid[1]):
+        of = f" of parameter set {set_name!r}" if set_name else ""
+        raise UsageError(
+            f"{flag}: {prior.label} puts more than 5 % of its mass (central 95 %: {lo:.3g} .. {hi:.3g} degC) "
+            f"outside the valid temperature range [{valid[0]:g}, {valid[1]:g}] degC{of}"
+        )
 
 
 def _clean(obj: Any) -> Any:

@@ -10,17 +10,20 @@ import math
 import sys
 from collections import Counter
 
+from ..errors import JointwearError
 from ..estimation.design import PAPER_SECONDS_PER_SPEED, design_cycle
 from ..estimation.priors import parse_temperature_prior
 from ..model import load_parameter_set_info, paper_wear_model
 from . import UsageError
-from .common import format_table, parse_float, parse_float_list, print_json
+from .common import check_temperature_prior, format_table, parse_float, parse_float_list, print_json
 
 __all__ = ["register"]
 
 DEFAULT_CANDIDATES = "5:280:56"  # every 5 rad/s; a test cycle cannot sweep at 0
 #: Largest cycle the search handles in reasonable time.
 MAX_SPEEDS = 64
+#: Most candidate speeds the search handles in reasonable time (every 1 rad/s over 0-280).
+MAX_CANDIDATES = 281
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -67,7 +70,11 @@ def cmd_design(args: argparse.Namespace) -> int:
         raise UsageError(f"--budget: {args.budget} must be a positive number of seconds")
     if sps <= 0:
         raise UsageError(f"--seconds-per-speed: {args.seconds_per_speed} must be a positive number of seconds")
-    n = math.floor(budget / sps + 1e-9)
+    ratio = budget / sps
+    if ratio > MAX_SPEEDS + 1:
+        raise UsageError(f"--budget {budget:g} s at {sps:g} s per speed gives {ratio:.4g} speeds; "
+                         f"at most {MAX_SPEEDS} are searched")
+    n = math.floor(ratio + 1e-9)
     if n < 1:
         raise UsageError(f"--budget {budget:g} s is shorter than one speed ({sps:g} s); raise --budget")
     if n > MAX_SPEEDS:
@@ -76,16 +83,21 @@ def cmd_design(args: argparse.Namespace) -> int:
     wear = parse_float(args.wear, "--wear")
     load = parse_float(args.load, "--load")
     noise = parse_float(args.noise_std, "--noise-std")
-    if noise <= 0:
-        raise UsageError(f"--noise-std: {args.noise_std} must be positive")
+    if not 0 < noise <= 1:
+        raise UsageError(f"--noise-std: {args.noise_std} must be positive and at most 1 (normalized torque; "
+                         "the paper's is 0.0015)")
     info.check_range("wear", wear)
     info.check_range("load_torque", abs(load))
-    cands = parse_float_list(args.speeds_candidates, "--speeds-candidates")
+    cands = parse_float_list(args.speeds_candidates, "--speeds-candidates", max_count=MAX_CANDIDATES)
     for s in cands:
         if s < 0:
             raise UsageError(f"--speeds-candidates: {s:g} is negative; give speed magnitudes >= 0 rad/s")
         info.check_range("speed", s)
-    prior = parse_temperature_prior(args.prior)
+    try:
+        prior = parse_temperature_prior(args.prior)
+    except JointwearError as exc:
+        raise UsageError(f"--prior: {exc}") from None
+    check_temperature_prior(prior, "--prior", info.valid.get("temperature"), info.name)
     if args.no_repeats and len(set(cands)) < n:
         raise UsageError(f"--no-repeats: {n} distinct speeds needed but --speeds-candidates gives {len(set(cands))}")
 

@@ -9,9 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from . import UsageError
-from .common import format_table, parse_float, parse_float_list, print_json
+from .common import check_output_dir, check_output_file, format_table, parse_float, parse_float_list, print_json
 
 __all__ = ["register"]
+
+#: Most rows (cycles x speeds) a synthetic table may have.
+MAX_ROWS = 1_000_000
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -75,16 +78,23 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
     if args.cycles < 1:
         raise UsageError(f"--cycles: {args.cycles} must be at least 1")
+    if args.seed < 0:
+        raise UsageError(f"--seed: {args.seed} must be >= 0")
     speeds = parse_float_list(args.speeds, "--speeds")
     if any(v < 0 for v in speeds):
         raise UsageError("--speeds: speeds must be >= 0 (the model is for |v|)")
+    if args.cycles * len(speeds) > MAX_ROWS:
+        raise UsageError(f"--cycles {args.cycles:,} x {len(speeds)} speeds = {args.cycles * len(speeds):,} rows; "
+                         f"at most {MAX_ROWS:,}")
     temperature = _range(args.temperature, "--temperature")
     load = _range(args.load, "--load")
     position = _range(args.position, "--position")
     noise = parse_float(args.noise, "--noise")
-    if noise < 0:
-        raise UsageError(f"--noise: {noise:g} must be >= 0")
+    if not 0 <= noise <= 1:
+        raise UsageError(f"--noise: {noise:g} must be within [0, 1] (normalized torque; the paper's is 0.0015)")
     info = load_parameter_set_info(args.params)
+    for v in speeds:
+        info.check_range("speed", v)
     for v in temperature:
         info.check_range("temperature", v)
     for v in load:
@@ -96,8 +106,10 @@ def cmd_synth(args: argparse.Namespace) -> int:
     is_csv = out.suffix.lower() == ".csv"
     if not is_csv and out.exists():
         raise UsageError(f"{out}: already exists; a bag is written to a new directory")
-    if is_csv and out.is_dir():
-        raise UsageError(f"{out}: is a directory")
+    if is_csv:
+        check_output_file(out, "OUT")
+    else:
+        check_output_dir(out, "OUT")
     table = synth_observations(
         n_cycles=args.cycles, speeds=speeds, effects=args.hidden, seed=args.seed, params=args.params,
         model="paper" if wear is None else "paper+wear", temperature=temperature, load=load,

@@ -35,8 +35,8 @@ import yaml
 
 from ..errors import JointwearError
 from . import UsageError
-from .common import format_table, parse_float, parse_float_list, print_json
-from .replay_cmd import config_path
+from .common import check_output_dir, format_table, parse_float, parse_float_list, print_json
+from .replay_cmd import check_method, config_path
 
 __all__ = ["DEMO_NODES", "DemoError", "register", "run_demo"]
 
@@ -512,7 +512,57 @@ def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, Any]]:
     return out
 
 
+def _node_parameters(node: str) -> dict[str, Any]:
+    """Parameter name -> declaration (or None) a demo node takes: its config file and its declarations."""
+    known: dict[str, Any] = {"use_sim_time": None}
+    try:
+        values = yaml.safe_load(config_path(f"{node}.yaml").read_text())
+        known.update(dict.fromkeys(values[node]["ros__parameters"]))
+    except Exception:  # no config file: the declarations alone
+        pass
+    try:
+        import importlib
+
+        decls = importlib.import_module(f"jointwear_ros.nodes.{node}").PARAMETERS
+        known.update({d.name: d for d in decls})
+    except (ImportError, AttributeError):
+        pass
+    return known
+
+
+def check_overrides(overrides: dict[str, dict[str, Any]]) -> None:
+    """Every ``--set NODE.PARAM=VALUE`` names a parameter the node takes, within its declared range."""
+    for node, values in overrides.items():
+        known = _node_parameters(node)
+        for name, value in values.items():
+            if name not in known:
+                raise UsageError(f"--set {node}.{name}: {node} has no parameter {name!r}; "
+                                 f"it has {', '.join(sorted(known))}")
+            decl = known[name]
+            if decl is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
+                if not math.isfinite(float(value)):
+                    raise UsageError(f"--set {node}.{name}={value}: not a finite number")
+                if (decl.min is not None and value < decl.min) or (decl.max is not None and value > decl.max):
+                    raise UsageError(f"--set {node}.{name}={value}: outside the declared range "
+                                     f"[{decl.min}, {decl.max}]")
+        if node == "wear_estimator" and "method" in values:
+            check_method(str(values["method"]), "--set wear_estimator.method")
+
+
+def _sim_parameter_set(overrides: dict[str, dict[str, Any]]) -> str:
+    """The parameter set joint_sim will simulate with (its config, or --set joint_sim.params)."""
+    if "params" in overrides.get("joint_sim", {}):
+        return str(overrides["joint_sim"]["params"])
+    try:
+        values = yaml.safe_load(config_path("joint_sim.yaml").read_text())
+        return str(values["joint_sim"]["ros__parameters"]["params"])
+    except Exception:
+        return "ref-2011r"
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
+    from ..model import load_parameter_set_info
+
     wear = parse_float(args.wear, "--wear")
     if not 0.0 <= wear <= 100.0:
         raise UsageError(f"--wear: {wear:g} is outside 0-100")
@@ -523,11 +573,28 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if not 0.01 <= rtf <= 100.0:
         raise UsageError(f"--real-time-factor: {rtf:g} is outside 0.01-100")
     timeout = parse_float(args.timeout, "--timeout")
+    if not 0 < timeout <= 86400:
+        raise UsageError(f"--timeout: {timeout:g} must be more than 0 and at most 86400 s")
     temperature = parse_float(args.temperature, "--temperature") if args.temperature is not None else None
     if args.domain_id is not None and not 0 <= args.domain_id <= 232:
         raise UsageError(f"--domain-id: {args.domain_id} is outside 0-232")
+    check_method(args.method, "--method")
+    overrides = parse_overrides(args.set)
+    check_overrides(overrides)
+    info = load_parameter_set_info(_sim_parameter_set(overrides))
+    for flag, value in (("--temperature", temperature),
+                        ("--set joint_sim.temperature", overrides.get("joint_sim", {}).get("temperature"))):
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise UsageError(f"{flag}: {value!r} is not a number")
+        try:
+            info.check_range("temperature", float(value))
+        except JointwearError as exc:
+            raise UsageError(f"{flag}: {exc}") from None
+    check_output_dir(args.out, "--out")
     res = run_demo(wear, speeds, Path(args.out), rtf, temperature, args.method, timeout, args.domain_id,
-                   parse_overrides(args.set))
+                   overrides)
     rc = 0 if res.estimate else 1
     if args.json:
         print_json(res.as_dict())

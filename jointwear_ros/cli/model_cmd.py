@@ -15,7 +15,14 @@ import numpy as np
 
 from ..model import load_parameter_set_info, paper_wear_model
 from . import UsageError
-from .common import format_table, parse_float, parse_float_list, print_json
+from .common import (
+    check_output_dir,
+    check_output_file,
+    format_table,
+    parse_float,
+    parse_float_list,
+    print_json,
+)
 
 __all__ = ["register"]
 
@@ -57,8 +64,7 @@ def cmd_curve(args: argparse.Namespace) -> int:
         if s < 0:
             raise UsageError(f"--speeds: {s:g} is negative; the model is for |v|, give speeds >= 0")
         info.check_range("speed", float(s))
-    if args.plot and not args.plot.lower().endswith(".png"):
-        raise UsageError(f"--plot: {args.plot!r} must name a .png file")
+    check_output_file(args.plot, "--plot", suffix=".png")
 
     model = paper_wear_model()
     params = model.make_params(info.parameters())
@@ -163,8 +169,7 @@ def _register_workbench(msub: argparse._SubParsersAction) -> None:  # type: igno
 
 
 def _check_out_dir(value: str | None, flag: str) -> None:
-    if value and Path(value).exists() and not Path(value).is_dir():
-        raise UsageError(f"{flag}: {value!r} exists and is not a directory")
+    check_output_dir(value, flag)
 
 
 def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
@@ -184,8 +189,21 @@ def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
         if name not in params:
             raise UsageError(f"--fix: model {model.spec!r} has no parameter {name!r}; it has {', '.join(params)}")
         if value:
-            params[name].value = parse_float(value, f"--fix {name}")
+            v = parse_float(value, f"--fix {name}")
+            p = params[name]
+            if not p.min <= v <= p.max:
+                raise UsageError(f"--fix {name}: {v:g} is outside the parameter's bounds [{p.min:g}, {p.max:g}]")
+            p.value = v
         params[name].vary = False
+    from ..workbench.fit import model_inputs
+
+    model_inputs(model, table)  # the columns the model needs: a missing one is named first
+    n_free = len(params.free())
+    if len(table) <= n_free:
+        raise UsageError(
+            f"{table.source}: {len(table)} observation(s) cannot fit model {model.spec!r}, which has {n_free} free "
+            f"parameters; give more than {n_free} rows, or hold parameters with --fix"
+        )
     return table, model, params
 
 
@@ -231,6 +249,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from ..workbench.history import History
 
     _check_out_dir(args.report, "--report")
+    check_output_file(args.history, "--history")
     table, model, params = _prepare(args, args.model)
     history = History.load(args.history) if args.history else None
     fit = _fit(table, model, params, args.folds)
@@ -342,6 +361,7 @@ def cmd_add(args: argparse.Namespace) -> int:
     from ..workbench.history import History
 
     _check_out_dir(args.plot, "--plot")
+    check_output_file(args.history, "--history")
     table, model, params = _prepare(args, args.model)
     _, model2, params2 = _prepare(args, f"{args.model} + {args.term}")
     history = History.load(args.history) if args.history else None

@@ -24,7 +24,7 @@ from typing import Any
 from ..errors import InputDataError
 from ..resources import find_resource, resource_dirs
 from . import UsageError
-from .common import format_table, parse_float, print_json
+from .common import check_input_file, format_table, parse_float, print_json
 
 __all__ = ["config_path", "register", "replay_summary"]
 
@@ -68,13 +68,34 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.set_defaults(func=cmd_replay)
 
 
-def _params(path: str | None, default_name: str, node: str) -> dict[str, Any]:
+def _params(path: str | None, default_name: str, node: str, flag: str = "") -> dict[str, Any]:
     from ..io.bags import node_params_from_yaml
 
     if path is not None:
+        check_text_file(path, flag or "params file")
         return node_params_from_yaml(path, node)
     f = config_path(default_name)
     return node_params_from_yaml(f, node) if f.is_file() else {}
+
+
+def check_text_file(path: str, flag: str) -> None:
+    """A readable UTF-8 text file (a params file), else :class:`UsageError`."""
+    p = check_input_file(path, flag)
+    try:
+        p.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise UsageError(f"{flag}: {path!r} is not a UTF-8 text file ({exc.reason} at byte {exc.start}); "
+                         "give a ROS 2 parameter YAML file") from None
+    except OSError as exc:
+        raise UsageError(f"{flag}: {path!r}: cannot read ({exc.strerror})") from None
+
+
+def check_method(method: str | None, flag: str) -> None:
+    """An estimator method name the estimators know (None: the configured one)."""
+    from ..estimation import ESTIMATOR_METHODS
+
+    if method is not None and str(method).strip().lower() not in ESTIMATOR_METHODS:
+        raise UsageError(f"{flag}: unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
 
 
 def replay_summary(result: Any) -> dict[str, Any]:
@@ -111,11 +132,16 @@ def cmd_replay(args: argparse.Namespace) -> int:
         return _publish(args)
     from ..io.bags import replay_bag
 
+    check_method(args.method, "--method")
+    observer = _params(args.observer_params, "friction_observer.yaml", "friction_observer", "--observer-params")
+    estimator = _params(args.estimator_params, "wear_estimator.yaml", "wear_estimator", "--estimator-params")
+    if args.estimator_params is not None and "method" in estimator:
+        check_method(str(estimator["method"]), f"--estimator-params {args.estimator_params}: method")
     overrides = {"method": args.method} if args.method else None
     result = replay_bag(
         args.bag,
-        _params(args.observer_params, "friction_observer.yaml", "friction_observer"),
-        _params(args.estimator_params, "wear_estimator.yaml", "wear_estimator"),
+        observer,
+        estimator,
         use_recorded_params=not args.ignore_recorded_params,
         overrides=overrides,
     )

@@ -22,7 +22,14 @@ from ..estimation import ESTIMATOR_METHODS, make_estimator
 from ..estimation.priors import TemperaturePrior, parse_temperature_prior
 from ..model import load_parameter_set_info, paper_wear_model
 from . import UsageError
-from .common import format_table, parse_float, parse_float_list, print_json
+from .common import (
+    check_output_dir,
+    check_temperature_prior,
+    format_table,
+    parse_float,
+    parse_float_list,
+    print_json,
+)
 
 __all__ = ["register"]
 
@@ -30,6 +37,13 @@ DEFAULT_SPEEDS = "0:280:56"
 DEFAULT_ROBUST_SPEEDS = "10,40,80,120"
 DEFAULT_TRUE_T = "normal:40:3"
 ACTIONS = ("run", "robustness", "case")
+#: Most runs per speed (100x the paper's 10,000) and temperature samples of the paper's estimator.
+MAX_RUNS = 1_000_000
+MAX_N_SAMPLES = 100_000
+#: Most speeds of a study (every 0.05 rad/s over 0-280).
+MAX_SPEEDS = 5_600
+#: Share of the available memory a study may plan to use.
+MEMORY_SHARE = 0.5
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -93,15 +107,19 @@ class _Bar:
         sys.stderr.flush()
 
 
-def _prior(text: str, what: str) -> TemperaturePrior:
+def _prior(text: str, what: str, info: Any = None) -> TemperaturePrior:
+    """A temperature distribution from the command line, checked against ``info``'s valid temperatures."""
     spec = text.strip()
     parts = spec.split(":")
     if len(parts) == 2 and _is_number(parts[0]):  # LO:HI
         spec = "uniform:" + spec
     try:
-        return parse_temperature_prior(spec)
+        prior = parse_temperature_prior(spec)
     except Exception as exc:  # InputDataError: name the option
         raise UsageError(f"{what}: {exc}") from None
+    if info is not None:
+        check_temperature_prior(prior, what, info.valid.get("temperature"), info.name)
+    return prior
 
 
 def _is_number(text: str) -> bool:
@@ -112,22 +130,55 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _int(text: str, what: str, lo: int) -> int:
+def _int(text: str, what: str, lo: int, hi: int | None = None) -> int:
     try:
         n = int(text)
     except (TypeError, ValueError):
         raise UsageError(f"{what}: {text!r} is not an integer") from None
     if n < lo:
         raise UsageError(f"{what}: {n} must be at least {lo}")
+    if hi is not None and n > hi:
+        raise UsageError(f"{what}: {n:,} is more than the {hi:,} a study handles")
     return n
 
 
-def _speeds(text: str) -> list[float]:
-    v = parse_float_list(text, "--speeds")
+def _speeds(text: str, info: Any = None) -> list[float]:
+    v = parse_float_list(text, "--speeds", max_count=MAX_SPEEDS)
     for s in v:
         if s < 0:
             raise UsageError(f"--speeds: {s:g} is negative; give motor-side speed magnitudes >= 0 rad/s")
+        if info is not None:
+            try:
+                info.check_range("speed", s)
+            except Exception as exc:
+                raise UsageError(f"--speeds: {exc}") from None
     return v
+
+
+def _available_memory() -> float:
+    """Bytes of memory available now (physical pages; inf where the system does not say)."""
+    import os
+
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return float("inf")
+
+
+def _check_memory(runs: int, n_speeds: int, n_samples: int, method: str) -> None:
+    """Refuse a study whose arrays would not fit: runs x speeds observations, plus the paper
+    estimator's runs x N temperature samples at one speed."""
+    need = 8.0 * runs * n_speeds * 8  # observations, estimates and their sorted copies, float64
+    if method in ("paper", "paper-grid"):
+        need += 8.0 * runs * n_samples * 3
+    avail = _available_memory()
+    if need > MEMORY_SHARE * avail:
+        raise UsageError(
+            f"--runs {runs:,} x {n_speeds} speeds"
+            + (f" x --n-samples {n_samples:,}" if method in ("paper", "paper-grid") else "")
+            + f" needs about {need / 1e9:.3g} GB of memory, {avail / 1e9:.3g} GB are available; "
+            "lower --runs, --n-samples or the number of speeds"
+        )
 
 
 def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, params: Any,
@@ -135,16 +186,17 @@ def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, 
     """An estimator configured from the command line."""
     opts: dict[str, Any] = {"noise_std": parse_float(args.noise_std, "--noise-std")}
     assumed_text = args.assumed_temperature or default_assumed
+    info = load_parameter_set_info(args.params)
     if method in ("paper", "paper-grid"):
-        opts["n_samples"] = _int(args.n_samples, "--n-samples", 1)
+        opts["n_samples"] = _int(args.n_samples, "--n-samples", 1, MAX_N_SAMPLES)
         if assumed_text is not None:
-            pr = _prior(assumed_text, "--assumed-temperature")
+            pr = _prior(assumed_text, "--assumed-temperature", info)
             if pr.kind != "uniform":
                 raise UsageError(f"--assumed-temperature {assumed_text!r}: the paper's estimator assumes a "
                                  "uniform range; give LO:HI")
             opts["temperature_range"] = pr.args
     else:
-        opts["prior"] = _prior(assumed_text, "--assumed-temperature") if assumed_text else true_t
+        opts["prior"] = _prior(assumed_text, "--assumed-temperature", info) if assumed_text else true_t
         if args.point is not None:
             point = args.point
             if method == "bayes" and point == "map":
@@ -159,7 +211,7 @@ def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, 
 def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, float, float, float]:
     info = load_parameter_set_info(args.params)
     params = paper_wear_model().make_params(info.parameters())
-    true_t = _prior(args.true_temperature, "--true-temperature")
+    true_t = _prior(args.true_temperature, "--true-temperature", info)
     seed = _int(args.seed, "--seed", 0)
     wear = parse_float(args.true_wear, "--true-wear")
     if not 0 <= wear <= 100:
@@ -167,11 +219,15 @@ def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, 
     load = parse_float(args.load, "--load")
     if load < 0:
         raise UsageError(f"--load: {load:g} must be >= 0")
+    try:
+        info.check_range("load_torque", load)
+    except Exception as exc:
+        raise UsageError(f"--load: {exc}") from None
     noise = parse_float(args.noise_std, "--noise-std")
-    if noise <= 0:
-        raise UsageError(f"--noise-std: {noise:g} must be positive")
-    if args.plot is not None and Path(args.plot).exists() and not Path(args.plot).is_dir():
-        raise UsageError(f"--plot: {args.plot!r} exists and is not a directory")
+    if not 0 < noise <= 1:
+        raise UsageError(f"--noise-std: {noise:g} must be positive and at most 1 (normalized torque; "
+                         "the paper's is 0.0015)")
+    check_output_dir(args.plot, "--plot")
     return info, params, true_t, seed, wear, load, noise
 
 
@@ -195,10 +251,11 @@ def cmd_study(args: argparse.Namespace) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from ..estimation.study import StudySetup, run_study
 
-    _, params, true_t, seed, wear, load, noise = _common(args)
-    runs = _int(args.runs or "10000", "--runs", 2)
-    speeds = _speeds(args.speeds or DEFAULT_SPEEDS)
+    info, params, true_t, seed, wear, load, noise = _common(args)
+    runs = _int(args.runs or "10000", "--runs", 2, MAX_RUNS)
+    speeds = _speeds(args.speeds or DEFAULT_SPEEDS, info)
     est = _estimator(args.method, args, true_t, params, None)
+    _check_memory(runs, len(speeds), int(getattr(est, "n_samples", 1)), args.method)
     setup = StudySetup(speeds=speeds, runs=runs, true_wear=wear, load=load, noise_std=noise,
                        true_temperature=true_t, seed=seed)
     unit = "cycles" if args.method == "joint" else "speeds"
@@ -235,15 +292,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_robustness(args: argparse.Namespace) -> int:
     from ..estimation.study import DEFAULT_ROBUSTNESS_SCENARIOS, StudySetup, robustness_study
 
-    _, params, true_t, seed, wear, load, noise = _common(args)
-    runs = _int(args.runs or "2000", "--runs", 2)
-    speeds = _speeds(args.speeds or DEFAULT_ROBUST_SPEEDS)
+    info, params, true_t, seed, wear, load, noise = _common(args)
+    runs = _int(args.runs or "2000", "--runs", 2, MAX_RUNS)
+    speeds = _speeds(args.speeds or DEFAULT_ROBUST_SPEEDS, info)
     tol = parse_float(args.tolerance, "--tolerance")
     if tol <= 0:
         raise UsageError(f"--tolerance: {tol:g} must be positive")
     methods = _methods(args.methods, "paper,bayes,joint")
     ests = {m: _estimator(m, args, true_t, params, "uniform:25:55" if m in ("bayes", "joint") else None)
             for m in methods}
+    for m, e in ests.items():
+        _check_memory(runs, len(speeds), int(getattr(e, "n_samples", 1)), m)
     scenarios: dict[str, Any] = dict(DEFAULT_ROBUSTNESS_SCENARIOS)
     if args.true_temperature != DEFAULT_TRUE_T:
         scenarios = {f"given {true_t.label}": true_t}
@@ -267,8 +326,8 @@ def _cmd_robustness(args: argparse.Namespace) -> int:
 def _cmd_case(args: argparse.Namespace) -> int:
     from ..estimation.case_study import CaseSetup, run_case_study
 
-    _, params, true_t, seed, _, load, noise = _common(args)
-    speeds = _speeds(args.speeds or DEFAULT_SPEEDS)
+    info, params, true_t, seed, _, load, noise = _common(args)
+    speeds = _speeds(args.speeds or DEFAULT_SPEEDS, info)
     methods = _methods(args.methods, "paper,bayes")
     mismatch = parse_float(args.mismatch, "--mismatch")
     if not 0 <= mismatch < 0.5:

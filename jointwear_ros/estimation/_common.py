@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_PARAMS",
     "WEAR_RANGE",
     "Rows",
+    "check_observation_values",
     "combine_rows",
     "make_rng",
     "prepare_rows",
@@ -39,6 +40,69 @@ DEFAULT_PARAMS = "ref-2011r"
 ABSOLUTE_ZERO = -273.15
 #: The wear scale of the paper: 0 (new) to 100 (failure).
 WEAR_RANGE = (0.0, 100.0)
+#: Largest motor-side speed an observation may have, rad/s (no robot motor turns 95,000 rpm).
+MAX_SPEED = 1.0e4
+#: Largest |friction| or |load torque| an observation may have, normalized (10x the maximum torque).
+MAX_TORQUE = 10.0
+#: Temperatures an observation may have, degC: above absolute zero, below where any joint survives.
+TEMPERATURE_LIMITS = (-273.15, 1000.0)
+
+
+def check_observation_values(table: ObservationTable, *, temperature: bool = True) -> None:
+    """Refuse values no measurement of a joint can have, naming the row and the value.
+
+    The estimators' own input check (before :func:`prepare_rows` reshapes the
+    rows): speeds finite, >= 0 and at most :data:`MAX_SPEED`; ``tau_f`` and
+    ``load_torque`` finite with magnitude at most :data:`MAX_TORQUE`;
+    ``temperature`` NaN (unknown) or within :data:`TEMPERATURE_LIMITS`;
+    ``tau_f_std`` NaN (unknown) or finite and >= 0. Raises
+    :class:`~jointwear_ros.errors.InputDataError`. ``temperature=False``
+    leaves the temperature column alone (an estimator that does not use it).
+
+    >>> t = ObservationTable.from_arrays(speed=[40.0, 47.0], tau_f=[0.09, 0.09], load_torque=0.1,
+    ...                                  temperature=[40.0, -300.0])
+    >>> check_observation_values(t)
+    Traceback (most recent call last):
+    ...
+    jointwear_ros.errors.InputDataError: observations: row 1 (speed 47 rad/s): temperature -300 degC is outside [-273.15, 1000] degC
+    """
+    where = table.source or "observations"
+    speed = np.asarray(table.speed, dtype=float)
+
+    def at(i: int) -> str:
+        s = speed[i]
+        return f"{where}: row {i} (speed {s:g} rad/s)" if math.isfinite(s) and s >= 0 else f"{where}: row {i}"
+
+    bad = np.flatnonzero(~np.isfinite(speed) | (speed < 0) | (speed > MAX_SPEED))
+    if bad.size:
+        i = int(bad[0])
+        raise InputDataError(f"{where}: row {i}: speed {float(speed[i])!r} is not a speed magnitude in "
+                             f"[0, {MAX_SPEED:g}] rad/s (motor side)")
+    for name in ("tau_f", "load_torque"):
+        if name not in table:
+            continue
+        col = np.asarray(table[name], dtype=float)
+        bad = np.flatnonzero(~np.isfinite(col) | (np.abs(np.nan_to_num(col)) > MAX_TORQUE))
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(f"{at(i)}: {name} {float(col[i])!r} is not a finite normalized torque within "
+                                 f"+-{MAX_TORQUE:g}")
+    if temperature and "temperature" in table:
+        col = np.asarray(table["temperature"], dtype=float)
+        lo, hi = TEMPERATURE_LIMITS
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(~np.isnan(col) & ~((col >= lo) & (col <= hi)))
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(f"{at(i)}: temperature {float(col[i]):g} degC is outside [{lo:g}, {hi:g}] degC")
+    if "tau_f_std" in table:
+        col = np.asarray(table["tau_f_std"], dtype=float)
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(~np.isnan(col) & ~(np.isfinite(col) & (col >= 0)))
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(f"{at(i)}: tau_f_std {float(col[i])!r} is not a standard error (finite, >= 0; "
+                                 "NaN for unknown)")
 
 
 def resolve_model(
@@ -154,6 +218,7 @@ def prepare_rows(
             )
     else:
         temp = np.full(n, math.nan)
+    check_observation_values(table, temperature=use_temperature)  # the bounds the checks above do not cover
     if not (math.isfinite(noise_std) and noise_std > 0):
         raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
     sig = np.full(n, float(noise_std))

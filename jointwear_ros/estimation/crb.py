@@ -183,6 +183,15 @@ def temperature_nodes(model: Model, params: Parameters, speeds: npt.ArrayLike, w
     t = np.linspace(lo, hi, 129)
     f, _ = friction_and_wear_slope(model, params, v, abs(float(load)), t, float(wear))
     spread = float(np.sqrt(np.sum((f.max(axis=1) - f.min(axis=1)) ** 2)))
+    if not math.isfinite(spread) or spread / float(noise_std) + _MIN_NODES > _MAX_NODES:
+        # beyond one node per sigma the likelihood is not resolved: the bound would come out
+        # wrong (far too small, "bound std 0.000"), so refuse rather than report it
+        raise InputDataError(
+            f"over the temperature distribution {pr.label} the friction at these speeds moves by "
+            f"{spread / float(noise_std):.3g} noise std (sigma_e = {float(noise_std):g}); the bound's quadrature "
+            f"resolves at most {_MAX_NODES - _MIN_NODES}: narrow the temperature range to where the parameter set "
+            "is valid, or raise sigma_e"
+        )
     n = math.ceil(float(density) * spread / float(noise_std)) + _MIN_NODES
     n = 16 * math.ceil(n / 16)  # a multiple of 16: the prior's cached Gauss-Legendre rules get reused
     return int(min(max(n, _MIN_NODES), _MAX_NODES))

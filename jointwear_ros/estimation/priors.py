@@ -25,9 +25,16 @@ from scipy.special import roots_legendre
 
 from ..errors import InputDataError
 
-__all__ = ["TemperaturePrior", "normal_prior", "parse_temperature_prior", "uniform_prior"]
+__all__ = ["ABSOLUTE_ZERO", "MIN_STD", "TemperaturePrior", "normal_prior", "parse_temperature_prior", "uniform_prior"]
 
 Array = npt.NDArray[np.float64]
+
+#: 0 K in degC: no temperature distribution may reach below it.
+ABSOLUTE_ZERO = -273.15
+#: Smallest std of a normal temperature distribution (``fixed:T`` uses it), degC.
+MIN_STD = 1e-6
+#: A normal's mass below this many std under the mean may not cross absolute zero.
+_NORMAL_REACH = 6.0
 
 
 @lru_cache(maxsize=64)
@@ -92,16 +99,35 @@ class TemperaturePrior:
 
 
 def uniform_prior(lo: float, hi: float) -> TemperaturePrior:
-    """U(lo, hi) degC, the paper's assumption in Eq. (11)."""
-    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+    """U(lo, hi) degC, the paper's assumption in Eq. (11).
+
+    >>> uniform_prior(30, 50).mean
+    40.0
+    >>> uniform_prior(-400, -300)
+    Traceback (most recent call last):
+    ...
+    jointwear_ros.errors.InputDataError: uniform temperature range [-400, -300] reaches below absolute zero (-273.15 degC)
+    """
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo and math.isfinite(hi - lo)):
         raise InputDataError(f"uniform temperature range [{lo!r}, {hi!r}] must be finite with high > low")
+    if lo < ABSOLUTE_ZERO:
+        raise InputDataError(f"uniform temperature range [{lo:g}, {hi:g}] reaches below absolute zero ({ABSOLUTE_ZERO} degC)")
     return TemperaturePrior(stats.uniform(loc=lo, scale=hi - lo), f"uniform:{lo:g}:{hi:g}", "uniform", (lo, hi))
 
 
 def normal_prior(mean: float, std: float) -> TemperaturePrior:
-    """N(mean, std^2) degC, the paper's data distribution of Section 5.1 (40, 3)."""
+    """N(mean, std^2) degC, the paper's data distribution of Section 5.1 (40, 3).
+
+    Its std is at least :data:`MIN_STD`, and mean - 6 std stays above absolute zero.
+    """
     if not (math.isfinite(mean) and math.isfinite(std) and std > 0):
         raise InputDataError(f"normal temperature N({mean!r}, {std!r}^2) needs a finite mean and a positive std")
+    if std < MIN_STD:
+        raise InputDataError(f"normal temperature N({mean:g}, {std:g}^2): std below {MIN_STD:g} degC; "
+                             "use fixed:T for a known temperature")
+    if mean - _NORMAL_REACH * std < ABSOLUTE_ZERO:
+        raise InputDataError(f"normal temperature N({mean:g}, {std:g}^2) reaches below absolute zero "
+                             f"({ABSOLUTE_ZERO} degC)")
     return TemperaturePrior(stats.norm(loc=mean, scale=std), f"normal:{mean:g}:{std:g}", "normal", (mean, std))
 
 
@@ -124,7 +150,7 @@ def parse_temperature_prior(spec: str | TemperaturePrior | Any) -> TemperaturePr
     if kind in ("normal", "n", "gauss") and len(nums) == 2:
         return normal_prior(nums[0], nums[1])
     if kind == "fixed" and len(nums) == 1:
-        return normal_prior(nums[0], 1e-6)
+        return normal_prior(nums[0], MIN_STD)
     raise InputDataError(
         f"temperature distribution {spec!r}: expected 'uniform:LO:HI', 'normal:MEAN:STD' or 'fixed:T'"
     )

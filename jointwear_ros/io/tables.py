@@ -1,4 +1,4 @@
-"""Observation tables from and to files: CSV, and rosbag2 (MCAP) bags of FrictionObservation.
+r"""Observation tables from and to files: CSV, and rosbag2 (MCAP) bags of FrictionObservation.
 
 Bags are read and written with rosbags and the jointwear typestore; no ROS
 runtime is needed. Every problem with the input raises
@@ -9,9 +9,25 @@ rename, so a failed write leaves nothing half-written.
 CSV rules: a header line of column names (lines starting with ``#`` before it
 are comments), then one observation per line. ``speed`` and ``tau_f`` are
 required. Every cell of a numeric column must be a finite number (leave out a
-column rather than fill it with blanks or NaN); a column in which no cell is a
-number (a joint name, a comment) is ignored, unless it is one of the standard
-columns.
+column rather than fill it with blanks or NaN: NaN is refused in optional
+columns too); a column in which no cell is a number (a joint name, a comment)
+is ignored, unless it is one of the standard columns.
+
+Both readers refuse physically impossible values (:func:`check_physical`): a
+negative speed (the model is for the speed magnitude), a negative
+``tau_f_std``, a temperature below absolute zero.
+
+>>> import tempfile, pathlib
+>>> d = pathlib.Path(tempfile.mkdtemp())
+>>> _ = (d / "obs.csv").write_text("speed,tau_f,temperature\n10,0.0750,40\n47,0.0728,40\n")
+>>> t = read_table(d / "obs.csv")
+>>> len(t), t.names, float(t["tau_f"][1])
+(2, ['speed', 'tau_f', 'temperature'], 0.0728)
+>>> _ = (d / "bad.csv").write_text("speed,tau_f,load_torque\n10,0.0750,nan\n")
+>>> read_table(d / "bad.csv")
+Traceback (most recent call last):
+...
+jointwear_ros.errors.InputDataError: ...bad.csv: column 'load_torque', row 1 (line 2): 'nan' is not a finite number; fill in the value or leave the column out
 """
 
 from __future__ import annotations
@@ -33,8 +49,10 @@ from ..types import OBSERVATION_COLUMNS, ObservationTable
 from .typestore import jointwear_typestore
 
 __all__ = [
+    "ABSOLUTE_ZERO",
     "DEFAULT_OBSERVATION_TOPIC",
     "FRICTION_OBSERVATION_TYPE",
+    "check_physical",
     "read_bag",
     "read_csv",
     "read_table",
@@ -49,6 +67,37 @@ FRICTION_OBSERVATION_TYPE = "jointwear_msgs/msg/FrictionObservation"
 DEFAULT_OBSERVATION_TOPIC = "/jointwear/friction_observations"
 
 _REQUIRED = ("speed", "tau_f")
+#: 0 K in degC.
+ABSOLUTE_ZERO = -273.15
+
+
+def check_physical(cols: dict[str, Array], src: str, locate: Any = None) -> None:
+    """Refuse values no measurement can have; ``locate(i)`` names row ``i`` (0-based) in the source.
+
+    A negative ``speed`` (the model and FrictionObservation hold the speed
+    magnitude), a negative ``tau_f_std``, a ``temperature`` below absolute zero.
+    NaN passes here (the CSV reader refuses it, a bag's NaN means unknown).
+
+    >>> import numpy as np
+    >>> check_physical({"speed": np.array([10.0, -5.0])}, "obs.csv")
+    Traceback (most recent call last):
+    ...
+    jointwear_ros.errors.InputDataError: obs.csv: column 'speed', row 2: -5 is negative; give the speed magnitude (motor side, rad/s)
+    """
+    where = locate if locate is not None else (lambda i: f"row {i + 1}")
+    rules = (
+        ("speed", lambda v: v < 0, "is negative; give the speed magnitude (motor side, rad/s)"),
+        ("tau_f_std", lambda v: v < 0, "is negative; a standard error is >= 0"),
+        ("temperature", lambda v: v < ABSOLUTE_ZERO, f"degC is below absolute zero ({ABSOLUTE_ZERO} degC)"),
+    )
+    for name, bad_if, what in rules:
+        if name not in cols:
+            continue
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(bad_if(np.asarray(cols[name], dtype=float)))
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(f"{src}: column {name!r}, {where(i)}: {float(cols[name][i]):g} {what}")
 
 
 def _is_bag(path: Path) -> bool:
@@ -137,6 +186,7 @@ def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
                     "fill in the value or leave the column out"
                 )
         cols[name] = np.asarray(values, dtype=float)
+    check_physical(cols, src, lambda i: f"row {i + 1} (line {rows[i][0]})")
     return ObservationTable(cols, source=src)
 
 
@@ -194,6 +244,7 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
     cols = {k: np.asarray(v, dtype=float) for k, v in data.items()}
     # a field that is NaN in every message was not measured: leave the column out
     cols = {k: v for k, v in cols.items() if k in _REQUIRED or not np.all(np.isnan(v))}
+    check_physical(cols, src, lambda i: f"row {i + 1} (message {i + 1})")
     return ObservationTable(cols, source=src)
 
 

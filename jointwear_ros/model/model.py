@@ -38,6 +38,9 @@ MODEL_SPECS: dict[str, tuple[str, ...]] = {
     ),
 }
 
+#: 0 K in degC: the model refuses temperatures below it.
+ABSOLUTE_ZERO = -273.15
+
 #: Default values of inputs a term may use but the data does not give.
 _INPUT_ALIASES = {"v": "speed", "tau_m": "load_torque", "T": "temperature", "w": "wear"}
 
@@ -139,6 +142,14 @@ class Model:
         except ValueError:
             shapes = {k: np.shape(a) for k, a in x.items()}
             raise ModelError(f"input arrays do not broadcast together: {shapes}") from None
+        for name in self.variables:
+            a = x[name]
+            if not np.isfinite(a).all():
+                bad = a[~np.isfinite(a)].flat[0]
+                raise ModelError(f"model input {name!r} holds {float(bad)!r}; the model needs finite values")
+        if "temperature" in self.variables and (x["temperature"] < ABSOLUTE_ZERO).any():
+            low = float(x["temperature"].min())
+            raise ModelError(f"model input 'temperature' holds {low:g} degC, below absolute zero ({ABSOLUTE_ZERO} degC)")
         return x
 
     @staticmethod

@@ -27,6 +27,9 @@ from .terms import TERMS
 
 __all__ = ["ParameterSet", "available_parameter_sets", "load_parameter_set", "load_parameter_set_info"]
 
+#: 0 K in degC.
+ABSOLUTE_ZERO = -273.15
+
 
 @dataclass(frozen=True)
 class ParameterSet:
@@ -93,26 +96,48 @@ def load_parameter_set_info(name: str) -> ParameterSet:
     """Read a named parameter set (or a YAML path) with its description and valid ranges."""
     path = _find(name)
     try:
-        doc = yaml.safe_load(path.read_text())
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ParameterSetError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); "
+                                "give a parameter set YAML file") from None
     except (OSError, yaml.YAMLError) as exc:
-        raise ParameterSetError(f"{path}: cannot read parameter set: {exc}") from None
+        msg = " ".join(str(exc).split())
+        raise ParameterSetError(f"{path}: cannot read parameter set: {msg}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("parameters"), dict):
         raise ParameterSetError(f"{path}: expected a mapping with a 'parameters' mapping")
+    specs = {s.name: s for t in TERMS.values() for s in t.params}
     values: dict[str, float] = {}
     for k, v in doc["parameters"].items():
+        if isinstance(v, bool):
+            raise ParameterSetError(f"{path}: parameter {k!r} = {v!r} is not a number")
         try:
             fv = float(v)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ParameterSetError(f"{path}: parameter {k!r} = {v!r} is not a number") from None
         if not math.isfinite(fv):
             raise ParameterSetError(f"{path}: parameter {k!r} = {v!r} is not finite")
+        spec = specs.get(str(k))
+        if spec is not None and not spec.min <= fv <= spec.max:
+            raise ParameterSetError(
+                f"{path}: parameter {k!r} = {fv:g} is outside its physical bounds [{spec.min:g}, {spec.max:g}] "
+                f"({spec.unit})"
+            )
         values[str(k)] = fv
+    valid_doc = doc.get("valid") or {}
+    if not isinstance(valid_doc, dict):
+        raise ParameterSetError(f"{path}: 'valid' must be a mapping of input name -> [low, high]")
     valid: dict[str, tuple[float, float]] = {}
-    for k, rng in (doc.get("valid") or {}).items():
+    for k, rng in valid_doc.items():
         try:
+            if isinstance(rng, (str, bytes)) or len(rng) != 2:
+                raise TypeError
             lo, hi = (float(rng[0]), float(rng[1]))
-        except (TypeError, ValueError, IndexError):
+        except (TypeError, ValueError, IndexError, OverflowError):
             raise ParameterSetError(f"{path}: valid range of {k!r} must be [low, high], got {rng!r}") from None
+        if math.isnan(lo) or math.isnan(hi) or lo > hi:
+            raise ParameterSetError(f"{path}: valid range of {k!r} = [{lo!r}, {hi!r}] must have low <= high")
+        if str(k) == "temperature" and lo < ABSOLUTE_ZERO:
+            raise ParameterSetError(f"{path}: valid temperature range starts at {lo:g} degC, below absolute zero")
         valid[str(k)] = (lo, hi)
     return ParameterSet(
         name=str(doc.get("name", path.stem)),
