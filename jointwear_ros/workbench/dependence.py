@@ -67,6 +67,8 @@ N_BASIS = 6
 N_PERM = 199
 #: Permutations of the periodogram (each costs a full periodogram).
 N_PERM_PERIODOGRAM = 39
+#: The parametric test counts only when the permutation test agrees at least this far.
+PERM_GUARD = 0.05
 #: Columns of the strongest singles tried in pairs.
 PAIR_TOP = 3
 
@@ -179,6 +181,7 @@ class _Context:
         self.cinv = self.cinv.reshape(-1)
         self.rng = np.random.default_rng(seed)
         self.sse0 = float(self._cv_sse(self.z0[None, :, :])[0])
+        self.sse0_in = float(self._in_sse(self.z0[None, :, :])[0])
 
     # -- permutations ------------------------------------------------------------------
     def cycle_level(self, x: Array) -> bool:
@@ -234,16 +237,58 @@ class _Context:
                 pred[:, te] = pr
         return (sse, pred) if return_pred else sse  # type: ignore[return-value]
 
-    def smoother(self, xs: Array) -> tuple[Array, Array, Array]:
-        """Shares (level, with speed) of the residual explained by each permuted column, beyond speed alone."""
-        b = self.rank_basis(xs)
+    def _in_sse(self, d: Array) -> Array:
+        """In-sample SSE of the residual on each design ``d[k]`` (shape (R, n, p))."""
+        p = d.shape[2]
+        dt = d.transpose(0, 2, 1)
+        g = np.matmul(dt, d) + 1e-8 * self.n * np.eye(p)
+        coef = np.linalg.solve(g, np.matmul(dt, self.r)[..., None])[..., 0]
+        pr = np.matmul(d, coef[..., None])[..., 0]
+        return np.sum((self.r - pr) ** 2, axis=1)  # type: ignore[no-any-return]
+
+    def designs(self, b: Array) -> tuple[Array, Array]:
         rr = b.shape[0]
         z0 = np.broadcast_to(self.z0, (rr, self.n, 3))
         lvl = np.concatenate([z0, b], axis=2)
         spd = np.concatenate([lvl, b * self.low[None, :, None], b * self.high[None, :, None]], axis=2)
-        s_lvl = (self.sse0 - self._cv_sse(lvl)) / self.total
-        s_spd = (self.sse0 - self._cv_sse(spd)) / self.total
-        return np.maximum(s_lvl, s_spd), s_lvl, s_spd
+        return lvl, spd
+
+    def basis_size(self, x: Array) -> int:
+        """Basis functions for a column: fewer when it has few distinct values (a per-cycle column, few cycles)."""
+        distinct = np.unique(x).size
+        return int(np.clip(distinct // 4 + 1, 3, N_BASIS))
+
+    def f_test(self, d: Array, noise: float | None) -> float:
+        """Nested F (or chi-square, with a noise floor) test of design ``d[0]`` against the speed shapes alone."""
+        sse = float(self._in_sse(d[:1])[0])
+        k = d.shape[2] - 3
+        dof = max(self.n - d.shape[2], 1)
+        gain = max(self.sse0_in - sse, 0.0)
+        s2 = sse / dof
+        if noise is not None and math.isfinite(noise) and noise > 0:
+            return float(stats.chi2.sf(gain / max(noise**2, s2), k))
+        return float(stats.f.sf(gain / k / max(s2, 1e-300), k, dof))
+
+    def smoother(self, xs: Array) -> tuple[Array, float, float]:
+        """Test statistic of each permuted column (row 0: the data), and the data's CV shares (level, speed).
+
+        The statistic is the larger of the in-sample shares of the two designs
+        (level; level times speed shapes) beyond the speed shapes alone, each
+        standardised by its permutation distribution; the reported share is
+        cross-validated.
+        """
+        lvl, spd = self.designs(self.rank_basis(xs, self.basis_size(xs[0])))
+        self.last = (lvl[:1], spd[:1])
+        zs = []
+        for d in (lvl, spd):
+            share = (self.sse0_in - self._in_sse(d)) / self.total
+            null = share[1:]
+            sd = float(np.std(null, ddof=1)) if null.size > 1 else 1.0
+            zs.append((share - float(np.mean(null)) if null.size else share) / (sd if sd > 0 else 1.0))
+        stat = np.maximum(zs[0], zs[1])
+        cv_lvl = float((self.sse0 - self._cv_sse(lvl[:1])[0]) / self.total)
+        cv_spd = float((self.sse0 - self._cv_sse(spd[:1])[0]) / self.total)
+        return stat, cv_lvl, cv_spd
 
     def prediction(self, x: Array, with_speed: bool) -> Array:
         b = self.rank_basis(x[None, :])
@@ -374,6 +419,7 @@ def residual_dependence(
     n_perm: int = N_PERM,
     pairs: int = PAIR_TOP,
     seed: int = 0,
+    noise: float | None = None,
 ) -> list[VariableDependence]:
     """Rank columns (and pairs) by how much of the residual they explain, model-free; best first.
 
@@ -393,6 +439,9 @@ def residual_dependence(
         Number of the strongest single columns tried in pairs (0: no pairs).
     seed
         Seed of the permutations (the result is deterministic).
+    noise
+        The noise floor (standard deviation), when known: the parametric test
+        then uses ``max(noise^2, residual variance)`` as its error variance.
 
     Returns
     -------
@@ -407,10 +456,14 @@ def residual_dependence(
     for c in cols:
         x = np.asarray(table[c], dtype=float)
         xs = ctx.permuted(x, n_perm)
-        both, s_lvl, s_spd = ctx.smoother(xs)
-        tests = {"smoother": _tail_p(float(both[0]), both[1:])}
-        share = max(float(both[0]), 0.0)
-        speed_dep = bool(s_spd[0] > s_lvl[0] + 0.02)
+        stat, s_lvl, s_spd = ctx.smoother(xs)
+        p_perm = _tail_p(float(stat[0]), stat[1:])
+        # the parametric test uses the noise level (powerful with few cycles); the permutation test
+        # guards it against structure the F test would misread (residuals correlated within cycles)
+        p_f = min(1.0, 2.0 * min(ctx.f_test(ctx.last[0], noise), ctx.f_test(ctx.last[1], noise)))
+        tests = {"smoother": max(p_f, p_perm) if p_perm > PERM_GUARD else p_f}
+        share = max(s_lvl, s_spd, 0.0)
+        speed_dep = bool(s_spd > s_lvl + 0.02)
         contrib = ctx.prediction(x, speed_dep)
         hint = f"smooth in {c}, {_monotone_hint(x, contrib)}"
         peak = None
@@ -449,9 +502,11 @@ def residual_dependence(
         bb = ctx.rank_basis(xb, 4)
         rr = bb.shape[0]
         inter = (np.broadcast_to(ba, bb.shape)[:, :, :, None] * bb[:, :, None, :]).reshape(rr, ctx.n, -1)
-        d_pair = np.concatenate([np.broadcast_to(ctx.z0, (rr, ctx.n, 3)), np.broadcast_to(ba, bb.shape), bb, inter], axis=2)
-        share_pair = (ctx.sse0 - ctx._cv_sse(d_pair)) / ctx.total
-        p = _tail_p(float(share_pair[0]), share_pair[1:])
+        d_pair = np.concatenate([np.broadcast_to(ctx.z0, (rr, ctx.n, 3)), np.broadcast_to(ba, bb.shape), bb, inter,
+                                 inter * ctx.low[None, :, None], inter * ctx.high[None, :, None]], axis=2)
+        in_pair = (ctx.sse0_in - ctx._in_sse(d_pair)) / ctx.total
+        p = _tail_p(float(in_pair[0]), in_pair[1:])
+        share_pair = (ctx.sse0 - ctx._cv_sse(d_pair[:1])) / ctx.total
         best_single = max(d.explained_share for d in out if d.name in (a, b))
         pair_out.append(VariableDependence(
             name=f"{a},{b}", p_value=math.nan, p_raw=p, explained_share=max(float(share_pair[0]), 0.0),

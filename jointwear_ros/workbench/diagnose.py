@@ -282,6 +282,7 @@ def _speed_region(speed: Array, r0: Array, r1: Array) -> tuple[float, float]:
 def adaptive_candidates(
     table: ObservationTable, model: Model, variables: Sequence[VariableDependence], *, top: int = 3,
     spline_sizes: Sequence[int] = (4, 6, 8),
+    explore: bool = False,
 ) -> list[Term]:
     """Shapes fitted to what the model-free ranking found, for its ``top`` significant columns.
 
@@ -289,9 +290,11 @@ def adaptive_candidates(
     periodic column; a step at the changepoint; B-splines over the column's
     range with ``spline_sizes`` basis functions (the cross-validated error
     picks among them); for the strongest column, each term of the model
-    scaled by it; for a significant pair, their product.
+    scaled by it; for a significant pair, their product. With ``explore``
+    and no significant column, the two strongest columns are used.
     """
     have = set(model.term_names)
+    usable = set(table.names)
     out: list[Term] = []
 
     def add(t: Term) -> None:
@@ -299,6 +302,8 @@ def adaptive_candidates(
             out.append(t)
 
     singles = [v for v in variables if v.significant and "," not in v.name][:top]
+    if not singles and explore:
+        singles = [v for v in variables if "," not in v.name][:2]
     for rank, v in enumerate(singles):
         col = table[v.name]
         if v.peak_frequency is not None:
@@ -313,7 +318,6 @@ def adaptive_candidates(
             for k in spline_sizes if rank == 0 else spline_sizes[1:2]:
                 add(Spline(v.name, lo=float(f"{lo:.6g}"), hi=float(f"{hi:.6g}"), n=k))
         if rank == 0:
-            usable = set(table.names)
             for term in model.terms:
                 if type(term).__name__ == TERMS.get(term.name, type(None)).__name__ and term.name in TERMS \
                         and set(term.variables) <= usable and term.name != "coulomb":
@@ -322,6 +326,12 @@ def adaptive_candidates(
         if v.significant and "," in v.name:
             a, b = v.name.split(",")
             add(Interaction(a, b))
+            for term in model.terms:  # a term of one column of the pair, scaled by the other
+                if term.name in TERMS and set(term.variables) <= usable:
+                    if a in term.variables and b not in term.variables:
+                        add(Scale(term.name, b))
+                    if b in term.variables and a not in term.variables:
+                        add(Scale(term.name, a))
     return out
 
 
@@ -455,18 +465,25 @@ def _diagnose(
         base = fit_model(base.model, table, base.params, folds=folds, n_starts=1)
     noise = noise_test(table, base.residuals, base.n_free, alpha=alpha / 2)
     nf = noise.value
-    variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed)
+    variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf)
     if mode not in ("guided", "full"):
         raise ValueError(f"mode must be 'guided' or 'full', got {mode!r}")
     if library is not None:
         lib = list(library)
     else:
         flagged = [c for v in variables if v.significant for c in v.columns]
+        if not flagged and not noise.consistent:
+            # above the floor but no column significant: explore the two strongest anyway
+            flagged = [c for v in variables[:2] for c in v.columns]
         lib = candidate_library(table, base.model, extra=extra_terms,
                                 generic=None if mode == "full" else flagged)
     if adaptive:
         names = {t.name for t in lib}
-        lib += [t for t in adaptive_candidates(table, base.model, variables) if t.name not in names]
+        adapt = adaptive_candidates(table, base.model, variables, explore=not noise.consistent)
+        started = {t.columns[0] for t in adapt if isinstance(t, HarmonicRipple) and t.w0 is not None}
+        # a ripple started at the periodogram's peak makes the grid-started one redundant
+        lib = [t for t in lib if not (isinstance(t, HarmonicRipple) and t.w0 is None and t.columns[0] in started)]
+        lib += [t for t in adapt if t.name not in names]
     n = len(table)
     mcount = max(len(lib), 1)
     results: list[CandidateResult] = []
@@ -508,7 +525,7 @@ def _diagnose(
     diag.suggestion = best.term
     diag.after_noise = noise_test(table, best.fit.residuals, best.fit.n_free, alpha=alpha / 2)
     diag.after_variables = residual_dependence(
-        table, best.fit.residuals, folds=folds, alpha=alpha / 2, seed=seed + 1, pairs=0)
+        table, best.fit.residuals, folds=folds, alpha=alpha / 2, seed=seed + 1, pairs=0, noise=nf)
     at_floor = (best.cv_rmse <= FOUND_RATIO * nf) if math.isfinite(nf) and nf > 0 else diag.after_noise.consistent
     left = any(v.significant for v in diag.after_variables)
     diag.verdict = "found" if at_floor and not left else "unexplained"
