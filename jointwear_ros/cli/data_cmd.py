@@ -13,6 +13,9 @@ from .common import format_table, parse_float, parse_float_list, print_json
 
 __all__ = ["register"]
 
+#: Columns of a synthetic table that a FrictionObservation bag cannot hold.
+_NOT_IN_BAG = ("lube_hours", "hours_running", "motor_temperature", "wear")
+
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     from ..data import DEFAULT_SPEEDS, HIDDEN_EFFECTS, NOISE_STD
@@ -41,6 +44,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--position", default="-2.5:2.5", help="window position range LO:HI, rad, or one value")
     s.add_argument("--wear", default=None, help="use Eq. (9) with this wear level (adds a wear column)")
     s.add_argument("--noise", default=str(NOISE_STD), help=f"noise sigma_e (default {NOISE_STD})")
+    s.add_argument("--irrelevant", type=int, default=0, metavar="N",
+                   help="add N columns aux_01.. of random numbers nothing depends on (default 0)")
     s.add_argument("--json", action="store_true", help="print a JSON summary")
     s.set_defaults(func=cmd_synth)
 
@@ -75,6 +80,8 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
     if args.cycles < 1:
         raise UsageError(f"--cycles: {args.cycles} must be at least 1")
+    if not 0 <= args.irrelevant <= 99:
+        raise UsageError(f"--irrelevant: {args.irrelevant} must be 0 to 99")
     speeds = parse_float_list(args.speeds, "--speeds")
     if any(v < 0 for v in speeds):
         raise UsageError("--speeds: speeds must be >= 0 (the model is for |v|)")
@@ -101,21 +108,23 @@ def cmd_synth(args: argparse.Namespace) -> int:
     table = synth_observations(
         n_cycles=args.cycles, speeds=speeds, effects=args.hidden, seed=args.seed, params=args.params,
         model="paper" if wear is None else "paper+wear", temperature=temperature, load=load,
-        position=position, wear=0.0 if wear is None else wear, noise=noise,
+        position=position, wear=0.0 if wear is None else wear, noise=noise, irrelevant=args.irrelevant,
     )
     write_table(table, out)
     nf, _ = noise_floor(table)
     summary = {"out": str(out), "format": "csv" if is_csv else "rosbag2-mcap", "rows": len(table),
                "cycles": args.cycles, "hidden": args.hidden, "seed": args.seed, "noise": noise,
-               "columns": table.names if is_csv else [c for c in table.names if c not in ("lube_hours", "wear")]}
+               "columns": table.names if is_csv else [c for c in table.names if c not in _NOT_IN_BAG
+                                                      and not c.startswith("aux_")]}
     if args.json:
         print_json(summary)
     else:
         hid = ", ".join(args.hidden) or "none"
         print(f"# wrote {len(table)} observations ({args.cycles} cycles x {len(speeds)} speeds) to {out}")
         print(f"# hidden effects: {hid}; noise sigma_e = {noise:g} (noise floor {nf:.5f}); seed {args.seed}")
-        if not is_csv and ("lubrication" in args.hidden or wear is not None):
-            print("# note: a bag keeps only FrictionObservation fields; lube_hours/wear are not in it (use CSV)")
+        if not is_csv:
+            print("# note: a bag keeps only FrictionObservation fields; lube_hours, hours_running, "
+                  "motor_temperature, wear and aux_* are not in it (use CSV)")
     return 0
 
 

@@ -58,6 +58,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -247,7 +248,7 @@ def synth_observations(
         inputs["wear"] = cols["wear"]
     tau = m.evaluate(p, **inputs)
     # columns added after issue 3 come from a separate stream, so the older columns keep their values
-    extra = np.random.Generator(gen.bit_generator.jumped())
+    extra = np.random.Generator(cast(Any, gen.bit_generator).jumped())  # PCG64 (default_rng) jumps
     cols["hours_running"] = np.repeat(extra.uniform(0.0, 8.0, n_cycles), ns)
     cols["motor_temperature"] = T + np.repeat(extra.uniform(0.0, 25.0, n_cycles), ns)
     aux: dict[str, Array] = {}

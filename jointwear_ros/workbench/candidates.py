@@ -60,8 +60,8 @@ __all__ = [
     "Ripple",
     "XStribeck",
     "XViscous",
-    "candidate_library",
     "all_shapes",
+    "candidate_library",
     "candidate_variables",
     "describe_term",
     "linear_params",
@@ -453,7 +453,7 @@ def _call_arguments(inner: str, text: str) -> tuple[list[str], dict[str, float]]
     return args, options
 
 
-def all_shapes() -> dict[str, type[Term]]:
+def all_shapes() -> dict[str, Any]:
     """Every generic shape by spec name: the fixed library's and the fitted ones of :mod:`.shapes`."""
     from .shapes import NEW_SHAPES
 

@@ -17,11 +17,11 @@ __all__ = [
     "SPEED_BAND_EDGES",
     "BandError",
     "NoiseFloor",
-    "noise_test",
     "ResidualStructure",
     "band_label",
     "band_rmse",
     "noise_floor",
+    "noise_test",
     "residual_structure",
 ]
 

@@ -52,7 +52,14 @@ from threadpoolctl import threadpool_limits
 from ..errors import ModelError
 from ..model import TERMS, Model, Parameters, Term
 from ..types import ObservationTable
-from .candidates import CandidateTerm, Interaction, candidate_library, describe_term, linear_params, parse_spec, start_grid
+from .candidates import (
+    Interaction,
+    candidate_library,
+    describe_term,
+    linear_params,
+    parse_spec,
+    start_grid,
+)
 from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, noise_test
 from .dependence import VariableDependence, is_angle, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
@@ -513,6 +520,7 @@ def _diagnose(
             )
         )
     results.sort(key=lambda c: (not c.significant, _nan_last(c.cv_rmse), _nan_last(c.delta_bic)))
+    results = _prefer_simple(results)
     diag = Diagnosis(
         model=base.spec, n=n, rmse=base.rmse, cv_rmse=base.cv_rmse, noise=noise, alpha=alpha,
         candidates=results, base=base, variables=variables,
@@ -533,6 +541,23 @@ def _diagnose(
         top = [c for c in results if c.significant][:6]
         diag.stability = _bootstrap_choice(table, base, top, n_bootstrap, seed)
     return diag
+
+
+#: Significant candidates within this factor of the best CV RMSE count as equally good; the one with
+#: the fewest parameters is put first (a one-standard-error rule).
+SIMPLER_WITHIN = 1.01
+
+
+def _prefer_simple(results: list[CandidateResult]) -> list[CandidateResult]:
+    """Among the significant candidates as good as the best (CV RMSE within SIMPLER_WITHIN), fewest parameters first."""
+    if not results or not results[0].significant:
+        return results
+    best = results[0].cv_rmse
+    tied = [c for c in results if c.significant and c.cv_rmse <= SIMPLER_WITHIN * best]
+    tied.sort(key=lambda c: (c.dof, _nan_last(c.cv_rmse)))
+    ids = {id(c) for c in tied}
+    rest = [c for c in results if id(c) not in ids]
+    return tied + rest
 
 
 def _nan_last(x: float) -> float:
