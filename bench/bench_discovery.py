@@ -37,7 +37,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 from jointwear_ros.cli.common import format_table
-from jointwear_ros.data import HIDDEN_EFFECTS, synth_observations
+from jointwear_ros.data import EFFECT_FAMILIES, synth_observations
 from jointwear_ros.workbench import diagnose, fit_model, parse_spec
 
 FLOOR_RATIO = 1.3
@@ -55,7 +55,7 @@ def run_one(job: tuple[str | None, int, int, int]) -> dict[str, Any]:
                            "base_ratio": d.cv_rmse / d.noise_floor}
     top = d.variables[0] if d.variables else None
     if effect:
-        hidden = set(HIDDEN_EFFECTS[effect].variables)
+        hidden = set(EFFECT_FAMILIES[effect].variables)
         out["first"] = bool(top is not None and top.significant and hidden & set(top.columns))
         out["top"] = top.name if top else None
         ratio = None
@@ -81,7 +81,7 @@ def main(argv: list[str]) -> int:
     args = ap.parse_args(argv)
     cycles = [int(c) for c in args.cycles.split(",")]
     jobs: list[tuple[str | None, int, int, int]] = []
-    for e in HIDDEN_EFFECTS:
+    for e in EFFECT_FAMILIES:
         for c in cycles:
             for s in range(args.seeds):
                 jobs.append((e, c, 1000 + s, IRRELEVANT if s % 2 else 0))
@@ -99,7 +99,7 @@ def main(argv: list[str]) -> int:
 
     rows = []
     tot = {"first": 0, "not": 0, "floor": 0, "found": 0, "n": 0}
-    for e in HIDDEN_EFFECTS:
+    for e in EFFECT_FAMILIES:
         for c in [*cycles, None]:
             rs = [r for r in results if r["effect"] == e and (c is None or r["cycles"] == c)]
             n = len(rs)

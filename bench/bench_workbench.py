@@ -26,7 +26,7 @@ import time
 from collections.abc import Callable
 
 from jointwear_ros.cli.common import format_table
-from jointwear_ros.data import HIDDEN_EFFECTS, synth_observations
+from jointwear_ros.data import EFFECT_FAMILIES, synth_observations
 from jointwear_ros.workbench import diagnose, fit_model, parse_spec, residual_dependence
 
 TARGET_S = 10.0
@@ -52,7 +52,7 @@ def main(argv: list[str]) -> int:
     print(f"# {os.cpu_count()} CPUs, load average {load:.2f} at start; median of {args.repeat} runs")
 
     cases = [("standard", (), "guided"), ("standard", (), "full"), ("paper", (), "guided"), ("paper", (), "full")]
-    cases += [("paper", (e,), "guided") for e in HIDDEN_EFFECTS]
+    cases += [("paper", (e,), "guided") for e in EFFECT_FAMILIES]
     cases += [("paper", ("ripple_fast",), "full")]
     rows = []
     for spec, effects, mode in cases:

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from jointwear_ros.cli import main
-from jointwear_ros.data import HIDDEN_EFFECTS, synth_observations
+from jointwear_ros.data import EFFECT_FAMILIES, synth_observations
 from jointwear_ros.io.tables import write_csv
 from jointwear_ros.types import ObservationTable
 from jointwear_ros.workbench import parse_spec
@@ -221,7 +221,7 @@ def test_data_synth_writes_csv_and_bag_that_the_workbench_reads(tmp_path, capsys
         doc = json.loads(out)
         assert doc["rows"] == 30 and doc["cycles"] == 3 and doc["noise_floor"] == pytest.approx(0.0015)
     rc, out, _ = run_main(capsys, "data", "effects")
-    for name in HIDDEN_EFFECTS:
+    for name in EFFECT_FAMILIES:
         assert name in out
     # a bag is never overwritten
     rc, out, err = run_main(capsys, "data", "synth", str(tmp_path / "o_bag"), "--cycles", "3")

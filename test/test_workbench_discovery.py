@@ -17,7 +17,7 @@ import math
 import numpy as np
 import pytest
 
-from jointwear_ros.data import HIDDEN_EFFECTS, NOISE_STD, synth_observations
+from jointwear_ros.data import EFFECT_FAMILIES, NOISE_STD, synth_observations
 from jointwear_ros.types import ObservationTable
 from jointwear_ros.workbench import (
     VERDICTS,
@@ -101,7 +101,7 @@ def test_the_ranking_puts_the_hidden_variable_first(effect):
     fit = fit_model(parse_spec("paper"), table, cv_folds=0)
     dep = residual_dependence(table, fit.residuals, noise=NOISE_STD)
     assert dep[0].significant and dep[0].p_value < 0.01
-    assert set(dep[0].columns) & set(HIDDEN_EFFECTS[effect].variables), [d.name for d in dep[:3]]
+    assert set(dep[0].columns) & set(EFFECT_FAMILIES[effect].variables), [d.name for d in dep[:3]]
     assert not any(d.significant for d in dep if d.name.startswith("aux_")), [d.name for d in dep if d.significant]
     assert 0 < dep[0].explained_share <= 1
 
@@ -135,18 +135,18 @@ def test_a_dozen_irrelevant_columns_raise_no_alarm_on_clean_data(seed):
 @pytest.fixture(scope="module")
 def family_results() -> dict[str, tuple[ObservationTable, object]]:
     out = {}
-    for effect in HIDDEN_EFFECTS:
+    for effect in EFFECT_FAMILIES:
         table = synth_observations(n_cycles=40, effects=[effect], seed=FAMILY_SEED)
         out[effect] = (table, diagnose(table, "paper", n_bootstrap=50))
     return out
 
 
-@pytest.mark.parametrize("effect", sorted(HIDDEN_EFFECTS))
+@pytest.mark.parametrize("effect", sorted(EFFECT_FAMILIES))
 def test_each_family_is_found_and_the_suggestion_reaches_the_noise_floor(family_results, effect):
     table, diag = family_results[effect]
     assert diag.verdict != "nothing_missing", diag.summary()
     top = diag.variables[0]
-    assert top.significant and set(top.columns) & set(HIDDEN_EFFECTS[effect].variables), (effect, top.name)
+    assert top.significant and set(top.columns) & set(EFFECT_FAMILIES[effect].variables), (effect, top.name)
     assert diag.suggestion is not None
     # the user's next command: fit --model "SPEC + suggestion", a fresh fit from the spec string
     fit = fit_model(parse_spec(f"{diag.model} + {diag.suggestion}"), table)

@@ -18,7 +18,7 @@ _NOT_IN_BAG = ("lube_hours", "hours_running", "motor_temperature", "wear")
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    from ..data import DEFAULT_SPEEDS, HIDDEN_EFFECTS, NOISE_STD
+    from ..data import DEFAULT_SPEEDS, EFFECT_FAMILIES, NOISE_STD
 
     p = sub.add_parser("data", help="synthetic observation tables with hidden effects; inspect a table")
     dsub = p.add_subparsers(dest="data_command", metavar="ACTION", parser_class=type(p))
@@ -29,14 +29,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="write an observation table from the reference model plus hidden effects",
         description="Observations from the reference model (Eq. 6, or 9 with --wear) with cycle temperatures, "
                     "load torques and window positions drawn at random, noise sigma_e, and optional hidden "
-                    f"effects: {', '.join(HIDDEN_EFFECTS)}.",
+                    f"effects: {', '.join(EFFECT_FAMILIES)}.",
     )
     s.add_argument("out", metavar="OUT", help="output: FILE.csv, or a new bag directory (rosbag2, MCAP)")
     s.add_argument("--cycles", type=int, default=40, help="test cycles (default 40)")
     s.add_argument("--speeds", default=",".join(f"{v:g}" for v in DEFAULT_SPEEDS),
                    help="speeds of a cycle, comma list or START:STOP:COUNT, rad/s")
-    s.add_argument("--hidden", action="append", default=[], choices=sorted(HIDDEN_EFFECTS), metavar="EFFECT",
-                   help=f"hide an effect in the data; repeatable ({', '.join(HIDDEN_EFFECTS)})")
+    s.add_argument("--hidden", action="append", default=[], choices=sorted(EFFECT_FAMILIES), metavar="EFFECT",
+                   help=f"hide an effect in the data; repeatable ({', '.join(EFFECT_FAMILIES)})")
     s.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     s.add_argument("--params", default="ref-2011r", help="parameter set of the reference model")
     s.add_argument("--temperature", default="25:55", help="cycle temperature range LO:HI, degC, or one value")
@@ -129,10 +129,10 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
 
 def cmd_effects(args: argparse.Namespace) -> int:
-    from ..data import HIDDEN_EFFECTS
+    from ..data import EFFECT_FAMILIES
 
     print(format_table(["effect", "variables", "what"],
-                       [[e.name, ",".join(e.variables), e.description] for e in HIDDEN_EFFECTS.values()]))
+                       [[e.name, ",".join(e.variables), e.description] for e in EFFECT_FAMILIES.values()]))
     return 0
 
 

@@ -67,7 +67,7 @@ from ..errors import InputDataError
 from ..model import load_parameter_set, parse_model_spec, stribeck_shape
 from ..types import ObservationTable
 
-__all__ = ["DEFAULT_SPEEDS", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]
+__all__ = ["DEFAULT_SPEEDS", "EFFECT_FAMILIES", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]
 
 Array = npt.NDArray[np.float64]
 
@@ -87,7 +87,8 @@ class HiddenEffect:
     variables: tuple[str, ...]
 
 
-HIDDEN_EFFECTS: dict[str, HiddenEffect] = {
+#: Every hidden-effect family the generator offers (issue 3's four and issue 11's six).
+EFFECT_FAMILIES: dict[str, HiddenEffect] = {
     e.name: e
     for e in (
         HiddenEffect("load_viscous", "load-dependent viscous friction 1.5e-4 * tau_m * v", ("load_torque",)),
@@ -106,6 +107,12 @@ HIDDEN_EFFECTS: dict[str, HiddenEffect] = {
         HiddenEffect("torque_constant", "torque constant falls with the motor temperature: "
                      "tau_f * (1 - 0.002 * (motor_temperature - 50))", ("motor_temperature",)),
     )
+}
+
+
+#: The effects the simulated joint (:mod:`jointwear_ros.sim.friction`) reproduces too: issue 3's four.
+HIDDEN_EFFECTS: dict[str, HiddenEffect] = {
+    k: EFFECT_FAMILIES[k] for k in ("load_viscous", "ripple", "lubrication", "time_drift")
 }
 
 
@@ -141,7 +148,7 @@ def _effect_value(name: str, cols: dict[str, Array]) -> Array:
         return 0.004 * np.cos(cols["position"])
     if name == "torque_constant":
         return -0.002 * (_need(cols, "motor_temperature", name) - 50.0) * _need(cols, "tau_model", name)
-    raise InputDataError(f"unknown hidden effect {name!r}; known: {', '.join(HIDDEN_EFFECTS)}")
+    raise InputDataError(f"unknown hidden effect {name!r}; known: {', '.join(EFFECT_FAMILIES)}")
 
 
 def synth_observations(
@@ -169,7 +176,7 @@ def synth_observations(
     speeds
         Speeds of a cycle, motor side, rad/s (>= 0).
     effects
-        Names of hidden effects (keys of :data:`HIDDEN_EFFECTS`).
+        Names of hidden effects (keys of :data:`EFFECT_FAMILIES`).
     seed, rng
         Random generator, or the seed of a new one (``rng`` wins).
     params
@@ -200,8 +207,8 @@ def synth_observations(
     """
     effects = list(effects)
     for e in effects:
-        if e not in HIDDEN_EFFECTS:
-            raise InputDataError(f"unknown hidden effect {e!r}; known: {', '.join(HIDDEN_EFFECTS)}")
+        if e not in EFFECT_FAMILIES:
+            raise InputDataError(f"unknown hidden effect {e!r}; known: {', '.join(EFFECT_FAMILIES)}")
     if n_cycles < 1:
         raise InputDataError(f"n_cycles must be at least 1, got {n_cycles}")
     sp = np.asarray(list(speeds), dtype=float)

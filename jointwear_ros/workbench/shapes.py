@@ -93,7 +93,7 @@ class HarmonicRipple(CandidateTerm):
     >>> p = {"ripple_position_a": 0.003, "ripple_position_b": 0.0, "ripple_position_w": 17.0,
     ...      "ripple_position_a2": 0.0, "ripple_position_b2": 0.001}
     >>> round(float(t.value({"speed": np.array([10.0]), "position": np.array([0.1])}, p)[0]), 6)
-    0.002772
+    0.002008
     """
 
     shape = "ripple"
