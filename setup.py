@@ -17,7 +17,7 @@ setup(
         ("share/" + package_name + "/config/params", glob("config/params/*.yaml")),
         ("share/" + package_name + "/launch", glob("launch/*.launch.py")),
     ],
-    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "matplotlib", "mcap", "rosbags"],
+    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "matplotlib", "mcap", "rosbags", "threadpoolctl"],
     zip_safe=True,
     maintainer="jointwear maintainers",
     maintainer_email="maintainers@jointwear.dev",

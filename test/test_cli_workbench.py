@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from jointwear_ros.cli import main
-from jointwear_ros.data import HIDDEN_EFFECTS, synth_observations
+from jointwear_ros.data import EFFECT_FAMILIES, synth_observations
 from jointwear_ros.io.tables import write_csv
 from jointwear_ros.types import ObservationTable
 from jointwear_ros.workbench import parse_spec
@@ -60,17 +60,37 @@ def test_fit_json_contract(ripple_csv, capsys):
         assert isinstance(p["value"], float) and isinstance(p["stderr"], float) and p["stderr"] > 0
 
 
+def test_fit_json_states_the_goodness_of_fit_against_the_noise_floor(ripple_csv, diagnosis, capsys):
+    rc, out, err = run_main(capsys, "model", "fit", str(ripple_csv), "--model", "paper", "--json")
+    assert rc == 0, err
+    g = json.loads(out)["goodness_of_fit"]
+    assert g["method"] == "chi-square with tau_f_std" and g["consistent"] is False and g["p_value"] < 1e-6
+    # the spec diagnose suggests, added with `model add`, ends consistent with the noise
+    rc, out, err = run_main(capsys, "model", "add", str(ripple_csv), "--model", "paper", "--term",
+                            diagnosis["suggestion"], "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    assert doc["goodness_of_fit"]["after"]["consistent"] is True
+    assert doc["after"]["cv_rmse"] < 1.3 * 0.0015
+
+
 def test_diagnose_json_contract(diagnosis):
     d = diagnosis
-    assert {"model", "n", "rmse", "cv_rmse", "noise_floor", "missing_effect_found", "candidates"} <= set(d)
+    assert {"model", "n", "rmse", "cv_rmse", "noise_floor", "missing_effect_found", "candidates", "verdict",
+            "variables", "suggestion"} <= set(d)
     assert d["model"] == parse_spec("paper").spec
     assert d["n"] == 400 and isinstance(d["n"], int)
-    for key in ("rmse", "cv_rmse", "noise_floor"):
+    for key in ("rmse", "cv_rmse"):
         assert isinstance(d[key], float), key
-    assert d["noise_floor"] == pytest.approx(0.0015)
-    assert d["missing_effect_found"] is True
+    assert d["noise_floor"]["value"] == pytest.approx(0.0015)
+    assert d["noise_floor"]["method"] == "chi-square with tau_f_std" == d["noise_source"]
+    assert d["noise_floor"]["consistent"] is False and d["noise_floor"]["p_value"] < 1e-6
+    assert d["missing_effect_found"] is True and d["verdict"] == "found"
+    assert d["variables"][0]["name"] == "position" and d["variables"][0]["p_value"] < 1e-6
+    assert d["suggestion"] == d["candidates"][0]["term"]
     cands = d["candidates"]
-    assert len(cands) >= 20  # the whole library: paper terms, generic shapes of every column, interactions
+    # guided library: the generic shapes of position (the column the ranking found) and the fitted shapes
+    assert len(cands) >= 5
     for c in cands:
         assert {"term", "variables", "cv_rmse", "delta_bic", "significant"} <= set(c)
         assert isinstance(c["term"], str) and isinstance(c["variables"], list) and c["variables"]
@@ -81,7 +101,7 @@ def test_diagnose_json_contract(diagnosis):
     assert sig == sorted(sig, reverse=True)
     insignificant = [c["cv_rmse"] for c in cands if not c["significant"]]
     assert insignificant == sorted(insignificant)
-    assert cands[0]["term"] == "ripple(position)" and cands[0]["variables"] == ["position"]
+    assert cands[0]["term"].startswith("ripple(position, w0=") and cands[0]["variables"] == ["position"]
 
 
 def test_every_candidate_term_appended_to_the_spec_is_accepted_by_fit(diagnosis, ripple_csv, capsys):
@@ -97,16 +117,17 @@ def test_every_candidate_term_appended_to_the_spec_is_accepted_by_fit(diagnosis,
     rc, out, err = run_main(capsys, "model", "fit", str(ripple_csv), "--model",
                             f"{diagnosis['model']} + {diagnosis['candidates'][0]['term']}", "--json")
     assert rc == 0, err
-    assert json.loads(out)["cv_rmse"] < 1.3 * diagnosis["noise_floor"]
+    assert json.loads(out)["cv_rmse"] < 1.3 * diagnosis["noise_floor"]["value"]
 
 
 def test_diagnose_table_names_the_effect_and_the_next_command(ripple_csv, capsys):
     rc, out, err = run_main(capsys, "model", "diagnose", str(ripple_csv), "--model", "paper", "--top", "3")
     assert rc == 0, err
-    assert "Missing effect: ripple(position)" in out
+    assert "Missing effect found: ripple(position, w0=" in out and "verdict: found" in out
     assert "friction periodic in position" in out
+    assert "which columns explain the residual" in out and "periodogram" in out
     m = re.search(r'Try: --model "([^"]+)"', out)
-    assert m and parse_spec(m.group(1)).term_names[-1] == "ripple(position)"
+    assert m and parse_spec(m.group(1)).term_names[-1].startswith("ripple(position, w0=")
 
 
 # -- reports ----------------------------------------------------------------------------
@@ -138,7 +159,8 @@ def test_report_command_with_diagnosis_and_history(ripple_csv, tmp_path, capsys)
     assert rc == 0, err
     assert "report written to" in out
     html = (tmp_path / "r" / "report.html").read_text(encoding="utf-8")
-    assert "Diagnosis: which effect is missing?" in html and "No significant missing effect" in html
+    assert "Diagnosis: which effect is missing?" in html and "verdict: nothing_missing" in html
+    assert "Nothing missing" in html and (tmp_path / "r" / "dependence.png").is_file()
     assert "Model versions" in html and (tmp_path / "r" / "error_fall.png").is_file()
     assert not re.search(r"https?://|<link|<script", html)
 
@@ -199,7 +221,7 @@ def test_data_synth_writes_csv_and_bag_that_the_workbench_reads(tmp_path, capsys
         doc = json.loads(out)
         assert doc["rows"] == 30 and doc["cycles"] == 3 and doc["noise_floor"] == pytest.approx(0.0015)
     rc, out, _ = run_main(capsys, "data", "effects")
-    for name in HIDDEN_EFFECTS:
+    for name in EFFECT_FAMILIES:
         assert name in out
     # a bag is never overwritten
     rc, out, err = run_main(capsys, "data", "synth", str(tmp_path / "o_bag"), "--cycles", "3")

@@ -3,8 +3,9 @@
 * the standard model on data from the paper model (varying T and tau_m): diagnose
   names load or temperature first; adding the proposed terms one by one, as a
   user would, ends within 1.3x the noise floor, at least 4x below where it began;
-* every hidden effect the generator offers is found (its variable ranked first)
-  and, once added, brings the error within 1.3x the noise floor;
+* every hidden effect of issue 3 is found (its variable ranked first) and, once
+  added, brings the error within 1.3x the noise floor (the families of issue 11
+  are in test_workbench_discovery.py);
 * clean data: no significant effect in at least 19 of 20 seeds.
 
 Everything is seeded; the whole candidate library is used every time.
@@ -19,6 +20,8 @@ from jointwear_ros.workbench import diagnose, fit_model, noise_floor, parse_spec
 
 #: Acceptance bound on the cross-validated RMSE, in noise floors.
 WITHIN_FLOOR = 1.3
+#: The hidden effects of issue 3.
+ISSUE3_EFFECTS = ("load_viscous", "lubrication", "ripple", "time_drift")
 
 
 def test_synthetic_data_noise_floor_is_the_papers_sigma_e():
@@ -48,6 +51,7 @@ def test_standard_model_journey_adds_load_and_temperature_terms_until_the_noise_
         diag = diagnose(table, spec)
     # the journey stopped because nothing significant was left, not because it ran out of steps
     assert not diag.missing_effect_found, diag.summary()
+    assert diag.verdict == "nothing_missing", diag.summary()
     assert diag.cv_rmse <= WITHIN_FLOOR * nf, (spec, diag.cv_rmse / nf)
     assert start_cv / diag.cv_rmse >= 4.0, (spec, start_cv / diag.cv_rmse)
     # only load and temperature effects were added: nothing invented on the way
@@ -56,7 +60,7 @@ def test_standard_model_journey_adds_load_and_temperature_terms_until_the_noise_
         assert variables and variables <= {"temperature", "load_torque"}, term
 
 
-@pytest.mark.parametrize("effect", sorted(HIDDEN_EFFECTS))
+@pytest.mark.parametrize("effect", ISSUE3_EFFECTS)
 def test_each_hidden_effect_is_found_and_adding_it_reaches_the_noise_floor(effect):
     table = synth_observations(n_cycles=40, effects=[effect], seed=5)
     nf, _ = noise_floor(table)
@@ -66,6 +70,7 @@ def test_each_hidden_effect_is_found_and_adding_it_reaches_the_noise_floor(effec
     assert best.significant
     assert set(best.variables) == set(HIDDEN_EFFECTS[effect].variables), (effect, best.term)
     assert best.term in diag.summary()
+    assert diag.verdict == "found" and diag.suggestion == best.term
     # the user adds the proposed term string to the spec and refits from scratch
     fit = fit_model(parse_spec(f"paper + {best.term}"), table)
     assert fit.success, fit.message
@@ -84,6 +89,6 @@ def test_clean_data_shows_no_significant_effect_in_at_least_19_of_20_seeds():
         if diag.missing_effect_found:
             found.append((seed, diag.candidates[0].term, diag.candidates[0].p_value))
         else:
-            assert "No significant missing effect" in diag.summary()
+            assert diag.summary().startswith(("Nothing missing", "Unexplained structure remains"))
             assert not any(c.significant for c in diag.candidates)
     assert len(found) <= 1, found

@@ -15,10 +15,12 @@ __all__ = ["register"]
 
 #: Most rows (cycles x speeds) a synthetic table may have.
 MAX_ROWS = 1_000_000
+#: Columns of a synthetic table that a FrictionObservation bag cannot hold.
+_NOT_IN_BAG = ("lube_hours", "hours_running", "motor_temperature", "wear")
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    from ..data import DEFAULT_SPEEDS, HIDDEN_EFFECTS, NOISE_STD
+    from ..data import DEFAULT_SPEEDS, EFFECT_FAMILIES, NOISE_STD
 
     p = sub.add_parser("data", help="synthetic observation tables with hidden effects; inspect a table")
     dsub = p.add_subparsers(dest="data_command", metavar="ACTION", parser_class=type(p))
@@ -29,14 +31,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="write an observation table from the reference model plus hidden effects",
         description="Observations from the reference model (Eq. 6, or 9 with --wear) with cycle temperatures, "
                     "load torques and window positions drawn at random, noise sigma_e, and optional hidden "
-                    f"effects: {', '.join(HIDDEN_EFFECTS)}.",
+                    f"effects: {', '.join(EFFECT_FAMILIES)}.",
     )
     s.add_argument("out", metavar="OUT", help="output: FILE.csv, or a new bag directory (rosbag2, MCAP)")
     s.add_argument("--cycles", type=int, default=40, help="test cycles (default 40)")
     s.add_argument("--speeds", default=",".join(f"{v:g}" for v in DEFAULT_SPEEDS),
                    help="speeds of a cycle, comma list or START:STOP:COUNT, rad/s")
-    s.add_argument("--hidden", action="append", default=[], choices=sorted(HIDDEN_EFFECTS), metavar="EFFECT",
-                   help=f"hide an effect in the data; repeatable ({', '.join(HIDDEN_EFFECTS)})")
+    s.add_argument("--hidden", action="append", default=[], choices=sorted(EFFECT_FAMILIES), metavar="EFFECT",
+                   help=f"hide an effect in the data; repeatable ({', '.join(EFFECT_FAMILIES)})")
     s.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     s.add_argument("--params", default="ref-2011r", help="parameter set of the reference model")
     s.add_argument("--temperature", default="25:55", help="cycle temperature range LO:HI, degC, or one value")
@@ -44,6 +46,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--position", default="-2.5:2.5", help="window position range LO:HI, rad, or one value")
     s.add_argument("--wear", default=None, help="use Eq. (9) with this wear level (adds a wear column)")
     s.add_argument("--noise", default=str(NOISE_STD), help=f"noise sigma_e (default {NOISE_STD})")
+    s.add_argument("--irrelevant", type=int, default=0, metavar="N",
+                   help="add N columns aux_01.. of random numbers nothing depends on (default 0)")
     s.add_argument("--json", action="store_true", help="print a JSON summary")
     s.set_defaults(func=cmd_synth)
 
@@ -80,6 +84,8 @@ def cmd_synth(args: argparse.Namespace) -> int:
         raise UsageError(f"--cycles: {args.cycles} must be at least 1")
     if args.seed < 0:
         raise UsageError(f"--seed: {args.seed} must be >= 0")
+    if not 0 <= args.irrelevant <= 99:
+        raise UsageError(f"--irrelevant: {args.irrelevant} must be 0 to 99")
     speeds = parse_float_list(args.speeds, "--speeds")
     if any(v < 0 for v in speeds):
         raise UsageError("--speeds: speeds must be >= 0 (the model is for |v|)")
@@ -113,29 +119,31 @@ def cmd_synth(args: argparse.Namespace) -> int:
     table = synth_observations(
         n_cycles=args.cycles, speeds=speeds, effects=args.hidden, seed=args.seed, params=args.params,
         model="paper" if wear is None else "paper+wear", temperature=temperature, load=load,
-        position=position, wear=0.0 if wear is None else wear, noise=noise,
+        position=position, wear=0.0 if wear is None else wear, noise=noise, irrelevant=args.irrelevant,
     )
     write_table(table, out)
     nf, _ = noise_floor(table)
     summary = {"out": str(out), "format": "csv" if is_csv else "rosbag2-mcap", "rows": len(table),
                "cycles": args.cycles, "hidden": args.hidden, "seed": args.seed, "noise": noise,
-               "columns": table.names if is_csv else [c for c in table.names if c not in ("lube_hours", "wear")]}
+               "columns": table.names if is_csv else [c for c in table.names if c not in _NOT_IN_BAG
+                                                      and not c.startswith("aux_")]}
     if args.json:
         print_json(summary)
     else:
         hid = ", ".join(args.hidden) or "none"
         print(f"# wrote {len(table)} observations ({args.cycles} cycles x {len(speeds)} speeds) to {out}")
         print(f"# hidden effects: {hid}; noise sigma_e = {noise:g} (noise floor {nf:.5f}); seed {args.seed}")
-        if not is_csv and ("lubrication" in args.hidden or wear is not None):
-            print("# note: a bag keeps only FrictionObservation fields; lube_hours/wear are not in it (use CSV)")
+        if not is_csv:
+            print("# note: a bag keeps only FrictionObservation fields; lube_hours, hours_running, "
+                  "motor_temperature, wear and aux_* are not in it (use CSV)")
     return 0
 
 
 def cmd_effects(args: argparse.Namespace) -> int:
-    from ..data import HIDDEN_EFFECTS
+    from ..data import EFFECT_FAMILIES
 
     print(format_table(["effect", "variables", "what"],
-                       [[e.name, ",".join(e.variables), e.description] for e in HIDDEN_EFFECTS.values()]))
+                       [[e.name, ",".join(e.variables), e.description] for e in EFFECT_FAMILIES.values()]))
     return 0
 
 

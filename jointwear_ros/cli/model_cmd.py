@@ -141,6 +141,9 @@ def _register_workbench(msub: argparse._SubParsersAction) -> None:  # type: igno
                    help="also try this term (e.g. a user term pkg.module:Class); repeatable")
     d.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level (default 0.01)")
     d.add_argument("--top", type=int, default=10, help="candidates to list (default 10)")
+    d.add_argument("--library", choices=("guided", "full"), default="guided",
+                   help="guided (default): the fixed library's generic shapes only for the columns the model-free "
+                        "ranking finds; full: for every column")
     d.add_argument("--report", metavar="DIR", help="write plots and an HTML report into DIR")
     d.set_defaults(func=cmd_diagnose)
 
@@ -221,6 +224,17 @@ def _bands_dict(table: Any, fit: Any) -> list[dict[str, Any]]:
             for b in band_rmse(table.speed, fit.residuals)]
 
 
+def _gof_line(table: Any, fit: Any) -> str:
+    from ..workbench import noise_test
+
+    g = noise_test(table, fit.residuals, fit.n_free)
+    if not np.isfinite(g.value):
+        return "# goodness of fit: noise floor unknown (no tau_f_std, replicates or repeated speeds across cycles)"
+    return (f"# goodness of fit: {g.method}, p = {g.p_value:.2g}: the residual is "
+            f"{'consistent' if g.consistent else 'NOT consistent'} with the noise "
+            f"(CV RMSE {fit.cv_rmse / g.value:.2f}x the floor)")
+
+
 def _print_fit(table: Any, fit: Any) -> None:
     from ..workbench import band_rmse, noise_floor
 
@@ -228,6 +242,7 @@ def _print_fit(table: Any, fit: Any) -> None:
     print(f"# model: {fit.spec}")
     print(f"# {fit.model.equation()}")
     print(f"# data: {table.source}, n = {fit.n}; noise floor {nf:.5f} ({src})")
+    print(_gof_line(table, fit))
     print(format_table(["RMSE", "CV RMSE", "AIC", "BIC", "free", "converged"],
                        [[fit.rmse, fit.cv_rmse, f"{fit.aic:.1f}", f"{fit.bic:.1f}", fit.n_free, fit.success]]))
     if not fit.success:
@@ -245,7 +260,7 @@ def _print_fit(table: Any, fit: Any) -> None:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
-    from ..workbench import noise_floor
+    from ..workbench import noise_floor, noise_test
     from ..workbench.history import History
 
     _check_out_dir(args.report, "--report")
@@ -263,6 +278,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if args.json:
         nf, src = noise_floor(table)
         print_json({**fit.to_dict(), "data": table.source, "noise_floor": nf, "noise_source": src,
+                    "goodness_of_fit": noise_test(table, fit.residuals, fit.n_free).to_dict(),
                     "bands": _bands_dict(table, fit)})
     else:
         _print_fit(table, fit)
@@ -294,7 +310,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         term = resolve_term(t)
         extra.append(term if term is not None else parse_spec(t).terms[0])
     base = _fit(table, model, params, args.folds)
-    diag = diagnose(table, base, extra_terms=extra, cv_folds=args.folds, alpha=args.alpha, progress=_progress())
+    diag = diagnose(table, base, extra_terms=extra, cv_folds=args.folds, alpha=args.alpha, progress=_progress(),
+                    mode=args.library)
     if args.report:
         from ..workbench.report import write_report
 
@@ -302,18 +319,44 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.json:
         print_json(diag.to_dict())
         return 0
-    print(f"# model: {diag.model}")
-    print(f"# data: {table.source}, n = {diag.n}; RMSE {diag.rmse:.5f}, CV RMSE {diag.cv_rmse:.5f}, "
-          f"noise floor {diag.noise_floor:.5f} ({diag.noise_source})")
-    rows = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse, f"{c.delta_bic:.1f}", f"{c.p_value:.2g}",
-             "yes" if c.significant else "no", c.speed_region_label]
-            for i, c in enumerate(diag.candidates[: max(args.top, 0)])]
-    print(format_table(["#", "term", "variables", "CV RMSE", "dBIC", "p", "signif.", "speed region"], rows))
-    print()
-    print(diag.summary())
+    print_diagnosis(diag, table.source, args.top)
     if args.report:
         print(f"# report written to {Path(args.report) / 'report.html'}")
     return 0
+
+
+def print_diagnosis(diag: Any, source: str, top: int) -> None:
+    """The diagnosis as a terminal report: noise test, model-free ranking, candidates, verdict."""
+    nf = diag.noise
+    print(f"# model: {diag.model}")
+    print(f"# data: {source}, n = {diag.n}; RMSE {diag.rmse:.5f}, CV RMSE {diag.cv_rmse:.5f}")
+    if np.isfinite(nf.value):
+        print(f"# noise floor {nf.value:.5f} ({nf.method}): CV RMSE = {diag.cv_rmse / nf.value:.2f}x the floor; "
+              f"p = {nf.p_value:.2g}, {'consistent' if nf.consistent else 'NOT consistent'} with the noise")
+    else:
+        print("# noise floor unknown (no tau_f_std, replicates or repeated speeds across cycles)")
+    print()
+    print("# which columns explain the residual (model-free; p adjusted for every column and pair tried)")
+    print(format_table(["#", "variable", "explains", "p (adj.)", "signif.", "test", "shape"],
+                       [[i + 1, v.name, f"{100 * v.explained_share:.0f} %", f"{v.p_value:.2g}",
+                         "yes" if v.significant else "no", v.test, v.shape_hint]
+                        for i, v in enumerate(diag.variables[:max(top, 0)])]))
+    print()
+    floor = nf.value if np.isfinite(nf.value) and nf.value > 0 else float("nan")
+    rows = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse, f"{c.cv_rmse / floor:.2f}x", f"{c.delta_bic:.1f}",
+             f"{c.p_value:.2g}", "yes" if c.significant else "no", c.speed_region_label]
+            for i, c in enumerate(diag.candidates[: max(top, 0)])]
+    if rows:
+        print(format_table(["#", "term", "variables", "CV RMSE", "x floor", "dBIC", "p", "signif.", "speed region"],
+                           rows))
+    else:
+        print("# no candidate term to fit (no column explains the residual; the paper's terms are in the model)")
+    if diag.stability:
+        print("# chosen in bootstrap resamples by cycle: "
+              + ", ".join(f"{t} {100 * f:.0f} %" for t, f in sorted(diag.stability.items(), key=lambda kv: -kv[1])))
+    print()
+    print(f"verdict: {diag.verdict}")
+    print(diag.summary())
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -357,7 +400,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_add(args: argparse.Namespace) -> int:
-    from ..workbench import band_rmse, noise_floor
+    from ..workbench import band_rmse, noise_floor, noise_test
     from ..workbench.history import History
 
     _check_out_dir(args.plot, "--plot")
@@ -390,6 +433,8 @@ def cmd_add(args: argparse.Namespace) -> int:
             "before": {**before.to_dict(), "bands": _bands_dict(table, before)},
             "after": {**after.to_dict(), "bands": _bands_dict(table, after)},
             "cv_rmse_ratio": before.cv_rmse / after.cv_rmse if after.cv_rmse > 0 else None,
+            "goodness_of_fit": {"before": noise_test(table, before.residuals, before.n_free).to_dict(),
+                                "after": noise_test(table, after.residuals, after.n_free).to_dict()},
         })
         return 0
     print(f"# before: {before.spec}")
@@ -405,6 +450,7 @@ def cmd_add(args: argparse.Namespace) -> int:
     if after.cv_rmse > 0:
         print(f"# CV RMSE fell {before.cv_rmse / after.cv_rmse:.2f}x"
               + (f"; now {after.cv_rmse / nf:.2f}x the noise floor" if np.isfinite(nf) and nf > 0 else ""))
+    print(_gof_line(table, after))
     if args.history:
         print(f"# history: {args.history} ({len(history.versions) if history else 0} versions)")
     if args.plot:

@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-from .synth import DEFAULT_SPEEDS, HIDDEN_EFFECTS, NOISE_STD, HiddenEffect, synth_observations
+from .synth import DEFAULT_SPEEDS, EFFECT_FAMILIES, HIDDEN_EFFECTS, NOISE_STD, HiddenEffect, synth_observations
 
-__all__ = ["DEFAULT_SPEEDS", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]
+__all__ = ["DEFAULT_SPEEDS", "EFFECT_FAMILIES", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]

@@ -14,19 +14,28 @@ from .candidates import (
     parse_spec,
     resolve_term,
 )
-from .compare import SPEED_BAND_EDGES, BandError, band_rmse, noise_floor, residual_structure
-from .diagnose import CandidateResult, Diagnosis, diagnose
+from .compare import SPEED_BAND_EDGES, BandError, NoiseFloor, band_rmse, noise_floor, noise_test, residual_structure
+from .dependence import VariableDependence, residual_dependence
+from .diagnose import VERDICTS, CandidateResult, Diagnosis, diagnose
 from .fit import FitResult, fit_model, group_folds
+from .shapes import HarmonicRipple, Scale, Spline, Step
 
 __all__ = [
     "ENTRY_POINT_GROUP",
     "SHAPES",
     "SPEED_BAND_EDGES",
+    "VERDICTS",
     "BandError",
     "CandidateResult",
     "CandidateTerm",
     "Diagnosis",
     "FitResult",
+    "HarmonicRipple",
+    "NoiseFloor",
+    "Scale",
+    "Spline",
+    "Step",
+    "VariableDependence",
     "band_rmse",
     "candidate_library",
     "candidate_variables",
@@ -34,7 +43,9 @@ __all__ = [
     "fit_model",
     "group_folds",
     "noise_floor",
+    "noise_test",
     "parse_spec",
+    "residual_dependence",
     "residual_structure",
     "resolve_term",
 ]

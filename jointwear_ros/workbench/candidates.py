@@ -60,6 +60,7 @@ __all__ = [
     "Ripple",
     "XStribeck",
     "XViscous",
+    "all_shapes",
     "candidate_library",
     "candidate_variables",
     "describe_term",
@@ -400,12 +401,18 @@ def resolve_term(name: str) -> Term | None:
     text = name.strip()
     m = _CALL.match(text)
     if m:
-        shape, args = m.group(1), [a.strip() for a in m.group(2).split(",")]
-        cls = SHAPES.get(shape)
+        shape, (args, options) = m.group(1), _call_arguments(m.group(2), text)
+        shapes = all_shapes()
+        cls = shapes.get(shape)
         if cls is None:
             raise ModelError(
-                f"unknown term shape {shape!r} in {text!r}; shapes: {', '.join(f'{s}(x)' for s in SHAPES)}"
+                f"unknown term shape {shape!r} in {text!r}; shapes: {', '.join(f'{s}(x)' for s in shapes)}"
             )
+        from_call = getattr(cls, "from_call", None)
+        if from_call is not None:
+            return from_call(args, options)  # type: ignore[no-any-return]
+        if options:
+            raise ModelError(f"term shape {shape}(...) takes no options, got {', '.join(options)} in {text!r}")
         return cls(*args)
     if ":" in text:
         return _load_class(text, text)
@@ -419,6 +426,38 @@ def resolve_term(name: str) -> Term | None:
             "user terms: pkg.module:ClassName"
         )
     return None
+
+
+def _call_arguments(inner: str, text: str) -> tuple[list[str], dict[str, float]]:
+    """``a, b, key=1.5`` -> (['a', 'b'], {'key': 1.5}); positional arguments come first."""
+    args: list[str] = []
+    options: dict[str, float] = {}
+    for raw in inner.split(","):
+        item = raw.strip()
+        key, eq, val = item.partition("=")
+        if eq:
+            key, val = key.strip(), val.strip()
+            if not _IDENT.match(key):
+                raise ModelError(f"{text!r}: option name {key!r} is not an identifier")
+            try:
+                num = float(val)
+            except ValueError:
+                raise ModelError(f"{text!r}: option {key}={val!r} is not a number") from None
+            if key in options:
+                raise ModelError(f"{text!r}: option {key} given twice")
+            options[key] = num
+        else:
+            if options:
+                raise ModelError(f"{text!r}: column {item!r} after an option; give columns first")
+            args.append(item)
+    return args, options
+
+
+def all_shapes() -> dict[str, Any]:
+    """Every generic shape by spec name: the fixed library's and the fitted ones of :mod:`.shapes`."""
+    from .shapes import NEW_SHAPES
+
+    return {**SHAPES, **NEW_SHAPES}
 
 
 def parse_spec(spec: str) -> Model:
@@ -450,17 +489,22 @@ def candidate_library(
     extra: Sequence[Term] = (),
     variables: Sequence[str] | None = None,
     shapes: Callable[[str], Sequence[str]] | None = None,
+    generic: Sequence[str] | None = None,
 ) -> list[Term]:
     """Candidate terms to try on top of ``model`` for this data.
 
     Paper terms whose inputs the data has, generic shapes of every usable
     column (ripple only for angle-like columns), interactions with load and
     temperature, and ``extra`` (user terms). Terms already in the model, and
-    generic terms that would repeat a paper term, are left out.
+    generic terms that would repeat a paper term, are left out. ``generic``
+    (default: every usable column) limits the generic shapes and
+    interactions to those columns; the paper terms are offered whenever the
+    data has their inputs.
     """
     have = set(model.term_names)
-    vars_ = list(variables) if variables is not None else candidate_variables(table)
-    usable = set(vars_) | {"speed"}
+    all_vars = list(variables) if variables is not None else candidate_variables(table)
+    usable = set(all_vars) | {"speed"}
+    vars_ = [v for v in all_vars if generic is None or v in generic]
     out: list[Term] = []
     for name in PAPER_CANDIDATES:
         term = TERMS[name]()
@@ -470,8 +514,9 @@ def candidate_library(
         names = shapes(v) if shapes is not None else (
             ["lin", "x_stribeck", "x_viscous", "exp_viscous"] + (["ripple"] if _is_angle(v) else [])
         )
+        shape_classes = all_shapes()
         for s in names:
-            term = SHAPES[s](v)
+            term = shape_classes[s](v)
             dup = _DUPLICATES.get(term.name)
             if term.name in have or (dup is not None and dup in {t.name for t in out} | have):
                 continue

@@ -9,16 +9,19 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy import stats
 
 from ..types import ObservationTable
 
 __all__ = [
     "SPEED_BAND_EDGES",
     "BandError",
+    "NoiseFloor",
     "ResidualStructure",
     "band_label",
     "band_rmse",
     "noise_floor",
+    "noise_test",
     "residual_structure",
 ]
 
@@ -86,6 +89,130 @@ def noise_floor(table: ObservationTable) -> tuple[float, str]:
         if dof >= 3:
             return math.sqrt(ss / dof), "repeated observations"
     return math.nan, "unknown"
+
+
+#: Method names of the noise floor (JSON ``noise_floor.method``).
+METHOD_STD = "chi-square with tau_f_std"
+METHOD_REPLICATES = "lack-of-fit F test against replicates"
+METHOD_CYCLE_DIFF = "F test against cycle-to-cycle differences at equal speed"
+
+
+@dataclass(frozen=True)
+class NoiseFloor:
+    """The RMSE a perfect model would reach, and whether a fit's residual is consistent with it.
+
+    ``method`` names the source and the test: a chi-square test of
+    ``sum((r_i / tau_f_std_i)^2)`` on ``n - k`` degrees of freedom; a
+    lack-of-fit F test against the pure error of replicated observations; or
+    an F test of the residual variance against half the mean squared
+    difference of the residual between consecutive cycles at the same speed
+    (an upper bound of the noise when the missing effect changes from cycle to
+    cycle, so it errs towards "consistent"). ``consistent`` is
+    ``p_value >= alpha``.
+    """
+
+    value: float
+    method: str
+    consistent: bool
+    p_value: float
+    statistic: float = math.nan
+    dof: tuple[int, int] = (0, 0)
+    alpha: float = 0.01
+
+    def ratio(self, rmse: float) -> float:
+        """``rmse`` in noise floors (nan when the floor is unknown)."""
+        return rmse / self.value if math.isfinite(self.value) and self.value > 0 else math.nan
+
+    def to_dict(self) -> dict[str, object]:
+        return {"value": self.value if math.isfinite(self.value) else None, "method": self.method,
+                "consistent": self.consistent, "p_value": self.p_value if math.isfinite(self.p_value) else None,
+                "statistic": self.statistic if math.isfinite(self.statistic) else None,
+                "dof": list(self.dof), "alpha": self.alpha}
+
+
+def _replicate_groups(table: ObservationTable) -> tuple[float, int]:
+    keys = [c for c in ("cycle", "speed", "load_torque", "temperature", "position") if c in table]
+    if not keys:
+        return 0.0, 0
+    mat = np.column_stack([np.round(table[c], 9) for c in keys])
+    _, inv, counts = np.unique(mat, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    y = table.tau_f
+    ss = 0.0
+    dof = 0
+    for g in np.flatnonzero(counts >= 2):
+        yy = y[inv == g]
+        ss += float(np.sum((yy - yy.mean()) ** 2))
+        dof += yy.size - 1
+    return ss, dof
+
+
+def _cycle_differences(table: ObservationTable, residuals: Array) -> tuple[float, int]:
+    """Sum of squared residual differences between consecutive cycles at equal speed, and their count."""
+    if "cycle" not in table:
+        return 0.0, 0
+    order_key = table["time"] if "time" in table else table["cycle"]
+    r = np.asarray(residuals, dtype=float)
+    ss, cnt = 0.0, 0
+    v = np.round(table.speed, 9)
+    for sp in np.unique(v):
+        idx = np.flatnonzero(v == sp)
+        if idx.size < 2:
+            continue
+        idx = idx[np.argsort(order_key[idx], kind="stable")]
+        d = np.diff(r[idx])
+        ss += float(np.sum(d**2))
+        cnt += d.size
+    return ss, cnt
+
+
+def noise_test(
+    table: ObservationTable, residuals: Array, n_free: int, *, alpha: float = 0.01
+) -> NoiseFloor:
+    """Is the residual of a fit with ``n_free`` parameters consistent with the measurement noise?
+
+    Uses ``tau_f_std`` when present (chi-square), else replicated
+    observations (lack-of-fit F), else cycle-to-cycle differences at equal
+    speed (F); ``method`` says which. With none of them the floor is unknown
+    (``consistent`` False, p nan).
+
+    >>> from jointwear_ros.data import synth_observations
+    >>> from jointwear_ros.workbench import fit_model, parse_spec
+    >>> t = synth_observations(n_cycles=20, seed=3)
+    >>> fit = fit_model(parse_spec("paper"), t, cv_folds=0)
+    >>> nf = noise_test(t, fit.residuals, fit.n_free)
+    >>> nf.method, nf.consistent, round(nf.value, 4)
+    ('chi-square with tau_f_std', True, 0.0015)
+    """
+    r = np.asarray(residuals, dtype=float)
+    n = r.size
+    dof_res = max(n - int(n_free), 1)
+    ssr = float(np.sum(r**2))
+    if "tau_f_std" in table:
+        s = table["tau_f_std"]
+        ok = np.isfinite(s) & (s > 0)
+        if ok.sum() >= max(1, n // 2):
+            # rows without a usable std get the RMS of the others
+            rms = float(np.sqrt(np.mean(s[ok] ** 2)))
+            sd = np.where(ok, s, rms)
+            chi = float(np.sum((r / sd) ** 2))
+            p = float(stats.chi2.sf(chi, dof_res))
+            return NoiseFloor(rms, METHOD_STD, bool(p >= alpha), p, chi, (dof_res, 0), alpha)
+    ss_pe, dof_pe = _replicate_groups(table)
+    if dof_pe >= 3 and ss_pe > 0:
+        floor = math.sqrt(ss_pe / dof_pe)
+        dof_lof = dof_res - dof_pe
+        if dof_lof >= 1:
+            f = ((ssr - ss_pe) / dof_lof) / (ss_pe / dof_pe)
+            p = float(stats.f.sf(f, dof_lof, dof_pe))
+            return NoiseFloor(floor, METHOD_REPLICATES, bool(p >= alpha), p, f, (dof_lof, dof_pe), alpha)
+    ss_d, cnt = _cycle_differences(table, r)
+    if cnt >= 3 and ss_d > 0:
+        var = ss_d / (2.0 * cnt)
+        f = (ssr / dof_res) / var
+        p = float(stats.f.sf(f, dof_res, cnt))
+        return NoiseFloor(math.sqrt(var), METHOD_CYCLE_DIFF, bool(p >= alpha), p, f, (dof_res, cnt), alpha)
+    return NoiseFloor(math.nan, "unknown", False, math.nan, math.nan, (0, 0), alpha)
 
 
 @dataclass(frozen=True)

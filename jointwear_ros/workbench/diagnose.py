@@ -15,7 +15,24 @@ BIC. A candidate is *significant* when
 * it lowers the cross-validated RMSE; and
 * it lowers the BIC.
 
-When no candidate is significant the diagnosis says so.
+Around that ranking (issue 11), the diagnosis is honest about what it cannot
+explain:
+
+1. the current model's residual is tested against the noise floor
+   (:func:`~jointwear_ros.workbench.compare.noise_test`);
+2. every numeric column (and pairs) is ranked by how much of the residual it
+   explains without assuming a shape
+   (:func:`~jointwear_ros.workbench.dependence.residual_dependence`);
+3. for the columns that do explain something, shapes beyond the fixed library
+   are fitted (:mod:`.shapes`: a ripple started at the periodogram's peak, a
+   step at the changepoint, B-splines with the knot count chosen by
+   cross-validation, the model's own terms scaled by the column);
+4. the verdict: ``nothing_missing`` (residual consistent with the noise and
+   no column explains it, no candidate significant), ``found`` (a candidate
+   brings the CV RMSE within :data:`FOUND_RATIO` of the noise floor and leaves
+   no significant dependence), else ``unexplained`` (what remains, where,
+   and how far above the floor the best shape stays). The stability of the
+   chosen term is measured by resampling cycles (bootstrap).
 """
 
 from __future__ import annotations
@@ -30,14 +47,33 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from scipy import stats
+from threadpoolctl import threadpool_limits
 
-from ..model import Model, Parameters, Term
+from ..errors import ModelError
+from ..model import TERMS, Model, Parameters, Term
 from ..types import ObservationTable
-from .candidates import candidate_library, describe_term, linear_params, parse_spec, start_grid
-from .compare import SPEED_BAND_EDGES, band_label, noise_floor
+from .candidates import (
+    Interaction,
+    candidate_library,
+    describe_term,
+    linear_params,
+    parse_spec,
+    start_grid,
+)
+from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, noise_test
+from .dependence import VariableDependence, is_angle, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
+from .shapes import HarmonicRipple, Scale, Spline, Step
 
-__all__ = ["CandidateResult", "Diagnosis", "diagnose", "fit_candidate"]
+__all__ = ["FOUND_RATIO", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
+           "fit_candidate"]
+
+#: A candidate "found" the missing effect when its CV RMSE is within this many noise floors.
+FOUND_RATIO = 1.3
+#: The three answers of a diagnosis.
+VERDICTS = ("nothing_missing", "found", "unexplained")
+#: Bootstrap resamples (by cycle) of the choice among the best candidates.
+N_BOOTSTRAP = 200
 
 Array = npt.NDArray[np.float64]
 
@@ -89,17 +125,30 @@ class CandidateResult:
 
 @dataclass
 class Diagnosis:
-    """The current model's errors and every candidate's, best first."""
+    """The current model's errors, the noise test, the model-free ranking, every candidate, and the verdict."""
 
     model: str
     n: int
     rmse: float
     cv_rmse: float
-    noise_floor: float
-    noise_source: str
+    noise: NoiseFloor
     alpha: float
     candidates: list[CandidateResult]
     base: FitResult = field(repr=False)
+    variables: list[VariableDependence] = field(default_factory=list)
+    verdict: str = "unexplained"
+    suggestion: str | None = None
+    after_noise: NoiseFloor | None = None
+    after_variables: list[VariableDependence] = field(default_factory=list)
+    stability: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def noise_floor(self) -> float:
+        return self.noise.value
+
+    @property
+    def noise_source(self) -> str:
+        return self.noise.method
 
     @property
     def missing_effect_found(self) -> bool:
@@ -109,20 +158,58 @@ class Diagnosis:
     def best(self) -> CandidateResult | None:
         return self.candidates[0] if self.candidates and self.candidates[0].significant else None
 
+    def _ratio(self, rmse: float) -> str:
+        r = self.noise.ratio(rmse)
+        return f"{r:.2f}x the noise floor" if math.isfinite(r) else "noise floor unknown"
+
+    def _floor_text(self) -> str:
+        nf = self.noise
+        if not math.isfinite(nf.value):
+            return "noise floor unknown (no tau_f_std, replicates or repeated speeds across cycles)"
+        return (f"noise floor {nf.value:.5f} ({nf.method}: p = {nf.p_value:.2g}, "
+                f"{'consistent' if nf.consistent else 'NOT consistent'} with the noise)")
+
     def summary(self) -> str:
-        """One or two sentences: the missing effect, or that nothing significant is missing."""
-        nf = f"noise floor {self.noise_floor:.5f} ({self.noise_source})" if math.isfinite(self.noise_floor) \
-            else "noise floor unknown"
+        """The verdict in a few sentences: what is missing, or that nothing is, or what stays unexplained."""
         b = self.best
-        if b is None:
-            top = self.candidates[0] if self.candidates else None
-            extra = (f"; the best candidate, {top.term}, would change the CV RMSE to {top.cv_rmse:.5f} "
-                     f"(p = {top.p_value:.2g}, not significant)") if top else ""
-            return (f"No significant missing effect: model {self.model!r} has CV RMSE {self.cv_rmse:.5f}, "
-                    f"{nf}{extra}.")
-        return (f"Missing effect: {b.term} — {b.description}, structured at {b.speed_region_label}. "
-                f"Adding it should bring the CV RMSE from {self.cv_rmse:.5f} to about {b.cv_rmse:.5f} ({nf}). "
-                f"Try: --model \"{self.model} + {b.term}\"")
+        if self.verdict == "nothing_missing":
+            top = self.variables[0] if self.variables else None
+            dep = (f"; no column explains its residual (strongest: {top.name}, adjusted p = {top.p_value:.2g})"
+                   if top else "; no column to test")
+            cand = (f"; the best candidate, {self.candidates[0].term}, is not significant "
+                    f"(p = {self.candidates[0].p_value:.2g})") if self.candidates else ""
+            return (f"Nothing missing: model {self.model!r} has CV RMSE {self.cv_rmse:.5f} "
+                    f"({self._ratio(self.cv_rmse)}); {self._floor_text()}{dep}{cand}.")
+        if self.verdict == "found" and b is not None:
+            stab = self.stability.get(b.term)
+            stab_txt = f" It is chosen in {100 * stab:.0f} % of bootstrap resamples by cycle." if stab is not None else ""
+            return (f"Missing effect found: {b.term} — {b.description}, structured at {b.speed_region_label}. "
+                    f"Adding it brings the CV RMSE from {self.cv_rmse:.5f} to {b.cv_rmse:.5f} "
+                    f"({self._ratio(b.cv_rmse)}) and leaves no significant dependence on any column.{stab_txt} "
+                    f"Try: --model \"{self.model} + {b.term}\"")
+        # unexplained
+        sig = [v for v in self.variables if v.significant]
+        parts = [f"Unexplained structure remains: model {self.model!r} has CV RMSE {self.cv_rmse:.5f} "
+                 f"({self._ratio(self.cv_rmse)}; {self._floor_text()})."]
+        if sig:
+            parts.append("The residual depends on " + "; ".join(
+                f"{v.name} ({v.shape_hint}; explains {100 * v.explained_share:.0f} %, adjusted p = {v.p_value:.2g})"
+                for v in sig[:3]) + ".")
+        else:
+            parts.append("No column of the table explains it (a variable that is not recorded, or a noise "
+                         "estimate that is too optimistic).")
+        tried = self.candidates[:3]
+        if tried:
+            parts.append("Best shapes tried: " + ", ".join(
+                f"{c.term} ({self._ratio(c.cv_rmse)}{'' if c.significant else ', not significant'})"
+                for c in tried) + ".")
+        if b is not None:
+            rest = [v.name for v in self.after_variables if v.significant]
+            left = f"; the residual still depends on {', '.join(rest)}" if rest else ""
+            parts.append(f"The best, {b.term}, leaves the CV RMSE at {self._ratio(b.cv_rmse)} "
+                         f"(at {b.speed_region_label}){left}. "
+                         f"Try next: --model \"{self.model} + {b.term}\", then diagnose again.")
+        return " ".join(parts)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -130,11 +217,21 @@ class Diagnosis:
             "n": self.n,
             "rmse": self.rmse,
             "cv_rmse": self.cv_rmse,
-            "noise_floor": self.noise_floor,
-            "noise_source": self.noise_source,
+            "verdict": self.verdict,
+            "noise_floor": self.noise.to_dict(),
+            "noise_source": self.noise.method,
+            "variables": [v.to_dict() for v in self.variables],
+            "suggestion": self.suggestion,
             "missing_effect_found": self.missing_effect_found,
             "alpha": self.alpha,
             "summary": self.summary(),
+            "after_suggestion": None if self.after_noise is None else {
+                "noise_floor": self.after_noise.to_dict(),
+                "cv_rmse": self.best.cv_rmse if self.best else None,
+                "ratio_to_floor": self.noise.ratio(self.best.cv_rmse) if self.best else None,
+                "variables": [v.to_dict() for v in self.after_variables],
+            },
+            "stability": dict(self.stability),
             "candidates": [c.to_dict() for c in self.candidates],
         }
 
@@ -160,6 +257,11 @@ def fit_candidate(
         s = {n: 0.0 for n in term.param_names if n in lin}
         s.update(g)
         starts.append(s)
+    if isinstance(term, Scale):  # the scaled term's shape starts where the model's own copy is
+        own = {new: base.params[old].value for old, new in term.inner_names().items()
+               if old in base.params and new not in lin}
+        if own:
+            starts.insert(0, {**{n: 0.0 for n in term.param_names if n in lin}, **own})
     return fit_model(model, table, params, starts=starts, folds=folds, cv_folds=cv_folds, max_nfev=max_nfev)
 
 
@@ -184,6 +286,110 @@ def _speed_region(speed: Array, r0: Array, r1: Array) -> tuple[float, float]:
     return float(edges[lo_i]), float(edges[hi_i + 1])
 
 
+def adaptive_candidates(
+    table: ObservationTable, model: Model, variables: Sequence[VariableDependence], *, top: int = 3,
+    spline_sizes: Sequence[int] = (4, 6, 8),
+    explore: bool = False,
+) -> list[Term]:
+    """Shapes fitted to what the model-free ranking found, for its ``top`` significant columns.
+
+    A ripple started at the periodogram's peak (one and two harmonics) for a
+    periodic column; a step at the changepoint; B-splines over the column's
+    range with ``spline_sizes`` basis functions (the cross-validated error
+    picks among them); for the strongest column, each term of the model
+    scaled by it; for a significant pair, their product. With ``explore``
+    and no significant column, the two strongest columns are used.
+    """
+    have = set(model.term_names)
+    usable = set(table.names)
+    out: list[Term] = []
+
+    def add(t: Term) -> None:
+        if t.name not in have and t.name not in {u.name for u in out}:
+            out.append(t)
+
+    singles = [v for v in variables if v.significant and "," not in v.name][:top]
+    if not singles and explore:
+        singles = [v for v in variables if "," not in v.name][:2]
+    for rank, v in enumerate(singles):
+        col = table[v.name]
+        if v.peak_frequency is not None:
+            add(HarmonicRipple(v.name, w0=float(f"{v.peak_frequency:.4g}")))
+            add(HarmonicRipple(v.name, w0=float(f"{v.peak_frequency:.4g}"), k=2))
+        elif is_angle(v.name):
+            add(HarmonicRipple(v.name))
+        if v.changepoint is not None and v.changepoint_width is not None:
+            add(Step(v.name, at=float(f"{v.changepoint:.6g}"), width=float(f"{v.changepoint_width:.3g}")))
+        lo, hi = float(np.min(col)), float(np.max(col))
+        if hi > lo:
+            for k in spline_sizes if rank == 0 else spline_sizes[1:2]:
+                add(Spline(v.name, lo=float(f"{lo:.6g}"), hi=float(f"{hi:.6g}"), n=k))
+        if rank == 0:
+            for term in model.terms:
+                if type(term).__name__ == TERMS.get(term.name, type(None)).__name__ and term.name in TERMS \
+                        and set(term.variables) <= usable and term.name != "coulomb":
+                    add(Scale(term.name, v.name))
+    for v in variables:
+        if v.significant and "," in v.name:
+            a, b = v.name.split(",")
+            add(Interaction(a, b))
+            for term in model.terms:  # a term of one column of the pair, scaled by the other
+                if term.name in TERMS and set(term.variables) <= usable:
+                    if a in term.variables and b not in term.variables:
+                        add(Scale(term.name, b))
+                    if b in term.variables and a not in term.variables:
+                        add(Scale(term.name, a))
+    return out
+
+
+def _significance(base: FitResult, fit: FitResult, nf: float, n: int, alpha: float, m: int) -> tuple[float, int, float, bool]:
+    dof = max(fit.n_free - base.n_free, 1)
+    ssr_gain = max(base.ssr - fit.ssr, 0.0)
+    resid_var = fit.ssr / max(n - fit.n_free, 1)
+    if math.isfinite(nf) and nf > 0:
+        s2 = max(nf**2, resid_var)
+        stat = ssr_gain / s2
+        p = float(stats.chi2.sf(stat, dof))
+    else:
+        stat = ssr_gain / dof / max(resid_var, 1e-300)
+        p = float(stats.f.sf(stat, dof, max(n - fit.n_free, 1)))
+    dbic = fit.bic - base.bic
+    sig = bool(p < alpha / m and fit.cv_rmse < base.cv_rmse and dbic < 0)
+    return stat, dof, p, sig
+
+
+def _bootstrap_choice(
+    table: ObservationTable, base: FitResult, results: Sequence[CandidateResult], n_boot: int, seed: int
+) -> dict[str, float]:
+    """How often each of the best candidates wins when whole cycles are resampled with replacement.
+
+    The winner of a resample is the candidate with the largest drop of the
+    held-out (cross-validated) squared error on the resampled rows; the fits
+    themselves are not repeated, so this measures how clearly the data
+    separates the candidates, not the variability of their parameters.
+    """
+    if not results or base.cv_residuals is None:
+        return {}
+    cyc = table["cycle"] if "cycle" in table else np.arange(len(table), dtype=float)
+    _, inv = np.unique(cyc, return_inverse=True)
+    inv = inv.reshape(-1)
+    g = inv.max() + 1
+    gains = []
+    for c in results:
+        cr = c.fit.cv_residuals if c.fit.cv_residuals is not None else c.fit.residuals
+        gains.append(np.bincount(inv, weights=base.cv_residuals**2 - cr**2, minlength=g))
+    gm = np.array(gains)  # (candidates, cycles)
+    rng = np.random.default_rng(seed)
+    draws = rng.integers(0, g, size=(n_boot, g))
+    counts = np.zeros((n_boot, g))
+    for i in range(n_boot):
+        counts[i] = np.bincount(draws[i], minlength=g)
+    totals = gm @ counts.T  # (candidates, boots)
+    winners = np.argmax(totals, axis=0)
+    freq = np.bincount(winners, minlength=len(results)) / n_boot
+    return {c.term: float(f) for c, f in zip(results, freq) if f > 0}
+
+
 def diagnose(
     table: ObservationTable,
     model: Model | str | FitResult,
@@ -194,8 +400,12 @@ def diagnose(
     alpha: float = 0.01,
     params: Parameters | None = None,
     progress: Callable[[int, int, str], None] | None = None,
+    adaptive: bool = True,
+    mode: str = "guided",
+    n_bootstrap: int = N_BOOTSTRAP,
+    seed: int = 0,
 ) -> Diagnosis:
-    """Rank candidate effects fitted on top of ``model`` and test them against the noise floor.
+    """Test the model against the noise, rank the columns model-free, fit candidate effects, give a verdict.
 
     Parameters
     ----------
@@ -208,16 +418,50 @@ def diagnose(
     cv_folds
         Cross-validation folds grouped by test cycle.
     alpha
-        Family-wise significance level over the whole library.
+        Family-wise significance level: of the candidates (Bonferroni); the
+        noise test and the model-free ranking (Holm) each use ``alpha / 2``.
     params
         Starting values of the model (when ``model`` is not a fit).
     progress
         Called as ``progress(i, m, term)`` before each candidate.
+    adaptive
+        Also fit the shapes of :func:`adaptive_candidates` for the columns the
+        model-free ranking finds.
+    mode
+        ``"guided"`` (default): the generic shapes of the fixed library only
+        for the columns the model-free ranking finds significant (the paper's
+        terms and user terms always); ``"full"``: for every column.
+    n_bootstrap
+        Resamples of whole cycles for the stability of the choice (0: none).
+    seed
+        Seed of the permutations and the bootstrap (the result is deterministic).
 
     Returns
     -------
     Diagnosis
     """
+    # the arrays are small: BLAS threads only compete with each other (and with other processes)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _diagnose(table, model, library=library, extra_terms=extra_terms, cv_folds=cv_folds, alpha=alpha,
+                         params=params, progress=progress, adaptive=adaptive, mode=mode, n_bootstrap=n_bootstrap,
+                         seed=seed)
+
+
+def _diagnose(
+    table: ObservationTable,
+    model: Model | str | FitResult,
+    *,
+    library: Sequence[Term] | None = None,
+    extra_terms: Sequence[Term] = (),
+    cv_folds: int = 5,
+    alpha: float = 0.01,
+    params: Parameters | None = None,
+    progress: Callable[[int, int, str], None] | None = None,
+    adaptive: bool = True,
+    mode: str = "guided",
+    n_bootstrap: int = N_BOOTSTRAP,
+    seed: int = 0,
+) -> Diagnosis:
     folds = group_folds(table, cv_folds)
     if isinstance(model, FitResult):
         base = model
@@ -226,27 +470,38 @@ def diagnose(
         base = fit_model(m, table, params, folds=folds)
     if base.cv_residuals is None:
         base = fit_model(base.model, table, base.params, folds=folds, n_starts=1)
-    nf, src = noise_floor(table)
-    lib = list(library) if library is not None else candidate_library(table, base.model, extra=extra_terms)
+    noise = noise_test(table, base.residuals, base.n_free, alpha=alpha / 2)
+    nf = noise.value
+    variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf)
+    if mode not in ("guided", "full"):
+        raise ValueError(f"mode must be 'guided' or 'full', got {mode!r}")
+    if library is not None:
+        lib = list(library)
+    else:
+        flagged = [c for v in variables if v.significant for c in v.columns]
+        if not flagged and not noise.consistent:
+            # above the floor but no column significant: explore the two strongest anyway
+            flagged = [c for v in variables[:2] for c in v.columns]
+        lib = candidate_library(table, base.model, extra=extra_terms,
+                                generic=None if mode == "full" else flagged)
+    if adaptive:
+        names = {t.name for t in lib}
+        adapt = adaptive_candidates(table, base.model, variables, explore=not noise.consistent)
+        started = {t.columns[0] for t in adapt if isinstance(t, HarmonicRipple) and t.w0 is not None}
+        # a ripple started at the periodogram's peak makes the grid-started one redundant
+        lib = [t for t in lib if not (isinstance(t, HarmonicRipple) and t.w0 is None and t.columns[0] in started)]
+        lib += [t for t in adapt if t.name not in names]
     n = len(table)
     mcount = max(len(lib), 1)
     results: list[CandidateResult] = []
     for i, term in enumerate(lib):
         if progress is not None:
             progress(i, len(lib), term.name)
-        fit = fit_candidate(base, term, table, folds=folds)
-        dof = max(fit.n_free - base.n_free, 1)
-        ssr_gain = max(base.ssr - fit.ssr, 0.0)
-        resid_var = fit.ssr / max(n - fit.n_free, 1)
-        if math.isfinite(nf) and nf > 0:
-            s2 = max(nf**2, resid_var)
-            stat = ssr_gain / s2
-            p = float(stats.chi2.sf(stat, dof))
-        else:
-            stat = ssr_gain / dof / max(resid_var, 1e-300)
-            p = float(stats.f.sf(stat, dof, max(n - fit.n_free, 1)))
-        dbic = fit.bic - base.bic
-        sig = bool(p < alpha / mcount and fit.cv_rmse < base.cv_rmse and dbic < 0)
+        try:
+            fit = fit_candidate(base, term, table, folds=folds)
+        except ModelError:  # e.g. a parameter name clash with a term of the model
+            continue
+        stat, dof, p, sig = _significance(base, fit, nf, n, alpha, mcount)
         results.append(
             CandidateResult(
                 term=term.name,
@@ -254,7 +509,7 @@ def diagnose(
                 description=describe_term(term),
                 cv_rmse=fit.cv_rmse,
                 rmse=fit.rmse,
-                delta_bic=dbic,
+                delta_bic=fit.bic - base.bic,
                 delta_cv_rmse=fit.cv_rmse - base.cv_rmse,
                 statistic=stat,
                 dof=dof,
@@ -265,10 +520,44 @@ def diagnose(
             )
         )
     results.sort(key=lambda c: (not c.significant, _nan_last(c.cv_rmse), _nan_last(c.delta_bic)))
-    return Diagnosis(
-        model=base.spec, n=n, rmse=base.rmse, cv_rmse=base.cv_rmse, noise_floor=nf, noise_source=src,
-        alpha=alpha, candidates=results, base=base,
+    results = _prefer_simple(results)
+    diag = Diagnosis(
+        model=base.spec, n=n, rmse=base.rmse, cv_rmse=base.cv_rmse, noise=noise, alpha=alpha,
+        candidates=results, base=base, variables=variables,
     )
+    sig_vars = [v for v in variables if v.significant]
+    best = diag.best
+    if best is None:
+        diag.verdict = "nothing_missing" if noise.consistent and not sig_vars else "unexplained"
+        return diag
+    diag.suggestion = best.term
+    diag.after_noise = noise_test(table, best.fit.residuals, best.fit.n_free, alpha=alpha / 2)
+    diag.after_variables = residual_dependence(
+        table, best.fit.residuals, folds=folds, alpha=alpha / 2, seed=seed + 1, pairs=0, noise=nf)
+    at_floor = (best.cv_rmse <= FOUND_RATIO * nf) if math.isfinite(nf) and nf > 0 else diag.after_noise.consistent
+    left = any(v.significant for v in diag.after_variables)
+    diag.verdict = "found" if at_floor and not left else "unexplained"
+    if n_bootstrap > 0:
+        top = [c for c in results if c.significant][:6]
+        diag.stability = _bootstrap_choice(table, base, top, n_bootstrap, seed)
+    return diag
+
+
+#: Significant candidates within this factor of the best CV RMSE count as equally good; the one with
+#: the fewest parameters is put first (a one-standard-error rule).
+SIMPLER_WITHIN = 1.01
+
+
+def _prefer_simple(results: list[CandidateResult]) -> list[CandidateResult]:
+    """Among the significant candidates as good as the best (CV RMSE within SIMPLER_WITHIN), fewest parameters first."""
+    if not results or not results[0].significant:
+        return results
+    best = results[0].cv_rmse
+    tied = [c for c in results if c.significant and c.cv_rmse <= SIMPLER_WITHIN * best]
+    tied.sort(key=lambda c: (c.dof, _nan_last(c.cv_rmse)))
+    ids = {id(c) for c in tied}
+    rest = [c for c in results if id(c) not in ids]
+    return tied + rest
 
 
 def _nan_last(x: float) -> float:

@@ -32,7 +32,8 @@ from .diagnose import Diagnosis
 from .fit import FitResult
 from .history import History
 
-__all__ = ["plot_band_errors", "plot_error_fall", "plot_fit", "plot_residuals", "residual_columns", "write_report"]
+__all__ = ["plot_band_errors", "plot_dependence", "plot_error_fall", "plot_fit", "plot_residuals", "residual_columns",
+           "write_report"]
 
 Array = npt.NDArray[np.float64]
 
@@ -158,6 +159,50 @@ def plot_error_fall(path: Path, history: History) -> Path:
     return save_figure(fig, path)
 
 
+def plot_dependence(path: Path, table: ObservationTable, diagnosis: Diagnosis) -> Path:
+    """The verdict's evidence: each column's explained share (model-free), and the strongest column's residual.
+
+    Left: the cross-validated share of the residual each column (or pair)
+    explains, significant ones in red. Right: what the model misses (data
+    minus model) against the strongest single column, with the suggested
+    term's contribution when there is one.
+    """
+    fig, axes = new_figure(1, 2, size=(13.0, 4.6))
+    ax, axr = axes[0]
+    vs = diagnosis.variables[:12]
+    names = [v.name for v in vs]
+    ax.barh(np.arange(len(vs)), [100 * v.explained_share for v in vs],
+            color=["C3" if v.significant else "0.6" for v in vs])
+    ax.set_yticks(np.arange(len(vs)), names)
+    ax.invert_yaxis()
+    ax.set_xlabel("share of the residual explained, cross-validated [%] (red: significant)")
+    ax.set_title(f"verdict: {diagnosis.verdict}", fontsize=10)
+    ax.grid(alpha=0.3, axis="x")
+    single = next((v for v in diagnosis.variables if "," not in v.name), None)
+    base = diagnosis.base
+    if single is not None:
+        x = table[single.name]
+        axr.plot(x, -base.residuals, ".", ms=3, color="0.5", label=f"data - model ({_short(base.spec, 40)})")
+        best = diagnosis.best
+        if best is not None:
+            comp = best.fit.model.components(best.fit.params.valuesdict(),
+                                             **{c: table[c] for c in best.fit.model.variables})
+            contrib = comp[best.fit.model.terms[-1].name]
+            contrib = contrib - float(np.mean(contrib))
+            axr.plot(x, contrib, ".", ms=3, color="C3", label=f"{_short(best.term, 40)} (fitted)")
+        nf = diagnosis.noise.value
+        if math.isfinite(nf):
+            axr.axhspan(-nf, nf, color="0.88", zorder=0, label=f"noise floor ±{nf:.4f}")
+        axr.set_xlabel(single.name)
+        axr.set_ylabel("data - model [normalized]")
+        axr.set_title(f"{single.name}: {single.shape_hint}", fontsize=9)
+        axr.grid(alpha=0.3)
+        axr.legend(fontsize=7)
+    else:
+        axr.axis("off")
+    return save_figure(fig, path)
+
+
 def _table_html(headers: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
     def cell(v: object) -> str:
         if isinstance(v, (float, np.floating)):
@@ -228,12 +273,29 @@ def write_report(
                              [[s.column, s.r2_binned, s.corr] for s in residual_structure(table, fit.residuals)]),
                  _img(files["residuals.png"], "residuals against each variable")]
         if diagnosis is not None:
+            files["dependence.png"] = plot_dependence(tmp / "dependence.png", table, diagnosis)
+            nft = diagnosis.noise
             parts.append("<h2>Diagnosis: which effect is missing?</h2>")
+            parts.append(f"<p><b>verdict: {html.escape(diagnosis.verdict)}</b></p>")
             parts.append(f"<p>{html.escape(diagnosis.summary())}</p>")
+            parts.append(f"<p>noise floor {nft.value:.5f} ({html.escape(nft.method)}): p = {nft.p_value:.2g}, "
+                         f"{'consistent' if nft.consistent else 'NOT consistent'} with the noise</p>")
+            parts.append("<h3>Which columns explain the residual (model-free)</h3>")
             parts.append(_table_html(
-                ["term", "variables", "meaning", "CV RMSE", "ΔBIC", "p", "significant", "speed region"],
-                [[c.term, ", ".join(c.variables), c.description, c.cv_rmse, c.delta_bic, c.p_value,
-                  "yes" if c.significant else "no", c.speed_region_label] for c in diagnosis.candidates[:15]]))
+                ["variable", "explains", "p (adjusted)", "significant", "test", "shape"],
+                [[v.name, f"{100 * v.explained_share:.0f} %", v.p_value, "yes" if v.significant else "no",
+                  v.test, v.shape_hint] for v in diagnosis.variables[:15]]))
+            parts.append(_img(files["dependence.png"], "explained share per column; the strongest column's residual"))
+            parts.append("<h3>Candidate terms</h3>")
+            parts.append(_table_html(
+                ["term", "variables", "meaning", "CV RMSE", "x floor", "ΔBIC", "p", "significant", "speed region"],
+                [[c.term, ", ".join(c.variables), c.description, c.cv_rmse, diagnosis.noise.ratio(c.cv_rmse),
+                  c.delta_bic, c.p_value, "yes" if c.significant else "no", c.speed_region_label]
+                 for c in diagnosis.candidates[:15]]))
+            if diagnosis.stability:
+                parts.append("<p>chosen in bootstrap resamples by cycle: " + html.escape(", ".join(
+                    f"{t} {100 * f:.0f} %" for t, f in sorted(diagnosis.stability.items(), key=lambda kv: -kv[1])))
+                    + "</p>")
         if "error_fall.png" in files and history is not None:
             parts.append("<h2>Model versions</h2>")
             parts.append(_table_html(["version", "model", "RMSE", "CV RMSE", "BIC", "noise floor"],
