@@ -23,6 +23,7 @@ setup(
     maintainer_email="maintainers@jointwear.dev",
     description="Robot-joint wear diagnosis from static friction (ROS 2 Jazzy node suite).",
     license="Apache-2.0",
+    extras_require={"fleet": ["dask[distributed]"]},  # jointwear fleet reprocess (Dask)
     entry_points={
         "console_scripts": [
             "jointwear = jointwear_ros.cli:main",
