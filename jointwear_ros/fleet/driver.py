@@ -44,6 +44,7 @@ class ReprocessReport:
     workers: int = 0
     scheduler: str = ""
     bag_seconds: list[float] = field(default_factory=list)
+    bag_cpu_seconds: list[float] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -256,6 +257,7 @@ def reprocess(
                 continue
             report.processed += 1
             report.bag_seconds.append(outcome.seconds)
+            report.bag_cpu_seconds.append(outcome.cpu_seconds)
             pending.append(outcome)
             if len(pending) >= batch or time.perf_counter() - last_flush >= flush_seconds:
                 flush()
