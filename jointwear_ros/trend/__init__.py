@@ -1,0 +1,39 @@
+"""Wear trend and time to alarm per joint (pure numpy/scipy; no ROS, no database)."""
+
+from __future__ import annotations
+
+from .core import (
+    DAY,
+    LEVEL_NAMES,
+    FilterOutput,
+    TimeToAlarm,
+    TrendConfig,
+    TrendResult,
+    TrendStates,
+    analyze_joint,
+    collapse_revisions,
+    crossing_quantiles,
+    filter_bank,
+    kalman_llt,
+    last_segment,
+    rts_smooth,
+    trend_states,
+)
+
+__all__ = [
+    "DAY",
+    "LEVEL_NAMES",
+    "FilterOutput",
+    "TimeToAlarm",
+    "TrendConfig",
+    "TrendResult",
+    "TrendStates",
+    "analyze_joint",
+    "collapse_revisions",
+    "crossing_quantiles",
+    "filter_bank",
+    "kalman_llt",
+    "last_segment",
+    "rts_smooth",
+    "trend_states",
+]
