@@ -16,10 +16,13 @@ software version; or an explicit label.
 
 **Identity of a bag's estimates** (:func:`bag_identity`): the joint is the
 ``joint_name`` of the cycle (the observer's configured joint, from the bag's
-recorded ``/parameter_events`` or the config file); the robot is the
-wear_estimator's recorded ``robot`` parameter when it has one, else its
-``hardware_id`` (``cell7/robot2``), else the name of the directory holding
-the bag (the recorder's per-robot output directory).
+recorded ``/parameter_events`` or the config file); the robot is, in this
+order, the ``robot`` parameter the cell's ``wear_trend`` node declared (as
+recorded in the bag's ``/parameter_events``; the live history uses it too),
+the wear_estimator's recorded ``robot`` or ``hardware_id`` parameter, or the
+name of the directory holding the bag (a per-robot archive directory). The
+hardware id is the ``hardware_id`` of ``wear_trend``, else of the
+wear_estimator, else ``robot/joint`` (as ``jointwear history import``).
 
 Pure of ROS: rosbags reads the bag; no rclpy.
 """
@@ -153,16 +156,19 @@ def default_node_params() -> tuple[dict[str, Any], dict[str, Any]]:
     return out[0], out[1]
 
 
-def bag_identity(monitor_params: dict[str, Any], bag: str | os.PathLike[str]) -> tuple[str, str]:
-    """``(robot, hardware_id)`` of a bag's estimates (see the module docstring).
+def bag_identity(monitor_params: dict[str, Any], bag: str | os.PathLike[str],
+                 trend_params: dict[str, Any] | None = None) -> tuple[str, str]:
+    """``(robot, hardware_id)`` of a bag's estimates (see the module docstring; ``""`` hardware id:
+    ``robot/joint``).
 
     >>> bag_identity({"hardware_id": "cell7/robot2"}, "/bags/x")
     ('cell7/robot2', 'cell7/robot2')
-    >>> bag_identity({"robot": "r9", "hardware_id": "hw"}, "/bags/x"), bag_identity({}, "/bags/robot_3/n1")
+    >>> bag_identity({"hardware_id": "hw"}, "/bags/x", {"robot": "r9"}), bag_identity({}, "/bags/robot_3/n1")
     (('r9', 'hw'), ('robot_3', ''))
     """
-    hw = str(monitor_params.get("hardware_id", "") or "")
-    robot = str(monitor_params.get("robot", "") or "") or hw or Path(bag).resolve().parent.name
+    hw = str((trend_params or {}).get("hardware_id", "") or "") or str(monitor_params.get("hardware_id", "") or "")
+    robot = (str((trend_params or {}).get("robot", "") or "") or str(monitor_params.get("robot", "") or "")
+             or hw or Path(bag).resolve().parent.name)
     return robot, hw
 
 
@@ -223,7 +229,10 @@ def reprocess_bag(
             overrides["method"] = method
         rep = replay_bag(path, observer_params, monitor_params, use_recorded_params=use_recorded_params,
                          overrides=overrides or None)
-        robot, hw = bag_identity(rep.monitor_params, path)
+        from ..io.bags import read_messages, recorded_node_params
+
+        events = [m.msg for m in read_messages(path, topics=["/parameter_events"])] if use_recorded_params else []
+        robot, hw = bag_identity(rep.monitor_params, path, recorded_node_params(events, "wear_trend"))
         p_name = str(rep.monitor_params.get("params", params or ""))
         newest: list[Any] = []
         for c in rep.cycles:
@@ -240,7 +249,7 @@ def reprocess_bag(
             if not (math.isfinite(wear) and math.isfinite(std) and std > 0):
                 continue  # no usable estimate for this cycle (the monitor said why in its message)
             out.records.append({
-                "robot": robot, "joint": str(c.joint_name), "hardware_id": hw or str(c.joint_name),
+                "robot": robot, "joint": str(c.joint_name), "hardware_id": hw or f"{robot}/{c.joint_name}",
                 "cycle_id": int(c.cycle_id), "time": float(c.stamp), "wear": wear, "wear_std": std,
                 "temperature": _finite_or_nan(r.temperature), "method": str(r.method), "params": p_name,
                 "software_version": software_version, "bag": path, "analysis_version": v, "source": "reprocess",

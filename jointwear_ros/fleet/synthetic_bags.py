@@ -5,9 +5,10 @@ Each bag is a rosbag2 directory (metadata v9, MCAP storage) as the
 a second, still one), ``/test_cycle/status`` and ``/parameter_events`` with
 the parameters the live ``friction_observer`` and ``wear_estimator`` declared
 (``joint_name``, ``hardware_id``, ``method``, ``params``, ...). Replay (and
-so ``jointwear fleet reprocess``) reads the robot from the estimator's
-``hardware_id`` and the joint from its ``joint_name``, exactly as from a real
-cell's bag (see :func:`jointwear_ros.fleet.reanalysis.bag_identity`).
+so ``jointwear fleet reprocess``) reads the robot from the ``robot`` parameter
+of the cell's ``wear_trend`` node and the joint from the observer's
+``joint_name``, exactly as from a real cell's bag (see
+:func:`jointwear_ros.fleet.reanalysis.bag_identity`).
 
 The samples come from :func:`~jointwear_ros.observer.synthetic.synthetic_cycle`
 (the friction model with wear, AR(1) torque noise); the time stamps are wall
@@ -129,14 +130,16 @@ def write_cycle_bag(path: str | os.PathLike[str], spec: BagSpec, cycle: Syntheti
     p = Path(path)
     t_start = float(cyc.stamps[0]) - 1.0
     params_obs = {"joint_name": spec.joint, "gear_ratio": 100.0, "torque_scale": 200.0}
-    params_est = {"joint_name": spec.joint, "hardware_id": spec.robot, "method": spec.method, "params": spec.params,
-                  "seed": 0}
+    params_est = {"joint_name": spec.joint, "hardware_id": f"{spec.robot}/{spec.joint}", "method": spec.method,
+                  "params": spec.params, "seed": 0}
+    params_trend = {"robot": spec.robot, "db_url": "wear_history.db", "hardware_id": ""}
     js_type, st_type, pe_type = ("sensor_msgs/msg/JointState", "jointwear_msgs/msg/TestCycleStatus",
                                  "rcl_interfaces/msg/ParameterEvent")
     other = "joint_0" if spec.joint != "joint_0" else "joint_9"
     events: list[tuple[float, int, Any]] = [
         (t_start, 0, _param_event(ts, t_start, "friction_observer", params_obs)),
         (t_start + 0.001, 0, _param_event(ts, t_start + 0.001, "wear_estimator", params_est)),
+        (t_start + 0.002, 0, _param_event(ts, t_start + 0.002, "wear_trend", params_trend)),
     ]
     for st in cyc.statuses:
         t, cid, state, phase, speed, done, total, centre, hw, joint = st
