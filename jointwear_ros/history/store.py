@@ -10,7 +10,7 @@ Tables
 ------
 ``estimates``
     robot, joint, hardware_id, cycle_id, time_ns (the estimate's stamp, ns
-    since the epoch), wear, wear_std, temperature (°C, NaN/NULL when not
+    since the epoch, rounded to the microsecond), wear, wear_std, temperature (°C, NaN/NULL when not
     estimated), method, params (parameter set), software_version, bag (where
     it was read from; ``""`` live), analysis_version (``"live"`` for the
     estimates the cell made; a re-estimation with another model writes its
@@ -118,7 +118,9 @@ class EstimateRecord:
 
     @property
     def time_ns(self) -> int:
-        return int(round(self.time * 1e9))
+        """The stored time: ns since the epoch, rounded to the microsecond (a float of seconds since the epoch
+        keeps microseconds exactly, so the identity survives any float round trip: CSV, JSON, messages)."""
+        return int(round(self.time * 1e6)) * 1000
 
     def check(self, where: str = "estimate") -> EstimateRecord:
         """Raise :class:`InputDataError` unless the record is storable (names, finite wear, std > 0)."""
@@ -149,7 +151,7 @@ class MaintenanceEvent:
 
     @property
     def time_ns(self) -> int:
-        return int(round(self.time * 1e9))
+        return int(round(self.time * 1e6)) * 1000
 
     def check(self, where: str = "maintenance event") -> MaintenanceEvent:
         if not self.robot or not self.joint or not self.kind:
