@@ -70,7 +70,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 
 def _stamp(seconds: float) -> TimeMsg:
     t = TimeMsg()
-    ns = int(round(seconds * 1e9))
+    ns = round(seconds * 1e9)
     t.sec, t.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
     return t
 
