@@ -33,6 +33,7 @@ setup(
             "friction_observer = jointwear_ros.nodes.friction_observer:main",
             "wear_estimator = jointwear_ros.nodes.wear_estimator:main",
             "recorder = jointwear_ros.nodes.recorder:main",
+            "wear_trend = jointwear_ros.nodes.wear_trend:main",
         ],
     },
 )

@@ -113,7 +113,7 @@ class JointHistory:
     wear_std: Array = field(default_factory=lambda: np.zeros(0))
     true: Array = field(default_factory=lambda: np.zeros(0))
     temperature: Array = field(default_factory=lambda: np.zeros(0))
-    cycle_ids: Array = field(default_factory=lambda: np.zeros(0, int))
+    cycle_ids: NDArray[np.int_] = field(default_factory=lambda: np.zeros(0, int))
 
     def true_wear(self, day: Array | float) -> Array:
         """True wear at ``day`` (days since the fleet's start)."""

@@ -10,7 +10,7 @@ Tables
 ------
 ``estimates``
     robot, joint, hardware_id, cycle_id, time_ns (the estimate's stamp, ns
-    since the epoch), wear, wear_std, temperature (°C, NaN/NULL when not
+    since the epoch, rounded to the microsecond), wear, wear_std, temperature (°C, NaN/NULL when not
     estimated), method, params (parameter set), software_version, bag (where
     it was read from; ``""`` live), analysis_version (``"live"`` for the
     estimates the cell made; a re-estimation with another model writes its
@@ -118,7 +118,9 @@ class EstimateRecord:
 
     @property
     def time_ns(self) -> int:
-        return int(round(self.time * 1e9))
+        """The stored time: ns since the epoch, rounded to the microsecond (a float of seconds since the epoch
+        keeps microseconds exactly, so the identity survives any float round trip: CSV, JSON, messages)."""
+        return round(self.time * 1e6) * 1000
 
     def check(self, where: str = "estimate") -> EstimateRecord:
         """Raise :class:`InputDataError` unless the record is storable (names, finite wear, std > 0)."""
@@ -149,7 +151,7 @@ class MaintenanceEvent:
 
     @property
     def time_ns(self) -> int:
-        return int(round(self.time * 1e9))
+        return round(self.time * 1e6) * 1000
 
     def check(self, where: str = "maintenance event") -> MaintenanceEvent:
         if not self.robot or not self.joint or not self.kind:
@@ -250,9 +252,10 @@ class HistoryStore:
     url : ``sqlite:///path`` (default kind; the file and its directory are created), ``sqlite://``
         (in memory), ``postgresql+psycopg://...`` or ``postgresql://...``, or a bare file path.
     create : create/migrate the schema to :data:`SCHEMA_VERSION` (else it must be current).
+    migrate_to : with ``create``, stop at this schema version (tests of migrations).
     """
 
-    def __init__(self, url: str | Path, *, create: bool = True) -> None:
+    def __init__(self, url: str | Path, *, create: bool = True, migrate_to: int | None = None) -> None:
         self.url = normalize_url(url)
         try:
             if self.url.startswith("sqlite"):
@@ -265,7 +268,7 @@ class HistoryStore:
                 self.engine = create_engine(self.url, pool_pre_ping=True)
             self.dialect = self.engine.dialect.name
             if create:
-                self.migrate()
+                self.migrate(migrate_to)
             elif self.schema_version() != SCHEMA_VERSION:
                 raise HistoryError(f"{self.display_url}: schema version {self.schema_version()}, "
                                    f"this software needs {SCHEMA_VERSION}; open it with create=True to migrate")
@@ -307,8 +310,9 @@ class HistoryStore:
                 with self.engine.begin() as conn:
                     MIGRATIONS[version](conn)
                     ins = self._insert(schema_version_t).values(version=version, applied_ns=_time.time_ns())
-                    res = conn.execute(ins.on_conflict_do_nothing(index_elements=["version"]))
-                    if res.rowcount == 0:  # another process applied it meanwhile
+                    res = conn.execute(ins.on_conflict_do_nothing(index_elements=["version"])
+                                       .returning(schema_version_t.c.version))
+                    if not res.fetchall():  # another process applied it meanwhile
                         continue
             except SQLAlchemyError as exc:
                 if self.schema_version() >= version:  # lost a race on CREATE TABLE: the other one did it
@@ -344,15 +348,24 @@ class HistoryStore:
         if not rows:
             return 0
         stmt = self._insert(estimates_t).on_conflict_do_nothing(
-            index_elements=["robot", "joint", "analysis_version", "cycle_id", "time_ns"])
+            index_elements=["robot", "joint", "analysis_version", "cycle_id", "time_ns"]).returning(estimates_t.c.id)
+        # one lock order for every writer: concurrent transactions inserting overlapping keys in different
+        # orders deadlock on PostgreSQL's unique index (seen with 4 writers); sorted, they queue instead
+        rows.sort(key=lambda d: (d["robot"], d["joint"], d["analysis_version"], d["cycle_id"], d["time_ns"]))
         n = 0
-        try:
-            with self.engine.begin() as conn:
-                for start in range(0, len(rows), 500):
-                    for row in rows[start:start + 500]:  # per-row rowcount: executemany does not report it everywhere
-                        n += int(conn.execute(stmt.values(**row)).rowcount or 0)
-        except SQLAlchemyError as exc:
-            raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
+        for attempt in range(5):
+            n = 0
+            try:
+                with self.engine.begin() as conn:
+                    for row in rows:  # RETURNING says whether the row was new, on every dialect
+                        n += len(conn.execute(stmt.values(**row)).fetchall())
+                break
+            except OperationalError as exc:  # deadlock / serialization failure / locked: retry the transaction
+                if attempt == 4 or not _retryable(exc):
+                    raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
+                _time.sleep(0.05 * (attempt + 1))
+            except SQLAlchemyError as exc:
+                raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
         return n
 
     def add_maintenance(self, ev: MaintenanceEvent) -> bool:
@@ -360,10 +373,11 @@ class HistoryStore:
         ev.check()
         stmt = self._insert(maintenance_t).values(robot=ev.robot, joint=ev.joint, time_ns=ev.time_ns, kind=ev.kind,
                                                   note=ev.note)
-        stmt = stmt.on_conflict_do_nothing(index_elements=["robot", "joint", "time_ns", "kind"])
+        stmt = stmt.on_conflict_do_nothing(index_elements=["robot", "joint", "time_ns", "kind"]).returning(
+            maintenance_t.c.id)
         try:
             with self.engine.begin() as conn:
-                return bool(conn.execute(stmt).rowcount)
+                return bool(conn.execute(stmt).fetchall())
         except SQLAlchemyError as exc:
             raise HistoryError(f"{self.display_url}: cannot write the maintenance event: {_one_line(exc)}") from None
 
@@ -451,6 +465,11 @@ def _record(r: Any) -> EstimateRecord:
         software_version=r["software_version"], bag=r["bag"], analysis_version=r["analysis_version"],
         source=r["source"],
     )
+
+
+def _retryable(exc: BaseException) -> bool:
+    text_ = str(getattr(exc, "orig", None) or exc).lower()
+    return any(k in text_ for k in ("deadlock", "could not serialize", "database is locked", "busy"))
 
 
 def _one_line(exc: BaseException) -> str:

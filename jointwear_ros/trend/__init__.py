@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from .core import (
     DAY,
+    ERROR,
     LEVEL_NAMES,
+    OK,
+    WARN,
     FilterOutput,
     TimeToAlarm,
     TrendConfig,
@@ -22,7 +25,10 @@ from .core import (
 
 __all__ = [
     "DAY",
+    "ERROR",
     "LEVEL_NAMES",
+    "OK",
+    "WARN",
     "FilterOutput",
     "TimeToAlarm",
     "TrendConfig",

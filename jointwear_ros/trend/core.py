@@ -69,7 +69,10 @@ from ..errors import InputDataError
 
 __all__ = [
     "DAY",
+    "ERROR",
     "LEVEL_NAMES",
+    "OK",
+    "WARN",
     "FilterOutput",
     "TimeToAlarm",
     "TrendConfig",
