@@ -188,7 +188,6 @@ def reprocess(
     version = analysis_version(params, method, software_version, label)
     ensure_ledger(store)
     done = done_fingerprints(store, version)
-    count_before = store.count(version)
     todo: list[tuple[str, str]] = []
     failed: list[dict[str, str]] = []
     skipped = 0
@@ -227,7 +226,7 @@ def reprocess(
     def flush() -> None:
         nonlocal last_flush
         if pending:
-            store.add_estimates([EstimateRecord(**r) for o in pending for r in o.records])
+            report.estimates += store.add_estimates([EstimateRecord(**r) for o in pending for r in o.records])
             mark_done(store, version, pending)
             pending.clear()
         last_flush = time.perf_counter()
@@ -271,8 +270,6 @@ def reprocess(
             if close is not None:
                 close()
     report.failed.sort(key=lambda f: f["bag"])
-    # new rows, counted in the store: the insert's rowcount is not reported by every driver (psycopg: -1)
-    report.estimates = store.count(version) - count_before
     report.seconds = time.perf_counter() - t0
     return report
 

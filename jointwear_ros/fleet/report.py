@@ -5,9 +5,10 @@
 - robots ranked by their most urgent joint, then every joint ranked by time to
   alarm (ERROR first, then WARN, then the shortest median time to alarm; joints
   with no growth detected last), with wear ± std, rate and the 90 % interval;
-- each joint's trend: its estimates with ±2 std bars, the trend line from the
-  current wear and rate, the alarm level, and the predicted crossing with its
-  90 % interval;
+- each joint's trend (:func:`jointwear_ros.trend.report.plot_trend`, as
+  ``jointwear trend --plot``): its estimates with ±2 std bars, maintenance
+  events, the smoothed trend and the forecast with their 90 % bands, the alarm
+  level, and the predicted crossing with its 90 % interval;
 - when two analysis versions are given, the joints whose level or time to alarm
   changed between them, with the size of the change, and a plot of the wear
   before against after.
@@ -27,19 +28,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..trend.report import plot_trend, rank_key
 from .compare import JointChange, compare_versions
 
-__all__ = ["newest_versions", "rank_key", "write_report"]
-
-_LEVEL_ORDER = {"ERROR": 0, "WARN": 1, "OK": 2}
-
-
-def rank_key(t: Any) -> tuple[int, float, str, str]:
-    """Sort key of a trend: ERROR, WARN, OK; then the median time to alarm (none = last)."""
-    tta = getattr(t, "time_to_alarm", None)
-    days = math.inf if tta is None or not math.isfinite(float(tta.median)) else float(tta.median)
-    return _LEVEL_ORDER.get(t.level_name, 3), days, t.robot, t.joint
-
+__all__ = ["newest_versions", "write_report"]
 
 def newest_versions(store: Any) -> list[str]:
     """The store's analysis versions, oldest first by when their newest estimate was written."""
@@ -78,41 +70,6 @@ def _tta_text(t: Any) -> str:
     return f"{_fmt(tta.median, '.0f')} d ({_fmt(tta.lo90, '.0f')}–{_fmt(tta.hi90, '.0f')})"
 
 
-def _plot_joint(t: Any, path: Path, alarm: float) -> None:
-    import numpy as np
-
-    from ..plots import new_figure, save_figure
-
-    fig, ax = new_figure(size=(7.0, 3.2))
-    a = ax[0][0]
-    times = np.asarray(getattr(t, "times", []), float)
-    if times.size:
-        t0 = times[0]
-        d = (times - t0) / 86400.0
-        a.errorbar(d, t.wears, yerr=2 * np.asarray(t.wear_stds), fmt="o", ms=3, lw=0.8, color="C0",
-                   label="estimate ± 2 std")
-        last = d[-1]
-        if math.isfinite(t.wear) and math.isfinite(t.rate_per_day):
-            tta = t.time_to_alarm
-            horizon = 30.0
-            if tta is not None and math.isfinite(tta.hi90):
-                horizon = max(horizon, min(tta.hi90, 3650.0) * 1.1)
-            x = np.linspace(last, last + horizon, 50)
-            y = t.wear + t.rate_per_day * (x - last)
-            a.plot(x, y, "--", color="C1", lw=1.2, label=f"trend {t.rate_per_day:+.3f}/day")
-            a.errorbar([last], [t.wear], yerr=[2 * t.wear_std], fmt="s", color="C1", ms=4)
-            if tta is not None and math.isfinite(tta.median):
-                lo, hi = last + tta.lo90, last + (tta.hi90 if math.isfinite(tta.hi90) else horizon)
-                a.axvspan(lo, hi, color="C3", alpha=0.15, label="90 % interval of the crossing")
-                a.axvline(last + tta.median, color="C3", lw=1.0)
-        a.set_xlabel(f"days since {_dt.datetime.fromtimestamp(t0, _dt.UTC):%Y-%m-%d}")
-    a.axhline(alarm, color="C3", lw=1.0, ls=":", label=f"alarm {alarm:g}")
-    a.set_ylabel("wear")
-    a.set_title(f"{t.robot} / {t.joint}: {t.level_name}", fontsize=10)
-    a.legend(fontsize=7, loc="upper left")
-    save_figure(fig, path)
-
-
 def _plot_changes(changes: Sequence[JointChange], path: Path, v_from: str, v_to: str) -> None:
     from ..plots import new_figure, save_figure
 
@@ -148,6 +105,7 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
     """
     from ..errors import InputDataError
     from ..history import trends_from_store
+    from ..trend import TrendConfig
 
     versions = newest_versions(store)
     if not versions:
@@ -161,8 +119,10 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
     version = version or versions[-1]
     if from_version is None and len(versions) >= 2:
         from_version, to_version = versions[-2], versions[-1]
-    alarm = float(getattr(cfg, "alarm", 35.0)) if cfg is not None else 35.0
+    cfg = cfg if cfg is not None else TrendConfig()
+    alarm = float(cfg.alarm)
     trends = sorted(trends_from_store(store, cfg, analysis_version=version), key=rank_key)
+    history = store.history(version)
     changes: list[JointChange] = []
     if from_version is not None and to_version is not None:
         changes = compare_versions(store, from_version, to_version, cfg)
@@ -223,7 +183,9 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
     parts.append("<h2>Every joint's trend</h2>")
     for t in trends:
         slug = _slug(t.robot, t.joint)
-        _plot_joint(t, img / f"{slug}.png", alarm)
+        recs, events = history[(t.robot, t.joint)]
+        plot_trend(img / f"{slug}.png", t, cfg, [r.time for r in recs], [r.wear for r in recs],
+                   [r.wear_std for r in recs], [e.time for e in events])
         parts.append(f"<div class=joint id='{slug}'><h3>{e(t.robot)} / {e(t.joint)}: {t.level_name}</h3>"
                      f"<p>{e(t.message)}</p><img src='img/{slug}.png' alt='trend of {e(t.robot)} {e(t.joint)}'>"
                      "</div>")
