@@ -144,14 +144,20 @@ def bench_queries(url: str, label: str) -> dict[str, float]:
     t = time.perf_counter()
     hist = store.history(version)
     all_q = time.perf_counter() - t
-    t = time.perf_counter()
-    trends = trends_from_store(store, analysis_version=version)
-    all_t = time.perf_counter() - t
+    # the trend of one joint (its query + the trend core), over 100 joints; the fleet's figure is 1,000x that
+    per, cpu = [], []
+    for r, j in rng.sample(joints, min(100, len(joints))):
+        t, c = time.perf_counter(), time.process_time()
+        (_tr,) = trends_from_store(store, robot=r, joint=j, analysis_version=version)
+        per.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    all_t = statistics.median(per) * len(joints)
     store.close()
     print(f"{label}: loaded {JOINTS * NIGHTS} estimates in {load_s:.1f} s (bulk); store.add_estimates "
           f"{add_rate:.0f} rows/s; {len(hist)} joints")
     return {"one_joint_ms": 1e3 * statistics.median(one), "fleet_query_s": all_q, "fleet_trend_s": all_t,
-            "joints": float(len(trends)), "add_rate": add_rate}
+            "trend_ms": 1e3 * statistics.median(per), "trend_cpu_ms": 1e3 * statistics.median(cpu),
+            "joints": float(len(joints)), "add_rate": add_rate}
 
 
 def postgres_url(root: Path) -> tuple[str | None, object]:
@@ -197,11 +203,12 @@ def main() -> int:
         pg, server = postgres_url(root)
         if pg is not None:
             q["PostgreSQL"] = bench_queries(pg, "PostgreSQL")
-        print(f"{'store':>11} {'one joint ms':>13} {'all joints query s':>19} {'all trends s':>13} "
-              f"{'add_estimates rows/s':>21}")
+        print(f"{'store':>11} {'one joint query ms':>19} {'all joints query s':>19} {'one trend ms':>13} "
+              f"{'(CPU ms)':>9} {'all trends s':>13} {'add_estimates rows/s':>21}")
         for k, r in q.items():
-            print(f"{k:>11} {r['one_joint_ms']:>13.2f} {r['fleet_query_s']:>19.2f} {r['fleet_trend_s']:>13.2f} "
-                  f"{r['add_rate']:>21.0f}")
+            print(f"{k:>11} {r['one_joint_ms']:>19.2f} {r['fleet_query_s']:>19.2f} {r['trend_ms']:>13.1f} "
+                  f"{r['trend_cpu_ms']:>9.1f} {r['fleet_trend_s']:>13.1f} {r['add_rate']:>21.0f}")
+        print("(one trend = its query + the trend core, median of 100 joints; all trends = the number of joints x that)")
 
         # projection
         eff = min(1.0, rp[2]["util"])
@@ -212,13 +219,16 @@ def main() -> int:
         wall_min = n * c / (workers * eff) / 60.0
         year_h = NIGHTS * n * c / (workers * eff) / 3600.0
         fp_min = n * cost["full_fp"] / 60.0
-        sq = q["SQLite"]
+        sq = q.get("PostgreSQL", q["SQLite"])
         rows_min = n / sq["add_rate"] / 60.0
+        trend_h = n * sq["trend_cpu_ms"] / 1e3 / 3600.0
         print(f"\nprojection: nightly re-analysis of {ROBOTS_PLANT:,} robots x {JOINTS_PER_ROBOT} joints = {n:,} "
               f"full-size joint cycles at {c:.3f} CPU-s each = {core_h:.1f} core-hours; on "
               f"{CLUSTER_NODES} nodes x {CORES_PER_NODE} cores ({workers} workers) with the workers "
               f"in their tasks {eff:.0%} of the time (measured with 2): {wall_min:.1f} min wall; driver fingerprints {fp_min:.1f} min (one core, "
-              f"before submitting); writing {n:,} estimates at the measured per-row rate {rows_min:.1f} min. "
+              f"before submitting); writing {n:,} estimates at the measured per-row rate of "
+              f"{'PostgreSQL' if 'PostgreSQL' in q else 'SQLite'} {rows_min:.1f} min; the trends of the {n:,} joints "
+              f"after it {trend_h:.1f} core-hours ({60 * trend_h / (workers * eff):.1f} min if spread on the cluster). "
               f"A full-year re-analysis after a model change ({NIGHTS} nights): {year_h:.1f} h wall on that cluster.")
     finally:
         if server is not None:

@@ -164,7 +164,7 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
         n_changed = sum(c.changed for c in changes)
         _plot_changes(changes, img / "changes.png", str(from_version), str(to_version))
         parts.append(f"<h2>Changed between <code>{e(str(from_version))}</code> and <code>{e(str(to_version))}</code>"
-                     f"</h2><p>{n_changed} of {len(changes)} joints changed level or time to alarm.</p>"
+                     f"</h2><p>{n_changed} of {len(changes)} joints changed (level, time to alarm, or wear).</p>"
                      "<img src='img/changes.png' alt='wear before and after'>"
                      "<table><tr><th class=l>robot</th><th class=l>joint</th><th class=l>level</th><th>wear before"
                      "</th><th>after</th><th>change</th><th>change / std</th><th>days to alarm before</th>"
