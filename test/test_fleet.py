@@ -224,3 +224,23 @@ def test_scheduler_that_is_not_there_is_a_one_line_error(fleet, tmp_path, capsys
                    "tcp://127.0.0.1:9", "--quiet"])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "cannot connect to a Dask scheduler" in err
+
+
+def test_progress_bar_counts_done_failed_and_skipped_bags():
+    import io
+
+    from jointwear_ros.fleet import Progress
+
+    out = io.StringIO()
+    bar = Progress(20, stream=out)
+    bar.update(skipped=5)
+    for _ in range(14):
+        bar.update(done=1)
+    bar.update(failed=1)
+    bar.close()
+    lines = out.getvalue().splitlines()
+    assert 2 <= len(lines) <= 11  # a line per tenth of the work off a terminal, and the last
+    assert "20/20 bags: 14 done, 1 failed, 5 skipped" in lines[-1] and "bags/s" in lines[-1]
+    quiet = io.StringIO()
+    Progress(3, stream=quiet, enabled=False).update(done=3)
+    assert quiet.getvalue() == ""

@@ -146,13 +146,17 @@ def bag_fingerprint(path: str | os.PathLike[str]) -> str:
 
 def default_node_params() -> tuple[dict[str, Any], dict[str, Any]]:
     """The friction_observer and wear_estimator parameters of the config files (as ``jointwear replay``)."""
-    from ..cli.replay_cmd import config_path  # a plain path helper; no argparse state
+    import sys
+
     from ..io.bags import node_params_from_yaml
 
     out = []
     for name in ("friction_observer", "wear_estimator"):
-        f = config_path(f"{name}.yaml")
-        out.append(node_params_from_yaml(f, name) if f.is_file() else {})
+        # the source tree's config/, else the installed share directory (as `jointwear replay`)
+        candidates = [Path(__file__).resolve().parents[2] / "config" / f"{name}.yaml",
+                      Path(sys.prefix) / "share" / "jointwear_ros" / "config" / f"{name}.yaml"]
+        f = next((c for c in candidates if c.is_file()), None)
+        out.append(node_params_from_yaml(f, name) if f is not None else {})
     return out[0], out[1]
 
 
