@@ -43,6 +43,7 @@ def scheduler():
     from dask.distributed import Client, LocalCluster
 
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # no fixed port 8787
                            silence_logs=logging.ERROR)
     client = Client(cluster)
     yield cluster.scheduler_address
@@ -90,9 +91,10 @@ def test_reprocess_of_20_bags_gives_20_estimates_once_and_reports_the_broken_bag
 def test_an_interrupted_reprocess_resumes_where_it_stopped(fleet, scheduler, tmp_path, capsys):
     root, _, bags, _broken = fleet
     url = f"sqlite:///{tmp_path / 'h.db'}"
-    first = _run(["fleet", "reprocess", *map(str, bags[:7]), "--db", url, "--scheduler", scheduler, "--json",
-                  "--quiet"], capsys)
-    assert first["estimates"] == 7 and first["failed"] == []
+    # the first run on a LocalCluster of its own (the default), the second on the module's cluster
+    first = _run(["fleet", "reprocess", *map(str, bags[:7]), "--db", url, "--workers", "2", "--json", "--quiet"],
+                 capsys)
+    assert first["estimates"] == 7 and first["failed"] == [] and first["workers"] == 2
     rest = _run(["fleet", "reprocess", str(root / "bags"), "--db", url, "--scheduler", scheduler, "--json"], capsys)
     assert rest["bags"] == 21 and rest["skipped"] == 7 and rest["estimates"] == 13 and len(rest["failed"]) == 1
 

@@ -142,6 +142,7 @@ def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Ca
     if workers < 1:
         raise InputDataError(f"--workers {workers}: must be at least 1")
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # no fixed port 8787
                            silence_logs=logging.ERROR)
     client = Client(cluster)
 
