@@ -414,18 +414,21 @@ def collapse_revisions(times: Array, cycle_ids: Array, window_s: float) -> Array
 
 
 def last_segment(times: Array, maintenance_times: Sequence[float]) -> tuple[int, float, int]:
-    """(first index of the current segment, its start time, number of segments) for times ascending."""
+    """(first index of the current segment, its start time, number of segments) for times ascending.
+
+    The current segment starts at the last maintenance event; an event after the last estimate gives
+    an empty current segment (the old trend no longer applies).
+
+    >>> last_segment(np.arange(10.0), [4.5]), last_segment(np.arange(10.0), [20.0])
+    ((5, 4.5, 2), (10, 20.0, 2))
+    """
     t = np.asarray(times, float)
     ev = sorted(float(x) for x in maintenance_times)
-    segs = 1 + sum(1 for e in ev if len(t) and t[0] < e)
-    start = -math.inf
-    for e in ev:
-        if len(t) == 0 or e <= t[-1]:
-            start = e
-    if not math.isfinite(start):
-        return 0, float(t[0]) if len(t) else math.nan, segs
-    first = int(np.searchsorted(t, start, side="left"))
-    return first, start, segs
+    if not ev:
+        return 0, float(t[0]) if len(t) else math.nan, 1
+    segs = 1 + len(ev)
+    start = ev[-1]
+    return int(np.searchsorted(t, start, side="left")), start, segs
 
 
 # ---------------------------------------------------------------------------- one joint
@@ -465,7 +468,7 @@ def analyze_joint(
     n = len(t)
     if n == 0:
         return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, OK,
-                           "no estimates in the current segment", False, math.nan, seg_start, segs)
+                           "no estimates since the last maintenance event", False, math.nan, seg_start, segs)
     bank = filter_bank((t - t[0]) / DAY, w, s, cfg)
     st = trend_states(bank, cfg, rows=np.array([n - 1]))
     qs = st.quantiles
