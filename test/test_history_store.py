@@ -143,7 +143,7 @@ def test_concurrent_writer_processes_lose_nothing_and_duplicate_nothing(db_url):
     procs = [subprocess.Popen([sys.executable, "-c", WRITER, db_url, str(seed)], stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True) for seed in range(4)]
     outs = [p.communicate(timeout=120) for p in procs]
-    for p, (out, err) in zip(procs, outs):
+    for p, (_out, err) in zip(procs, outs):
         assert p.returncode == 0, err[-2000:]
     added = [int(o.strip()) for o, _ in outs]
     assert sum(added) == 120  # each estimate inserted by exactly one writer
