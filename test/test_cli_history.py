@@ -126,7 +126,7 @@ def test_bad_csv_is_one_line_exit_2_and_nothing_is_written(content, says, fleet_
     bad = tmp_path / "bad.csv"
     bad.write_text(content)
     db = tmp_path / "h.db"
-    rc, out, err = run(["history", "import", fleet_csv, bad, "--db", db], capsys)
+    rc, _out, err = run(["history", "import", fleet_csv, bad, "--db", db], capsys)
     assert rc == 2 and says in err and len(err.strip().splitlines()) == 1, err
     assert not db.exists() or HistoryStore(db).count() == 0
 
