@@ -147,3 +147,25 @@ def test_bad_arguments_are_one_line_errors(args, says, fleet_csv, tmp_path, caps
     argv = [a.format(tmp=tmp_path, db=db, csv=fleet_csv) for a in args]
     rc, _, err = run(argv, capsys)
     assert rc == 2 and says in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_bag_with_wear_trend_messages_reads_back(tmp_path):
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from jointwear_ros.io.bags import read_messages
+    from jointwear_ros.io.typestore import jointwear_typestore
+
+    store = jointwear_typestore()
+    T = store.types
+    msg = T["jointwear_msgs/msg/WearTrend"](
+        header=T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=5, nanosec=0), frame_id=""),
+        robot="cell_1", joint_name="joint_4", estimates=12, estimates_total=30, wear=22.5, wear_std=0.4,
+        rate_per_day=0.2, rate_std_per_day=0.02, time_to_alarm_median=62.0, time_to_alarm_lo90=50.0,
+        time_to_alarm_hi90=80.0, alarm_threshold=35.0, horizon_days=30.0, growth_detected=True, level=0,
+        message="ok")
+    path = tmp_path / "bag"
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c = w.add_connection("/jointwear/wear_trend", "jointwear_msgs/msg/WearTrend", typestore=store)
+        w.write(c, 5_000_000_000, store.serialize_cdr(msg, "jointwear_msgs/msg/WearTrend"))
+    (m,) = list(read_messages(path))
+    assert m.msg.joint_name == "joint_4" and m.msg.time_to_alarm_median == 62.0 and m.msg.growth_detected
