@@ -89,7 +89,7 @@ def cmd_trend(args: argparse.Namespace) -> int:
         return 0
 
     def days(x: float) -> str:
-        return "-" if x is None or math.isnan(x) else (">max" if math.isinf(x) else f"{x:.0f}")
+        return "-" if x is None or math.isnan(x) else ("unbounded" if math.isinf(x) else f"{x:.0f}")
 
     rows = []
     for r in sorted(results, key=rank_key):

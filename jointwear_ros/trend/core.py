@@ -502,4 +502,4 @@ def analyze_joint(
 
 
 def _days(x: float) -> str:
-    return "more than the horizon" if not math.isfinite(x) else f"{x:.0f} d"
+    return "unbounded" if not math.isfinite(x) else f"{x:.0f} d"
