@@ -14,12 +14,12 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 # --------------------------------------------------------------------------- a real PostgreSQL server
 
-import shutil  # noqa: E402
-import tempfile  # noqa: E402
-import uuid  # noqa: E402
-from pathlib import Path  # noqa: E402
+import shutil
+import tempfile
+import uuid
+from pathlib import Path
 
-import pytest  # noqa: E402
+import pytest
 
 
 @pytest.fixture(scope="session")

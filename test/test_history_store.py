@@ -143,7 +143,7 @@ def test_concurrent_writer_processes_lose_nothing_and_duplicate_nothing(db_url):
     procs = [subprocess.Popen([sys.executable, "-c", WRITER, db_url, str(seed)], stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True) for seed in range(4)]
     outs = [p.communicate(timeout=120) for p in procs]
-    for p, (out, err) in zip(procs, outs):
+    for p, (_out, err) in zip(procs, outs):
         assert p.returncode == 0, err[-2000:]
     added = [int(o.strip()) for o, _ in outs]
     assert sum(added) == 120  # each estimate inserted by exactly one writer
@@ -186,3 +186,21 @@ def test_urls_are_normalized_and_bad_ones_named():
         normalize_url(" ")
     with pytest.raises((InputDataError, HistoryError)):
         HistoryStore("nosuchdialect://x")
+
+
+OPENER = textwrap.dedent("""
+    import sys
+    from jointwear_ros.history import EstimateRecord, HistoryStore
+    s = HistoryStore(sys.argv[1])
+    print(s.add_estimates([EstimateRecord("r", "j", cycle_id=1, time=1.7e9, wear=1.0, wear_std=1.0)]))
+""")
+
+
+def test_processes_opening_a_new_store_at_once_agree_on_one_schema(db_url):
+    procs = [subprocess.Popen([sys.executable, "-c", OPENER, db_url], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True) for _ in range(3)]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0, 0], [e[-500:] for _, e in outs]
+    assert sorted(int(o) for o, _ in outs) == [0, 0, 1]
+    with HistoryStore(db_url) as s:
+        assert s.schema_version() == SCHEMA_VERSION and s.count() == 1

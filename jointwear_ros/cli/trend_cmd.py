@@ -51,7 +51,12 @@ def cmd_trend(args: argparse.Namespace) -> int:
     if horizon < 0 or not 0 < alarm <= 100:
         raise UsageError(f"--horizon {horizon:g} must be >= 0 days and --alarm {alarm:g} in (0, 100]")
     cfg = TrendConfig(alarm=alarm, horizon_days=horizon)
-    with HistoryStore(args.db, create=False) as store:
+    from ..history import normalize_url
+
+    url = normalize_url(args.db)
+    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
+        raise UsageError(f"--db {args.db}: no such history file (fill it with jointwear history import or wear_trend)")
+    with HistoryStore(url, create=False) as store:
         hist = store.history(args.analysis_version, robot=args.robot, joint=args.joint)
     if not hist and (args.robot or args.joint):
         raise UsageError(f"no estimates of robot {args.robot or '*'} joint {args.joint or '*'} "
@@ -84,7 +89,7 @@ def cmd_trend(args: argparse.Namespace) -> int:
         return 0
 
     def days(x: float) -> str:
-        return "-" if x is None or math.isnan(x) else (">max" if math.isinf(x) else f"{x:.0f}")
+        return "-" if x is None or math.isnan(x) else ("unbounded" if math.isinf(x) else f"{x:.0f}")
 
     rows = []
     for r in sorted(results, key=rank_key):

@@ -36,7 +36,7 @@ def parse_time(text: str, where: str = "time") -> float:
     """ISO 8601 (naive = UTC) or seconds since the epoch -> seconds since the epoch.
 
     >>> parse_time("2026-11-23T02:00:00Z"), parse_time("1700000000.5")
-    (1795831200.0, 1700000000.5)
+    (1795399200.0, 1700000000.5)
     """
     s = str(text).strip()
     if not s:

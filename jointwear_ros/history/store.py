@@ -315,7 +315,13 @@ class HistoryStore:
                     if not res.fetchall():  # another process applied it meanwhile
                         continue
             except SQLAlchemyError as exc:
-                if self.schema_version() >= version:  # lost a race on CREATE TABLE: the other one did it
+                # lost a race on CREATE TABLE/INDEX with another process opening a new store: wait for its
+                # version row (its transaction commits the tables and the row together)
+                for _ in range(50):
+                    if self.schema_version() >= version:
+                        break
+                    _time.sleep(0.1)
+                if self.schema_version() >= version:
                     continue
                 raise HistoryError(f"{self.display_url}: migration to schema version {version} failed: "
                                    f"{_one_line(exc)}") from None

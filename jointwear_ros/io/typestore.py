@@ -18,7 +18,7 @@ from ..errors import JointwearError
 
 __all__ = ["JOINTWEAR_MSG_TYPES", "jointwear_typestore", "msg_definition_dirs"]
 
-JOINTWEAR_MSG_TYPES = ("FrictionObservation", "WearEstimate", "TestCycleStatus")
+JOINTWEAR_MSG_TYPES = ("FrictionObservation", "WearEstimate", "TestCycleStatus", "WearTrend")
 
 
 def msg_definition_dirs() -> list[Path]:

@@ -210,10 +210,10 @@ class WearTrendNode(Node):
                   ("time_to_alarm_median", "nan" if tta is None else f"{tta.median:.1f}"),
                   ("time_to_alarm_lo90", "nan" if tta is None else f"{tta.lo90:.1f}"),
                   ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
-                  ("horizon_days", f"{self.cfg.horizon_days:g}"), ("rejected", str(self.rejected))]
+                  ("horizon_days", f"{self.cfg.horizon_days:g}")]
         hw = str(self.params["hardware_id"]) or f"{self.robot}/{joint}"
         self._statuses[joint] = _status(f"wear_trend: {joint}", hw, r.level, r.message, values)
-        if previous is None or previous.level != r.level or previous.estimates != r.estimates:
+        if previous is None or previous.level != r.level:
             log = self.get_logger()
             text = f"{self.robot}/{joint}: {r.level_name}: {r.message}"
             if r.level == ERROR:
@@ -227,7 +227,14 @@ class WearTrendNode(Node):
     def _publish_diagnostics(self) -> None:
         arr = DiagnosticArray()
         arr.header.stamp = self.get_clock().now().to_msg()
-        arr.status = [self._statuses[j] for j in sorted(self._statuses)] or [_status(
+        statuses = []
+        for j in sorted(self._statuses):  # the node's counters as of now, on every joint's status
+            s = self._statuses[j]
+            statuses.append(_status(s.name, s.hardware_id, s.level[0], s.message,
+                                    [(kv.key, kv.value) for kv in s.values]
+                                    + [("stored", str(self.stored)), ("duplicates", str(self.duplicates)),
+                                       ("rejected", str(self.rejected))]))
+        arr.status = statuses or [_status(
             "wear_trend: history", str(self.params["hardware_id"]) or self.robot, OK,
             "no wear estimates stored yet", [("robot", self.robot)])]
         self.diag_pub.publish(arr)

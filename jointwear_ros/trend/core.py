@@ -9,23 +9,35 @@ estimate's own standard deviation::
     y_k = L(t_k) + e_k,   e_k ~ N(0, wear_std_k^2)
 
 with ``q`` (:attr:`TrendConfig.accel_noise`, wear² per day³) the spectral
-density of the rate's random walk, i.e. how fast the wear may accelerate
-(the paper's Section 6 wear test accelerates). It is a 2-state Kalman filter
-with irregular time steps and per-observation noise (and an RTS smoother for
-the plotted band), hand-written in numpy: it is a few lines, it takes each
-estimate's own variance and uneven gaps directly, and it is vectorised for the
-fleet backtest (thousands of joint-nights per second), which a general
-state-space library (statsmodels ``UnobservedComponents``: equal steps, a
-fitted, not a given, observation variance) does not give as simply.
+density of the rate's random walk, i.e. how fast the wear may accelerate.
+Next to it, a **local quadratic trend** (a third state, the acceleration, with
+a random walk of density :attr:`TrendConfig.jerk_noise`) for wear that keeps
+accelerating (the paper's accelerated wear test, Sections 3 and 6). A *bank*
+of these filters (several ``q``, one quadratic) runs on the estimates, and
+their results are averaged with weights from each one's predictive
+likelihood of the estimates (equal prior weights): a steady joint keeps the
+weight on a small ``q``; an accelerating one moves it to a large ``q`` and
+the quadratic model as the data show the acceleration.
 
-**Time to alarm.** From the filtered state ``(L, S) ~ N(m, P)`` at the last
-estimate, the wear ``tau`` days ahead is Gaussian with mean ``L + S tau`` and
-variance ``[1 tau] P [1 tau]' + q tau^3/3 (+ q_L tau)``. The probability
+Each is a 2- or 3-state Kalman filter with irregular time steps and
+per-observation noise (and an RTS smoother for the plotted band),
+hand-written in numpy: a few lines, it takes each estimate's own variance
+and uneven gaps directly, and it runs the fleet backtest at thousands of
+joint-nights per second; a general state-space library (statsmodels
+``UnobservedComponents``: equal steps, a fitted, not a given, observation
+variance) does not give that as simply.
+
+**Time to alarm.** From each filter's state ``(L, S[, A]) ~ N(m, P)`` at the
+last estimate, the wear ``tau`` days ahead is Gaussian with mean ``L + S tau
+(+ A tau^2/2)`` and variance ``h P h' + q tau^3/3`` (quadratic: ``+ q
+tau^5/20``), ``h = [1, tau(, tau^2/2)]``. The probability
 that the alarm ``a`` has been crossed by ``tau`` is taken as the running
 maximum over ``tau' <= tau`` of ``P(wear(tau') >= a)`` (exact for a straight
 line with uncertain level and rate; for the random-walk part it ignores
-paths that cross and come back, which wear does not do). Its 5 %, 50 % and
-95 % points are the 90 % interval and the median. When the rate is not
+paths that cross and come back, which wear does not do). These curves are
+averaged with the filters' weights; the 5 %, 50 % and 95 % points are the
+90 % interval and the median (a point not reached within
+``max_horizon_days`` is infinite: unbounded). When the rate is not
 credibly positive (``P(S > 0) < growth_probability``) there is no time to
 alarm: *no growth detected*.
 
@@ -414,18 +426,21 @@ def collapse_revisions(times: Array, cycle_ids: Array, window_s: float) -> Array
 
 
 def last_segment(times: Array, maintenance_times: Sequence[float]) -> tuple[int, float, int]:
-    """(first index of the current segment, its start time, number of segments) for times ascending."""
+    """(first index of the current segment, its start time, number of segments) for times ascending.
+
+    The current segment starts at the last maintenance event; an event after the last estimate gives
+    an empty current segment (the old trend no longer applies).
+
+    >>> last_segment(np.arange(10.0), [4.5]), last_segment(np.arange(10.0), [20.0])
+    ((5, 4.5, 2), (10, 20.0, 2))
+    """
     t = np.asarray(times, float)
     ev = sorted(float(x) for x in maintenance_times)
-    segs = 1 + sum(1 for e in ev if len(t) and t[0] < e)
-    start = -math.inf
-    for e in ev:
-        if len(t) == 0 or e <= t[-1]:
-            start = e
-    if not math.isfinite(start):
-        return 0, float(t[0]) if len(t) else math.nan, segs
-    first = int(np.searchsorted(t, start, side="left"))
-    return first, start, segs
+    if not ev:
+        return 0, float(t[0]) if len(t) else math.nan, 1
+    segs = 1 + len(ev)
+    start = ev[-1]
+    return int(np.searchsorted(t, start, side="left")), start, segs
 
 
 # ---------------------------------------------------------------------------- one joint
@@ -465,7 +480,7 @@ def analyze_joint(
     n = len(t)
     if n == 0:
         return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, OK,
-                           "no estimates in the current segment", False, math.nan, seg_start, segs)
+                           "no estimates since the last maintenance event", False, math.nan, seg_start, segs)
     bank = filter_bank((t - t[0]) / DAY, w, s, cfg)
     st = trend_states(bank, cfg, rows=np.array([n - 1]))
     qs = st.quantiles
@@ -499,4 +514,4 @@ def analyze_joint(
 
 
 def _days(x: float) -> str:
-    return "more than the horizon" if not math.isfinite(x) else f"{x:.0f} d"
+    return "unbounded" if not math.isfinite(x) else f"{x:.0f} d"

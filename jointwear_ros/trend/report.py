@@ -88,7 +88,7 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
 
 
 def _fmt_days(x: float) -> str:
-    return "&gt; horizon" if not math.isfinite(x) else f"{x:.0f}"
+    return "unbounded" if not math.isfinite(x) else f"{x:.0f}"
 
 
 def write_html(out_dir: Path, results: Sequence[TrendResult], images: dict[tuple[str, str], str],
