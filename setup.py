@@ -17,12 +17,14 @@ setup(
         ("share/" + package_name + "/config/params", glob("config/params/*.yaml")),
         ("share/" + package_name + "/launch", glob("launch/*.launch.py")),
     ],
-    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "matplotlib", "mcap", "rosbags", "threadpoolctl"],
+    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "matplotlib", "mcap", "rosbags", "threadpoolctl",
+                      "sqlalchemy>=2.0", "psycopg[binary]>=3.1"],
     zip_safe=True,
     maintainer="jointwear maintainers",
     maintainer_email="maintainers@jointwear.dev",
     description="Robot-joint wear diagnosis from static friction (ROS 2 Jazzy node suite).",
     license="Apache-2.0",
+    extras_require={"fleet": ["dask[distributed]"]},  # jointwear fleet reprocess (Dask)
     entry_points={
         "console_scripts": [
             "jointwear = jointwear_ros.cli:main",
@@ -31,6 +33,7 @@ setup(
             "friction_observer = jointwear_ros.nodes.friction_observer:main",
             "wear_estimator = jointwear_ros.nodes.wear_estimator:main",
             "recorder = jointwear_ros.nodes.recorder:main",
+            "wear_trend = jointwear_ros.nodes.wear_trend:main",
         ],
     },
 )

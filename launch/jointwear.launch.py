@@ -1,6 +1,6 @@
 """Launch the jointwear node suite: ``ros2 launch jointwear_ros jointwear.launch.py [arg:=value ...]``.
 
-Starts ``test_cycle``, ``friction_observer``, ``wear_estimator``, optionally
+Starts ``test_cycle``, ``friction_observer``, ``wear_estimator``, ``wear_trend`` (``trend``), optionally
 ``joint_sim`` (``sim``) and ``recorder`` (``record``), each with its
 parameters from the installed ``share/jointwear_ros/config/<node>.yaml`` (or
 ``config_dir``), then the launch arguments on top.
@@ -49,8 +49,12 @@ ARGUMENTS: list[tuple[str, object, str]] = [
     ("joint_states_topic", "/joint_states", "sensor_msgs/JointState topic of the joint"),
     ("wear", "0.0", "true wear of the simulated joint, 0-100 (sim only)"),
     ("real_time_factor", "1.0", "sim seconds per wall second (sim only)"),
+    ("trend", "true", "start wear_trend (history store, trend, time to alarm)"),
+    ("robot", "robot_1", "robot name in the wear history"),
+    ("db_url", "wear_history.db", "wear history store: SQLite file path or postgresql://user@host/db"),
     ("config_dir", None,  # default: share/jointwear_ros/config, looked up when the launch runs
-     "directory holding joint_sim.yaml, test_cycle.yaml, friction_observer.yaml, wear_estimator.yaml, recorder.yaml"),
+     "directory holding joint_sim.yaml, test_cycle.yaml, friction_observer.yaml, wear_estimator.yaml, recorder.yaml, "
+     "wear_trend.yaml"),
 ]
 
 
@@ -63,7 +67,7 @@ def _flag(name: str) -> ParameterValue:
 
 
 def generate_launch_description() -> LaunchDescription:
-    """The five nodes with their YAML parameters and the launch arguments' overrides."""
+    """The six nodes with their YAML parameters and the launch arguments' overrides."""
     share_config = os.path.join(get_package_share_directory(PACKAGE), "config")
     args = [DeclareLaunchArgument(name, default_value=share_config if default is None else default, description=desc)
             for name, default, desc in ARGUMENTS]
@@ -106,6 +110,14 @@ def generate_launch_description() -> LaunchDescription:
         Node(
             package=PACKAGE, executable="wear_estimator", name="wear_estimator", output="screen",
             parameters=[_config("wear_estimator"), {"use_sim_time": sim_time, "joint_name": joint}],
+        ),
+        Node(
+            package=PACKAGE, executable="wear_trend", name="wear_trend", output="screen",
+            condition=IfCondition(LaunchConfiguration("trend")),
+            parameters=[_config("wear_trend"), {
+                "use_sim_time": sim_time, "robot": LaunchConfiguration("robot"),
+                "db_url": LaunchConfiguration("db_url"),
+            }],
         ),
         Node(
             package=PACKAGE, executable="recorder", name="recorder", output="screen",

@@ -50,11 +50,12 @@ def test_package_name_is_the_python_package():
     assert 'PACKAGE = "jointwear_ros"' in LAUNCH.read_text()
 
 
-def test_launch_starts_the_five_nodes_by_their_console_scripts(tree):
+def test_launch_starts_the_six_nodes_by_their_console_scripts(tree):
     scripts = _console_scripts()
     nodes = _calls(tree, "Node")
     execs = [ast.literal_eval(_kw(n, "executable")) for n in nodes]  # type: ignore[arg-type]
-    assert sorted(execs) == sorted(["joint_sim", "test_cycle", "friction_observer", "wear_estimator", "recorder"])
+    assert sorted(execs) == sorted(["joint_sim", "test_cycle", "friction_observer", "wear_estimator", "recorder",
+                                    "wear_trend"])
     for n, exe in zip(nodes, execs):
         assert getattr(_kw(n, "package"), "id", None) == "PACKAGE"
         assert exe in scripts, f"{exe} is not a console_script in setup.py"
@@ -64,7 +65,8 @@ def test_launch_starts_the_five_nodes_by_their_console_scripts(tree):
 
 def test_every_config_file_it_reads_ships_and_is_installed(tree):
     names = [ast.literal_eval(c.args[0]) for c in _calls(tree, "_config")]
-    assert sorted(names) == sorted(["joint_sim", "test_cycle", "friction_observer", "wear_estimator", "recorder"])
+    assert sorted(names) == sorted(["joint_sim", "test_cycle", "friction_observer", "wear_estimator", "recorder",
+                                    "wear_trend"])
     for name in names:
         assert (ROOT / "config" / f"{name}.yaml").is_file(), name
     setup = (ROOT / "setup.py").read_text()

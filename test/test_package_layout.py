@@ -49,7 +49,7 @@ def test_interface_package_generates_every_definition_it_ships():
     cmake = (ROOT / "msg_defs" / "CMakeLists.txt").read_text()
     defs = [*(ROOT / "msg_defs").glob("msg/*.msg"), *(ROOT / "msg_defs").glob("srv/*.srv")]
     shipped = sorted(p.relative_to(ROOT / "msg_defs").as_posix() for p in defs)
-    assert len(shipped) == 4, shipped
+    assert len(shipped) == 6, shipped
     for rel in shipped:
         assert f'"{rel}"' in cmake, f"{rel} is not listed in rosidl_generate_interfaces"
 
@@ -65,7 +65,8 @@ def test_every_console_script_is_declared_for_ros2_run():
         for elt in v.elts
     ]
     names = {s.split("=")[0].strip() for s in scripts}
-    assert {"jointwear", "joint_sim", "test_cycle", "friction_observer", "wear_estimator", "recorder"} <= names
+    assert {"jointwear", "joint_sim", "test_cycle", "friction_observer", "wear_estimator", "recorder",
+            "wear_trend"} <= names
     assert (ROOT / "resource" / "jointwear_ros").is_file()
     cfg = (ROOT / "setup.cfg").read_text()
     assert "install_scripts=$base/lib/jointwear_ros" in cfg  # where ros2 run looks

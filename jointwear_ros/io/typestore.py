@@ -19,7 +19,7 @@ from ..resources import resource_dirs
 
 __all__ = ["JOINTWEAR_MSG_TYPES", "jointwear_typestore", "msg_definition_dirs"]
 
-JOINTWEAR_MSG_TYPES = ("FrictionObservation", "WearEstimate", "TestCycleStatus")
+JOINTWEAR_MSG_TYPES = ("FrictionObservation", "WearEstimate", "TestCycleStatus", "WearTrend")
 
 
 def msg_definition_dirs() -> list[Path]:

@@ -1,0 +1,174 @@
+"""``jointwear fleet``: re-analyse a fleet's bags on Dask, compare analysis versions, write the fleet page.
+
+- ``fleet reprocess BAG_GLOB... --db URL [--params SET] [--method M] [--label NAME] [--scheduler ADDRESS]
+  [--workers N] [--json]``: every bag through the same cores as ``jointwear replay``, on a Dask
+  LocalCluster (or an existing scheduler), into the history as a new analysis version; idempotent and
+  resumable; a broken bag is reported and skipped.
+- ``fleet compare --db URL --from V --to V [--json]``: the joints whose level or time to alarm changed.
+- ``fleet report --db URL --out DIR [--version V] [--from V --to V]``: a static HTML page.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from . import UsageError
+from .common import format_table, parse_float, print_json
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("fleet", help="a fleet's wear history: re-analyse bags on Dask, compare versions, a page",
+                       description="Re-analyse a fleet's recorded bags on Dask into the wear history, compare "
+                                   "two analysis versions, write the fleet page.")
+    fsub = p.add_subparsers(dest="fleet_command", metavar="SUBCOMMAND", parser_class=type(p))
+    fsub.required = True
+
+    r = fsub.add_parser("reprocess", help="replay every bag with a parameter set and method into the history",
+                        description="Replay every bag through the friction observer and wear monitor cores (as "
+                                    "`jointwear replay`) on dask.distributed, and write the estimates to the "
+                                    "history as a new analysis version. Bags already done with the same analysis "
+                                    "version are skipped; a broken bag is reported in `failed`, never fatal.")
+    r.add_argument("bags", nargs="+", metavar="BAG_GLOB",
+                   help="bag directories, globs (quote them: 'bags/**/jointwear_*'), or directories of bags")
+    r.add_argument("--db", required=True, help="history URL: sqlite:///path, postgresql://user@host/db, or a path")
+    r.add_argument("--params", default=None, metavar="SET",
+                   help="friction-model parameter set (name or YAML path); default: each bag's recorded one")
+    r.add_argument("--method", default=None, help="estimator (paper, paper-grid, bayes, joint); default: recorded")
+    r.add_argument("--label", default=None, help="name the analysis version (default: <params>/<method>/<hash of "
+                                                 "the set's content, the method and the software version>)")
+    r.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="an existing Dask scheduler (tcp://host:8786); default: a LocalCluster of --workers")
+    r.add_argument("--workers", default="2", metavar="N", help="LocalCluster worker processes (default 2)")
+    r.add_argument("--json", action="store_true",
+                   help='print JSON {"bags", "estimates", "skipped", "failed": [{"bag", "error"}], '
+                        '"analysis_version", "seconds", ...}')
+    r.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
+    r.set_defaults(func=cmd_reprocess)
+
+    c = fsub.add_parser("compare", help="joints whose level or time to alarm changed between two analysis versions")
+    c.add_argument("--db", required=True, help="history URL")
+    c.add_argument("--from", dest="v_from", required=True, metavar="VERSION", help="analysis version before")
+    c.add_argument("--to", dest="v_to", required=True, metavar="VERSION", help="analysis version after")
+    c.add_argument("--wear-tol", default="1.0", help="a wear change above this counts (default 1.0)")
+    c.add_argument("--days-tol", default="7", help="a time-to-alarm change above this many days (and 10 %%) "
+                                                  "counts (default 7)")
+    c.add_argument("--all", action="store_true", help="list unchanged joints too")
+    c.add_argument("--json", action="store_true", help='print JSON {"from", "to", "joints", "changed": [...]}')
+    c.set_defaults(func=cmd_compare)
+
+    o = fsub.add_parser("report", help="write the fleet page (static HTML with PNG plots)")
+    o.add_argument("--db", required=True, help="history URL")
+    o.add_argument("--out", required=True, metavar="DIR", help="output directory (index.html, img/)")
+    o.add_argument("--version", default=None, help="analysis version ranked and plotted (default: the newest)")
+    o.add_argument("--from", dest="v_from", default=None, metavar="VERSION",
+                   help="changes section: version before (default: the second newest)")
+    o.add_argument("--to", dest="v_to", default=None, metavar="VERSION",
+                   help="changes section: version after (default: the newest)")
+    o.set_defaults(func=cmd_report)
+
+
+def _open_store(url: str, *, must_exist: bool) -> Any:
+    from ..history import HistoryStore, normalize_url
+
+    u = normalize_url(url)
+    if must_exist and u.startswith("sqlite:///"):
+        path = Path(u.split(":///", 1)[1]).expanduser()
+        if not path.is_file():
+            raise UsageError(f"--db {url}: no such history file")
+    return HistoryStore(u)
+
+
+def _workers(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise UsageError(f"--workers: {text!r} is not a whole number") from None
+    if not 1 <= n <= 1024:
+        raise UsageError(f"--workers: {n} must be between 1 and 1024")
+    return n
+
+
+def cmd_reprocess(args: argparse.Namespace) -> int:
+    from ..fleet import Progress, analysis_version, expand_bags, reprocess
+
+    workers = _workers(args.workers)
+    if args.method is not None:
+        from ..estimation import ESTIMATOR_METHODS
+
+        if args.method.strip().lower() not in ESTIMATOR_METHODS:
+            raise UsageError(f"--method: unknown method {args.method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
+        args.method = args.method.strip().lower()
+    analysis_version(args.params, args.method, label=args.label)  # a bad set or label: exit 2 before any work
+    bags = expand_bags(args.bags)
+    store = _open_store(args.db, must_exist=False)
+    try:
+        bar = Progress(len(bags), enabled=not args.quiet)
+        rep = reprocess(bags, store, params=args.params, method=args.method, label=args.label,
+                        scheduler=args.scheduler, workers=workers, progress=bar)
+    finally:
+        store.close()
+    if args.json:
+        print_json(rep.as_dict())
+        return 0
+    rate = f", {rep.processed / rep.seconds:.2f} bags/s" if rep.seconds > 0 and rep.processed else ""
+    print(f"analysis version {rep.analysis_version}: {rep.bags} bags, {rep.processed} replayed, {rep.skipped} "
+          f"skipped (already done), {len(rep.failed)} failed; {rep.estimates} new estimates in the history "
+          f"({rep.seconds:.1f} s{rate})")
+    for f in rep.failed:
+        print(f"failed: {f['error']}")
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from ..fleet.compare import compare_versions
+
+    wear_tol = parse_float(args.wear_tol, "--wear-tol")
+    days_tol = parse_float(args.days_tol, "--days-tol")
+    if wear_tol < 0 or days_tol < 0:
+        raise UsageError("--wear-tol and --days-tol must be >= 0")
+    store = _open_store(args.db, must_exist=True)
+    try:
+        changes = compare_versions(store, args.v_from, args.v_to, wear_tol=wear_tol, days_tol=days_tol)
+    finally:
+        store.close()
+    shown = changes if args.all else [c for c in changes if c.changed]
+    if args.json:
+        print_json({"from": args.v_from, "to": args.v_to, "joints": len(changes),
+                    "changed": [c.as_dict() for c in changes if c.changed],
+                    **({"unchanged": [c.as_dict() for c in changes if not c.changed]} if args.all else {})})
+        return 0
+    print(f"{sum(c.changed for c in changes)} of {len(changes)} joints changed from {args.v_from} to {args.v_to}")
+    if shown:
+        rows = [[c.robot, c.joint, f"{c.level_from or '-'} -> {c.level_to or '-'}",
+                 _num(c.wear_from), _num(c.wear_to), _num(c.wear_change, "+.1f"),
+                 _num(c.days_from, ".0f"), _num(c.days_to, ".0f"), _num(c.days_change, "+.0f"),
+                 "; ".join(c.reasons) or "-"] for c in shown]
+        print(format_table(["robot", "joint", "level", "wear", "-> wear", "change", "days", "-> days",
+                            "change", "why"], rows))
+    return 0
+
+
+def _num(x: float | None, spec: str = ".1f") -> str:
+    if x is None:
+        return "-"
+    return "inf" if x == float("inf") else format(x, spec)
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from ..fleet.report import write_report
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out}: exists and is not a directory")
+    store = _open_store(args.db, must_exist=True)
+    try:
+        index = write_report(store, out, version=args.version, from_version=args.v_from, to_version=args.v_to)
+    finally:
+        store.close()
+    print(f"fleet page: {index}", file=sys.stdout)
+    return 0

@@ -1,0 +1,125 @@
+"""``jointwear history import|export|maintenance``: the wear history store from the command line.
+
+``--db`` takes a URL (``sqlite:///path``, ``postgresql://user@host/db``) or a
+path (an SQLite file). Imports are idempotent: the same bag or table imported
+twice adds nothing. Every input file is read and checked before anything is
+written.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from . import UsageError
+from .common import print_json
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("history", help="the wear history store: import bags/CSV, export CSV, maintenance events")
+    hsub = p.add_subparsers(dest="history_command", metavar="ACTION", parser_class=type(p))
+    hsub.required = True
+
+    i = hsub.add_parser("import", help="add estimates from bags (WearEstimate messages) or CSV tables",
+                        description="Add the estimates of rosbag2 bags (the recorded WearEstimate messages, or "
+                                    "with --reestimate a replay of the observer and estimator with today's model) "
+                                    "and CSV tables (robot, joint, time, wear, wear_std) to the history. "
+                                    "Importing the same data twice adds nothing.")
+    i.add_argument("files", nargs="+", metavar="FILE", help="bag directories and/or .csv files")
+    i.add_argument("--db", required=True, help="history store URL or SQLite file path")
+    i.add_argument("--robot", default="robot_1", help="robot of bag estimates and of CSV rows without one")
+    i.add_argument("--reestimate", action="store_true",
+                   help="bags: re-run observer and estimator (replay) instead of importing the recorded estimates")
+    i.add_argument("--method", default=None, help="with --reestimate: estimator method")
+    i.add_argument("--params", default=None, help="with --reestimate: parameter set")
+    i.add_argument("--analysis-version", default=None,
+                   help="with --reestimate: version the estimates are stored under (default METHOD:PARAMS:VERSION)")
+    i.add_argument("--json", action="store_true", help="print JSON")
+    i.set_defaults(func=cmd_import)
+
+    e = hsub.add_parser("export", help="write the stored estimates as CSV")
+    e.add_argument("--db", required=True, help="history store URL or SQLite file path")
+    e.add_argument("--out", required=True, help="CSV file to write")
+    e.add_argument("--robot", default=None)
+    e.add_argument("--joint", default=None)
+    e.add_argument("--analysis-version", default=None, help="only this analysis version (default: all)")
+    e.set_defaults(func=cmd_export)
+
+    m = hsub.add_parser("maintenance", help="record a maintenance event (starts a new trend segment)")
+    m.add_argument("--db", required=True, help="history store URL or SQLite file path")
+    m.add_argument("--robot", required=True)
+    m.add_argument("--joint", required=True)
+    m.add_argument("--kind", required=True, help="regrease, reducer_replaced, ...")
+    m.add_argument("--time", default=None, help="ISO 8601 or seconds since the epoch (default: now)")
+    m.add_argument("--note", default="")
+    m.set_defaults(func=cmd_maintenance)
+
+
+def _is_csv(path: Path) -> bool:
+    return path.is_file() and path.suffix.lower() == ".csv"
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    from ..history import HistoryStore
+    from ..history.importers import estimates_from_bag, estimates_from_csv, reestimate_bag
+    from .replay_cmd import _params
+
+    if not args.reestimate and (args.method or args.params or args.analysis_version):
+        raise UsageError("--method, --params and --analysis-version need --reestimate")
+    records = []
+    per_file = []
+    versions = set()
+    for f in args.files:
+        path = Path(f)
+        if not path.exists():
+            raise UsageError(f"{path}: no such file or bag directory")
+        if _is_csv(path):
+            recs = estimates_from_csv(path, robot=args.robot)
+        elif args.reestimate:
+            recs, version = reestimate_bag(
+                path, robot=args.robot,
+                observer_params=_params(None, "friction_observer.yaml", "friction_observer"),
+                monitor_params=_params(None, "wear_estimator.yaml", "wear_estimator"),
+                method=args.method, params=args.params, analysis_version=args.analysis_version)
+            versions.add(version)
+        else:
+            recs = estimates_from_bag(path, robot=args.robot)
+        per_file.append({"file": str(path), "estimates": len(recs)})
+        records.extend(recs)
+    with HistoryStore(args.db) as store:  # everything was read and checked: now write, in one transaction
+        added = store.add_estimates(records)
+        total = store.count()
+    out = {"files": per_file, "read": len(records), "added": added, "duplicates": len(records) - added,
+           "total": total, "analysis_versions": sorted(versions)}
+    if args.json:
+        print_json(out)
+    else:
+        print(f"read {len(records)} estimates from {len(per_file)} file(s): {added} added, "
+              f"{len(records) - added} already in the history; {total} stored")
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from ..history import HistoryStore
+    from ..history.importers import write_csv
+
+    with HistoryStore(args.db) as store:
+        recs = store.estimates(robot=args.robot, joint=args.joint, analysis_version=args.analysis_version)
+    n = write_csv(recs, args.out)
+    print(f"{n} estimates written to {args.out}")
+    return 0
+
+
+def cmd_maintenance(args: argparse.Namespace) -> int:
+    import time
+
+    from ..history import HistoryStore, MaintenanceEvent
+    from ..history.importers import parse_time
+
+    t = time.time() if args.time is None else parse_time(args.time, "--time")
+    with HistoryStore(args.db) as store:
+        new = store.add_maintenance(MaintenanceEvent(args.robot, args.joint, t, args.kind, args.note))
+    print(f"{args.kind} of {args.robot}/{args.joint} at {t:.3f} " + ("recorded" if new else "was already recorded"))
+    return 0

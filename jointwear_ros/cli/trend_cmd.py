@@ -1,0 +1,103 @@
+"""``jointwear trend --db DB``: per joint, current wear and rate, time to the alarm (median, 90 %), level.
+
+JSON (``--json``): ``{"joints": [{"robot", "joint", "estimates", "wear",
+"wear_std", "rate_per_day", "time_to_alarm_days": {"median", "lo90", "hi90"}
+or null, "level", ...}]}``, times in days from the joint's last estimate (a
+bound beyond the prediction horizon is null). ``--plot DIR`` writes one PNG
+per joint, ``--html DIR`` a page ranking the joints by time to alarm.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+from pathlib import Path
+
+from . import UsageError
+from .common import format_table, parse_float, print_json
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("trend", help="wear trend and time to alarm of every joint in the history",
+                       description="Per joint (current segment, after the last maintenance): current wear and "
+                                   "rate, the time until the trend reaches the alarm as a median and 90 % "
+                                   "interval, and the level (OK / WARN / ERROR).")
+    p.add_argument("--db", required=True, help="history store URL or SQLite file path")
+    p.add_argument("--robot", default=None, help="only this robot")
+    p.add_argument("--joint", default=None, help="only this joint")
+    p.add_argument("--analysis-version", default="live", help="which estimates (default live)")
+    p.add_argument("--horizon", default="30", help="WARN horizon in days (default 30)")
+    p.add_argument("--alarm", default="35", help="alarm wear level (default 35)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument("--plot", default=None, metavar="DIR", help="write one PNG per joint into DIR")
+    p.add_argument("--html", default=None, metavar="DIR", help="write DIR/index.html ranking the joints (and PNGs)")
+    p.set_defaults(func=cmd_trend)
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+
+
+def cmd_trend(args: argparse.Namespace) -> int:
+    from ..history import HistoryStore
+    from ..trend import TrendConfig, analyze_joint
+    from ..trend.report import plot_trend, rank_key, write_html
+
+    horizon = parse_float(args.horizon, "--horizon")
+    alarm = parse_float(args.alarm, "--alarm")
+    if horizon < 0 or not 0 < alarm <= 100:
+        raise UsageError(f"--horizon {horizon:g} must be >= 0 days and --alarm {alarm:g} in (0, 100]")
+    cfg = TrendConfig(alarm=alarm, horizon_days=horizon)
+    from ..history import normalize_url
+
+    url = normalize_url(args.db)
+    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
+        raise UsageError(f"--db {args.db}: no such history file (fill it with jointwear history import or wear_trend)")
+    with HistoryStore(url, create=False) as store:
+        hist = store.history(args.analysis_version, robot=args.robot, joint=args.joint)
+    if not hist and (args.robot or args.joint):
+        raise UsageError(f"no estimates of robot {args.robot or '*'} joint {args.joint or '*'} "
+                         f"(analysis version {args.analysis_version!r}) in {args.db}")
+    results = []
+    raw = {}
+    draw = args.plot is not None or args.html is not None
+    for key, (recs, events) in sorted(hist.items()):
+        r = analyze_joint([x.time for x in recs], [x.wear for x in recs], [x.wear_std for x in recs],
+                          cycle_ids=[x.cycle_id for x in recs], maintenance_times=[e.time for e in events],
+                          cfg=cfg, robot=key[0], joint=key[1], smooth=draw)
+        results.append(r)
+        raw[key] = (recs, events)
+    images: dict[tuple[str, str], str] = {}
+    for out_dir in [d for d in (args.plot, args.html) if d is not None]:
+        for r in results:
+            recs, events = raw[(r.robot, r.joint)]
+            name = f"trend_{_safe(r.robot)}_{_safe(r.joint)}.png"
+            plot_trend(Path(out_dir) / name, r, cfg, [x.time for x in recs], [x.wear for x in recs],
+                       [x.wear_std for x in recs], [e.time for e in events])
+            if out_dir == args.html:
+                images[(r.robot, r.joint)] = name
+    if args.html is not None:
+        write_html(Path(args.html), results, images)
+    if args.json:
+        print_json({"joints": [r.as_dict() for r in results]})
+        return 0
+    if not results:
+        print(f"no estimates in {args.db}")
+        return 0
+
+    def days(x: float) -> str:
+        return "-" if x is None or math.isnan(x) else ("unbounded" if math.isinf(x) else f"{x:.0f}")
+
+    rows = []
+    for r in sorted(results, key=rank_key):
+        tta = r.time_to_alarm
+        rows.append([r.robot, r.joint, r.level_name, r.estimates, f"{r.wear:.1f} ± {r.wear_std:.1f}",
+                     f"{r.rate_per_day:+.3f}",
+                     "no growth" if tta is None else f"{days(tta.median)} ({days(tta.lo90)}-{days(tta.hi90)})"])
+    print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)"], rows))
+    if args.html is not None:
+        print(f"page: {Path(args.html) / 'index.html'}")
+    return 0

@@ -1,0 +1,276 @@
+"""Bulk re-analysis of a fleet's bags on Dask: one task per bag, results into the wear history.
+
+:func:`reprocess` fingerprints every bag, asks the history store which of
+them this analysis version has already done (skipped), submits the rest to a
+``dask.distributed`` cluster (a ``LocalCluster`` of ``workers`` single-thread
+processes by default, or an existing scheduler by address, or a given
+``Client``), and writes each finished bag's estimates to the store as they
+complete (``as_completed``, in batches), then marks the bags done. A bag that
+fails is reported, not retried in this run, and never stops the others.
+Writing is idempotent (the store's unique identity), so a run interrupted
+anywhere can simply be started again.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from .. import __version__
+from ..errors import InputDataError
+from .reanalysis import BagOutcome, analysis_version, bag_fingerprint, default_node_params, reprocess_bag
+
+__all__ = ["Progress", "ReprocessReport", "expand_bags", "open_client", "reprocess"]
+
+
+@dataclass
+class ReprocessReport:
+    """What a re-analysis did (the CLI's JSON)."""
+
+    bags: int
+    estimates: int
+    skipped: int
+    failed: list[dict[str, str]]
+    analysis_version: str
+    seconds: float
+    processed: int = 0
+    workers: int = 0
+    scheduler: str = ""
+    bag_seconds: list[float] = field(default_factory=list)
+    bag_cpu_seconds: list[float] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "bags": self.bags, "estimates": self.estimates, "skipped": self.skipped, "failed": self.failed,
+            "analysis_version": self.analysis_version, "seconds": self.seconds, "processed": self.processed,
+            "workers": self.workers, "scheduler": self.scheduler,
+            "bags_per_second": self.processed / self.seconds if self.seconds > 0 else None,
+        }
+
+
+class Progress:
+    """A one-line progress bar on a stream: bags done, failed, skipped, rate.
+
+    On a terminal the line is redrawn in place; otherwise a line is written at
+    every tenth of the work (and at the end), so logs stay short.
+    """
+
+    def __init__(self, total: int, stream: IO[str] | None = None, enabled: bool = True, width: int = 30) -> None:
+        self.total, self.stream, self.enabled, self.width = total, stream or sys.stderr, enabled, width
+        self.t0 = time.perf_counter()
+        self.done = self.failed = self.skipped = 0
+        self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self._next = 0
+
+    def line(self) -> str:
+        n = self.done + self.failed + self.skipped
+        frac = n / self.total if self.total else 1.0
+        bar = "#" * round(frac * self.width)
+        dt = time.perf_counter() - self.t0
+        rate = (self.done + self.failed) / dt if dt > 0 else 0.0
+        return (f"reprocess [{bar:<{self.width}}] {n}/{self.total} bags: {self.done} done, {self.failed} failed, "
+                f"{self.skipped} skipped, {rate:.1f} bags/s")
+
+    def update(self, *, done: int = 0, failed: int = 0, skipped: int = 0) -> None:
+        self.done += done
+        self.failed += failed
+        self.skipped += skipped
+        if not self.enabled:
+            return
+        n = self.done + self.failed + self.skipped
+        if self._tty:
+            self.stream.write("\r" + self.line())
+            self.stream.flush()
+        elif n >= self._next or n == self.total:
+            self.stream.write(self.line() + "\n")
+            self._next = n + max(1, math.ceil(self.total / 10))
+
+    def close(self) -> None:
+        if self.enabled and self._tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def expand_bags(patterns: Sequence[str]) -> list[Path]:
+    """Bag directories named by ``patterns`` (paths or globs; a directory that is not a bag stands for
+    the bags under it), de-duplicated, in the order given. Raises InputDataError when a pattern
+    names nothing."""
+    import glob
+
+    from ..io.bags import find_bags
+
+    out: list[Path] = []
+    seen: set[str] = set()
+    for pat in patterns:
+        matches = sorted(glob.glob(pat, recursive=True)) if glob.has_magic(pat) else [pat]
+        found: list[Path] = []
+        for m in matches:
+            p = Path(m)
+            if p.is_dir() and not (p / "metadata.yaml").is_file():
+                found.extend(find_bags(p))
+            elif p.exists() or not glob.has_magic(pat):
+                found.append(p)
+        if not found:
+            raise InputDataError(f"{pat}: no bag matches (give rosbag2 bag directories, a glob, or a directory of bags)")
+        for p in found:
+            key = str(p.resolve())
+            if key not in seen:
+                seen.add(key)
+                out.append(p)
+    return out
+
+
+def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Callable[[], None]]:
+    """A Dask ``Client`` on an existing scheduler, or on a new ``LocalCluster`` of ``workers`` processes
+    with one thread each; and the function that closes what was opened."""
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise InputDataError(f"--scheduler {scheduler}: cannot connect to a Dask scheduler there "
+                                 f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})") from None
+        return client, client.close
+    if workers < 1:
+        raise InputDataError(f"--workers {workers}: must be at least 1")
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # no fixed port 8787
+                           silence_logs=logging.ERROR)
+    client = Client(cluster)
+
+    def close() -> None:
+        client.close()
+        cluster.close()
+
+    return client, close
+
+
+def _n_workers(client: Any) -> int:
+    try:
+        return len(client.scheduler_info(n_workers=-1)["workers"])
+    except TypeError:  # older distributed: no n_workers argument
+        return len(client.scheduler_info()["workers"])
+    except Exception:
+        return 0
+
+
+def reprocess(
+    bags: Sequence[str | os.PathLike[str]],
+    store: Any,
+    *,
+    params: str | None = None,
+    method: str | None = None,
+    label: str | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int = 2,
+    progress: Progress | bool = False,
+    batch: int = 25,
+    flush_seconds: float = 2.0,
+    software_version: str = __version__,
+) -> ReprocessReport:
+    """Re-analyse ``bags`` with parameter set ``params`` and ``method`` into ``store`` (a HistoryStore).
+
+    ``client`` (a Dask Client) is used as is; else one is opened on ``scheduler`` or on a new
+    LocalCluster of ``workers`` processes, and closed at the end.
+    """
+    from ..history import EstimateRecord
+    from .ledger import done_fingerprints, ensure_ledger, mark_done
+
+    t0 = time.perf_counter()
+    version = analysis_version(params, method, software_version, label)
+    ensure_ledger(store)
+    done = done_fingerprints(store, version)
+    todo: list[tuple[str, str]] = []
+    failed: list[dict[str, str]] = []
+    skipped = 0
+    in_run: set[str] = set()
+    for b in bags:
+        path = str(Path(b).resolve())
+        try:
+            fp = bag_fingerprint(path)
+        except OSError as exc:
+            failed.append({"bag": path, "error": f"{path}: cannot read the bag ({exc.strerror or exc})"})
+            continue
+        if fp in done or fp in in_run:
+            skipped += 1
+            continue
+        in_run.add(fp)
+        todo.append((path, fp))
+    bar = progress if isinstance(progress, Progress) else Progress(len(bags), enabled=bool(progress))
+    bar.update(skipped=skipped, failed=len(failed))
+    report = ReprocessReport(bags=len(bags), estimates=0, skipped=skipped, failed=failed, analysis_version=version,
+                             seconds=0.0)
+    if not todo:
+        bar.close()
+        report.failed.sort(key=lambda f: f["bag"])
+        report.seconds = time.perf_counter() - t0
+        return report
+
+    op, mp = default_node_params()
+    close: Callable[[], None] | None = None
+    if client is None:
+        client, close = open_client(scheduler, workers)
+    report.workers = _n_workers(client)
+    report.scheduler = str((getattr(client, "scheduler", None) and client.scheduler.address) or "")
+    pending: list[BagOutcome] = []
+    last_flush = time.perf_counter()
+
+    def flush() -> None:
+        nonlocal last_flush
+        if pending:
+            report.estimates += store.add_estimates([EstimateRecord(**r) for o in pending for r in o.records])
+            mark_done(store, version, pending)
+            pending.clear()
+        last_flush = time.perf_counter()
+
+    try:
+        from dask.distributed import as_completed
+
+        futures = {}
+        for path, _fp in todo:
+            fut = client.submit(reprocess_bag, path, params=params, method=method, version=version,
+                                observer_params=op, monitor_params=mp, software_version=software_version,
+                                pure=False)
+            futures[fut] = path
+        for fut in as_completed(list(futures)):
+            path = futures.pop(fut)
+            if fut.status == "error":
+                task_exc = fut.exception()
+                failed.append({"bag": path, "error": f"{path}: the Dask task failed ({type(task_exc).__name__}: "
+                                                     f"{str(task_exc).splitlines()[0] if str(task_exc) else ''})"})
+                bar.update(failed=1)
+                continue
+            outcome: BagOutcome = fut.result()
+            fut.release()
+            if outcome.error is not None:
+                failed.append({"bag": path, "error": outcome.error})
+                bar.update(failed=1)
+                continue
+            report.processed += 1
+            report.bag_seconds.append(outcome.seconds)
+            report.bag_cpu_seconds.append(outcome.cpu_seconds)
+            pending.append(outcome)
+            if len(pending) >= batch or time.perf_counter() - last_flush >= flush_seconds:
+                flush()
+            bar.update(done=1)
+        flush()
+    finally:
+        try:
+            flush()
+        finally:
+            bar.close()
+            if close is not None:
+                close()
+    report.failed.sort(key=lambda f: f["bag"])
+    report.seconds = time.perf_counter() - t0
+    return report
+

@@ -1,0 +1,488 @@
+"""The wear history store: every estimate of every joint, and its maintenance events.
+
+One schema and one code path (SQLAlchemy Core) for the embedded default, an
+SQLite file (``sqlite:///path``; WAL journal, a busy timeout, so a reader and
+the ``wear_trend`` node can share it), and PostgreSQL for a fleet
+(``postgresql+psycopg://user@host/db``; a plain ``postgresql://`` URL is given
+the psycopg 3 driver). A bare path is taken as an SQLite file.
+
+Tables
+------
+``estimates``
+    robot, joint, hardware_id, cycle_id, time_ns (the estimate's stamp, ns
+    since the epoch, rounded to the microsecond), wear, wear_std, temperature (°C, NaN/NULL when not
+    estimated), method, params (parameter set), software_version, bag (where
+    it was read from; ``""`` live), analysis_version (``"live"`` for the
+    estimates the cell made; a re-estimation with another model writes its
+    own version), source (``live``, ``bag``, ``csv``), inserted_ns.
+    **Identity** ``UNIQUE (robot, joint, analysis_version, cycle_id, time_ns)``:
+    the cycle id alone is not (a restarted test_cycle counts from 1 again),
+    the time stamp makes it so; the bag is not part of it, so the estimates a
+    live ``wear_trend`` stored and the same estimates imported later from the
+    cell's bag are one entry, not two.
+``maintenance``
+    robot, joint, time_ns, kind (``regrease``, ``reducer_replaced``, ...),
+    note; ``UNIQUE (robot, joint, time_ns, kind)``. An event starts a new
+    segment of the joint's trend.
+``schema_version``
+    one row per applied migration (version, applied_ns). :data:`MIGRATIONS`
+    are forward only; :meth:`HistoryStore.migrate` applies the missing ones
+    in order, each in its own transaction.
+
+Inserts are idempotent and safe under concurrent writers: ``INSERT ... ON
+CONFLICT DO NOTHING`` through the dialect's own ``insert`` (SQLite and
+PostgreSQL both have it), so two processes writing the same estimate leave
+one row and neither fails. Each call of :meth:`HistoryStore.add_estimates`
+is one transaction: after it returns, its rows are durable (SQLite
+``synchronous=FULL`` in WAL mode), which is what the ``wear_trend`` node
+relies on when it is killed.
+
+>>> s = HistoryStore("sqlite://")               # in memory
+>>> e = EstimateRecord("robot_1", "joint_1", cycle_id=1, time=1.7e9, wear=10.0, wear_std=0.8)
+>>> s.add_estimates([e, e]), s.add_estimates([e])
+(1, 0)
+>>> [r.wear for r in s.estimates(robot="robot_1", joint="joint_1")]
+[10.0]
+>>> s.schema_version()
+2
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import (
+    BigInteger,
+    Column,
+    Float,
+    Integer,
+    MetaData,
+    String,
+    Table,
+    Text,
+    UniqueConstraint,
+    create_engine,
+    event,
+    inspect,
+    select,
+    text,
+)
+from sqlalchemy.engine import Connection, Engine
+from sqlalchemy.exc import ArgumentError, OperationalError, SQLAlchemyError
+
+from .. import __version__
+from ..errors import InputDataError, JointwearError
+
+__all__ = [
+    "LIVE",
+    "MIGRATIONS",
+    "SCHEMA_VERSION",
+    "EstimateRecord",
+    "HistoryError",
+    "HistoryStore",
+    "MaintenanceEvent",
+    "normalize_url",
+]
+
+#: analysis_version of the estimates the cell made (live node, recorded bags, CSV tables)
+LIVE = "live"
+
+
+class HistoryError(JointwearError):
+    """The history store cannot be opened, migrated or written."""
+
+
+@dataclass(frozen=True)
+class EstimateRecord:
+    """One wear estimate of one joint (a row of ``estimates``). ``time`` is seconds since the epoch."""
+
+    robot: str
+    joint: str
+    cycle_id: int
+    time: float
+    wear: float
+    wear_std: float
+    hardware_id: str = ""
+    temperature: float = math.nan
+    method: str = ""
+    params: str = ""
+    software_version: str = __version__
+    bag: str = ""
+    analysis_version: str = LIVE
+    source: str = "live"
+
+    @property
+    def time_ns(self) -> int:
+        """The stored time: ns since the epoch, rounded to the microsecond (a float of seconds since the epoch
+        keeps microseconds exactly, so the identity survives any float round trip: CSV, JSON, messages)."""
+        return round(self.time * 1e6) * 1000
+
+    def check(self, where: str = "estimate") -> EstimateRecord:
+        """Raise :class:`InputDataError` unless the record is storable (names, finite wear, std > 0)."""
+        if not self.robot or not self.joint:
+            raise InputDataError(f"{where}: robot {self.robot!r} and joint {self.joint!r} must be non-empty")
+        for name in ("time", "wear", "wear_std"):
+            v = float(getattr(self, name))
+            if not math.isfinite(v):
+                raise InputDataError(f"{where}: {name} = {v!r} is not a finite number")
+        if not 0.0 < float(self.wear_std) < 1e6:
+            raise InputDataError(f"{where}: wear_std = {self.wear_std!r} must be > 0 (the estimate's standard deviation)")
+        if not -1e9 < self.time < 1e11:
+            raise InputDataError(f"{where}: time = {self.time!r} is not seconds since the epoch")
+        if self.cycle_id < 0 or self.cycle_id >= 2**31:
+            raise InputDataError(f"{where}: cycle_id = {self.cycle_id!r} must be in [0, 2^31)")
+        return self
+
+
+@dataclass(frozen=True)
+class MaintenanceEvent:
+    """A maintenance event of one joint (regrease, reducer replaced, ...); starts a new trend segment."""
+
+    robot: str
+    joint: str
+    time: float
+    kind: str
+    note: str = ""
+
+    @property
+    def time_ns(self) -> int:
+        return round(self.time * 1e6) * 1000
+
+    def check(self, where: str = "maintenance event") -> MaintenanceEvent:
+        if not self.robot or not self.joint or not self.kind:
+            raise InputDataError(f"{where}: robot, joint and kind must be non-empty "
+                                 f"(got {self.robot!r}, {self.joint!r}, {self.kind!r})")
+        if not (math.isfinite(self.time) and -1e9 < self.time < 1e11):
+            raise InputDataError(f"{where}: time = {self.time!r} is not seconds since the epoch")
+        return self
+
+
+metadata = MetaData()
+
+estimates_t = Table(
+    "estimates", metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("robot", String(200), nullable=False),
+    Column("joint", String(200), nullable=False),
+    Column("hardware_id", String(200), nullable=False, default=""),
+    Column("cycle_id", BigInteger, nullable=False),
+    Column("time_ns", BigInteger, nullable=False),
+    Column("wear", Float, nullable=False),
+    Column("wear_std", Float, nullable=False),
+    Column("temperature", Float, nullable=True),
+    Column("method", String(100), nullable=False, default=""),
+    Column("params", String(200), nullable=False, default=""),
+    Column("software_version", String(100), nullable=False, default=""),
+    Column("bag", Text, nullable=False, default=""),
+    Column("analysis_version", String(200), nullable=False, default=LIVE),
+    Column("source", String(20), nullable=False, default="live"),
+    Column("inserted_ns", BigInteger, nullable=False),
+    UniqueConstraint("robot", "joint", "analysis_version", "cycle_id", "time_ns", name="uq_estimate_identity"),
+)
+
+maintenance_t = Table(
+    "maintenance", metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("robot", String(200), nullable=False),
+    Column("joint", String(200), nullable=False),
+    Column("time_ns", BigInteger, nullable=False),
+    Column("kind", String(100), nullable=False),
+    Column("note", Text, nullable=False, default=""),
+    UniqueConstraint("robot", "joint", "time_ns", "kind", name="uq_maintenance_identity"),
+)
+
+schema_version_t = Table(
+    "schema_version", metadata,
+    Column("version", Integer, primary_key=True, autoincrement=False),
+    Column("applied_ns", BigInteger, nullable=False),
+)
+
+
+def _m1(conn: Connection) -> None:
+    """Version 1: the three tables."""
+    metadata.create_all(conn, tables=[estimates_t, maintenance_t, schema_version_t])
+
+
+def _m2(conn: Connection) -> None:
+    """Version 2: indexes for the per-joint queries of the trend (robot, joint, time)."""
+    conn.execute(text("CREATE INDEX IF NOT EXISTS ix_estimates_joint_time "
+                      "ON estimates (robot, joint, analysis_version, time_ns)"))
+    conn.execute(text("CREATE INDEX IF NOT EXISTS ix_maintenance_joint_time ON maintenance (robot, joint, time_ns)"))
+
+
+#: forward migrations, version -> function; applied in order, each in its own transaction
+MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2}
+SCHEMA_VERSION = max(MIGRATIONS)
+
+
+def normalize_url(url: str | Path) -> str:
+    """``path`` -> ``sqlite:///path``; ``postgresql://`` -> ``postgresql+psycopg://``; others as given.
+
+    >>> normalize_url("h.db"), normalize_url("postgresql://u@/d?host=/tmp")
+    ('sqlite:///h.db', 'postgresql+psycopg://u@/d?host=/tmp')
+    """
+    u = str(url).strip()
+    if not u:
+        raise InputDataError("database URL is empty: give a path (SQLite file) or sqlite:///path or postgresql://...")
+    if "://" not in u:
+        return f"sqlite:///{u}"
+    if u.startswith(("postgresql://", "postgres://")):
+        return "postgresql+psycopg://" + u.split("://", 1)[1]
+    return u
+
+
+def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
+    cur = dbapi_conn.cursor()
+    cur.execute("PRAGMA journal_mode=WAL")
+    cur.execute("PRAGMA synchronous=FULL")
+    cur.execute("PRAGMA busy_timeout=30000")
+    cur.close()
+
+
+class HistoryStore:
+    """Wear estimates and maintenance events of robots' joints, in SQLite or PostgreSQL.
+
+    Parameters
+    ----------
+    url : ``sqlite:///path`` (default kind; the file and its directory are created), ``sqlite://``
+        (in memory), ``postgresql+psycopg://...`` or ``postgresql://...``, or a bare file path.
+    create : create/migrate the schema to :data:`SCHEMA_VERSION` (else it must be current).
+    migrate_to : with ``create``, stop at this schema version (tests of migrations).
+    """
+
+    def __init__(self, url: str | Path, *, create: bool = True, migrate_to: int | None = None) -> None:
+        self.url = normalize_url(url)
+        try:
+            if self.url.startswith("sqlite"):
+                path = self.url.split(":///", 1)[1] if ":///" in self.url else ""
+                if path and path != ":memory:":
+                    Path(path).expanduser().parent.mkdir(parents=True, exist_ok=True)
+                self.engine: Engine = create_engine(self.url, connect_args={"timeout": 30.0})
+                event.listen(self.engine, "connect", _sqlite_pragmas)
+            else:
+                self.engine = create_engine(self.url, pool_pre_ping=True)
+            self.dialect = self.engine.dialect.name
+            if create:
+                self.migrate(migrate_to)
+            elif self.schema_version() != SCHEMA_VERSION:
+                raise HistoryError(f"{self.display_url}: schema version {self.schema_version()}, "
+                                   f"this software needs {SCHEMA_VERSION}; open it with create=True to migrate")
+        except ArgumentError as exc:
+            raise InputDataError(f"database URL {str(url)!r} is not valid ({exc}); "
+                                 "use sqlite:///path or postgresql://user@host/db") from None
+        except (OperationalError, SQLAlchemyError, OSError) as exc:
+            raise HistoryError(f"{self.display_url}: cannot open the history store: {_one_line(exc)}") from None
+
+    @property
+    def display_url(self) -> str:
+        """The URL without a password."""
+        try:
+            return self.engine.url.render_as_string(hide_password=True)
+        except AttributeError:
+            return self.url
+
+    # ------------------------------------------------------------------ schema
+    def schema_version(self) -> int:
+        """The highest applied migration (0 for an empty database)."""
+        with self.engine.connect() as conn:
+            if not inspect(conn).has_table("schema_version"):
+                return 0
+            v = conn.execute(select(schema_version_t.c.version).order_by(schema_version_t.c.version.desc())).first()
+        return int(v[0]) if v else 0
+
+    def migrate(self, target: int | None = None) -> list[int]:
+        """Apply the missing forward migrations up to ``target`` (default the newest); return those applied.
+
+        Concurrent openers are safe: a migration whose version row another
+        process inserted first is rolled back and skipped.
+        """
+        target = SCHEMA_VERSION if target is None else int(target)
+        applied: list[int] = []
+        for version in sorted(v for v in MIGRATIONS if v <= target):
+            if version <= self.schema_version():
+                continue
+            try:
+                with self.engine.begin() as conn:
+                    MIGRATIONS[version](conn)
+                    ins = self._insert(schema_version_t).values(version=version, applied_ns=_time.time_ns())
+                    res = conn.execute(ins.on_conflict_do_nothing(index_elements=["version"])
+                                       .returning(schema_version_t.c.version))
+                    if not res.fetchall():  # another process applied it meanwhile
+                        continue
+            except SQLAlchemyError as exc:
+                # lost a race on CREATE TABLE/INDEX with another process opening a new store: wait for its
+                # version row (its transaction commits the tables and the row together)
+                for _ in range(50):
+                    if self.schema_version() >= version:
+                        break
+                    _time.sleep(0.1)
+                if self.schema_version() >= version:
+                    continue
+                raise HistoryError(f"{self.display_url}: migration to schema version {version} failed: "
+                                   f"{_one_line(exc)}") from None
+            applied.append(version)
+        return applied
+
+    def _insert(self, table: Table) -> Any:
+        if self.dialect == "postgresql":
+            from sqlalchemy.dialects.postgresql import insert as pg_insert
+            return pg_insert(table)
+        if self.dialect == "sqlite":
+            from sqlalchemy.dialects.sqlite import insert as sqlite_insert
+            return sqlite_insert(table)
+        raise HistoryError(f"{self.display_url}: dialect {self.dialect!r} is not supported (SQLite or PostgreSQL)")
+
+    # ------------------------------------------------------------------ writing
+    def add_estimates(self, records: Iterable[EstimateRecord]) -> int:
+        """Insert the records (one transaction); return how many were new. Duplicates are skipped."""
+        now = _time.time_ns()
+        rows = []
+        for i, r in enumerate(records):
+            r.check(f"estimate {i}")
+            d = asdict(r)
+            d.pop("time")
+            d["time_ns"] = r.time_ns
+            d["cycle_id"] = int(r.cycle_id)
+            d["temperature"] = float(r.temperature) if math.isfinite(float(r.temperature)) else None
+            d["inserted_ns"] = now
+            rows.append(d)
+        if not rows:
+            return 0
+        stmt = self._insert(estimates_t).on_conflict_do_nothing(
+            index_elements=["robot", "joint", "analysis_version", "cycle_id", "time_ns"]).returning(estimates_t.c.id)
+        # one lock order for every writer: concurrent transactions inserting overlapping keys in different
+        # orders deadlock on PostgreSQL's unique index (seen with 4 writers); sorted, they queue instead
+        rows.sort(key=lambda d: (d["robot"], d["joint"], d["analysis_version"], d["cycle_id"], d["time_ns"]))
+        n = 0
+        for attempt in range(5):
+            n = 0
+            try:
+                with self.engine.begin() as conn:
+                    for row in rows:  # RETURNING says whether the row was new, on every dialect
+                        n += len(conn.execute(stmt.values(**row)).fetchall())
+                break
+            except OperationalError as exc:  # deadlock / serialization failure / locked: retry the transaction
+                if attempt == 4 or not _retryable(exc):
+                    raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
+                _time.sleep(0.05 * (attempt + 1))
+            except SQLAlchemyError as exc:
+                raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
+        return n
+
+    def add_maintenance(self, ev: MaintenanceEvent) -> bool:
+        """Insert a maintenance event; False when the same event (robot, joint, time, kind) is already there."""
+        ev.check()
+        stmt = self._insert(maintenance_t).values(robot=ev.robot, joint=ev.joint, time_ns=ev.time_ns, kind=ev.kind,
+                                                  note=ev.note)
+        stmt = stmt.on_conflict_do_nothing(index_elements=["robot", "joint", "time_ns", "kind"]).returning(
+            maintenance_t.c.id)
+        try:
+            with self.engine.begin() as conn:
+                return bool(conn.execute(stmt).fetchall())
+        except SQLAlchemyError as exc:
+            raise HistoryError(f"{self.display_url}: cannot write the maintenance event: {_one_line(exc)}") from None
+
+    # ------------------------------------------------------------------ reading
+    def estimates(self, robot: str | None = None, joint: str | None = None,
+                  analysis_version: str | None = LIVE, since: float | None = None) -> list[EstimateRecord]:
+        """Estimates in time order, filtered by robot/joint/analysis version (``None``: any)."""
+        c = estimates_t.c
+        q = select(estimates_t)
+        if robot is not None:
+            q = q.where(c.robot == robot)
+        if joint is not None:
+            q = q.where(c.joint == joint)
+        if analysis_version is not None:
+            q = q.where(c.analysis_version == analysis_version)
+        if since is not None:
+            q = q.where(c.time_ns >= int(since * 1e9))
+        q = q.order_by(c.robot, c.joint, c.time_ns, c.id)
+        with self.engine.connect() as conn:
+            rows = conn.execute(q).mappings().all()
+        return [_record(r) for r in rows]
+
+    def count(self, analysis_version: str | None = None) -> int:
+        """Number of stored estimates (of one analysis version, or all)."""
+        from sqlalchemy import func
+        q = select(func.count()).select_from(estimates_t)
+        if analysis_version is not None:
+            q = q.where(estimates_t.c.analysis_version == analysis_version)
+        with self.engine.connect() as conn:
+            return int(conn.execute(q).scalar_one())
+
+    def maintenance(self, robot: str | None = None, joint: str | None = None) -> list[MaintenanceEvent]:
+        """Maintenance events in time order."""
+        c = maintenance_t.c
+        q = select(maintenance_t)
+        if robot is not None:
+            q = q.where(c.robot == robot)
+        if joint is not None:
+            q = q.where(c.joint == joint)
+        with self.engine.connect() as conn:
+            rows = conn.execute(q.order_by(c.robot, c.joint, c.time_ns, c.id)).mappings().all()
+        return [MaintenanceEvent(r["robot"], r["joint"], r["time_ns"] * 1e-9, r["kind"], r["note"]) for r in rows]
+
+    def joints(self, analysis_version: str | None = LIVE) -> list[tuple[str, str]]:
+        """The (robot, joint) pairs that have estimates, sorted."""
+        q = select(estimates_t.c.robot, estimates_t.c.joint).distinct()
+        if analysis_version is not None:
+            q = q.where(estimates_t.c.analysis_version == analysis_version)
+        with self.engine.connect() as conn:
+            return sorted((str(a), str(b)) for a, b in conn.execute(q).all())
+
+    def analysis_versions(self) -> list[str]:
+        """The analysis versions present."""
+        q = select(estimates_t.c.analysis_version).distinct()
+        with self.engine.connect() as conn:
+            return sorted(str(r[0]) for r in conn.execute(q).all())
+
+    def history(self, analysis_version: str | None = LIVE, robot: str | None = None,
+                joint: str | None = None) -> dict[tuple[str, str], tuple[list[EstimateRecord], list[MaintenanceEvent]]]:
+        """(robot, joint) -> (estimates in time order, maintenance events): what the trend core takes."""
+        out: dict[tuple[str, str], tuple[list[EstimateRecord], list[MaintenanceEvent]]] = {}
+        for r in self.estimates(robot=robot, joint=joint, analysis_version=analysis_version):
+            out.setdefault((r.robot, r.joint), ([], []))[0].append(r)
+        for ev in self.maintenance(robot=robot, joint=joint):
+            if (ev.robot, ev.joint) in out:
+                out[(ev.robot, ev.joint)][1].append(ev)
+        return out
+
+    def close(self) -> None:
+        self.engine.dispose()
+
+    def __enter__(self) -> HistoryStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _record(r: Any) -> EstimateRecord:
+    t = r["temperature"]
+    return EstimateRecord(
+        robot=r["robot"], joint=r["joint"], cycle_id=int(r["cycle_id"]), time=r["time_ns"] * 1e-9,
+        wear=float(r["wear"]), wear_std=float(r["wear_std"]), hardware_id=r["hardware_id"],
+        temperature=math.nan if t is None else float(t), method=r["method"], params=r["params"],
+        software_version=r["software_version"], bag=r["bag"], analysis_version=r["analysis_version"],
+        source=r["source"],
+    )
+
+
+def _retryable(exc: BaseException) -> bool:
+    text_ = str(getattr(exc, "orig", None) or exc).lower()
+    return any(k in text_ for k in ("deadlock", "could not serialize", "database is locked", "busy"))
+
+
+def _one_line(exc: BaseException) -> str:
+    text_ = str(getattr(exc, "orig", None) or exc).strip().splitlines()
+    return text_[0] if text_ else type(exc).__name__
+
+
+def records_sorted(records: Sequence[EstimateRecord]) -> list[EstimateRecord]:
+    return sorted(records, key=lambda r: (r.robot, r.joint, r.time, r.cycle_id))
+

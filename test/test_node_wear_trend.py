@@ -1,0 +1,218 @@
+"""wear_trend on a real rclpy graph (loopback DDS): history, trend, diagnostics, maintenance, restarts and SIGKILL."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from jointwear_msgs.msg import WearEstimate, WearTrend  # noqa: E402
+from jointwear_msgs.srv import RecordMaintenance  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+
+from jointwear_ros.history import HistoryStore  # noqa: E402
+from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
+from jointwear_ros.nodes.wear_trend import WearTrendNode  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+T0 = 1.7e9
+DAY = 86400.0
+RELIABLE = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
+LATCHED = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+@pytest.fixture(scope="module")
+def ctx():
+    c = rclpy.Context()
+    rclpy.init(context=c)
+    yield c
+    rclpy.try_shutdown(context=c)
+
+
+def _spin_until(executor, predicate, timeout=30.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and not predicate():
+        executor.spin_once(timeout_sec=0.02)
+    return predicate()
+
+
+def _estimate(joint, cycle, t, wear, std=0.85):
+    m = WearEstimate()
+    ns = round(t * 1e9)
+    m.header.stamp.sec, m.header.stamp.nanosec = ns // 10**9, ns % 10**9
+    m.joint_name, m.cycle_id, m.method = joint, cycle, "joint"
+    m.wear, m.wear_std, m.temperature_estimate = float(wear), float(std), 41.0
+    m.alarm_threshold = 35.0
+    return m
+
+
+def _history(n, rate, w0, seed):
+    rng = np.random.default_rng(seed)
+    return [(i + 1, T0 + i * DAY, w0 + rate * i + rng.normal(0, 0.85)) for i in range(n)]
+
+
+class _Probe:
+    """A test node: publishes estimates, collects trends and diagnostics."""
+
+    def __init__(self, ctx, ns):
+        self.node = rclpy.create_node("wear_trend_probe", context=ctx)
+        self.pub = self.node.create_publisher(WearEstimate, f"{ns}/wear_estimate", RELIABLE)
+        self.trends: list[WearTrend] = []
+        self.diags: list[DiagnosticArray] = []
+        self.node.create_subscription(WearTrend, f"{ns}/wear_trend", self.trends.append, LATCHED)
+        self.node.create_subscription(DiagnosticArray, f"{ns}/diagnostics", self.diags.append, 10)
+
+    def last(self, joint):
+        return next((t for t in reversed(self.trends) if t.joint_name == joint), None)
+
+    def status(self, name):
+        for arr in reversed(self.diags):
+            for s in arr.status:
+                if s.name == name:
+                    return s
+        return None
+
+
+def _node(ctx, ns, db):
+    return WearTrendNode(context=ctx, parameter_overrides=[
+        Parameter("db_url", value=db), Parameter("robot", value="cell_7"),
+        Parameter("estimate_topic", value=f"{ns}/wear_estimate"), Parameter("trend_topic", value=f"{ns}/wear_trend"),
+        Parameter("diagnostics_topic", value=f"{ns}/diagnostics"), Parameter("diagnostics_period", value=0.2),
+    ])
+
+
+def test_wear_trend_node_stores_trends_warns_takes_maintenance_and_reloads_after_a_restart(ctx, tmp_path):
+    ns = "/jw_trend_a"
+    db = str(tmp_path / "h.db")
+    node = _node(ctx, ns, db)
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        grow, flat = _history(60, 0.3, 12.0, 1), _history(60, 0.0, 15.0, 2)  # joint_1 reaches 35 ~17 days later
+        for (c, t, w), (c2, t2, w2) in zip(grow, flat):
+            probe.pub.publish(_estimate("joint_1", c, t, w))
+            probe.pub.publish(_estimate("joint_2", c2, t2 + 600.0, w2))
+        probe.pub.publish(_estimate("joint_2", 999, T0 + 100 * DAY, math.nan))  # malformed: rejected, counted
+        assert _spin_until(ex, lambda: node.rejected == 1 and node.stored == 120), (node.stored, node.rejected)
+        assert _spin_until(ex, lambda: (probe.last("joint_1") or WearTrend()).estimates_total == 60
+                           and (probe.last("joint_2") or WearTrend()).estimates_total == 60)
+        g, f = probe.last("joint_1"), probe.last("joint_2")
+        assert g.level == WearTrend.WARN and g.growth_detected and g.robot == "cell_7"
+        assert g.time_to_alarm_lo90 <= (35 - 12 - 0.3 * 59) / 0.3 <= g.time_to_alarm_hi90  # 17.7 days
+        assert 0.25 < g.rate_per_day < 0.35 and g.wear_std < 1.0
+        assert f.level == WearTrend.OK and not f.growth_detected and math.isnan(f.time_to_alarm_median)
+        assert _spin_until(ex, lambda: probe.status("wear_trend: joint_1") is not None
+                           and probe.status("wear_trend: joint_1").level == bytes([1]))
+        assert _spin_until(ex, lambda: dict((kv.key, kv.value) for kv in
+                                            probe.status("wear_trend: joint_2").values)["rejected"] == "1")
+        s2 = probe.status("wear_trend: joint_2")
+        assert s2.level == bytes([0]) and dict((kv.key, kv.value) for kv in s2.values)["stored"] == "120"
+        # the same estimates again (a bag played onto the graph): nothing new stored
+        for c, t, w in grow[:10]:
+            probe.pub.publish(_estimate("joint_1", c, t, w))
+        assert _spin_until(ex, lambda: node.duplicates == 10)
+        assert HistoryStore(db).count() == 120
+        # a maintenance event by service call: joint_1 starts a new segment
+        cli = probe.node.create_client(RecordMaintenance, "/wear_trend/record_maintenance")
+        assert cli.wait_for_service(timeout_sec=10.0)
+        req = RecordMaintenance.Request(joint_name="joint_1", kind="reducer_replaced", note="test")
+        req.stamp.sec = int(T0 + 58.5 * DAY)  # one estimate (day 59) after it
+        fut = cli.call_async(req)
+        assert _spin_until(ex, fut.done)
+        assert fut.result().success, fut.result().message
+        assert _spin_until(ex, lambda: probe.last("joint_1").estimates == 1)
+        assert probe.last("joint_1").level == WearTrend.OK
+        fut = cli.call_async(RecordMaintenance.Request(joint_name="", kind="regrease"))
+        assert _spin_until(ex, fut.done) and not fut.result().success
+        assert "must be non-empty" in fut.result().message
+    finally:
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+    # restart: the new node reloads both joints from the store and publishes their trends (latched)
+    probe.trends.clear()
+    node2 = _node(ctx, ns, db)
+    ex.add_node(node2)
+    try:
+        assert _spin_until(ex, lambda: probe.last("joint_1") is not None and probe.last("joint_2") is not None)
+        assert probe.last("joint_2").estimates_total == 60
+        assert probe.last("joint_1").estimates_total == 60 and probe.last("joint_1").estimates == 1
+    finally:
+        ex.remove_node(node2)
+        node2.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+
+
+def _start_node(db, ns, domain):
+    env = loopback_env(domain)
+    return subprocess.Popen(
+        [sys.executable, "-m", "jointwear_ros.nodes.wear_trend", "--ros-args", "-p", f"db_url:={db}",
+         "-p", f"estimate_topic:={ns}/wear_estimate", "-p", f"trend_topic:={ns}/wear_trend",
+         "-p", f"diagnostics_topic:={ns}/diagnostics"],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def test_wear_trend_killed_mid_stream_loses_no_reported_estimate_and_duplicates_none(ctx, tmp_path):
+    ns = "/jw_trend_kill"
+    db = str(tmp_path / "kill.db")
+    domain = int(os.environ["ROS_DOMAIN_ID"])
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(probe.node)
+    stream = _history(150, 0.1, 5.0, 3)
+    proc = _start_node(db, ns, domain)
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1, timeout=60)
+        for c, t, w in stream:
+            probe.pub.publish(_estimate("joint_3", c, t, w))
+        # kill it hard while it is working through the stream
+        assert _spin_until(ex, lambda: any(m.estimates_total >= 25 for m in probe.trends), timeout=60)
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    ex.spin_once(timeout_sec=0.1)
+    reported = max(m.estimates_total for m in probe.trends)  # the node stores before it reports
+    with sqlite3.connect(db) as conn:
+        assert conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+        stored = conn.execute("SELECT COUNT(*) FROM estimates").fetchone()[0]
+        distinct = conn.execute("SELECT COUNT(DISTINCT cycle_id) FROM estimates").fetchone()[0]
+    assert reported <= stored < len(stream), (reported, stored)
+    assert distinct == stored
+    # restart, and the cell sends everything again: the history ends with each estimate exactly once
+    probe.trends.clear()
+    proc = _start_node(db, ns, domain)
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1
+                           and any(m.estimates_total == stored for m in probe.trends), timeout=60)
+        for c, t, w in stream:
+            probe.pub.publish(_estimate("joint_3", c, t, w))
+        assert _spin_until(ex, lambda: any(m.estimates_total == len(stream) for m in probe.trends), timeout=120)
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 0, proc.stderr.read()[-2000:] if proc.stderr else ""
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        probe.node.destroy_node()
+        ex.shutdown()
+    with HistoryStore(db) as s:
+        recs = s.estimates(robot="robot_1", joint="joint_3")
+    assert [r.cycle_id for r in recs] == list(range(1, len(stream) + 1))
