@@ -26,7 +26,7 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["find_resource", "resource_dirs", "source_tree"]
+__all__ = ["config_path", "find_resource", "resource_dirs", "source_tree"]
 
 # source-tree location of each package's share files, relative to the checkout root
 _SOURCE_SHARE = {
@@ -83,3 +83,9 @@ def find_resource(package: str, relative: str | Path) -> Path | None:
         if cand.exists():
             return cand
     return None
+
+
+def config_path(name: str) -> Path:
+    """``config/<name>`` of jointwear_ros (a node's parameter file); the first candidate when none exists."""
+    found = find_resource("jointwear_ros", Path("config") / name)
+    return found if found is not None else resource_dirs("jointwear_ros")[0] / "config" / name

@@ -20,8 +20,8 @@ import pytest
 pytest.importorskip("rclpy")
 
 from jointwear_ros.cli.demo_cmd import run_demo
-from jointwear_ros.cli.replay_cmd import config_path
 from jointwear_ros.io.bags import bag_info, node_params_from_yaml, read_messages, replay_bag
+from jointwear_ros.resources import config_path
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

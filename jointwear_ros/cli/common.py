@@ -18,16 +18,20 @@ from typing import Any
 import numpy as np
 
 from ..fmt import format_table
+from ..resources import config_path
 from . import UsageError
 
 __all__ = [
     "ABSOLUTE_ZERO",
     "MAX_LIST",
     "check_input_file",
+    "check_method",
     "check_output_dir",
     "check_output_file",
     "check_temperature_prior",
+    "check_text_file",
     "format_table",
+    "node_params",
     "parse_float",
     "parse_float_list",
     "parse_int",
@@ -218,3 +222,34 @@ def print_json(obj: Any) -> None:
     """Print ``obj`` as JSON (numpy arrays and scalars converted; NaN/inf -> null)."""
     json.dump(_clean(obj), sys.stdout, indent=2)
     sys.stdout.write("\n")
+
+
+def node_params(path: str | None, default_name: str, node: str, flag: str = "") -> dict[str, Any]:
+    """A node's ROS parameters from ``path`` (checked), else from the package's ``config/<default_name>``."""
+    from ..io.bags import node_params_from_yaml
+
+    if path is not None:
+        check_text_file(path, flag or "params file")
+        return node_params_from_yaml(path, node)
+    f = config_path(default_name)
+    return node_params_from_yaml(f, node) if f.is_file() else {}
+
+
+def check_text_file(path: str, flag: str) -> None:
+    """A readable UTF-8 text file (a params file), else :class:`UsageError`."""
+    p = check_input_file(path, flag)
+    try:
+        p.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise UsageError(f"{flag}: {path!r} is not a UTF-8 text file ({exc.reason} at byte {exc.start}); "
+                         "give a ROS 2 parameter YAML file") from None
+    except OSError as exc:
+        raise UsageError(f"{flag}: {path!r}: cannot read ({exc.strerror})") from None
+
+
+def check_method(method: str | None, flag: str) -> None:
+    """An estimator method name the estimators know (None: the configured one)."""
+    from ..estimation import ESTIMATOR_METHODS
+
+    if method is not None and str(method).strip().lower() not in ESTIMATOR_METHODS:
+        raise UsageError(f"{flag}: unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")

@@ -34,9 +34,9 @@ from typing import IO, Any
 import yaml
 
 from ..errors import JointwearError
+from ..resources import config_path
 from . import UsageError
-from .common import check_output_dir, format_table, parse_float, parse_float_list, print_json
-from .replay_cmd import check_method, config_path
+from .common import check_method, check_output_dir, format_table, parse_float, parse_float_list, print_json
 
 __all__ = ["DEMO_NODES", "DemoError", "register", "run_demo"]
 

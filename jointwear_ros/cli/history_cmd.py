@@ -64,7 +64,7 @@ def _is_csv(path: Path) -> bool:
 def cmd_import(args: argparse.Namespace) -> int:
     from ..history import HistoryStore
     from ..history.importers import estimates_from_bag, estimates_from_csv, reestimate_bag
-    from .replay_cmd import _params
+    from .common import node_params
 
     if not args.reestimate and (args.method or args.params or args.analysis_version):
         raise UsageError("--method, --params and --analysis-version need --reestimate")
@@ -80,8 +80,8 @@ def cmd_import(args: argparse.Namespace) -> int:
         elif args.reestimate:
             recs, version = reestimate_bag(
                 path, robot=args.robot,
-                observer_params=_params(None, "friction_observer.yaml", "friction_observer"),
-                monitor_params=_params(None, "wear_estimator.yaml", "wear_estimator"),
+                observer_params=node_params(None, "friction_observer.yaml", "friction_observer"),
+                monitor_params=node_params(None, "wear_estimator.yaml", "wear_estimator"),
                 method=args.method, params=args.params, analysis_version=args.analysis_version)
             versions.add(version)
         else:

@@ -22,17 +22,10 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputDataError
-from ..resources import find_resource, resource_dirs
 from . import UsageError
-from .common import check_input_file, format_table, parse_float, print_json
+from .common import check_method, format_table, node_params, parse_float, print_json
 
-__all__ = ["config_path", "register", "replay_summary"]
-
-
-def config_path(name: str) -> Path:
-    """``config/<name>`` of the source tree, or of the installed package share directory (ament index)."""
-    found = find_resource("jointwear_ros", Path("config") / name)
-    return found if found is not None else resource_dirs("jointwear_ros")[0] / "config" / name
+__all__ = ["register", "replay_summary"]
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -66,36 +59,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="with --publish: comma list of topics to play (default: all but /clock, /rosout, "
                         "/parameter_events)")
     p.set_defaults(func=cmd_replay)
-
-
-def _params(path: str | None, default_name: str, node: str, flag: str = "") -> dict[str, Any]:
-    from ..io.bags import node_params_from_yaml
-
-    if path is not None:
-        check_text_file(path, flag or "params file")
-        return node_params_from_yaml(path, node)
-    f = config_path(default_name)
-    return node_params_from_yaml(f, node) if f.is_file() else {}
-
-
-def check_text_file(path: str, flag: str) -> None:
-    """A readable UTF-8 text file (a params file), else :class:`UsageError`."""
-    p = check_input_file(path, flag)
-    try:
-        p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise UsageError(f"{flag}: {path!r} is not a UTF-8 text file ({exc.reason} at byte {exc.start}); "
-                         "give a ROS 2 parameter YAML file") from None
-    except OSError as exc:
-        raise UsageError(f"{flag}: {path!r}: cannot read ({exc.strerror})") from None
-
-
-def check_method(method: str | None, flag: str) -> None:
-    """An estimator method name the estimators know (None: the configured one)."""
-    from ..estimation import ESTIMATOR_METHODS
-
-    if method is not None and str(method).strip().lower() not in ESTIMATOR_METHODS:
-        raise UsageError(f"{flag}: unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
 
 
 def replay_summary(result: Any) -> dict[str, Any]:
@@ -133,8 +96,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from ..io.bags import replay_bag
 
     check_method(args.method, "--method")
-    observer = _params(args.observer_params, "friction_observer.yaml", "friction_observer", "--observer-params")
-    estimator = _params(args.estimator_params, "wear_estimator.yaml", "wear_estimator", "--estimator-params")
+    observer = node_params(args.observer_params, "friction_observer.yaml", "friction_observer", "--observer-params")
+    estimator = node_params(args.estimator_params, "wear_estimator.yaml", "wear_estimator", "--estimator-params")
     if args.estimator_params is not None and "method" in estimator:
         check_method(str(estimator["method"]), f"--estimator-params {args.estimator_params}: method")
     overrides = {"method": args.method} if args.method else None
@@ -185,7 +148,7 @@ def _publish(args: argparse.Namespace) -> int:
     """Play the bag's raw messages onto the graph with /clock from the log times."""
     from rosbags.highlevel import AnyReader
 
-    from ..io.bags import _check_bag_path
+    from ..io.bags import check_bag_path
     from ..io.typestore import jointwear_typestore
 
     rate = parse_float(args.rate, "--rate")
@@ -203,7 +166,7 @@ def _publish(args: argparse.Namespace) -> int:
     wait_timeout = parse_float(args.wait_timeout, "--wait-timeout")
     if not 0 < wait_timeout <= 86400:
         raise UsageError(f"--wait-timeout: {args.wait_timeout!r} must be between 0 and 86400 s")
-    bag = _check_bag_path(Path(args.bag))
+    bag = check_bag_path(Path(args.bag))
     from ..io.recover import check_bag
 
     check_bag(bag)  # a damaged bag is refused with the file and offset before anything is published

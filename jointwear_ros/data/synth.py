@@ -122,7 +122,7 @@ def _need(cols: dict[str, Array], name: str, effect: str) -> Array:
     return cols[name]
 
 
-def _effect_value(name: str, cols: dict[str, Array]) -> Array:
+def effect_value(name: str, cols: dict[str, Array]) -> Array:
     v = np.abs(cols["speed"])
     if name == "load_viscous":
         return 1.5e-4 * cols["load_torque"] * v
@@ -267,7 +267,7 @@ def synth_observations(
     effect_cols = {**cols, "tau_model": tau}
     total = tau.copy()
     for e in effects:
-        total = total + _effect_value(e, effect_cols)
+        total = total + effect_value(e, effect_cols)
     tau = total + gen.normal(0.0, noise, n) if noise > 0 else total
     # u+ and u- around a gravity torque of +-tau_m (sign from the window position)
     g = tm * np.sign(np.cos(pos) + 1e-12)

@@ -133,7 +133,7 @@ def _bag_dir(path: Path) -> Path:
     return path
 
 
-def _check_bag_path(path: Path) -> Path:
+def check_bag_path(path: Path) -> Path:
     if not path.exists():
         raise InputDataError(f"{path}: no such bag; give a rosbag2 directory (with metadata.yaml)")
     p = _bag_dir(path)
@@ -175,7 +175,7 @@ def read_messages(
     """
     from rosbags.highlevel import AnyReader
 
-    p = _check_bag_path(Path(path))
+    p = check_bag_path(Path(path))
     want_topics = None if topics is None else set(topics)
     want_types = None if msgtypes is None else set(msgtypes)
     ts = store if store is not None else jointwear_typestore()
@@ -246,7 +246,7 @@ def bag_info(path: str | os.PathLike[str], check: bool = True) -> BagInfo:
 
     from .recover import check_bag
 
-    p = _check_bag_path(Path(path))
+    p = check_bag_path(Path(path))
     checked = [
         {"file": Path(sc.path).name, "chunks": sc.chunks, "chunks_without_crc": sc.chunks_without_crc,
          "data_crc": sc.data_crc, "summary_crc": sc.summary_crc}
@@ -594,7 +594,7 @@ def replay_bag(
     from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig
     from .recover import check_bag
 
-    p = _check_bag_path(Path(path))
+    p = check_bag_path(Path(path))
     check_bag(p)  # a damaged bag is refused with its offset, never replayed as if whole
     obs_params = dict(observer_params)
     mon_params = dict(monitor_params)

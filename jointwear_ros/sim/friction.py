@@ -29,7 +29,7 @@ from collections.abc import Iterable
 import numpy as np
 import numpy.typing as npt
 
-from ..data.synth import HIDDEN_EFFECTS, _effect_value
+from ..data.synth import HIDDEN_EFFECTS, effect_value
 from ..errors import ModelError, ParameterError
 from ..model import Parameters, load_parameter_set, parse_model_spec
 
@@ -113,16 +113,16 @@ class FrictionTable:
         for e in effects:
             variables = HIDDEN_EFFECTS[e].variables
             if "position" in variables:
-                ptab = ptab + _effect_value(e, self._cols(np.zeros(npos), 0.0, pos, 0.0))
+                ptab = ptab + effect_value(e, self._cols(np.zeros(npos), 0.0, pos, 0.0))
             elif "time" in variables:
                 day = 86400.0
-                e0 = float(_effect_value(e, self._cols(np.zeros(1), 0.0, np.zeros(1), 0.0))[0])
-                e1 = float(_effect_value(e, self._cols(np.zeros(1), 0.0, np.zeros(1), day))[0])
+                e0 = float(effect_value(e, self._cols(np.zeros(1), 0.0, np.zeros(1), 0.0))[0])
+                e1 = float(effect_value(e, self._cols(np.zeros(1), 0.0, np.zeros(1), day))[0])
                 k_time += (e1 - e0) / day
                 a = a + e0
             else:
-                e_a = _effect_value(e, self._cols(v, 0.0, np.zeros(n), 0.0))
-                e_b = _effect_value(e, self._cols(v, 1.0, np.zeros(n), 0.0)) - e_a
+                e_a = effect_value(e, self._cols(v, 0.0, np.zeros(n), 0.0))
+                e_b = effect_value(e, self._cols(v, 1.0, np.zeros(n), 0.0)) - e_a
                 a = a + e_a
                 b = b + e_b
         self._a: list[float] = a.tolist()
@@ -186,5 +186,5 @@ class FrictionTable:
         out = np.asarray(self.model.evaluate(self.params, **inputs), dtype=float) * np.ones(n)
         cols = {"speed": v, "load_torque": tm, "position": pos, "lube_hours": np.full(n, self.lube_hours), "time": tt}
         for e in self.hidden_effects:
-            out = out + _effect_value(e, cols)
+            out = out + effect_value(e, cols)
         return out

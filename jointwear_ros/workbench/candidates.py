@@ -84,11 +84,11 @@ _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _CALL = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\((.*)\)$")
 
 
-def _shape_of(x: Inputs) -> tuple[int, ...]:
+def broadcast_shape(x: Inputs) -> tuple[int, ...]:
     return np.broadcast(*[np.asarray(a) for a in x.values()]).shape
 
 
-def _col(x: Inputs, name: str) -> Array:
+def column_values(x: Inputs, name: str) -> Array:
     return np.asarray(x[name], dtype=float)
 
 
@@ -147,7 +147,7 @@ class CandidateTerm(Term):
 
     def input_gradient(self, x: Inputs, p: Values, var: str) -> Array:
         if var not in self.variables:
-            return np.zeros(_shape_of(x))
+            return np.zeros(broadcast_shape(x))
         return super().input_gradient(x, p, var)
 
 
@@ -161,10 +161,10 @@ class Lin(CandidateTerm):
     meaning = "friction level (all speeds) changes with {x}"
 
     def value(self, x: Inputs, p: Values) -> Array:
-        return np.broadcast_to(self.p(p, "a") * _col(x, self.columns[0]), _shape_of(x))
+        return np.broadcast_to(self.p(p, "a") * column_values(x, self.columns[0]), broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        return {self.pn("a"): np.broadcast_to(_col(x, self.columns[0]), _shape_of(x)).copy()}
+        return {self.pn("a"): np.broadcast_to(column_values(x, self.columns[0]), broadcast_shape(x)).copy()}
 
 
 class XStribeck(CandidateTerm):
@@ -180,14 +180,14 @@ class XStribeck(CandidateTerm):
         return [{self.pn("vs"): vs} for vs in (3.0, 8.0, 20.0, 50.0, 120.0)]
 
     def value(self, x: Inputs, p: Values) -> Array:
-        s, _ = stribeck_shape(np.abs(_col(x, "speed")), self.p(p, "vs"))
-        return np.broadcast_to(self.p(p, "a") * _col(x, self.columns[0]) * s, _shape_of(x))
+        s, _ = stribeck_shape(np.abs(column_values(x, "speed")), self.p(p, "vs"))
+        return np.broadcast_to(self.p(p, "a") * column_values(x, self.columns[0]) * s, broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
         vs = self.p(p, "vs")
-        s, ra = stribeck_shape(np.abs(_col(x, "speed")), vs)
-        xs = _col(x, self.columns[0]) * s
-        sh = _shape_of(x)
+        s, ra = stribeck_shape(np.abs(column_values(x, "speed")), vs)
+        xs = column_values(x, self.columns[0]) * s
+        sh = broadcast_shape(x)
         return {
             self.pn("a"): np.broadcast_to(xs, sh).copy(),
             self.pn("vs"): np.broadcast_to(self.p(p, "a") * xs * STRIBECK_EXPONENT * ra / vs, sh).copy(),
@@ -204,11 +204,11 @@ class XViscous(CandidateTerm):
     meaning = "viscous slope (high speed) changes with {x}"
 
     def value(self, x: Inputs, p: Values) -> Array:
-        return np.broadcast_to(self.p(p, "a") * _col(x, self.columns[0]) * np.abs(_col(x, "speed")), _shape_of(x))
+        return np.broadcast_to(self.p(p, "a") * column_values(x, self.columns[0]) * np.abs(column_values(x, "speed")), broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        g = _col(x, self.columns[0]) * np.abs(_col(x, "speed"))
-        return {self.pn("a"): np.broadcast_to(g, _shape_of(x)).copy()}
+        g = column_values(x, self.columns[0]) * np.abs(column_values(x, "speed"))
+        return {self.pn("a"): np.broadcast_to(g, broadcast_shape(x)).copy()}
 
 
 class ExpViscous(CandidateTerm):
@@ -221,25 +221,25 @@ class ExpViscous(CandidateTerm):
     meaning = "viscous slope (high speed) changes exponentially with {x}"
 
     def grid(self, x: Inputs) -> list[dict[str, float]]:
-        col = _col(x, self.columns[0])
+        col = column_values(x, self.columns[0])
         span = float(np.ptp(col)) if col.size else 1.0
         scale = max(span, float(np.max(np.abs(col))) if col.size else 1.0, 1e-6)
         return [{self.pn("c"): f * scale} for f in (0.1, 0.3, 1.0, 3.0)]
 
     def _e(self, x: Inputs, p: Values) -> Array:
         with np.errstate(over="ignore", under="ignore"):
-            return np.exp(np.clip(-_col(x, self.columns[0]) / self.p(p, "c"), -700.0, 700.0))
+            return np.exp(np.clip(-column_values(x, self.columns[0]) / self.p(p, "c"), -700.0, 700.0))
 
     def value(self, x: Inputs, p: Values) -> Array:
-        return np.broadcast_to(self.p(p, "a") * self._e(x, p) * np.abs(_col(x, "speed")), _shape_of(x))
+        return np.broadcast_to(self.p(p, "a") * self._e(x, p) * np.abs(column_values(x, "speed")), broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
         c = self.p(p, "c")
-        ev = self._e(x, p) * np.abs(_col(x, "speed"))
-        sh = _shape_of(x)
+        ev = self._e(x, p) * np.abs(column_values(x, "speed"))
+        sh = broadcast_shape(x)
         return {
             self.pn("a"): np.broadcast_to(ev, sh).copy(),
-            self.pn("c"): np.broadcast_to(self.p(p, "a") * ev * _col(x, self.columns[0]) / c**2, sh).copy(),
+            self.pn("c"): np.broadcast_to(self.p(p, "a") * ev * column_values(x, self.columns[0]) / c**2, sh).copy(),
         }
 
 
@@ -263,14 +263,14 @@ class Ripple(CandidateTerm):
         return [{self.pn("w"): w} for w in self.W_GRID]
 
     def value(self, x: Inputs, p: Values) -> Array:
-        wx = self.p(p, "w") * _col(x, self.columns[0])
-        return np.broadcast_to(self.p(p, "a") * np.sin(wx) + self.p(p, "b") * np.cos(wx), _shape_of(x))
+        wx = self.p(p, "w") * column_values(x, self.columns[0])
+        return np.broadcast_to(self.p(p, "a") * np.sin(wx) + self.p(p, "b") * np.cos(wx), broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        col = _col(x, self.columns[0])
+        col = column_values(x, self.columns[0])
         wx = self.p(p, "w") * col
         s, c = np.sin(wx), np.cos(wx)
-        sh = _shape_of(x)
+        sh = broadcast_shape(x)
         return {
             self.pn("a"): np.broadcast_to(s, sh).copy(),
             self.pn("b"): np.broadcast_to(c, sh).copy(),
@@ -289,12 +289,12 @@ class Interaction(CandidateTerm):
     meaning = "friction level changes with {x} times {y}"
 
     def value(self, x: Inputs, p: Values) -> Array:
-        g = _col(x, self.columns[0]) * _col(x, self.columns[1])
-        return np.broadcast_to(self.p(p, "a") * g, _shape_of(x))
+        g = column_values(x, self.columns[0]) * column_values(x, self.columns[1])
+        return np.broadcast_to(self.p(p, "a") * g, broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        g = _col(x, self.columns[0]) * _col(x, self.columns[1])
-        return {self.pn("a"): np.broadcast_to(g, _shape_of(x)).copy()}
+        g = column_values(x, self.columns[0]) * column_values(x, self.columns[1])
+        return {self.pn("a"): np.broadcast_to(g, broadcast_shape(x)).copy()}
 
 
 #: Generic shapes by name.

@@ -40,7 +40,7 @@ from scipy.interpolate import BSpline
 
 from ..errors import ModelError
 from ..model import TERMS, ParamSpec, Term
-from .candidates import CandidateTerm, Inputs, Values, _col, _shape_of
+from .candidates import CandidateTerm, Inputs, Values, broadcast_shape, column_values
 
 __all__ = ["LINEAR_OF_TERM", "HarmonicRipple", "Scale", "Spline", "Step", "format_option"]
 
@@ -156,17 +156,17 @@ class HarmonicRipple(CandidateTerm):
         return out
 
     def value(self, x: Inputs, p: Values) -> Array:
-        col = _col(x, self.columns[0])
+        col = column_values(x, self.columns[0])
         w = self.p(p, "w")
         tot = np.zeros_like(col)
         for j, (a, b) in enumerate(self._amps(p), start=1):
             tot = tot + a * np.sin(j * w * col) + b * np.cos(j * w * col)
-        return np.broadcast_to(tot, _shape_of(x))
+        return np.broadcast_to(tot, broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        col = _col(x, self.columns[0])
+        col = column_values(x, self.columns[0])
         w = self.p(p, "w")
-        sh = _shape_of(x)
+        sh = broadcast_shape(x)
         out: dict[str, Array] = {}
         dw = np.zeros_like(col)
         for j, (a, b) in enumerate(self._amps(p), start=1):
@@ -226,19 +226,19 @@ class Step(CandidateTerm):
         return f"Step({self.columns[0]!r}, at={self.at!r}, width={self.width!r})"
 
     def _sig(self, x: Inputs, p: Values) -> Array:
-        z = (_col(x, self.columns[0]) - self.p(p, "c")) / self.p(p, "s")
+        z = (column_values(x, self.columns[0]) - self.p(p, "c")) / self.p(p, "s")
         with np.errstate(over="ignore"):
             return 1.0 / (1.0 + np.exp(-np.clip(z, -700.0, 700.0)))  # type: ignore[no-any-return]
 
     def value(self, x: Inputs, p: Values) -> Array:
-        return np.broadcast_to(self.p(p, "a") * self._sig(x, p), _shape_of(x))
+        return np.broadcast_to(self.p(p, "a") * self._sig(x, p), broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
         a, c, s = self.p(p, "a"), self.p(p, "c"), self.p(p, "s")
         sig = self._sig(x, p)
         d = a * sig * (1.0 - sig)
-        col = _col(x, self.columns[0])
-        sh = _shape_of(x)
+        col = column_values(x, self.columns[0])
+        sh = broadcast_shape(x)
         return {
             self.pn("a"): np.broadcast_to(sig, sh).copy(),
             self.pn("c"): np.broadcast_to(-d / s, sh).copy(),
@@ -305,14 +305,14 @@ class Spline(CandidateTerm):
         return dm[:, 1:]  # type: ignore[no-any-return]
 
     def value(self, x: Inputs, p: Values) -> Array:
-        col = _col(x, self.columns[0])
+        col = column_values(x, self.columns[0])
         coef = np.array([self.p(p, s[0]) for s in self.param_suffixes])
-        return np.broadcast_to((self.basis(col) @ coef).reshape(np.shape(col)), _shape_of(x))
+        return np.broadcast_to((self.basis(col) @ coef).reshape(np.shape(col)), broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        col = _col(x, self.columns[0])
+        col = column_values(x, self.columns[0])
         b = self.basis(col)
-        sh = _shape_of(x)
+        sh = broadcast_shape(x)
         return {self.pn(s[0]): np.broadcast_to(b[:, j].reshape(np.shape(col)), sh).copy()
                 for j, s in enumerate(self.param_suffixes)}
 
@@ -387,9 +387,9 @@ class Scale(CandidateTerm):
         return f"Scale({self.term_name!r}, {', '.join(repr(c) for c in self.columns)})"
 
     def _factor(self, x: Inputs) -> Array:
-        f = _col(x, self.columns[0])
+        f = column_values(x, self.columns[0])
         for c in self.columns[1:]:
-            f = f * _col(x, c)
+            f = f * column_values(x, c)
         return f
 
     def _inner_p(self, p: Values) -> dict[str, float]:
@@ -400,12 +400,12 @@ class Scale(CandidateTerm):
         return dict(self._rename)
 
     def value(self, x: Inputs, p: Values) -> Array:
-        return np.broadcast_to(self._factor(x) * self.inner.value(x, self._inner_p(p)), _shape_of(x))
+        return np.broadcast_to(self._factor(x) * self.inner.value(x, self._inner_p(p)), broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
         g = self.inner.param_gradient(x, self._inner_p(p))
         f = self._factor(x)
-        sh = _shape_of(x)
+        sh = broadcast_shape(x)
         return {new: np.broadcast_to(f * g[old], sh).copy() for old, new in self._rename.items()}
 
     def grid(self, x: Inputs) -> list[dict[str, float]]:
