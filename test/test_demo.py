@@ -20,7 +20,9 @@ import pytest
 pytest.importorskip("rclpy")
 
 from jointwear_ros.cli.demo_cmd import run_demo
-from jointwear_ros.io.bags import bag_info, node_params_from_yaml, read_messages, replay_bag
+from jointwear_ros.io.bags import bag_info, read_messages
+from jointwear_ros.io.params import node_params_from_yaml
+from jointwear_ros.replay import replay_bag
 from jointwear_ros.resources import config_path
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

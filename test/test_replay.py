@@ -11,11 +11,13 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from jointwear_ros.cli import main as cli_main
-from jointwear_ros.io.bags import bag_info, node_params_from_yaml, replay_bag
+from jointwear_ros.io.bags import bag_info
+from jointwear_ros.io.params import node_params_from_yaml
 from jointwear_ros.io.typestore import jointwear_typestore
 from jointwear_ros.monitor import MonitorConfig, WearMonitor
 from jointwear_ros.observer import ObserverConfig, observe_arrays
 from jointwear_ros.observer.synthetic import synthetic_cycle
+from jointwear_ros.replay import replay_bag
 from jointwear_ros.resources import config_path
 
 SPEEDS = (20.0, 80.0, 160.0)

@@ -226,7 +226,7 @@ def print_json(obj: Any) -> None:
 
 def node_params(path: str | None, default_name: str, node: str, flag: str = "") -> dict[str, Any]:
     """A node's ROS parameters from ``path`` (checked), else from the package's ``config/<default_name>``."""
-    from ..io.bags import node_params_from_yaml
+    from ..io.params import node_params_from_yaml
 
     if path is not None:
         check_text_file(path, flag or "params file")

@@ -93,7 +93,7 @@ def replay_summary(result: Any) -> dict[str, Any]:
 def cmd_replay(args: argparse.Namespace) -> int:
     if args.publish:
         return _publish(args)
-    from ..io.bags import replay_bag
+    from ..replay import replay_bag
 
     check_method(args.method, "--method")
     observer = node_params(args.observer_params, "friction_observer.yaml", "friction_observer", "--observer-params")

@@ -1,6 +1,6 @@
 """Re-analysis of one recorded bag: the same cores as ``jointwear replay``, plain records out, never an exception.
 
-:func:`reprocess_bag` runs :func:`~jointwear_ros.io.bags.replay_bag` (the
+:func:`reprocess_bag` runs :func:`~jointwear_ros.replay.replay_bag` (the
 friction observer core and the wear monitor, offline, in log-time order) on
 one bag with a given parameter set and estimator method, and returns a
 :class:`BagOutcome` of plain values (picklable, cheap to ship from a Dask
@@ -148,7 +148,7 @@ def default_node_params() -> tuple[dict[str, Any], dict[str, Any]]:
     """The friction_observer and wear_estimator parameters of the config files (as ``jointwear replay``)."""
     import sys
 
-    from ..io.bags import node_params_from_yaml
+    from ..io.params import node_params_from_yaml
 
     out = []
     for name in ("friction_observer", "wear_estimator"):
@@ -220,7 +220,7 @@ def reprocess_bag(
         except OSError as exc:
             out.error = f"{path}: cannot read the bag ({exc.strerror or type(exc).__name__})"
             return out
-        from ..io.bags import replay_bag
+        from ..replay import replay_bag
 
         if observer_params is None or monitor_params is None:
             op, mp = default_node_params()
@@ -233,7 +233,8 @@ def reprocess_bag(
             overrides["method"] = method
         rep = replay_bag(path, observer_params, monitor_params, use_recorded_params=use_recorded_params,
                          overrides=overrides or None)
-        from ..io.bags import read_messages, recorded_node_params
+        from ..io.bags import read_messages
+        from ..io.params import recorded_node_params
 
         events = [m.msg for m in read_messages(path, topics=["/parameter_events"])] if use_recorded_params else []
         robot, hw = bag_identity(rep.monitor_params, path, recorded_node_params(events, "wear_trend"))

@@ -128,7 +128,8 @@ def estimates_from_bag(path: str | os.PathLike[str], *, robot: str, params: str 
     The time is the message's header stamp (its log time when the stamp is 0), so the same estimate
     stored live by ``wear_trend`` and imported from the bag is one entry.
     """
-    from ..io.bags import ESTIMATE_TYPE, read_messages, recorded_node_params, stamp_seconds
+    from ..io.bags import ESTIMATE_TYPE, read_messages, stamp_seconds
+    from ..io.params import recorded_node_params
 
     p = Path(path)
     out: list[EstimateRecord] = []
@@ -157,12 +158,12 @@ def estimates_from_bag(path: str | os.PathLike[str], *, robot: str, params: str 
 def reestimate_bag(path: str | os.PathLike[str], *, robot: str, observer_params: dict[str, Any],
                    monitor_params: dict[str, Any], method: str | None = None, params: str | None = None,
                    analysis_version: str | None = None, hardware_id: str = "") -> tuple[list[EstimateRecord], str]:
-    """Re-run the observer and the estimator on a bag with today's model (``io.bags.replay_bag``).
+    """Re-run the observer and the estimator on a bag with today's model (``replay.replay_bag``).
 
     Returns the estimates (every result, revisions too; the trend keeps the newest per cycle) and the
     analysis version they are stored under (default ``METHOD:PARAMS:SOFTWARE_VERSION``).
     """
-    from ..io.bags import replay_bag
+    from ..replay import replay_bag
 
     overrides: dict[str, Any] = {}
     if method:
