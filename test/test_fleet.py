@@ -63,7 +63,9 @@ def _check_first_and_second_run(url: str, fleet, scheduler, capsys) -> None:
     assert out["bags"] == 21 and out["estimates"] == 20 and out["skipped"] == 0
     assert out["workers"] == 2
     assert [f["bag"] for f in out["failed"]] == [str(broken.resolve())]
-    assert "cannot read the bag" in out["failed"][0]["error"] and str(broken.resolve()) in out["failed"][0]["error"]
+    # the bag check names the file and the byte where the truncated bag ends, and the way out
+    assert "unfinished at byte" in out["failed"][0]["error"] and "bag recover" in out["failed"][0]["error"]
+    assert str(broken.resolve()) in out["failed"][0]["error"]
     version = out["analysis_version"]
     with HistoryStore(url) as store:
         recs = store.estimates(analysis_version=version)
@@ -139,7 +141,7 @@ def test_reprocess_bag_never_raises_for_broken_bags(fleet, tmp_path):
     (tmp_path / "notabag").mkdir()
     (tmp_path / "garbled").mkdir()
     (tmp_path / "garbled" / "metadata.yaml").write_text("rosbag2_bagfile_information: [1, 2\n")
-    for path, says in [(broken, "cannot read the bag"), (tmp_path / "missing", "no such"),
+    for path, says in [(broken, "unfinished at byte"), (tmp_path / "missing", "no such"),
                        (tmp_path / "notabag", "not a rosbag2 bag"), (tmp_path / "garbled", "")]:
         out = reprocess_bag(path, method="paper")
         assert out.error is not None and says in out.error and out.records == [], (path, out.error)

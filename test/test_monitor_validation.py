@@ -71,7 +71,7 @@ def test_prepare_rows_refuses_a_temperature_below_absolute_zero(bad):
     with pytest.raises(InputDataError, match="below absolute zero"):
         prepare_rows(t)
     t = ObservationTable.from_arrays(speed=[40.0], tau_f=[0.09], load_torque=[0.1], tau_f_std=[-1e-3])
-    with pytest.raises(InputDataError, match="tau_f_std -0.001 is negative"):
+    with pytest.raises(InputDataError, match="tau_f_std -0.001 is not a standard error"):
         prepare_rows(t)
 
 

@@ -105,9 +105,10 @@ def run(m: Mutant) -> tuple[bool, float]:
     t0 = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="jw-mutant-") as tmp:
         copy = Path(tmp)
-        for name in ("jointwear_ros", "test", "config"):
+        for name in ("jointwear_ros", "test", "config", "msg_defs", "docs"):
             shutil.copytree(ROOT / name, copy / name, ignore=shutil.ignore_patterns("__pycache__"))
-        shutil.copy2(ROOT / "setup.cfg", copy / "setup.cfg")
+        for name in ("setup.cfg", "setup.py", "package.xml", "README.md"):  # package.xml marks a source checkout
+            shutil.copy2(ROOT / name, copy / name)
         (copy / m.path).write_text(source.replace(m.old, m.new))
         env["PYTHONPATH"] = os.pathsep.join([str(copy), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
         proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *m.tests],

@@ -140,7 +140,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     ),
     Mutation(
         "cli_method_unchecked", "replay and demo start without checking --method",
-        "jointwear_ros/cli/replay_cmd.py",
+        "jointwear_ros/cli/common.py",
         "    if method is not None and str(method).strip().lower() not in ESTIMATOR_METHODS:",
         "    if False:",
         ("test/test_cli_faults.py",),

@@ -223,14 +223,7 @@ def prepare_rows(
         raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
     sig = np.full(n, float(noise_std))
     if "tau_f_std" in table:
-        given = np.asarray(table["tau_f_std"], dtype=float)
-        bad = np.flatnonzero(given < 0)
-        if bad.size:
-            i = int(bad[0])
-            raise InputDataError(
-                f"{where}: row {i} (speed {speed[i]:g} rad/s): tau_f_std {given[i]:g} is negative; "
-                "give the standard deviation (>= 0, NaN = not given)"
-            )
+        given = np.asarray(table["tau_f_std"], dtype=float)  # NaN or >= 0: check_observation_values above
         ok = np.isfinite(given) & (given > 0)
         sig[ok] = given[ok]
     return Rows(speed=speed.copy(), tau_f=tau.copy(), load=load, temperature=temp, noise_std=sig, source=where)
