@@ -37,7 +37,7 @@ Pure numpy (the calibration imports the estimators).
 >>> fleet = make_fleet(n_joints=8, days=120, seed=1)
 >>> sorted({j.profile for j in fleet})
 ['accelerating', 'flat', 'linear', 'maintained']
->>> len(fleet[0].times) > 100, fleet[0].wear_std.min() > 0.5
+>>> len(fleet[0].times) > 100, bool(fleet[0].wear_std.min() > 0.5)
 (True, True)
 """
 
