@@ -216,3 +216,26 @@ def test_wear_trend_killed_mid_stream_loses_no_reported_estimate_and_duplicates_
     with HistoryStore(db) as s:
         recs = s.estimates(robot="robot_1", joint="joint_3")
     assert [r.cycle_id for r in recs] == list(range(1, len(stream) + 1))
+
+
+def test_wear_trend_node_writes_to_postgresql_given_as_its_db_url(ctx, postgres_url):
+    ns = "/jw_trend_pg"
+    node = _node(ctx, ns, postgres_url.replace("postgresql+psycopg://", "postgresql://", 1))
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        for c, t, w in _history(12, 0.2, 10.0, 5):
+            probe.pub.publish(_estimate("joint_5", c, t, w))
+        assert _spin_until(ex, lambda: (probe.last("joint_5") or WearTrend()).estimates_total == 12)
+        assert node.stored == 12 and node.store.dialect == "postgresql"
+    finally:
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+    with HistoryStore(postgres_url) as s:
+        assert [r.cycle_id for r in s.estimates(robot="cell_7", joint="joint_5")] == list(range(1, 13))

@@ -363,8 +363,10 @@ class HistoryStore:
             n = 0
             try:
                 with self.engine.begin() as conn:
-                    for row in rows:  # RETURNING says whether the row was new, on every dialect
-                        n += len(conn.execute(stmt.values(**row)).fetchall())
+                    for start in range(0, len(rows), 1000):
+                        # executemany with RETURNING ("insertmanyvalues": multi-row INSERTs on SQLite and
+                        # psycopg): the rows returned are exactly the new ones, on every dialect
+                        n += len(conn.execute(stmt, rows[start:start + 1000]).all())
                 break
             except OperationalError as exc:  # deadlock / serialization failure / locked: retry the transaction
                 if attempt == 4 or not _retryable(exc):
