@@ -1,5 +1,9 @@
 """Physical effects of the static friction model as composable terms.
 
+>>> t = term_by_name("wear_stribeck")
+>>> t.param_names, t.variables
+(('Fsw', 'vsw'), ('speed', 'wear'))
+
 Each term is one effect of Eq. (6), (7), (9) of Bittencourt et al. (2011)
 (or of the "standard" static friction model the paper improves on). A term is
 a pure numpy function of named input variables and named parameters, plus
