@@ -15,6 +15,7 @@ from typing import Any
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import WearEstimator
+from ._common import check_estimator_options
 from .bayes import BayesEstimator
 from .crb import (
     CRB_METHODS,
@@ -99,6 +100,7 @@ def make_estimator(
     key = str(method).strip().lower()
     if key not in classes:
         raise InputDataError(f"unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
+    check_estimator_options(options)
     try:
         est = classes[key](model, params, **options)
     except TypeError as exc:
