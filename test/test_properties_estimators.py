@@ -132,7 +132,7 @@ def test_bound_quadrature_at_the_papers_settings_is_resolved():
     assert 48 <= n <= 1536
 
 
-OPTION_VALUES = st.one_of(st.sampled_from(HOSTILE + ["x", None, True, (1,), (50.0, 30.0), (-500.0, -400.0), 1e12]),
+OPTION_VALUES = st.one_of(st.sampled_from([*HOSTILE, "x", None, True, (1,), (50.0, 30.0), (-500.0, -400.0), 1e12]),
                           st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**6, 10**13))
 
 
