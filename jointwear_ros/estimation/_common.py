@@ -42,6 +42,8 @@ WEAR_RANGE = (0.0, 100.0)
 MAX_SPEED = 1.0e4
 #: Largest |friction| or |load torque| an observation may have, normalized (10x the maximum torque).
 MAX_TORQUE = 10.0
+#: Smallest standard error of a friction observation the estimators use (smaller ones are raised to it), normalized.
+MIN_TAU_F_STD = 1e-6
 #: Temperatures an observation may have, degC: above absolute zero, below where any joint survives.
 TEMPERATURE_LIMITS = (-273.15, 1000.0)
 
@@ -264,7 +266,8 @@ def prepare_rows(
     if "tau_f_std" in table:
         given = np.asarray(table["tau_f_std"], dtype=float)
         ok = np.isfinite(given) & (given > 0)
-        sig[ok] = given[ok]
+        # no friction observation is known better than MIN_TAU_F_STD: keeps the weights 1/std^2 finite
+        sig[ok] = np.maximum(given[ok], MIN_TAU_F_STD)
     return Rows(speed=speed.copy(), tau_f=tau.copy(), load=load, temperature=temp, noise_std=sig, source=where)
 
 
