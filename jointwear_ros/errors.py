@@ -3,6 +3,14 @@
 Messages say what was wrong (the value), what was expected, and what to do.
 The CLI turns any :class:`JointwearError` into a one-line message and exit
 code 2; nodes log it and keep running.
+
+>>> issubclass(InputDataError, JointwearError), issubclass(ParameterSetError, JointwearError)
+(True, True)
+>>> try:
+...     raise InputDataError("obs.csv: column 'speed', row 2: -5 is negative")
+... except JointwearError as exc:
+...     print(f"jointwear: error: {exc}")
+jointwear: error: obs.csv: column 'speed', row 2: -5 is negative
 """
 
 from __future__ import annotations

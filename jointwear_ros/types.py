@@ -2,6 +2,17 @@
 
 Kept in one place so that the subpackages do not import each other sideways.
 Pure numpy; no ROS import.
+
+>>> t = ObservationTable.from_arrays(speed=[10.0, 47.0, 10.0], tau_f=[0.075, 0.073, 0.076],
+...                                  load_torque=0.1, cycle=[1, 1, 2], source="demo")
+>>> len(t), t.names, float(t["load_torque"][2])
+(3, ['speed', 'tau_f', 'load_torque', 'cycle'], 0.1)
+>>> [(c, len(g)) for c, g in t.groups("cycle")]
+[(1.0, 2), (2.0, 1)]
+>>> t["temperature"]
+Traceback (most recent call last):
+...
+jointwear_ros.errors.InputDataError: demo: no column 'temperature'; columns: speed, tau_f, load_torque, cycle
 """
 
 from __future__ import annotations

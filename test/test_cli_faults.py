@@ -163,6 +163,8 @@ def test_demo_with_an_unknown_method_is_refused_before_any_node_starts(capsys, w
         (["--set", "joint_sim.temperature=90"], "--set joint_sim.temperature: temperature = 90 is outside"),
         (["--set", "joint_sim.no_such_param=1"], "--set joint_sim.no_such_param: joint_sim has no parameter"),
         (["--set", "joint_sim.wear=300"], "--set joint_sim.wear=300: outside the declared range [0.0, 100.0]"),
+        (["--speeds", "10,1e6"], "--speeds: 1e+06 rad/s is above test_cycle's max_speed 280 rad/s"),
+        (["--speeds", "1:100:1000"], "--speeds: 1000 speeds; a demo cycle takes at most 64"),
     ],
 )
 def test_demo_arguments_are_checked_before_any_node_starts(capsys, work, args, message):

@@ -27,7 +27,7 @@ def test_every_mutation_applies_to_the_current_source(m, tmp_path):
 
 def test_the_csv_nan_and_input_check_mutations_are_caught():
     names = ["csv_nan_optional_column", "estimator_checks_off", "cli_method_unchecked"]
-    r = subprocess.run([sys.executable, str(ROOT / "tools" / "mutation_check.py"), "--json",
+    r = subprocess.run([sys.executable, str(ROOT / "tools" / "mutation_check.py"), "--json", "--jobs", "3",
                         *[a for n in names for a in ("--only", n)]],
                        capture_output=True, text=True, timeout=600, cwd=ROOT)
     doc = json.loads(r.stdout)

@@ -130,3 +130,33 @@ def test_bound_quadrature_at_the_papers_settings_is_resolved():
 
     n = temperature_nodes(_MODEL, _PARAMS["ref-2011r"], [40.0, 95.0], 35.0, noise_std=0.0015, prior="uniform:25:55")
     assert 48 <= n <= 1536
+
+
+OPTION_VALUES = st.one_of(st.sampled_from([*HOSTILE, "x", None, True, (1,), (50.0, 30.0), (-500.0, -400.0), 1e12]),
+                          st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**6, 10**13))
+
+
+@SETTINGS
+@given(method=st.sampled_from(ESTIMATOR_METHODS),
+       name=st.sampled_from(["noise_std", "default_load", "n_samples", "seed", "temperature_range"]),
+       value=OPTION_VALUES)
+def test_make_estimator_refuses_options_it_cannot_work_with(method, name, value):
+    if name in ("n_samples", "temperature_range") and not method.startswith("paper"):
+        return  # the paper's options
+    try:
+        est = make_estimator(method, **{name: value})
+    except JointwearError:
+        return
+    if value is None:
+        return
+    if name == "noise_std":
+        assert isinstance(value, (int, float)) and 0 < value <= 1, value
+    elif name == "default_load":
+        assert isinstance(value, (int, float)) and math.isfinite(value) and abs(value) <= 10, value
+    elif name in ("n_samples", "seed"):
+        assert float(value) == int(value) and int(value) >= (1 if name == "n_samples" else 0), value
+    else:
+        lo, hi = value
+        assert -273.15 <= lo < hi and math.isfinite(hi), value
+    r = est.estimate(ObservationTable.from_arrays(speed=[40.0, 47.0], tau_f=[0.09, 0.09], load_torque=0.1))
+    assert math.isfinite(r.wear) and math.isfinite(r.wear_std) and r.wear_std > 0

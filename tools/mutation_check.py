@@ -244,6 +244,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--list", action="store_true", help="list the mutations and exit")
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per mutation (default 900)")
     ap.add_argument("--python", default=sys.executable, help="interpreter with the test dependencies")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="mutations run at once (default 1; the ROS tests of two at once would share a DDS domain)")
     args = ap.parse_args(argv)
     chosen = [m for m in MUTATIONS if (not args.only or m.name in args.only) and (not args.fast or m.fast)]
     unknown = set(args.only) - {m.name for m in MUTATIONS}
@@ -255,15 +257,24 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{m.name:32s} {'fast' if m.fast else 'slow'}  {m.description}  [{', '.join(m.tests)}]")
         return 0
     check_copy_is_used(args.python)
-    results = []
-    for m in chosen:
-        if not args.json:
-            print(f"{m.name}: ", end="", flush=True)
-        o = run_one(m, args.python, args.timeout, [])
-        results.append(o)
+    results: list[Outcome] = []
+
+    def report(o: Outcome) -> None:
         if not args.json:
             what = f"caught by {o.caught_by[0]}" if o.status == "caught" else o.status
-            print(f"{what} ({o.seconds:.0f} s){'; ' + o.detail if o.detail else ''}", flush=True)
+            print(f"{o.name}: {what} ({o.seconds:.0f} s){'; ' + o.detail if o.detail else ''}", flush=True)
+
+    if args.jobs > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            for o in pool.map(lambda m: run_one(m, args.python, args.timeout, []), chosen):
+                results.append(o)
+                report(o)
+    else:
+        for m in chosen:
+            results.append(run_one(m, args.python, args.timeout, []))
+            report(results[-1])
     if args.json:
         print(json.dumps({"mutations": [o.to_dict() for o in results],
                           "caught": sum(o.status == "caught" for o in results), "total": len(results)}, indent=2))

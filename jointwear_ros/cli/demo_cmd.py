@@ -549,6 +549,18 @@ def check_overrides(overrides: dict[str, dict[str, Any]]) -> None:
             check_method(str(values["method"]), "--set wear_estimator.method")
 
 
+#: Most speeds of a demo cycle (each takes seconds of simulated motion).
+MAX_DEMO_SPEEDS = 64
+
+
+def _config_value(node: str, name: str, default: Any) -> Any:
+    """``name`` of ``config/<node>.yaml``, or ``default`` when the file or the key is missing."""
+    try:
+        return yaml.safe_load(config_path(f"{node}.yaml").read_text())[node]["ros__parameters"].get(name, default)
+    except Exception:
+        return default
+
+
 def _sim_parameter_set(overrides: dict[str, dict[str, Any]]) -> str:
     """The parameter set joint_sim will simulate with (its config, or --set joint_sim.params)."""
     if "params" in overrides.get("joint_sim", {}):
@@ -592,6 +604,15 @@ def cmd_demo(args: argparse.Namespace) -> int:
             info.check_range("temperature", float(value))
         except JointwearError as exc:
             raise UsageError(f"{flag}: {exc}") from None
+    if speeds is not None:
+        max_speed = overrides.get("test_cycle", {}).get("max_speed", _config_value("test_cycle", "max_speed", 280.0))
+        if isinstance(max_speed, (int, float)) and not isinstance(max_speed, bool):
+            too_fast = [s for s in speeds if s > float(max_speed)]
+            if too_fast:
+                raise UsageError(f"--speeds: {too_fast[0]:g} rad/s is above test_cycle's max_speed {float(max_speed):g} "
+                                 "rad/s (motor side); the request would be refused")
+        if len(speeds) > MAX_DEMO_SPEEDS:
+            raise UsageError(f"--speeds: {len(speeds)} speeds; a demo cycle takes at most {MAX_DEMO_SPEEDS}")
     check_output_dir(args.out, "--out")
     res = run_demo(wear, speeds, Path(args.out), rtf, temperature, args.method, timeout, args.domain_id,
                    overrides)

@@ -16,6 +16,7 @@ from typing import Any
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import WearEstimator
+from ._common import check_estimator_options
 from .bayes import BayesEstimator
 from .crb import (
     CRB_METHODS,
@@ -112,4 +113,5 @@ def make_estimator(
     if unknown:
         raise InputDataError(f"estimator {key!r} takes no option {', '.join(unknown)}; "
                              f"it takes {', '.join(sorted(_accepted_options(cls)))}")
+    check_estimator_options(options)  # values no estimator can work with
     return cls(model, params, **options)  # type: ignore[no-any-return]

@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_PARAMS",
     "WEAR_RANGE",
     "Rows",
+    "check_estimator_options",
     "check_observation_values",
     "combine_rows",
     "make_rng",
@@ -44,8 +45,61 @@ WEAR_RANGE = (0.0, 100.0)
 MAX_SPEED = 1.0e4
 #: Largest |friction| or |load torque| an observation may have, normalized (10x the maximum torque).
 MAX_TORQUE = 10.0
+#: Smallest standard error of a friction observation the estimators use (smaller ones are raised to it), normalized.
+MIN_TAU_F_STD = 1e-6
 #: Temperatures an observation may have, degC: above absolute zero, below where any joint survives.
 TEMPERATURE_LIMITS = (-273.15, 1000.0)
+
+
+def check_estimator_options(options: Mapping[str, Any]) -> None:
+    """Refuse estimator options no estimator can work with (the options :func:`make_estimator` passes on).
+
+    ``noise_std`` finite in (0, 1]; ``default_load`` None or finite with
+    magnitude at most :data:`MAX_TORQUE`; ``n_samples`` a whole number in
+    [1, 1e6]; ``temperature_range`` two finite numbers low < high, low above
+    absolute zero; ``seed`` None or a whole number >= 0. Other options are
+    left to the estimator.
+
+    >>> check_estimator_options({"noise_std": 0.0015, "n_samples": 200})
+    >>> check_estimator_options({"noise_std": -1.0})
+    Traceback (most recent call last):
+    ...
+    jointwear_ros.errors.InputDataError: estimator option noise_std = -1.0: must be a finite number in (0, 1] (normalized torque)
+    """
+
+    def number(name: str, v: Any) -> float:
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise InputDataError(f"estimator option {name} = {v!r}: not a number")
+        return float(v)
+
+    def whole(name: str, v: Any, lo: int, hi: float) -> None:
+        x = number(name, v)
+        if not (math.isfinite(x) and x == int(x) and lo <= x <= hi):
+            raise InputDataError(f"estimator option {name} = {v!r}: must be a whole number in [{lo}, {hi:g}]")
+
+    if "noise_std" in options:
+        x = number("noise_std", options["noise_std"])
+        if not (math.isfinite(x) and 0 < x <= 1):
+            raise InputDataError(f"estimator option noise_std = {options['noise_std']!r}: must be a finite number "
+                                 "in (0, 1] (normalized torque)")
+    if options.get("default_load") is not None:
+        x = number("default_load", options["default_load"])
+        if not (math.isfinite(x) and abs(x) <= MAX_TORQUE):
+            raise InputDataError(f"estimator option default_load = {options['default_load']!r}: must be a finite "
+                                 f"normalized torque within +-{MAX_TORQUE:g}")
+    if "n_samples" in options:
+        whole("n_samples", options["n_samples"], 1, 1e6)
+    if options.get("seed") is not None:
+        whole("seed", options["seed"], 0, 2.0**63)
+    if "temperature_range" in options:
+        rng = options["temperature_range"]
+        try:
+            lo, hi = (number("temperature_range", x) for x in rng)
+        except (TypeError, ValueError):
+            raise InputDataError(f"estimator option temperature_range = {rng!r}: expected (low, high) in degC") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and TEMPERATURE_LIMITS[0] <= lo < hi):
+            raise InputDataError(f"estimator option temperature_range = {rng!r}: needs finite low < high, "
+                                 f"low above absolute zero ({TEMPERATURE_LIMITS[0]} degC)")
 
 
 def check_observation_values(table: ObservationTable, *, temperature: bool = True) -> None:
@@ -225,7 +279,8 @@ def prepare_rows(
     if "tau_f_std" in table:
         given = np.asarray(table["tau_f_std"], dtype=float)  # NaN or >= 0: check_observation_values above
         ok = np.isfinite(given) & (given > 0)
-        sig[ok] = given[ok]
+        # no friction observation is known better than MIN_TAU_F_STD: keeps the weights 1/std^2 finite
+        sig[ok] = np.maximum(given[ok], MIN_TAU_F_STD)
     return Rows(speed=speed.copy(), tau_f=tau.copy(), load=load, temperature=temp, noise_std=sig, source=where)
 
 

@@ -354,9 +354,12 @@ class JointEstimator:
         t_rows = (np.where(known, rows.temperature, np.nanmean(rows.temperature)) if known.any()
                   else np.full(len(rows), t_est))
         per_row = self._per_row(rows, t_rows)
+        # a posterior on one grid point has std 0 on the grid; the grid cannot resolve better than
+        # its step (uniform quantization, step / sqrt(12)): never report a certainty it does not have
+        resolution = float(self.w_grid[1] - self.w_grid[0]) / math.sqrt(12.0) if self.w_grid.size > 1 else 0.0
         return WearResult(
             wear=est,
-            wear_std=post.wear_std,
+            wear_std=max(post.wear_std, resolution),
             wear_low=post.wear_low,
             wear_high=post.wear_high,
             method=self.name,

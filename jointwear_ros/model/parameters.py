@@ -3,6 +3,16 @@
 Modelled on lmfit's ``Parameter``/``Parameters``: a term declares which
 parameters it needs (:class:`ParamSpec`), a :class:`Parameters` collection holds
 their current values, and a fit changes only the ones with ``vary=True``.
+
+>>> ps = Parameters([Parameter("Fc0", 0.04, 0.0, 1.0, unit="-"), Parameter("Fv", 4e-4, vary=False)])
+>>> ps.valuesdict(), ps.free()
+({'Fc0': 0.04, 'Fv': 0.0004}, ['Fc0'])
+>>> ps.with_values({"Fc0": 0.05})["Fc0"].value, ps["Fc0"].value
+(0.05, 0.04)
+>>> Parameter("vs", float("nan"))
+Traceback (most recent call last):
+...
+jointwear_ros.errors.ParameterError: parameter 'vs': value nan is not finite
 """
 
 from __future__ import annotations

@@ -9,6 +9,20 @@ directories), then ``config/params`` of every place
 :func:`jointwear_ros.resources.resource_dirs` names (the source tree of a
 development checkout, the ament index, the ament prefixes and the running
 prefix). A path to a ``.yaml`` file is accepted too.
+
+A loaded set holds finite values within the terms' physical bounds, and valid
+ranges with low <= high (temperatures above absolute zero); anything else, a
+binary file included, is a :class:`~jointwear_ros.errors.ParameterSetError`.
+
+>>> info = load_parameter_set_info("ref-2011r")
+>>> info.name, info.values["Fsw"], info.valid["temperature"]
+('ref-2011r', 0.00091, (20.0, 60.0))
+>>> info.check_range("temperature", 75.0)
+Traceback (most recent call last):
+...
+jointwear_ros.errors.ParameterSetError: temperature = 75 is outside the valid range [20, 60] of parameter set 'ref-2011r'
+>>> load_parameter_set("paper-printed")["Fsw"].value  # the printed Eq. (8) value, 10x ref-2011r's
+0.0091
 """
 
 from __future__ import annotations

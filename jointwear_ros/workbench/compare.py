@@ -1,4 +1,14 @@
-"""Compare a fitted model with the data: noise floor, error per speed band, residual structure."""
+"""Compare a fitted model with the data: noise floor, error per speed band, residual structure.
+
+>>> import numpy as np
+>>> from jointwear_ros.types import ObservationTable
+>>> t = ObservationTable.from_arrays(speed=[5.0, 20.0, 50.0, 120.0], tau_f=[0.08, 0.07, 0.07, 0.09],
+...                                  tau_f_std=0.0015)
+>>> noise_floor(t)
+(0.0015, 'tau_f_std')
+>>> [(b.label, b.n, round(b.rmse, 3)) for b in band_rmse(t.speed, np.array([0.01, -0.01, 0.002, 0.0]))]
+[('0-10', 1, 0.01), ('10-30', 1, 0.01), ('30-60', 1, 0.002), ('100-150', 1, 0.0)]
+"""
 
 from __future__ import annotations
 

@@ -4,6 +4,21 @@ The file holds ``{"format": "jointwear-model-history/1", "versions": [...]}``;
 each version records the model spec, its RMSE, CV RMSE, AIC, BIC, RMSE per
 speed band, the parameter values, the data it was fitted to and when.
 Written atomically (temporary file, then rename).
+
+>>> import tempfile, pathlib
+>>> from jointwear_ros.data import synth_observations
+>>> from jointwear_ros.model import parse_model_spec
+>>> from jointwear_ros.workbench import fit_model
+>>> data = synth_observations(n_cycles=4, seed=0)
+>>> h = History(pathlib.Path(tempfile.mkdtemp()) / "history.json")
+>>> for spec in ("standard", "paper"):
+...     m = parse_model_spec(spec)
+...     _ = h.add(fit_model(m, data, m.make_params()), data)
+>>> _ = h.save()
+>>> [(v.version, v.model) for v in History.load(h.path).versions]
+[(1, 'coulomb + stribeck + viscous'), (2, 'coulomb + load_coulomb + load_stribeck + temp_stribeck + temp_viscous')]
+>>> h.versions[1].rmse < h.versions[0].rmse / 5
+True
 """
 
 from __future__ import annotations
