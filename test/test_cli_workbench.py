@@ -145,8 +145,22 @@ def test_fit_report_writes_pngs_and_a_self_contained_html(ripple_csv, tmp_path, 
     assert html.count('src="data:image/png;base64,') == len(pngs)
     assert not re.search(r"https?://|<link|<script|src=\"(?!data:)|url\(", html)
     assert "ripple(position)" in html and "Parameters" in html
+    assert "goodness of fit: chi-square with tau_f_std" in html and "consistent with the noise" in html
     assert sorted(p.name for p in out_dir.iterdir()) == sorted([*pngs, "report.html"])
     assert [p.name for p in tmp_path.iterdir()] == ["report"]  # no temporary directory left
+
+
+def test_diagnose_prints_json_and_html_say_the_same(ripple_csv, diagnosis, tmp_path, capsys):
+    import html as html_lib
+
+    rc, out, err = run_main(capsys, "model", "diagnose", str(ripple_csv), "--model", "paper", "--report",
+                            str(tmp_path / "d"))
+    assert rc == 0, err
+    page = html_lib.unescape((tmp_path / "d" / "report.html").read_text(encoding="utf-8"))
+    assert f"verdict: {diagnosis['verdict']}" in out and f"verdict: {diagnosis['verdict']}" in page
+    assert diagnosis["summary"] in out and diagnosis["summary"] in page
+    for v in diagnosis["variables"][:3]:
+        assert v["shape_hint"] in out and v["shape_hint"] in page
 
 
 def test_report_command_with_diagnosis_and_history(ripple_csv, tmp_path, capsys):

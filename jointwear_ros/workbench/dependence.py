@@ -69,6 +69,8 @@ N_PERM = 199
 N_PERM_PERIODOGRAM = 39
 #: The parametric test counts only when the permutation test agrees at least this far.
 PERM_GUARD = 0.05
+#: Columns always tried in pairs (with the strongest singles): the model's own inputs.
+PHYSICAL_INPUTS = ("load_torque", "temperature")
 #: Columns of the strongest singles tried in pairs.
 PAIR_TOP = 3
 
@@ -493,9 +495,11 @@ def residual_dependence(
         )
         out.append(d)
     # pairs of the strongest singles: does the second column add to the first (with an interaction)?
-    singles = sorted(out, key=lambda d: d.p_raw)[: max(pairs, 0)]
+    singles = [d.name for d in sorted(out, key=lambda d: d.p_raw)[: max(pairs, 0)]]
+    if pairs > 0:  # the model's own inputs interact with everything (a term of the model reshaped by a column)
+        singles += [c for c in PHYSICAL_INPUTS if c in cols and c not in singles]
     pair_out: list[VariableDependence] = []
-    for a, b in itertools.combinations([d.name for d in singles], 2):
+    for a, b in itertools.combinations(singles, 2):
         xa = np.asarray(table[a], dtype=float)
         xb = ctx.permuted(np.asarray(table[b], dtype=float), n_perm)
         ba = ctx.rank_basis(xa[None, :], 4)
@@ -505,7 +509,20 @@ def residual_dependence(
         d_pair = np.concatenate([np.broadcast_to(ctx.z0, (rr, ctx.n, 3)), np.broadcast_to(ba, bb.shape), bb, inter,
                                  inter * ctx.low[None, :, None], inter * ctx.high[None, :, None]], axis=2)
         in_pair = (ctx.sse0_in - ctx._in_sse(d_pair)) / ctx.total
-        p = _tail_p(float(in_pair[0]), in_pair[1:])
+        p_perm = _tail_p(float(in_pair[0]), in_pair[1:])
+        # nested test: does b (with the interaction) add to a alone?
+        d_a = np.concatenate([ctx.z0[None], ba], axis=2)
+        sse_a = float(ctx._in_sse(d_a)[0])
+        sse_p = float(ctx._in_sse(d_pair[:1])[0])
+        k = d_pair.shape[2] - d_a.shape[2]
+        dof = max(ctx.n - d_pair.shape[2], 1)
+        s2 = sse_p / dof
+        gain = max(sse_a - sse_p, 0.0)
+        if noise is not None and math.isfinite(noise) and noise > 0:
+            p_f = float(stats.chi2.sf(gain / max(noise**2, s2), k))
+        else:
+            p_f = float(stats.f.sf(gain / k / max(s2, 1e-300), k, dof))
+        p = max(p_f, p_perm) if p_perm > PERM_GUARD else p_f
         share_pair = (ctx.sse0 - ctx._cv_sse(d_pair[:1])) / ctx.total
         best_single = max(d.explained_share for d in out if d.name in (a, b))
         pair_out.append(VariableDependence(

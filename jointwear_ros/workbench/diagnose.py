@@ -141,6 +141,7 @@ class Diagnosis:
     after_noise: NoiseFloor | None = None
     after_variables: list[VariableDependence] = field(default_factory=list)
     stability: dict[str, float] = field(default_factory=dict)
+    agrees: bool = True
 
     @property
     def noise_floor(self) -> float:
@@ -206,8 +207,11 @@ class Diagnosis:
         if b is not None:
             rest = [v.name for v in self.after_variables if v.significant]
             left = f"; the residual still depends on {', '.join(rest)}" if rest else ""
+            odd = ("" if self.agrees else
+                   "; its variables are not among those the model-free ranking found, so it can only be a "
+                   "partial fit")
             parts.append(f"The best, {b.term}, leaves the CV RMSE at {self._ratio(b.cv_rmse)} "
-                         f"(at {b.speed_region_label}){left}. "
+                         f"(at {b.speed_region_label}){left}{odd}. "
                          f"Try next: --model \"{self.model} + {b.term}\", then diagnose again.")
         return " ".join(parts)
 
@@ -536,7 +540,11 @@ def _diagnose(
         table, best.fit.residuals, folds=folds, alpha=alpha / 2, seed=seed + 1, pairs=0, noise=nf)
     at_floor = (best.cv_rmse <= FOUND_RATIO * nf) if math.isfinite(nf) and nf > 0 else diag.after_noise.consistent
     left = any(v.significant for v in diag.after_variables)
-    diag.verdict = "found" if at_floor and not left else "unexplained"
+    # the parametric and the model-free evidence must agree on the variable: a flexible term of another
+    # column can soak up part of a residual it does not explain
+    sig_cols = {c for v in sig_vars for c in v.columns}
+    diag.agrees = bool(set(best.variables) & sig_cols)
+    diag.verdict = "found" if at_floor and not left and diag.agrees else "unexplained"
     if n_bootstrap > 0:
         top = [c for c in results if c.significant][:6]
         diag.stability = _bootstrap_choice(table, base, top, n_bootstrap, seed)

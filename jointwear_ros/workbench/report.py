@@ -27,7 +27,7 @@ import numpy.typing as npt
 
 from ..plots import new_figure, save_figure
 from ..types import ObservationTable
-from .compare import band_rmse, noise_floor, residual_structure
+from .compare import band_rmse, noise_floor, noise_test, residual_structure
 from .diagnose import Diagnosis
 from .fit import FitResult
 from .history import History
@@ -252,9 +252,15 @@ def write_report(
         if history is not None and history.versions:
             files["error_fall.png"] = plot_error_fall(tmp / "error_fall.png", history)
         nf, src = noise_floor(table)
+        gof = noise_test(table, fit.residuals, fit.n_free)
+        gof_txt = ("noise floor unknown" if not math.isfinite(gof.value) else
+                   f"goodness of fit: {gof.method}, p = {gof.p_value:.2g}: the residual is "
+                   f"{'consistent' if gof.consistent else 'NOT consistent'} with the noise "
+                   f"(CV RMSE {fit.cv_rmse / gof.value:.2f}x the floor)")
         parts = [f"<h1>{html.escape(title)}</h1>",
                  f"<p>data: <code>{html.escape(table.source)}</code>, {len(table)} observations; "
                  f"noise floor {nf:.5f} ({html.escape(src)})</p>",
+                 f"<p>{html.escape(gof_txt)}</p>",
                  f"<h2>Model</h2><p><code>{html.escape(fit.spec)}</code></p><p><code>{html.escape(fit.model.equation())}</code></p>",
                  _table_html(["", "RMSE", "CV RMSE", "AIC", "BIC", "free params", "converged"],
                              [[lbl, f.rmse, f.cv_rmse, f.aic, f.bic, f.n_free, f.success] for lbl, f in fits]),
