@@ -60,9 +60,11 @@ bench: env
 	$(PY) bench/run_all.py
 
 # Plant each known bug in a copy of the package and check that the tests catch it
-# (tools/mutation_check.py; minutes: the node and recorder tests run once per bug).
+# (tools/mutation_check.py: CLI, readers, estimators, recorder; tools/mutants_nodes.py: the
+# nodes and their cores; minutes: the node and recorder tests run once per bug).
 mutation: env
 	$(PY) tools/mutation_check.py
+	$(PY) tools/mutants_nodes.py
 
 lint: env
 	$(VENV)/bin/ruff check jointwear_ros test tools bench launch
