@@ -33,6 +33,7 @@ from typing import IO, Any
 
 import yaml
 
+from ..contract import CycleState, DiagnosticLevel, RefusalReason
 from ..errors import JointwearError
 from ..resources import config_path
 from . import UsageError
@@ -202,10 +203,6 @@ class DemoResult:
         }
 
 
-_LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
-_STATES = {0: "IDLE", 1: "RUNNING", 2: "DONE", 3: "ABORTED", 4: "FAILED"}
-
-
 class _Operator:
     """An in-process rclpy node that does what an operator does: wait, call the service, watch."""
 
@@ -228,20 +225,29 @@ class _Operator:
         qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.observations: list[Any] = []
         self.estimates: list[Any] = []
-        self.diagnostics: list[Any] = []
+        #: (arrival number, message): the order this operator heard estimates and statuses in
+        self.diagnostics: list[tuple[int, Any]] = []
+        self.estimate_arrivals: list[int] = []
+        self._heard = 0
         self.status: Any = None
         self.node.create_subscription(FrictionObservation, "/jointwear/friction_observations",
                                       self.observations.append, qos)
-        self.node.create_subscription(WearEstimate, "/jointwear/wear_estimate", self.estimates.append, qos)
+        self.node.create_subscription(WearEstimate, "/jointwear/wear_estimate", self._on_estimate, qos)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, qos)
         self.node.create_subscription(TestCycleStatus, "/test_cycle/status", self._on_status, qos)
         self.client = self.node.create_client(RunTestCycle, "/test_cycle/run")
         self.Request = RunTestCycle.Request
 
+    def _on_estimate(self, msg: Any) -> None:
+        self._heard += 1
+        self.estimates.append(msg)
+        self.estimate_arrivals.append(self._heard)
+
     def _on_diag(self, msg: Any) -> None:
+        self._heard += 1
         for st in msg.status:
-            if st.name.endswith(f": {self.joint_name}") and st.name.startswith("wear_estimator"):
-                self.diagnostics.append(st)
+            if st.name == f"wear_estimator: {self.joint_name}":
+                self.diagnostics.append((self._heard, st))
 
     def _on_status(self, msg: Any) -> None:
         self.status = msg
@@ -263,13 +269,14 @@ class _Operator:
     def subscribers(self, topic: str) -> set[str]:
         return {i.node_name for i in self.node.get_subscriptions_info_by_topic(topic)}
 
-    def call_run(self, speeds: Sequence[float], children: Sequence[Child], timeout: float) -> tuple[bool, int, str]:
+    def call_run(self, speeds: Sequence[float], children: Sequence[Child], timeout: float
+                 ) -> tuple[bool, int, RefusalReason, str]:
         self._warm_up(speeds, children, timeout)
         req = self.Request(joint_name=self.joint_name, speeds=[float(s) for s in speeds], position=0.0, dry_run=False)
         fut = self.client.call_async(req)
         self.spin_until(fut.done, timeout, children, "the answer of /test_cycle/run")
         resp = fut.result()
-        return bool(resp.accepted), int(resp.cycle_id), str(resp.message)
+        return bool(resp.accepted), int(resp.cycle_id), RefusalReason(resp.reason), str(resp.message)
 
     def _warm_up(self, speeds: Sequence[float], children: Sequence[Child], timeout: float) -> None:
         """A dry run, re-sent every 3 s until answered: right after discovery a service's first
@@ -324,12 +331,20 @@ def _msg_dict(msg: Any, names: Sequence[str]) -> dict[str, Any]:
     return message_fields(msg, names)
 
 
+def _config_value(node: str, name: str, default: Any) -> Any:
+    """Parameter ``name`` of ``config/<node>.yaml`` (``default`` if it cannot be read)."""
+    try:
+        values = yaml.safe_load(config_path(f"{node}.yaml").read_text())
+        return values[node]["ros__parameters"][name]
+    except Exception:
+        return default
+
+
 def _config_done_timeout() -> float:
     """done_timeout of config/wear_estimator.yaml (2 s if it cannot be read)."""
     try:
-        values = yaml.safe_load(config_path("wear_estimator.yaml").read_text())
-        return float(values["wear_estimator"]["ros__parameters"]["done_timeout"])
-    except Exception:
+        return float(_config_value("wear_estimator", "done_timeout", 2.0))
+    except (TypeError, ValueError):
         return 2.0
 
 
@@ -365,7 +380,6 @@ def run_demo(
     logdir.mkdir(parents=True, exist_ok=True)
     bagdir.mkdir(parents=True, exist_ok=True)
     bags_before = set(find_bags(bagdir))
-    joint = "joint_1"
     sim_params: dict[str, Any] = {"use_sim_time": False, "publish_clock": True,
                                   "real_time_factor": float(real_time_factor), "wear": float(wear)}
     if temperature is not None:
@@ -382,6 +396,8 @@ def run_demo(
     }
     for node, values in (overrides or {}).items():
         params[node].update(values)
+    # the joint the cell drives: the test cycle's (its config, or a --set override)
+    joint = str(params["test_cycle"].get("joint_name") or _config_value("test_cycle", "joint_name", "joint_1"))
     children: list[Child] = []
     op: _Operator | None = None
     try:
@@ -397,14 +413,13 @@ def run_demo(
         # (nodes still starting on a loaded machine) is retried for a while; any other is final.
         retry_end = time.monotonic() + 20.0
         while True:
-            accepted, cycle_id, message = op.call_run(speeds or [], children, 30.0)
-            transient = "no joint state" in message or "s old (state_timeout" in message
-            if accepted or not transient or time.monotonic() > retry_end:
+            accepted, cycle_id, reason, message = op.call_run(speeds or [], children, 30.0)
+            if accepted or not reason.retryable or time.monotonic() > retry_end:
                 break
-            _progress(f"/test_cycle/run refused ({message}); retrying in 1 s")
+            _progress(f"/test_cycle/run refused ({reason.name}: {message}); retrying in 1 s")
             op.spin_until(_after(time.monotonic() + 1.0), 5.0, children, "a retry")
         if not accepted:
-            raise DemoError(f"/test_cycle/run refused the request: {message}")
+            raise DemoError(f"/test_cycle/run refused the request ({reason.name}): {message}")
         _progress(f"cycle {cycle_id} accepted: {message}")
         shown: list[tuple[int, int] | None] = [None]
 
@@ -415,16 +430,18 @@ def run_demo(
             key = (st.state, st.speeds_done)
             if key != shown[0]:
                 shown[0] = key
-                state = _STATES.get(st.state, str(st.state))
-                extra = f": {st.message}" if st.state in (3, 4) and st.message else ""
+                state = CycleState.name_of(st.state)
+                extra = f": {st.message}" if st.state in (CycleState.ABORTED, CycleState.FAILED) and st.message else ""
                 _progress(f"cycle {cycle_id} {state}, speeds done {st.speeds_done}/{st.speeds_total}{extra}")
 
         def have_estimate() -> bool:
             return any(e.cycle_id == cycle_id for e in op.estimates)  # type: ignore[union-attr]
 
-        def diags_of_cycle() -> list[Any]:
-            return [d for d in op.diagnostics  # type: ignore[union-attr]
-                    if ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
+        def diags_of_cycle(after: int = 0) -> list[Any]:
+            """The operator's ``wear_estimator: <joint>`` statuses of this cycle (its ``cycle_id`` key) heard
+            after arrival number ``after``."""
+            return [d for n, d in op.diagnostics  # type: ignore[union-attr]
+                    if n > after and ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
 
         def finished() -> bool:
             # an estimate, or the estimator's verdict that there is none (no "wear" key)
@@ -443,25 +460,27 @@ def run_demo(
             op.spin_until(complete, 5.0, children, f"a revised WearEstimate of cycle {cycle_id}")
         except DemoError as exc:
             _progress(f"{exc}; reporting the newest estimate")
-        est = next((e for e in reversed(op.estimates) if e.cycle_id == cycle_id), None)
+        i_est = next((i for i in reversed(range(len(op.estimates))) if op.estimates[i].cycle_id == cycle_id), None)
+        est = None if i_est is None else op.estimates[i_est]
+        # the estimator publishes an estimate, then its status (and republishes the status every
+        # diagnostics_period): the status of the newest estimate is one heard after it
+        heard_est = 0 if i_est is None else op.estimate_arrivals[i_est]
         try:
-            def matching() -> list[Any]:  # the status of the newest estimate (its wear value)
-                want = None if est is None else f"{est.wear:.3f}"
-                return [d for d in diags_of_cycle()
-                        if want is None or ("wear", want) in {(kv.key, kv.value) for kv in d.values}]
+            def matching() -> list[Any]:
+                return diags_of_cycle(heard_est)
 
             op.spin_until(lambda: bool(matching()), 15.0, children,
                           f"the /diagnostics status of cycle {cycle_id}")
             diag = matching()[-1]
             raw = diag.level
-            level = _LEVELS.get(raw[0] if isinstance(raw, bytes) else int(raw), str(raw))
+            level = DiagnosticLevel.name_of(raw[0] if isinstance(raw, bytes) else int(raw))
             dmsg = str(diag.message)
         except DemoError as exc:
             level, dmsg = "UNKNOWN", str(exc)
         observations = [_msg_dict(o, OBSERVATION_FIELDS) for o in op.observations if o.cycle_id == cycle_id]
         observations.sort(key=lambda o: o["speed"])
         final = op.status
-        final_state = _STATES.get(final.state, str(final.state)) if final is not None and final.cycle_id == cycle_id else "?"
+        final_state = CycleState.name_of(final.state) if final is not None and final.cycle_id == cycle_id else "?"
         estimate = _msg_dict(est, ESTIMATE_FIELDS) if est is not None else {}
         time.sleep(0.5)  # the recorder gets the estimate and diagnostics too
     finally:

@@ -34,11 +34,11 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from ..contract import observation_from_msg
 from ..errors import InputDataError
 from ..monitor import ERROR, OK, WARN, CycleResult, MonitorConfig, WearMonitor
 from .diagnostics import NodeDiagnostics, diagnostic_status
-from .friction_observer import observation_from_msg, seconds_to_stamp
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node, seconds_to_stamp
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
 
