@@ -49,6 +49,7 @@ from .runtime import (
     ParamDecl,
     declare_parameters,
     on_parameter_change,
+    overridable_qos,
     run_node,
     seconds_to_stamp,
     subscribe_reporting_loss,
@@ -130,12 +131,14 @@ class FrictionObserverNode(Node):
         self._index_cache: tuple[tuple[str, ...], int] | None = None
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
-        self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos)
+        self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos,
+                                         qos_overriding_options=overridable_qos())
         for msg_type, topic, cb in ((JointState, p["joint_states_topic"], self._on_joint_state),
                                     (TestCycleStatus, p["status_topic"], self._on_status),
                                     (Temperature, p["temperature_topic"], self._on_temperature)):
             if topic:
-                subscribe_reporting_loss(self, msg_type, str(topic), cb, qos, self._lost_callback(str(topic)))
+                subscribe_reporting_loss(self, msg_type, str(topic), cb, qos, self._lost_callback(str(topic)),
+                                         qos_overriding_options=overridable_qos())
         # wall-clock timer: it must fire even when /clock (use_sim_time) stops
         self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.diag = NodeDiagnostics(self, f"friction_observer: {self.joint_name}", self.joint_name,

@@ -50,7 +50,7 @@ from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
 from ..sim import JointSim, JointSimConfig
 from .diagnostics import OK, WARN, NodeDiagnostics, Report
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node, seconds_to_stamp
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "JointSimNode", "main"]
 
@@ -152,7 +152,8 @@ class JointSimNode(Node):
         self._timed_out = True
         self._next_temperature = 0.0
 
-        self.js_pub = self.create_publisher(JointState, "/joint_states", _RELIABLE_1000)
+        self.js_pub = self.create_publisher(JointState, "/joint_states", _RELIABLE_1000,
+                                            qos_overriding_options=overridable_qos())
         self.temp_pub = (
             self.create_publisher(Temperature, "/joint_temperature", _RELIABLE_10)
             if bool(p["publish_temperature"])

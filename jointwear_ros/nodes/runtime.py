@@ -24,12 +24,28 @@ from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 
 from ..contract import seconds_to_stamp_fields
 
-__all__ = ["ParamDecl", "declare_parameters", "loopback_env", "on_parameter_change", "run_node",
-           "seconds_to_stamp", "subscribe_reporting_loss"]
+__all__ = [
+    "ParamDecl",
+    "declare_parameters",
+    "loopback_env",
+    "on_parameter_change",
+    "overridable_qos",
+    "run_node",
+    "seconds_to_stamp",
+    "subscribe_reporting_loss",
+]
+
+
+def overridable_qos() -> QoSOverridingOptions:
+    """``qos_overriding_options`` for a publisher or subscription: history, depth and reliability can be
+    overridden at start-up by the read-only parameters ``qos_overrides.<topic>.<publisher|subscription>.<policy>``
+    (e.g. ``qos_overrides./joint_states.subscription.reliability: best_effort`` for a best-effort driver)."""
+    return QoSOverridingOptions.with_default_policies()
 
 
 def seconds_to_stamp(t: float) -> Time:

@@ -62,7 +62,7 @@ from ..cycle import (
 )
 from ..errors import JointwearError
 from .diagnostics import ERROR, OK, WARN, NodeDiagnostics
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "TestCycleNode", "main"]
 
@@ -159,9 +159,11 @@ class TestCycleNode(Node):
         self.last_fault = ""
 
         self.cmd_pub = self.create_publisher(Float64MultiArray, str(p["command_topic"]), _RELIABLE_10)
-        self.status_pub = self.create_publisher(TestCycleStatus, "~/status", _RELIABLE_100)
+        self.status_pub = self.create_publisher(TestCycleStatus, "~/status", _RELIABLE_100,
+                                                qos_overriding_options=overridable_qos())
         # only the newest state matters here: depth 1 never queues stale positions behind a busy executor
-        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, _RELIABLE_1)
+        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, _RELIABLE_1,
+                                 qos_overriding_options=overridable_qos())
         self.create_service(RunTestCycle, "~/run", self._on_run)
         self.create_service(Trigger, "~/abort", self._on_abort)
         self.create_timer(1.0 / float(p["command_rate"]), self._tick)

@@ -47,7 +47,7 @@ from ..errors import JointwearError
 from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent
 from ..trend import ERROR, OK, WARN, TrendConfig, TrendResult, analyze_joint
 from .diagnostics import diagnostic_status
-from .runtime import ParamDecl, declare_parameters, run_node
+from .runtime import ParamDecl, declare_parameters, overridable_qos, run_node
 
 __all__ = ["PARAMETERS", "WearTrendNode", "main", "trend_to_msg"]
 
@@ -111,9 +111,11 @@ class WearTrendNode(Node):
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
         latched = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.trend_pub = self.create_publisher(WearTrend, str(p["trend_topic"]), latched)
+        self.trend_pub = self.create_publisher(WearTrend, str(p["trend_topic"]), latched,
+                                               qos_overriding_options=overridable_qos())
         self.diag_pub = self.create_publisher(DiagnosticArray, str(p["diagnostics_topic"]), 10)
-        self.create_subscription(WearEstimate, str(p["estimate_topic"]), self._on_estimate, reliable)
+        self.create_subscription(WearEstimate, str(p["estimate_topic"]), self._on_estimate, reliable,
+                                 qos_overriding_options=overridable_qos())
         self.create_service(RecordMaintenance, "~/record_maintenance", self._on_maintenance)
         self.create_timer(float(p["diagnostics_period"]), self._publish_diagnostics,
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
