@@ -49,8 +49,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("alarm flag >= turned into >", "jointwear_ros/nodes/wear_estimator.py",
            "m.alarm = bool(res.wear >= r.alarm_threshold)", "m.alarm = bool(res.wear > r.alarm_threshold)",
            ("test/test_nodes_observer_estimator.py", "-k", "exactly_the_threshold")),
-    Mutant("monitor level >= turned into >", "jointwear_ros/monitor/core.py",
-           "    if wear >= alarm_threshold:\n        return ERROR", "    if wear > alarm_threshold:\n        return ERROR",
+    Mutant("monitor level >= turned into >", "jointwear_ros/contract.py",
+           "        if wear >= alarm:\n            return cls.ERROR", "        if wear > alarm:\n            return cls.ERROR",
            ("test/test_monitor.py",)),
     Mutant("one logging line picks the severity", "jointwear_ros/nodes/wear_estimator.py",
            "        if r.level == ERROR:\n            self.get_logger().error(text)\n        elif r.level == WARN:\n"
@@ -107,7 +107,8 @@ def run(m: Mutant) -> tuple[bool, float]:
         copy = Path(tmp)
         for name in ("jointwear_ros", "test", "config"):
             shutil.copytree(ROOT / name, copy / name, ignore=shutil.ignore_patterns("__pycache__"))
-        shutil.copy2(ROOT / "setup.cfg", copy / "setup.cfg")
+        for name in ("setup.cfg", "package.xml"):  # package.xml marks a source tree (resources.source_tree)
+            shutil.copy2(ROOT / name, copy / name)
         (copy / m.path).write_text(source.replace(m.old, m.new))
         env["PYTHONPATH"] = os.pathsep.join([str(copy), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
         proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *m.tests],
