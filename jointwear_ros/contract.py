@@ -12,6 +12,8 @@ nodes, the bag reader, replay, the recorder and the CLI share them.
 (True, 'FAILED')
 >>> DiagnosticLevel.for_wear(31.0, warn=30.0, alarm=35.0).name
 'WARN'
+>>> CycleState.name_of(9), DiagnosticLevel.name_of(2)
+('9', 'ERROR')
 >>> seconds_to_stamp_fields(12.25)
 (12, 250000000)
 >>> stamp_to_seconds(type("Stamp", (), {"sec": 12, "nanosec": 250000000})())
@@ -24,11 +26,14 @@ import enum
 import math
 from collections.abc import Callable
 from dataclasses import fields
-from typing import Any, TypeVar
+from functools import cache
+from typing import TYPE_CHECKING, Any, TypeVar
 
-from .observer.types import FrictionObservationData
+if TYPE_CHECKING:  # imported where used: observer.types itself takes its state constants from here
+    from .observer.types import FrictionObservationData
 
 __all__ = [
+    "ENDED_STATES",
     "CyclePhase",
     "CycleState",
     "DiagnosticLevel",
@@ -40,7 +45,19 @@ __all__ = [
 ]
 
 
-class CycleState(enum.IntEnum):
+class _Contract(enum.IntEnum):
+    """An IntEnum mirroring a message's constants, with a total name lookup for received bytes."""
+
+    @classmethod
+    def name_of(cls, value: int) -> str:
+        """The constant's name, or the number as text for a value the contract does not define."""
+        try:
+            return cls(value).name
+        except ValueError:
+            return str(value)
+
+
+class CycleState(_Contract):
     """``TestCycleStatus.state`` (IDLE, RUNNING, DONE, ABORTED, FAILED)."""
 
     IDLE = 0
@@ -52,10 +69,14 @@ class CycleState(enum.IntEnum):
     @property
     def ended(self) -> bool:
         """DONE, ABORTED or FAILED: the cycle will not sweep again."""
-        return self in (CycleState.DONE, CycleState.ABORTED, CycleState.FAILED)
+        return self in ENDED_STATES
 
 
-class CyclePhase(enum.IntEnum):
+#: DONE, ABORTED, FAILED (``state in ENDED_STATES`` also works on a message's plain int).
+ENDED_STATES = frozenset({CycleState.DONE, CycleState.ABORTED, CycleState.FAILED})
+
+
+class CyclePhase(_Contract):
     """``TestCycleStatus.phase`` (its ``PHASE_*`` constants)."""
 
     NONE = 0
@@ -65,7 +86,7 @@ class CyclePhase(enum.IntEnum):
     SETTLE = 4
 
 
-class DiagnosticLevel(enum.IntEnum):
+class DiagnosticLevel(_Contract):
     """``diagnostic_msgs/DiagnosticStatus.level`` byte values."""
 
     OK = 0
@@ -85,7 +106,7 @@ class DiagnosticLevel(enum.IntEnum):
         return cls.OK
 
 
-class RefusalReason(enum.IntEnum):
+class RefusalReason(_Contract):
     """``RunTestCycle.Response.reason``: why a request was refused (``NONE`` when accepted)."""
 
     NONE = 0
@@ -121,7 +142,13 @@ def seconds_to_stamp_fields(t: float) -> tuple[int, int]:
     return int(sec), int(nsec)
 
 
-_OBS_FIELDS = tuple(f.name for f in fields(FrictionObservationData) if f.name != "stamp")
+@cache
+def _obs_fields() -> tuple[str, ...]:
+    from .observer.types import FrictionObservationData
+
+    return tuple(f.name for f in fields(FrictionObservationData) if f.name != "stamp")
+
+
 _INT_FIELDS = {"cycle_id", "samples_plus", "samples_minus"}
 
 M = TypeVar("M")
@@ -129,8 +156,10 @@ M = TypeVar("M")
 
 def observation_from_msg(msg: Any) -> FrictionObservationData:
     """A ``FrictionObservation`` message (rclpy or rosbags) -> :class:`FrictionObservationData`."""
+    from .observer.types import FrictionObservationData
+
     values: dict[str, Any] = {"stamp": stamp_to_seconds(msg.header.stamp)}
-    for name in _OBS_FIELDS:
+    for name in _obs_fields():
         raw = getattr(msg, name)
         values[name] = str(raw) if name == "joint_name" else (int(raw) if name in _INT_FIELDS else float(raw))
     return FrictionObservationData(**values)
@@ -140,7 +169,7 @@ def observation_to_msg(obs: FrictionObservationData, msg_type: Callable[[], M]) 
     """Fill a new ``msg_type()`` (the generated ``FrictionObservation`` class) from ``obs``."""
     msg: Any = msg_type()
     msg.header.stamp.sec, msg.header.stamp.nanosec = seconds_to_stamp_fields(obs.stamp)
-    for name in _OBS_FIELDS:
+    for name in _obs_fields():
         value = getattr(obs, name)
         setattr(msg, name, str(value) if name == "joint_name" else (int(value) if name in _INT_FIELDS else float(value)))
     return msg  # type: ignore[no-any-return]

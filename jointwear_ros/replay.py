@@ -13,15 +13,15 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .contract import observation_from_msg, stamp_to_seconds
 from .errors import InputDataError
 from .io.bags import (
     ESTIMATE_TYPE,
     JOINT_STATE_TYPE,
-    OBSERVATION_FIELDS,
     OBSERVATION_TYPE,
     STATUS_TYPE,
     TEMPERATURE_TYPE,
@@ -29,9 +29,7 @@ from .io.bags import (
     check_bag_path,
     estimate_fields,
     joint_sample,
-    message_fields,
     read_messages,
-    stamp_seconds,
     status_fields,
     temperature_value,
 )
@@ -206,12 +204,10 @@ def replay_bag(
             t, c = temperature_value(m.msg)
             take(core.on_temperature(stamp_or_now(t), c))
         elif m.topic == observations_topic and m.msgtype == OBSERVATION_TYPE:
-            d = message_fields(m.msg, OBSERVATION_FIELDS)
-            d["stamp"] = stamp_seconds(m.msg.header)
-            recorded_obs.append(d)
+            recorded_obs.append(asdict(observation_from_msg(m.msg)))
         elif m.topic == estimate_topic and m.msgtype == ESTIMATE_TYPE:
             d = estimate_fields(m.msg)
-            d["stamp"] = stamp_seconds(m.msg.header)
+            d["stamp"] = stamp_to_seconds(m.msg.header)
             recorded_est.append(d)
         if now > -math.inf and m.topic != joint_states_topic:
             cycles.extend(monitor.poll(now))

@@ -46,6 +46,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import Temperature  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
+from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState  # noqa: E402
 from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
 
@@ -159,7 +160,7 @@ class Operator:
             resp = fut.result()
             if resp.accepted:
                 return int(resp.cycle_id)
-            assert "joint state" in resp.message and time.monotonic() < end, resp.message
+            assert RefusalReason(resp.reason).retryable and time.monotonic() < end, resp.message
             pause = time.monotonic() + 0.2
             self.spin_until(lambda p=pause: time.monotonic() > p, 5.0, "a pause")
 

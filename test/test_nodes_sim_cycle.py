@@ -35,6 +35,7 @@ from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
+from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
 from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
 
@@ -139,7 +140,7 @@ class Operator:
         while True:
             resp = self.run(**kwargs)
             # as an operator (and the demo) would: retry while the joint state is missing or late
-            late = "no joint state" in resp.message or "joint state of joint_1 is" in resp.message
+            late = resp.reason in (RefusalReason.STATE_MISSING, RefusalReason.STATE_STALE)
             if resp.accepted or not late or time.monotonic() > end:
                 assert resp.accepted and resp.cycle_id > 0, resp.message
                 return resp
@@ -210,16 +211,16 @@ def _ready(op: Operator) -> None:
 
 # -- the service refuses bad requests -----------------------------------------------
 BAD_REQUESTS = [
-    ({"joint_name": "joint_9"}, "unknown joint 'joint_9': this node drives 'joint_1'"),
-    ({"speeds": [20.0, math.nan]}, "speed #2 = nan is not finite"),
-    ({"speeds": [math.inf]}, "speed #1 = inf is not finite"),
-    ({"speeds": [-10.0]}, "must be > 0"),
-    ({"speeds": [400.0]}, "exceeds max_speed 280"),
-    ({"position": 1.45}, "window 1.45 ± 0.1 rad is outside the joint limits [-1.5, 1.5]"),
-    ({"position": 1.0}, "beyond the joint limits"),
-    ({"position": math.nan}, "position (window centre) nan is not finite"),
-    ({"speeds": [1e-6]}, "speed #1 = 1e-06 rad/s (motor side) is below min_speed 1 rad/s"),
-    ({"speeds": [20.0] * 1000}, "1000 speeds asked for; at most max_speeds = 32"),
+    ({"joint_name": "joint_9"}, RefusalReason.WRONG_JOINT, "unknown joint 'joint_9': this node drives 'joint_1'"),
+    ({"speeds": [20.0, math.nan]}, RefusalReason.BAD_SPEEDS, "speed #2 = nan is not finite"),
+    ({"speeds": [math.inf]}, RefusalReason.BAD_SPEEDS, "speed #1 = inf is not finite"),
+    ({"speeds": [-10.0]}, RefusalReason.BAD_SPEEDS, "must be > 0"),
+    ({"speeds": [400.0]}, RefusalReason.BAD_SPEEDS, "exceeds max_speed 280"),
+    ({"position": 1.45}, RefusalReason.OUTSIDE_LIMITS, "window 1.45 ± 0.1 rad is outside the joint limits [-1.5, 1.5]"),
+    ({"position": 1.0}, RefusalReason.OUTSIDE_LIMITS, "beyond the joint limits"),
+    ({"position": math.nan}, RefusalReason.BAD_REQUEST, "position (window centre) nan is not finite"),
+    ({"speeds": [1e-6]}, RefusalReason.BAD_SPEEDS, "speed #1 = 1e-06 rad/s (motor side) is below min_speed 1 rad/s"),
+    ({"speeds": [20.0] * 1000}, RefusalReason.BAD_SPEEDS, "1000 speeds asked for; at most max_speeds = 32"),
 ]
 
 
@@ -233,9 +234,10 @@ class TestSimulatedCell:
 
     def test_service_refuses_bad_requests_with_clear_messages(self, cell, operator):
         _ready(operator)
-        for kwargs, text in BAD_REQUESTS:
+        for kwargs, reason, text in BAD_REQUESTS:
             resp = operator.run(**kwargs)
             assert not resp.accepted and resp.cycle_id == 0, kwargs
+            assert resp.reason == reason, (kwargs, RefusalReason.name_of(resp.reason), resp.message)
             assert resp.message.startswith("refused: ") and text in resp.message, (kwargs, resp.message)
         # nothing moved: no command was streamed
         assert operator.commands == []
@@ -244,7 +246,7 @@ class TestSimulatedCell:
     def test_dry_run_plans_without_moving(self, cell, operator):
         _ready(operator)
         resp = operator.run(dry_run=True)
-        assert resp.accepted and resp.cycle_id == 0
+        assert resp.accepted and resp.cycle_id == 0 and resp.reason == RefusalReason.NONE
         assert "dry run OK" in resp.message and "8 speed(s)" in resp.message and "plan duration" in resp.message
         operator.spin_until(lambda: False, 0.3)
         assert operator.commands == [] and operator.last_state() == CycleState.IDLE
@@ -255,7 +257,8 @@ class TestSimulatedCell:
         operator.set_param("simulator", False)
         try:
             resp = operator.run(speeds=[20.0])
-            assert not resp.accepted and "motion is disabled" in resp.message and "motion_enabled true" in resp.message
+            assert not resp.accepted and resp.reason == RefusalReason.MOTION_DISABLED
+            assert "motion_enabled true" in resp.message  # the text tells a person what to do
             assert operator.run(speeds=[20.0], dry_run=True).accepted  # planning needs no motion
         finally:
             operator.set_param("simulator", True)
@@ -267,7 +270,8 @@ class TestSimulatedCell:
         cid = resp.cycle_id
         # a second request while running is refused
         busy = operator.run(speeds=[20.0])
-        assert not busy.accepted and f"cycle {cid} is running" in busy.message and "~/abort" in busy.message
+        assert not busy.accepted and busy.reason == RefusalReason.BUSY and RefusalReason.BUSY.retryable
+        assert f"cycle {cid} is running" in busy.message and "~/abort" in busy.message
         final = operator.wait_state(cid, (CycleState.DONE, CycleState.FAILED, CycleState.ABORTED), 40.0)
         assert final.state == CycleState.DONE, final.message
         mine = [m for m in operator.status if m.cycle_id == cid]
@@ -319,7 +323,8 @@ class TestSimulatedCell:
         assert [r.successful for r in res] == [True], res
         try:
             refused = operator.run(speeds=[160.0])
-            assert not refused.accepted and "exceeds max_speed 50" in refused.message
+            assert not refused.accepted and refused.reason == RefusalReason.BAD_SPEEDS
+            assert "exceeds max_speed 50" in refused.message
             resp = operator.start(speeds=[40.0])
             (busy,) = operator.set_params(max_speed=280.0)
             assert not busy.successful
@@ -364,7 +369,7 @@ def test_watchdog_stops_the_joint_when_joint_states_stop(context, operator):
     try:
         assert operator.spin_until(lambda: operator.run_client.service_is_ready(), 30.0)
         early = operator.run(speeds=[20.0], attempts=3)  # a refusal: safe to re-send
-        assert not early.accepted and "no joint state for joint_1 received yet" in early.message
+        assert not early.accepted and early.reason == RefusalReason.STATE_MISSING
         sim = Child("joint_sim", {})
         assert operator.spin_until(lambda: operator.joint_states > 20, 30.0)
         resp = operator.start(speeds=[10.0])
@@ -400,7 +405,7 @@ def test_a_simulator_that_died_is_a_watchdog_error_and_then_a_stale_state_refusa
         assert kv["state"] == "FAILED" and kv["cycle_id"] == str(resp.cycle_id) and "watchdog" in kv["last_fault"]
         operator.spin_until(lambda: False, 3.0)  # joint_sim died 3 s ago
         late = operator.run(speeds=[20.0])
-        assert not late.accepted and late.cycle_id == 0
+        assert not late.accepted and late.cycle_id == 0 and late.reason == RefusalReason.STATE_STALE
         assert "joint state of joint_1 is stale: none received for" in late.message
         assert operator.last_state() == CycleState.FAILED  # nothing was started
     finally:

@@ -49,8 +49,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("alarm flag >= turned into >", "jointwear_ros/nodes/wear_estimator.py",
            "m.alarm = bool(res.wear >= r.alarm_threshold)", "m.alarm = bool(res.wear > r.alarm_threshold)",
            ("test/test_nodes_observer_estimator.py", "-k", "exactly_the_threshold")),
-    Mutant("monitor level >= turned into >", "jointwear_ros/monitor/core.py",
-           "    if wear >= alarm_threshold:\n        return ERROR", "    if wear > alarm_threshold:\n        return ERROR",
+    Mutant("monitor level >= turned into >", "jointwear_ros/contract.py",
+           "        if wear >= alarm:\n            return cls.ERROR", "        if wear > alarm:\n            return cls.ERROR",
            ("test/test_monitor.py",)),
     Mutant("one logging line picks the severity", "jointwear_ros/nodes/wear_estimator.py",
            "        if r.level == ERROR:\n            self.get_logger().error(text)\n        elif r.level == WARN:\n"

@@ -70,8 +70,8 @@ MUTATIONS: tuple[Mutation, ...] = (
     ),
     Mutation(
         "alarm_ge_to_gt_level", "the diagnostic level's ERROR uses > instead of >=",
-        "jointwear_ros/monitor/core.py",
-        "    if wear >= alarm_threshold:\n        return ERROR", "    if wear > alarm_threshold:\n        return ERROR",
+        "jointwear_ros/contract.py",
+        "        if wear >= alarm:\n            return cls.ERROR", "        if wear > alarm:\n            return cls.ERROR",
         ("test/test_monitor.py", "test/test_doctests.py"),
         fast=True,
     ),

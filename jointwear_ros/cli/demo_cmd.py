@@ -21,19 +21,18 @@ import argparse
 import math
 import os
 import random
-import shutil
-import signal
-import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import yaml
 
+from ..contract import CycleState, DiagnosticLevel
 from ..errors import JointwearError
+from ..nodes.cell import CellError, Child, Operator, ready_conditions, start_child, stop_children
 from ..resources import config_path
 from . import UsageError
 from .common import check_method, check_output_dir, format_table, parse_float, parse_float_list, print_json
@@ -44,8 +43,8 @@ __all__ = ["DEMO_NODES", "DemoError", "register", "run_demo"]
 DEMO_NODES = ("recorder", "joint_sim", "test_cycle", "friction_observer", "wear_estimator")
 
 
-class DemoError(JointwearError):
-    """The demo could not complete (a node died, a timeout, a refused request)."""
+#: The demo could not complete (a node died, a timeout, a refused request).
+DemoError = CellError
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -78,91 +77,6 @@ def _progress(text: str) -> None:
 
 
 # --------------------------------------------------------------------------- children
-
-
-@dataclass
-class Child:
-    """One node process and its log file."""
-
-    name: str
-    proc: subprocess.Popen[bytes]
-    log: Path
-    fh: IO[bytes]
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def log_tail(self, lines: int = 8) -> str:
-        try:
-            text = self.log.read_text(errors="replace").strip().splitlines()
-        except OSError:
-            return ""
-        return " | ".join(text[-lines:])
-
-
-def _executable(name: str) -> str:
-    local = Path(sys.executable).parent / name
-    if local.is_file():
-        return str(local)
-    found = shutil.which(name)
-    if found is None:
-        raise DemoError(f"console script {name!r} not found next to {sys.executable} or on PATH; "
-                        "install the package (make env / pip install -e .)")
-    return found
-
-
-def _param_args(params: dict[str, Any]) -> list[str]:
-    out: list[str] = []
-    for k, v in params.items():
-        if isinstance(v, bool):
-            text = "true" if v else "false"
-        elif isinstance(v, float):
-            text = repr(v)
-        else:
-            text = str(v)
-        out += ["-p", f"{k}:={text}"]
-    return out
-
-
-def start_child(name: str, params: dict[str, Any], env: dict[str, str], logdir: Path) -> Child:
-    """Start node ``name`` with its config file and ``params`` overrides; output to ``logdir/<name>.log``."""
-    cmd = [_executable(name), "--ros-args"]
-    cfg = config_path(f"{name}.yaml")
-    if cfg.is_file():
-        cmd += ["--params-file", str(cfg)]
-    cmd += _param_args(params)
-    log = logdir / f"{name}.log"
-    fh = log.open("wb")
-    fh.write(("$ " + " ".join(cmd) + "\n").encode())
-    fh.flush()
-    proc = subprocess.Popen(cmd, env=env, stdout=fh, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-    return Child(name, proc, log, fh)
-
-
-def stop_children(children: Sequence[Child], sigint_timeout: float = 15.0, sigterm_timeout: float = 5.0) -> None:
-    """SIGINT every child, then SIGTERM and SIGKILL the ones still running after the timeouts."""
-    for sig, timeout in ((signal.SIGINT, sigint_timeout), (signal.SIGTERM, sigterm_timeout), (signal.SIGKILL, 5.0)):
-        running = [c for c in children if c.alive()]
-        if not running:
-            break
-        for c in running:
-            try:
-                c.proc.send_signal(sig)
-            except ProcessLookupError:
-                pass
-        end = time.monotonic() + timeout
-        while time.monotonic() < end and any(c.alive() for c in running):
-            time.sleep(0.05)
-        if sig != signal.SIGINT:
-            for c in running:
-                if c.alive():
-                    _progress(f"{c.name} did not stop on {signal.Signals(sig).name}")
-    for c in children:
-        try:
-            c.proc.wait(timeout=1.0)
-        except subprocess.TimeoutExpired:
-            pass
-        c.fh.close()
 
 
 # --------------------------------------------------------------------------- the operator
@@ -202,140 +116,27 @@ class DemoResult:
         }
 
 
-_LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
-_STATES = {0: "IDLE", 1: "RUNNING", 2: "DONE", 3: "ABORTED", 4: "FAILED"}
-
-
-class _Operator:
-    """An in-process rclpy node that does what an operator does: wait, call the service, watch."""
-
-    def __init__(self, joint_name: str) -> None:
-        import rclpy
-        from diagnostic_msgs.msg import DiagnosticArray
-        from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate
-        from jointwear_msgs.srv import RunTestCycle
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
-        from rclpy.signals import SignalHandlerOptions
-
-        self.rclpy = rclpy
-        self.ctx = rclpy.Context()
-        rclpy.init(context=self.ctx, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node("jointwear_demo_operator", context=self.ctx)
-        self.ex = SingleThreadedExecutor(context=self.ctx)
-        self.ex.add_node(self.node)
-        self.joint_name = joint_name
-        qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        self.observations: list[Any] = []
-        self.estimates: list[Any] = []
-        self.diagnostics: list[Any] = []
-        self.status: Any = None
-        self.node.create_subscription(FrictionObservation, "/jointwear/friction_observations",
-                                      self.observations.append, qos)
-        self.node.create_subscription(WearEstimate, "/jointwear/wear_estimate", self.estimates.append, qos)
-        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, qos)
-        self.node.create_subscription(TestCycleStatus, "/test_cycle/status", self._on_status, qos)
-        self.client = self.node.create_client(RunTestCycle, "/test_cycle/run")
-        self.Request = RunTestCycle.Request
-
-    def _on_diag(self, msg: Any) -> None:
-        for st in msg.status:
-            if st.name.endswith(f": {self.joint_name}") and st.name.startswith("wear_estimator"):
-                self.diagnostics.append(st)
-
-    def _on_status(self, msg: Any) -> None:
-        self.status = msg
-
-    def spin_until(self, predicate: Callable[[], bool], timeout: float, children: Sequence[Child],
-                   what: str, tick: Callable[[], None] | None = None) -> None:
-        end = time.monotonic() + timeout
-        while not predicate():
-            for c in children:
-                if not c.alive():
-                    raise DemoError(f"{c.name} exited with code {c.proc.returncode} while waiting for {what}; "
-                                    f"log {c.log}: {c.log_tail(4)}")
-            if time.monotonic() > end:
-                raise DemoError(f"timed out after {timeout:.0f} s waiting for {what}; logs in {children[0].log.parent}")
-            self.ex.spin_once(timeout_sec=0.05)
-            if tick is not None:
-                tick()
-
-    def subscribers(self, topic: str) -> set[str]:
-        return {i.node_name for i in self.node.get_subscriptions_info_by_topic(topic)}
-
-    def call_run(self, speeds: Sequence[float], children: Sequence[Child], timeout: float) -> tuple[bool, int, str]:
-        self._warm_up(speeds, children, timeout)
-        req = self.Request(joint_name=self.joint_name, speeds=[float(s) for s in speeds], position=0.0, dry_run=False)
-        fut = self.client.call_async(req)
-        self.spin_until(fut.done, timeout, children, "the answer of /test_cycle/run")
-        resp = fut.result()
-        return bool(resp.accepted), int(resp.cycle_id), str(resp.message)
-
-    def _warm_up(self, speeds: Sequence[float], children: Sequence[Child], timeout: float) -> None:
-        """A dry run, re-sent every 3 s until answered: right after discovery a service's first
-        response can be lost (the client's response reader not yet matched), and a dry run is
-        safe to repeat where the real request is not."""
-        req = self.Request(joint_name=self.joint_name, speeds=[float(s) for s in speeds], position=0.0, dry_run=True)
-        end = time.monotonic() + timeout
-        while True:
-            fut = self.client.call_async(req)
-            try:
-                self.spin_until(fut.done, 3.0, children, "the answer of /test_cycle/run (dry run)")
-                return
-            except DemoError as exc:
-                if "timed out" not in str(exc) or time.monotonic() > end:
-                    raise  # a node died, or no answer at all
-                _progress("no answer from /test_cycle/run yet; asking again")
-
-    def close(self) -> None:
-        try:
-            self.ex.shutdown()
-            self.node.destroy_node()
-        finally:
-            self.rclpy.try_shutdown(context=self.ctx)
-
-
-def _ready_conditions(op: _Operator) -> Callable[[], list[str]]:
-    needs = {
-        "/joint_states": {"test_cycle", "friction_observer", "recorder"},
-        "/test_cycle/status": {"friction_observer", "recorder"},
-        "/jointwear/friction_observations": {"wear_estimator", "recorder"},
-        "/jointwear/wear_estimate": {"recorder"},
-        "/velocity_controller/commands": {"joint_sim", "recorder"},
-        "/clock": {"recorder"},
-    }
-
-    def missing() -> list[str]:
-        out = []
-        for topic, nodes in needs.items():
-            lack = nodes - op.subscribers(topic)
-            if lack:
-                out.append(f"{topic} <- {', '.join(sorted(lack))}")
-        if not op.client.service_is_ready():
-            out.append("/test_cycle/run")
-        return out
-
-    return missing
-
-
 def _msg_dict(msg: Any, names: Sequence[str]) -> dict[str, Any]:
     from ..io.bags import message_fields
 
     return message_fields(msg, names)
 
 
+def _config_value(node: str, name: str, default: Any) -> Any:
+    """Parameter ``name`` of ``config/<node>.yaml`` (``default`` if it cannot be read)."""
+    try:
+        values = yaml.safe_load(config_path(f"{node}.yaml").read_text())
+        return values[node]["ros__parameters"][name]
+    except Exception:
+        return default
+
+
 def _config_done_timeout() -> float:
     """done_timeout of config/wear_estimator.yaml (2 s if it cannot be read)."""
     try:
-        values = yaml.safe_load(config_path("wear_estimator.yaml").read_text())
-        return float(values["wear_estimator"]["ros__parameters"]["done_timeout"])
-    except Exception:
+        return float(_config_value("wear_estimator", "done_timeout", 2.0))
+    except (TypeError, ValueError):
         return 2.0
-
-
-def _after(deadline: float) -> Callable[[], bool]:
-    """A predicate that turns true at ``deadline`` (time.monotonic)."""
-    return lambda: time.monotonic() > deadline
 
 
 def run_demo(
@@ -357,15 +158,12 @@ def run_demo(
     if domain_id is None:
         env_id = os.environ.get("ROS_DOMAIN_ID", "")
         domain_id = int(env_id) if env_id.isdigit() else random.Random(os.getpid() ^ int(time.time())).randint(10, 99)
-    env = loopback_env(domain_id)
-    os.environ.update({"ROS_DOMAIN_ID": env["ROS_DOMAIN_ID"],
-                       "ROS_AUTOMATIC_DISCOVERY_RANGE": env["ROS_AUTOMATIC_DISCOVERY_RANGE"]})
+    env = loopback_env(domain_id)  # for the children; the operator takes the domain id itself
     logdir = out / "logs"
     bagdir = out / "bags"
     logdir.mkdir(parents=True, exist_ok=True)
     bagdir.mkdir(parents=True, exist_ok=True)
     bags_before = set(find_bags(bagdir))
-    joint = "joint_1"
     sim_params: dict[str, Any] = {"use_sim_time": False, "publish_clock": True,
                                   "real_time_factor": float(real_time_factor), "wear": float(wear)}
     if temperature is not None:
@@ -382,29 +180,22 @@ def run_demo(
     }
     for node, values in (overrides or {}).items():
         params[node].update(values)
+    # the joint the cell drives: the test cycle's (its config, or a --set override)
+    joint = str(params["test_cycle"].get("joint_name") or _config_value("test_cycle", "joint_name", "joint_1"))
     children: list[Child] = []
-    op: _Operator | None = None
+    op: Operator | None = None
     try:
         _progress(f"ROS_DOMAIN_ID={domain_id}, loopback only; logs in {logdir}")
         for name in DEMO_NODES:
             children.append(start_child(name, params[name], env, logdir))
             _progress(f"started {name} (pid {children[-1].proc.pid})")
-        op = _Operator(joint)
-        missing = _ready_conditions(op)
+        op = Operator(joint, domain_id, progress=_progress)
+        missing = ready_conditions(op)
         op.spin_until(lambda: not missing(), 60.0, children, "the nodes to connect")
         _progress(f"graph connected after {time.monotonic() - t_start:.1f} s; calling /test_cycle/run")
-        # As an operator would: a refusal because the joint state is not there yet or late
-        # (nodes still starting on a loaded machine) is retried for a while; any other is final.
-        retry_end = time.monotonic() + 20.0
-        while True:
-            accepted, cycle_id, message = op.call_run(speeds or [], children, 30.0)
-            transient = "no joint state" in message or "s old (state_timeout" in message
-            if accepted or not transient or time.monotonic() > retry_end:
-                break
-            _progress(f"/test_cycle/run refused ({message}); retrying in 1 s")
-            op.spin_until(_after(time.monotonic() + 1.0), 5.0, children, "a retry")
-        if not accepted:
-            raise DemoError(f"/test_cycle/run refused the request: {message}")
+        # as an operator would: a refusal whose reason is retryable (the joint state not there yet or
+        # late: nodes still starting on a loaded machine) is retried for a while; any other is final
+        cycle_id, message = op.start_cycle(speeds or [], children)
         _progress(f"cycle {cycle_id} accepted: {message}")
         shown: list[tuple[int, int] | None] = [None]
 
@@ -415,16 +206,18 @@ def run_demo(
             key = (st.state, st.speeds_done)
             if key != shown[0]:
                 shown[0] = key
-                state = _STATES.get(st.state, str(st.state))
-                extra = f": {st.message}" if st.state in (3, 4) and st.message else ""
+                state = CycleState.name_of(st.state)
+                extra = f": {st.message}" if st.state in (CycleState.ABORTED, CycleState.FAILED) and st.message else ""
                 _progress(f"cycle {cycle_id} {state}, speeds done {st.speeds_done}/{st.speeds_total}{extra}")
 
         def have_estimate() -> bool:
             return any(e.cycle_id == cycle_id for e in op.estimates)  # type: ignore[union-attr]
 
-        def diags_of_cycle() -> list[Any]:
-            return [d for d in op.diagnostics  # type: ignore[union-attr]
-                    if ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
+        def diags_of_cycle(after: int = 0) -> list[Any]:
+            """The operator's ``wear_estimator: <joint>`` statuses of this cycle (its ``cycle_id`` key) heard
+            after arrival number ``after``."""
+            return [d for n, d in op.diagnostics  # type: ignore[union-attr]
+                    if n > after and ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
 
         def finished() -> bool:
             # an estimate, or the estimator's verdict that there is none (no "wear" key)
@@ -443,25 +236,27 @@ def run_demo(
             op.spin_until(complete, 5.0, children, f"a revised WearEstimate of cycle {cycle_id}")
         except DemoError as exc:
             _progress(f"{exc}; reporting the newest estimate")
-        est = next((e for e in reversed(op.estimates) if e.cycle_id == cycle_id), None)
+        i_est = next((i for i in reversed(range(len(op.estimates))) if op.estimates[i].cycle_id == cycle_id), None)
+        est = None if i_est is None else op.estimates[i_est]
+        # the estimator publishes an estimate, then its status (and republishes the status every
+        # diagnostics_period): the status of the newest estimate is one heard after it
+        heard_est = 0 if i_est is None else op.estimate_arrivals[i_est]
         try:
-            def matching() -> list[Any]:  # the status of the newest estimate (its wear value)
-                want = None if est is None else f"{est.wear:.3f}"
-                return [d for d in diags_of_cycle()
-                        if want is None or ("wear", want) in {(kv.key, kv.value) for kv in d.values}]
+            def matching() -> list[Any]:
+                return diags_of_cycle(heard_est)
 
             op.spin_until(lambda: bool(matching()), 15.0, children,
                           f"the /diagnostics status of cycle {cycle_id}")
             diag = matching()[-1]
             raw = diag.level
-            level = _LEVELS.get(raw[0] if isinstance(raw, bytes) else int(raw), str(raw))
+            level = DiagnosticLevel.name_of(raw[0] if isinstance(raw, bytes) else int(raw))
             dmsg = str(diag.message)
         except DemoError as exc:
             level, dmsg = "UNKNOWN", str(exc)
         observations = [_msg_dict(o, OBSERVATION_FIELDS) for o in op.observations if o.cycle_id == cycle_id]
         observations.sort(key=lambda o: o["speed"])
         final = op.status
-        final_state = _STATES.get(final.state, str(final.state)) if final is not None and final.cycle_id == cycle_id else "?"
+        final_state = CycleState.name_of(final.state) if final is not None and final.cycle_id == cycle_id else "?"
         estimate = _msg_dict(est, ESTIMATE_FIELDS) if est is not None else {}
         time.sleep(0.5)  # the recorder gets the estimate and diagnostics too
     finally:
@@ -471,9 +266,9 @@ def run_demo(
             _progress("stopping the nodes")
             # the producers first (each waits until the recorder acknowledged its last messages),
             # then the recorder, the clock source (joint_sim) last: sim-time nodes need /clock
-            stop_children([c for c in children if c.name not in ("joint_sim", "recorder")])
-            stop_children([c for c in children if c.name == "recorder"])
-            stop_children([c for c in children if c.name == "joint_sim"])
+            stop_children([c for c in children if c.name not in ("joint_sim", "recorder")], progress=_progress)
+            stop_children([c for c in children if c.name == "recorder"], progress=_progress)
+            stop_children([c for c in children if c.name == "joint_sim"], progress=_progress)
     bags = [b for b in find_bags(bagdir) if b not in bags_before]
     bag = str(bags[-1]) if bags else None
     if bag is None:

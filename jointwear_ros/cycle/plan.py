@@ -19,6 +19,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from ..contract import RefusalReason
 from ..errors import JointwearError
 
 __all__ = [
@@ -37,7 +38,15 @@ DEFAULT_SPEEDS: tuple[float, ...] = (10.0, 20.0, 30.0, 40.0, 50.0, 80.0, 120.0, 
 
 
 class CycleRequestError(JointwearError):
-    """A test-cycle request cannot be run as asked (the message says why and what to do)."""
+    """A test-cycle request cannot be run as asked (the message says why and what to do).
+
+    ``reason`` is the machine-readable kind (``RunTestCycle.Response.reason``), so a caller decides
+    what to do (retry, give up) without reading the text.
+    """
+
+    def __init__(self, message: str, reason: RefusalReason = RefusalReason.BAD_REQUEST) -> None:
+        super().__init__(message)
+        self.reason = RefusalReason(reason)
 
 
 @dataclass(frozen=True)
@@ -220,39 +229,45 @@ def plan_cycle(
     m = config.limit_margin
     h = config.window_half_width
     if not sp:
-        raise CycleRequestError("no speeds to sweep: give at least one speed (motor side, rad/s) or set speeds")
+        raise CycleRequestError("no speeds to sweep: give at least one speed (motor side, rad/s) or set speeds", RefusalReason.BAD_SPEEDS)
     if len(sp) > config.max_speeds:
         raise CycleRequestError(
             f"{len(sp)} speeds asked for; at most max_speeds = {config.max_speeds} per cycle: split them over "
-            "several cycles"
+            "several cycles",
+            RefusalReason.BAD_SPEEDS,
         )
     for i, v in enumerate(sp):
         if not math.isfinite(v):
-            raise CycleRequestError(f"speed #{i + 1} = {v} is not finite; give speeds in rad/s (motor side)")
+            raise CycleRequestError(f"speed #{i + 1} = {v} is not finite; give speeds in rad/s (motor side)", RefusalReason.BAD_SPEEDS)
         if v <= 0.0:
             raise CycleRequestError(
-                f"speed #{i + 1} = {v:g} rad/s must be > 0 (motor side; the cycle sweeps both directions itself)"
+                f"speed #{i + 1} = {v:g} rad/s must be > 0 (motor side; the cycle sweeps both directions itself)",
+                RefusalReason.BAD_SPEEDS,
             )
         if v < config.min_speed:
             raise CycleRequestError(
                 f"speed #{i + 1} = {v:g} rad/s (motor side) is below min_speed {config.min_speed:g} rad/s, the "
-                "slowest speed the cycle sweeps"
+                "slowest speed the cycle sweeps",
+                RefusalReason.BAD_SPEEDS,
             )
         if v > config.max_speed:
             raise CycleRequestError(
-                f"speed #{i + 1} = {v:g} rad/s (motor side) exceeds max_speed {config.max_speed:g} rad/s"
+                f"speed #{i + 1} = {v:g} rad/s (motor side) exceeds max_speed {config.max_speed:g} rad/s",
+                RefusalReason.BAD_SPEEDS,
             )
     if not (lo + m <= c - h and c + h <= hi - m):
         raise CycleRequestError(
             f"window {c:g} ± {h:g} rad is outside the joint limits [{lo:g}, {hi:g}] rad "
-            f"(margin {m:g}); choose a position nearer the middle"
+            f"(margin {m:g}); choose a position nearer the middle",
+            RefusalReason.OUTSIDE_LIMITS,
         )
     pos = c if start_position is None else float(start_position)
     if not math.isfinite(pos):
-        raise CycleRequestError(f"current joint position {pos} is not finite; check /joint_states")
+        raise CycleRequestError(f"current joint position {pos} is not finite; check /joint_states", RefusalReason.OUTSIDE_LIMITS)
     if not lo <= pos <= hi:
         raise CycleRequestError(
-            f"joint is at {pos:.3f} rad, outside the limits [{lo:g}, {hi:g}] rad; move it inside first"
+            f"joint is at {pos:.3f} rad, outside the limits [{lo:g}, {hi:g}] rad; move it inside first",
+            RefusalReason.OUTSIDE_LIMITS,
         )
     a = config.acceleration
     plans: list[SpeedPlan] = []
@@ -265,7 +280,8 @@ def plan_cycle(
             raise CycleRequestError(
                 f"speed #{i + 1} = {v:g} rad/s needs positions [{start:.3f}, {end:.3f}] rad (window {c:g} ± {h:g} "
                 f"plus run-up {r:.3f} rad), beyond the joint limits [{lo:g}, {hi:g}] rad (margin {m:g}); "
-                "use a lower speed or a position nearer the middle"
+                "use a lower speed or a position nearer the middle",
+                RefusalReason.OUTSIDE_LIMITS,
             )
         dur = (
             move_duration(start - pos, config.approach_speed, a)
@@ -278,6 +294,7 @@ def plan_cycle(
     if total > config.max_duration:
         raise CycleRequestError(
             f"the cycle would take about {total:.0f} s, more than max_duration {config.max_duration:g} s; "
-            "use fewer or faster speeds"
+            "use fewer or faster speeds",
+            RefusalReason.BAD_SPEEDS,
         )
     return CyclePlan(tuple(plans), c, h, float(c if start_position is None else start_position), total)

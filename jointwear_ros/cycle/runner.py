@@ -27,31 +27,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import IntEnum
 
+from ..contract import CyclePhase, CycleState
 from .plan import CycleConfig, CyclePlan, move_duration
 
 __all__ = ["CycleRunner", "CycleState", "CycleStatusView", "JointReading", "Phase"]
 
 
-class CycleState(IntEnum):
-    """Cycle states (values equal ``TestCycleStatus`` constants)."""
-
-    IDLE = 0
-    RUNNING = 1
-    DONE = 2
-    ABORTED = 3
-    FAILED = 4
-
-
-class Phase(IntEnum):
-    """Phases of a running cycle (values equal ``TestCycleStatus.PHASE_*``)."""
-
-    NONE = 0
-    APPROACH = 1
-    FORWARD = 2
-    REVERSE = 3
-    SETTLE = 4
+#: Phases of a running cycle: the contract's ``TestCycleStatus.PHASE_*``.
+Phase = CyclePhase
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,6 @@ No ROS runtime: rosbags writes the bag with the jointwear typestore.
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -29,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from ..contract import seconds_to_stamp_fields
 from ..io.typestore import jointwear_typestore
 from ..observer.synthetic import SyntheticCycle, synthetic_cycle
 
@@ -80,8 +80,8 @@ def fleet_specs(robots: int, joints: int, nights: int, *, rates: Sequence[float]
 
 
 def _time(store: Any, t: float) -> Any:
-    sec = math.floor(t)
-    return store.types["builtin_interfaces/msg/Time"](sec=sec, nanosec=round((t - sec) * 1e9) % 1_000_000_000)
+    sec, nanosec = seconds_to_stamp_fields(t)
+    return store.types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec)
 
 
 def _header(store: Any, t: float) -> Any:

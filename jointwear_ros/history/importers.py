@@ -128,7 +128,8 @@ def estimates_from_bag(path: str | os.PathLike[str], *, robot: str, params: str 
     The time is the message's header stamp (its log time when the stamp is 0), so the same estimate
     stored live by ``wear_trend`` and imported from the bag is one entry.
     """
-    from ..io.bags import ESTIMATE_TYPE, read_messages, stamp_seconds
+    from ..contract import stamp_to_seconds
+    from ..io.bags import ESTIMATE_TYPE, read_messages
     from ..io.params import recorded_node_params
 
     p = Path(path)
@@ -138,7 +139,7 @@ def estimates_from_bag(path: str | os.PathLike[str], *, robot: str, params: str 
         if m.msgtype != ESTIMATE_TYPE:
             events.append(m.msg)
             continue
-        t = stamp_seconds(m.msg.header)
+        t = stamp_to_seconds(m.msg.header)
         if t <= 0:
             t = m.log_time * 1e-9
         joint = str(m.msg.joint_name)

@@ -24,6 +24,7 @@ from typing import Any
 from rosbags.typesys import get_types_from_msg
 from rosbags.typesys.store import Typestore
 
+from ..contract import stamp_to_seconds
 from ..errors import InputDataError
 from .typestore import jointwear_typestore
 
@@ -323,10 +324,8 @@ def find_bags(root: str | os.PathLike[str]) -> list[Path]:
 # --------------------------------------------------------------------------- conversion
 
 
-def stamp_seconds(header_or_stamp: Any) -> float:
-    """Seconds of a ``std_msgs/Header`` or ``builtin_interfaces/Time``."""
-    st = getattr(header_or_stamp, "stamp", header_or_stamp)
-    return float(st.sec) + 1e-9 * float(st.nanosec)
+#: Seconds of a ``std_msgs/Header`` or ``builtin_interfaces/Time``: the contract's conversion.
+stamp_seconds = stamp_to_seconds
 
 
 def joint_sample(msg: Any, joint_name: str) -> tuple[float, float, float, float] | None:

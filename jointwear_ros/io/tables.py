@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from ..contract import seconds_to_stamp_fields, stamp_to_seconds
 from ..errors import InputDataError
 from ..types import OBSERVATION_COLUMNS, ObservationTable
 from .typestore import jointwear_typestore
@@ -227,7 +228,7 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
             for i, (conn, _t, raw) in enumerate(reader.messages(connections=conns), start=1):
                 msg: Any = reader.deserialize(raw, conn.msgtype)
                 data["cycle"].append(float(msg.cycle_id))
-                data["time"].append(float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec))
+                data["time"].append(stamp_to_seconds(msg.header))
                 for f in fields:
                     val = float(getattr(msg, f))
                     if (f in _REQUIRED and not math.isfinite(val)) or math.isinf(val):
@@ -314,9 +315,7 @@ def write_bag(
         with Writer(tmp, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
             conn = writer.add_connection(topic, FRICTION_OBSERVATION_TYPE, typestore=store)
             for i in range(n):
-                t = max(float(tim[i]), 0.0)
-                sec = int(t)
-                nsec = round((t - sec) * 1e9) % 1_000_000_000
+                sec, nsec = seconds_to_stamp_fields(float(tim[i]))
                 msg = Msg(
                     header=Header(stamp=Time(sec=sec, nanosec=nsec), frame_id=""),
                     joint_name=joint_name,

@@ -51,23 +51,23 @@ from typing import Any
 
 import numpy as np
 
+from ..contract import ENDED_STATES, CycleState, DiagnosticLevel
 from ..errors import InputDataError, JointwearError
 from ..estimation import make_estimator
 from ..model.paramsets import load_parameter_set_info
-from ..observer.types import STATE_ABORTED, STATE_DONE, STATE_FAILED, STATE_RUNNING, FrictionObservationData
+from ..observer.types import FrictionObservationData
 from ..types import ObservationTable, WearEstimator, WearResult
 from .validation import screen_observation
 
 __all__ = ["ERROR", "LEVEL_NAMES", "OK", "WARN", "CycleResult", "MonitorConfig", "WearMonitor",
            "cycle_seed", "diagnostic_level", "observations_table"]
 
-#: ``diagnostic_msgs/DiagnosticStatus`` level byte values.
-OK = 0
-WARN = 1
-ERROR = 2
-LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR"}
+#: ``diagnostic_msgs/DiagnosticStatus`` level byte values: aliases of :class:`jointwear_ros.contract.DiagnosticLevel`.
+OK = DiagnosticLevel.OK
+WARN = DiagnosticLevel.WARN
+ERROR = DiagnosticLevel.ERROR
+LEVEL_NAMES = {int(lv): lv.name for lv in (OK, WARN, ERROR)}
 
-_ENDED = (STATE_DONE, STATE_ABORTED, STATE_FAILED)
 
 
 @dataclass(frozen=True)
@@ -166,17 +166,15 @@ class CycleResult:
         return self.level == ERROR and self.result is not None
 
 
-def diagnostic_level(wear: float, warn_threshold: float, alarm_threshold: float) -> int:
-    """OK below ``warn_threshold``, WARN in [warn, alarm), ERROR at ``wear >= alarm_threshold``.
+def diagnostic_level(wear: float, warn_threshold: float, alarm_threshold: float) -> DiagnosticLevel:
+    """OK below ``warn_threshold``, WARN in [warn, alarm), ERROR at ``wear >= alarm_threshold``; NaN is WARN.
 
-    >>> [diagnostic_level(w, 30.0, 35.0) for w in (29.99, 30.0, 34.99, 35.0)]
-    [0, 1, 1, 2]
+    (:meth:`jointwear_ros.contract.DiagnosticLevel.for_wear`.)
+
+    >>> [diagnostic_level(w, 30.0, 35.0).name for w in (29.99, 30.0, 34.99, 35.0, float("nan"))]
+    ['OK', 'WARN', 'WARN', 'ERROR', 'WARN']
     """
-    if wear >= alarm_threshold:
-        return ERROR
-    if wear >= warn_threshold:
-        return WARN
-    return OK
+    return DiagnosticLevel.for_wear(wear, warn_threshold, alarm_threshold)
 
 
 def cycle_seed(seed: int, cycle_id: int) -> int:
@@ -349,7 +347,7 @@ class WearMonitor:
         if joint_name and joint_name != self.config.joint_name:
             return []
         cid = int(cycle_id)
-        if cid in self._finished and state == STATE_RUNNING:
+        if cid in self._finished and state == CycleState.RUNNING:
             del self._finished[cid]  # the id is reused by a new cycle (test_cycle restarted)
             self._note(f"cycle {cid} RUNNING again: a new cycle reuses the id of an estimated one "
                                 "(test_cycle restarted?); the new cycle is estimated on its own")
@@ -358,7 +356,7 @@ class WearMonitor:
         cyc = self._cycles.setdefault(cid, _Cycle())
         if speeds_total > 0:
             cyc.speeds_total = int(speeds_total)
-        if state in _ENDED and not math.isfinite(cyc.ended_at):
+        if state in ENDED_STATES and not math.isfinite(cyc.ended_at):
             cyc.ended_at = float(stamp)
             cyc.end_state = int(state)
         if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
@@ -413,7 +411,7 @@ class WearMonitor:
         partial = ""
         if cyc.speeds_total > 0 and len(obs) < cyc.speeds_total:
             partial = f"; {len(obs)} of {cyc.speeds_total} speeds observed"
-        ended = {STATE_ABORTED: " (cycle ABORTED)", STATE_FAILED: " (cycle FAILED)"}.get(cyc.end_state, "")
+        ended = f" (cycle {CycleState(cyc.end_state).name})" if cyc.end_state in (CycleState.ABORTED, CycleState.FAILED) else ""
         if cyc.revision:
             partial += (f"; revision {cyc.revision}: re-estimated with late observation(s) at "
                         + ", ".join(f"{v:g}" for v in cyc.late) + " rad/s")

@@ -25,13 +25,15 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
+from ..contract import DiagnosticLevel
+
 __all__ = ["ERROR", "OK", "STALE", "WARN", "NodeDiagnostics", "diagnostic_status", "merge_level"]
 
-#: ``DiagnosticStatus`` level values (the message stores them as one byte).
-OK = 0
-WARN = 1
-ERROR = 2
-STALE = 3
+#: ``DiagnosticStatus`` level values (the message stores them as one byte): aliases of the contract's.
+OK = DiagnosticLevel.OK
+WARN = DiagnosticLevel.WARN
+ERROR = DiagnosticLevel.ERROR
+STALE = DiagnosticLevel.STALE
 
 KeyValues = Sequence[tuple[str, str]]
 #: what a ``refresh`` callback returns: (level, message, key/values)

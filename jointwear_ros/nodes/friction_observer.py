@@ -34,7 +34,6 @@ import time
 from collections import Counter
 from typing import Any
 
-from builtin_interfaces.msg import Time
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
@@ -42,9 +41,19 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 
+from .. import contract
+from ..contract import observation_from_msg, stamp_to_seconds
 from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput
 from .diagnostics import OK, WARN, NodeDiagnostics, Report
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node, subscribe_reporting_loss
+from .runtime import (
+    ParamDecl,
+    declare_parameters,
+    on_parameter_change,
+    overridable_qos,
+    run_node,
+    seconds_to_stamp,
+    subscribe_reporting_loss,
+)
 
 __all__ = [
     "FrictionObserverNode",
@@ -89,47 +98,9 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
 
-def stamp_to_seconds(stamp: Any) -> float:
-    """``builtin_interfaces/Time`` → float seconds."""
-    return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
-
-
-def seconds_to_stamp(t: float) -> Time:
-    """Float seconds → ``builtin_interfaces/Time`` (clamped at 0)."""
-    if not math.isfinite(t) or t <= 0:
-        return Time(sec=0, nanosec=0)
-    sec = math.floor(t)
-    nsec = min(round((t - sec) * 1e9), 999_999_999)
-    return Time(sec=int(sec), nanosec=nsec)
-
-
 def observation_to_msg(o: FrictionObservationData) -> FrictionObservation:
-    """The message of an observation (header stamp = ``o.stamp``)."""
-    m = FrictionObservation()
-    m.header.stamp = seconds_to_stamp(o.stamp)
-    m.joint_name = o.joint_name
-    m.cycle_id = int(o.cycle_id)
-    m.speed = float(o.speed)
-    m.tau_f = float(o.tau_f)
-    m.tau_f_std = float(o.tau_f_std)
-    m.tau_plus = float(o.tau_plus)
-    m.tau_minus = float(o.tau_minus)
-    m.load_torque = float(o.load_torque)
-    m.temperature = float(o.temperature)
-    m.position = float(o.position)
-    m.samples_plus = int(o.samples_plus)
-    m.samples_minus = int(o.samples_minus)
-    return m
-
-
-def observation_from_msg(m: Any) -> FrictionObservationData:
-    """An observation from a ``FrictionObservation`` (rclpy or rosbags-deserialized)."""
-    return FrictionObservationData(
-        stamp=stamp_to_seconds(m.header.stamp), joint_name=str(m.joint_name), cycle_id=int(m.cycle_id),
-        speed=float(m.speed), tau_f=float(m.tau_f), tau_f_std=float(m.tau_f_std), tau_plus=float(m.tau_plus),
-        tau_minus=float(m.tau_minus), load_torque=float(m.load_torque), temperature=float(m.temperature),
-        position=float(m.position), samples_plus=int(m.samples_plus), samples_minus=int(m.samples_minus),
-    )
+    """The message of an observation (header stamp = ``o.stamp``): the contract's conversion."""
+    return contract.observation_to_msg(o, FrictionObservation)
 
 
 def high_rate_qos() -> QoSProfile:
@@ -160,12 +131,14 @@ class FrictionObserverNode(Node):
         self._index_cache: tuple[tuple[str, ...], int] | None = None
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
-        self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos)
+        self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos,
+                                         qos_overriding_options=overridable_qos())
         for msg_type, topic, cb in ((JointState, p["joint_states_topic"], self._on_joint_state),
                                     (TestCycleStatus, p["status_topic"], self._on_status),
                                     (Temperature, p["temperature_topic"], self._on_temperature)):
             if topic:
-                subscribe_reporting_loss(self, msg_type, str(topic), cb, qos, self._lost_callback(str(topic)))
+                subscribe_reporting_loss(self, msg_type, str(topic), cb, qos, self._lost_callback(str(topic)),
+                                         qos_overriding_options=overridable_qos())
         # wall-clock timer: it must fire even when /clock (use_sim_time) stops
         self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.diag = NodeDiagnostics(self, f"friction_observer: {self.joint_name}", self.joint_name,

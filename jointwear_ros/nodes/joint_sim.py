@@ -39,7 +39,6 @@ import time
 from collections.abc import Sequence
 from dataclasses import replace
 
-from builtin_interfaces.msg import Time as TimeMsg
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -51,7 +50,7 @@ from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
 from ..sim import JointSim, JointSimConfig
 from .diagnostics import OK, WARN, NodeDiagnostics, Report
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "JointSimNode", "main"]
 
@@ -111,11 +110,6 @@ def parse_effects(text: str) -> tuple[str, ...]:
     return names
 
 
-def _stamp(t: float) -> TimeMsg:
-    sec = math.floor(t)
-    return TimeMsg(sec=int(sec), nanosec=min(round((t - sec) * 1e9), 999_999_999))
-
-
 class JointSimNode(Node):
     """The simulated joint as a ROS node (see the module docstring)."""
 
@@ -158,7 +152,8 @@ class JointSimNode(Node):
         self._timed_out = True
         self._next_temperature = 0.0
 
-        self.js_pub = self.create_publisher(JointState, "/joint_states", _RELIABLE_1000)
+        self.js_pub = self.create_publisher(JointState, "/joint_states", _RELIABLE_1000,
+                                            qos_overriding_options=overridable_qos())
         self.temp_pub = (
             self.create_publisher(Temperature, "/joint_temperature", _RELIABLE_10)
             if bool(p["publish_temperature"])
@@ -293,7 +288,7 @@ class JointSimNode(Node):
             sim.step(self.dt)
             s = sim.sample()
             msg = JointState()
-            msg.header.stamp = _stamp(self.epoch + s.time)
+            msg.header.stamp = seconds_to_stamp(self.epoch + s.time)
             msg.name = name
             msg.position = [s.position]
             msg.velocity = [s.velocity]
@@ -303,13 +298,13 @@ class JointSimNode(Node):
         if self.temp_pub is not None and sim.time >= self._next_temperature:
             self._next_temperature = sim.time + self.temperature_period
             tm = Temperature()
-            tm.header.stamp = _stamp(self.epoch + sim.time)
+            tm.header.stamp = seconds_to_stamp(self.epoch + sim.time)
             tm.header.frame_id = self.joint_name
             tm.temperature = float(sim.config.temperature)
             tm.variance = 0.0
             self.temp_pub.publish(tm)
         if self.clock_pub is not None:
-            self.clock_pub.publish(ClockMsg(clock=_stamp(self.epoch + sim.time)))
+            self.clock_pub.publish(ClockMsg(clock=seconds_to_stamp(self.epoch + sim.time)))
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -67,18 +67,15 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from ..contract import ENDED_STATES, CycleState
 from ..io.bags import LOST_KEY, STATUS_TYPE, ensure_msgtype
 from ..io.mcap_bag import COMPRESSIONS, McapBagWriter, qos_profiles_v9
-from ..io.typestore import JOINTWEAR_MSG_TYPES, msg_definition_dirs
+from ..io.typestore import new_jointwear_typestore
 from .runtime import ParamDecl, declare_parameters, run_node, subscribe_reporting_loss
 
 __all__ = ["RecorderNode", "main", "message_class"]
-
-_STATUS_RUNNING, _STATUS_ENDS = 1, (2, 3, 4)
-
 
 def message_class(msgtype: str) -> Any:
     """The rosidl Python class of ``pkg/msg/Type`` (what ``rosidl_runtime_py.get_message`` does)."""
@@ -87,19 +84,6 @@ def message_class(msgtype: str) -> Any:
         raise ValueError(f"message type {msgtype!r} is not of the form pkg/msg/Type")
     module = importlib.import_module(f"{parts[0]}.{parts[1]}")
     return getattr(module, parts[2])
-
-
-def _recorder_typestore() -> Typestore:
-    """A private Jazzy typestore with jointwear_msgs (types found later are added to it)."""
-    store = get_typestore(Stores.ROS2_JAZZY)
-    for d in msg_definition_dirs():
-        if all((d / f"{n}.msg").is_file() for n in JOINTWEAR_MSG_TYPES):
-            types: dict[str, Any] = {}
-            for n in JOINTWEAR_MSG_TYPES:
-                types.update(get_types_from_msg((d / f"{n}.msg").read_text(), f"jointwear_msgs/msg/{n}"))
-            store.register(types)
-            break
-    return store
 
 
 def _qos_time(d: Duration) -> QosTime:
@@ -259,7 +243,7 @@ class RecorderNode(Node):
             self.p["chunk_size"] = 1048576
         self._include = self._compile("include")
         self._exclude = self._compile("exclude")
-        self._store = _recorder_typestore()
+        self._store = new_jointwear_typestore(required=False)  # private: types found later are added
         self._offered: dict[str, list[Qos]] = {}
         self._subs: dict[str, Any] = {}
         self._skipped: set[str] = set()
@@ -499,11 +483,11 @@ class RecorderNode(Node):
                 cycle, state = st
                 # a RUNNING status after the cycle ended is a new cycle even with the same id
                 # (a restarted test_cycle counts from 1 again)
-                if state == _STATUS_RUNNING and (cycle != self._cycle or self._cycle_ended):
+                if state == CycleState.RUNNING and (cycle != self._cycle or self._cycle_ended):
                     self._close_bag()
                     self._cycle, self._cycle_end, self._cycle_ended = cycle, None, False
                     self._open_bag(cycle)
-                elif state in _STATUS_ENDS and cycle == self._cycle and not self._cycle_ended:
+                elif state in ENDED_STATES and cycle == self._cycle and not self._cycle_ended:
                     self._cycle_end, self._cycle_ended = item.stamp * 1e-9, True
         bag = self._bag
         if bag is None:

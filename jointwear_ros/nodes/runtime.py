@@ -13,18 +13,45 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import traceback
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import rclpy
+import rclpy.logging
+from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 
-__all__ = ["ParamDecl", "declare_parameters", "loopback_env", "on_parameter_change", "run_node",
-           "subscribe_reporting_loss"]
+from ..contract import seconds_to_stamp_fields
+
+__all__ = [
+    "ParamDecl",
+    "declare_parameters",
+    "loopback_env",
+    "on_parameter_change",
+    "overridable_qos",
+    "run_node",
+    "seconds_to_stamp",
+    "subscribe_reporting_loss",
+]
+
+
+def overridable_qos() -> QoSOverridingOptions:
+    """``qos_overriding_options`` for a publisher or subscription: history, depth and reliability can be
+    overridden at start-up by the read-only parameters ``qos_overrides.<topic>.<publisher|subscription>.<policy>``
+    (e.g. ``qos_overrides./joint_states.subscription.reliability: best_effort`` for a best-effort driver)."""
+    return QoSOverridingOptions.with_default_policies()
+
+
+def seconds_to_stamp(t: float) -> Time:
+    """Float seconds -> ``builtin_interfaces/Time`` (the contract's conversion; clamped at 0)."""
+    sec, nanosec = seconds_to_stamp_fields(t)
+    return Time(sec=sec, nanosec=nanosec)
 
 
 def loopback_env(domain_id: int | None = None, base: Mapping[str, str] | None = None) -> dict[str, str]:
@@ -172,8 +199,10 @@ def run_node(
                 executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except Exception as exc:  # construction or a callback failed: say so, stop cleanly
-        print(f"{getattr(factory, '__name__', 'node')}: fatal: {exc}", file=sys.stderr)
+    except Exception as exc:  # construction or a callback failed: say so with the cause, stop cleanly
+        name = getattr(factory, "__name__", "node")
+        log = node.get_logger() if node is not None else rclpy.logging.get_logger(name)
+        log.error(f"fatal: {exc}\n{traceback.format_exc()}")
         rc = 1
     finally:
         if node is not None:
@@ -182,7 +211,7 @@ def run_node(
                 try:
                     hook()
                 except Exception as exc:  # pragma: no cover - best effort on the way out
-                    print(f"on_shutdown failed: {exc}", file=sys.stderr)
+                    print(f"on_shutdown failed: {exc}\n{traceback.format_exc()}", file=sys.stderr)
             node.destroy_node()
         rclpy.try_shutdown()
     return rc

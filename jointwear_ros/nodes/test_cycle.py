@@ -1,7 +1,7 @@
 """``test_cycle``: runs a friction test cycle on one joint when asked by service call.
 
 Services: ``~/run`` (``jointwear_msgs/srv/RunTestCycle``; answers at once with
-accepted, cycle_id and the plan or the reason for refusal) and ``~/abort``
+accepted, cycle_id, the refusal ``reason`` code and the plan or the reason in words) and ``~/abort``
 (``std_srvs/srv/Trigger``). Publishes ``~/status`` (``TestCycleStatus``) on
 every change and at ``status_rate``. While a cycle runs it streams velocity
 commands (``Float64MultiArray``, data[0] joint rad/s) at ``command_rate`` (forward
@@ -50,6 +50,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
+from ..contract import RefusalReason
 from ..cycle import (
     DEFAULT_SPEEDS,
     CycleConfig,
@@ -61,7 +62,7 @@ from ..cycle import (
 )
 from ..errors import JointwearError
 from .diagnostics import ERROR, OK, WARN, NodeDiagnostics
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "TestCycleNode", "main"]
 
@@ -158,9 +159,11 @@ class TestCycleNode(Node):
         self.last_fault = ""
 
         self.cmd_pub = self.create_publisher(Float64MultiArray, str(p["command_topic"]), _RELIABLE_10)
-        self.status_pub = self.create_publisher(TestCycleStatus, "~/status", _RELIABLE_100)
+        self.status_pub = self.create_publisher(TestCycleStatus, "~/status", _RELIABLE_100,
+                                                qos_overriding_options=overridable_qos())
         # only the newest state matters here: depth 1 never queues stale positions behind a busy executor
-        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, _RELIABLE_1)
+        self.create_subscription(JointState, str(p["joint_states_topic"]), self._on_joint_state, _RELIABLE_1,
+                                 qos_overriding_options=overridable_qos())
         self.create_service(RunTestCycle, "~/run", self._on_run)
         self.create_service(Trigger, "~/abort", self._on_abort)
         self.create_timer(1.0 / float(p["command_rate"]), self._tick)
@@ -207,11 +210,13 @@ class TestCycleNode(Node):
     def _on_run(self, req: RunTestCycle.Request, resp: RunTestCycle.Response) -> RunTestCycle.Response:
         resp.accepted = False
         resp.cycle_id = 0
+        resp.reason = RefusalReason.NONE
         try:
             resp.message = self._start(req)
             resp.accepted = True
             resp.cycle_id = 0 if req.dry_run else self.runner.cycle_id
         except CycleRequestError as exc:
+            resp.reason = exc.reason
             resp.message = f"refused: {exc}"
             self.refused_requests += 1
             self.get_logger().warning(f"run request refused: {exc}")
@@ -223,18 +228,19 @@ class TestCycleNode(Node):
             st = self.runner.status()
             raise CycleRequestError(
                 f"cycle {st.cycle_id} is running (speed {st.speeds_done + 1} of {st.speeds_total}); "
-                "wait for it to finish or call ~/abort"
+                "wait for it to finish or call ~/abort", RefusalReason.BUSY,
             )
         joint = req.joint_name or self.joint_name
         if joint != self.joint_name:
-            raise CycleRequestError(f"unknown joint {joint!r}: this node drives {self.joint_name!r}")
+            raise CycleRequestError(f"unknown joint {joint!r}: this node drives {self.joint_name!r}",
+                                    RefusalReason.WRONG_JOINT)
         simulator = bool(self.get_parameter("simulator").value)
         enabled = bool(self.get_parameter("motion_enabled").value)
         if not req.dry_run and not simulator and not enabled:
             raise CycleRequestError(
                 f"motion is disabled for {self.joint_name}: make sure the cell is clear and the velocity "
                 f"controller is active, then enable with 'ros2 param set {self.get_fully_qualified_name()} "
-                "motion_enabled true' (or start with -p motion_enabled:=true)"
+                "motion_enabled true' (or start with -p motion_enabled:=true)", RefusalReason.MOTION_DISABLED,
             )
         now = self._now()
         r = self.reading
@@ -243,19 +249,19 @@ class TestCycleNode(Node):
         if r is None and not req.dry_run:
             raise CycleRequestError(
                 f"no joint state for {self.joint_name} received yet on {self.get_parameter('joint_states_topic').value}; "
-                "is the joint_state_broadcaster (or joint_sim) running?"
+                "is the joint_state_broadcaster (or joint_sim) running?", RefusalReason.STATE_MISSING,
             )
         if r is not None and not req.dry_run and now - r.stamp > self.config.state_timeout:
             raise CycleRequestError(
                 f"the joint state of {self.joint_name} is {now - r.stamp:.2f} s old (state_timeout "
-                f"{self.config.state_timeout:g} s); is the driver still publishing?"
+                f"{self.config.state_timeout:g} s); is the driver still publishing?", RefusalReason.STATE_STALE,
             )
         wall_age = math.inf if self._wall_last_state is None else time.monotonic() - self._wall_last_state
         if r is not None and not req.dry_run and wall_age > self.state_timeout_wall:
             # on sim time a simulator that died stops the clock too: its last state never ages in node time
             raise CycleRequestError(
                 f"the joint state of {self.joint_name} is stale: none received for {wall_age:.2f} s of wall time "
-                f"(state_timeout_wall {self.state_timeout_wall:g} s); is the driver (or joint_sim) still running?"
+                f"(state_timeout_wall {self.state_timeout_wall:g} s); is the driver (or joint_sim) still running?", RefusalReason.STATE_STALE,
             )
         if req.dry_run:
             return f"dry run OK: {plan.summary()}; plan duration {plan.duration:.1f} s"

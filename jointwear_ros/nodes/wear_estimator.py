@@ -34,11 +34,11 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from ..contract import observation_from_msg
 from ..errors import InputDataError
 from ..monitor import ERROR, OK, WARN, CycleResult, MonitorConfig, WearMonitor
 from .diagnostics import NodeDiagnostics, diagnostic_status
-from .friction_observer import observation_from_msg, seconds_to_stamp
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
 
@@ -119,14 +119,17 @@ class WearEstimatorNode(Node):
         self.results: list[CycleResult] = []
         self.ignored_messages = 0
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
-        self.estimate_pub = self.create_publisher(WearEstimate, str(p["estimate_topic"]), 10)
+        self.estimate_pub = self.create_publisher(WearEstimate, str(p["estimate_topic"]), 10,
+                                                  qos_overriding_options=overridable_qos())
         # republished on a wall-clock timer: diagnostics keep coming (not stale) even when /clock stops
         self.diag = NodeDiagnostics(self, self.status_name, self.hardware_id, topic=str(p["diagnostics_topic"]),
                                     period=float(p["diagnostics_period"]), message="no test cycle estimated yet",
                                     values=self._idle_values(cfg))
         self.diag_pub = self.diag.pub
-        self.create_subscription(FrictionObservation, str(p["observations_topic"]), self._on_observation, reliable)
-        self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, reliable)
+        self.create_subscription(FrictionObservation, str(p["observations_topic"]), self._on_observation, reliable,
+                                 qos_overriding_options=overridable_qos())
+        self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, reliable,
+                                 qos_overriding_options=overridable_qos())
         self.create_timer(float(p["diagnostics_period"]), self._on_timer, clock=Clock(clock_type=ClockType.STEADY_TIME))
         on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
         self.get_logger().info(

@@ -33,7 +33,7 @@ import math
 from typing import Any
 
 from builtin_interfaces.msg import Time as TimeMsg
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from jointwear_msgs.msg import WearEstimate, WearTrend
 from jointwear_msgs.srv import RecordMaintenance
 from rclpy.clock import Clock, ClockType
@@ -42,10 +42,12 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .. import __version__
+from ..contract import stamp_to_seconds
 from ..errors import JointwearError
 from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent
 from ..trend import ERROR, OK, WARN, TrendConfig, TrendResult, analyze_joint
-from .runtime import ParamDecl, declare_parameters, run_node
+from .diagnostics import diagnostic_status
+from .runtime import ParamDecl, declare_parameters, overridable_qos, run_node
 
 __all__ = ["PARAMETERS", "WearTrendNode", "main", "trend_to_msg"]
 
@@ -66,13 +68,6 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("trend_topic", "/jointwear/wear_trend", "WearTrend output (one message per joint and update)"),
     ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output"),
 )
-
-
-def _stamp(seconds: float) -> TimeMsg:
-    t = TimeMsg()
-    ns = round(seconds * 1e9)
-    t.sec, t.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
-    return t
 
 
 def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: float) -> WearTrend:
@@ -97,16 +92,6 @@ def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: flo
     return m
 
 
-def _status(name: str, hardware_id: str, level: int, message: str, values: list[tuple[str, str]]) -> DiagnosticStatus:
-    s = DiagnosticStatus()
-    s.level = bytes([int(level)])
-    s.name = name
-    s.hardware_id = hardware_id
-    s.message = message
-    s.values = [KeyValue(key=k, value=v) for k, v in values]
-    return s
-
-
 class WearTrendNode(Node):
     """The wear trend node (see the module docstring)."""
 
@@ -126,9 +111,11 @@ class WearTrendNode(Node):
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
         latched = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.trend_pub = self.create_publisher(WearTrend, str(p["trend_topic"]), latched)
+        self.trend_pub = self.create_publisher(WearTrend, str(p["trend_topic"]), latched,
+                                               qos_overriding_options=overridable_qos())
         self.diag_pub = self.create_publisher(DiagnosticArray, str(p["diagnostics_topic"]), 10)
-        self.create_subscription(WearEstimate, str(p["estimate_topic"]), self._on_estimate, reliable)
+        self.create_subscription(WearEstimate, str(p["estimate_topic"]), self._on_estimate, reliable,
+                                 qos_overriding_options=overridable_qos())
         self.create_service(RecordMaintenance, "~/record_maintenance", self._on_maintenance)
         self.create_timer(float(p["diagnostics_period"]), self._publish_diagnostics,
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -145,7 +132,7 @@ class WearTrendNode(Node):
     # ------------------------------------------------------------------ callbacks
     def _on_estimate(self, msg: WearEstimate) -> None:
         joint = str(msg.joint_name)
-        t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        t = stamp_to_seconds(msg.header.stamp)
         if t <= 0:
             t = self.get_clock().now().nanoseconds * 1e-9
         rec = EstimateRecord(
@@ -169,7 +156,7 @@ class WearTrendNode(Node):
     def _on_maintenance(self, req: RecordMaintenance.Request,
                         res: RecordMaintenance.Response) -> RecordMaintenance.Response:
         robot = str(req.robot) or self.robot
-        t = req.stamp.sec + req.stamp.nanosec * 1e-9
+        t = stamp_to_seconds(req.stamp)
         if t <= 0:
             t = self.get_clock().now().nanoseconds * 1e-9
         try:
@@ -212,7 +199,7 @@ class WearTrendNode(Node):
                   ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
                   ("horizon_days", f"{self.cfg.horizon_days:g}")]
         hw = str(self.params["hardware_id"]) or f"{self.robot}/{joint}"
-        self._statuses[joint] = _status(f"wear_trend: {joint}", hw, r.level, r.message, values)
+        self._statuses[joint] = diagnostic_status(f"wear_trend: {joint}", hw, r.level, r.message, values)
         if previous is None or previous.level != r.level:
             log = self.get_logger()
             text = f"{self.robot}/{joint}: {r.level_name}: {r.message}"
@@ -230,11 +217,11 @@ class WearTrendNode(Node):
         statuses = []
         for j in sorted(self._statuses):  # the node's counters as of now, on every joint's status
             s = self._statuses[j]
-            statuses.append(_status(s.name, s.hardware_id, s.level[0], s.message,
+            statuses.append(diagnostic_status(s.name, s.hardware_id, s.level[0], s.message,
                                     [(kv.key, kv.value) for kv in s.values]
                                     + [("stored", str(self.stored)), ("duplicates", str(self.duplicates)),
                                        ("rejected", str(self.rejected))]))
-        arr.status = statuses or [_status(
+        arr.status = statuses or [diagnostic_status(
             "wear_trend: history", str(self.params["hardware_id"]) or self.robot, OK,
             "no wear estimates stored yet", [("robot", self.robot)])]
         self.diag_pub.publish(arr)

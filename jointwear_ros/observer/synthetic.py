@@ -25,6 +25,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.signal import lfilter
 
+from ..contract import CyclePhase
 from ..model import Model, Parameters, load_parameter_set, paper_wear_model
 from .types import STATE_DONE, STATE_RUNNING
 
@@ -40,11 +41,12 @@ __all__ = [
 
 Array = npt.NDArray[np.float64]
 
-PHASE_NONE = 0
-PHASE_APPROACH = 1
-PHASE_FORWARD = 2
-PHASE_REVERSE = 3
-PHASE_SETTLE = 4
+#: ``TestCycleStatus.PHASE_*``: aliases of :class:`jointwear_ros.contract.CyclePhase`.
+PHASE_NONE = CyclePhase.NONE
+PHASE_APPROACH = CyclePhase.APPROACH
+PHASE_FORWARD = CyclePhase.FORWARD
+PHASE_REVERSE = CyclePhase.REVERSE
+PHASE_SETTLE = CyclePhase.SETTLE
 
 #: ``FrictionObserverCore.on_status`` arguments.
 StatusTuple = tuple[float, int, int, int, float, int, int, float, float, str]
@@ -145,7 +147,7 @@ def synthetic_cycle(
     acc_chunks.append(np.zeros(int(0.2 * rate)))
     t_cursor += pos_chunks[-1].size * dt
     n_total = len(speeds)
-    phase_marks: list[tuple[float, int, int, float]] = []  # (stamp, speeds_done, phase, speed)
+    phase_marks: list[tuple[float, int, CyclePhase, float]] = []  # (stamp, speeds_done, phase, speed)
     for k, v_m in enumerate(speeds):
         v_j = float(v_m) / gear_ratio
         ext = v_j**2 / (2 * acceleration) + settle

@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 from typing import Any, NamedTuple
 
+from ..contract import CycleState
 from ..errors import InputDataError
 
 __all__ = [
@@ -29,16 +30,16 @@ __all__ = [
     "SpeedSegment",
 ]
 
-#: ``TestCycleStatus`` state constants (same values as the .msg).
-STATE_IDLE = 0
-STATE_RUNNING = 1
-STATE_DONE = 2
-STATE_ABORTED = 3
-STATE_FAILED = 4
+#: ``TestCycleStatus`` state constants: aliases of :class:`jointwear_ros.contract.CycleState`.
+STATE_IDLE = CycleState.IDLE
+STATE_RUNNING = CycleState.RUNNING
+STATE_DONE = CycleState.DONE
+STATE_ABORTED = CycleState.ABORTED
+STATE_FAILED = CycleState.FAILED
 #: Temperatures a robot joint can have, degC; a reading outside is a sensor fault (not used).
 PLAUSIBLE_TEMPERATURE = (-50.0, 200.0)
-CYCLE_STATES = {STATE_IDLE: "IDLE", STATE_RUNNING: "RUNNING", STATE_DONE: "DONE",
-                STATE_ABORTED: "ABORTED", STATE_FAILED: "FAILED"}
+#: state value -> name, from the contract.
+CYCLE_STATES = {s.value: s.name for s in CycleState}
 
 
 @dataclass(frozen=True)

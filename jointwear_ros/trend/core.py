@@ -77,6 +77,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import ndtr
 
+from ..contract import DiagnosticLevel
 from ..errors import InputDataError
 
 __all__ = [
@@ -103,8 +104,9 @@ __all__ = [
 ]
 
 DAY = 86400.0
-OK, WARN, ERROR = 0, 1, 2
-LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR"}
+#: the trend's levels are ``DiagnosticStatus`` levels: aliases of :class:`jointwear_ros.contract.DiagnosticLevel`.
+OK, WARN, ERROR = DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR
+LEVEL_NAMES = {int(lv): lv.name for lv in (OK, WARN, ERROR)}
 
 Array = NDArray[np.float64]
 
