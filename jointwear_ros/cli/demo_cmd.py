@@ -348,14 +348,6 @@ def check_overrides(overrides: dict[str, dict[str, Any]]) -> None:
 MAX_DEMO_SPEEDS = 64
 
 
-def _config_value(node: str, name: str, default: Any) -> Any:
-    """``name`` of ``config/<node>.yaml``, or ``default`` when the file or the key is missing."""
-    try:
-        return yaml.safe_load(config_path(f"{node}.yaml").read_text())[node]["ros__parameters"].get(name, default)
-    except Exception:
-        return default
-
-
 def _sim_parameter_set(overrides: dict[str, dict[str, Any]]) -> str:
     """The parameter set joint_sim will simulate with (its config, or --set joint_sim.params)."""
     if "params" in overrides.get("joint_sim", {}):
