@@ -14,8 +14,8 @@ import pytest
 
 from jointwear_ros.errors import JointwearError, ModelError
 from jointwear_ros.workbench import HarmonicRipple, Spline, fit_model, parse_spec
-from jointwear_ros.workbench.shapes import Step
 from jointwear_ros.workbench.candidates import resolve_term
+from jointwear_ros.workbench.shapes import Step
 
 RNG = np.random.default_rng(7)
 N = 60
