@@ -16,7 +16,13 @@ grouped by test cycle, as in :func:`~jointwear_ros.workbench.fit.group_folds`):
   :data:`W_MAX` per unit;
 * *changepoint*, for time-like columns (``time``, ``*_time``, ``stamp``): the
   standardised CUSUM of the per-cycle mean residual in time order (a single
-  level shift).
+  level shift); when a step beats a trend, the column's share is the step's
+  own cross-validated share (a spline of a column that grows with the cycle is
+  extrapolated into every held-out cycle);
+* *pairs*: the strongest columns and the model's inputs pairwise, and a
+  screen of every column for what it adds to each model input (the best one
+  tested as a pair with it, its p-value times the number screened): a column
+  correlated with an input shows little alone once the model is refitted.
 
 Each statistic gets a **permutation p-value**: the column is permuted (by whole
 cycles when it is constant within cycles, so the test respects the data's
