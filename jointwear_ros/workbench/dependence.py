@@ -350,6 +350,20 @@ class _Context:
         ft = b @ np.linalg.lstsq(b, self.r, rcond=None)[0]
         return _r2(self.r, fs) > _r2(self.r, ft)
 
+    def linear_share(self, x: Array) -> float:
+        """Cross-validated share explained by x linearly (and times the speed shapes), on the speed shapes.
+
+        A spline of the rank is extrapolated into the held-out cycles of a column that grows with the
+        cycle (time, days, hours since a service); a straight line is not, so the share of a trend is
+        the larger of the two.
+        """
+        sd = float(np.std(x))
+        if not sd > 0:
+            return 0.0
+        xs = (x - x.mean()) / sd
+        d = np.concatenate([self.z0, np.column_stack([xs, xs * self.low, xs * self.high])], axis=1)[None]
+        return float(min(1.0, (self.sse0 - self._cv_sse(d)[0]) / self.total))
+
     def step_share(self, x: Array, at: float) -> float:
         """Cross-validated share of the residual explained by one level step at ``at`` (on the speed shapes)."""
         if not math.isfinite(at):
@@ -490,7 +504,7 @@ def residual_dependence(
         # guards it against structure the F test would misread (residuals correlated within cycles)
         p_f = min(1.0, 2.0 * min(ctx.f_test(ctx.last[0], noise), ctx.f_test(ctx.last[1], noise)))
         tests = {"smoother": max(p_f, p_perm) if p_perm > PERM_GUARD else p_f}
-        share = max(s_lvl, s_spd, 0.0)
+        share = max(s_lvl, s_spd, ctx.linear_share(x), 0.0)
         speed_dep = bool(s_spd > s_lvl + 0.02)
         contrib = ctx.prediction(x, speed_dep)
         hint = f"smooth in {c}, {_monotone_hint(x, contrib)}"
