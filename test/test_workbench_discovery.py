@@ -238,3 +238,13 @@ def test_a_column_correlated_with_a_model_input_is_found_as_a_pair_with_it():
     assert not any(v.significant and v.name.startswith("aux_") for v in diag.variables)
     assert diag.verdict == "found" and "motor_temperature" in diag.suggestion
     assert _refit_ratio(table, diag) <= WITHIN_FLOOR
+
+
+def test_a_time_drift_with_few_cycles_ranks_time_above_a_per_cycle_column():
+    # was: motor_temperature listed first (a spline of time, extrapolated into each held-out cycle, explained
+    # less under cross-validation than a spline of another per-cycle column); a straight line is not
+    table = synth_observations(n_cycles=12, effects=["time_drift"], seed=1002)
+    diag = diagnose(table, "paper", n_bootstrap=0)
+    top = diag.variables[0]
+    assert top.name == "time" and top.significant
+    assert diag.verdict == "found" and diag.suggestion == "lin(time)"
