@@ -9,7 +9,9 @@ grouped by test cycle, as in :func:`~jointwear_ros.workbench.fit.group_folds`):
   of the rank of ``x``, alone and times two speed shapes (low speeds
   ``exp(-|v/15|^1.3)``, high speeds ``v/v_max``), on top of those speed shapes
   alone (so a speed-only misfit is credited to no column). The statistic is
-  the larger of the two shares;
+  the larger of the two shares; the reported share is at least that of a
+  straight line in ``x`` (a spline of a column that grows with the cycle is
+  extrapolated into each held-out cycle, a line is not);
 * *periodogram*, for angle-like columns (``position``, ``*angle*``): the peak
   of the normalised Lomb-Scargle periodogram (:func:`scipy.signal.lombscargle`)
   over angular frequencies from half a cycle over the column's span up to
