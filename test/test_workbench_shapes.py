@@ -15,6 +15,7 @@ import pytest
 from jointwear_ros.errors import JointwearError, ModelError
 from jointwear_ros.workbench import HarmonicRipple, Spline, fit_model, parse_spec
 from jointwear_ros.workbench.candidates import resolve_term
+from jointwear_ros.workbench.shapes import Step
 
 RNG = np.random.default_rng(7)
 N = 60
@@ -111,6 +112,23 @@ def test_step_fit_recovers_a_known_level_change():
     a, c = fit.params["step_time_a"], fit.params["step_time_c"]
     assert abs(a.value + 0.006) < 4 * fit.stderr("step_time_a")
     assert abs(c.value - 62.0) < 1.0
+    # the width is at most the one given: a gradual change is a spline's job
+    assert fit.params["step_time_s"].value <= 2.0
+
+
+def test_step_width_is_bounded_by_the_option_so_a_held_out_cycle_next_to_the_change_stays_on_its_side():
+    spec = {p.name: p for p in Step("time", at=55.0, width=2.0).params}
+    assert spec["step_time_s"].default == 2.0 and spec["step_time_s"].max == 2.0 and spec["step_time_s"].min > 0
+    # cycles one day apart, a level change between day 6 and 7; one cycle held out per fold
+    rng = np.random.default_rng(5)
+    day = np.repeat(np.arange(12.0), 10)
+    y = 0.05 + np.where(day > 6.5, -0.006, 0.0) + rng.normal(0.0, 0.0015, day.size)
+    from jointwear_ros.types import ObservationTable
+
+    table = ObservationTable({"speed": np.full(day.size, 10.0), "tau_f": y, "time": day + rng.uniform(0, 0.02, day.size),
+                              "cycle": day})
+    fit = fit_model(parse_spec("coulomb + step(time, at=6.5, width=0.12)"), table, cv_folds=12)
+    assert fit.cv_rmse < 1.2 * 0.0015
 
 
 def test_ripple_fit_started_at_the_right_frequency_finds_a_fast_ripple():

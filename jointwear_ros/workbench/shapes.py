@@ -184,9 +184,13 @@ class Step(CandidateTerm):
 
     ``tau = a / (1 + exp(-(x - c)/s))``: the friction level changes by ``a``
     around ``x = c`` over a width ``s`` (units of x). ``a`` is linear; ``c``
-    and ``s`` are fitted, started at ``at`` and ``width``. When the data has
-    a gap around the change (no cycle between two days), any ``c`` in the gap
-    fits equally well; the fit reports that as a large standard error.
+    and ``s`` are fitted, started at ``at`` and ``width``; ``s`` is at most
+    ``width`` (a gradual change is a spline's job). When the data has a gap
+    around the change (no cycle between two days), any ``c`` in the gap fits
+    equally well; the fit reports that as a large standard error. The bound
+    keeps the step sharp in the gap: a step free to widen leans its tails
+    into the cycles next to the change, and with one of those cycles held
+    out (cross-validation) the refit moves the change over it.
 
     >>> import numpy as np
     >>> t = Step.from_call(["time"], {"at": 100.0, "width": 1.0})
@@ -208,7 +212,7 @@ class Step(CandidateTerm):
         self.param_suffixes = (  # type: ignore[misc]
             ("a", "-", 0.0, -np.inf, np.inf),
             ("c", "x", self.at, -np.inf, np.inf),
-            ("s", "x", self.width, self.width * 1e-6, np.inf),
+            ("s", "x", self.width, self.width * 1e-6, self.width),
         )
         self.linear_suffixes = ("a",)  # type: ignore[misc]
         super().__init__(column)
