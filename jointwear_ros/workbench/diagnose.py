@@ -37,12 +37,13 @@ explain:
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ParamSpec
 
 import numpy as np
 import numpy.typing as npt
@@ -394,6 +395,21 @@ def _bootstrap_choice(
     return {c.term: float(f) for c, f in zip(results, freq) if f > 0}
 
 
+_P = ParamSpec("_P")
+
+
+def _one_blas_thread(fn: Callable[_P, Diagnosis]) -> Callable[_P, Diagnosis]:
+    """Run ``fn`` with one BLAS thread: the arrays are small, so BLAS threads only compete with each other."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> Diagnosis:
+        with threadpool_limits(limits=1, user_api="blas"):
+            return fn(*args, **kwargs)
+
+    return wrapper
+
+
+@_one_blas_thread
 def diagnose(
     table: ObservationTable,
     model: Model | str | FitResult,
@@ -444,28 +460,6 @@ def diagnose(
     -------
     Diagnosis
     """
-    # the arrays are small: BLAS threads only compete with each other (and with other processes)
-    with threadpool_limits(limits=1, user_api="blas"):
-        return _diagnose(table, model, library=library, extra_terms=extra_terms, cv_folds=cv_folds, alpha=alpha,
-                         params=params, progress=progress, adaptive=adaptive, mode=mode, n_bootstrap=n_bootstrap,
-                         seed=seed)
-
-
-def _diagnose(
-    table: ObservationTable,
-    model: Model | str | FitResult,
-    *,
-    library: Sequence[Term] | None = None,
-    extra_terms: Sequence[Term] = (),
-    cv_folds: int = 5,
-    alpha: float = 0.01,
-    params: Parameters | None = None,
-    progress: Callable[[int, int, str], None] | None = None,
-    adaptive: bool = True,
-    mode: str = "guided",
-    n_bootstrap: int = N_BOOTSTRAP,
-    seed: int = 0,
-) -> Diagnosis:
     folds = group_folds(table, cv_folds)
     if isinstance(model, FitResult):
         base = model
