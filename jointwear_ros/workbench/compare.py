@@ -84,20 +84,9 @@ def noise_floor(table: ObservationTable) -> tuple[float, str]:
         ok = np.isfinite(s) & (s > 0)
         if ok.sum() >= max(1, len(table) // 2):
             return float(np.sqrt(np.mean(s[ok] ** 2))), "tau_f_std"
-    keys = [c for c in ("cycle", "speed", "load_torque", "temperature", "position") if c in table]
-    if keys:
-        mat = np.column_stack([np.round(table[c], 9) for c in keys])
-        _, inv, counts = np.unique(mat, axis=0, return_inverse=True, return_counts=True)
-        inv = inv.reshape(-1)
-        y = table.tau_f
-        ss = 0.0
-        dof = 0
-        for g in np.flatnonzero(counts >= 2):
-            yy = y[inv == g]
-            ss += float(np.sum((yy - yy.mean()) ** 2))
-            dof += yy.size - 1
-        if dof >= 3:
-            return math.sqrt(ss / dof), "repeated observations"
+    ss, dof = _replicate_groups(table)
+    if dof >= 3:
+        return math.sqrt(ss / dof), "repeated observations"
     return math.nan, "unknown"
 
 
