@@ -46,6 +46,11 @@ DEMO_NODES = ("recorder", "joint_sim", "test_cycle", "friction_observer", "wear_
 #: The demo could not complete (a node died, a timeout, a refused request).
 DemoError = CellError
 
+#: Default real-time factor of a robot demo (``--joints``): six joints at 2x would take minutes of wall time.
+ROBOT_REAL_TIME_FACTOR = 4.0
+#: Most joints of a demo robot.
+MAX_DEMO_JOINTS = 12
+
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
@@ -56,13 +61,23 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                     "the wear estimate and print a summary (observations, estimate vs the true wear, "
                     "diagnostic level, bag path).",
     )
-    p.add_argument("--wear", default="20", help="true wear of the simulated joint, 0-100 (default 20)")
+    p.add_argument("--joints", type=int, default=None, metavar="N",
+                   help="test a robot of N joints in one robot cycle (the first N of test_cycle's joints); "
+                        "--json then gives wear and true_wear as lists, one entry per joint (default: the one "
+                        "configured joint)")
+    p.add_argument("--wear", default=None,
+                   help="true wear of the simulated joint, 0-100 (default 20); with --joints one value for all "
+                        "or a comma list, one per joint (default " + ",".join(f"{w:g}" for w in DEFAULT_ROBOT_WEAR)
+                        + ", cycled)")
     p.add_argument("--speeds", default=None,
                    help="cycle speeds, motor rad/s, comma list or START:STOP:COUNT (default: test_cycle's, 8 speeds)")
     p.add_argument("--out", default="out/demo", help="output directory: bags/ and logs/ (default out/demo)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
-    p.add_argument("--real-time-factor", default="2.0", help="sim seconds per wall second (default 2)")
-    p.add_argument("--temperature", default=None, help="joint temperature of the simulator, degC (default: config)")
+    p.add_argument("--real-time-factor", default=None,
+                   help=f"sim seconds per wall second (default 2; {ROBOT_REAL_TIME_FACTOR:g} with --joints)")
+    p.add_argument("--temperature", default=None,
+                   help="joint temperature of the simulator, degC (default: config); with --joints one value or "
+                        "a comma list, one per joint")
     p.add_argument("--method", default=None, help="wear estimator method (default: config/wear_estimator.yaml)")
     p.add_argument("--timeout", default="180", help="wall seconds to wait for the estimate (default 180)")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
@@ -83,37 +98,97 @@ def _progress(text: str) -> None:
 
 
 @dataclass
-class DemoResult:
-    """What the operator saw: cycle id, observations, estimate, diagnostic level, bag."""
+class JointResult:
+    """One joint of the demo: its estimate, its diagnostic status, its true wear."""
 
-    cycle_id: int
-    observations: list[dict[str, Any]]
+    joint: str
+    true_wear: float
     estimate: dict[str, Any]
     diagnostic_level: str
     diagnostic_message: str
     final_state: str
-    true_wear: float
+    cell_seconds: float = math.nan
+
+    def wear_dict(self) -> dict[str, Any]:
+        e = self.estimate
+        return {"estimate": e.get("wear"), "std": e.get("wear_std"), "method": e.get("method"),
+                "low": e.get("wear_low"), "high": e.get("wear_high"), "temperature": e.get("temperature_estimate")}
+
+
+@dataclass
+class DemoResult:
+    """What the operator saw: cycle id, observations, the estimate and diagnostic level of each joint, bag.
+
+    ``robot`` is true for ``--joints N``: :meth:`as_dict` then gives ``wear`` and ``true_wear`` as lists
+    (one entry per joint); otherwise the one-joint shape of earlier versions."""
+
+    cycle_id: int
+    observations: list[dict[str, Any]]
+    joints: list[JointResult]
+    final_state: str
     bag: str | None = None
     wall_seconds: float = 0.0
+    cell_seconds: float = math.nan
     logs: str = ""
+    robot: bool = False
     rejections: list[str] = field(default_factory=list)
 
+    # the one-joint view (the first joint), as in earlier versions
+    @property
+    def estimate(self) -> dict[str, Any]:
+        return self.joints[0].estimate
+
+    @property
+    def true_wear(self) -> float:
+        return self.joints[0].true_wear
+
+    @property
+    def diagnostic_level(self) -> str:
+        return _worst_level([j.diagnostic_level for j in self.joints])
+
+    @property
+    def diagnostic_message(self) -> str:
+        if len(self.joints) == 1:
+            return self.joints[0].diagnostic_message
+        return "; ".join(f"{j.joint}: {j.diagnostic_level}" for j in self.joints)
+
     def as_dict(self) -> dict[str, Any]:
-        return {
-            "bag": self.bag,
-            "cycle_id": self.cycle_id,
-            "observations": self.observations,
-            "wear": {"estimate": self.estimate.get("wear"), "std": self.estimate.get("wear_std"),
-                     "method": self.estimate.get("method"), "low": self.estimate.get("wear_low"),
-                     "high": self.estimate.get("wear_high"),
-                     "temperature": self.estimate.get("temperature_estimate")},
-            "true_wear": self.true_wear,
+        out: dict[str, Any] = {"bag": self.bag, "cycle_id": self.cycle_id, "observations": self.observations}
+        if self.robot:
+            out["wear"] = [{"joint": j.joint, **j.wear_dict(), "diagnostic_level": j.diagnostic_level,
+                            "diagnostic_message": j.diagnostic_message, "cycle_state": j.final_state,
+                            "cell_seconds": _finite_or_none(j.cell_seconds)} for j in self.joints]
+            out["true_wear"] = [{"joint": j.joint, "wear": j.true_wear} for j in self.joints]
+        else:
+            out["wear"] = self.joints[0].wear_dict()
+            out["true_wear"] = self.true_wear
+        out.update({
             "diagnostic_level": self.diagnostic_level,
             "diagnostic_message": self.diagnostic_message,
             "cycle_state": self.final_state,
             "wall_seconds": self.wall_seconds,
+            "cell_seconds": _finite_or_none(self.cell_seconds),
             "logs": self.logs,
-        }
+        })
+        return out
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+_LEVEL_ORDER = ("OK", "WARN", "ERROR", "STALE")
+
+
+def _worst_level(levels: Sequence[str]) -> str:
+    """The worst of the joints' diagnostic levels (UNKNOWN, i.e. no status heard, counts worst)."""
+    worst = "OK"
+    for lv in levels:
+        if lv not in _LEVEL_ORDER:
+            return lv
+        if _LEVEL_ORDER.index(lv) > _LEVEL_ORDER.index(worst):
+            worst = lv
+    return worst
 
 
 def _msg_dict(msg: Any, names: Sequence[str]) -> dict[str, Any]:
@@ -139,19 +214,51 @@ def _config_done_timeout() -> float:
         return 2.0
 
 
+#: Default true wear of the joints of a ``--joints N`` demo: OK, WARN and ERROR joints in one robot.
+DEFAULT_ROBOT_WEAR = (12.0, 20.0, 26.0, 31.0, 39.0, 46.0)
+#: The nodes that take a ``joints`` list (docs/robot.md).
+_JOINT_NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator")
+
+
+def robot_joint_names(n: int) -> list[str]:
+    """The first ``n`` joints of test_cycle's configured ``joints`` (``joint_<k>`` beyond those)."""
+    configured = _config_value("test_cycle", "joints", None)
+    names = [str(j) for j in configured] if isinstance(configured, list) and configured else []
+    if not names:
+        names = [str(_config_value("test_cycle", "joint_name", "joint_1"))]
+    k = 1
+    while len(names) < n:
+        candidate = f"joint_{k}"
+        if candidate not in names:
+            names.append(candidate)
+        k += 1
+    return names[:n]
+
+
+def _stamp(msg: Any) -> float:
+    from ..contract import stamp_to_seconds
+
+    return stamp_to_seconds(msg.header.stamp)
+
+
 def run_demo(
-    wear: float,
+    wear: float | Sequence[float],
     speeds: Sequence[float] | None,
     out: Path,
     real_time_factor: float = 2.0,
-    temperature: float | None = None,
+    temperature: float | Sequence[float] | None = None,
     method: str | None = None,
     timeout: float = 180.0,
     domain_id: int | None = None,
     overrides: dict[str, dict[str, Any]] | None = None,
+    joints: int | None = None,
 ) -> DemoResult:
-    """Run the simulated cell for one test cycle; see the module docstring."""
-    from ..io.bags import ESTIMATE_FIELDS, OBSERVATION_FIELDS, find_bags
+    """Run the simulated cell for one test cycle; see the module docstring.
+
+    ``joints=None``: the configured single joint (``wear`` and ``temperature`` are numbers). ``joints=N``:
+    a robot cycle over the first N configured joints; ``wear`` (and ``temperature``) may then be one value
+    per joint, and the result's :meth:`DemoResult.as_dict` gives lists."""
+    from ..io.bags import OBSERVATION_FIELDS, find_bags
     from ..nodes.runtime import loopback_env
 
     t_start = time.monotonic()
@@ -165,9 +272,7 @@ def run_demo(
     bagdir.mkdir(parents=True, exist_ok=True)
     bags_before = set(find_bags(bagdir))
     sim_params: dict[str, Any] = {"use_sim_time": False, "publish_clock": True,
-                                  "real_time_factor": float(real_time_factor), "wear": float(wear)}
-    if temperature is not None:
-        sim_params["temperature"] = float(temperature)
+                                  "real_time_factor": float(real_time_factor)}
     params: dict[str, dict[str, Any]] = {
         "recorder": {"use_sim_time": True, "output_dir": str(bagdir.resolve()), "split": "session"},
         "joint_sim": sim_params,
@@ -178,18 +283,42 @@ def run_demo(
         "wear_estimator": {"use_sim_time": True, "done_timeout": _config_done_timeout() * float(real_time_factor),
                            **({"method": method} if method else {})},
     }
-    for node, values in (overrides or {}).items():
-        params[node].update(values)
-    # the joint the cell drives: the test cycle's (its config, or a --set override)
-    joint = str(params["test_cycle"].get("joint_name") or _config_value("test_cycle", "joint_name", "joint_1"))
+    if joints is None:
+        wears = [float(wear)] if isinstance(wear, (int, float)) else [float(w) for w in wear][:1]
+        temps = None if temperature is None else (
+            [float(temperature)] if isinstance(temperature, (int, float)) else [float(t) for t in temperature][:1])
+        sim_params["wear"] = wears[0]
+        if temps is not None:
+            sim_params["temperature"] = temps[0]
+        for node, values in (overrides or {}).items():
+            params[node].update(values)
+        # the joint the cell drives: the test cycle's (its config, or a --set override)
+        names = [str(params["test_cycle"].get("joint_name") or _config_value("test_cycle", "joint_name", "joint_1"))]
+    else:
+        names = robot_joint_names(joints)
+        wears = _per_joint(wear, names, "wear")
+        temps = None if temperature is None else _per_joint(temperature, names, "temperature")
+        for node in _JOINT_NODES:
+            params[node]["joints"] = list(names)
+        for i, j in enumerate(names):
+            sim_params[f"{j}.wear"] = wears[i]
+            if temps is not None:
+                sim_params[f"{j}.temperature"] = temps[i]
+        for node, values in (overrides or {}).items():
+            params[node].update(values)
     children: list[Child] = []
     op: Operator | None = None
+    per_joint: list[JointResult] = []
+    observations: list[dict[str, Any]] = []
+    cycle_id = 0
+    final_state = "?"
+    cell_seconds = math.nan
     try:
         _progress(f"ROS_DOMAIN_ID={domain_id}, loopback only; logs in {logdir}")
         for name in DEMO_NODES:
             children.append(start_child(name, params[name], env, logdir))
             _progress(f"started {name} (pid {children[-1].proc.pid})")
-        op = Operator(joint, domain_id, progress=_progress)
+        op = Operator(names, domain_id, progress=_progress)
         missing = ready_conditions(op)
         op.spin_until(lambda: not missing(), 60.0, children, "the nodes to connect")
         _progress(f"graph connected after {time.monotonic() - t_start:.1f} s; calling /test_cycle/run")
@@ -197,67 +326,76 @@ def run_demo(
         # late: nodes still starting on a loaded machine) is retried for a while; any other is final
         cycle_id, message = op.start_cycle(speeds or [], children)
         _progress(f"cycle {cycle_id} accepted: {message}")
-        shown: list[tuple[int, int] | None] = [None]
+        shown: list[tuple[Any, ...] | None] = [None]
 
         def tick() -> None:
             st = op.status if op is not None else None
             if st is None or st.cycle_id != cycle_id:
                 return
-            key = (st.state, st.speeds_done)
+            key = (st.joint_name, st.state, st.speeds_done)
             if key != shown[0]:
                 shown[0] = key
                 state = CycleState.name_of(st.state)
                 extra = f": {st.message}" if st.state in (CycleState.ABORTED, CycleState.FAILED) and st.message else ""
-                _progress(f"cycle {cycle_id} {state}, speeds done {st.speeds_done}/{st.speeds_total}{extra}")
+                where = (f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else "")
+                _progress(f"cycle {cycle_id} {where}{state}, speeds done {st.speeds_done}/{st.speeds_total}{extra}")
 
-        def have_estimate() -> bool:
-            return any(e.cycle_id == cycle_id for e in op.estimates)  # type: ignore[union-attr]
+        def estimates_of(joint: str) -> list[Any]:
+            return [e for e in op.estimates if e.cycle_id == cycle_id and e.joint_name == joint]  # type: ignore[union-attr]
 
-        def diags_of_cycle(after: int = 0) -> list[Any]:
+        def diags_of(joint: str, after: int = 0) -> list[Any]:
             """The operator's ``wear_estimator: <joint>`` statuses of this cycle (its ``cycle_id`` key) heard
             after arrival number ``after``."""
+            name = f"wear_estimator: {joint}"
             return [d for n, d in op.diagnostics  # type: ignore[union-attr]
-                    if n > after and ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
+                    if n > after and d.name == name
+                    and ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
+
+        def joint_finished(joint: str) -> bool:
+            # an estimate, or the estimator's verdict that there is none (no "wear" key)
+            return bool(estimates_of(joint)) or any("wear" not in {kv.key for kv in d.values} for d in diags_of(joint))
 
         def finished() -> bool:
-            # an estimate, or the estimator's verdict that there is none (no "wear" key)
-            return have_estimate() or any("wear" not in {kv.key for kv in d.values} for d in diags_of_cycle())
+            if len(names) == 1:
+                return joint_finished(names[0])
+            # a robot cycle: it has ended, and every joint it started has its estimate (or verdict)
+            return op.robot_cycle_over(cycle_id) and all(  # type: ignore[union-attr]
+                joint_finished(j) for j in op.joints_started(cycle_id))  # type: ignore[union-attr]
 
         op.spin_until(finished, timeout, children, f"the WearEstimate of cycle {cycle_id}", tick)
 
         def complete() -> bool:
             # the estimator revises a cycle's estimate when an observation comes late: wait
-            # briefly until the newest estimate covers every observation the operator saw
-            seen = {round(o.speed, 9) for o in op.observations if o.cycle_id == cycle_id}  # type: ignore[union-attr]
-            ests = [e for e in op.estimates if e.cycle_id == cycle_id]  # type: ignore[union-attr]
-            return not ests or seen <= {round(v, 9) for v in ests[-1].speeds}
+            # briefly until the newest estimate of each joint covers every observation the operator saw
+            for j in names:
+                seen = {round(o.speed, 9) for o in op.observations  # type: ignore[union-attr]
+                        if o.cycle_id == cycle_id and o.joint_name == j}
+                ests = estimates_of(j)
+                if ests and not seen <= {round(v, 9) for v in ests[-1].speeds}:
+                    return False
+            return True
 
         try:
             op.spin_until(complete, 5.0, children, f"a revised WearEstimate of cycle {cycle_id}")
         except DemoError as exc:
             _progress(f"{exc}; reporting the newest estimate")
-        i_est = next((i for i in reversed(range(len(op.estimates))) if op.estimates[i].cycle_id == cycle_id), None)
-        est = None if i_est is None else op.estimates[i_est]
-        # the estimator publishes an estimate, then its status (and republishes the status every
-        # diagnostics_period): the status of the newest estimate is one heard after it
-        heard_est = 0 if i_est is None else op.estimate_arrivals[i_est]
-        try:
-            def matching() -> list[Any]:
-                return diags_of_cycle(heard_est)
-
-            op.spin_until(lambda: bool(matching()), 15.0, children,
-                          f"the /diagnostics status of cycle {cycle_id}")
-            diag = matching()[-1]
-            raw = diag.level
-            level = DiagnosticLevel.name_of(raw[0] if isinstance(raw, bytes) else int(raw))
-            dmsg = str(diag.message)
-        except DemoError as exc:
-            level, dmsg = "UNKNOWN", str(exc)
+        for joint, true_wear in zip(names, wears):
+            per_joint.append(_joint_result(op, children, cycle_id, joint, true_wear, estimates_of, diags_of))
         observations = [_msg_dict(o, OBSERVATION_FIELDS) for o in op.observations if o.cycle_id == cycle_id]
-        observations.sort(key=lambda o: o["speed"])
+        order = {j: i for i, j in enumerate(names)}
+        observations.sort(key=lambda o: (order.get(o["joint_name"], len(order)), o["speed"]))
         final = op.status
         final_state = CycleState.name_of(final.state) if final is not None and final.cycle_id == cycle_id else "?"
-        estimate = _msg_dict(est, ESTIMATE_FIELDS) if est is not None else {}
+        mine = [st for st in op.statuses if st.cycle_id == cycle_id]
+        if mine and final_state != "RUNNING":
+            cell_seconds = _stamp(mine[-1]) - _stamp(mine[0])
+        for jr in per_joint:
+            js = [st for st in mine if st.joint_name == jr.joint]
+            if js:
+                jr.final_state = CycleState.name_of(js[-1].state)
+                jr.cell_seconds = _stamp(js[-1]) - _stamp(js[0])
+            else:
+                jr.final_state = "NOT_TESTED"
         time.sleep(0.5)  # the recorder gets the estimate and diagnostics too
     finally:
         if op is not None:
@@ -274,10 +412,46 @@ def run_demo(
     if bag is None:
         _progress(f"the recorder wrote no bag; see {logdir / 'recorder.log'}")
     return DemoResult(
-        cycle_id=cycle_id, observations=observations, estimate=estimate, diagnostic_level=level,
-        diagnostic_message=dmsg, final_state=final_state, true_wear=float(wear), bag=bag,
-        wall_seconds=time.monotonic() - t_start, logs=str(logdir),
+        cycle_id=cycle_id, observations=observations, joints=per_joint, final_state=final_state, bag=bag,
+        wall_seconds=time.monotonic() - t_start, cell_seconds=cell_seconds, logs=str(logdir),
+        robot=joints is not None,
     )
+
+
+def _per_joint(value: float | Sequence[float], names: Sequence[str], what: str) -> list[float]:
+    """One value per joint: a number for all, or a sequence of exactly one per joint."""
+    if isinstance(value, (int, float)):
+        return [float(value)] * len(names)
+    values = [float(v) for v in value]
+    if len(values) != len(names):
+        raise CellError(f"{len(values)} {what} values for {len(names)} joints ({', '.join(names)})")
+    return values
+
+
+def _joint_result(op: Operator, children: Sequence[Child], cycle_id: int, joint: str, true_wear: float,
+                  estimates_of: Any, diags_of: Any) -> JointResult:
+    """The newest estimate of ``joint`` in the cycle and the diagnostic status heard after it."""
+    from ..io.bags import ESTIMATE_FIELDS
+
+    ests = estimates_of(joint)
+    est = ests[-1] if ests else None
+    # the estimator publishes an estimate, then its status (and republishes the status every
+    # diagnostics_period): the status of the newest estimate is one heard after it
+    heard_est = 0
+    if est is not None:
+        i_est = max(i for i, e in enumerate(op.estimates) if e is est)
+        heard_est = op.estimate_arrivals[i_est]
+    try:
+        op.spin_until(lambda: bool(diags_of(joint, heard_est)), 15.0, children,
+                      f"the /diagnostics status of {joint} in cycle {cycle_id}")
+        diag = diags_of(joint, heard_est)[-1]
+        raw = diag.level
+        level = DiagnosticLevel.name_of(raw[0] if isinstance(raw, bytes) else int(raw))
+        dmsg = str(diag.message)
+    except DemoError as exc:
+        level, dmsg = "UNKNOWN", str(exc)
+    estimate = _msg_dict(est, ESTIMATE_FIELDS) if est is not None else {}
+    return JointResult(joint, float(true_wear), estimate, level, dmsg, "?")
 
 
 def _param_value(text: str) -> Any:
@@ -359,30 +533,50 @@ def _sim_parameter_set(overrides: dict[str, dict[str, Any]]) -> str:
         return "ref-2011r"
 
 
+def _values_per_joint(text: str | None, flag: str, n: int | None, default: Sequence[float]) -> list[float]:
+    """A number, or with --joints a comma list of one number per joint (the default cycled to n)."""
+    if text is None:
+        return [default[i % len(default)] for i in range(n or 1)]
+    values = parse_float_list(text, flag) if "," in text else [parse_float(text, flag)]
+    if n is None and len(values) != 1:
+        raise UsageError(f"{flag}: {len(values)} values given; a list needs --joints N (one value per joint)")
+    if n is not None and len(values) == 1:
+        values = values * n
+    if n is not None and len(values) != n:
+        raise UsageError(f"{flag}: {len(values)} values for --joints {n}; give one value, or one per joint")
+    return values
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     from ..model import load_parameter_set_info
 
-    wear = parse_float(args.wear, "--wear")
-    if not 0.0 <= wear <= 100.0:
-        raise UsageError(f"--wear: {wear:g} is outside 0-100")
+    n = args.joints
+    if n is not None and not 1 <= n <= MAX_DEMO_JOINTS:
+        raise UsageError(f"--joints: {n} is outside 1-{MAX_DEMO_JOINTS}")
+    wears = _values_per_joint(args.wear, "--wear", n, DEFAULT_ROBOT_WEAR if n is not None else (20.0,))
+    for w in wears:
+        if not 0.0 <= w <= 100.0:
+            raise UsageError(f"--wear: {w:g} is outside 0-100")
     speeds = parse_float_list(args.speeds, "--speeds") if args.speeds is not None else None
     if speeds is not None and any(not s > 0 for s in speeds):
         raise UsageError(f"--speeds: every speed must be > 0 rad/s (got {args.speeds})")
-    rtf = parse_float(args.real_time_factor, "--real-time-factor")
+    rtf = (parse_float(args.real_time_factor, "--real-time-factor") if args.real_time_factor is not None
+           else ROBOT_REAL_TIME_FACTOR if n is not None else 2.0)
     if not 0.01 <= rtf <= 100.0:
         raise UsageError(f"--real-time-factor: {rtf:g} is outside 0.01-100")
     timeout = parse_float(args.timeout, "--timeout")
     if not 0 < timeout <= 86400:
         raise UsageError(f"--timeout: {timeout:g} must be more than 0 and at most 86400 s")
-    temperature = parse_float(args.temperature, "--temperature") if args.temperature is not None else None
+    temperatures = (_values_per_joint(args.temperature, "--temperature", n, ()) if args.temperature is not None
+                    else None)
     if args.domain_id is not None and not 0 <= args.domain_id <= 232:
         raise UsageError(f"--domain-id: {args.domain_id} is outside 0-232")
     check_method(args.method, "--method")
     overrides = parse_overrides(args.set)
     check_overrides(overrides)
     info = load_parameter_set_info(_sim_parameter_set(overrides))
-    for flag, value in (("--temperature", temperature),
-                        ("--set joint_sim.temperature", overrides.get("joint_sim", {}).get("temperature"))):
+    for flag, value in ([("--temperature", t) for t in temperatures or []]
+                        + [("--set joint_sim.temperature", overrides.get("joint_sim", {}).get("temperature"))]):
         if value is None:
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -401,12 +595,19 @@ def cmd_demo(args: argparse.Namespace) -> int:
         if len(speeds) > MAX_DEMO_SPEEDS:
             raise UsageError(f"--speeds: {len(speeds)} speeds; a demo cycle takes at most {MAX_DEMO_SPEEDS}")
     check_output_dir(args.out, "--out")
-    res = run_demo(wear, speeds, Path(args.out), rtf, temperature, args.method, timeout, args.domain_id,
-                   overrides)
-    rc = 0 if res.estimate else 1
+    if n is not None and any("joints" in overrides.get(node, {}) for node in _JOINT_NODES):
+        raise UsageError("--set NODE.joints: the demo sets the joints of every node from --joints N")
+    temperature: float | list[float] | None = None
+    if temperatures is not None:
+        temperature = temperatures if n is not None else temperatures[0]
+    res = run_demo(wears if n is not None else wears[0], speeds, Path(args.out), rtf, temperature, args.method,
+                   timeout, args.domain_id, overrides, joints=n)
+    rc = 0 if all(j.estimate for j in res.joints) else 1
     if args.json:
         print_json(res.as_dict())
         return rc
+    if res.robot:
+        return _print_robot(res, rc)
     rows = [[o["speed"], o["tau_f"], o["tau_f_std"], o["load_torque"], o["temperature"], o["samples_plus"],
              o["samples_minus"]] for o in res.observations]
     print(f"friction observations of cycle {res.cycle_id} ({res.final_state}):")
@@ -424,4 +625,27 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(f"diagnostic level: {res.diagnostic_level} ({res.diagnostic_message})")
     print(f"bag: {res.bag}")
     print(f"logs: {res.logs}; {res.wall_seconds:.1f} s wall")
+    return rc
+
+
+def _print_robot(res: DemoResult, rc: int) -> int:
+    """The text summary of a robot demo: one row per joint."""
+    rows: list[list[Any]] = []
+    for j in res.joints:
+        e = j.estimate
+        if e:
+            z = (e["wear"] - j.true_wear) / e["wear_std"] if e["wear_std"] > 0 else math.nan
+            t = e.get("temperature_estimate")
+            rows.append([j.joint, j.true_wear, f"{e['wear']:.2f} ± {e['wear_std']:.2f}", f"{z:+.1f}",
+                         t if t is not None else math.nan, j.diagnostic_level, j.final_state, j.cell_seconds])
+        else:
+            rows.append([j.joint, j.true_wear, "none", "", math.nan, j.diagnostic_level, j.final_state,
+                         j.cell_seconds])
+    n_obs = len(res.observations)
+    print(f"robot cycle {res.cycle_id} ({res.final_state}): {len(res.joints)} joints, {n_obs} friction observations")
+    print(format_table(["joint", "true w", "estimate", "z", "T est", "level", "cycle", "cell s"], rows))
+    print(f"worst level: {res.diagnostic_level}")
+    cell = f"{res.cell_seconds:.0f} s of cell time (sim), " if math.isfinite(res.cell_seconds) else ""
+    print(f"bag: {res.bag}")
+    print(f"logs: {res.logs}; {cell}{res.wall_seconds:.1f} s wall")
     return rc

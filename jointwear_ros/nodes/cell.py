@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from ..contract import RefusalReason
+from ..contract import CycleState, RefusalReason
 from ..errors import JointwearError
 from ..resources import config_path
 
@@ -157,13 +157,13 @@ class Operator:
 
     Parameters
     ----------
-    joint_name : the joint of the cell (test_cycle's ``joint_name``); its ``wear_estimator: <joint>``
-        statuses are collected.
+    joint_name : the joint of the cell (test_cycle's ``joint_name``), or the joints of a robot cycle in
+        test order; the ``wear_estimator: <joint>`` statuses of each are collected.
     domain_id : the cell's ``ROS_DOMAIN_ID`` (``None``: the environment's).
     progress : called with one line of text on what the operator does (default: nothing).
     """
 
-    def __init__(self, joint_name: str, domain_id: int | None = None,
+    def __init__(self, joint_name: str | Sequence[str], domain_id: int | None = None,
                  progress: Callable[[str], None] = _quiet) -> None:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
@@ -181,7 +181,11 @@ class Operator:
         self.node = rclpy.create_node("jointwear_demo_operator", context=self.ctx)
         self.ex = SingleThreadedExecutor(context=self.ctx)
         self.ex.add_node(self.node)
-        self.joint_name = joint_name
+        self.joints: list[str] = [joint_name] if isinstance(joint_name, str) else [str(j) for j in joint_name]
+        if not self.joints or len(set(self.joints)) != len(self.joints):
+            raise CellError(f"the operator needs distinct joint names, got {self.joints}")
+        self.joint_name = self.joints[0]
+        self._diag_names = {f"wear_estimator: {j}": j for j in self.joints}
         qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.observations: list[Any] = []
         self.estimates: list[Any] = []
@@ -190,6 +194,8 @@ class Operator:
         self.estimate_arrivals: list[int] = []
         self._heard = 0
         self.status: Any = None
+        #: every TestCycleStatus heard, in order (a robot cycle's progress, joint by joint)
+        self.statuses: list[Any] = []
         self.node.create_subscription(FrictionObservation, "/jointwear/friction_observations",
                                       self.observations.append, qos)
         self.node.create_subscription(WearEstimate, "/jointwear/wear_estimate", self._on_estimate, qos)
@@ -206,11 +212,33 @@ class Operator:
     def _on_diag(self, msg: Any) -> None:
         self._heard += 1
         for st in msg.status:
-            if st.name == f"wear_estimator: {self.joint_name}":
+            if st.name in self._diag_names:
                 self.diagnostics.append((self._heard, st))
 
     def _on_status(self, msg: Any) -> None:
         self.status = msg
+        self.statuses.append(msg)
+
+    def robot_cycle_over(self, cycle_id: int) -> bool:
+        """True once the robot cycle ``cycle_id`` has ended: its last joint DONE, or any joint ABORTED or
+        FAILED (the cycle stops there), per the status contract of ``docs/robot.md``."""
+        for st in self.statuses:
+            if st.cycle_id != cycle_id:
+                continue
+            if st.state in (CycleState.ABORTED, CycleState.FAILED):
+                return True
+            n = max(len(st.joints), 1)
+            if st.state == CycleState.DONE and st.joints_done + 1 >= n:
+                return True
+        return False
+
+    def joints_started(self, cycle_id: int) -> list[str]:
+        """The joints of cycle ``cycle_id`` that have started (been RUNNING), in order."""
+        out: list[str] = []
+        for st in self.statuses:
+            if st.cycle_id == cycle_id and st.state != CycleState.IDLE and st.joint_name not in out:
+                out.append(str(st.joint_name))
+        return out
 
     def spin_until(self, predicate: Callable[[], bool], timeout: float, children: Sequence[Child],
                    what: str, tick: Callable[[], None] | None = None) -> None:
@@ -232,17 +260,21 @@ class Operator:
     def call_run(self, speeds: Sequence[float], children: Sequence[Child], timeout: float
                  ) -> tuple[bool, int, RefusalReason, str]:
         self._warm_up(speeds, children, timeout)
-        req = self.Request(joint_name=self.joint_name, speeds=[float(s) for s in speeds], position=0.0, dry_run=False)
+        req = self._request(speeds, dry_run=False)
         fut = self.client.call_async(req)
         self.spin_until(fut.done, timeout, children, "the answer of /test_cycle/run")
         resp = fut.result()
         return bool(resp.accepted), int(resp.cycle_id), RefusalReason(resp.reason), str(resp.message)
 
+    def _request(self, speeds: Sequence[float], dry_run: bool) -> Any:
+        """A robot-cycle request for this operator's joints, each at its configured window."""
+        return self.Request(joints=list(self.joints), speeds=[float(s) for s in speeds], dry_run=dry_run)
+
     def _warm_up(self, speeds: Sequence[float], children: Sequence[Child], timeout: float) -> None:
         """A dry run, re-sent every 3 s until answered: right after discovery a service's first
         response can be lost (the client's response reader not yet matched), and a dry run is
         safe to repeat where the real request is not."""
-        req = self.Request(joint_name=self.joint_name, speeds=[float(s) for s in speeds], position=0.0, dry_run=True)
+        req = self._request(speeds, dry_run=True)
         end = time.monotonic() + timeout
         while True:
             fut = self.client.call_async(req)
