@@ -108,3 +108,72 @@ def test_output_piped_into_head_is_not_a_traceback():
     p = subprocess.run(f"'{exe}' model curve --speeds 0:280:2000 --json | head -c 10", shell=True,
                        capture_output=True, text=True, timeout=60)
     assert p.stdout.startswith("{") and "Traceback" not in p.stderr and "BrokenPipe" not in p.stderr, p.stderr
+
+
+# --------------------------------------------------------------------------- cycle schedule
+
+ROBOT_YAML = """
+test_cycle:
+  ros__parameters:
+    joints: [joint_1, joint_2, joint_3, joint_4, joint_5, joint_6]
+    speeds: [10.0, 20.0, 30.0, 40.0, 50.0, 80.0, 120.0, 160.0]
+    joint_limits: [-1.5, 1.5]
+    joint_3:
+      speeds: [40.0, 80.0]
+    joint_6:
+      gear_ratio: 150.0
+"""
+
+
+def schedule(capsys, tmp_path, *args):
+    f = tmp_path / "test_cycle.yaml"
+    f.write_text(ROBOT_YAML)
+    rc = main(["cycle", "schedule", "--params-file", str(f), *args])
+    return rc, capsys.readouterr()
+
+
+def test_schedule_plans_every_joint_with_its_own_settings(capsys, tmp_path):
+    from jointwear_ros.cycle import CycleConfig, plan_cycle
+
+    rc, out = schedule(capsys, tmp_path, "--json")
+    assert rc == 0, out.err
+    d = json.loads(out.out)
+    rows = {r["joint"]: r for r in d["joints"]}
+    assert list(rows) == [f"joint_{k}" for k in range(1, 7)]
+    assert rows["joint_3"]["speeds"] == 2 and rows["joint_1"]["speeds"] == 8
+    base = plan_cycle(CycleConfig(speeds=(10.0, 20.0, 30.0, 40.0, 50.0, 80.0, 120.0, 160.0))).duration
+    assert rows["joint_1"]["seconds"] == pytest.approx(base)
+    assert rows["joint_3"]["seconds"] < base / 2
+    # gear 150: the same motor speeds are slower joint speeds: longer sweeps
+    assert rows["joint_6"]["seconds"] != pytest.approx(base)
+    assert d["total_seconds"] == pytest.approx(sum(r["seconds"] for r in rows.values()))
+    assert d["schedule"] is None
+
+
+def test_schedule_splits_the_robot_over_nights_within_the_budget(capsys, tmp_path):
+    rc, out = schedule(capsys, tmp_path, "--seconds-per-speed", "14", "--budget", "300", "--overhead", "10",
+                       "--json")
+    assert rc == 0, out.err
+    s = json.loads(out.out)["schedule"]
+    assert all(n["seconds"] <= 300 for n in s["nights"])
+    assert sorted(j for n in s["nights"] for j in n["joints"]) == [f"joint_{k}" for k in range(1, 7)]
+    # 5 joints x (8 x 14 + 10) + (2 x 14 + 10) = 648 s: at least 3 nights of 300 s, and 3 suffice
+    assert s["total_seconds"] == pytest.approx(5 * 122 + 38)
+    assert s["period_nights"] == 3
+    rc, out = schedule(capsys, tmp_path, "--seconds-per-speed", "14", "--budget", "300")
+    assert rc == 0 and "each joint tested every 3 nights" in out.out and "RunTestCycle joints:" in out.out
+
+
+@pytest.mark.parametrize("args,match", [
+    (("--budget", "60", "--seconds-per-speed", "14"), "joint_1 alone needs 112 s"),
+    (("--budget", "-5"), "--budget"),
+    (("--joints", "joint_1,joint_9"), "--joints"),
+    (("--joints", "joint_1,joint_1"), "--joints"),
+    (("--joints", "7"), "configures 6 joints"),
+    (("--speeds", "10,5000"), "joint_1: speed #2"),
+    (("--seconds-per-speed", "0"), "--seconds-per-speed"),
+])
+def test_schedule_bad_arguments_are_one_line_errors(capsys, tmp_path, args, match):
+    rc, out = schedule(capsys, tmp_path, *args)
+    assert rc == 2 and out.out == ""
+    assert match in out.err and len(out.err.strip().splitlines()) == 1, out.err

@@ -9,7 +9,10 @@ import argparse
 import math
 import sys
 from collections import Counter
+from typing import Any
 
+from ..cycle import CycleConfig, plan_cycle
+from ..cycle.schedule import MAX_SCHEDULE_JOINTS, ScheduleError, rotation_schedule
 from ..errors import JointwearError
 from ..estimation.design import PAPER_SECONDS_PER_SPEED, design_cycle
 from ..estimation.priors import parse_temperature_prior
@@ -52,6 +55,28 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     d.add_argument("--no-repeats", action="store_true", help="choose each speed at most once")
     d.add_argument("--json", action="store_true", help="print JSON instead of a table")
     d.set_defaults(func=cmd_design)
+    r = csub.add_parser(
+        "schedule",
+        help="what a robot cycle over every joint costs in cell time, and a rotation that fits a budget",
+        description=(
+            "Plan each joint's test cycle with test_cycle's settings (its params file: per-joint settings "
+            "nested under the joint's name) and print the cell time of a robot cycle over every joint. With "
+            "--budget, split the joints over the fewest nights whose robot cycles each fit the budget "
+            "(each joint is then tested once every PERIOD nights)."
+        ),
+    )
+    r.add_argument("--budget", default=None, help="cell seconds available between two shifts (default: no split)")
+    r.add_argument("--params-file", default=None,
+                   help="test_cycle parameter file (default: the package's config/test_cycle.yaml)")
+    r.add_argument("--joints", default=None,
+                   help="joints, comma list, or a count N for the first N configured (default: all configured)")
+    r.add_argument("--speeds", default=None, help="speeds for every joint, motor rad/s (default: each joint's)")
+    r.add_argument("--seconds-per-speed", default=None,
+                   help=f"cost each speed this many seconds instead of planning the motion "
+                        f"(the paper: {PAPER_SECONDS_PER_SPEED:g})")
+    r.add_argument("--overhead", default="0", help="extra seconds per joint (moving to its test pose; default 0)")
+    r.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    r.set_defaults(func=cmd_schedule)
 
 
 def _progress(done: int, total: int) -> None:  # pragma: no cover - terminal only
@@ -126,4 +151,110 @@ def cmd_design(args: argparse.Namespace) -> int:
               f"(on a cell: RunTestCycle speeds: [{speeds.replace(',', ', ')}])")
     else:
         print("note: speed 0 cannot be swept by a test cycle; use candidates > 0 to run this design")
+    return 0
+
+
+#: CycleConfig fields a test_cycle parameter file sets (node level, or nested under a joint's name).
+_PLAN_FIELDS = ("gear_ratio", "speeds", "window_half_width", "position", "joint_limits", "limit_margin", "max_speed",
+                "min_speed", "max_speeds", "max_duration", "acceleration", "approach_speed", "steady_time",
+                "settle_time")
+
+
+def _joint_cycle_config(params: dict[str, Any], joint: str, where: str) -> CycleConfig:
+    """test_cycle's settings for ``joint``: ``<joint>.<setting>`` over the node-level value over the default."""
+    values: dict[str, Any] = {}
+    for name in _PLAN_FIELDS:
+        value = params.get(f"{joint}.{name}", params.get(name))
+        if value is None:
+            continue
+        try:
+            if name == "speeds":
+                value = tuple(float(v) for v in value)
+            elif name == "joint_limits":
+                lo, hi = (float(v) for v in value)
+                value = (lo, hi)
+            elif name == "max_speeds":
+                value = int(value)
+            else:
+                value = float(value)
+        except (TypeError, ValueError):
+            raise UsageError(f"{where}: {joint}.{name} = {value!r} is not valid for {name}") from None
+        values[name] = value
+    return CycleConfig(joint_name=joint, **values)
+
+
+def cmd_schedule(args: argparse.Namespace) -> int:
+    from ..io.params import node_params_from_yaml
+    from ..resources import config_path
+
+    where = args.params_file or str(config_path("test_cycle.yaml"))
+    try:
+        params = node_params_from_yaml(where, "test_cycle")
+    except JointwearError as exc:
+        raise UsageError(f"--params-file: {exc}") from None
+    configured = [str(j) for j in params.get("joints") or []] or [str(params.get("joint_name", "joint_1"))]
+    if args.joints is None:
+        joints = configured
+    elif args.joints.strip().isdigit():
+        n = int(args.joints)
+        if not 1 <= n <= len(configured):
+            raise UsageError(f"--joints {n}: {where} configures {len(configured)} joints ({', '.join(configured)})")
+        joints = configured[:n]
+    else:
+        joints = [j.strip() for j in args.joints.split(",") if j.strip()]
+        unknown = [j for j in joints if j not in configured]
+        if unknown or len(set(joints)) != len(joints) or not joints:
+            raise UsageError(f"--joints {args.joints}: give distinct configured joints ({', '.join(configured)})")
+    if len(joints) > MAX_SCHEDULE_JOINTS:
+        raise UsageError(f"--joints: {len(joints)} joints; at most {MAX_SCHEDULE_JOINTS}")
+    speeds = parse_float_list(args.speeds, "--speeds") if args.speeds is not None else None
+    sps = parse_float(args.seconds_per_speed, "--seconds-per-speed") if args.seconds_per_speed is not None else None
+    if sps is not None and not 0 < sps <= 3600:
+        raise UsageError(f"--seconds-per-speed: {sps:g} must be more than 0 and at most 3600 s")
+    overhead = parse_float(args.overhead, "--overhead")
+    if not 0 <= overhead <= 3600:
+        raise UsageError(f"--overhead: {overhead:g} must be 0-3600 s")
+    budget = parse_float(args.budget, "--budget") if args.budget is not None else None
+    if budget is not None and not 0 < budget <= 86400:
+        raise UsageError(f"--budget: {budget:g} must be more than 0 and at most 86400 s")
+    durations: dict[str, float] = {}
+    counts: dict[str, int] = {}
+    for j in joints:
+        cfg = _joint_cycle_config(params, j, where)
+        try:
+            plan = plan_cycle(cfg, speeds)
+        except JointwearError as exc:
+            raise UsageError(f"{j}: {exc}") from None
+        counts[j] = len(plan.speeds)
+        durations[j] = plan.duration if sps is None else sps * len(plan.speeds)
+    try:
+        sched = rotation_schedule(durations, budget if budget is not None else math.inf, overhead) \
+            if budget is not None else None
+    except ScheduleError as exc:
+        raise UsageError(f"--budget: {exc}") from None
+    total = sum(durations.values()) + overhead * len(durations)
+    basis = f"{sps:g} s per speed" if sps is not None else "planned motion (test_cycle's settings)"
+    if args.json:
+        out: dict[str, Any] = {
+            "basis": basis,
+            "joints": [{"joint": j, "speeds": counts[j], "seconds": durations[j] + overhead} for j in joints],
+            "total_seconds": total,
+            "schedule": sched.to_dict() if sched is not None else None,
+        }
+        print_json(out)
+        return 0
+    print(f"robot cycle over {len(joints)} joints, {basis}:")
+    print(format_table(["joint", "speeds", "cell s"], [[j, counts[j], durations[j] + overhead] for j in joints],
+                       floatfmt=".1f"))
+    print(f"total: {total:.0f} s ({total / 60:.1f} min) of cell time for every joint once")
+    if sched is not None:
+        if sched.fits_one_night:
+            print(f"fits the {budget:g} s budget: test every joint every night")
+        else:
+            print(f"budget {budget:g} s: {sched.period} nights per rotation, each joint tested every "
+                  f"{sched.period} nights")
+            print(format_table(["night", "joints", "cell s"],
+                               [[k + 1, ", ".join(n), sec] for k, (n, sec) in
+                                enumerate(zip(sched.nights, sched.night_seconds()))], floatfmt=".1f"))
+            print("run a night: RunTestCycle joints: [" + ", ".join(sched.nights[0]) + "] (night 1)")
     return 0
