@@ -47,7 +47,7 @@ DEMO_NODES = ("recorder", "joint_sim", "test_cycle", "friction_observer", "wear_
 DemoError = CellError
 
 #: Default real-time factor of a robot demo (``--joints``): six joints at 2x would take minutes of wall time.
-ROBOT_REAL_TIME_FACTOR = 4.0
+ROBOT_REAL_TIME_FACTOR = 3.0
 #: Most joints of a demo robot.
 MAX_DEMO_JOINTS = 12
 
