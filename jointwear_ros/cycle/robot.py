@@ -24,7 +24,7 @@ node that publishes the status after each update publishes every joint's DONE.
 >>> configs = {"joint_1": CycleConfig(joint_name="joint_1"), "joint_2": CycleConfig(joint_name="joint_2")}
 >>> plan = plan_robot_cycle(configs, ["joint_2", "joint_1"], speeds=[40.0], start_positions={"joint_1": 0.0, "joint_2": 0.0})
 >>> plan.joints, [len(p.speeds) for p in plan.plans], round(plan.duration, 1)
-(('joint_2', 'joint_1'), [1, 1], 3.8)
+(('joint_2', 'joint_1'), [1, 1], 8.2)
 >>> plan_robot_cycle(configs, ["joint_1", "joint_9"])
 Traceback (most recent call last):
 ...

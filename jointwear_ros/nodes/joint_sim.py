@@ -49,6 +49,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 from rclpy.clock import Clock, ClockType
@@ -201,7 +202,7 @@ class JointSimNode(Node):
             self.create_timer(float(p["tick_period"]), self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
         period = float(p["diagnostics_period"])
         self.diags = {
-            j: NodeDiagnostics(self, f"joint_sim: {j}", j, period=period, refresh=lambda j=j: self._report(j))
+            j: NodeDiagnostics(self, f"joint_sim: {j}", j, period=period, refresh=partial(self._report, j))
             for j in self.joints
         }
         for j, d in self.diags.items():
