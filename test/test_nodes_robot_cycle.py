@@ -344,3 +344,16 @@ class TestRobotCycle:
         k = len(op.samples)
         op.spin_until(lambda: len(op.samples) > k + 50, 5.0)
         assert all(math.isclose(a, b, abs_tol=1e-3) for a, b in zip(op.samples[k][2], op.samples[-1][2], strict=True))
+
+    def test_zero_for_every_joint_when_test_cycle_exits_mid_robot_cycle(self, op, cell):
+        # the last test of the class: it stops the cell's test_cycle (SIGINT, as Ctrl-C would)
+        cid = op.start(joints=JOINTS, speeds=[10.0])
+        op.wait_running(cid, "joint_1", Phase.FORWARD)
+        assert op.spin_until(lambda: op.commands and op.commands[-1][0] > 0.0, 5.0)
+        n = len(op.commands)
+        cyc = cell[1]
+        stop_children([cyc])
+        assert cyc.proc.returncode == 0, cyc.log_tail(20)
+        op.zero_after(n)
+        final = op.wait_end(cid, 5.0)
+        assert final.state == CycleState.ABORTED and final.message == "node shutting down; not tested: joint_2, joint_3"
