@@ -155,7 +155,7 @@ class Operator:
         """Request a cycle, re-sending while test_cycle has no (fresh) joint state yet."""
         end = time.monotonic() + 30.0
         while True:
-            fut = self.run_client.call_async(RunTestCycle.Request(**kwargs))
+            fut = self.run_client.call_async(RunTestCycle.Request(joint_name="joint_1", **kwargs))  # of six
             self.spin_until(fut.done, 20.0, "/test_cycle/run")
             resp = fut.result()
             if resp.accepted:

@@ -43,8 +43,10 @@ pytestmark = pytest.mark.ros
 
 ROOT = Path(__file__).resolve().parents[1]
 QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-SIM_PARAMS = {"publish_clock": True, "real_time_factor": 4.0, "use_sim_time": True}
-CYCLE_PARAMS = {"simulator": True, "use_sim_time": True}
+# the one-joint configuration of earlier versions (the config files now hold six joints)
+ONE = {"joints": ["joint_1"]}
+SIM_PARAMS = {"publish_clock": True, "real_time_factor": 4.0, "use_sim_time": True, **ONE}
+CYCLE_PARAMS = {"simulator": True, "use_sim_time": True, **ONE}
 
 
 def _fmt(v: object) -> str:
@@ -364,13 +366,13 @@ class TestSimulatedCell:
 # -- the watchdog and the exit path, each on a cell of its own ----------------------
 def test_watchdog_stops_the_joint_when_joint_states_stop(context, operator):
     # no sim time here: node time is wall time (0.5 s: tolerant of a loaded machine)
-    cyc = Child("test_cycle", {"simulator": True, "state_timeout": 0.5})
+    cyc = Child("test_cycle", {"simulator": True, "state_timeout": 0.5, **ONE})
     sim = None
     try:
         assert operator.spin_until(lambda: operator.run_client.service_is_ready(), 30.0)
         early = operator.run(speeds=[20.0], attempts=3)  # a refusal: safe to re-send
         assert not early.accepted and early.reason == RefusalReason.STATE_MISSING
-        sim = Child("joint_sim", {})
+        sim = Child("joint_sim", ONE)
         assert operator.spin_until(lambda: operator.joint_states > 20, 30.0)
         resp = operator.start(speeds=[10.0])
         operator.wait_phase(resp.cycle_id, Phase.FORWARD)
@@ -454,7 +456,7 @@ def test_joint_sim_ignores_bad_commands_and_stops_after_the_command_timeout(cont
         for bad in ([], [math.nan], [math.inf, 0.0]):
             pub.publish(Float64MultiArray(data=bad))
         assert operator.spin_until(lambda: node.bad_commands == 3, 10.0)
-        assert node.sim.command == 0.0
+        assert node.sim["joint_1"].command == 0.0
         # a valid command moves the joint; streaming it keeps it moving
         end = time.monotonic() + 1.0
         while time.monotonic() < end:
@@ -463,17 +465,17 @@ def test_joint_sim_ignores_bad_commands_and_stops_after_the_command_timeout(cont
         assert last[-1].name == ["joint_1"] and last[-1].velocity[0] == pytest.approx(0.2, rel=0.05)
         # no more commands: the sim brings the joint to rest by itself
         assert operator.spin_until(lambda: abs(last[-1].velocity[0]) < 1e-6, 10.0)
-        assert node.sim.command == 0.0
+        assert node.sim["joint_1"].command == 0.0
         # run-time parameters: physical ones apply at once, identity ones are refused with the reason
         res = node.set_parameters_atomically([Parameter("wear", value=45.0), Parameter("temperature", value=30.0)])
-        assert res.successful and node.sim.config.wear == 45.0 and node.sim.config.temperature == 30.0
+        assert res.successful and node.sim["joint_1"].config.wear == 45.0 and node.sim["joint_1"].config.temperature == 30.0
         assert operator.spin_until(lambda: temps[-1].temperature == 30.0, 5.0)
         res = node.set_parameters_atomically([Parameter("hidden_effects", value="bogus")])
         assert not res.successful and "unknown hidden effect(s) bogus" in res.reason
         res = node.set_parameters_atomically([Parameter("params", value="paper-printed")])
         assert not res.successful and "read-only" in res.reason
         res = node.set_parameters_atomically([Parameter("wear", value=500.0)])  # outside the declared range
-        assert not res.successful and node.sim.config.wear == 45.0
+        assert not res.successful and node.sim["joint_1"].config.wear == 45.0
     finally:
         operator.executor.remove_node(node)
         node.destroy_node()

@@ -80,12 +80,19 @@ MUTANTS: tuple[Mutant, ...] = (
            "        if False and self.runner.running and ((\"motion_enabled\" in changes and not enabled)",
            ("test/test_nodes_sim_cycle.py", "-k", "motion_enabled_false")),
     Mutant("stale joint state (wall time) accepted", "jointwear_ros/nodes/test_cycle.py",
-           "        if r is not None and not req.dry_run and wall_age > self.state_timeout_wall:",
-           "        if False:",
+           "            if wall_age > self.state_timeout_wall:",
+           "            if False:",
            ("test/test_nodes_sim_cycle.py", "-k", "simulator_that_died")),
     Mutant("crawl speeds accepted", "jointwear_ros/cycle/plan.py",
            "        if v < config.min_speed:", "        if False:",
            ("test/test_cycle_core.py", "-k", "crawl")),
+    Mutant("held joints not watched", "jointwear_ros/cycle/robot.py",
+           "            reason = self._hold_watchdog(j, now, readings.get(j), ages.get(j))",
+           "            reason = None",
+           ("test/test_cycle_robot.py", "-k", "held")),
+    Mutant("held joint movement not checked", "jointwear_ros/cycle/robot.py",
+           "        if abs(r.position - ref) > self.hold_tolerance:", "        if False:",
+           ("test/test_cycle_robot.py", "-k", "held")),
 )
 
 

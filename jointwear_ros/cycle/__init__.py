@@ -2,7 +2,9 @@
 
 :func:`plan_cycle` validates a request against the joint limits and speed
 limits and plans the sweeps; :class:`CycleRunner` runs a plan when fed
-``(now, joint reading)`` and returns the velocity command. The ``test_cycle``
+``(now, joint reading)`` and returns the velocity command.
+:func:`plan_robot_cycle` and :class:`RobotCycleRunner` do the same for several
+joints tested one after another, the others held still. The ``test_cycle``
 node wraps them.
 """
 
@@ -18,6 +20,7 @@ from .plan import (
     plan_cycle,
     run_up,
 )
+from .robot import JointResult, RobotCycleRunner, RobotPlan, RobotStatusView, plan_robot_cycle
 from .runner import CycleRunner, CycleState, CycleStatusView, JointReading, Phase
 
 __all__ = [
@@ -29,9 +32,14 @@ __all__ = [
     "CycleState",
     "CycleStatusView",
     "JointReading",
+    "JointResult",
     "Phase",
+    "RobotCycleRunner",
+    "RobotPlan",
+    "RobotStatusView",
     "SpeedPlan",
     "move_duration",
     "plan_cycle",
+    "plan_robot_cycle",
     "run_up",
 ]

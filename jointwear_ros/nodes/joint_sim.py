@@ -1,11 +1,19 @@
-"""``joint_sim``: a simulated robot joint behind ros2_control conventions.
+"""``joint_sim``: a simulated robot (N joints) behind ros2_control conventions.
 
+Simulates the joints of its ``joints`` parameter (empty: the one joint
+``joint_name``), each with its own friction parameter set, wear, temperature,
+gravity, noise seed, initial position and velocity loop (``<joint>.<setting>``,
+e.g. ``joint_3.wear``; the node-level value is the default, see docs/robot.md).
 Subscribes the velocity command of a JointGroupVelocityController
-(``std_msgs/Float64MultiArray``, ``data[0]`` = joint velocity, rad/s), publishes
-``/joint_states`` (position rad, velocity rad/s, effort N·m; joint side) at
-``publish_rate``, the joint temperature (``sensor_msgs/Temperature``) when
-``publish_temperature`` is set and ``/clock`` when ``publish_clock`` is set.
-The dynamics are :class:`jointwear_ros.sim.JointSim` (one integration step per
+(``std_msgs/Float64MultiArray``, ``data[i]`` = velocity of ``joints[i]``, rad/s;
+a command of the wrong length or with a non-finite value is ignored and
+counted), publishes one ``/joint_states`` with every joint (position rad,
+velocity rad/s, effort N·m; joint side) at ``publish_rate``, the joint
+temperatures when ``publish_temperature`` is set (on ``/joint_temperature``,
+one ``sensor_msgs/Temperature`` per joint per period, ``header.frame_id`` = the
+joint's name; a consumer matches its joint by frame_id) and ``/clock`` when
+``publish_clock`` is set. The dynamics are :class:`jointwear_ros.sim.RobotSim`
+(one :class:`~jointwear_ros.sim.JointSim` per joint, one integration step per
 published sample).
 
 Time: with ``publish_clock`` the simulator is the graph's clock source and
@@ -14,21 +22,24 @@ time, starting at the wall-clock time of start-up); without it, it follows the
 node clock (``use_sim_time`` honoured) and ``real_time_factor`` is ignored.
 
 Unlike a real forward command controller, which holds the last command forever,
-the simulator brings the joint to rest when no command has arrived for
+the simulator brings every joint to rest when no command has arrived for
 ``command_timeout`` seconds (sim time), so a crashed client never leaves the
-simulated joint running into its limits.
+simulated joints running into their limits.
 
 Run-time parameters: the physical settings (``wear``, ``temperature``,
-gravity, hidden effects, gains, noise, ...) and ``command_timeout``,
-``max_velocity``, ``real_time_factor``, ``max_lag``, ``temperature_rate`` apply at
-once (``ros2 param set /joint_sim wear 40.0``: the next sample has the new
-friction); an invalid value is refused with the reason. The joint's identity
-and wiring (``joint_name``, topics, ``gear_ratio``, ``torque_scale``, ``params``,
-``seed``, ``publish_*``, ``initial_position``, ``tick_period``) are read at
-start-up only (read-only parameters).
+gravity, hidden effects, gains, noise, ``max_velocity``, ...) and ``command_timeout``,
+``real_time_factor``, ``max_lag``, ``temperature_rate`` apply at once
+(``ros2 param set /joint_sim joint_3.wear 40.0``: the next sample of joint_3
+has the new friction; a node-level ``wear`` sets every joint's, and their
+``<joint>.wear`` parameters with it); an invalid value is refused with the
+reason. The robot's identity and wiring (``joint_name``, ``joints``, topics,
+``gear_ratio``, ``torque_scale``, ``params``, ``seed``, ``publish_*``,
+``initial_position``, ``tick_period``) are read at start-up only (read-only
+parameters). Each joint's noise seed defaults to ``seed`` + its index in
+``joints``, so the joints' noise is independent.
 
-Diagnostics: ``joint_sim: <joint>`` on ``/diagnostics`` (OK; WARN while bad
-velocity commands arrive), key/values wear, temperature, sim_time,
+Diagnostics: ``joint_sim: <joint>`` on ``/diagnostics`` per joint (OK; WARN
+while bad velocity commands arrive), key/values wear, temperature, sim_time,
 samples_published, bad_commands.
 """
 
@@ -38,6 +49,8 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import replace
+from functools import partial
+from typing import Any
 
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -48,20 +61,25 @@ from std_msgs.msg import Float64MultiArray
 
 from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
-from ..sim import JointSim, JointSimConfig
+from ..sim import JointSimConfig, RobotSim
 from .diagnostics import OK, WARN, NodeDiagnostics, Report
+from .joints import declare_joints, declare_per_joint, propagate_node_level
 from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
-__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "JointSimNode", "main"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "JointSimNode", "main"]
 
 #: Parameters of the node (defaults as in ``config/joint_sim.yaml``).
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", "joint_1", "name of the simulated joint in /joint_states", read_only=True),
+    ParamDecl("joint_name", "joint_1", "name of the simulated joint in /joint_states when joints is empty",
+              read_only=True),
+    ParamDecl("joints", [], "the simulated joints, in /joint_states and velocity-command order (empty: joint_name)",
+              read_only=True),
     ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)", read_only=True),
     ParamDecl("gear_ratio", 100.0, "motor speed / joint speed", 1e-3, 1e6, read_only=True),
     ParamDecl("torque_scale", 200.0, "N·m (joint side) per normalized torque unit", 1e-6, 1e9, read_only=True),
     ParamDecl("publish_rate", 500.0, "JointState rate = integration rate, Hz (sim time)", 50.0, 20000.0, read_only=True),
-    ParamDecl("publish_temperature", True, "publish /joint_temperature", read_only=True),
+    ParamDecl("publish_temperature", True, "publish /joint_temperature (one message per joint, frame_id = joint)",
+              read_only=True),
     ParamDecl("temperature_rate", 10.0, "temperature publish rate, Hz (sim time)", 0.1, 1000.0),
     ParamDecl("publish_clock", False, "be the clock source: publish /clock, step on wall time × real_time_factor", read_only=True),
     ParamDecl("real_time_factor", 1.0, "sim seconds per wall second (with publish_clock)", 0.01, 100.0),
@@ -74,7 +92,8 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("hidden_effects", "", "comma-separated hidden friction effects: " + ", ".join(HIDDEN_EFFECTS)),
     ParamDecl("lube_hours", 0.0, "hours since lubrication (lubrication effect)", 0.0, 1e6),
     ParamDecl("params", "ref-2011r", "friction parameter set", read_only=True),
-    ParamDecl("seed", 0, "seed of the noise generator", read_only=True),
+    ParamDecl("seed", 0, "seed of the noise generator (joint i of joints: seed + i unless <joint>.seed is given)",
+              read_only=True),
     ParamDecl("initial_position", 0.0, "joint position at start, rad", -100.0, 100.0, read_only=True),
     ParamDecl("inertia", 5.0e-4, "motor-side inertia, normalized torque per rad/s^2", 1e-9, 1e3),
     ParamDecl("kp", 0.05, "velocity PI proportional gain, normalized torque per motor rad/s", 0.0, 1e3),
@@ -88,10 +107,13 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
               read_only=True),
 )
+_DECLS = {d.name: d for d in PARAMETERS}
 #: JointSimConfig fields that can change on a running simulation
 _SIM_FIELDS = ("inertia", "gravity_torque", "gravity_angle", "temperature", "wear", "hidden_effects", "lube_hours",
                "kp", "ki", "accel_limit", "torque_limit", "noise_std", "effort_noise_std")
-#: Parameters that can change at run time
+#: Settings each joint has of its own (``<joint>.<setting>``; default: the node-level value)
+PER_JOINT = ("gear_ratio", "torque_scale", "params", "seed", "initial_position", "max_velocity", *_SIM_FIELDS)
+#: Parameters that can change at run time (the per-joint ones, ``<joint>.<setting>``, too)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
 _RELIABLE_1000 = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
@@ -110,44 +132,48 @@ def parse_effects(text: str) -> tuple[str, ...]:
     return names
 
 
+def _sim_value(name: str, value: Any) -> Any:
+    if name == "hidden_effects":
+        return parse_effects(str(value))
+    if name == "params":
+        return str(value)
+    return float(value)
+
+
+def joint_config(values: dict[str, Any]) -> JointSimConfig:
+    """A joint's :class:`JointSimConfig` from its parameter values (name -> value)."""
+    fields = ("gear_ratio", "torque_scale", "params", "initial_position", *_SIM_FIELDS)
+    return JointSimConfig(**{n: _sim_value(n, values[n]) for n in fields})
+
+
 class JointSimNode(Node):
-    """The simulated joint as a ROS node (see the module docstring)."""
+    """The simulated robot as a ROS node (see the module docstring)."""
 
     def __init__(self, **kwargs: object) -> None:
         super().__init__("joint_sim", **kwargs)  # type: ignore[arg-type]
-        p = declare_parameters(self, PARAMETERS)
+        p = declare_parameters(self, [d for d in PARAMETERS if d.name != "joints"])
         self.p = p
-        self.joint_name = str(p["joint_name"])
-        cfg = JointSimConfig(
-            gear_ratio=float(p["gear_ratio"]),
-            torque_scale=float(p["torque_scale"]),
-            inertia=float(p["inertia"]),
-            gravity_torque=float(p["gravity_torque"]),
-            gravity_angle=float(p["gravity_angle"]),
-            params=str(p["params"]),
-            temperature=float(p["temperature"]),
-            wear=float(p["wear"]),
-            hidden_effects=parse_effects(str(p["hidden_effects"])),
-            lube_hours=float(p["lube_hours"]),
-            kp=float(p["kp"]),
-            ki=float(p["ki"]),
-            torque_limit=float(p["torque_limit"]),
-            accel_limit=float(p["accel_limit"]),
-            noise_std=float(p["noise_std"]),
-            effort_noise_std=float(p["effort_noise_std"]),
-            initial_position=float(p["initial_position"]),
-        )
-        self.sim = JointSim(cfg, seed=int(p["seed"]))
+        self.joints = declare_joints(self, str(p["joint_name"]), _DECLS["joints"].description)
+        self.joint_name = self.joints[0]
+        seeds = [int(p["seed"]) + i for i in range(len(self.joints))]
+        self.values = declare_per_joint(self, self.joints, [_DECLS[n] for n in PER_JOINT], {"seed": seeds})
+        configs = [joint_config(self.values[j]) for j in self.joints]
+        for j, c in zip(self.joints, configs, strict=True):
+            try:
+                c.check()
+            except ParameterError as exc:
+                raise ParameterError(f"{j}: {exc}") from None
+        self.sim = RobotSim(self.joints, configs, [int(self.values[j]["seed"]) for j in self.joints])
+        self.max_velocity = [float(self.values[j]["max_velocity"]) for j in self.joints]
         self.dt = 1.0 / float(p["publish_rate"])
         self.publish_clock = bool(p["publish_clock"])
         self.rtf = float(p["real_time_factor"])
         self.command_timeout = float(p["command_timeout"])
-        self.max_velocity = float(p["max_velocity"])
         self.max_lag = float(p["max_lag"])
         self.temperature_period = 1.0 / float(p["temperature_rate"])
         self.bad_commands = 0
         self.samples_published = 0
-        self._bad_reported = 0
+        self._bad_reported = dict.fromkeys(self.joints, 0)
         self._last_command_time: float | None = None
         self._timed_out = True
         self._next_temperature = 0.0
@@ -174,43 +200,66 @@ class JointSimNode(Node):
                 )
             self.epoch = self.get_clock().now().nanoseconds * 1e-9
             self.create_timer(float(p["tick_period"]), self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        self.diag = NodeDiagnostics(self, f"joint_sim: {self.joint_name}", self.joint_name,
-                                    period=float(p["diagnostics_period"]), refresh=self._report)
-        self.diag.update(*self._report())
-        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
+        period = float(p["diagnostics_period"])
+        self.diags = {
+            j: NodeDiagnostics(self, f"joint_sim: {j}", j, period=period, refresh=partial(self._report, j))
+            for j in self.joints
+        }
+        for j, d in self.diags.items():
+            d.update(*self._report(j))
+        live = [n for n in PER_JOINT if not _DECLS[n].read_only]
+        self.add_pre_set_parameters_callback(propagate_node_level(live, self.joints))
+        on_parameter_change(self, self._on_parameters,
+                            LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in live))
+        for j, c in zip(self.joints, configs, strict=True):
+            self.get_logger().info(
+                f"simulating {j}: wear {c.wear:g}, {c.temperature:g} degC, gravity {c.gravity_torque:g}, "
+                f"params {c.params}, seed {self.values[j]['seed']}"
+                + (f", hidden effects {', '.join(c.hidden_effects)}" if c.hidden_effects else "")
+            )
         self.get_logger().info(
-            f"simulating {self.joint_name}: wear {cfg.wear:g}, {cfg.temperature:g} degC, gravity {cfg.gravity_torque:g}, "
-            f"{1.0 / self.dt:g} Hz"
+            f"{len(self.joints)} joint(s) at {1.0 / self.dt:g} Hz"
             + (f", clock source at {self.rtf:g}x real time" if self.publish_clock else "")
-            + (f", hidden effects {', '.join(cfg.hidden_effects)}" if cfg.hidden_effects else "")
         )
 
     # -- health and run-time parameters ----------------------------------------
-    def _report(self) -> Report:
-        cfg = self.sim.config
-        new_bad = self.bad_commands - self._bad_reported
-        self._bad_reported = self.bad_commands
+    def _report(self, joint: str) -> Report:
+        cfg = self.sim[joint].config
+        new_bad = self.bad_commands - self._bad_reported[joint]
+        self._bad_reported[joint] = self.bad_commands
         values = [("wear", f"{cfg.wear:g}"), ("temperature", f"{cfg.temperature:g}"), ("sim_time", f"{self.sim.time:.3f}"),
                   ("samples_published", str(self.samples_published)), ("bad_commands", str(self.bad_commands))]
         if new_bad:
             return WARN, f"{new_bad} bad velocity command(s) ignored since the last report", values
-        return OK, f"simulating {self.joint_name} at wear {cfg.wear:g}, {cfg.temperature:g} degC", values
+        return OK, f"simulating {joint} at wear {cfg.wear:g}, {cfg.temperature:g} degC", values
 
     def _on_parameters(self, changes: dict[str, object]) -> str | None:
-        sim_changes: dict[str, object] = {}
+        per_joint: dict[str, dict[str, Any]] = {}
         for k, v in changes.items():
-            if k == "hidden_effects":
-                sim_changes[k] = parse_effects(str(v))
-            elif k in _SIM_FIELDS:
-                sim_changes[k] = float(v)  # type: ignore[arg-type]
+            j, _, name = k.rpartition(".")
+            if j in self.values:
+                per_joint.setdefault(j, {})[name] = v
         if "temperature_rate" in changes and not float(changes["temperature_rate"]) > 0:  # type: ignore[arg-type]
             return f"temperature_rate {changes['temperature_rate']!r} must be > 0 Hz"
-        if sim_changes:
-            self.sim.reconfigure(replace(self.sim.config, **sim_changes))  # type: ignore[arg-type]
+        # check every joint's new settings before applying any (all or none)
+        new: dict[str, JointSimConfig] = {}
+        for j, ch in per_joint.items():
+            sim_changes = {n: _sim_value(n, v) for n, v in ch.items() if n in _SIM_FIELDS}
+            if sim_changes:
+                cfg = replace(self.sim[j].config, **sim_changes)
+                try:
+                    cfg.check()
+                except ParameterError as exc:
+                    return f"{j}: {exc}"
+                new[j] = cfg
+        for j, cfg in new.items():
+            self.sim.reconfigure(j, cfg)
+        for j, ch in per_joint.items():
+            self.values[j].update(ch)
+            if "max_velocity" in ch:
+                self.max_velocity[self.sim.index[j]] = float(ch["max_velocity"])  # type: ignore[arg-type]
         if "command_timeout" in changes:
             self.command_timeout = float(changes["command_timeout"])  # type: ignore[arg-type]
-        if "max_velocity" in changes:
-            self.max_velocity = float(changes["max_velocity"])  # type: ignore[arg-type]
         if "max_lag" in changes:
             self.max_lag = float(changes["max_lag"])  # type: ignore[arg-type]
         if "temperature_rate" in changes:
@@ -220,7 +269,8 @@ class JointSimNode(Node):
             if self.publish_clock:  # keep sim time continuous: sim.time = (now - wall0) * rtf
                 self._wall0 = time.monotonic() - self.sim.time / rtf
             self.rtf = rtf
-        self.diag.update(*self._report())
+        for j in per_joint:
+            self.diags[j].update(*self._report(j))
         return None
 
     # -- inputs --------------------------------------------------------------
@@ -228,24 +278,27 @@ class JointSimNode(Node):
         self.bad_commands += 1
         self.get_logger().warning(
             f"ignored velocity command #{self.bad_commands}: {why}; expected Float64MultiArray with "
-            f"finite data[0] = joint velocity (rad/s)",
+            f"{len(self.joints)} finite value(s), data[i] = velocity of joint i of {list(self.joints)} (rad/s)",
             throttle_duration_sec=2.0,
         )
 
     def _on_command(self, msg: Float64MultiArray) -> None:
-        if len(msg.data) < 1:
-            self._reject("empty data")
+        data = [float(x) for x in msg.data]
+        if len(data) != len(self.joints):
+            self._reject(f"{len(data)} value(s) for {len(self.joints)} joint(s)")
             return
-        v = float(msg.data[0])
-        if not math.isfinite(v):
-            self._reject(f"data[0] = {v} is not finite")
+        bad = [f"data[{i}] = {v}" for i, v in enumerate(data) if not math.isfinite(v)]
+        if bad:
+            self._reject(f"{', '.join(bad)} not finite")
             return
-        if abs(v) > self.max_velocity:
-            self.get_logger().warning(
-                f"velocity command {v:g} rad/s clamped to max_velocity {self.max_velocity:g}", throttle_duration_sec=2.0
-            )
-            v = math.copysign(self.max_velocity, v)
-        self.sim.set_command(v)
+        for i, v in enumerate(data):
+            if abs(v) > self.max_velocity[i]:
+                self.get_logger().warning(
+                    f"velocity command {v:g} rad/s for {self.joints[i]} clamped to max_velocity "
+                    f"{self.max_velocity[i]:g}", throttle_duration_sec=2.0
+                )
+                data[i] = math.copysign(self.max_velocity[i], v)
+        self.sim.set_commands(data)
         self._last_command_time = self.sim.time
         self._timed_out = False
 
@@ -269,9 +322,9 @@ class JointSimNode(Node):
         self.advance(n)
 
     def advance(self, n: int) -> None:
-        """Step and publish ``n`` samples, then the temperature and clock when due."""
+        """Step and publish ``n`` samples, then the temperatures and clock when due."""
         sim = self.sim
-        name = [self.joint_name]
+        names = list(self.joints)
         for _ in range(n):
             if (
                 not self._timed_out
@@ -279,30 +332,32 @@ class JointSimNode(Node):
                 and sim.time - self._last_command_time > self.command_timeout
             ):
                 self._timed_out = True
-                if sim.command != 0.0:
+                if any(c != 0.0 for c in sim.commands):
                     self.get_logger().warning(
-                        f"no velocity command for {self.command_timeout:g} s: decelerating {self.joint_name} to 0 "
+                        f"no velocity command for {self.command_timeout:g} s: decelerating {', '.join(names)} to 0 "
                         "(a real forward command controller would hold the last command)"
                     )
-                sim.set_command(0.0)
+                sim.stop()
             sim.step(self.dt)
-            s = sim.sample()
+            pos, vel, eff = sim.sample()
             msg = JointState()
-            msg.header.stamp = seconds_to_stamp(self.epoch + s.time)
-            msg.name = name
-            msg.position = [s.position]
-            msg.velocity = [s.velocity]
-            msg.effort = [s.effort]
+            msg.header.stamp = seconds_to_stamp(self.epoch + sim.time)
+            msg.name = names
+            msg.position = pos
+            msg.velocity = vel
+            msg.effort = eff
             self.js_pub.publish(msg)
             self.samples_published += 1
         if self.temp_pub is not None and sim.time >= self._next_temperature:
             self._next_temperature = sim.time + self.temperature_period
-            tm = Temperature()
-            tm.header.stamp = seconds_to_stamp(self.epoch + sim.time)
-            tm.header.frame_id = self.joint_name
-            tm.temperature = float(sim.config.temperature)
-            tm.variance = 0.0
-            self.temp_pub.publish(tm)
+            stamp = seconds_to_stamp(self.epoch + sim.time)
+            for j, joint in zip(names, sim.joints, strict=True):
+                tm = Temperature()
+                tm.header.stamp = stamp
+                tm.header.frame_id = j
+                tm.temperature = float(joint.config.temperature)
+                tm.variance = 0.0
+                self.temp_pub.publish(tm)
         if self.clock_pub is not None:
             self.clock_pub.publish(ClockMsg(clock=seconds_to_stamp(self.epoch + sim.time)))
 

@@ -1,16 +1,34 @@
-"""``test_cycle``: runs a friction test cycle on one joint when asked by service call.
+"""``test_cycle``: runs a friction test cycle on the joints of a robot when asked by service call.
+
+The node drives the joints of its ``joints`` parameter (empty: the one joint
+``joint_name``), in that order in the velocity command array, as a ros2_control
+``JointGroupVelocityController`` does. Each joint has its own settings
+(``<joint>.<setting>``, e.g. ``joint_3.joint_limits``; the node-level value is
+the default, see docs/robot.md).
 
 Services: ``~/run`` (``jointwear_msgs/srv/RunTestCycle``; answers at once with
 accepted, cycle_id, the refusal ``reason`` code and the plan or the reason in words) and ``~/abort``
-(``std_srvs/srv/Trigger``). Publishes ``~/status`` (``TestCycleStatus``) on
-every change and at ``status_rate``. While a cycle runs it streams velocity
-commands (``Float64MultiArray``, data[0] joint rad/s) at ``command_rate`` (forward
-command controllers hold the last command forever) and sends zero on finish,
-abort, error, watchdog trip and node exit.
+(``std_srvs/srv/Trigger``). A request names the joints to test (``joints``; empty:
+``joint_name``, or every driven joint when that is empty too), one window centre
+per joint (``positions``) and the speeds; the whole request is checked and every
+joint planned before anything moves; the joints are then tested one after
+another under one cycle id, every other joint held at zero velocity
+(:class:`jointwear_ros.cycle.RobotCycleRunner`). On a node that drives one
+joint, ``position`` applies as in earlier versions (also without ``joint_name``).
+
+Publishes ``~/status`` (``TestCycleStatus``: the joint under test, its state
+and phase, ``joints`` and ``joints_done``) on every change and at ``status_rate``.
+While a cycle runs it streams velocity commands (``Float64MultiArray``, one
+joint rad/s per driven joint: the sweep for the joint under test, 0 for the
+others) at ``command_rate`` (forward command controllers hold the last command
+forever) and sends zero for every joint on finish, abort, error, watchdog trip
+and node exit.
 
 Safety: ``motion_enabled`` must be true to move a real joint; a simulated cell
 is marked with ``simulator: true``. The watchdog (see
-:mod:`jointwear_ros.cycle.runner`) runs in node time (``use_sim_time``
+:mod:`jointwear_ros.cycle.runner` and :mod:`jointwear_ros.cycle.robot`: every
+driven joint is watched, a held joint may not move more than ``hold_tolerance``)
+runs in node time (``use_sim_time``
 honoured); a second check in wall time catches a joint-state source that
 stops together with the clock it provides. A request is refused when the
 joint state is older than ``state_timeout`` in node time or
@@ -20,24 +38,27 @@ clock too, so its last state never looks old in sim time).
 Run-time parameters: setting ``motion_enabled`` to false stops a running
 cycle at once (zero command, state ABORTED with the reason), also on a
 simulator. The cycle settings (speeds, limits, ``max_speed``, timeouts,
-tolerances, ...) apply to the next request; while a cycle runs a change is
-refused with the reason (the running plan and its watchdog were checked
-with the old values). Topics, ``joint_name``, ``gear_ratio`` and the rates are
-read at start-up only (read-only parameters).
+tolerances, ``hold_tolerance``, ...) apply to the next request; while a cycle
+runs a change is refused with the reason (the running plan and its watchdog
+were checked with the old values). A node-level setting set at run time
+applies to every joint (its ``<joint>.<setting>`` parameters are set with it);
+``<joint>.<setting>`` to that joint only. Topics, ``joint_name``, ``joints``,
+``gear_ratio`` and the rates are read at start-up only (read-only parameters).
 
-Diagnostics: ``test_cycle: <joint>`` on ``/diagnostics``: OK while idle,
-running or after a DONE cycle; WARN after an ABORTED cycle; ERROR after a
-FAILED one (a watchdog stop), with the reason as the message; key/values
-state, cycle_id, speeds_done, speeds_total, last_fault, refused_requests,
-commands_sent.
+Diagnostics: ``test_cycle: <joint>`` on ``/diagnostics`` per driven joint: OK
+while idle, running or after a DONE cycle; WARN after an ABORTED cycle; ERROR
+after a FAILED one (a watchdog stop, also when a held joint tripped it), with
+the reason as the message; key/values state, cycle_id, speeds_done,
+speeds_total, last_fault, refused_requests, commands_sent. ``test_cycle: robot``
+reports the robot cycle as a whole the same way (key/values state, cycle_id,
+joints, joints_done, last_fault, refused_requests, commands_sent).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
-from dataclasses import replace
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from jointwear_msgs.msg import TestCycleStatus
@@ -55,19 +76,22 @@ from ..cycle import (
     DEFAULT_SPEEDS,
     CycleConfig,
     CycleRequestError,
-    CycleRunner,
     CycleState,
     JointReading,
-    plan_cycle,
+    RobotCycleRunner,
+    plan_robot_cycle,
 )
 from ..errors import JointwearError
 from .diagnostics import ERROR, OK, WARN, NodeDiagnostics
+from .joints import declare_joints, declare_per_joint, propagate_node_level
 from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
 
-__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "TestCycleNode", "main"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "TestCycleNode", "main"]
 
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", "joint_1", "the joint this node drives (looked up by name in /joint_states)",
+    ParamDecl("joint_name", "joint_1", "the joint this node drives when joints is empty (looked up by name in "
+              "/joint_states)", read_only=True),
+    ParamDecl("joints", [], "the joints this node drives, in velocity-command order (empty: joint_name)",
               read_only=True),
     ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)",
               read_only=True),
@@ -81,7 +105,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("max_speed", 280.0, "largest allowed speed, motor side, rad/s", 1e-3, 1e6),
     ParamDecl("min_speed", 1.0, "smallest allowed speed, motor side, rad/s", 1e-3, 1e6),
     ParamDecl("max_speeds", 32, "most speeds in one cycle"),
-    ParamDecl("max_duration", 3600.0, "longest planned cycle, s", 1.0, 1e6),
+    ParamDecl("max_duration", 3600.0, "longest planned cycle (all joints), s", 1.0, 1e6),
     ParamDecl("acceleration", 4.0, "joint acceleration of every move, rad/s^2", 1e-3, 1e4),
     ParamDecl("approach_speed", 0.5, "joint speed of approach moves, rad/s", 1e-3, 100.0),
     ParamDecl("steady_time", 0.3, "time at constant speed before the window, s", 0.0, 100.0),
@@ -95,6 +119,8 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("speed_tolerance", 0.05, "watchdog: relative speed error allowed at the window start", 1e-4, 10.0),
     ParamDecl("approach_tolerance", 0.01, "the joint must stand this close to a sweep start, rad", 1e-4, 1.0),
     ParamDecl("effort_limit", 150.0, "watchdog: largest allowed |effort|, N·m", 1e-3, 1e9),
+    ParamDecl("hold_tolerance", 0.02, "watchdog: largest move of a held joint from where the cycle found it, rad",
+              1e-5, 10.0),
     ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0,
               read_only=True),
     ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0, read_only=True),
@@ -108,7 +134,12 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 _CYCLE_FIELDS = ("speeds", "window_half_width", "position", "joint_limits", "limit_margin", "max_speed", "min_speed",
                  "max_speeds", "max_duration", "acceleration", "approach_speed", "steady_time", "settle_time",
                  "state_timeout", "speed_tolerance", "effort_limit", "approach_tolerance")
-#: Parameters that can change at run time
+#: Settings each joint may have of its own (``<joint>.<setting>``; the node-level value is the default)
+PER_JOINT = ("gear_ratio", "speeds", "window_half_width", "position", "joint_limits", "limit_margin", "max_speed",
+             "min_speed", "acceleration", "approach_speed", "steady_time", "settle_time", "speed_tolerance",
+             "effort_limit", "approach_tolerance")
+_DECLS = {d.name: d for d in PARAMETERS}
+#: Parameters that can change at run time (the per-joint ones, ``<joint>.<setting>``, too)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
 
@@ -127,6 +158,7 @@ def _cycle_value(name: str, value: Any) -> Any:
 _RELIABLE_1 = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_100 = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+_LEVEL = {CycleState.ABORTED: WARN, CycleState.FAILED: ERROR}
 
 
 class TestCycleNode(Node):
@@ -136,27 +168,29 @@ class TestCycleNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("test_cycle", **kwargs)
-        p = declare_parameters(self, PARAMETERS)
-        limits = list(_cycle_value("joint_limits", p["joint_limits"]))
-        self.config = CycleConfig(
-            joint_name=str(p["joint_name"]), gear_ratio=float(p["gear_ratio"]),
-            **{name: _cycle_value(name, p[name]) for name in _CYCLE_FIELDS},
-        )
-        self.config.check()
-        plan_cycle(self.config)  # the default speeds must be plannable
-        self.runner = CycleRunner(self.config)
-        self.joint_name = self.config.joint_name
+        p = declare_parameters(self, [d for d in PARAMETERS if d.name != "joints"])
+        self.joints = declare_joints(self, str(p["joint_name"]), _DECLS["joints"].description)
+        self.joint_name = self.joints[0]
+        live = [n for n in PER_JOINT if not _DECLS[n].read_only]
+        self._values = declare_per_joint(self, self.joints, [_DECLS[n] for n in PER_JOINT])
+        self.node_values = {name: _cycle_value(name, p[name]) for name in ("max_speeds", "max_duration", "state_timeout")}
+        self.configs = self._build_configs(self._values, self.node_values)
+        self.hold_tolerance = float(p["hold_tolerance"])
+        self.max_duration = float(p["max_duration"])
+        plan_robot_cycle(self.configs)  # the default speeds of every joint must be plannable
+        self.runner = RobotCycleRunner(self.configs, self.hold_tolerance)
         self.next_cycle_id = 1
-        self.reading: JointReading | None = None
-        self._wall_last_state: float | None = None
+        self.readings: dict[str, JointReading] = {}
+        self._wall_last: dict[str, float] = {}
         self.state_timeout_wall = float(p["state_timeout_wall"])
         self._last_status_key: tuple[Any, ...] | None = None
         self._last_status_time = -math.inf
         self.status_period = 1.0 / float(p["status_rate"])
         self.commands_sent = 0
-        self.last_command: float | None = None
+        self.last_command: list[float] | None = None
         self.refused_requests = 0
         self.last_fault = ""
+        self.last_faults: dict[str, str] = {}
 
         self.cmd_pub = self.create_publisher(Float64MultiArray, str(p["command_topic"]), _RELIABLE_10)
         self.status_pub = self.create_publisher(TestCycleStatus, "~/status", _RELIABLE_100,
@@ -169,16 +203,38 @@ class TestCycleNode(Node):
         self.create_timer(1.0 / float(p["command_rate"]), self._tick)
         self._wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(0.05, self._wall_watchdog, clock=self._wall)
-        self.diag = NodeDiagnostics(self, f"test_cycle: {self.joint_name}", self.joint_name,
-                                    period=float(p["diagnostics_period"]), message="idle")
-        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
+        period = float(p["diagnostics_period"])
+        self.diags = {j: NodeDiagnostics(self, f"test_cycle: {j}", j, period=period, message="idle")
+                      for j in self.joints}
+        self.robot_diag = NodeDiagnostics(self, "test_cycle: robot", "robot", period=period, message="idle")
+        self.add_pre_set_parameters_callback(propagate_node_level(live, self.joints))
+        on_parameter_change(self, self._on_parameters,
+                            LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in live))
         self._publish_status(force=True)
         self._update_diagnostics()
+        for j in self.joints:
+            c = self.configs[j]
+            self.get_logger().info(
+                f"test cycle for {j}: speeds {list(c.speeds)} rad/s (motor), window {c.position:g} ± "
+                f"{c.window_half_width:g} rad, limits {list(c.joint_limits)} rad"
+            )
         self.get_logger().info(
-            f"test cycle for {self.joint_name}: speeds {list(self.config.speeds)} rad/s (motor), window "
-            f"{self.config.position:g} ± {self.config.window_half_width:g} rad, limits {limits} rad"
+            f"driving {len(self.joints)} joint(s) {', '.join(self.joints)}, hold_tolerance {self.hold_tolerance:g} rad"
             + (", simulator" if p["simulator"] else f", motion_enabled={p['motion_enabled']}")
         )
+
+    @staticmethod
+    def _build_configs(values: Mapping[str, Mapping[str, Any]], node_values: Mapping[str, Any]) -> dict[str, CycleConfig]:
+        configs: dict[str, CycleConfig] = {}
+        for j, vals in values.items():
+            fields = {n: _cycle_value(n, v) for n, v in vals.items()}
+            cfg = CycleConfig(joint_name=j, **fields, **node_values)
+            try:
+                cfg.check()
+            except CycleRequestError as exc:
+                raise CycleRequestError(f"{j}: {exc}", exc.reason) from None
+            configs[j] = cfg
+        return configs
 
     # -- time ----------------------------------------------------------------
     def _now(self) -> float:
@@ -186,26 +242,31 @@ class TestCycleNode(Node):
 
     # -- inputs --------------------------------------------------------------
     def _on_joint_state(self, msg: JointState) -> None:
-        try:
-            i = list(msg.name).index(self.joint_name)
-        except ValueError:
-            return
-        try:
-            pos = float(msg.position[i])
-            vel = float(msg.velocity[i]) if len(msg.velocity) > i else math.nan
-            eff = float(msg.effort[i]) if len(msg.effort) > i else math.nan
-        except IndexError:
-            self.get_logger().warning(
-                f"JointState names {self.joint_name} but has no position for it; ignored", throttle_duration_sec=2.0
-            )
-            return
-        now = self._now()
-        self._wall_last_state = time.monotonic()
-        if now <= 0.0:
-            # use_sim_time and no /clock yet: the receipt time would be 0 and the state look
-            # 1.8e9 s old; wait for a state received on a running clock
-            return
-        self.reading = JointReading(now, pos, vel, eff)
+        names = list(msg.name)
+        now: float | None = None
+        wall = time.monotonic()
+        for j in self.joints:
+            try:
+                i = names.index(j)
+            except ValueError:
+                continue
+            try:
+                pos = float(msg.position[i])
+                vel = float(msg.velocity[i]) if len(msg.velocity) > i else math.nan
+                eff = float(msg.effort[i]) if len(msg.effort) > i else math.nan
+            except IndexError:
+                self.get_logger().warning(
+                    f"JointState names {j} but has no position for it; ignored", throttle_duration_sec=2.0
+                )
+                continue
+            if now is None:
+                now = self._now()
+            self._wall_last[j] = wall
+            if now <= 0.0:
+                # use_sim_time and no /clock yet: the receipt time would be 0 and the state look
+                # 1.8e9 s old; wait for a state received on a running clock
+                continue
+            self.readings[j] = JointReading(now, pos, vel, eff)
 
     def _on_run(self, req: RunTestCycle.Request, resp: RunTestCycle.Response) -> RunTestCycle.Response:
         resp.accepted = False
@@ -223,60 +284,80 @@ class TestCycleNode(Node):
             self._update_diagnostics()
         return resp
 
+    def _request(self, req: RunTestCycle.Request) -> tuple[list[str], list[float] | None]:
+        """The joints and window centres a request asks for (see the module docstring)."""
+        if len(req.joints):
+            return [str(j) for j in req.joints], [float(x) for x in req.positions] if len(req.positions) else None
+        if req.joint_name or len(self.joints) == 1:  # an older client: joint_name and position
+            return [req.joint_name or self.joint_name], [float(req.position)]
+        return [], [float(x) for x in req.positions] if len(req.positions) else None
+
     def _start(self, req: RunTestCycle.Request) -> str:
         if self.runner.running:
             st = self.runner.status()
             raise CycleRequestError(
-                f"cycle {st.cycle_id} is running (speed {st.speeds_done + 1} of {st.speeds_total}); "
+                f"cycle {st.cycle_id} is running ({st.joint_name}: speed {st.speeds_done + 1} of {st.speeds_total}); "
                 "wait for it to finish or call ~/abort", RefusalReason.BUSY,
             )
-        joint = req.joint_name or self.joint_name
-        if joint != self.joint_name:
-            raise CycleRequestError(f"unknown joint {joint!r}: this node drives {self.joint_name!r}",
+        joints, positions = self._request(req)
+        unknown = [j for j in joints if j not in self.configs]
+        if unknown:
+            drives = ", ".join(f"'{j}'" for j in self.joints)
+            raise CycleRequestError(f"unknown joint {unknown[0]!r}: this node drives {drives}",
                                     RefusalReason.WRONG_JOINT)
         simulator = bool(self.get_parameter("simulator").value)
         enabled = bool(self.get_parameter("motion_enabled").value)
         if not req.dry_run and not simulator and not enabled:
             raise CycleRequestError(
-                f"motion is disabled for {self.joint_name}: make sure the cell is clear and the velocity "
-                f"controller is active, then enable with 'ros2 param set {self.get_fully_qualified_name()} "
+                f"motion is disabled for {', '.join(joints or self.joints)}: make sure the cell is clear and the "
+                f"velocity controller is active, then enable with 'ros2 param set {self.get_fully_qualified_name()} "
                 "motion_enabled true' (or start with -p motion_enabled:=true)", RefusalReason.MOTION_DISABLED,
             )
         now = self._now()
-        r = self.reading
         speeds = [float(v) for v in req.speeds]
-        plan = plan_cycle(self.config, speeds, req.position, None if r is None else r.position)
-        if r is None and not req.dry_run:
-            raise CycleRequestError(
-                f"no joint state for {self.joint_name} received yet on {self.get_parameter('joint_states_topic').value}; "
-                "is the joint_state_broadcaster (or joint_sim) running?", RefusalReason.STATE_MISSING,
-            )
-        if r is not None and not req.dry_run and now - r.stamp > self.config.state_timeout:
-            raise CycleRequestError(
-                f"the joint state of {self.joint_name} is {now - r.stamp:.2f} s old (state_timeout "
-                f"{self.config.state_timeout:g} s); is the driver still publishing?", RefusalReason.STATE_STALE,
-            )
-        wall_age = math.inf if self._wall_last_state is None else time.monotonic() - self._wall_last_state
-        if r is not None and not req.dry_run and wall_age > self.state_timeout_wall:
-            # on sim time a simulator that died stops the clock too: its last state never ages in node time
-            raise CycleRequestError(
-                f"the joint state of {self.joint_name} is stale: none received for {wall_age:.2f} s of wall time "
-                f"(state_timeout_wall {self.state_timeout_wall:g} s); is the driver (or joint_sim) still running?", RefusalReason.STATE_STALE,
-            )
+        plan = plan_robot_cycle(self.configs, joints, speeds, positions,
+                                {j: r.position for j, r in self.readings.items()}, self.max_duration)
+        if not req.dry_run:
+            self._check_states(now)
         if req.dry_run:
             return f"dry run OK: {plan.summary()}; plan duration {plan.duration:.1f} s"
         cycle_id = self.next_cycle_id
         self.next_cycle_id += 1
-        self.runner.start(plan, cycle_id, now)
+        self.runner.start(plan, cycle_id, now, {j: r.position for j, r in self.readings.items()})
         self.get_logger().info(f"cycle {cycle_id} started: {plan.summary()}")
         self._publish_status(force=True)
         self._update_diagnostics()
         return f"cycle {cycle_id} started: {plan.summary()}"
 
+    def _check_states(self, now: float) -> None:
+        """Refuse when a driven joint's state is missing or stale (every joint is watched, not only those tested)."""
+        topic = self.get_parameter("joint_states_topic").value
+        for j in self.joints:
+            r = self.readings.get(j)
+            if r is None:
+                raise CycleRequestError(
+                    f"no joint state for {j} received yet on {topic}; "
+                    "is the joint_state_broadcaster (or joint_sim) running?", RefusalReason.STATE_MISSING,
+                )
+            timeout = self.configs[j].state_timeout
+            if now - r.stamp > timeout:
+                raise CycleRequestError(
+                    f"the joint state of {j} is {now - r.stamp:.2f} s old (state_timeout "
+                    f"{timeout:g} s); is the driver still publishing?", RefusalReason.STATE_STALE,
+                )
+            wall_age = time.monotonic() - self._wall_last.get(j, -math.inf)
+            if wall_age > self.state_timeout_wall:
+                # on sim time a simulator that died stops the clock too: its last state never ages in node time
+                raise CycleRequestError(
+                    f"the joint state of {j} is stale: none received for {wall_age:.2f} s of wall time "
+                    f"(state_timeout_wall {self.state_timeout_wall:g} s); is the driver (or joint_sim) still running?",
+                    RefusalReason.STATE_STALE,
+                )
+
     def _on_abort(self, req: Trigger.Request, resp: Trigger.Response) -> Trigger.Response:
         cid = self.runner.cycle_id
         if self.runner.abort("aborted by operator"):
-            self._send(0.0)
+            self._send_zero()
             self._publish_status(force=True)
             self.get_logger().warning(f"cycle {cid} aborted by operator")
             self._note_end()
@@ -288,20 +369,25 @@ class TestCycleNode(Node):
         return resp
 
     # -- outputs -------------------------------------------------------------
-    def _send(self, velocity: float) -> None:
-        self.cmd_pub.publish(Float64MultiArray(data=[float(velocity)]))
+    def _send(self, commands: Mapping[str, float]) -> None:
+        data = [float(commands.get(j, 0.0)) for j in self.joints]
+        self.cmd_pub.publish(Float64MultiArray(data=data))
         self.commands_sent += 1
-        self.last_command = float(velocity)
+        self.last_command = data
+
+    def _send_zero(self) -> None:
+        self._send({})
 
     def _publish_status(self, force: bool = False) -> None:
         st = self.runner.status()
-        key = (st.cycle_id, st.state, st.phase, st.current_speed, st.speeds_done, st.speeds_total, st.message)
+        key = (st.cycle_id, st.joint_name, st.joints_done, st.state, st.phase, st.current_speed, st.speeds_done,
+               st.speeds_total, st.message)
         now = self._now()
         if not force and key == self._last_status_key and now - self._last_status_time < self.status_period:
             return
         msg = TestCycleStatus()
         msg.header.stamp = self.get_clock().now().to_msg()
-        msg.joint_name = self.joint_name
+        msg.joint_name = st.joint_name
         msg.cycle_id = st.cycle_id
         msg.state = int(st.state)
         msg.phase = int(st.phase)
@@ -311,21 +397,27 @@ class TestCycleNode(Node):
         msg.window_center = float(st.window_center)
         msg.window_half_width = float(st.window_half_width)
         msg.message = st.message
+        msg.joints = list(st.joints)
+        msg.joints_done = st.joints_done
         self.status_pub.publish(msg)
-        if key != self._last_status_key and hasattr(self, "diag"):
+        if key != self._last_status_key and hasattr(self, "robot_diag"):
             self._update_diagnostics(publish=False)  # the periodic republication shows the progress
         self._last_status_key = key
         self._last_status_time = now
 
     def _tick(self) -> None:
         if self.runner.running:
-            wall_age = None
-            if self.get_parameter("use_sim_time").value and self._wall_last_state is not None:
-                wall_age = time.monotonic() - self._wall_last_state
-            cmd = self.runner.update(self._now(), self.reading, wall_age)
+            wall_ages = None
+            if self.get_parameter("use_sim_time").value:
+                mono = time.monotonic()
+                wall_ages = {j: mono - t for j, t in self._wall_last.items()}
+            cmd = self.runner.update(self._now(), self.readings, wall_ages)
             self._send(cmd)
             if not self.runner.running:
                 self._report_end()
+            elif self.runner.status().state == CycleState.DONE:
+                self._publish_status(force=True)  # one joint done: its DONE goes out before the next joint starts
+                return
         self._publish_status()
 
     def _report_end(self) -> None:
@@ -344,24 +436,50 @@ class TestCycleNode(Node):
         st = self.runner.status()
         if st.state in (CycleState.ABORTED, CycleState.FAILED):
             self.last_fault = f"cycle {st.cycle_id} {st.state.name}: {st.message}"
+            for j, res in self.runner.results.items():
+                if res.cycle_id == st.cycle_id and res.state in (CycleState.ABORTED, CycleState.FAILED):
+                    self.last_faults[j] = f"cycle {res.cycle_id} {res.state.name}: {res.message}"
         self._update_diagnostics()
 
     def _update_diagnostics(self, publish: bool = True) -> None:
+        counters = [("refused_requests", str(self.refused_requests)), ("commands_sent", str(self.commands_sent))]
         st = self.runner.status()
-        level = {CycleState.ABORTED: WARN, CycleState.FAILED: ERROR}.get(st.state, OK)
-        if st.state == CycleState.RUNNING:
-            message = f"cycle {st.cycle_id} running: speed {st.speeds_done + 1} of {st.speeds_total}"
+        if self.runner.running:
+            message = f"cycle {st.cycle_id} running: {st.joint_name} ({st.joints_done + 1} of {len(st.joints)})"
         elif st.state == CycleState.IDLE:
             message = "idle"
         else:
             message = f"cycle {st.cycle_id} {st.state.name}: {st.message}"
-        values = [("state", st.state.name), ("cycle_id", str(st.cycle_id)), ("speeds_done", str(st.speeds_done)),
-                  ("speeds_total", str(st.speeds_total)), ("last_fault", self.last_fault or "none"),
-                  ("refused_requests", str(self.refused_requests)), ("commands_sent", str(self.commands_sent))]
-        if publish:
-            self.diag.update(level, message, values)
-        else:
-            self.diag.set(level, message, values)
+        robot_state = CycleState.RUNNING if self.runner.running else st.state
+        values = [("state", robot_state.name), ("cycle_id", str(st.cycle_id)), ("joints", ",".join(st.joints)),
+                  ("joints_done", str(st.joints_done)), ("last_fault", self.last_fault or "none"), *counters]
+        reports = [(self.robot_diag, _LEVEL.get(robot_state, OK), message, values)]
+        for j, diag in self.diags.items():
+            res = self.runner.results.get(j)
+            if res is None:
+                level, message, values = OK, "idle", [("state", "IDLE"), ("cycle_id", "0"), ("speeds_done", "0"),
+                                                      ("speeds_total", "0")]
+            else:
+                state = res.state
+                speeds_done = res.speeds_done
+                if state == CycleState.RUNNING and j == st.joint_name and self.runner.running:
+                    state, speeds_done = st.state, st.speeds_done
+                if state == CycleState.RUNNING:
+                    message = f"cycle {res.cycle_id} running: speed {speeds_done + 1} of {res.speeds_total}"
+                elif state == CycleState.IDLE:
+                    message = res.message
+                else:
+                    message = f"cycle {res.cycle_id} {state.name}: {res.message}"
+                level = _LEVEL.get(state, OK)
+                values = [("state", state.name), ("cycle_id", str(res.cycle_id)), ("speeds_done", str(speeds_done)),
+                          ("speeds_total", str(res.speeds_total))]
+            values = [*values, ("last_fault", self.last_faults.get(j, "none")), *counters]
+            reports.append((diag, level, message, values))
+        for diag, level, message, values in reports:
+            if publish:
+                diag.update(level, message, values)
+            else:
+                diag.set(level, message, values)
 
     # -- run-time parameters -------------------------------------------------
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
@@ -373,28 +491,44 @@ class TestCycleNode(Node):
                    else "simulator set to false while motion_enabled is false")
             cid = self.runner.cycle_id
             self.runner.abort(f"stopped: {why} at run time")
-            self._send(0.0)
+            self._send_zero()
             self._publish_status(force=True)
             self.get_logger().warning(f"cycle {cid} stopped: {why}; zero velocity sent")
             self._note_end()
-        cycle = {k: _cycle_value(k, v) for k, v in changes.items() if k in _CYCLE_FIELDS}
+        cycle = {k: v for k, v in changes.items()
+                 if k in _CYCLE_FIELDS or k == "hold_tolerance" or ("." in k and k.split(".", 1)[0] in self.configs)}
         if cycle and self.runner.running:
-            return (f"cycle {self.runner.cycle_id} is running: {', '.join(sorted(cycle))} cannot change during a "
+            # name what was asked for: a node-level name, not the <joint>.<name> it set with it
+            asked = sorted(k for k in cycle if not ("." in k and k.split(".", 1)[1] in cycle))
+            return (f"cycle {self.runner.cycle_id} is running: {', '.join(asked)} cannot change during a "
                     "cycle (its plan and watchdog use the old values); set it again when the cycle has ended, or "
                     "call ~/abort first")
-        new = self.config
+        values = {j: dict(v) for j, v in self._values.items()}
+        node_values = dict(self.node_values)
+        for k, v in cycle.items():
+            if "." in k:
+                j, name = k.split(".", 1)
+                values[j][name] = v
+            elif k in node_values:
+                node_values[k] = _cycle_value(k, v)
+        hold = float(changes.get("hold_tolerance", self.hold_tolerance))
+        max_duration = float(changes.get("max_duration", self.max_duration))
+        configs = self.configs
         if cycle:
-            new = replace(self.config, **cycle)
             try:
-                new.check()
-                plan_cycle(new)  # the default speeds must still be plannable
+                configs = self._build_configs(values, node_values)
+                plan_robot_cycle(configs, max_duration=max_duration)  # the default speeds must still be plannable
             except JointwearError as exc:
                 return str(exc)
         wall = float(changes.get("state_timeout_wall", self.state_timeout_wall))
         if not (math.isfinite(wall) and wall > 0):
             return f"state_timeout_wall {wall!r} must be a number of seconds > 0"
-        self.config = new
-        self.runner.config = new
+        if not (math.isfinite(hold) and hold > 0):
+            return f"hold_tolerance {hold!r} must be a distance in rad > 0"
+        self._values, self.node_values, self.configs = values, node_values, configs
+        self.max_duration = max_duration
+        self.hold_tolerance = hold
+        self.runner.reconfigure(configs, hold)
         self.state_timeout_wall = wall
         return None
 
@@ -402,22 +536,23 @@ class TestCycleNode(Node):
         # node time may stop with the joint-state source (a simulator that is also the clock)
         if not self.runner.running:
             return
-        last = self._wall_last_state
-        age = math.inf if last is None else time.monotonic() - last
-        if age > self.state_timeout_wall:
+        now = time.monotonic()
+        ages = {j: now - self._wall_last.get(j, -math.inf) for j in self.joints}
+        j = max(ages, key=lambda k: ages[k])
+        if ages[j] > self.state_timeout_wall:
             self.runner.fail(
-                f"watchdog: no joint state of {self.joint_name} for {age:.3f} s wall time "
-                f"(state_timeout_wall {self.state_timeout_wall:g} s)"
+                f"watchdog: no joint state of {j} for {ages[j]:.3f} s wall time "
+                f"(state_timeout_wall {self.state_timeout_wall:g} s)", j,
             )
-            self._send(0.0)
+            self._send_zero()
             self._report_end()
             self._publish_status(force=True)
 
     def on_shutdown(self) -> None:
-        """Called by ``run_node`` on exit: stop a running cycle and send zero velocity."""
+        """Called by ``run_node`` on exit: stop a running cycle and send zero velocity to every joint."""
         if self.runner.abort("node shutting down"):
             self._publish_status(force=True)
-        self._send(0.0)
+        self._send_zero()
         for pub in (self.cmd_pub, self.status_pub):
             try:
                 pub.wait_for_all_acked(Duration(seconds=0.5))

@@ -3,12 +3,14 @@
 :class:`JointSim` is a robot joint behind a velocity PI controller, with
 inertia, gravity, the full friction model (wear, temperature, optional hidden
 effects) and torque noise designed so that friction observations scatter like
-the paper's ``sigma_e``. The ``joint_sim`` node wraps it.
+the paper's ``sigma_e``. :class:`RobotSim` runs N of them on one clock behind
+one command array. The ``joint_sim`` node wraps it.
 """
 
 from __future__ import annotations
 
 from .friction import FrictionTable
 from .joint import JointSample, JointSim, JointSimConfig
+from .robot import RobotSim
 
-__all__ = ["FrictionTable", "JointSample", "JointSim", "JointSimConfig"]
+__all__ = ["FrictionTable", "JointSample", "JointSim", "JointSimConfig", "RobotSim"]

@@ -1,0 +1,380 @@
+"""A robot cycle: every joint of a robot tested in sequence, the others held still (pure).
+
+:func:`plan_robot_cycle` checks a whole request (the joints, one window centre
+per joint, the speeds) and plans every joint before anything moves;
+:class:`RobotCycleRunner` runs the plan with one :class:`~jointwear_ros.cycle.CycleRunner`
+per joint, one after another, and a watchdog over **every** joint it drives:
+
+- the joint under test: its own runner's watchdog (stale or non-finite state,
+  limits, effort, speed at the window start, moves that do not finish);
+- every other joint (held at zero velocity): a state older than its
+  ``state_timeout``, a non-finite reading, a position outside its
+  ``joint_limits``, ``|effort|`` above its ``effort_limit``, or a move of more
+  than ``hold_tolerance`` from where the cycle found it (a joint tested earlier
+  in the cycle: from where its test left it).
+
+Any trip stops the robot cycle: state FAILED, zero for every joint, the reason
+in the message, with the joints that were not tested named.
+
+Status stream (``TestCycleStatus`` per joint, one cycle id): RUNNING .. DONE for
+the first joint, RUNNING .. DONE for the next, ...; :meth:`RobotCycleRunner.status`
+reports a finished joint's DONE for one update before the next joint starts, so a
+node that publishes the status after each update publishes every joint's DONE.
+
+>>> configs = {"joint_1": CycleConfig(joint_name="joint_1"), "joint_2": CycleConfig(joint_name="joint_2")}
+>>> plan = plan_robot_cycle(configs, ["joint_2", "joint_1"], speeds=[40.0], start_positions={"joint_1": 0.0, "joint_2": 0.0})
+>>> plan.joints, [len(p.speeds) for p in plan.plans], round(plan.duration, 1)
+(('joint_2', 'joint_1'), [1, 1], 8.2)
+>>> plan_robot_cycle(configs, ["joint_1", "joint_9"])
+Traceback (most recent call last):
+...
+jointwear_ros.cycle.plan.CycleRequestError: unknown joint 'joint_9': this node drives 'joint_1', 'joint_2'
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from ..contract import RefusalReason
+from .plan import CycleConfig, CyclePlan, CycleRequestError, plan_cycle
+from .runner import CycleRunner, CycleState, JointReading, Phase
+
+__all__ = ["JointResult", "RobotCycleRunner", "RobotPlan", "RobotStatusView", "plan_robot_cycle"]
+
+
+@dataclass(frozen=True)
+class RobotPlan:
+    """A validated robot cycle: the joints in test order and each joint's :class:`CyclePlan`."""
+
+    joints: tuple[str, ...]
+    plans: tuple[CyclePlan, ...]
+
+    @property
+    def duration(self) -> float:
+        """Planned duration of the whole robot cycle (the joints one after another), s."""
+        return float(sum(p.duration for p in self.plans))
+
+    def plan_of(self, joint: str) -> CyclePlan:
+        return self.plans[self.joints.index(joint)]
+
+    def summary(self) -> str:
+        """One line per joint joined by ``; ``, and the total when there are several joints."""
+        parts = [f"{j}: {p.summary()}" for j, p in zip(self.joints, self.plans, strict=True)]
+        if len(self.joints) > 1:
+            parts.append(f"{len(self.joints)} joints, about {self.duration:.1f} s in total")
+        return "; ".join(parts)
+
+
+def _names(joints: Sequence[str]) -> str:
+    return ", ".join(f"'{j}'" for j in joints)
+
+
+def plan_robot_cycle(
+    configs: Mapping[str, CycleConfig],
+    joints: Sequence[str] = (),
+    speeds: Sequence[float] | None = None,
+    positions: Sequence[float] | None = None,
+    start_positions: Mapping[str, float] | None = None,
+    max_duration: float | None = None,
+) -> RobotPlan:
+    """Check a robot-cycle request and plan every joint; raise :class:`CycleRequestError` if any cannot run.
+
+    Parameters
+    ----------
+    configs
+        Every joint the node drives, in command order, with its settings.
+    joints
+        The joints to test, in this order; empty: every joint of ``configs``.
+        A joint not in ``configs`` or named twice: ``REASON_WRONG_JOINT``.
+    speeds
+        Motor-side speeds for every joint; ``None`` or empty: each joint's configured speeds.
+    positions
+        One window centre per joint of ``joints`` (joint rad); ``None`` or empty: each
+        joint's configured position.
+    start_positions
+        Where each joint stands now (its first approach starts there); a joint missing: its centre.
+    max_duration
+        Longest planned robot cycle (all joints), s; ``None``: no limit beyond each joint's own.
+    """
+    order = list(joints) if len(joints) else list(configs)
+    unknown = [j for j in order if j not in configs]
+    if unknown:
+        raise CycleRequestError(f"unknown joint {unknown[0]!r}: this node drives {_names(list(configs))}",
+                                RefusalReason.WRONG_JOINT)
+    twice = sorted({j for j in order if order.count(j) > 1})
+    if twice:
+        raise CycleRequestError(f"joint {twice[0]!r} is named more than once in joints {order}: name each joint once",
+                                RefusalReason.WRONG_JOINT)
+    centres = list(positions) if positions is not None and len(positions) else None
+    if centres is not None and len(centres) != len(order):
+        raise CycleRequestError(
+            f"positions has {len(centres)} value(s) for {len(order)} joint(s) ({', '.join(order)}): give one "
+            "window centre per joint, in the order of joints, or none for the configured positions"
+        )
+    start = dict(start_positions or {})
+    plans: list[CyclePlan] = []
+    for i, j in enumerate(order):
+        try:
+            plans.append(plan_cycle(configs[j], speeds, None if centres is None else float(centres[i]), start.get(j)))
+        except CycleRequestError as exc:
+            raise CycleRequestError(f"{j}: {exc}", exc.reason) from None
+    plan = RobotPlan(tuple(order), tuple(plans))
+    if max_duration is not None and plan.duration > max_duration:
+        raise CycleRequestError(
+            f"the robot cycle of {len(order)} joint(s) would take about {plan.duration:.0f} s, more than max_duration "
+            f"{max_duration:g} s; test fewer joints per cycle or use fewer or faster speeds",
+            RefusalReason.BAD_SPEEDS,
+        )
+    return plan
+
+
+@dataclass(frozen=True)
+class RobotStatusView:
+    """What the status topic reports: ``TestCycleStatus`` without the header."""
+
+    joint_name: str
+    joints: tuple[str, ...]
+    joints_done: int
+    cycle_id: int
+    state: CycleState
+    phase: Phase
+    current_speed: float
+    speeds_done: int
+    speeds_total: int
+    window_center: float
+    window_half_width: float
+    message: str
+
+
+@dataclass(frozen=True)
+class JointResult:
+    """How one joint fared in the last robot cycle that included it (for its diagnostics)."""
+
+    cycle_id: int
+    state: CycleState
+    message: str
+    speeds_done: int = 0
+    speeds_total: int = 0
+
+
+class RobotCycleRunner:
+    """Runs one robot cycle at a time (see the module docstring).
+
+    Parameters
+    ----------
+    configs
+        Every joint the node drives (name -> settings), in command order.
+    hold_tolerance
+        Largest move of a held joint from where the cycle found it, rad.
+    """
+
+    def __init__(self, configs: Mapping[str, CycleConfig], hold_tolerance: float = 0.02) -> None:
+        if not configs:
+            raise CycleRequestError("a robot cycle needs at least one joint")
+        self.configs = dict(configs)
+        for c in self.configs.values():
+            c.check()
+        self.hold_tolerance = float(hold_tolerance)
+        if not (math.isfinite(self.hold_tolerance) and self.hold_tolerance > 0):
+            raise CycleRequestError(f"hold_tolerance must be finite and > 0 rad, got {hold_tolerance}")
+        self.names: tuple[str, ...] = tuple(self.configs)
+        self.state = CycleState.IDLE
+        self.cycle_id = 0
+        self.plan: RobotPlan | None = None
+        self.index = 0  # the joint under test: plan.joints[index]
+        self.message = "idle"
+        self.runner: CycleRunner | None = None
+        self.results: dict[str, JointResult] = {}
+        self.fault_joint = ""  # the joint whose reading tripped the last watchdog stop
+        self._between = False  # a joint just finished (its DONE is the status); the next starts on the next update
+        self._hold: dict[str, float] = {}
+        self._t_start = 0.0
+
+    # -- control -------------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self.state == CycleState.RUNNING
+
+    @property
+    def joint_name(self) -> str:
+        """The joint under test (the last one tested when idle; the first configured before any cycle)."""
+        if self.plan is None:
+            return self.names[0]
+        return self.plan.joints[min(self.index, len(self.plan.joints) - 1)]
+
+    def reconfigure(self, configs: Mapping[str, CycleConfig], hold_tolerance: float | None = None) -> None:
+        """New settings for the next cycle (refused while one runs: its plan used the old ones)."""
+        if self.running:
+            raise RuntimeError("a robot cycle is running")
+        if list(configs) != list(self.names):
+            raise CycleRequestError(f"the driven joints cannot change: {list(self.names)} -> {list(configs)}")
+        self.configs = dict(configs)
+        if hold_tolerance is not None:
+            self.hold_tolerance = float(hold_tolerance)
+
+    def start(self, plan: RobotPlan, cycle_id: int, now: float, positions: Mapping[str, float] | None = None) -> None:
+        """Start ``plan``; ``positions`` are where the joints stand (the held joints' references)."""
+        if self.running:
+            raise RuntimeError("a robot cycle is already running")
+        self.plan = plan
+        self.cycle_id = int(cycle_id)
+        self.state = CycleState.RUNNING
+        self.index = 0
+        self.fault_joint = ""
+        self._between = False
+        self._hold = {j: float(p) for j, p in (positions or {}).items() if math.isfinite(p)}
+        self._t_start = now
+        for j in plan.joints:
+            self.results[j] = JointResult(self.cycle_id, CycleState.IDLE, f"waiting in cycle {cycle_id}", 0,
+                                          len(plan.plan_of(j).speeds))
+        self._start_joint(now)
+
+    def _start_joint(self, now: float) -> None:
+        assert self.plan is not None
+        j = self.plan.joints[self.index]
+        self.runner = CycleRunner(self.configs[j])
+        self.runner.start(self.plan.plans[self.index], self.cycle_id, now)
+        self.message = self.runner.message
+        self._hold.pop(j, None)  # moving now; its reference is set again where its test leaves it
+        self.results[j] = JointResult(self.cycle_id, CycleState.RUNNING, self.runner.message, 0,
+                                      len(self.plan.plans[self.index].speeds))
+
+    def abort(self, reason: str = "aborted by operator") -> bool:
+        """Stop a running robot cycle (ABORTED); False if none was running."""
+        if not self.running:
+            return False
+        self._stop(CycleState.ABORTED, reason)
+        return True
+
+    def fail(self, reason: str, joint: str = "") -> bool:
+        """Trip: stop a running robot cycle with FAILED; False if none was running."""
+        if not self.running:
+            return False
+        self.fault_joint = joint
+        self._stop(CycleState.FAILED, reason)
+        return True
+
+    def _stop(self, state: CycleState, reason: str) -> None:
+        assert self.plan is not None
+        if self._between:  # the last joint finished; the stop belongs to the next one, which never started
+            self._between = False
+            self.index += 1
+            self.runner = None
+        j = self.plan.joints[self.index]
+        rest = self.plan.joints[self.index + 1:]
+        message = reason + (f"; not tested: {', '.join(rest)}" if rest else "")
+        if self.runner is not None:
+            if state == CycleState.ABORTED:
+                self.runner.abort(message)
+            else:
+                self.runner.fail(message)
+        self.state = state
+        self.message = message
+        done = 0 if self.runner is None else self.runner.speeds_done
+        self.results[j] = JointResult(self.cycle_id, state, message, done, len(self.plan.plans[self.index].speeds))
+        for k in rest:
+            self.results[k] = JointResult(self.cycle_id, CycleState.IDLE,
+                                          f"not tested: cycle {self.cycle_id} stopped at {j}", 0,
+                                          len(self.plan.plan_of(k).speeds))
+        if self.fault_joint and self.fault_joint != j:
+            self.results[self.fault_joint] = JointResult(self.cycle_id, CycleState.FAILED, message)
+
+    # -- status --------------------------------------------------------------
+    @property
+    def commands(self) -> dict[str, float]:
+        """The velocity command of every driven joint (0 but for the joint under test while it moves)."""
+        out = dict.fromkeys(self.names, 0.0)
+        if self.running and not self._between and self.runner is not None and self.runner.running:
+            out[self.joint_name] = self.runner.command
+        return out
+
+    def status(self) -> RobotStatusView:
+        plan = self.plan
+        if plan is None:
+            cfg = self.configs[self.names[0]]
+            return RobotStatusView(self.names[0], (), 0, self.cycle_id, self.state, Phase.NONE, 0.0, 0, 0,
+                                   cfg.position, cfg.window_half_width, self.message)
+        i = min(self.index, len(plan.joints) - 1)
+        p = plan.plans[i]
+        if self.runner is None:  # stopped before this joint started
+            return RobotStatusView(plan.joints[i], plan.joints, i, self.cycle_id, self.state, Phase.NONE, 0.0, 0,
+                                   len(p.speeds), p.center, p.half_width, self.message)
+        st = self.runner.status()
+        state, message = (st.state, st.message) if self.running else (self.state, self.message)
+        return RobotStatusView(plan.joints[i], plan.joints, i, self.cycle_id, state, st.phase, st.current_speed,
+                               st.speeds_done, st.speeds_total, st.window_center, st.window_half_width, message)
+
+    # -- the machine ---------------------------------------------------------
+    def update(self, now: float, readings: Mapping[str, JointReading | None],
+               wall_ages: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Advance; return the command of every driven joint (joint rad/s; all 0 unless running).
+
+        ``readings``: the latest reading of each driven joint; ``wall_ages``: their
+        wall-clock ages (give them when ``now`` is simulated time, see
+        :meth:`CycleRunner.update`).
+        """
+        if not self.running or self.plan is None:
+            return self.commands
+        ages = wall_ages or {}
+        under_test = None if self._between else self.joint_name
+        for j in self.names:
+            if j == under_test:
+                continue
+            reason = self._hold_watchdog(j, now, readings.get(j), ages.get(j))
+            if reason is not None:
+                self.fail(f"watchdog: {reason}", j)
+                return self.commands
+        if self._between:
+            self._between = False
+            self.index += 1
+            self._start_joint(now)
+        runner = self.runner
+        assert runner is not None
+        j = self.joint_name
+        r = readings.get(j)
+        runner.update(now, r, ages.get(j))
+        if runner.state == CycleState.RUNNING:
+            self.message = runner.message
+            return self.commands
+        n = len(self.plan.plans[self.index].speeds)
+        if runner.state == CycleState.DONE:
+            self.results[j] = JointResult(self.cycle_id, CycleState.DONE, runner.message, runner.speeds_done, n)
+            if r is not None and math.isfinite(r.position):
+                self._hold[j] = r.position
+            if self.index + 1 < len(self.plan.joints):
+                self._between = True
+                self.message = runner.message
+            else:
+                self.state = CycleState.DONE
+                k = len(self.plan.joints)
+                self.message = (runner.message if k == 1
+                                else f"done: {k} joints in {now - self._t_start:.1f} s ({j}: {runner.message})")
+        else:  # FAILED by the joint's own watchdog (the runner never ends ABORTED by itself)
+            if runner.message.startswith("watchdog:"):
+                self.fault_joint = j
+            self._stop(runner.state, runner.message)
+        return self.commands
+
+    def _hold_watchdog(self, j: str, now: float, r: JointReading | None, wall_age: float | None) -> str | None:
+        cfg = self.configs[j]
+        if r is None:
+            return f"no joint state for held joint {j}"
+        age = now - r.stamp
+        if age > cfg.state_timeout and (wall_age is None or wall_age > cfg.state_timeout):
+            return f"joint state of held joint {j} stale for {age:.3f} s (state_timeout {cfg.state_timeout:g} s)"
+        if not (math.isfinite(r.position) and math.isfinite(r.velocity) and math.isfinite(r.effort)):
+            return (f"joint state of held joint {j} not finite (position {r.position}, velocity {r.velocity}, "
+                    f"effort {r.effort})")
+        if abs(r.effort) > cfg.effort_limit:
+            return f"held joint {j}: |effort| {abs(r.effort):.1f} N·m > effort_limit {cfg.effort_limit:g} N·m"
+        lo, hi = cfg.joint_limits
+        if not lo <= r.position <= hi:
+            return f"held joint {j} at {r.position:.3f} rad, outside its joint limits [{lo:g}, {hi:g}] rad"
+        ref = self._hold.setdefault(j, r.position)
+        if abs(r.position - ref) > self.hold_tolerance:
+            return (f"held joint {j} moved {r.position - ref:+.3f} rad from {ref:.3f} rad "
+                    f"(hold_tolerance {self.hold_tolerance:g} rad)")
+        return None
+
