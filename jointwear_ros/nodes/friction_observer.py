@@ -381,7 +381,8 @@ class FrictionObserverNode(Node):
                   ("temperatures_skipped", str(core.temperatures_skipped)),
                   ("buffered_samples", str(core.buffered_samples)), ("joint_missing", str(ch.missing)),
                   ("gear_ratio", f"{core.config.gear_ratio:g}"), ("torque_scale", f"{core.config.torque_scale:g}"),
-                  ("ignored_messages", str(self.ignored_messages))]
+                  ("ignored_messages", str(self.ignored_messages)),
+                  ("observation_subscribers", str(self.pub.get_subscription_count()))]
         if (rej - r0, bad - b0, lost - l0) != (0, 0, 0):
             text = (f"cycle {ch.cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} lost "
                     f"message(s); latest: {ch.last_problem}")
