@@ -1,11 +1,19 @@
 """Offline replay: a recorded bag through the live nodes' pure cores, in log-time order.
 
 :func:`replay_bag` reads a rosbag2/MCAP bag (no ROS runtime), feeds its ``/joint_states``,
-``/test_cycle/status`` and temperature messages to :class:`~jointwear_ros.observer.FrictionObserverCore`
-and the observations to :class:`~jointwear_ros.monitor.WearMonitor`, exactly as the
-``friction_observer`` and ``wear_estimator`` nodes do live, and compares what it gets with the
-observations and estimates the bag recorded. ``jointwear replay``, ``jointwear history import
---reestimate`` and the fleet re-analysis use it; the live nodes never do.
+``/test_cycle/status`` and temperature messages to one :class:`~jointwear_ros.observer.FrictionObserverCore`
+per joint and the observations to one :class:`~jointwear_ros.monitor.WearMonitor` per joint,
+exactly as the ``friction_observer`` and ``wear_estimator`` nodes do live (docs/robot.md: each
+JointState split by name, each status to its ``joint_name``'s cores, each temperature to its
+``header.frame_id``'s), and compares what it gets with the observations and estimates the bag
+recorded, per (joint, cycle). ``jointwear replay``, ``jointwear history import --reestimate``
+and the fleet re-analysis use it; the live nodes never do.
+
+**Which joints.** The joints the live observer served, from the bag's ``/parameter_events``
+(its ``joints``, or its ``joint_name`` when it ran one joint); when the bag has no recorded
+parameters (or they are ignored), every joint named by the bag's test-cycle statuses; when
+those name none, the configured ``joints`` (or ``joint_name``). Per-joint settings
+(``<joint>.<setting>``, recorded or configured) apply to their joint.
 """
 
 from __future__ import annotations
@@ -28,7 +36,6 @@ from .io.bags import (
     bag_messages_lost,
     check_bag_path,
     estimate_fields,
-    joint_sample,
     read_messages,
     status_fields,
     temperature_value,
@@ -58,20 +65,34 @@ class ReplayResult:
     #: per topic, messages the recorder was told were lost while recording (the bag is incomplete)
     messages_lost: dict[str, int] = field(default_factory=dict)
 
-    def comparison(self) -> dict[str, Any]:
-        """Replayed vs recorded: observations matched by (cycle_id, speed), estimates by cycle_id.
+    #: the joints replayed (each through its own cores), in order
+    joints: list[str] = field(default_factory=list)
 
-        A cycle re-estimated after a late observation has several results on
-        each side; the newest of each is compared (what a consumer keeps).
+    def comparison(self, joint: str | None = None) -> dict[str, Any]:
+        """Replayed vs recorded: observations matched by (joint, cycle_id, speed), estimates by (joint, cycle_id).
+
+        ``joint`` restricts it to one joint. A cycle re-estimated after a late
+        observation has several results on each side; the newest of each is
+        compared (what a consumer keeps). A recorded message without a joint
+        name is taken for the single replayed joint.
         """
+        single = self.joints[0] if len(self.joints) == 1 else ""
+
+        def jn(name: Any) -> str:
+            return str(name) or single
+
         numeric = ("tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position",
                    "samples_plus", "samples_minus")
-        rec = {(int(o["cycle_id"]), round(float(o["speed"]), 9)): o for o in self.recorded_observations}
+        rec_obs = [o for o in self.recorded_observations if joint is None or jn(o["joint_name"]) == joint]
+        rec_est = [e for e in self.recorded_estimates if joint is None or jn(e["joint_name"]) == joint]
+        observations = [o for o in self.observations if joint is None or o.joint_name == joint]
+        cycles = [c for c in self.cycles if joint is None or c.joint_name == joint]
+        rec = {(jn(o["joint_name"]), int(o["cycle_id"]), round(float(o["speed"]), 9)): o for o in rec_obs}
         matched, max_diff, missing = 0, 0.0, []
-        for o in self.observations:
-            r = rec.get((int(o.cycle_id), round(float(o.speed), 9)))
+        for o in observations:
+            r = rec.get((o.joint_name, int(o.cycle_id), round(float(o.speed), 9)))
             if r is None:
-                missing.append(f"cycle {o.cycle_id} speed {o.speed:g}")
+                missing.append(f"{o.joint_name} cycle {o.cycle_id} speed {o.speed:g}")
                 continue
             matched += 1
             for f in numeric:
@@ -79,11 +100,11 @@ class ReplayResult:
                 if math.isnan(a) and math.isnan(b):
                     continue
                 max_diff = max(max_diff, abs(a - b)) if math.isfinite(a - b) else math.inf
-        est = {int(e["cycle_id"]): e for e in self.recorded_estimates}  # the newest per cycle
-        newest = {int(c.cycle_id): c for c in self.cycles if c.result is not None}
+        est = {(jn(e["joint_name"]), int(e["cycle_id"])): e for e in rec_est}  # the newest per joint and cycle
+        newest = {(c.joint_name, int(c.cycle_id)): c for c in cycles if c.result is not None}
         e_matched, e_diff = 0, 0.0
-        for cid, c in newest.items():
-            e = est.get(cid)
+        for key, c in newest.items():
+            e = est.get(key)
             if e is None:
                 continue
             e_matched += 1
@@ -93,16 +114,58 @@ class ReplayResult:
                 e_diff = max(e_diff, d) if math.isfinite(d) else (e_diff if math.isnan(a) and math.isnan(b) else math.inf)
         return {
             "observations": {
-                "recorded": len(self.recorded_observations), "replayed": len(self.observations),
+                "recorded": len(rec_obs), "replayed": len(observations),
                 "matched": matched, "max_abs_diff": max_diff if matched else None,
                 "not_recorded": missing,
             },
             "estimates": {
-                "recorded": len(self.recorded_estimates), "replayed": sum(c.result is not None for c in self.cycles),
-                "revisions": sum(getattr(c, "revision", 0) > 0 for c in self.cycles),
+                "recorded": len(rec_est), "replayed": sum(c.result is not None for c in cycles),
+                "revisions": sum(getattr(c, "revision", 0) > 0 for c in cycles),
                 "matched": e_matched, "max_abs_diff": e_diff if e_matched else None,
             },
         }
+
+
+def _joint_tree(tree: dict[str, Any], joint: str) -> dict[str, Any]:
+    """Node-level settings overlaid with the joint's own (``<joint>.<setting>``, nested under the joint)."""
+    own = tree.get(joint)
+    return {**tree, **own} if isinstance(own, dict) else dict(tree)
+
+
+def _estimator_options(tree: dict[str, Any]) -> dict[str, Any]:
+    opts = tree.get("estimator_options", {})
+    if isinstance(opts, str):  # the wear_estimator node takes a JSON object string
+        try:
+            tree["estimator_options"] = dict(json.loads(opts)) if opts.strip() else {}
+        except (ValueError, TypeError) as exc:
+            raise InputDataError(f"estimator_options = {opts!r} is not a JSON object: {exc}") from None
+    return tree
+
+
+def _status_joints(path: Path, topic: str) -> list[str]:
+    """The joints the bag's test-cycle statuses name, in order of appearance."""
+    out: list[str] = []
+    for m in read_messages(path, topics=[topic]):
+        if m.msgtype == STATUS_TYPE:
+            name = str(m.msg.joint_name)
+            if name and name not in out:
+                out.append(name)
+    return out
+
+
+def _served_joints(recorded: dict[str, Any], configured: dict[str, Any], bag_joints: list[str]) -> list[str]:
+    """The joints to replay (see the module docstring)."""
+    rec = recorded.get("joints")
+    if isinstance(rec, list) and rec:
+        return [str(j) for j in rec]
+    if recorded.get("joint_name"):
+        return [str(recorded["joint_name"])]
+    if bag_joints:
+        return bag_joints
+    conf = configured.get("joints")
+    if isinstance(conf, list) and conf:
+        return [str(j) for j in conf]
+    return [str(configured.get("joint_name", "joint_1"))]
 
 
 def replay_bag(
@@ -129,30 +192,21 @@ def replay_bag(
     Topics default to the nodes' parameters (the temperature is used only when
     the observer had a ``temperature_topic``, as live). Header stamps of 0 and
     the monitor's clock are replaced by the log time, as the live nodes use
-    their clock at receipt.
+    their clock at receipt. Every joint (module docstring) has its own observer
+    core and monitor; the result lists all joints' observations and cycles.
     """
     p = check_bag_path(Path(path))
     check_bag(p)  # a damaged bag is refused with its offset, never replayed as if whole
     obs_params = dict(observer_params)
     mon_params = dict(monitor_params)
+    rec_obs: dict[str, Any] = {}
     if use_recorded_params:
         events = [m.msg for m in read_messages(p, topics=["/parameter_events"])]
-        obs_params.update(recorded_node_params(events, observer_node))
+        rec_obs = recorded_node_params(events, observer_node)
+        obs_params.update(rec_obs)
         mon_params.update(recorded_node_params(events, monitor_node))
     if overrides:
         mon_params.update(overrides)
-    mon_tree = nest(mon_params)
-    opts = mon_tree.get("estimator_options", {})
-    if isinstance(opts, str):  # the wear_estimator node takes a JSON object string
-        try:
-            mon_tree["estimator_options"] = dict(json.loads(opts)) if opts.strip() else {}
-        except (ValueError, TypeError) as exc:
-            raise InputDataError(f"estimator_options = {opts!r} is not a JSON object: {exc}") from None
-    try:
-        ocfg = ObserverConfig.from_mapping(nest(obs_params))
-        mcfg = MonitorConfig.from_mapping(mon_tree)
-    except (TypeError, ValueError) as exc:
-        raise InputDataError(f"{p}: observer/estimator parameters are malformed ({exc})") from None
     # the topics the live nodes used (their parameters), unless given
     joint_states_topic = joint_states_topic or str(obs_params.get("joint_states_topic", "/joint_states"))
     status_topic = status_topic or str(obs_params.get("status_topic", "/test_cycle/status"))
@@ -161,9 +215,20 @@ def replay_bag(
     observations_topic = observations_topic or str(obs_params.get("observations_topic",
                                                                   "/jointwear/friction_observations"))
     estimate_topic = estimate_topic or str(mon_params.get("estimate_topic", "/jointwear/wear_estimate"))
-    core = FrictionObserverCore(ocfg)
-    monitor = WearMonitor(mcfg)
-    joint = ocfg.joint_name
+    joints = _served_joints(rec_obs, obs_params, [] if rec_obs else _status_joints(p, status_topic))
+    obs_tree, mon_tree = nest(obs_params), nest(mon_params)
+    cores: dict[str, FrictionObserverCore] = {}
+    monitors: dict[str, WearMonitor] = {}
+    try:
+        for j in joints:
+            cores[j] = FrictionObserverCore(ObserverConfig.from_mapping({**_joint_tree(obs_tree, j), "joint_name": j}))
+            mt = _estimator_options({**_joint_tree(mon_tree, j), "joint_name": j})
+            if overrides:
+                mt.update(overrides)
+            monitors[j] = WearMonitor(MonitorConfig.from_mapping(mt))
+    except (TypeError, ValueError) as exc:
+        raise InputDataError(f"{p}: observer/estimator parameters are malformed ({exc})") from None
+    single = joints[0] if len(joints) == 1 else None
     observations: list[FrictionObservationData] = []
     rejections: list[Any] = []
     cycles: list[Any] = []
@@ -172,14 +237,30 @@ def replay_bag(
     samples = statuses = 0
     now = -math.inf
 
-    def take(out: Any) -> None:
+    def take(joint: str, out: Any) -> None:
         observations.extend(out.observations)
         rejections.extend(out.rejections)
         for o in out.observations:
-            cycles.extend(monitor.add(o, now=now))
+            cycles.extend(monitors[joint].add(o, now=now))
 
     def stamp_or_now(t: float) -> float:  # the live observer stamps header-less messages on receipt
         return t if t > 0 else now
+
+    index_cache: dict[tuple[str, ...], list[tuple[str, int]]] = {}
+
+    def split(msg: Any) -> list[tuple[str, int]]:
+        """(joint, index) of the served joints in a JointState, [] when it is unusable (as live)."""
+        names = tuple(msg.name)
+        present = index_cache.get(names)
+        if present is None:
+            at = {n: i for i, n in enumerate(names)}
+            present = [(j, at[j]) for j in joints if j in at]
+            index_cache[names] = present
+        n = len(names)
+        if not present or len(msg.effort) == 0 or len(msg.position) != n or len(msg.velocity) != n \
+                or len(msg.effort) != n:
+            return []
+        return present
 
     topics = [joint_states_topic, status_topic, observations_topic, estimate_topic]
     if temperature_topic:
@@ -189,20 +270,30 @@ def replay_bag(
         now = max(now, m.log_time * 1e-9)
         if m.topic == joint_states_topic and m.msgtype == JOINT_STATE_TYPE:
             seen_js = True
-            s = joint_sample(m.msg, joint)
-            if s is not None:
+            present = split(m.msg)
+            if present:
                 samples += 1
-                take(core.on_joint_state(stamp_or_now(s[0]), *s[1:]))
+                t = stamp_or_now(stamp_to_seconds(m.msg.header))
+                pos, vel, eff = m.msg.position, m.msg.velocity, m.msg.effort
+                for j, i in present:
+                    take(j, cores[j].on_joint_state(t, float(pos[i]), float(vel[i]), float(eff[i])))
         elif m.topic == status_topic and m.msgtype == STATUS_TYPE:
             statuses += 1
             f = status_fields(m.msg)
+            named = f["joint_name"] or single
+            if named is None or named not in cores:
+                continue  # a joint the live node did not serve: ignored there too
+            j = named
             f["stamp"] = stamp_or_now(f["stamp"])
-            take(core.on_status(**f))
-            cycles.extend(monitor.on_status(now, f["cycle_id"], f["state"], f["speeds_done"],
-                                            f["speeds_total"], f["joint_name"]))
+            f["joint_name"] = j
+            take(j, cores[j].on_status(**f))
+            cycles.extend(monitors[j].on_status(now, f["cycle_id"], f["state"], f["speeds_done"],
+                                                f["speeds_total"], j))
         elif m.topic == temperature_topic and m.msgtype == TEMPERATURE_TYPE:
-            t, c = temperature_value(m.msg)
-            take(core.on_temperature(stamp_or_now(t), c))
+            frame = str(m.msg.header.frame_id) or single
+            if frame is not None and frame in cores:
+                t, c = temperature_value(m.msg)
+                take(frame, cores[frame].on_temperature(stamp_or_now(t), c))
         elif m.topic == observations_topic and m.msgtype == OBSERVATION_TYPE:
             recorded_obs.append(asdict(observation_from_msg(m.msg)))
         elif m.topic == estimate_topic and m.msgtype == ESTIMATE_TYPE:
@@ -210,18 +301,22 @@ def replay_bag(
             d["stamp"] = stamp_to_seconds(m.msg.header)
             recorded_est.append(d)
         if now > -math.inf and m.topic != joint_states_topic:
-            cycles.extend(monitor.poll(now))
+            for mon in monitors.values():
+                cycles.extend(mon.poll(now))
     if not seen_js:
         raise InputDataError(
             f"{p}: no {JOINT_STATE_TYPE} messages on {joint_states_topic}; "
             "record /joint_states (and /test_cycle/status) to replay the observer"
         )
-    take(core.flush())
+    for j in joints:
+        take(j, cores[j].flush())
     if math.isfinite(now):
-        cycles.extend(monitor.poll(now + mcfg.done_timeout + mcfg.idle_timeout + 1.0))
+        for mon in monitors.values():
+            cfg = mon.config
+            cycles.extend(mon.poll(now + cfg.done_timeout + cfg.idle_timeout + 1.0))
     return ReplayResult(
         bag=str(p), observations=observations, rejections=rejections, cycles=cycles,
         recorded_observations=recorded_obs, recorded_estimates=recorded_est, samples=samples,
         statuses=statuses, observer_params=obs_params, monitor_params=mon_params,
-        messages_lost=bag_messages_lost(p),
+        messages_lost=bag_messages_lost(p), joints=joints,
     )

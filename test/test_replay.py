@@ -97,7 +97,8 @@ def _synthetic(tmp_path_factory):
         t, cid, state, phase, speed, done, total, centre, hw, joint = st
         msgs.append((t, "/test_cycle/status", "jointwear_msgs/msg/TestCycleStatus", T["jointwear_msgs/msg/TestCycleStatus"](
             header=_header(store, t), joint_name=joint, cycle_id=cid, state=state, phase=phase, current_speed=speed,
-            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="")))
+            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="",
+            joints=[joint], joints_done=0)))
     for o in out.observations:
         d = o.to_dict()
         t = d.pop("stamp")

@@ -2,12 +2,14 @@
 
 Offline (the default) no ROS runtime is used: the bag is read with rosbags,
 ``/joint_states``, ``/test_cycle/status`` and ``/joint_temperature`` are fed
-in log-time order to the same pure cores the live nodes run
+in log-time order, split per joint (every joint the live observer served;
+docs/robot.md), to the same pure cores the live nodes run
 (:class:`~jointwear_ros.observer.FrictionObserverCore`,
 :class:`~jointwear_ros.monitor.WearMonitor`), with the parameters the live
 nodes declared (recorded ``/parameter_events``) over the config files. The
 result is compared with the FrictionObservation and WearEstimate messages
-recorded in the bag.
+recorded in the bag, per (joint, cycle); ``--json`` adds a ``joints`` list with
+each joint's wear, level, cycles and comparison (the one-joint fields stay).
 
 ``--publish`` plays the bag onto a live graph instead (raw CDR bytes, log-time
 spacing divided by ``--rate``) and publishes ``/clock`` from the log times.
@@ -62,12 +64,19 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 def replay_summary(result: Any) -> dict[str, Any]:
-    """The JSON of a replay: observations, rejections, the last cycle's wear and level, all cycles, comparison."""
+    """The JSON of a replay: observations, rejections, the last cycle's wear and level, all cycles, comparison,
+    and per joint (``joints``) the same for that joint alone.
+
+    The top-level ``wear`` and ``diagnostic_level`` are those of the last estimated cycle (of any joint;
+    for a one-joint bag, the joint's); ``joints`` has one entry per replayed joint that had a status,
+    an observation or a result: ``joint``, ``wear``, ``diagnostic_level`` (its last estimated cycle),
+    ``observations`` and ``rejections`` (counts), ``cycles`` and ``comparison``.
+    """
     from ..monitor import LEVEL_NAMES
 
-    cycles = []
-    for c in result.cycles:
-        cycles.append({
+    def cycle_entry(c: Any) -> dict[str, Any]:
+        return {
+            "joint": c.joint_name,
             "cycle_id": c.cycle_id,
             "wear": None if c.result is None else
             {"estimate": c.result.wear, "std": c.result.wear_std, "method": c.result.method,
@@ -75,8 +84,30 @@ def replay_summary(result: Any) -> dict[str, Any]:
             "diagnostic_level": LEVEL_NAMES.get(c.level, str(c.level)),
             "message": c.message,
             "revision": c.revision,
+        }
+
+    def last_of(cycles: list[dict[str, Any]]) -> dict[str, Any] | None:
+        return next((c for c in reversed(cycles) if c["wear"] is not None), cycles[-1] if cycles else None)
+
+    cycles = [cycle_entry(c) for c in result.cycles]
+    last = last_of(cycles)
+    joints = []
+    for j in getattr(result, "joints", []) or []:
+        mine = [c for c in cycles if c["joint"] == j]
+        n_obs = sum(o.joint_name == j for o in result.observations)
+        n_rej = sum(r.joint_name == j for r in result.rejections)
+        if not (mine or n_obs or n_rej):
+            continue  # configured, never tested in this bag
+        lj = last_of(mine)
+        joints.append({
+            "joint": j,
+            "wear": None if lj is None else lj["wear"],
+            "diagnostic_level": None if lj is None else lj["diagnostic_level"],
+            "observations": n_obs,
+            "rejections": n_rej,
+            "cycles": mine,
+            "comparison": result.comparison(j),
         })
-    last = next((c for c in reversed(cycles) if c["wear"] is not None), cycles[-1] if cycles else None)
     return {
         "bag": result.bag,
         "observations": [o.to_dict() for o in result.observations],
@@ -84,6 +115,7 @@ def replay_summary(result: Any) -> dict[str, Any]:
         "wear": None if last is None else last["wear"],
         "diagnostic_level": None if last is None else last["diagnostic_level"],
         "cycles": cycles,
+        "joints": joints,
         "comparison": result.comparison(),
         "joint_state_samples": result.samples,
         "messages_lost": result.messages_lost,
@@ -117,10 +149,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
         print("warning: INCOMPLETE bag, messages lost while recording: "
               + ", ".join(f"{t} {n}" for t, n in result.messages_lost.items())
               + "; the replay may differ from the live run")
-    rows = [[o.cycle_id, o.speed, o.tau_f, o.tau_f_std, o.load_torque, o.temperature, o.samples_plus, o.samples_minus]
-            for o in result.observations]
+    rows = [[o.joint_name, o.cycle_id, o.speed, o.tau_f, o.tau_f_std, o.load_torque, o.temperature, o.samples_plus,
+             o.samples_minus] for o in result.observations]
     if rows:
-        print(format_table(["cycle", "speed", "tau_f", "tau_f_std", "load", "temp", "n+", "n-"], rows))
+        print(format_table(["joint", "cycle", "speed", "tau_f", "tau_f_std", "load", "temp", "n+", "n-"], rows))
     else:
         print("no friction observations")
     for r in result.rejections:
@@ -128,7 +160,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     for c in summary["cycles"]:
         w = c["wear"]
         est = "no estimate" if w is None else f"wear {w['estimate']:.2f} ± {w['std']:.2f} ({w['method']})"
-        print(f"cycle {c['cycle_id']}: {est}, level {c['diagnostic_level']}: {c['message']}")
+        print(f"{c['joint']} cycle {c['cycle_id']}: {est}, level {c['diagnostic_level']}: {c['message']}")
     cmp_ = summary["comparison"]
     o, e = cmp_["observations"], cmp_["estimates"]
     if o["recorded"] or e["recorded"]:
@@ -138,6 +170,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
               f"estimates {e['matched']}/{e['recorded']} matched, max |diff| {ed}")
     else:
         print("the bag holds no recorded FrictionObservation/WearEstimate messages to compare with")
+    if len(summary["joints"]) > 1:
+        for j in summary["joints"]:
+            w, c = j["wear"], j["comparison"]
+            est = "no estimate" if w is None else f"wear {w['estimate']:.2f} ± {w['std']:.2f}"
+            print(f"{j['joint']}: {est}, level {j['diagnostic_level']}; {j['observations']} observation(s), "
+                  f"{j['rejections']} rejected; estimates {c['estimates']['matched']}/{c['estimates']['recorded']} "
+                  "matched the recorded ones")
     return 0
 
 

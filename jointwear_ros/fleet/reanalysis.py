@@ -4,7 +4,7 @@
 friction observer core and the wear monitor, offline, in log-time order) on
 one bag with a given parameter set and estimator method, and returns a
 :class:`BagOutcome` of plain values (picklable, cheap to ship from a Dask
-worker): one record per estimated cycle (robot, joint, hardware id, cycle id,
+worker): one record per estimated joint and cycle (robot, joint, hardware id, cycle id,
 time, wear, std, temperature, method, parameter set, software version, bag,
 analysis version) and the bag's fingerprint. A bag that cannot be read gives
 an outcome with ``error`` set (one line naming the bag), never an exception.
@@ -15,14 +15,16 @@ edited ``ref-2011r.yaml`` is a new version), the estimator method and the
 software version; or an explicit label.
 
 **Identity of a bag's estimates** (:func:`bag_identity`): the joint is the
-``joint_name`` of the cycle (the observer's configured joint, from the bag's
-recorded ``/parameter_events`` or the config file); the robot is, in this
+``joint_name`` of the cycle (a bag of a robot cycle gives one record per
+joint: the joints the observer served, see :mod:`jointwear_ros.replay`); the
+robot is, in this
 order, the ``robot`` parameter the cell's ``wear_trend`` node declared (as
 recorded in the bag's ``/parameter_events``; the live history uses it too),
 the wear_estimator's recorded ``robot`` or ``hardware_id`` parameter, or the
 name of the directory holding the bag (a per-robot archive directory). The
-hardware id is the ``hardware_id`` of ``wear_trend``, else of the
-wear_estimator, else ``robot/joint`` (as ``jointwear history import``).
+hardware id is the joint's own ``<joint>.hardware_id`` of the wear_estimator,
+else the ``hardware_id`` of ``wear_trend``, else of the wear_estimator, else
+``robot/joint`` (as ``jointwear history import``).
 
 Pure of ROS: rosbags reads the bag; no rclpy.
 """
@@ -239,22 +241,21 @@ def reprocess_bag(
         events = [m.msg for m in read_messages(path, topics=["/parameter_events"])] if use_recorded_params else []
         robot, hw = bag_identity(rep.monitor_params, path, recorded_node_params(events, "wear_trend"))
         p_name = str(rep.monitor_params.get("params", params or ""))
-        newest: list[Any] = []
+        # the newest result per (joint, cycle): a revision replaces its cycle's first estimate, wherever
+        # the other joints' results of a robot cycle came in between
+        newest: dict[tuple[str, int], Any] = {}
         for c in rep.cycles:
-            if c.result is None:
-                continue
-            if (c.revision > 0 and newest and newest[-1].cycle_id == c.cycle_id
-                    and newest[-1].joint_name == c.joint_name):
-                newest[-1] = c
-            else:
-                newest.append(c)
-        for c in newest:
+            if c.result is not None:
+                newest[(str(c.joint_name), int(c.cycle_id))] = c
+        for c in newest.values():
             r = c.result
             wear, std = _finite_or_nan(r.wear), _finite_or_nan(r.wear_std)
             if not (math.isfinite(wear) and math.isfinite(std) and std > 0):
                 continue  # no usable estimate for this cycle (the monitor said why in its message)
             out.records.append({
-                "robot": robot, "joint": str(c.joint_name), "hardware_id": hw or f"{robot}/{c.joint_name}",
+                "robot": robot, "joint": str(c.joint_name),
+                "hardware_id": (str(rep.monitor_params.get(f"{c.joint_name}.hardware_id", "") or "") or hw
+                                or f"{robot}/{c.joint_name}"),
                 "cycle_id": int(c.cycle_id), "time": float(c.stamp), "wear": wear, "wear_std": std,
                 "temperature": _finite_or_nan(r.temperature), "method": str(r.method), "params": p_name,
                 "software_version": software_version, "bag": path, "analysis_version": v, "source": "reprocess",

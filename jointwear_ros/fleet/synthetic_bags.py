@@ -30,9 +30,9 @@ import numpy as np
 
 from ..contract import seconds_to_stamp_fields
 from ..io.typestore import jointwear_typestore
-from ..observer.synthetic import SyntheticCycle, synthetic_cycle
+from ..observer.synthetic import SyntheticCycle, SyntheticRobotCycle, synthetic_cycle
 
-__all__ = ["BagSpec", "fleet_specs", "write_cycle_bag", "write_fleet"]
+__all__ = ["BagSpec", "fleet_specs", "write_cycle_bag", "write_fleet", "write_robot_cycle_bag"]
 
 #: 2026-01-01 00:00 UTC, the first night of a synthetic fleet
 DEFAULT_START = 1767225600.0
@@ -101,6 +101,10 @@ def _param(store: Any, name: str, value: Any) -> Any:
         kw.update(type=2, integer_value=value)
     elif isinstance(value, float):
         kw.update(type=3, double_value=value)
+    elif isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
+        kw.update(type=9, string_array_value=list(value))
+    elif isinstance(value, (list, tuple)):
+        kw.update(type=8, double_array_value=np.asarray(value, dtype=float))
     else:
         kw.update(type=4, string_value=str(value))
     return T["rcl_interfaces/msg/Parameter"](name=name, value=T["rcl_interfaces/msg/ParameterValue"](**kw))
@@ -145,7 +149,8 @@ def write_cycle_bag(path: str | os.PathLike[str], spec: BagSpec, cycle: Syntheti
         t, cid, state, phase, speed, done, total, centre, hw, joint = st
         events.append((t, 1, T[st_type](
             header=_header(ts, t), joint_name=joint, cycle_id=cid, state=state, phase=phase, current_speed=speed,
-            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="")))
+            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="",
+            joints=[joint], joints_done=0)))
     js = T[js_type]
     names = [other, spec.joint]
     for t, q, v, e in zip(cyc.stamps.tolist(), cyc.position.tolist(), cyc.velocity.tolist(), cyc.effort.tolist()):
@@ -169,3 +174,70 @@ def write_fleet(root: str | os.PathLike[str], specs: Sequence[BagSpec]) -> list[
         (r / s.robot).mkdir(parents=True, exist_ok=True)
         out.append(write_cycle_bag(r / s.robot / s.name, s, store=ts))
     return out
+
+
+def write_robot_cycle_bag(path: str | os.PathLike[str], cycle: SyntheticRobotCycle, *, robot: str = "robot_01",
+                          extra: Sequence[tuple[float, str, str, Any]] = (), observer_params: dict[str, Any] | None = None,
+                          estimator_params: dict[str, Any] | None = None, temperature_topic: str = "",
+                          store: Any = None) -> Path:
+    """Write a robot cycle (every joint in one bag, docs/robot.md) as the recorder would, with the project's
+    MCAP bag writer (:class:`~jointwear_ros.io.mcap_bag.McapBagWriter`); return the bag directory.
+
+    ``/joint_states`` carries every joint of ``cycle`` in one message per sample, ``/test_cycle/status``
+    the robot cycle's statuses (``joints``, ``joints_done`` set), ``temperature_topic`` (when given) the
+    per-joint temperatures (``header.frame_id`` = joint), and ``/parameter_events`` the parameters the live
+    nodes declared (``joints`` of the observer and the estimator, plus ``observer_params`` and
+    ``estimator_params``; the robot as ``wear_trend``'s ``robot``). ``extra`` are more messages
+    ``(stamp, topic, msgtype, message)``, e.g. the live observations and estimates to compare with.
+    """
+    from ..io.mcap_bag import McapBagWriter
+
+    ts = store if store is not None else jointwear_typestore()
+    T = ts.types
+    t_start = float(cycle.stamps[0]) - 1.0
+    obs = {"joints": list(cycle.joints), "gear_ratio": 100.0, "torque_scale": 200.0,
+           "temperature_topic": temperature_topic, **(observer_params or {})}
+    est = {"joints": list(cycle.joints), "method": "paper", "params": "ref-2011r", "seed": 0, **(estimator_params or {})}
+    js_type, st_type, pe_type, tp_type = ("sensor_msgs/msg/JointState", "jointwear_msgs/msg/TestCycleStatus",
+                                          "rcl_interfaces/msg/ParameterEvent", "sensor_msgs/msg/Temperature")
+    events: list[tuple[float, int, str, str, Any]] = [
+        (t_start, 0, "/parameter_events", pe_type, _param_event(ts, t_start, "friction_observer", obs)),
+        (t_start + 0.001, 0, "/parameter_events", pe_type, _param_event(ts, t_start + 0.001, "wear_estimator", est)),
+        (t_start + 0.002, 0, "/parameter_events", pe_type,
+         _param_event(ts, t_start + 0.002, "wear_trend", {"robot": robot, "hardware_id": ""})),
+    ]
+    for st, done_joints in cycle.statuses:
+        t, cid, state, phase, speed, done, total, centre, hw, joint = st
+        events.append((t, 1, "/test_cycle/status", st_type, T[st_type](
+            header=_header(ts, t), joint_name=joint, cycle_id=cid, state=state, phase=phase, current_speed=speed,
+            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="",
+            joints=list(cycle.joints), joints_done=done_joints)))
+    if temperature_topic:
+        for t, celsius, joint in cycle.temperatures:
+            events.append((t, 1, temperature_topic, tp_type, T[tp_type](
+                header=store_header(ts, t, joint), temperature=celsius, variance=0.0)))
+    js = T[js_type]
+    names = list(cycle.joints)
+    for i, t in enumerate(cycle.stamps.tolist()):
+        events.append((t, 2, "/joint_states", js_type, js(
+            header=_header(ts, t), name=names, position=np.array(cycle.position[i]),
+            velocity=np.array(cycle.velocity[i]), effort=np.array(cycle.effort[i]))))
+    for t, topic, typ, msg in extra:
+        events.append((float(t), 3, topic, typ, msg))
+    events.sort(key=lambda e: (e[0], e[1]))
+    w = McapBagWriter(Path(path), fsync=False)
+    try:
+        channels: dict[str, int] = {}
+        for t, _, topic, typ, msg in events:
+            if topic not in channels:
+                msgdef, _ = ts.generate_msgdef(typ, ros_version=2)
+                channels[topic] = w.add_connection(topic, typ, msgdef, rihs01=ts.hash_rihs01(typ))
+            w.write(channels[topic], round(t * 1e9), ts.serialize_cdr(msg, typ))
+    finally:
+        w.close()
+    return Path(path)
+
+
+def store_header(store: Any, t: float, frame_id: str) -> Any:
+    """A ``std_msgs/Header`` at ``t`` with ``frame_id``."""
+    return store.types["std_msgs/msg/Header"](stamp=_time(store, t), frame_id=frame_id)

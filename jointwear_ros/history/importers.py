@@ -161,6 +161,8 @@ def reestimate_bag(path: str | os.PathLike[str], *, robot: str, observer_params:
                    analysis_version: str | None = None, hardware_id: str = "") -> tuple[list[EstimateRecord], str]:
     """Re-run the observer and the estimator on a bag with today's model (``replay.replay_bag``).
 
+    A bag of a robot cycle gives one entry per joint and cycle (every joint the live observer
+    served, each with its own settings and hardware id ``<joint>.hardware_id`` when recorded).
     Returns the estimates (every result, revisions too; the trend keeps the newest per cycle) and the
     analysis version they are stored under (default ``METHOD:PARAMS:SOFTWARE_VERSION``).
     """
@@ -183,7 +185,8 @@ def reestimate_bag(path: str | os.PathLike[str], *, robot: str, observer_params:
         out.append(EstimateRecord(
             robot=robot, joint=c.joint_name, cycle_id=int(c.cycle_id), time=float(c.stamp),
             wear=float(c.result.wear), wear_std=float(c.result.wear_std),
-            hardware_id=hardware_id or f"{robot}/{c.joint_name}", temperature=float(c.result.temperature),
+            hardware_id=(hardware_id or str(res.monitor_params.get(f"{c.joint_name}.hardware_id", "") or "")
+                         or f"{robot}/{c.joint_name}"), temperature=float(c.result.temperature),
             method=str(c.result.method), params=used_params, software_version=__version__, bag=p.name,
             analysis_version=version, source="bag",
         ).check(f"{p}: re-estimated cycle {c.cycle_id}"))

@@ -1,28 +1,39 @@
-"""friction_observer: /joint_states + test-cycle status → one FrictionObservation per speed.
+"""friction_observer: /joint_states + test-cycle status → one FrictionObservation per speed, per joint.
 
 A thin rclpy adapter over :class:`~jointwear_ros.observer.FrictionObserverCore`
-(the same core the offline replay runs). It picks the joint by name from each
-``sensor_msgs/JointState``, feeds its position, velocity and effort with the
-header stamp, feeds ``TestCycleStatus`` and (optionally) ``sensor_msgs/Temperature``,
-publishes each finished observation on ``/jointwear/friction_observations`` and
-logs every rejected window with its reason. A bad JointState (joint missing,
-array lengths that do not match ``name``, no effort, NaN) is logged with the
-reason, counted and skipped. Messages DDS reports lost before reception (the
-publisher's history overflowed while this node was stalled) are logged and
-counted per topic (``lost_messages``): the observations of that stretch rest on
-fewer samples.
+(the same core the offline replay runs), one core per joint it serves
+(``joints``; empty = the single joint ``joint_name``, see docs/robot.md). Each
+``sensor_msgs/JointState`` is split by name into the cores (the name -> index
+lookup is cached while the names stay the same), each ``TestCycleStatus`` goes
+to the core of its ``joint_name`` (a robot cycle tests its joints one after
+another under one cycle id) and each ``sensor_msgs/Temperature`` to the core of
+its ``header.frame_id`` (empty = the joint of a one-joint setup). Finished
+observations (they carry ``joint_name``) are published on
+``/jointwear/friction_observations``; every rejected window is logged with its
+reason. A bad JointState (none of the joints in it, array lengths that do not
+match ``name``, no effort, NaN) is logged with the reason, counted and skipped
+(a NaN only for its joint); a JointState without one of the joints is fed to
+the others and counted for that joint (a fault while that joint is being
+tested). A status, temperature or observation of a joint that is not served
+is ignored, counted and logged (throttled): never a crash. Messages DDS
+reports lost before reception (the publisher's history overflowed while this
+node was stalled) are logged and counted per topic (``lost_messages``): the
+observations of that stretch rest on fewer samples.
 
-Diagnostics: ``friction_observer: <joint>`` on ``/diagnostics`` with the
-counts (observations, rejected windows, bad and lost messages, samples): WARN
-while the current cycle has had a rejected window, a lost or a bad message,
-with the latest reason as the message; OK otherwise. The counts of "the
-current cycle" restart when a new cycle id appears on the status topic.
+Diagnostics: one ``friction_observer: <joint>`` status per joint on
+``/diagnostics`` with the counts (observations, rejected windows, bad and lost
+messages, samples): WARN while that joint's current cycle has had a rejected
+window, a lost or a bad message, with the latest reason as the message; OK
+otherwise. The counts of "the current cycle" restart when a new cycle id of
+that joint appears on the status topic.
 
 Run-time parameters: the observer settings (tolerances, ``min_samples``,
-``gear_ratio``, ...) can change between cycles; while a speed is being
-observed a change is refused with the reason (live and replayed
-observations must use the same settings). ``joint_name``, the topics and
-the periods are read at start-up only (read-only parameters).
+``gear_ratio``, ...) can change between cycles, for every joint that has no
+value of its own (``<joint>.<setting>``, read at start-up); while a speed of
+any joint is being observed a change is refused with the reason (live and
+replayed observations must use the same settings). ``joints``,
+``joint_name``, the topics and the periods are read at start-up only
+(read-only parameters).
 
 Parameters: see ``config/friction_observer.yaml`` and ``docs/nodes-observer-estimator.md``.
 """
@@ -45,6 +56,7 @@ from .. import contract
 from ..contract import observation_from_msg, stamp_to_seconds
 from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput
 from .diagnostics import OK, WARN, NodeDiagnostics, Report
+from .joints import declare_joint_settings, declare_joints
 from .runtime import (
     ParamDecl,
     declare_parameters,
@@ -67,8 +79,8 @@ __all__ = [
 _DEFAULTS = ObserverConfig()
 
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", _DEFAULTS.joint_name, "joint observed (looked up by name in each JointState)",
-              read_only=True),
+    ParamDecl("joint_name", _DEFAULTS.joint_name,
+              "joint observed when joints is empty (looked up by name in each JointState)", read_only=True),
     ParamDecl("gear_ratio", _DEFAULTS.gear_ratio, "motor speed = joint speed x gear_ratio", 1e-6, 1e6),
     ParamDecl("torque_scale", _DEFAULTS.torque_scale, "N·m (joint side) per normalized torque unit", 1e-9, 1e9),
     ParamDecl("joint_states_topic", "/joint_states", "sensor_msgs/JointState input", read_only=True),
@@ -96,6 +108,8 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 )
 #: Parameters that can change at run time (between cycles)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
+#: Settings a joint may have of its own (``<joint>.<setting>`` in the params YAML, read at start-up)
+JOINT_SETTINGS = LIVE_PARAMETERS
 
 
 def observation_to_msg(o: FrictionObservationData) -> FrictionObservation:
@@ -108,6 +122,34 @@ def high_rate_qos() -> QoSProfile:
     return QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
 
 
+class _Joint:
+    """One observed joint: its core, its counts and its ``friction_observer: <joint>`` status."""
+
+    def __init__(self, name: str, core: FrictionObserverCore, own: dict[str, Any]) -> None:
+        self.name = name
+        self.core = core
+        #: settings given for this joint (``<joint>.<setting>``): node-level changes leave them alone
+        self.own = own
+        self.observations_published = 0
+        self.rejections_total = 0
+        #: bad messages that concern this joint (a whole bad message counts for every joint)
+        self.bad = 0
+        #: JointStates without this joint
+        self.missing = 0
+        self.cycle_id = 0
+        self.cycle_marks = (0, 0, 0)  # rejections, bad, lost at the start of the current cycle
+        self.last_problem = ""
+        self.diag: NodeDiagnostics | None = None
+
+    def busy_reason(self) -> str | None:
+        """Why the settings cannot change now (a speed being observed), else None."""
+        seg = self.core.active_segment or next(iter(self.core.pending_segments), None)
+        if seg is None:
+            return None
+        return (f"{self.name}: cycle {seg.cycle_id} speed #{seg.speed_index + 1} is being observed; change the "
+                "observer settings between cycles")
+
+
 class FrictionObserverNode(Node):
     """The friction observer node (see the module docstring)."""
 
@@ -115,20 +157,26 @@ class FrictionObserverNode(Node):
         super().__init__("friction_observer", **kwargs)
         p = declare_parameters(self, PARAMETERS)
         self.params = p
-        self.core = FrictionObserverCore(ObserverConfig.from_mapping(p))
-        self.joint_name: str = str(p["joint_name"])
+        self.joints = declare_joints(self, str(p["joint_name"]))
+        own = declare_joint_settings(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS], p)
+        self.channels: dict[str, _Joint] = {}
+        for j in self.joints:
+            cfg = ObserverConfig.from_mapping({**p, **own[j], "joint_name": j})
+            self.channels[j] = _Joint(j, FrictionObserverCore(cfg), own[j])
+        first = self.channels[self.joints[0]]
+        #: the first joint's core (the only one of a one-joint setup)
+        self.core = first.core
+        self.joint_name: str = first.name
         self.bad_messages: Counter[str] = Counter()
         #: per topic, messages DDS reported lost before they reached this node
         self.lost_messages: Counter[str] = Counter()
-        self.observations_published = 0
-        #: the last 1000 rejected windows (reasons); ``rejections_total`` counts them all
+        #: statuses, temperatures naming a joint this node does not serve (the names in ``unknown_joints``)
+        self.ignored_messages = 0
+        self.unknown_joints: set[str] = set()
+        #: the last 1000 rejected windows (reasons), every joint; ``rejections_total`` counts them all
         self.rejections: list[str] = []
         self.rejections_total = 0
-        # what happened during the current cycle (the diagnostics' WARN reasons)
-        self._cycle_id = 0
-        self._cycle_marks = (0, 0, 0)  # rejections, bad, lost at its start
-        self._last_problem = ""
-        self._index_cache: tuple[tuple[str, ...], int] | None = None
+        self._index_cache: tuple[list[str], list[tuple[_Joint, int]], list[_Joint]] | None = None
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
         self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos,
@@ -141,15 +189,21 @@ class FrictionObserverNode(Node):
                                          qos_overriding_options=overridable_qos())
         # wall-clock timer: it must fire even when /clock (use_sim_time) stops
         self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        self.diag = NodeDiagnostics(self, f"friction_observer: {self.joint_name}", self.joint_name,
-                                    period=float(p["diagnostics_period"]), refresh=self._report)
-        self.diag.update(*self._report())
+        for ch in self.channels.values():
+            ch.diag = NodeDiagnostics(self, f"friction_observer: {ch.name}", ch.name,
+                                      period=float(p["diagnostics_period"]),
+                                      refresh=lambda ch=ch: self._report(ch))  # type: ignore[misc]
+            ch.diag.update(*self._report(ch))
+        #: the first joint's status (the only one of a one-joint setup)
+        self.diag: NodeDiagnostics = first.diag  # type: ignore[assignment]
         on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
-        self.get_logger().info(
-            f"observing {self.joint_name} on {p['joint_states_topic']} (gear {p['gear_ratio']:g}, torque scale "
-            f"{p['torque_scale']:g} N·m); status {p['status_topic']}; temperature "
-            f"{p['temperature_topic'] or 'none'}; publishing {p['observations_topic']}"
-        )
+        for ch in self.channels.values():
+            cfg = ch.core.config
+            self.get_logger().info(
+                f"observing {ch.name} on {p['joint_states_topic']} (gear {cfg.gear_ratio:g}, torque scale "
+                f"{cfg.torque_scale:g} N·m); status {p['status_topic']}; temperature "
+                f"{p['temperature_topic'] or 'none'}; publishing {p['observations_topic']}"
+            )
 
     # -- callbacks -----------------------------------------------------------------
     def _lost_callback(self, topic: str) -> Any:
@@ -159,7 +213,8 @@ class FrictionObserverNode(Node):
             if change <= 0:
                 return
             self.lost_messages[topic] += change
-            self._last_problem = f"{change} message(s) lost on {topic}"
+            for ch in self.channels.values():
+                ch.last_problem = f"{change} message(s) lost on {topic}"
             self.get_logger().warning(
                 f"{change} message(s) on {topic} lost before reaching the observer ({info.total_count} in all): "
                 "the publisher's history overflowed while this node was stalled; observations of that "
@@ -174,23 +229,47 @@ class FrictionObserverNode(Node):
             return t
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _bad(self, reason: str) -> None:
+    def _bad(self, reason: str, joints: Any = None) -> None:
+        """A bad JointState: counted once, and for each joint it concerns (default: every joint)."""
         self.bad_messages[reason.split(":")[0]] += 1
-        self._last_problem = f"bad JointState: {reason}"
+        for ch in (self.channels.values() if joints is None else joints):
+            ch.bad += 1
+            ch.last_problem = f"bad JointState: {reason}"
         self.get_logger().warning(f"JointState skipped: {reason}", throttle_duration_sec=5.0)
+
+    def _ignore(self, what: str, joint: str) -> None:
+        """A message of a joint this node does not serve: counted, logged (throttled), never used."""
+        self.ignored_messages += 1
+        self.unknown_joints.add(joint)
+        self.get_logger().warning(
+            f"{what} for joint {joint!r} ignored: this observer serves {self.joints!r} (parameter joints); "
+            f"{self.ignored_messages} such message(s) so far", throttle_duration_sec=5.0)
+
+    def _route(self, joint: str) -> _Joint | None:
+        """The joint a status or temperature is for (empty name: the joint of a one-joint setup)."""
+        if not joint:
+            return self.channels[self.joint_name] if len(self.channels) == 1 else None
+        return self.channels.get(joint)
+
+    def _lookup(self, names: list[str]) -> tuple[list[tuple[_Joint, int]], list[_Joint]]:
+        cache = self._index_cache
+        if cache is not None and cache[0] == names:
+            return cache[1], cache[2]
+        index = {n: i for i, n in enumerate(names)}
+        present = [(ch, index[ch.name]) for ch in self.channels.values() if ch.name in index]
+        missing = [ch for ch in self.channels.values() if ch.name not in index]
+        self._index_cache = (list(names), present, missing)
+        return present, missing
 
     def _on_joint_state(self, msg: JointState) -> None:
         names = msg.name
-        cache = self._index_cache
-        if cache is not None and len(names) > cache[1] and names[cache[1]] == self.joint_name:
-            i = cache[1]
-        else:
-            try:
-                i = list(names).index(self.joint_name)
-            except ValueError:
+        present, missing = self._lookup(names)
+        if not present:
+            if len(self.channels) == 1:
                 self._bad(f"joint {self.joint_name!r} not in name {list(names)!r}; set joint_name")
-                return
-            self._index_cache = (tuple(names), i)
+            else:
+                self._bad(f"none of the joints {self.joints!r} in name {list(names)!r}; set joints")
+            return
         n = len(names)
         pos, vel, eff = msg.position, msg.velocity, msg.effort
         if len(eff) == 0:
@@ -200,36 +279,59 @@ class FrictionObserverNode(Node):
             self._bad(f"array lengths: name {n}, position {len(pos)}, velocity {len(vel)}, effort {len(eff)}; "
                       "each must match name")
             return
-        p, v, e = float(pos[i]), float(vel[i]), float(eff[i])
-        if not (math.isfinite(p) and math.isfinite(v) and math.isfinite(e)):
-            self._bad(f"non-finite value for {self.joint_name}: position {p}, velocity {v}, effort {e}")
-            return
+        for ch in missing:
+            ch.missing += 1
+            if ch.core.active_segment is not None:  # the joint under test is not in the message: a fault
+                self._bad(f"joint {ch.name!r} not in name {list(names)!r} while it is being tested", (ch,))
+            else:
+                self.get_logger().warning(
+                    f"JointState without joint {ch.name!r} (names {list(names)!r}); its samples are missing",
+                    throttle_duration_sec=30.0)
         self._last_rx = time.monotonic()
-        out = self.core.on_joint_state(self._stamp(msg.header.stamp), p, v, e)
-        if out.observations or out.rejections:
-            self._emit(out)
+        stamp = self._stamp(msg.header.stamp)
+        for ch, i in present:
+            p, v, e = float(pos[i]), float(vel[i]), float(eff[i])
+            if not (math.isfinite(p) and math.isfinite(v) and math.isfinite(e)):
+                self._bad(f"non-finite value for {ch.name}: position {p}, velocity {v}, effort {e}", (ch,))
+                continue
+            out = ch.core.on_joint_state(stamp, p, v, e)
+            if out.observations or out.rejections:
+                self._emit(ch, out)
 
     def _on_status(self, msg: TestCycleStatus) -> None:
         self._last_rx = time.monotonic()
-        if int(msg.cycle_id) != self._cycle_id and int(msg.cycle_id) > 0 and msg.joint_name in ("", self.joint_name):
-            self._cycle_id = int(msg.cycle_id)
-            self._cycle_marks = self._counts()
-            self._last_problem = ""
-        out = self.core.on_status(
-            self._stamp(msg.header.stamp), int(msg.cycle_id), int(msg.state), int(msg.phase),
+        joint = str(msg.joint_name)
+        ch = self._route(joint)
+        if ch is None:
+            self._ignore("TestCycleStatus", joint)
+            return
+        cid = int(msg.cycle_id)
+        if cid != ch.cycle_id and cid > 0:
+            ch.cycle_id = cid
+            ch.cycle_marks = self._counts(ch)
+            ch.last_problem = ""
+        out = ch.core.on_status(
+            self._stamp(msg.header.stamp), cid, int(msg.state), int(msg.phase),
             float(msg.current_speed), int(msg.speeds_done), int(msg.speeds_total), float(msg.window_center),
-            float(msg.window_half_width), str(msg.joint_name),
+            float(msg.window_half_width), ch.name,
         )
-        self._emit(out)
+        self._emit(ch, out)
 
     def _on_temperature(self, msg: Temperature) -> None:
-        self._emit(self.core.on_temperature(self._stamp(msg.header.stamp), float(msg.temperature)))
+        joint = str(msg.header.frame_id)
+        ch = self._route(joint)
+        if ch is None:
+            self._ignore("Temperature (header.frame_id names the joint)", joint)
+            return
+        self._emit(ch, ch.core.on_temperature(self._stamp(msg.header.stamp), float(msg.temperature)))
 
     def _on_poll(self) -> None:
         # Finished speeds are processed when a later-stamped message arrives; when the inputs fall
         # silent (end of a recording, a stopped driver) nothing will, so process them after poll_grace.
-        if self.core.pending_segments and time.monotonic() - self._last_rx > self.core.config.poll_grace:
-            self._emit(self.core.process_pending())
+        silent = time.monotonic() - self._last_rx
+        for ch in self.channels.values():
+            if ch.core.pending_segments and silent > ch.core.config.poll_grace:
+                self._emit(ch, ch.core.process_pending())
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: let reliable subscribers get the last observations."""
@@ -238,48 +340,70 @@ class FrictionObserverNode(Node):
         except Exception:  # pragma: no cover - best effort on the way out
             pass
 
-    def _emit(self, out: ObserverOutput) -> None:
+    @property
+    def observations_published(self) -> int:
+        """Observations published, every joint."""
+        return sum(ch.observations_published for ch in self.channels.values())
+
+    def _emit(self, ch: _Joint, out: ObserverOutput) -> None:
         for o in out.observations:
             self.pub.publish(observation_to_msg(o))
-            self.observations_published += 1
+            ch.observations_published += 1
             self.get_logger().info(
-                f"cycle {o.cycle_id}: {o.speed:.1f} rad/s tau_f = {o.tau_f:.5f} ± {o.tau_f_std:.5f}, "
+                f"{o.joint_name} cycle {o.cycle_id}: {o.speed:.1f} rad/s tau_f = {o.tau_f:.5f} ± {o.tau_f_std:.5f}, "
                 f"tau_m = {o.load_torque:.4f}, samples {o.samples_plus}/{o.samples_minus}"
             )
         for r in out.rejections:
-            self.rejections.append(str(r))
+            self.rejections.append(f"{ch.name}: {r}")
             self.rejections_total += 1
+            ch.rejections_total += 1
             if len(self.rejections) > 1000:
                 del self.rejections[:-1000]
-            self._last_problem = f"window rejected: {r}"
-            self.get_logger().warning(f"window rejected: {r}")
-        if out.observations or out.rejections:
-            self.diag.update(*self._report())
+            ch.last_problem = f"window rejected: {r}"
+            self.get_logger().warning(f"{ch.name}: window rejected: {r}")
+        if (out.observations or out.rejections) and ch.diag is not None:
+            ch.diag.update(*self._report(ch))
 
     # -- health and run-time parameters -----------------------------------------------
-    def _counts(self) -> tuple[int, int, int]:
-        bad = sum(self.bad_messages.values()) + self.core.temperatures_skipped
-        return self.rejections_total, bad, sum(self.lost_messages.values())
+    def _counts(self, ch: _Joint) -> tuple[int, int, int]:
+        return ch.rejections_total, ch.bad + ch.core.temperatures_skipped, sum(self.lost_messages.values())
 
-    def _report(self) -> Report:
-        rej, bad, lost = self._counts()
-        r0, b0, l0 = self._cycle_marks
-        values = [("cycle_id", str(self._cycle_id)), ("observations", str(self.observations_published)),
+    def _report(self, ch: _Joint | None = None) -> Report:
+        """The ``friction_observer: <joint>`` status of ``ch`` (default: the first joint)."""
+        ch = ch if ch is not None else self.channels[self.joint_name]
+        core = ch.core
+        rej, bad, lost = self._counts(ch)
+        r0, b0, l0 = ch.cycle_marks
+        values = [("cycle_id", str(ch.cycle_id)), ("observations", str(ch.observations_published)),
                   ("rejected_windows", str(rej)), ("bad_messages", str(bad)), ("lost_messages", str(lost)),
                   ("rejected_windows_this_cycle", str(rej - r0)), ("lost_messages_this_cycle", str(lost - l0)),
-                  ("samples_seen", str(self.core.samples_seen)), ("samples_skipped", str(self.core.samples_skipped)),
-                  ("temperatures_skipped", str(self.core.temperatures_skipped)),
-                  ("buffered_samples", str(self.core.buffered_samples))]
+                  ("samples_seen", str(core.samples_seen)), ("samples_skipped", str(core.samples_skipped)),
+                  ("temperatures_skipped", str(core.temperatures_skipped)),
+                  ("buffered_samples", str(core.buffered_samples)), ("joint_missing", str(ch.missing)),
+                  ("gear_ratio", f"{core.config.gear_ratio:g}"), ("torque_scale", f"{core.config.torque_scale:g}"),
+                  ("ignored_messages", str(self.ignored_messages)),
+                  ("observation_subscribers", str(self.pub.get_subscription_count()))]
         if (rej - r0, bad - b0, lost - l0) != (0, 0, 0):
-            text = (f"cycle {self._cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} lost "
-                    f"message(s); latest: {self._last_problem}")
+            text = (f"cycle {ch.cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} lost "
+                    f"message(s); latest: {ch.last_problem}")
             return WARN, text, values
-        return OK, f"{self.observations_published} observation(s), {rej} window(s) rejected in all", values
+        return OK, f"{ch.observations_published} observation(s), {rej} window(s) rejected in all", values
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
-        cfg = self.core.config
-        current = {f: getattr(cfg, f) for f in cfg.__dataclass_fields__}
-        self.core.reconfigure(ObserverConfig.from_mapping(dict(current, **changes)))
+        # every joint or none: the new configs are built and the joints checked before any changes
+        new = {}
+        for ch in self.channels.values():
+            cfg = ch.core.config
+            current = {f: getattr(cfg, f) for f in cfg.__dataclass_fields__}
+            mine = {k: v for k, v in changes.items() if k not in ch.own}
+            new[ch.name] = ObserverConfig.from_mapping(dict(current, **mine))
+        for ch in self.channels.values():
+            if new[ch.name] != ch.core.config:
+                why = ch.busy_reason()
+                if why:
+                    return why
+        for ch in self.channels.values():
+            ch.core.reconfigure(new[ch.name])
         return None
 
 

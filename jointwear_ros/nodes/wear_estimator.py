@@ -1,23 +1,35 @@
-"""wear_estimator: FrictionObservation per cycle → WearEstimate and /diagnostics.
+"""wear_estimator: FrictionObservation per cycle → WearEstimate and /diagnostics, per joint.
 
 A thin rclpy adapter over :class:`~jointwear_ros.monitor.WearMonitor` (the
-same core the offline replay runs). It gathers observations per cycle id,
-estimates a cycle's wear when all its speeds are in or ``done_timeout`` after
-its DONE status, publishes a ``jointwear_msgs/WearEstimate`` and a
-``diagnostic_msgs/DiagnosticArray`` with one status named
-``wear_estimator: <joint>``: level OK below ``warn_threshold``, WARN in
-``[warn_threshold, alarm_threshold)``, ERROR at ``w_hat >= alarm_threshold``;
-key/values wear, wear_std, method, cycle_id, temperature_estimate,
-n_observations (and observations_rejected / temperatures_unknown when the
-screening dropped an observation or made its temperature unknown, see
-:mod:`jointwear_ros.monitor.validation`). The last status is republished
-every ``diagnostics_period`` so aggregators do not mark it stale.
+same core the offline replay runs), one monitor per joint it serves
+(``joints``; empty = the single joint ``joint_name``, see docs/robot.md), each
+with its own settings (``<joint>.params``, ``<joint>.hardware_id``,
+``<joint>.warn_threshold``, ...; a joint without its own value takes the
+node-level one). Observations go to the monitor of their ``joint_name``,
+``TestCycleStatus`` to the monitor of its ``joint_name`` (a robot cycle tests
+its joints one after another under one cycle id: each joint's monitor sees the
+RUNNING → DONE stream of a one-joint cycle). A monitor gathers observations per
+cycle id and estimates a cycle's wear when all its speeds are in or
+``done_timeout`` after its DONE status; the node publishes one
+``jointwear_msgs/WearEstimate`` per joint and cycle and keeps one
+``diagnostic_msgs/DiagnosticStatus`` per joint named ``wear_estimator: <joint>``
+(each in its own ``DiagnosticArray``): level OK below ``warn_threshold``, WARN
+in ``[warn_threshold, alarm_threshold)``, ERROR at ``w_hat >= alarm_threshold``
+-- one joint's level never changes another's; key/values wear, wear_std,
+method, cycle_id, temperature_estimate, n_observations (and
+observations_rejected / temperatures_unknown when the screening dropped an
+observation or made its temperature unknown, see
+:mod:`jointwear_ros.monitor.validation`). The statuses are republished every
+``diagnostics_period`` so aggregators do not mark them stale. An observation
+or status of a joint not served is ignored, counted (``ignored_messages``) and
+logged (throttled).
 
-Run-time parameter changes (``ros2 param set``) of the estimator settings
-(thresholds, method, parameter set, timeouts, ...) are checked and apply
-from the next estimate; an invalid one is refused with the reason. Topics,
-``joint_name``, ``hardware_id`` and ``diagnostics_period`` are read at
-start-up only (read-only parameters).
+Run-time parameter changes (``ros2 param set``) of the node-level estimator
+settings (thresholds, method, parameter set, timeouts, ...) are checked and
+apply from the next estimate, to every joint without a value of its own; an
+invalid one is refused with the reason (no joint changes). Topics,
+``joints``, ``joint_name``, ``hardware_id``, the per-joint settings and
+``diagnostics_period`` are read at start-up only (read-only parameters).
 
 Parameters: see ``config/wear_estimator.yaml`` and ``docs/nodes-observer-estimator.md``.
 """
@@ -38,6 +50,7 @@ from ..contract import observation_from_msg
 from ..errors import InputDataError
 from ..monitor import ERROR, OK, WARN, CycleResult, MonitorConfig, WearMonitor
 from .diagnostics import NodeDiagnostics, diagnostic_status
+from .joints import declare_joint_settings, declare_joints
 from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
@@ -45,7 +58,7 @@ __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_sta
 _D = MonitorConfig()
 
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", _D.joint_name, "joint whose wear is estimated", read_only=True),
+    ParamDecl("joint_name", _D.joint_name, "joint whose wear is estimated when joints is empty", read_only=True),
     ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the joint name)", read_only=True),
     ParamDecl("method", _D.method, "estimator: paper, paper-grid, bayes, joint"),
     ParamDecl("params", _D.params, "friction-model parameter set"),
@@ -68,6 +81,8 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 )
 #: Parameters that apply at run time (from the next estimate)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
+#: Settings a joint may have of its own (``<joint>.<setting>`` in the params YAML, read at start-up)
+JOINT_SETTINGS = (*LIVE_PARAMETERS, "hardware_id")
 
 
 def _options(text: str) -> dict[str, Any]:
@@ -104,6 +119,24 @@ def estimate_to_msg(r: CycleResult) -> WearEstimate:
     return m
 
 
+class _Joint:
+    """One joint's monitor, settings and ``wear_estimator: <joint>`` status."""
+
+    def __init__(self, name: str, monitor: WearMonitor, own: dict[str, Any], hardware_id: str) -> None:
+        self.name = name
+        self.monitor = monitor
+        #: settings given for this joint (``<joint>.<setting>``): node-level changes leave them alone
+        self.own = own
+        self.hardware_id = hardware_id
+        self.results: list[CycleResult] = []
+        self.diag: NodeDiagnostics | None = None
+
+
+def _monitor_config(values: dict[str, Any], joint: str) -> MonitorConfig:
+    return MonitorConfig.from_mapping(dict(values, joint_name=joint,
+                                           estimator_options=_options(str(values.get("estimator_options", "")))))
+
+
 class WearEstimatorNode(Node):
     """The wear estimator node (see the module docstring)."""
 
@@ -111,20 +144,33 @@ class WearEstimatorNode(Node):
         super().__init__("wear_estimator", **kwargs)
         p = declare_parameters(self, PARAMETERS)
         self.params = p
-        cfg = MonitorConfig.from_mapping(dict(p, estimator_options=_options(str(p["estimator_options"]))))
-        self.monitor = WearMonitor(cfg)
-        self.joint_name = cfg.joint_name
+        self.joints = declare_joints(self, str(p["joint_name"]))
+        own = declare_joint_settings(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS], p)
+        self.channels: dict[str, _Joint] = {}
+        for j in self.joints:
+            settings = {**p, **own[j]}
+            monitor = WearMonitor(_monitor_config(settings, j))
+            self.channels[j] = _Joint(j, monitor, own[j], str(settings["hardware_id"]) or j)
+        first = self.channels[self.joints[0]]
+        #: the first joint's monitor (the only one of a one-joint setup)
+        self.monitor = first.monitor
+        self.joint_name = first.name
         self.status_name = f"wear_estimator: {self.joint_name}"
-        self.hardware_id = str(p["hardware_id"]) or self.joint_name
+        self.hardware_id = first.hardware_id
         self.results: list[CycleResult] = []
+        #: observations and statuses not used: a joint not served, a repeat, screened out, ...
         self.ignored_messages = 0
+        self.unknown_joints: set[str] = set()
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
         self.estimate_pub = self.create_publisher(WearEstimate, str(p["estimate_topic"]), 10,
                                                   qos_overriding_options=overridable_qos())
         # republished on a wall-clock timer: diagnostics keep coming (not stale) even when /clock stops
-        self.diag = NodeDiagnostics(self, self.status_name, self.hardware_id, topic=str(p["diagnostics_topic"]),
-                                    period=float(p["diagnostics_period"]), message="no test cycle estimated yet",
-                                    values=self._idle_values(cfg))
+        for ch in self.channels.values():
+            ch.diag = NodeDiagnostics(self, f"wear_estimator: {ch.name}", ch.hardware_id,
+                                      topic=str(p["diagnostics_topic"]), period=float(p["diagnostics_period"]),
+                                      message="no test cycle estimated yet", values=self._idle_values(ch.monitor.config))
+        #: the first joint's status (the only one of a one-joint setup)
+        self.diag: NodeDiagnostics = first.diag  # type: ignore[assignment]
         self.diag_pub = self.diag.pub
         self.create_subscription(FrictionObservation, str(p["observations_topic"]), self._on_observation, reliable,
                                  qos_overriding_options=overridable_qos())
@@ -132,12 +178,15 @@ class WearEstimatorNode(Node):
                                  qos_overriding_options=overridable_qos())
         self.create_timer(float(p["diagnostics_period"]), self._on_timer, clock=Clock(clock_type=ClockType.STEADY_TIME))
         on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
-        self.get_logger().info(
-            f"estimating wear of {self.joint_name} with method {cfg.method!r} ({cfg.params}); "
-            f"WARN at {cfg.warn_threshold:g}, ERROR at {cfg.alarm_threshold:g}; "
-            f"measured temperature {'used' if cfg.use_measured_temperature else 'ignored'}"
-        )
-        self.diag.publish()
+        for ch in self.channels.values():
+            cfg = ch.monitor.config
+            self.get_logger().info(
+                f"estimating wear of {ch.name} with method {cfg.method!r} ({cfg.params}); "
+                f"WARN at {cfg.warn_threshold:g}, ERROR at {cfg.alarm_threshold:g}; "
+                f"measured temperature {'used' if cfg.use_measured_temperature else 'ignored'}"
+            )
+            assert ch.diag is not None
+            ch.diag.publish()
 
     @staticmethod
     def _idle_values(cfg: MonitorConfig) -> list[tuple[str, str]]:
@@ -146,25 +195,54 @@ class WearEstimatorNode(Node):
 
     @property
     def _status(self) -> Any:
-        """The DiagnosticStatus now reported."""
+        """The DiagnosticStatus now reported (the first joint's)."""
         return self.diag.status
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
-        cfg = self.monitor.config
-        merged: dict[str, Any] = {f: getattr(cfg, f) for f in (
-            "joint_name", "method", "params", "seed", "warn_threshold", "alarm_threshold", "use_measured_temperature",
-            "done_timeout", "idle_timeout", "min_observations", "observation_noise_std", "estimator_options")}
-        merged.update(changes)
-        if "estimator_options" in changes:
-            merged["estimator_options"] = _options(str(changes["estimator_options"]))
-        new = MonitorConfig.from_mapping(merged)
-        self.monitor.reconfigure(new)  # raises with the reason when the method/params/options are unusable
-        if not self.results:
-            self.diag.update(OK, "no test cycle estimated yet", self._idle_values(new))
+        # every joint or none: all new configs are built first, a joint whose estimator cannot be
+        # built refuses the change and the joints already changed go back
+        new: dict[str, MonitorConfig] = {}
+        for ch in self.channels.values():
+            cfg = ch.monitor.config
+            merged: dict[str, Any] = {f: getattr(cfg, f) for f in (
+                "joint_name", "method", "params", "seed", "warn_threshold", "alarm_threshold",
+                "use_measured_temperature", "done_timeout", "idle_timeout", "min_observations",
+                "observation_noise_std", "estimator_options")}
+            mine = {k: v for k, v in changes.items() if k not in ch.own}
+            merged.update(mine)
+            if "estimator_options" in mine:
+                merged["estimator_options"] = _options(str(mine["estimator_options"]))
+            new[ch.name] = MonitorConfig.from_mapping(merged)
+        done: list[tuple[_Joint, MonitorConfig]] = []
+        try:
+            for ch in self.channels.values():
+                old = ch.monitor.config
+                ch.monitor.reconfigure(new[ch.name])  # raises with the reason when unusable
+                done.append((ch, old))
+        except Exception:
+            for ch, old in done:
+                ch.monitor.reconfigure(old)
+            raise
+        for ch in self.channels.values():
+            if not ch.results and ch.diag is not None:
+                ch.diag.update(OK, "no test cycle estimated yet", self._idle_values(ch.monitor.config))
         return None
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
+
+    def _route(self, joint: str) -> _Joint | None:
+        """The joint an observation or status is for (empty name: the joint of a one-joint setup)."""
+        if not joint:
+            return self.channels[self.joint_name] if len(self.channels) == 1 else None
+        return self.channels.get(joint)
+
+    def _ignore(self, what: str, joint: str) -> None:
+        self.ignored_messages += 1
+        self.unknown_joints.add(joint)
+        self.get_logger().warning(
+            f"{what} for joint {joint!r} ignored: this estimator serves {self.joints!r} (parameter joints); "
+            f"{len(self.unknown_joints)} unknown joint(s) so far", throttle_duration_sec=5.0)
 
     def _on_observation(self, msg: FrictionObservation) -> None:
         try:
@@ -173,38 +251,55 @@ class WearEstimatorNode(Node):
             self.ignored_messages += 1
             self.get_logger().warning(f"FrictionObservation skipped: {exc}")
             return
-        before, dropped = self.monitor.notes_total, self.monitor.rejected_count
-        self._handle(self.monitor.add(obs, now=self._now()))
-        notes = self.monitor.notes_since(before)
+        ch = self._route(obs.joint_name)
+        if ch is None:
+            self._ignore("FrictionObservation", obs.joint_name)
+            return
+        monitor = ch.monitor
+        before, dropped = monitor.notes_total, monitor.rejected_count
+        self._handle(monitor.add(obs, now=self._now()))
+        notes = monitor.notes_since(before)
         for note in notes:
-            self.get_logger().warning(note)
-        if self.monitor.rejected_count > dropped or (notes and "used as unknown" not in notes[-1]):
+            self.get_logger().warning(f"{ch.name}: {note}")
+        if monitor.rejected_count > dropped or (notes and "used as unknown" not in notes[-1]):
             self.ignored_messages += 1  # dropped (screening), a repeat, or beyond the cycle's speeds
 
     def _on_status(self, msg: TestCycleStatus) -> None:
+        joint = str(msg.joint_name)
+        ch = self._route(joint)
+        if ch is None:
+            self._ignore("TestCycleStatus", joint)
+            return
         # timeouts run on this node's clock at receipt, whatever clock stamped the messages
-        before = self.monitor.notes_total
-        self._handle(self.monitor.on_status(self._now(), int(msg.cycle_id), int(msg.state), int(msg.speeds_done),
-                                            int(msg.speeds_total), str(msg.joint_name)))
-        for note in self.monitor.notes_since(before):
-            self.get_logger().warning(note)
+        monitor = ch.monitor
+        before = monitor.notes_total
+        self._handle(monitor.on_status(self._now(), int(msg.cycle_id), int(msg.state), int(msg.speeds_done),
+                                       int(msg.speeds_total), ch.name))
+        for note in monitor.notes_since(before):
+            self.get_logger().warning(f"{ch.name}: {note}")
 
     def _on_timer(self) -> None:
-        self._handle(self.monitor.poll(self._now()))
+        now = self._now()
+        for ch in self.channels.values():
+            self._handle(ch.monitor.poll(now))
 
     def _handle(self, results: list[CycleResult]) -> None:
         for r in results:
+            ch = self.channels.get(r.joint_name) or self.channels[self.joint_name]
             self.results.append(r)
+            ch.results.append(r)
             if r.result is not None:
                 self.estimate_pub.publish(estimate_to_msg(r))
-            if r is self.monitor.last:  # a revision of an older cycle does not replace a newer cycle's status
-                self.diag.set(r.level, r.message, r.values)
+            diag = ch.diag
+            assert diag is not None
+            if r is ch.monitor.last:  # a revision of an older cycle does not replace a newer cycle's status
+                diag.set(r.level, r.message, r.values)
             self._log_result(r)
-            self.diag.publish()
+            diag.publish()
 
     def _log_result(self, r: CycleResult) -> None:
         # rclpy keys a logger's severity by call site: one line per severity, never one line that picks it
-        text = f"{self.joint_name}: {r.level_name}: {r.message}"
+        text = f"{r.joint_name}: {r.level_name}: {r.message}"
         if r.level == ERROR:
             self.get_logger().error(text)
         elif r.level == WARN:
@@ -214,14 +309,17 @@ class WearEstimatorNode(Node):
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: let reliable subscribers (the recorder) get the last results."""
-        for pub in (self.estimate_pub, self.diag_pub):
+        pubs = [self.estimate_pub] + [ch.diag.pub for ch in self.channels.values() if ch.diag is not None]
+        for pub in pubs:
             try:
                 pub.wait_for_all_acked(Duration(seconds=0.5))
             except Exception:  # pragma: no cover - best effort on the way out
                 pass
 
     def _publish_diagnostics(self) -> None:
-        self.diag.publish()
+        for ch in self.channels.values():
+            if ch.diag is not None:
+                ch.diag.publish()
 
 
 def main(args: list[str] | None = None) -> int:

@@ -36,7 +36,9 @@ __all__ = [
     "PHASE_SETTLE",
     "StatusTuple",
     "SyntheticCycle",
+    "SyntheticRobotCycle",
     "synthetic_cycle",
+    "synthetic_robot_cycle",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -222,3 +224,97 @@ def synthetic_cycle(
         speeds=sp, tau_f_true=np.asarray(tau_true, dtype=float), load_true=abs(load * math.cos(window_center)),
         window_load_true=float(np.mean(np.abs(load * np.cos(grid)))), info={"t_done": t_done},
     )
+
+
+@dataclass
+class SyntheticRobotCycle:
+    """A robot cycle: every joint tested in turn under one cycle id, the others held still.
+
+    ``position``, ``velocity``, ``effort`` are ``(samples, joints)``, columns in
+    the order of ``joints`` (one JointState per row). ``statuses`` are
+    ``(on_status tuple, joints_done)``: the joint under test is the tuple's
+    ``joint_name``, ``joints_done`` the joints finished before it
+    (``TestCycleStatus.joints_done``). ``temperatures`` are ``(stamp, celsius,
+    joint)`` (``Temperature.header.frame_id`` = the joint). ``cycles`` are the
+    one-joint cycles it is made of (the truth of each joint).
+    """
+
+    joints: list[str]
+    stamps: Array
+    position: Array
+    velocity: Array
+    effort: Array
+    statuses: list[tuple[StatusTuple, int]]
+    temperatures: list[tuple[float, float, str]]
+    cycles: dict[str, SyntheticCycle]
+
+
+def synthetic_robot_cycle(
+    joints: Sequence[str],
+    wears: Sequence[float],
+    speeds: Sequence[float] = (30, 45, 60),
+    *,
+    cycle_id: int = 1,
+    t0: float = 100.0,
+    rate: float = 500.0,
+    load: float = 0.1,
+    torque_scale: float = 200.0,
+    hold_noise_std: float = 0.002,
+    seed: int = 0,
+    torque_scales: Sequence[float] | None = None,
+    temperatures: Sequence[float] | None = None,
+    **kwargs: object,
+) -> SyntheticRobotCycle:
+    """One robot cycle of ``joints`` (wear ``wears[k]`` for joint k) as docs/robot.md describes it.
+
+    Joint k is tested by :func:`synthetic_cycle` (``speeds``, seed ``seed + k``, other keyword
+    arguments passed on) starting right after joint k-1's last sample; while it moves, every
+    other joint holds its position (velocity 0, effort the gravity load plus white noise of
+    ``hold_noise_std``, normalized). ``torque_scales`` and ``temperatures`` (one per joint)
+    override ``torque_scale`` and the ``temperature`` keyword per joint. Deterministic in ``seed``.
+    """
+    names = [str(j) for j in joints]
+    if len(names) != len(wears) or not names:
+        raise ValueError(f"synthetic_robot_cycle: {len(names)} joints and {len(wears)} wears; need one wear per joint")
+    scales = [float(torque_scale)] * len(names) if torque_scales is None else [float(x) for x in torque_scales]
+    if len(scales) != len(names) or (temperatures is not None and len(temperatures) != len(names)):
+        raise ValueError("synthetic_robot_cycle: torque_scales and temperatures need one value per joint")
+    rng = np.random.default_rng(seed + 7919)
+    cycles: dict[str, SyntheticCycle] = {}
+    t_cursor = float(t0)
+    for k, (j, w) in enumerate(zip(names, wears)):
+        extra = dict(kwargs)
+        if temperatures is not None:
+            extra["temperature"] = float(temperatures[k])
+        c = synthetic_cycle(speeds, wear=float(w), rate=rate, load=load, torque_scale=scales[k], cycle_id=cycle_id,
+                            joint_name=j, t0=t_cursor, seed=seed + k, **extra)  # type: ignore[arg-type]
+        cycles[j] = c
+        t_cursor = float(c.stamps[-1]) + 1.0 / rate
+    stamps = np.concatenate([cycles[j].stamps for j in names])
+    n, m = stamps.size, len(names)
+    pos = np.empty((n, m))
+    vel = np.zeros((n, m))
+    eff = np.empty((n, m))
+    start = 0
+    spans = []
+    for j in names:
+        size = cycles[j].stamps.size
+        spans.append((start, start + size))
+        start += size
+    for col, j in enumerate(names):
+        c = cycles[j]
+        a, b = spans[col]
+        pos[:a, col] = c.position[0]
+        pos[a:b, col] = c.position
+        pos[b:, col] = c.position[-1]
+        vel[a:b, col] = c.velocity
+        held = np.ones(n, dtype=bool)
+        held[a:b] = False
+        eff[a:b, col] = c.effort
+        eff[held, col] = (load * np.cos(pos[held, col])
+                          + rng.normal(0.0, hold_noise_std, int(held.sum()))) * scales[col]
+    statuses = [(st, k) for k, j in enumerate(names) for st in cycles[j].statuses]
+    temps = [(t, c, j) for j in names for t, c in cycles[j].temperatures]
+    return SyntheticRobotCycle(joints=names, stamps=stamps, position=pos, velocity=vel, effort=eff,
+                               statuses=sorted(statuses, key=lambda s: s[0][0]),
+                               temperatures=sorted(temps, key=lambda s: s[0]), cycles=cycles)
