@@ -235,6 +235,9 @@ def robot_joint_names(n: int) -> list[str]:
     return names[:n]
 
 
+_FINAL_STATES = (CycleState.DONE, CycleState.ABORTED, CycleState.FAILED)
+
+
 def _stamp(msg: Any) -> float:
     from ..contract import stamp_to_seconds
 
@@ -271,12 +274,19 @@ def run_demo(
     logdir.mkdir(parents=True, exist_ok=True)
     bagdir.mkdir(parents=True, exist_ok=True)
     bags_before = set(find_bags(bagdir))
+    # Timeouts that guard against a dead process run in sim time: scale them by the real-time factor
+    # so each keeps its configured grace in wall seconds (a process briefly starved of CPU on a loaded
+    # machine is not dead; at 3x, 0.5 s of sim time is 0.17 s of wall time).
+    rtf_grace = max(float(real_time_factor), 1.0)
     sim_params: dict[str, Any] = {"use_sim_time": False, "publish_clock": True,
-                                  "real_time_factor": float(real_time_factor)}
+                                  "real_time_factor": float(real_time_factor),
+                                  "command_timeout": float(_config_value("joint_sim", "command_timeout", 0.5))
+                                  * rtf_grace}
     params: dict[str, dict[str, Any]] = {
         "recorder": {"use_sim_time": True, "output_dir": str(bagdir.resolve()), "split": "session"},
         "joint_sim": sim_params,
-        "test_cycle": {"use_sim_time": True, "simulator": True},
+        "test_cycle": {"use_sim_time": True, "simulator": True,
+                       "state_timeout": float(_config_value("test_cycle", "state_timeout", 0.25)) * rtf_grace},
         "friction_observer": {"use_sim_time": True},
         # The last speed's observation comes just after DONE; done_timeout runs in sim time,
         # so scale it to keep the config's grace in wall seconds on a loaded machine.
@@ -386,16 +396,23 @@ def run_demo(
         observations.sort(key=lambda o: (order.get(o["joint_name"], len(order)), o["speed"]))
         final = op.status
         final_state = CycleState.name_of(final.state) if final is not None and final.cycle_id == cycle_id else "?"
+        # cell time: from a joint's first status of the cycle to its first final one (the node
+        # republishes the final status while idle: later copies are not cell time)
         mine = [st for st in op.statuses if st.cycle_id == cycle_id]
-        if mine and final_state != "RUNNING":
-            cell_seconds = _stamp(mine[-1]) - _stamp(mine[0])
+        ends: list[Any] = []
         for jr in per_joint:
             js = [st for st in mine if st.joint_name == jr.joint]
+            end = next((st for st in js if st.state in _FINAL_STATES), None)
             if js:
-                jr.final_state = CycleState.name_of(js[-1].state)
-                jr.cell_seconds = _stamp(js[-1]) - _stamp(js[0])
+                last = end if end is not None else js[-1]
+                jr.final_state = CycleState.name_of(last.state)
+                jr.cell_seconds = _stamp(last) - _stamp(js[0]) if end is not None else math.nan
             else:
                 jr.final_state = "NOT_TESTED"
+            if end is not None:
+                ends.append(end)
+        if mine and ends and op.robot_cycle_over(cycle_id):
+            cell_seconds = max(_stamp(e) for e in ends) - _stamp(mine[0])
         time.sleep(0.5)  # the recorder gets the estimate and diagnostics too
     finally:
         if op is not None:
@@ -636,11 +653,11 @@ def _print_robot(res: DemoResult, rc: int) -> int:
         if e:
             z = (e["wear"] - j.true_wear) / e["wear_std"] if e["wear_std"] > 0 else math.nan
             t = e.get("temperature_estimate")
-            rows.append([j.joint, j.true_wear, f"{e['wear']:.2f} ± {e['wear_std']:.2f}", f"{z:+.1f}",
-                         t if t is not None else math.nan, j.diagnostic_level, j.final_state, j.cell_seconds])
+            rows.append([j.joint, f"{j.true_wear:g}", f"{e['wear']:.2f} ± {e['wear_std']:.2f}", f"{z:+.1f}",
+                         _fixed(t, 1), j.diagnostic_level, j.final_state, _fixed(j.cell_seconds, 1)])
         else:
-            rows.append([j.joint, j.true_wear, "none", "", math.nan, j.diagnostic_level, j.final_state,
-                         j.cell_seconds])
+            rows.append([j.joint, f"{j.true_wear:g}", "none", "", "", j.diagnostic_level, j.final_state,
+                         _fixed(j.cell_seconds, 1)])
     n_obs = len(res.observations)
     print(f"robot cycle {res.cycle_id} ({res.final_state}): {len(res.joints)} joints, {n_obs} friction observations")
     print(format_table(["joint", "true w", "estimate", "z", "T est", "level", "cycle", "cell s"], rows))
@@ -649,3 +666,8 @@ def _print_robot(res: DemoResult, rc: int) -> int:
     print(f"bag: {res.bag}")
     print(f"logs: {res.logs}; {cell}{res.wall_seconds:.1f} s wall")
     return rc
+
+
+def _fixed(x: float | None, digits: int) -> str:
+    """``x`` with ``digits`` decimals; empty when unknown."""
+    return f"{x:.{digits}f}" if x is not None and math.isfinite(x) else ""
