@@ -30,7 +30,7 @@ def test_the_operator_retries_only_retryable_refusals(tmp_path):
         retries = [t for t in lines if "retrying" in t]
         assert retries and all("STATE_MISSING" in t for t in retries)
         assert time.monotonic() - t0 >= 2.0
-        op.joint_name = "joint_9"
+        op.joints = ["joint_9"]  # the joints the operator asks for
         lines.clear()
         with pytest.raises(CellError, match=r"\(WRONG_JOINT\): refused: unknown joint 'joint_9'"):
             op.start_cycle([20.0], [cyc], retry_for=60.0)
