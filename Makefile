@@ -51,7 +51,7 @@ $(VENV)/.stamp-pkg: $(VENV)/.stamp-msgs setup.py setup.cfg
 # The main job: the simulated cell (five nodes on loopback DDS), one 8-speed test
 # cycle by service call, the wear estimate, the diagnostic level and the MCAP bag.
 demo: env
-	$(VENV)/bin/jointwear demo --out out/demo
+	$(VENV)/bin/jointwear demo --joints 6 --out out/demo
 
 test: env
 	$(PY) -m pytest -q test
