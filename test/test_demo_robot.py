@@ -92,3 +92,19 @@ def test_robot_demo_arguments_are_checked_before_anything_starts(tmp_path):
                               capture_output=True, text=True, timeout=60)
         assert proc.returncode == 2 and match in proc.stderr, (args, proc.stderr)
         assert not (tmp_path / "o").exists()
+
+
+def test_the_robot_bag_replays_offline_to_the_live_estimates_of_every_joint(robot):
+    from jointwear_ros.io.params import node_params_from_yaml
+    from jointwear_ros.replay import replay_bag
+    from jointwear_ros.resources import config_path
+
+    rep = replay_bag(robot.bag, node_params_from_yaml(config_path("friction_observer.yaml"), "friction_observer"),
+                     node_params_from_yaml(config_path("wear_estimator.yaml"), "wear_estimator"))
+    cmp_ = rep.comparison()
+    assert cmp_["observations"]["max_abs_diff"] == 0.0 and cmp_["estimates"]["max_abs_diff"] == 0.0
+    replayed = {(c.joint_name, c.cycle_id): c.result for c in rep.cycles if c.result is not None}
+    for j in robot.joints:
+        r = replayed[(j.joint, robot.cycle_id)]
+        assert (r.wear, r.wear_std) == (j.estimate["wear"], j.estimate["wear_std"])
+    assert len(rep.observations) == len(robot.observations)
