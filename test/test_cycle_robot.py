@@ -295,7 +295,8 @@ def test_abort_between_two_joints_names_the_next_joint():
 
 @settings(max_examples=25, deadline=None)
 @given(joint=st.sampled_from(["joint_2", "joint_3"]), at=st.floats(0.2, 3.0),
-       offset=st.floats(-0.05, 0.05).filter(lambda d: abs(abs(d) - HOLD) > 1e-4))
+       # a held joint sags up to ~1.5 mrad while its velocity loop takes up gravity: stay 3 mrad off the tolerance
+       offset=st.floats(-0.05, 0.05).filter(lambda d: abs(abs(d) - HOLD) > 0.003))
 def test_a_held_joint_trips_exactly_when_it_moves_beyond_the_tolerance(joint, at, offset):
     sim = _robot()
     runner = RobotCycleRunner(CONFIGS, HOLD)
