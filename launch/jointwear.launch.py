@@ -13,7 +13,11 @@ Real cell (a JointGroupVelocityController named ``velocity_controller`` is
 active; see docs/nodes-bag-demo.md, "On a real cell")::
 
     ros2 launch jointwear_ros jointwear.launch.py sim:=false motion_enabled:=true \\
-        controller:=velocity_controller joint_name:=joint_3
+        controller:=velocity_controller config_dir:=/etc/jointwear
+
+The joints come from the YAMLs' ``joints`` lists (six in the shipped configs; per-joint settings
+nested under each name, see docs/robot.md); ``joint_name`` applies where a YAML's ``joints``
+is empty (a one-joint cell).
 
 Then trigger a cycle with ``ros2 service call /test_cycle/run
 jointwear_msgs/srv/RunTestCycle "{...}"``.
@@ -42,7 +46,8 @@ ARGUMENTS: list[tuple[str, object, str]] = [
     ("record", "true", "start the recorder (every topic into an MCAP bag)"),
     ("bag_dir", "bags", "directory the recorder creates its bags under"),
     ("motion_enabled", "false", "allow test_cycle to move a real joint (not needed with sim:=true)"),
-    ("joint_name", "joint_1", "the joint under test, as named in the joint states"),
+    ("joint_name", "joint_1", "the joint under test, as named in the joint states, where the YAML's joints list "
+     "is empty (a one-joint cell; a robot's joints come from the YAMLs' joints)"),
     ("controller", "velocity_controller", "name of the JointGroupVelocityController / forward_command_controller"),
     ("commands_topic", ["/", LaunchConfiguration("controller"), "/commands"],
      "velocity command topic (std_msgs/Float64MultiArray); default /<controller>/commands"),
