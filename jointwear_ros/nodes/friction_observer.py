@@ -257,7 +257,9 @@ class FrictionObserverNode(Node):
         hit = self._index_cache.get(key)
         if hit is not None:
             return hit
-        index = {n: i for i, n in enumerate(names)}
+        index: dict[str, int] = {}
+        for i, n in enumerate(names):
+            index.setdefault(n, i)  # a name given twice: its first entry, as list.index
         present = [(ch, index[ch.name]) for ch in self.channels.values() if ch.name in index]
         missing = [ch for ch in self.channels.values() if ch.name not in index]
         if len(self._index_cache) >= 64:  # bounded: a publisher that changes its names every time
