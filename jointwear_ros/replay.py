@@ -253,7 +253,9 @@ def replay_bag(
         names = tuple(msg.name)
         present = index_cache.get(names)
         if present is None:
-            at = {n: i for i, n in enumerate(names)}
+            at: dict[str, int] = {}
+            for i, name in enumerate(names):
+                at.setdefault(name, i)  # a name given twice: its first entry, as the live node
             present = [(j, at[j]) for j in joints if j in at]
             index_cache[names] = present
         n = len(names)

@@ -19,6 +19,7 @@ joint that is not configured. Both processes must still run at the end and stop 
 
 from __future__ import annotations
 
+import math
 import signal
 import subprocess
 import sys
@@ -28,6 +29,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 rclpy = pytest.importorskip("rclpy")
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
@@ -226,6 +229,9 @@ def ctx():
     c = rclpy.Context()
     rclpy.init(context=c)
     yield c
+    for n in _HOSTILE:
+        n.destroy_node()
+    _HOSTILE.clear()
     rclpy.try_shutdown(context=c)
 
 
@@ -340,3 +346,150 @@ def _check_cycle(robot: Robot, cycle_id: int, wears) -> None:
         assert abs(est.wear - w) < 3 * est.wear_std + 1.0, (j, est.wear, est.wear_std)
         assert 0.3 < est.wear_std < 5.0, (j, est.wear_std)
         assert est.alarm is (w >= 35.0)
+
+
+# -- in one process (no DDS traffic needed): routing, per-joint settings, hostile JointStates ----------------
+def _observation(joint: str, cycle_id: int, speed: float, wear: float, stamp: float):
+    from jointwear_ros.model import load_parameter_set, paper_wear_model
+    from jointwear_ros.observer import FrictionObservationData
+
+    tau = float(paper_wear_model().evaluate(load_parameter_set("ref-2011r"), speed=speed, load_torque=0.1,
+                                            temperature=40.0, wear=wear))
+    return FrictionObservationData(stamp=stamp, joint_name=joint, cycle_id=cycle_id, speed=speed, tau_f=tau,
+                                   tau_f_std=3e-4, tau_plus=0.1 + tau, tau_minus=0.1 - tau, load_torque=0.1,
+                                   temperature=40.0, position=0.0, samples_plus=500, samples_minus=500)
+
+
+def _estimator(ctx, ns: str, *extra):
+    from rclpy.parameter import Parameter
+
+    from jointwear_ros.nodes.wear_estimator import WearEstimatorNode
+
+    return WearEstimatorNode(context=ctx, parameter_overrides=[
+        Parameter("joints", value=["joint_1", "joint_2"]), Parameter("method", value="paper"),
+        Parameter("observations_topic", value=f"{ns}/observations"), Parameter("status_topic", value=f"{ns}/status"),
+        Parameter("estimate_topic", value=f"{ns}/estimate"), Parameter("diagnostics_topic", value=f"{ns}/diag"),
+        *extra])
+
+
+def _feed_cycle(node, robot_status, joint: str, cycle_id: int, wear: float, t: float) -> None:
+    from jointwear_ros.nodes.friction_observer import observation_to_msg
+
+    node._on_status(robot_status((t, cycle_id, CycleState.RUNNING, 2, 30.0, 0, 3, 0.0, 0.1, joint), 0))
+    for i, v in enumerate((30.0, 40.0, 50.0)):
+        node._on_observation(observation_to_msg(_observation(joint, cycle_id, v, wear, t + 1.0 + i)))
+
+
+def test_estimator_levels_settings_and_restarts_are_per_joint(ctx):
+    from rclpy.parameter import Parameter
+
+    node = _estimator(ctx, "/jw_robot_est", Parameter("joint_2.alarm_threshold", value=40.0),
+                      Parameter("joint_2.hardware_id", value="cell7/j2"))
+    helper = Robot.__new__(Robot)  # only its message builders
+    try:
+        j1, j2 = node.channels["joint_1"], node.channels["joint_2"]
+        assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (35.0, 40.0)
+        assert (j1.diag.hardware_id, j2.diag.hardware_id) == ("joint_1", "cell7/j2")
+        assert (j1.diag.name, j2.diag.name) == ("wear_estimator: joint_1", "wear_estimator: joint_2")
+        # the same wear 37: joint_1 alarms at 35, joint_2 (its own threshold 40) only warns
+        _feed_cycle(node, helper.status, "joint_1", 1, 37.0, 10.0)
+        _feed_cycle(node, helper.status, "joint_2", 1, 37.0, 20.0)
+        assert [(r.joint_name, r.cycle_id) for r in node.results] == [("joint_1", 1), ("joint_2", 1)]
+        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, WARN)
+        # a node-level change reaches joint_1 only (joint_2 has its own alarm threshold)
+        res = node.set_parameters_atomically([Parameter("alarm_threshold", value=38.0)])
+        assert res.successful, res.reason
+        assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (38.0, 40.0)
+        # refused for every joint when it cannot work: nothing changes
+        res = node.set_parameters_atomically([Parameter("warn_threshold", value=39.0)])
+        assert not res.successful and "warn_threshold <= alarm_threshold" in res.reason
+        assert (j1.monitor.config.warn_threshold, j2.monitor.config.warn_threshold) == (30.0, 30.0)
+        # test_cycle restarted: joint_1's cycle 1 again is a new cycle; joint_2 keeps its level
+        _feed_cycle(node, helper.status, "joint_1", 1, 10.0, 30.0)
+        assert [(r.joint_name, r.cycle_id) for r in node.results][-1] == ("joint_1", 1)
+        assert (_level(j1.diag.status), _level(j2.diag.status)) == (OK, WARN)
+        # a joint not served, and an observation without a joint with two joints: ignored, counted
+        before = node.ignored_messages
+        node._on_status(helper.status((40.0, 1, CycleState.RUNNING, 2, 30.0, 0, 3, 0.0, 0.1, "joint_9"), 0))
+        from jointwear_ros.nodes.friction_observer import observation_to_msg
+
+        node._on_observation(observation_to_msg(_observation("joint_7", 3, 30.0, 10.0, 41.0)))
+        node._on_observation(observation_to_msg(_observation("", 3, 30.0, 10.0, 42.0)))
+        assert node.ignored_messages == before + 3 and node.unknown_joints == {"joint_9", "joint_7", ""}
+        assert len(node.results) == 3
+    finally:
+        node.destroy_node()
+
+
+def test_observer_per_joint_settings_and_node_level_changes(ctx):
+    from rclpy.parameter import Parameter
+
+    from jointwear_ros.nodes.friction_observer import FrictionObserverNode
+
+    ns = "/jw_robot_obs"
+    node = FrictionObserverNode(context=ctx, parameter_overrides=[
+        Parameter("joints", value=["joint_1", "joint_2"]), Parameter("joint_2.torque_scale", value=100.0),
+        Parameter("joint_states_topic", value=f"{ns}/js"), Parameter("status_topic", value=f"{ns}/st"),
+        Parameter("observations_topic", value=f"{ns}/obs")])
+    try:
+        c1, c2 = node.channels["joint_1"].core, node.channels["joint_2"].core
+        assert (c1.config.torque_scale, c2.config.torque_scale) == (200.0, 100.0)
+        assert (c1.config.joint_name, c2.config.joint_name) == ("joint_1", "joint_2")
+        res = node.set_parameters_atomically([Parameter("torque_scale", value=150.0), Parameter("gear_ratio", value=50.0)])
+        assert res.successful, res.reason
+        assert (c1.config.torque_scale, c2.config.torque_scale) == (150.0, 100.0)
+        assert (c1.config.gear_ratio, c2.config.gear_ratio) == (50.0, 50.0)
+        res = node.set_parameters_atomically([Parameter("joint_2.torque_scale", value=1.0)])
+        assert not res.successful and "read-only" in res.reason
+        # joint_2 is being tested: no joint changes
+        helper = Robot.__new__(Robot)
+        node._on_status(helper.status((10.0, 3, CycleState.RUNNING, 2, 40.0, 0, 2, 0.0, 0.1, "joint_2"), 1))
+        res = node.set_parameters_atomically([Parameter("min_samples", value=30)])
+        assert not res.successful and "joint_2: cycle 3 speed #1 is being observed" in res.reason
+        assert (c1.config.min_samples, c2.config.min_samples) == (20, 20)
+    finally:
+        node.destroy_node()
+
+
+_names = st.lists(st.sampled_from(["joint_1", "joint_2", "joint_3", "gripper", ""]), max_size=6)
+_values = st.lists(st.one_of(st.floats(-10, 10), st.just(math.nan), st.just(math.inf)), max_size=7)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(names=_names, pos=_values, vel=_values, eff=_values)
+def test_observer_takes_any_joint_state_without_raising_and_feeds_exactly_the_good_samples(ctx, names, pos, vel, eff):
+    """Hostile JointStates (names missing, repeated or foreign; arrays too short, too long, empty; NaN, inf):
+    never an exception; a joint's core gets a sample exactly when the message is well formed, names the
+    joint (its first entry) and that entry is finite; otherwise the message is counted bad or missing."""
+    node = _hostile_observer(ctx)
+    helper = Robot.__new__(Robot)
+    seen = {j: ch.core.samples_seen for j, ch in node.channels.items()}
+    bad = sum(node.bad_messages.values())
+    node._on_joint_state(helper.joint_state(5.0, names, pos, vel, eff))
+    n = len(names)
+    well_formed = len(eff) > 0 and len(pos) == n and len(vel) == n and len(eff) == n
+    fed_any = False
+    for j, ch in node.channels.items():
+        i = names.index(j) if j in names else -1
+        ok = well_formed and i >= 0 and all(math.isfinite(a[i]) for a in (pos, vel, eff))
+        fed_any |= ok
+        assert ch.core.samples_seen - seen[j] == (1 if ok else 0), (j, names, pos, vel, eff)
+    if not fed_any and (not any(j in names for j in node.channels) or not well_formed):
+        assert sum(node.bad_messages.values()) == bad + 1
+
+
+_HOSTILE: list = []
+
+
+def _hostile_observer(ctx):
+    """One observer for every example (a node per example would exhaust DDS entities)."""
+    if not _HOSTILE:
+        from rclpy.parameter import Parameter
+
+        from jointwear_ros.nodes.friction_observer import FrictionObserverNode
+
+        ns = "/jw_robot_hostile"
+        _HOSTILE.append(FrictionObserverNode(context=ctx, parameter_overrides=[
+            Parameter("joints", value=JOINTS), Parameter("joint_states_topic", value=f"{ns}/js"),
+            Parameter("status_topic", value=f"{ns}/st"), Parameter("observations_topic", value=f"{ns}/obs")]))
+    return _HOSTILE[0]

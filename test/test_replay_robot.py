@@ -208,3 +208,17 @@ def test_robot_cycle_statuses_follow_the_contract():
     last, done = cyc.statuses[-1]
     assert last[2] == 2 and done + 1 == len(JOINTS)  # the robot cycle is over
     assert cyc.position.shape == (cyc.stamps.size, 3) and np.all(np.diff(cyc.stamps) > 0)
+
+
+def test_replay_serves_the_joints_the_live_observer_served(tmp_path):
+    """Recorded joints [joint_1, joint_3]: joint_2 (tested, in every JointState) is left out as it was live
+    (without recorded parameters every joint the statuses name is replayed: the test above; a one-joint
+    node's recorded joint_name: test_fleet's bags)."""
+    cyc = synthetic_robot_cycle(JOINTS, WEARS, SPEEDS, rate=250.0, seed=8, noise_std=0.002)
+    op, mp = _params()
+    two = write_robot_cycle_bag(tmp_path / "two", cyc, observer_params={"joints": ["joint_1", "joint_3"]},
+                                estimator_params={"joints": ["joint_1", "joint_3"]})
+    rep = replay_bag(two, op, mp)
+    assert rep.joints == ["joint_1", "joint_3"]
+    assert sorted({o.joint_name for o in rep.observations}) == ["joint_1", "joint_3"]
+    assert [c.joint_name for c in rep.cycles] == ["joint_1", "joint_3"]

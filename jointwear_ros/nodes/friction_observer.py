@@ -176,7 +176,7 @@ class FrictionObserverNode(Node):
         #: the last 1000 rejected windows (reasons), every joint; ``rejections_total`` counts them all
         self.rejections: list[str] = []
         self.rejections_total = 0
-        self._index_cache: tuple[list[str], list[tuple[_Joint, int]], list[_Joint]] | None = None
+        self._index_cache: dict[tuple[str, ...], tuple[list[tuple[_Joint, int]], list[_Joint]]] = {}
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
         self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos,
@@ -252,13 +252,23 @@ class FrictionObserverNode(Node):
         return self.channels.get(joint)
 
     def _lookup(self, names: list[str]) -> tuple[list[tuple[_Joint, int]], list[_Joint]]:
-        cache = self._index_cache
-        if cache is not None and cache[0] == names:
-            return cache[1], cache[2]
-        index = {n: i for i, n in enumerate(names)}
+        """(joint, index) of the served joints in ``names`` and the joints missing, cached per name list."""
+        key = tuple(names)
+        hit = self._index_cache.get(key)
+        if hit is not None:
+            return hit
+        index: dict[str, int] = {}
+        for i, n in enumerate(names):
+            index.setdefault(n, i)  # a name given twice: its first entry, as list.index
         present = [(ch, index[ch.name]) for ch in self.channels.values() if ch.name in index]
         missing = [ch for ch in self.channels.values() if ch.name not in index]
-        self._index_cache = (list(names), present, missing)
+        if len(self._index_cache) >= 64:  # bounded: a publisher that changes its names every time
+            self._index_cache.clear()
+        self._index_cache[key] = (present, missing)
+        if present and missing:  # once per name list, not per message (2 kHz)
+            self.get_logger().warning(
+                f"JointState names {list(names)!r} lack joint(s) {[ch.name for ch in missing]!r}: their samples "
+                "are missing from these messages (counted as joint_missing; a fault while such a joint is tested)")
         return present, missing
 
     def _on_joint_state(self, msg: JointState) -> None:
@@ -283,10 +293,6 @@ class FrictionObserverNode(Node):
             ch.missing += 1
             if ch.core.active_segment is not None:  # the joint under test is not in the message: a fault
                 self._bad(f"joint {ch.name!r} not in name {list(names)!r} while it is being tested", (ch,))
-            else:
-                self.get_logger().warning(
-                    f"JointState without joint {ch.name!r} (names {list(names)!r}); its samples are missing",
-                    throttle_duration_sec=30.0)
         self._last_rx = time.monotonic()
         stamp = self._stamp(msg.header.stamp)
         for ch, i in present:
