@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -172,7 +172,8 @@ def _tail_p(obs: float, null: Array) -> float:
 class _Context:
     """What every test of one residual vector shares: folds, speed shapes, cycles, permutation source."""
 
-    def __init__(self, table: ObservationTable, residuals: Array, folds: Array | None, seed: int) -> None:
+    def __init__(self, table: ObservationTable, residuals: Array, folds: Array | None, seed: int,
+                 tangent: Array | None = None) -> None:
         n = len(table)
         self.n = n
         # what the model misses, data minus model (FitResult.residuals are model minus data)
@@ -185,7 +186,19 @@ class _Context:
         self.speed = v
         self.low = np.exp(-((v / 15.0) ** 1.3))
         self.high = v / vmax
-        self.z0 = np.column_stack([np.ones(n), self.low, self.high])
+        z = np.column_stack([np.ones(n), self.low, self.high])
+        if tangent is not None and tangent.size:
+            # the model's own tangent space (its Jacobian at the fit): what a refit of the model could absorb.
+            # Testing a column on top of it is the score (Lagrange multiplier) test of an omitted effect in
+            # nonlinear least squares: the first-order gain of refitting the model with the effect added
+            tg = np.asarray(tangent, dtype=float).reshape(n, -1)
+            sd = np.std(tg, axis=0)
+            z = np.column_stack([z, (tg[:, sd > 0] - tg[:, sd > 0].mean(axis=0)) / sd[sd > 0]])
+        u, sv, _ = np.linalg.svd(z, full_matrices=False)
+        keep = sv > sv[0] * 1e-7
+        # an orthonormal basis of the nuisance space (scaled to the columns' size), the intercept first in span
+        self.z0 = u[:, keep] * math.sqrt(n)
+        self.q = int(self.z0.shape[1])
         self.cycle = table["cycle"] if "cycle" in table else np.arange(n, dtype=float)
         self.ucyc, self.cinv = np.unique(self.cycle, return_inverse=True)
         self.cinv = self.cinv.reshape(-1)
@@ -258,7 +271,7 @@ class _Context:
 
     def designs(self, b: Array) -> tuple[Array, Array]:
         rr = b.shape[0]
-        z0 = np.broadcast_to(self.z0, (rr, self.n, 3))
+        z0 = np.broadcast_to(self.z0, (rr, self.n, self.q))
         lvl = np.concatenate([z0, b], axis=2)
         spd = np.concatenate([lvl, b * self.low[None, :, None], b * self.high[None, :, None]], axis=2)
         return lvl, spd
@@ -271,7 +284,7 @@ class _Context:
     def f_test(self, d: Array, noise: float | None) -> float:
         """Nested F (or chi-square, with a noise floor) test of design ``d[0]`` against the speed shapes alone."""
         sse = float(self._in_sse(d[:1])[0])
-        k = d.shape[2] - 3
+        k = d.shape[2] - self.q
         dof = max(self.n - d.shape[2], 1)
         gain = max(self.sse0_in - sse, 0.0)
         s2 = sse / dof
@@ -308,6 +321,47 @@ class _Context:
         _, pred = self._cv_sse(d, return_pred=True)  # type: ignore[misc]
         base = self._cv_sse(self.z0[None], return_pred=True)[1]  # type: ignore[index]
         return pred[0] - base[0]  # type: ignore[no-any-return]
+
+    # -- modulation of the model's terms -----------------------------------------------
+    def set_components(self, components: dict[str, Array] | None) -> None:
+        """The model's terms (name -> contribution per row) a column may scale; constant ones are kept."""
+        self.comp_names: list[str] = []
+        cols = []
+        for name, v in (components or {}).items():
+            v = np.asarray(v, dtype=float).reshape(-1)
+            rms = float(np.sqrt(np.mean(v**2)))
+            if v.size == self.n and rms > 0 and np.all(np.isfinite(v)):
+                self.comp_names.append(name)
+                cols.append(v / rms)
+        self.comp = np.column_stack(cols) if cols else np.zeros((self.n, 0))
+
+    def modulation(self, xs: Array, noise: float | None) -> tuple[float, float, str]:
+        """Does the column scale the model's own terms? (p-value, CV share, the term it scales most).
+
+        The design is ``x * term_k`` for every term ``k`` of the model (x centred and
+        standardised), on the nuisance space (speed shapes and the model's tangent
+        space): the score test of ``x`` as a factor of each term. An effect that
+        reshapes a term of the model with a column (the Stribeck amplitude with the
+        temperature, every term with the motor's temperature) is one direction of it.
+        """
+        k = self.comp.shape[1]
+        if k == 0:
+            return 1.0, 0.0, ""
+        sd = float(np.std(xs[0]))
+        if not sd > 0:
+            return 1.0, 0.0, ""
+        z = (xs - xs.mean(axis=1, keepdims=True)) / sd
+        rr = xs.shape[0]
+        d = np.concatenate([np.broadcast_to(self.z0, (rr, self.n, self.q)), z[:, :, None] * self.comp[None]], axis=2)
+        share_in = (self.sse0_in - self._in_sse(d)) / self.total
+        p_perm = _tail_p(float(share_in[0]), share_in[1:])
+        p_f = self.f_test(d[:1], noise)
+        p = max(p_f, p_perm) if p_perm > PERM_GUARD else p_f
+        share = float((self.sse0 - self._cv_sse(d[:1])[0]) / self.total)
+        # the term it scales: the one whose product alone explains most (coefficients of collinear terms
+        # do not say it)
+        one = np.stack([np.concatenate([self.z0, (z[0] * self.comp[:, j])[:, None]], axis=1) for j in range(k)])
+        return p, share, self.comp_names[int(np.argmin(self._in_sse(one)))]
 
     # -- periodogram ------------------------------------------------------------------
     def periodogram(self, x: Array) -> tuple[float, float, float]:
@@ -464,6 +518,8 @@ def residual_dependence(
     pairs: int = PAIR_TOP,
     seed: int = 0,
     noise: float | None = None,
+    tangent: Array | None = None,
+    components: Mapping[str, Array] | None = None,
 ) -> list[VariableDependence]:
     """Rank columns (and pairs) by how much of the residual they explain, model-free; best first.
 
@@ -486,6 +542,15 @@ def residual_dependence(
     noise
         The noise floor (standard deviation), when known: the parametric test
         then uses ``max(noise^2, residual variance)`` as its error variance.
+    tangent
+        The fitted model's Jacobian in its free parameters (n rows, one column
+        per parameter): every test is then made on top of it, so a column
+        counts with what a refit of the model cannot absorb (the score test of
+        an omitted effect), not with what the fit already bent its
+        parameters towards.
+    components
+        The fitted model's terms (name -> contribution per row): each column is
+        also tested as a factor of them (``x * term``, the *modulation* test).
 
     Returns
     -------
@@ -493,7 +558,8 @@ def residual_dependence(
         Significant ones first, then by explained share.
     """
     cols = list(columns) if columns is not None else candidate_variables(table)
-    ctx = _Context(table, residuals, folds, seed)
+    ctx = _Context(table, residuals, folds, seed, tangent)
+    ctx.set_components(dict(components) if components is not None else None)
     if ctx.total <= 0 or not cols:
         return []
     out: list[VariableDependence] = []
@@ -510,6 +576,12 @@ def residual_dependence(
         speed_dep = bool(s_spd > s_lvl + 0.02)
         contrib = ctx.prediction(x, speed_dep)
         hint = f"smooth in {c}, {_monotone_hint(x, contrib)}"
+        if ctx.comp.shape[1]:
+            p_mod, s_mod, scaled = ctx.modulation(xs, noise)
+            tests["modulation"] = p_mod
+            share = max(share, s_mod)
+            if p_mod < tests["smoother"]:
+                hint = f"scales the model's {scaled} with {c}"
         peak = None
         if is_angle(c):
             w, power, p_ls = ctx.periodogram(x)
@@ -561,25 +633,12 @@ def residual_dependence(
                 todo.append((a, best, len(others)))
                 done.add(frozenset((a, best)))
     pair_out: list[VariableDependence] = []
-    for a, b, screened in todo:
-        xa = np.asarray(table[a], dtype=float)
-        xb = ctx.permuted(np.asarray(table[b], dtype=float), n_perm)
-        ba = ctx.rank_basis(xa[None, :], 4)
-        bb = ctx.rank_basis(xb, 4)
-        rr = bb.shape[0]
-        if screened > 1:  # the screened column enters as the screen had it: linear, times the speed shapes
-            xs = (xb - xb.mean(axis=1, keepdims=True)) / (float(np.std(xb[0])) or 1.0)
-            lin = np.stack([xs, xs * ctx.low[None, :], xs * ctx.high[None, :]], axis=2)
-            d_pair = np.concatenate([np.broadcast_to(ctx.z0, (rr, ctx.n, 3)),
-                                     np.broadcast_to(ba[:, :, :3], (rr, ctx.n, 3)), lin], axis=2)
-        else:
-            inter = (np.broadcast_to(ba, bb.shape)[:, :, :, None] * bb[:, :, None, :]).reshape(rr, ctx.n, -1)
-            d_pair = np.concatenate([np.broadcast_to(ctx.z0, (rr, ctx.n, 3)), np.broadcast_to(ba, bb.shape), bb,
-                                     inter, inter * ctx.low[None, :, None], inter * ctx.high[None, :, None]], axis=2)
+
+    def pair_test(d_pair: Array, d_a: Array) -> tuple[float, float]:
+        """(p-value, CV share) of the designs ``d_pair`` (row 0 the data, then permutations) nested on ``d_a``."""
         in_pair = (ctx.sse0_in - ctx._in_sse(d_pair)) / ctx.total
         p_perm = _tail_p(float(in_pair[0]), in_pair[1:])
         # nested test: does b (with the interaction) add to a alone?
-        d_a = np.concatenate([ctx.z0[None], ba], axis=2)
         sse_a = float(ctx._in_sse(d_a)[0])
         sse_p = float(ctx._in_sse(d_pair[:1])[0])
         k = d_pair.shape[2] - d_a.shape[2]
@@ -590,12 +649,41 @@ def residual_dependence(
             p_f = float(stats.chi2.sf(gain / max(noise**2, s2), k))
         else:
             p_f = float(stats.f.sf(gain / k / max(s2, 1e-300), k, dof))
-        p = min(1.0, (max(p_f, p_perm) if p_perm > PERM_GUARD else p_f) * screened)
-        share_pair = (ctx.sse0 - ctx._cv_sse(d_pair[:1])) / ctx.total
+        share = float((ctx.sse0 - ctx._cv_sse(d_pair[:1])[0]) / ctx.total)
+        return (max(p_f, p_perm) if p_perm > PERM_GUARD else p_f), share
+
+    for a, b, screened in todo:
+        xa = np.asarray(table[a], dtype=float)
+        xb = ctx.permuted(np.asarray(table[b], dtype=float), n_perm)
+        ba = ctx.rank_basis(xa[None, :], 4)
+        bb = ctx.rank_basis(xb, 4)
+        rr = bb.shape[0]
+        z0 = np.broadcast_to(ctx.z0, (rr, ctx.n, ctx.q))
+        d_a = np.concatenate([ctx.z0[None], ba], axis=2)
+        xs = (xb - xb.mean(axis=1, keepdims=True)) / (float(np.std(xb[0])) or 1.0)
+        if screened > 1:  # the screened column enters as the screen had it: linear, times the speed shapes
+            lin = np.stack([xs, xs * ctx.low[None, :], xs * ctx.high[None, :]], axis=2)
+            p, share = pair_test(np.concatenate([z0, np.broadcast_to(ba, (rr, ctx.n, ba.shape[2])), lin], axis=2),
+                                 d_a)
+            p = min(1.0, p * screened)
+        else:
+            # two designs, the smaller p-value counted twice (Bonferroni): a tensor product of cubic splines
+            # (any smooth interaction, many parameters), and the bilinear one (b and a*b, each times the speed
+            # shapes: the first-order interaction, few parameters, so it keeps its power with few cycles)
+            inter = (np.broadcast_to(ba, bb.shape)[:, :, :, None] * bb[:, :, None, :]).reshape(rr, ctx.n, -1)
+            d_full = np.concatenate([z0, np.broadcast_to(ba, bb.shape), bb,
+                                     inter, inter * ctx.low[None, :, None], inter * ctx.high[None, :, None]], axis=2)
+            sa = (xa - xa.mean()) / (float(np.std(xa)) or 1.0)
+            lean = np.stack([xs, xs * sa[None, :]], axis=2)
+            d_lean = np.concatenate([z0, np.broadcast_to(ba, bb.shape), lean, lean * ctx.low[None, :, None],
+                                     lean * ctx.high[None, :, None]], axis=2)
+            p_full, share_full = pair_test(d_full, d_a)
+            p_lean, share_lean = pair_test(d_lean, d_a)
+            p, share = min(1.0, 2.0 * min(p_full, p_lean)), max(share_full, share_lean)
         best_single = max(d.explained_share for d in out if d.name in (a, b))
         pair_out.append(VariableDependence(
-            name=f"{a},{b}", p_value=math.nan, p_raw=p, explained_share=max(float(share_pair[0]), 0.0),
-            shape_hint=f"interaction of {a} and {b}" if share_pair[0] > best_single + 0.05
+            name=f"{a},{b}", p_value=math.nan, p_raw=p, explained_share=max(share, 0.0),
+            shape_hint=f"interaction of {a} and {b}" if share > best_single + 0.05
             else f"{b} adds to {a}", test="smoother (pair)", significant=False,
             tests={"smoother (pair)": p},
         ))

@@ -66,7 +66,7 @@ from .dependence import VariableDependence, is_angle, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
 from .shapes import HarmonicRipple, Scale, Spline, Step
 
-__all__ = ["FOUND_RATIO", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
+__all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
            "fit_candidate"]
 
 #: A candidate "found" the missing effect when its CV RMSE is within this many noise floors.
@@ -75,6 +75,8 @@ FOUND_RATIO = 1.3
 VERDICTS = ("nothing_missing", "found", "unexplained")
 #: Bootstrap resamples (by cycle) of the choice among the best candidates.
 N_BOOTSTRAP = 200
+#: "found" needs candidates of the best one's column(s) to win at least this share of the resamples.
+STABLE_SUPPORT = 0.8
 
 Array = npt.NDArray[np.float64]
 
@@ -96,6 +98,8 @@ class CandidateResult:
     significant: bool
     speed_region: tuple[float, float]
     fit: FitResult = field(repr=False)
+    #: The column(s) the candidate is about: a scaled term's factor, a shape's columns, a term's inputs.
+    key: tuple[str, ...] = ()
 
     @property
     def speed_region_label(self) -> str:
@@ -143,6 +147,10 @@ class Diagnosis:
     after_variables: list[VariableDependence] = field(default_factory=list)
     stability: dict[str, float] = field(default_factory=dict)
     agrees: bool = True
+    #: Share of the bootstrap resamples won by a candidate of the suggestion's column(s) (1 without a bootstrap).
+    support: float = 1.0
+    #: Candidates of other columns that win some resamples: explanations the data does not rule out.
+    alternatives: list[str] = field(default_factory=list)
 
     @property
     def noise_floor(self) -> float:
@@ -211,6 +219,9 @@ class Diagnosis:
             odd = ("" if self.agrees else
                    "; its variables are not among those the model-free ranking found, so it can only be a "
                    "partial fit")
+            if self.support < STABLE_SUPPORT and self.alternatives:
+                odd += (f"; the data does not tell it from {', '.join(self.alternatives[:3])} (terms of its "
+                        f"column(s) win only {100 * self.support:.0f} % of bootstrap resamples by cycle)")
             parts.append(f"The best, {b.term}, leaves the CV RMSE at {self._ratio(b.cv_rmse)} "
                          f"(at {b.speed_region_label}){left}{odd}. "
                          f"Try next: --model \"{self.model} + {b.term}\", then diagnose again.")
@@ -237,6 +248,8 @@ class Diagnosis:
                 "variables": [v.to_dict() for v in self.after_variables],
             },
             "stability": dict(self.stability),
+            "support": self.support,
+            "alternatives": list(self.alternatives),
             "candidates": [c.to_dict() for c in self.candidates],
         }
 
@@ -470,7 +483,8 @@ def diagnose(
         base = fit_model(base.model, table, base.params, folds=folds, n_starts=1)
     noise = noise_test(table, base.residuals, base.n_free, alpha=alpha / 2)
     nf = noise.value
-    variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf)
+    variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf,
+                                    tangent=_tangent(base, table), components=_components(base, table))
     if mode not in ("guided", "full"):
         raise ValueError(f"mode must be 'guided' or 'full', got {mode!r}")
     if library is not None:
@@ -515,6 +529,7 @@ def diagnose(
                 significant=sig,
                 speed_region=_speed_region(table.speed, base.residuals, fit.residuals),
                 fit=fit,
+                key=_key(term),
             )
         )
     results.sort(key=lambda c: (not c.significant, _nan_last(c.cv_rmse), _nan_last(c.delta_bic)))
@@ -531,17 +546,28 @@ def diagnose(
     diag.suggestion = best.term
     diag.after_noise = noise_test(table, best.fit.residuals, best.fit.n_free, alpha=alpha / 2)
     diag.after_variables = residual_dependence(
-        table, best.fit.residuals, folds=folds, alpha=alpha / 2, seed=seed + 1, pairs=0, noise=nf)
+        table, best.fit.residuals, folds=folds, alpha=alpha / 2, seed=seed + 1, pairs=0, noise=nf,
+        tangent=_tangent(best.fit, table), components=_components(best.fit, table))
     at_floor = (best.cv_rmse <= FOUND_RATIO * nf) if math.isfinite(nf) and nf > 0 else diag.after_noise.consistent
     left = any(v.significant for v in diag.after_variables)
     # the parametric and the model-free evidence must agree on the variable: a flexible term of another
     # column can soak up part of a residual it does not explain
     sig_cols = {c for v in sig_vars for c in v.columns}
     diag.agrees = bool(set(best.variables) & sig_cols)
-    diag.verdict = "found" if at_floor and not left and diag.agrees else "unexplained"
     if n_bootstrap > 0:
-        top = [c for c in results if c.significant][:6]
+        sig = [c for c in results if c.significant]
+        top = sig[:6]
+        for c in sig[6:]:  # and the best candidate of every other explanation (column) there is
+            if not any(set(c.key) & set(t.key) for t in top):
+                top.append(c)
         diag.stability = _bootstrap_choice(table, base, top, n_bootstrap, seed)
+        same = [c for c in top if set(c.key) & set(best.key)]
+        diag.support = float(sum(diag.stability.get(c.term, 0.0) for c in same))
+        diag.alternatives = [c.term for c in top if c not in same and diag.stability.get(c.term, 0.0) > 0]
+    # a wrong "found" is worse than "unexplained": the data must pick the best term's column(s) clearly
+    # over every other explanation, cycle resample after cycle resample
+    stable = diag.support >= STABLE_SUPPORT
+    diag.verdict = "found" if at_floor and not left and diag.agrees and stable else "unexplained"
     return diag
 
 
@@ -560,6 +586,24 @@ def _prefer_simple(results: list[CandidateResult]) -> list[CandidateResult]:
     ids = {id(c) for c in tied}
     rest = [c for c in results if id(c) not in ids]
     return tied + rest
+
+
+def _key(term: Term) -> tuple[str, ...]:
+    """The column(s) a candidate is about: what two candidates must share to be the same explanation."""
+    cols = getattr(term, "columns", None)
+    if cols:
+        return tuple(cols)
+    return tuple(v for v in term.variables if v != "speed") or ("speed",)
+
+
+def _tangent(fit: FitResult, table: ObservationTable) -> Array:
+    """The fit's Jacobian in its free parameters: the directions a refit of the model can move in."""
+    return fit.model.jacobian(fit.params, fit.free, **model_inputs(fit.model, table))
+
+
+def _components(fit: FitResult, table: ObservationTable) -> dict[str, Array]:
+    """The fit's terms, name -> contribution per row (what a column may scale)."""
+    return fit.model.components(fit.params, **model_inputs(fit.model, table))
 
 
 def _nan_last(x: float) -> float:
