@@ -199,6 +199,7 @@ class _Context:
         # an orthonormal basis of the nuisance space (scaled to the columns' size), the intercept first in span
         self.z0 = u[:, keep] * math.sqrt(n)
         self.q = int(self.z0.shape[1])
+        self.r_perp = self.r - self.z0 @ (self.z0.T @ self.r) / n
         self.cycle = table["cycle"] if "cycle" in table else np.arange(n, dtype=float)
         self.ucyc, self.cinv = np.unique(self.cycle, return_inverse=True)
         self.cinv = self.cinv.reshape(-1)
@@ -241,21 +242,37 @@ class _Context:
         return dm.reshape(rr, n, nb)[:, :, 1:]  # type: ignore[no-any-return]
 
     def _cv_sse(self, d: Array, return_pred: bool = False) -> Array:
-        """Cross-validated SSE of the residual on each design ``d[k]`` (shape (R, n, p))."""
+        """Cross-validated SSE of the residual on each design ``d[k]`` (shape (R, n, p), ``z0`` first).
+
+        The nuisance part (the first ``q`` columns: the speed shapes and the
+        model's tangent space) is partialled out of the residual and of the
+        other columns on all rows (Frisch-Waugh), as a refit of the model on
+        all cycles would; only the column's own coefficients are fitted per
+        fold and judged on the held-out cycles. (Refitting a dozen nuisance
+        directions per fold on a few cycles would charge the column with
+        their extrapolation error.) The SSE of the nuisance alone is the
+        partialled residual's sum of squares.
+        """
         rr = d.shape[0]
-        sse = np.zeros(rr)
+        extra = d[:, :, self.q:]
+        extra = extra - np.matmul(self.z0, np.matmul(self.z0.T, extra)) / self.n
+        r = self.r_perp
+        p = extra.shape[2]
         pred = np.zeros((rr, self.n)) if return_pred else None
-        p = d.shape[2]
+        if p == 0:
+            sse = np.full(rr, float(np.sum(r**2)))
+            return (sse, pred) if return_pred else sse  # type: ignore[return-value]
+        sse = np.zeros(rr)
         ridge = 1e-8 * self.n * np.eye(p)
         for f in self.fold_ids:
             te = self.folds == f
             tr = ~te
-            dtr = d[:, tr, :]
+            dtr = extra[:, tr, :]
             g = np.matmul(dtr.transpose(0, 2, 1), dtr) + ridge
-            b = np.matmul(dtr.transpose(0, 2, 1), self.r[tr])
+            b = np.matmul(dtr.transpose(0, 2, 1), r[tr])
             coef = np.linalg.solve(g, b[..., None])[..., 0]
-            pr = np.matmul(d[:, te, :], coef[..., None])[..., 0]
-            sse += np.sum((self.r[te] - pr) ** 2, axis=1)
+            pr = np.matmul(extra[:, te, :], coef[..., None])[..., 0]
+            sse += np.sum((r[te] - pr) ** 2, axis=1)
             if pred is not None:
                 pred[:, te] = pr
         return (sse, pred) if return_pred else sse  # type: ignore[return-value]

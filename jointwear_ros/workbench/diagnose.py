@@ -314,8 +314,9 @@ def adaptive_candidates(
     A ripple started at the periodogram's peak (one and two harmonics) for a
     periodic column; a step at the changepoint; B-splines over the column's
     range with ``spline_sizes`` basis functions (the cross-validated error
-    picks among them); for the strongest column, each term of the model
-    scaled by it; for a significant pair, their product. With ``explore``
+    picks among them); for the strongest column (and any column explaining
+    at least half its share), each term of the model scaled by it; for a
+    significant pair, their product. With ``explore``
     and no significant column, the two strongest columns are used.
     """
     have = set(model.term_names)
@@ -342,7 +343,9 @@ def adaptive_candidates(
         if hi > lo:
             for k in spline_sizes if rank == 0 else spline_sizes[1:2]:
                 add(Spline(v.name, lo=float(f"{lo:.6g}"), hi=float(f"{hi:.6g}"), n=k))
-        if rank == 0:
+        if rank == 0 or v.explained_share >= 0.5 * singles[0].explained_share:
+            # each term of the model scaled by the column: for the strongest column and every column the
+            # ranking barely separates from it (so that the bootstrap compares them on equal shapes)
             for term in model.terms:
                 if type(term).__name__ == TERMS.get(term.name, type(None)).__name__ and term.name in TERMS \
                         and set(term.variables) <= usable and term.name != "coulomb":
