@@ -98,7 +98,7 @@ class CandidateResult:
     significant: bool
     speed_region: tuple[float, float]
     fit: FitResult = field(repr=False)
-    #: The column(s) the candidate is about: a scaled term's factor, a shape's columns, a term's inputs.
+    #: The columns the candidate depends on besides the speed (see :func:`_same`).
     key: tuple[str, ...] = ()
 
     @property
@@ -561,10 +561,10 @@ def diagnose(
         sig = [c for c in results if c.significant]
         top = sig[:6]
         for c in sig[6:]:  # and the best candidate of every other explanation (column) there is
-            if not any(set(c.key) & set(t.key) for t in top):
+            if not any(_same(c.key, t.key) for t in top):
                 top.append(c)
         diag.stability = _bootstrap_choice(table, base, top, n_bootstrap, seed)
-        same = [c for c in top if set(c.key) & set(best.key)]
+        same = [c for c in top if _same(c.key, best.key)]
         diag.support = float(sum(diag.stability.get(c.term, 0.0) for c in same))
         diag.alternatives = [c.term for c in top if c not in same and diag.stability.get(c.term, 0.0) > 0]
     # a wrong "found" is worse than "unexplained": the data must pick the best term's column(s) clearly
@@ -592,11 +592,18 @@ def _prefer_simple(results: list[CandidateResult]) -> list[CandidateResult]:
 
 
 def _key(term: Term) -> tuple[str, ...]:
-    """The column(s) a candidate is about: what two candidates must share to be the same explanation."""
-    cols = getattr(term, "columns", None)
-    if cols:
-        return tuple(cols)
+    """The columns a candidate depends on besides the speed (a scaled term: its own and the factor's)."""
     return tuple(v for v in term.variables if v != "speed") or ("speed",)
+
+
+def _same(a: Sequence[str], b: Sequence[str]) -> bool:
+    """Two candidates give the same explanation when the columns of one are among those of the other.
+
+    ``scale(load_stribeck, temperature)`` and ``scale(temp_stribeck, load_torque)`` (both load times
+    temperature) or ``x_stribeck(temperature)`` are one explanation; ``scale(load_stribeck,
+    motor_temperature)`` is another.
+    """
+    return set(a) <= set(b) or set(b) <= set(a)
 
 
 def _tangent(fit: FitResult, table: ObservationTable) -> Array:
