@@ -558,9 +558,9 @@ def diagnose(
     sig_cols = {c for v in sig_vars for c in v.columns}
     diag.agrees = bool(set(best.variables) & sig_cols)
     if n_bootstrap > 0:
-        sig = [c for c in results if c.significant]
-        top = sig[:6]
-        for c in sig[6:]:  # and the best candidate of every other explanation (column) there is
+        sig_cands = [c for c in results if c.significant]
+        top = sig_cands[:6]
+        for c in sig_cands[6:]:  # and the best candidate of every other explanation (column) there is
             if not any(_same(c.key, t.key) for t in top):
                 top.append(c)
         diag.stability = _bootstrap_choice(table, base, top, n_bootstrap, seed)
