@@ -343,17 +343,22 @@ class _Context:
     def set_components(self, components: dict[str, Array] | None) -> None:
         """The model's terms (name -> contribution per row) a column may scale; constant ones are kept."""
         self.comp_names: list[str] = []
+        self.comp_varies: list[bool] = []
         cols = []
         for name, v in (components or {}).items():
             v = np.asarray(v, dtype=float).reshape(-1)
             rms = float(np.sqrt(np.mean(v**2)))
             if v.size == self.n and rms > 0 and np.all(np.isfinite(v)):
                 self.comp_names.append(name)
+                self.comp_varies.append(bool(np.std(v) > 1e-9 * rms))
                 cols.append(v / rms)
         self.comp = np.column_stack(cols) if cols else np.zeros((self.n, 0))
 
     def modulation(self, xs: Array, noise: float | None) -> tuple[float, float, str]:
         """Does the column scale the model's own terms? (p-value, CV share, the term it scales most).
+
+        The term is "" when it is a constant one: the Coulomb level scaled by x
+        is a level that changes with x, what the smoother already says.
 
         The design is ``x * term_k`` for every term ``k`` of the model (x centred and
         standardised), on the nuisance space (speed shapes and the model's tangent
@@ -378,7 +383,8 @@ class _Context:
         # the term it scales: the one whose product alone explains most (coefficients of collinear terms
         # do not say it)
         one = np.stack([np.concatenate([self.z0, (z[0] * self.comp[:, j])[:, None]], axis=1) for j in range(k)])
-        return p, share, self.comp_names[int(np.argmin(self._in_sse(one)))]
+        j = int(np.argmin(self._in_sse(one)))
+        return p, share, self.comp_names[j] if self.comp_varies[j] else ""
 
     # -- periodogram ------------------------------------------------------------------
     def periodogram(self, x: Array) -> tuple[float, float, float]:
@@ -597,7 +603,7 @@ def residual_dependence(
             p_mod, s_mod, scaled = ctx.modulation(xs, noise)
             tests["modulation"] = p_mod
             share = max(share, s_mod)
-            if p_mod < tests["smoother"]:
+            if p_mod < tests["smoother"] and scaled:
                 hint = f"scales the model's {scaled} with {c}"
         peak = None
         if is_angle(c):
