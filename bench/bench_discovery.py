@@ -85,12 +85,13 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--clean-seeds", type=int, default=25, help="clean seeds per cycle count and column set")
     ap.add_argument("--cycles", default="12,40", help="cycle counts (default 12,40)")
     ap.add_argument("--families", default="", help="only these hidden-effect families, comma separated "
-                    "(default: all); with --clean-seeds 0 no clean tables")
+                    "(default: all; none: clean tables only); with --clean-seeds 0 no clean tables")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", metavar="FILE", help="also write every run as JSON")
     args = ap.parse_args(argv)
     cycles = [int(c) for c in args.cycles.split(",")]
-    families = [f for f in args.families.split(",") if f] or list(EFFECT_FAMILIES)
+    families = ([] if args.families == "none" else
+                [f for f in args.families.split(",") if f] or list(EFFECT_FAMILIES))
     unknown = [f for f in families if f not in EFFECT_FAMILIES]
     if unknown:
         ap.error(f"unknown families {', '.join(unknown)}; known: {', '.join(EFFECT_FAMILIES)}")

@@ -3,7 +3,13 @@
 For every numeric column ``x`` (and pairs of the strongest columns), the
 residual of the fitted model is regressed on a smooth function of ``x`` and
 scored by its **cross-validated** share of the residual variance (folds
-grouped by test cycle, as in :func:`~jointwear_ros.workbench.fit.group_folds`):
+grouped by test cycle, as in :func:`~jointwear_ros.workbench.fit.group_folds`).
+
+Given the fitted model's Jacobian (``tangent``), every test is made on top of
+it: a column is credited with what a refit of the model could not absorb (the
+score, or Lagrange multiplier, test of an omitted effect in nonlinear least
+squares). The nuisance part (speed shapes and tangent space) is partialled out
+on all rows; only a column's own coefficients are fitted per fold.
 
 * *smoother*: cubic B-splines (:func:`scipy.interpolate.BSpline.design_matrix`)
   of the rank of ``x``, alone and times two speed shapes (low speeds
@@ -12,6 +18,9 @@ grouped by test cycle, as in :func:`~jointwear_ros.workbench.fit.group_folds`):
   the larger of the two shares; the reported share is at least that of a
   straight line in ``x`` (a spline of a column that grows with the cycle is
   extrapolated into each held-out cycle, a line is not);
+* *modulation*, given the model's terms (``components``): ``x`` as a factor
+  of each of them, ``x * term_k``: a column that reshapes a term of the model
+  (the Stribeck amplitude with the temperature);
 * *periodogram*, for angle-like columns (``position``, ``*angle*``): the peak
   of the normalised Lomb-Scargle periodogram (:func:`scipy.signal.lombscargle`)
   over angular frequencies from half a cycle over the column's span up to
@@ -21,10 +30,11 @@ grouped by test cycle, as in :func:`~jointwear_ros.workbench.fit.group_folds`):
   level shift); when a step beats a trend, the column's share is the step's
   own cross-validated share (a spline of a column that grows with the cycle is
   extrapolated into every held-out cycle);
-* *pairs*: the strongest columns and the model's inputs pairwise, and a
-  screen of every column for what it adds to each model input (the best one
-  tested as a pair with it, its p-value times the number screened): a column
-  correlated with an input shows little alone once the model is refitted.
+* *pairs*: the strongest columns and the model's inputs pairwise (a tensor
+  product of splines and the bilinear interaction, the smaller p-value
+  counted twice), and a screen of every column for what it adds to each
+  model input (the best one tested as a pair with it, its p-value times the
+  number screened).
 
 Each statistic gets a **permutation p-value**: the column is permuted (by whole
 cycles when it is constant within cycles, so the test respects the data's

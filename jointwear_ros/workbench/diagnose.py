@@ -100,6 +100,8 @@ class CandidateResult:
     fit: FitResult = field(repr=False)
     #: The columns the candidate depends on besides the speed (see :func:`_same`).
     key: tuple[str, ...] = ()
+    #: The columns the candidate brings in (a scaled term: its factor).
+    factors: tuple[str, ...] = ()
 
     @property
     def speed_region_label(self) -> str:
@@ -533,6 +535,7 @@ def diagnose(
                 speed_region=_speed_region(table.speed, base.residuals, fit.residuals),
                 fit=fit,
                 key=_key(term),
+                factors=_factors(term),
             )
         )
     results.sort(key=lambda c: (not c.significant, _nan_last(c.cv_rmse), _nan_last(c.delta_bic)))
@@ -561,10 +564,10 @@ def diagnose(
         sig_cands = [c for c in results if c.significant]
         top = sig_cands[:6]
         for c in sig_cands[6:]:  # and the best candidate of every other explanation (column) there is
-            if not any(_same(c.key, t.key) for t in top):
+            if not any(_same(c, t) for t in top):
                 top.append(c)
         diag.stability = _bootstrap_choice(table, base, top, n_bootstrap, seed)
-        same = [c for c in top if _same(c.key, best.key)]
+        same = [c for c in top if _same(c, best)]
         diag.support = float(sum(diag.stability.get(c.term, 0.0) for c in same))
         diag.alternatives = [c.term for c in top if c not in same and diag.stability.get(c.term, 0.0) > 0]
     # a wrong "found" is worse than "unexplained": the data must pick the best term's column(s) clearly
@@ -596,14 +599,22 @@ def _key(term: Term) -> tuple[str, ...]:
     return tuple(v for v in term.variables if v != "speed") or ("speed",)
 
 
-def _same(a: Sequence[str], b: Sequence[str]) -> bool:
-    """Two candidates give the same explanation when the columns of one are among those of the other.
+def _factors(term: Term) -> tuple[str, ...]:
+    """The columns a candidate brings in: a shape's columns (a scaled term's factor), else its inputs."""
+    cols = getattr(term, "columns", None)
+    return tuple(cols) if cols else _key(term)
 
-    ``scale(load_stribeck, temperature)`` and ``scale(temp_stribeck, load_torque)`` (both load times
-    temperature) or ``x_stribeck(temperature)`` are one explanation; ``scale(load_stribeck,
-    motor_temperature)`` is another.
+
+def _same(a: CandidateResult, b: CandidateResult) -> bool:
+    """Two candidates give the same explanation: the columns of one are among the other's, or they share a factor.
+
+    ``scale(load_stribeck, temperature)``, ``scale(temp_stribeck, load_torque)`` (both load times
+    temperature) and ``x_stribeck(temperature)`` are one explanation, and so are
+    ``scale(load_coulomb, motor_temperature)`` and ``scale(temp_stribeck, motor_temperature)``;
+    ``scale(load_stribeck, motor_temperature)`` is another than the first three.
     """
-    return set(a) <= set(b) or set(b) <= set(a)
+    ka, kb = set(a.key), set(b.key)
+    return ka <= kb or kb <= ka or bool(set(a.factors) & set(b.factors))
 
 
 def _tangent(fit: FitResult, table: ObservationTable) -> Array:
