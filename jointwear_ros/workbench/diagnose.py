@@ -194,7 +194,8 @@ class Diagnosis:
                     f"({self._ratio(self.cv_rmse)}); {self._floor_text()}{dep}{cand}.")
         if self.verdict == "found" and b is not None:
             stab = self.stability.get(b.term)
-            stab_txt = f" It is chosen in {100 * stab:.0f} % of bootstrap resamples by cycle." if stab is not None else ""
+            stab_txt = (f" It is chosen in {100 * stab:.0f} % of bootstrap resamples by cycle (terms of "
+                        f"{', '.join(b.key)}: {100 * self.support:.0f} %)." if stab is not None else "")
             return (f"Missing effect found: {b.term} — {b.description}, structured at {b.speed_region_label}. "
                     f"Adding it brings the CV RMSE from {self.cv_rmse:.5f} to {b.cv_rmse:.5f} "
                     f"({self._ratio(b.cv_rmse)}) and leaves no significant dependence on any column.{stab_txt} "
