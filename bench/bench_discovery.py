@@ -135,14 +135,15 @@ def main(argv: list[str]) -> int:
             rows.append([e, c, n, pct(first, n), pct(notn, n), pct(floor, n), pct(found, n), wrong,
                          f"{statistics.median(ratios):.2f}" if ratios else "-",
                          f"{statistics.median(r['cpu'] for r in rs):.1f}"])
-    print("\n## hidden effects (diagnose on top of `paper`; every 2nd seed with 12 irrelevant columns)")
-    print(format_table(["family", "cycles", "runs", "first", "not nothing", "at floor", "found",
-                        "wrong found", "median x floor", "cpu s"], rows))
     n = tot["n"]
-    print(f"\nover all families: hidden variable ranked first {pct(tot['first'], n)}, verdict not nothing_missing "
-          f"{pct(tot['not'], n)}, suggestion within {FLOOR_RATIO}x the floor {pct(tot['floor'], n)}, "
-          f"verdict found {pct(tot['found'], n)}, of them naming a term of another variable (wrong found) "
-          f"{tot['wrong']}")
+    if n:
+        print("\n## hidden effects (diagnose on top of `paper`; every 2nd seed with 12 irrelevant columns)")
+        print(format_table(["family", "cycles", "runs", "first", "not nothing", "at floor", "found",
+                            "wrong found", "median x floor", "cpu s"], rows))
+        print(f"\nover all families: hidden variable ranked first {pct(tot['first'], n)}, verdict not nothing_missing "
+              f"{pct(tot['not'], n)}, suggestion within {FLOOR_RATIO}x the floor {pct(tot['floor'], n)}, "
+              f"verdict found {pct(tot['found'], n)}, of them naming a term of another variable (wrong found) "
+              f"{tot['wrong']}")
     misses = [r for r in results if r["effect"] and not (r["first"] and r["at_floor"] and not r["wrong_found"])]
     if misses:
         print("\n## misses (hidden variable not first, or suggestion above the floor)")
