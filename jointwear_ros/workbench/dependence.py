@@ -56,17 +56,19 @@ irrelevant columns raise no false alarm.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 from scipy import stats
 from scipy.interpolate import BSpline
 from scipy.signal import lombscargle
+from threadpoolctl import threadpool_limits
 
 from ..types import ObservationTable
 from .candidates import candidate_variables
@@ -137,6 +139,21 @@ class VariableDependence:
             "peak_frequency": self.peak_frequency,
             "changepoint": self.changepoint,
         }
+
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def one_blas_thread(fn: Callable[_P, _R]) -> Callable[_P, _R]:
+    """Run ``fn`` with one BLAS thread: the arrays are small, so BLAS threads only compete with each other."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        with threadpool_limits(limits=1, user_api="blas"):
+            return fn(*args, **kwargs)
+
+    return wrapper
 
 
 def is_angle(name: str) -> bool:
@@ -540,6 +557,7 @@ def _monotone_hint(x: Array, contribution: Array) -> str:
     return "non-monotone"
 
 
+@one_blas_thread
 def residual_dependence(
     table: ObservationTable,
     residuals: Array,

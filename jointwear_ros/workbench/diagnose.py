@@ -37,18 +37,16 @@ explain:
 
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ParamSpec
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy import stats
-from threadpoolctl import threadpool_limits
 
 from ..errors import ModelError
 from ..model import TERMS, Model, Parameters, Term
@@ -62,7 +60,7 @@ from .candidates import (
     start_grid,
 )
 from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, noise_test
-from .dependence import VariableDependence, is_angle, residual_dependence
+from .dependence import VariableDependence, is_angle, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
 from .shapes import HarmonicRipple, Scale, Spline, Step
 
@@ -414,21 +412,7 @@ def _bootstrap_choice(
     return {c.term: float(f) for c, f in zip(results, freq) if f > 0}
 
 
-_P = ParamSpec("_P")
-
-
-def _one_blas_thread(fn: Callable[_P, Diagnosis]) -> Callable[_P, Diagnosis]:
-    """Run ``fn`` with one BLAS thread: the arrays are small, so BLAS threads only compete with each other."""
-
-    @functools.wraps(fn)
-    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> Diagnosis:
-        with threadpool_limits(limits=1, user_api="blas"):
-            return fn(*args, **kwargs)
-
-    return wrapper
-
-
-@_one_blas_thread
+@one_blas_thread
 def diagnose(
     table: ObservationTable,
     model: Model | str | FitResult,
