@@ -30,9 +30,11 @@ explain:
 4. the verdict: ``nothing_missing`` (residual consistent with the noise and
    no column explains it, no candidate significant), ``found`` (a candidate
    brings the CV RMSE within :data:`FOUND_RATIO` of the noise floor and leaves
-   no significant dependence), else ``unexplained`` (what remains, where,
-   and how far above the floor the best shape stays). The stability of the
-   chosen term is measured by resampling cycles (bootstrap).
+   no significant dependence, and terms of its columns win at least
+   :data:`STABLE_SUPPORT` of the bootstrap resamples by cycle against every
+   other explanation), else ``unexplained`` (what remains, where, how far
+   above the floor the best shape stays, and the alternatives the data does
+   not rule out).
 """
 
 from __future__ import annotations
