@@ -301,3 +301,26 @@ def test_two_columns_the_data_cannot_tell_apart_give_unexplained_naming_both():
     assert diag.verdict == "unexplained", diag.summary()
     assert diag.support < 0.8 and diag.alternatives
     assert "does not tell it from" in diag.summary() and diag.alternatives[0] in diag.summary()
+
+
+def test_the_ranking_on_the_models_tangent_space_sees_what_the_refit_absorbed():
+    # the same residual, ranked without and with the fit's Jacobian and terms: only the score test on the
+    # tangent space (and the modulation test) shows temperature, the column the refit bent its terms towards
+    from jointwear_ros.workbench.fit import model_inputs
+
+    table = synth_observations(n_cycles=12, effects=["stribeck_temperature"], seed=1000)
+    fit = fit_model(parse_spec("paper"), table, cv_folds=0)
+    bare = residual_dependence(table, fit.residuals, noise=NOISE_STD, alpha=0.005)
+    assert not any(d.significant for d in bare), [(d.name, d.p_value) for d in bare[:3]]
+    x = model_inputs(fit.model, table)
+    dep = residual_dependence(table, fit.residuals, noise=NOISE_STD, alpha=0.005,
+                              tangent=fit.model.jacobian(fit.params, fit.free, **x),
+                              components=fit.model.components(fit.params, **x))
+    assert dep[0].name == "temperature" and dep[0].significant and dep[0].test == "modulation"
+    assert [d.name for d in dep if d.significant] == ["temperature"]
+    assert all(0.0 <= d.explained_share <= 1.0 for d in dep)
+    # a tangent with a non-finite direction (a parameter at a singular point) is dropped, not propagated
+    bad = np.full((len(table), 2), np.nan)
+    bad[:, 0] = table.speed
+    dep = residual_dependence(table, fit.residuals, noise=NOISE_STD, tangent=bad, n_perm=19, pairs=0)
+    assert all(math.isfinite(d.p_value) and 0.0 <= d.explained_share <= 1.0 for d in dep)

@@ -219,6 +219,7 @@ class _Context:
             # Testing a column on top of it is the score (Lagrange multiplier) test of an omitted effect in
             # nonlinear least squares: the first-order gain of refitting the model with the effect added
             tg = np.asarray(tangent, dtype=float).reshape(n, -1)
+            tg = tg[:, np.all(np.isfinite(tg), axis=0)]  # a parameter at a singular point gives no direction
             sd = np.std(tg, axis=0)
             z = np.column_stack([z, (tg[:, sd > 0] - tg[:, sd > 0].mean(axis=0)) / sd[sd > 0]])
         u, sv, _ = np.linalg.svd(z, full_matrices=False)
