@@ -30,25 +30,25 @@ explain:
 4. the verdict: ``nothing_missing`` (residual consistent with the noise and
    no column explains it, no candidate significant), ``found`` (a candidate
    brings the CV RMSE within :data:`FOUND_RATIO` of the noise floor and leaves
-   no significant dependence), else ``unexplained`` (what remains, where,
-   and how far above the floor the best shape stays). The stability of the
-   chosen term is measured by resampling cycles (bootstrap).
+   no significant dependence, and terms of its columns win at least
+   :data:`STABLE_SUPPORT` of the bootstrap resamples by cycle against every
+   other explanation), else ``unexplained`` (what remains, where, how far
+   above the floor the best shape stays, and the alternatives the data does
+   not rule out).
 """
 
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ParamSpec
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy import stats
-from threadpoolctl import threadpool_limits
 
 from ..errors import ModelError
 from ..model import TERMS, Model, Parameters, Term
@@ -62,11 +62,11 @@ from .candidates import (
     start_grid,
 )
 from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, noise_test
-from .dependence import VariableDependence, is_angle, residual_dependence
+from .dependence import VariableDependence, is_angle, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
 from .shapes import HarmonicRipple, Scale, Spline, Step
 
-__all__ = ["FOUND_RATIO", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
+__all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
            "fit_candidate"]
 
 #: A candidate "found" the missing effect when its CV RMSE is within this many noise floors.
@@ -75,6 +75,8 @@ FOUND_RATIO = 1.3
 VERDICTS = ("nothing_missing", "found", "unexplained")
 #: Bootstrap resamples (by cycle) of the choice among the best candidates.
 N_BOOTSTRAP = 200
+#: "found" needs candidates of the best one's column(s) to win at least this share of the resamples.
+STABLE_SUPPORT = 0.8
 
 Array = npt.NDArray[np.float64]
 
@@ -96,6 +98,10 @@ class CandidateResult:
     significant: bool
     speed_region: tuple[float, float]
     fit: FitResult = field(repr=False)
+    #: The columns the candidate depends on besides the speed (see :func:`_same`).
+    key: tuple[str, ...] = ()
+    #: The columns the candidate brings in (a scaled term: its factor).
+    factors: tuple[str, ...] = ()
 
     @property
     def speed_region_label(self) -> str:
@@ -143,6 +149,10 @@ class Diagnosis:
     after_variables: list[VariableDependence] = field(default_factory=list)
     stability: dict[str, float] = field(default_factory=dict)
     agrees: bool = True
+    #: Share of the bootstrap resamples won by a candidate of the suggestion's column(s) (1 without a bootstrap).
+    support: float = 1.0
+    #: Candidates of other columns that win some resamples: explanations the data does not rule out.
+    alternatives: list[str] = field(default_factory=list)
 
     @property
     def noise_floor(self) -> float:
@@ -184,7 +194,8 @@ class Diagnosis:
                     f"({self._ratio(self.cv_rmse)}); {self._floor_text()}{dep}{cand}.")
         if self.verdict == "found" and b is not None:
             stab = self.stability.get(b.term)
-            stab_txt = f" It is chosen in {100 * stab:.0f} % of bootstrap resamples by cycle." if stab is not None else ""
+            stab_txt = (f" It is chosen in {100 * stab:.0f} % of bootstrap resamples by cycle (terms of "
+                        f"{', '.join(b.key)}: {100 * self.support:.0f} %)." if stab is not None else "")
             return (f"Missing effect found: {b.term} — {b.description}, structured at {b.speed_region_label}. "
                     f"Adding it brings the CV RMSE from {self.cv_rmse:.5f} to {b.cv_rmse:.5f} "
                     f"({self._ratio(b.cv_rmse)}) and leaves no significant dependence on any column.{stab_txt} "
@@ -211,6 +222,9 @@ class Diagnosis:
             odd = ("" if self.agrees else
                    "; its variables are not among those the model-free ranking found, so it can only be a "
                    "partial fit")
+            if self.support < STABLE_SUPPORT and self.alternatives:
+                odd += (f"; the data does not tell it from {', '.join(self.alternatives[:3])} (terms of its "
+                        f"column(s) win only {100 * self.support:.0f} % of bootstrap resamples by cycle)")
             parts.append(f"The best, {b.term}, leaves the CV RMSE at {self._ratio(b.cv_rmse)} "
                          f"(at {b.speed_region_label}){left}{odd}. "
                          f"Try next: --model \"{self.model} + {b.term}\", then diagnose again.")
@@ -237,6 +251,8 @@ class Diagnosis:
                 "variables": [v.to_dict() for v in self.after_variables],
             },
             "stability": dict(self.stability),
+            "support": self.support,
+            "alternatives": list(self.alternatives),
             "candidates": [c.to_dict() for c in self.candidates],
         }
 
@@ -301,8 +317,9 @@ def adaptive_candidates(
     A ripple started at the periodogram's peak (one and two harmonics) for a
     periodic column; a step at the changepoint; B-splines over the column's
     range with ``spline_sizes`` basis functions (the cross-validated error
-    picks among them); for the strongest column, each term of the model
-    scaled by it; for a significant pair, their product. With ``explore``
+    picks among them); for the strongest column (and any column explaining
+    at least half its share), each term of the model scaled by it; for a
+    significant pair, their product. With ``explore``
     and no significant column, the two strongest columns are used.
     """
     have = set(model.term_names)
@@ -329,7 +346,9 @@ def adaptive_candidates(
         if hi > lo:
             for k in spline_sizes if rank == 0 else spline_sizes[1:2]:
                 add(Spline(v.name, lo=float(f"{lo:.6g}"), hi=float(f"{hi:.6g}"), n=k))
-        if rank == 0:
+        if rank == 0 or v.explained_share >= 0.5 * singles[0].explained_share:
+            # each term of the model scaled by the column: for the strongest column and every column the
+            # ranking barely separates from it (so that the bootstrap compares them on equal shapes)
             for term in model.terms:
                 if type(term).__name__ == TERMS.get(term.name, type(None)).__name__ and term.name in TERMS \
                         and set(term.variables) <= usable and term.name != "coulomb":
@@ -395,21 +414,7 @@ def _bootstrap_choice(
     return {c.term: float(f) for c, f in zip(results, freq) if f > 0}
 
 
-_P = ParamSpec("_P")
-
-
-def _one_blas_thread(fn: Callable[_P, Diagnosis]) -> Callable[_P, Diagnosis]:
-    """Run ``fn`` with one BLAS thread: the arrays are small, so BLAS threads only compete with each other."""
-
-    @functools.wraps(fn)
-    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> Diagnosis:
-        with threadpool_limits(limits=1, user_api="blas"):
-            return fn(*args, **kwargs)
-
-    return wrapper
-
-
-@_one_blas_thread
+@one_blas_thread
 def diagnose(
     table: ObservationTable,
     model: Model | str | FitResult,
@@ -470,7 +475,8 @@ def diagnose(
         base = fit_model(base.model, table, base.params, folds=folds, n_starts=1)
     noise = noise_test(table, base.residuals, base.n_free, alpha=alpha / 2)
     nf = noise.value
-    variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf)
+    variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf,
+                                    tangent=_tangent(base, table), components=_components(base, table))
     if mode not in ("guided", "full"):
         raise ValueError(f"mode must be 'guided' or 'full', got {mode!r}")
     if library is not None:
@@ -515,6 +521,8 @@ def diagnose(
                 significant=sig,
                 speed_region=_speed_region(table.speed, base.residuals, fit.residuals),
                 fit=fit,
+                key=_key(term),
+                factors=_factors(term),
             )
         )
     results.sort(key=lambda c: (not c.significant, _nan_last(c.cv_rmse), _nan_last(c.delta_bic)))
@@ -531,17 +539,28 @@ def diagnose(
     diag.suggestion = best.term
     diag.after_noise = noise_test(table, best.fit.residuals, best.fit.n_free, alpha=alpha / 2)
     diag.after_variables = residual_dependence(
-        table, best.fit.residuals, folds=folds, alpha=alpha / 2, seed=seed + 1, pairs=0, noise=nf)
+        table, best.fit.residuals, folds=folds, alpha=alpha / 2, seed=seed + 1, pairs=0, noise=nf,
+        tangent=_tangent(best.fit, table), components=_components(best.fit, table))
     at_floor = (best.cv_rmse <= FOUND_RATIO * nf) if math.isfinite(nf) and nf > 0 else diag.after_noise.consistent
     left = any(v.significant for v in diag.after_variables)
     # the parametric and the model-free evidence must agree on the variable: a flexible term of another
     # column can soak up part of a residual it does not explain
     sig_cols = {c for v in sig_vars for c in v.columns}
     diag.agrees = bool(set(best.variables) & sig_cols)
-    diag.verdict = "found" if at_floor and not left and diag.agrees else "unexplained"
     if n_bootstrap > 0:
-        top = [c for c in results if c.significant][:6]
+        sig_cands = [c for c in results if c.significant]
+        top = sig_cands[:6]
+        for c in sig_cands[6:]:  # and the best candidate of every other explanation (column) there is
+            if not any(_same(c, t) for t in top):
+                top.append(c)
         diag.stability = _bootstrap_choice(table, base, top, n_bootstrap, seed)
+        same = [c for c in top if _same(c, best)]
+        diag.support = float(sum(diag.stability.get(c.term, 0.0) for c in same))
+        diag.alternatives = [c.term for c in top if c not in same and diag.stability.get(c.term, 0.0) > 0]
+    # a wrong "found" is worse than "unexplained": the data must pick the best term's column(s) clearly
+    # over every other explanation, cycle resample after cycle resample
+    stable = diag.support >= STABLE_SUPPORT
+    diag.verdict = "found" if at_floor and not left and diag.agrees and stable else "unexplained"
     return diag
 
 
@@ -560,6 +579,39 @@ def _prefer_simple(results: list[CandidateResult]) -> list[CandidateResult]:
     ids = {id(c) for c in tied}
     rest = [c for c in results if id(c) not in ids]
     return tied + rest
+
+
+def _key(term: Term) -> tuple[str, ...]:
+    """The columns a candidate depends on besides the speed (a scaled term: its own and the factor's)."""
+    return tuple(v for v in term.variables if v != "speed") or ("speed",)
+
+
+def _factors(term: Term) -> tuple[str, ...]:
+    """The columns a candidate brings in: a shape's columns (a scaled term's factor), else its inputs."""
+    cols = getattr(term, "columns", None)
+    return tuple(cols) if cols else _key(term)
+
+
+def _same(a: CandidateResult, b: CandidateResult) -> bool:
+    """Two candidates give the same explanation: the columns of one are among the other's, or they share a factor.
+
+    ``scale(load_stribeck, temperature)``, ``scale(temp_stribeck, load_torque)`` (both load times
+    temperature) and ``x_stribeck(temperature)`` are one explanation, and so are
+    ``scale(load_coulomb, motor_temperature)`` and ``scale(temp_stribeck, motor_temperature)``;
+    ``scale(load_stribeck, motor_temperature)`` is another than the first three.
+    """
+    ka, kb = set(a.key), set(b.key)
+    return ka <= kb or kb <= ka or bool(set(a.factors) & set(b.factors))
+
+
+def _tangent(fit: FitResult, table: ObservationTable) -> Array:
+    """The fit's Jacobian in its free parameters: the directions a refit of the model can move in."""
+    return fit.model.jacobian(fit.params, fit.free, **model_inputs(fit.model, table))
+
+
+def _components(fit: FitResult, table: ObservationTable) -> dict[str, Array]:
+    """The fit's terms, name -> contribution per row (what a column may scale)."""
+    return fit.model.components(fit.params, **model_inputs(fit.model, table))
 
 
 def _nan_last(x: float) -> float:
