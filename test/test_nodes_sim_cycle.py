@@ -349,9 +349,9 @@ class TestSimulatedCell:
 
     def test_abort_stops_the_cycle_with_zero(self, cell, operator):
         _ready(operator)
-        # 2 rad/s: the forward sweep takes 10 s of sim time, so the abort lands in it on a loaded machine
-        # too (at 10 rad/s the whole cycle could end before the abort call was served)
-        resp = operator.start(speeds=[2.0])
+        # four sweeps at 10 rad/s (about 16 s of sim time): the abort lands inside the cycle on a loaded
+        # machine too (one speed could end before the abort call was served; a slower speed sticks)
+        resp = operator.start(speeds=[10.0] * 4)
         operator.wait_phase(resp.cycle_id, Phase.FORWARD)
         ans = operator.call(operator.abort_client, Trigger.Request())
         assert ans.success and f"cycle {resp.cycle_id} aborted" in ans.message
