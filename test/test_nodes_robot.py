@@ -396,8 +396,14 @@ def test_estimator_levels_settings_and_restarts_are_per_joint(ctx):
         _feed_cycle(node, helper.status, "joint_2", 1, 37.0, 20.0)
         assert [(r.joint_name, r.cycle_id) for r in node.results] == [("joint_1", 1), ("joint_2", 1)]
         assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, WARN)
-        # a node-level change reaches joint_1 only (joint_2 has its own alarm threshold)
+        # a node-level change sets every joint's, joint_2's own threshold 40 included (docs/robot.md)
         res = node.set_parameters_atomically([Parameter("alarm_threshold", value=38.0)])
+        assert res.successful, res.reason
+        assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (38.0, 38.0)
+        assert [node.get_parameter(f"{j}.alarm_threshold").value for j in ("joint_1", "joint_2")] == [38.0, 38.0]
+        # in the same call a joint's own value wins: joint_2 keeps 40, joint_1 follows
+        res = node.set_parameters_atomically([Parameter("alarm_threshold", value=38.0),
+                                              Parameter("joint_2.alarm_threshold", value=40.0)])
         assert res.successful, res.reason
         assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (38.0, 40.0)
         # refused for every joint when it cannot work: nothing changes
@@ -421,32 +427,172 @@ def test_estimator_levels_settings_and_restarts_are_per_joint(ctx):
         node.destroy_node()
 
 
-def test_observer_per_joint_settings_and_node_level_changes(ctx):
+def test_estimator_declares_every_joints_settings_live_where_the_node_level_one_is(ctx):
+    from rclpy.parameter import Parameter
+
+    from jointwear_ros.nodes.wear_estimator import JOINT_SETTINGS, LIVE_PARAMETERS
+
+    node = _estimator(ctx, "/jw_robot_est_decl", Parameter("alarm_threshold", value=33.0))
+    try:
+        for j in ("joint_1", "joint_2"):
+            for name in JOINT_SETTINGS:
+                assert node.has_parameter(f"{j}.{name}"), (j, name)
+                # the node-level value is the default of a joint not given its own
+                assert node.get_parameter(f"{j}.{name}").value == node.get_parameter(name).value, (j, name)
+                ro = node.describe_parameter(f"{j}.{name}").read_only
+                assert ro is (name not in LIVE_PARAMETERS), (j, name)
+        assert node.channels["joint_2"].monitor.config.alarm_threshold == 33.0
+        res = node.set_parameters_atomically([Parameter("joint_2.hardware_id", value="x")])
+        assert not res.successful and "read-only" in res.reason
+        assert not node.has_parameter("joint_3.alarm_threshold")
+    finally:
+        node.destroy_node()
+
+
+def test_estimator_per_joint_threshold_at_run_time_changes_that_joints_level_only(ctx):
+    from rclpy.parameter import Parameter
+
+    node = _estimator(ctx, "/jw_robot_est_live")
+    helper = Robot.__new__(Robot)
+    try:
+        j1, j2 = node.channels["joint_1"], node.channels["joint_2"]
+        _feed_cycle(node, helper.status, "joint_1", 1, 37.0, 10.0)
+        _feed_cycle(node, helper.status, "joint_2", 1, 37.0, 20.0)
+        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, ERROR)
+        # `ros2 param set /wear_estimator joint_2.alarm_threshold 40.0`
+        res = node.set_parameters_atomically([Parameter("joint_2.alarm_threshold", value=40.0)])
+        assert res.successful, res.reason
+        assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (35.0, 40.0)
+        assert (node.get_parameter("alarm_threshold").value, node.get_parameter("joint_1.alarm_threshold").value,
+                node.get_parameter("joint_2.alarm_threshold").value) == (35.0, 35.0, 40.0)
+        # the level already reported stays until the next estimate
+        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, ERROR)
+        _feed_cycle(node, helper.status, "joint_1", 2, 37.0, 30.0)
+        _feed_cycle(node, helper.status, "joint_2", 2, 37.0, 40.0)
+        assert [(r.joint_name, r.cycle_id, r.alarm_threshold) for r in node.results[-2:]] == [
+            ("joint_1", 2, 35.0), ("joint_2", 2, 40.0)]
+        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, WARN)
+
+        def unchanged() -> None:
+            assert [(c.monitor.config.warn_threshold, c.monitor.config.alarm_threshold, c.monitor.config.method)
+                    for c in (j1, j2)] == [(30.0, 35.0, "paper"), (30.0, 40.0, "paper")]
+            assert [node.get_parameter(n).value for n in ("joint_1.alarm_threshold", "joint_2.alarm_threshold",
+                                                          "joint_2.warn_threshold", "joint_1.method")] == [
+                35.0, 40.0, 30.0, "paper"]
+
+        # invalid for that joint: refused with the joint and the reason, nothing changes
+        res = node.set_parameters_atomically([Parameter("joint_2.warn_threshold", value=45.0)])
+        assert not res.successful
+        assert res.reason.startswith("joint_2: ") and "warn_threshold <= alarm_threshold" in res.reason, res.reason
+        unchanged()
+        # valid for joint_2 (alarm 40), invalid for joint_1 (alarm 35): a node-level 38 is refused for joint_1
+        res = node.set_parameters_atomically([Parameter("warn_threshold", value=38.0)])
+        assert not res.successful and res.reason.startswith("joint_1: "), res.reason
+        unchanged()
+        # one call, one joint fine and the other not: neither changes (joint_1 is rolled back)
+        res = node.set_parameters_atomically([Parameter("joint_1.alarm_threshold", value=36.0),
+                                              Parameter("joint_2.method", value="nonsense")])
+        assert not res.successful and res.reason.startswith("joint_2: ") and "nonsense" in res.reason, res.reason
+        unchanged()
+        # out of the declared range: rclpy refuses it, naming the parameter
+        res = node.set_parameters_atomically([Parameter("joint_1.alarm_threshold", value=150.0)])
+        assert not res.successful and "joint_1.alarm_threshold" in res.reason, res.reason
+        unchanged()
+        # a node-level change reaches every joint, joint_2's own 40 replaced
+        res = node.set_parameters_atomically([Parameter("alarm_threshold", value=36.0)])
+        assert res.successful, res.reason
+        assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (36.0, 36.0)
+        _feed_cycle(node, helper.status, "joint_1", 3, 37.0, 50.0)
+        _feed_cycle(node, helper.status, "joint_2", 3, 37.0, 60.0)
+        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, ERROR)
+        assert [(r.joint_name, r.cycle_id, r.alarm_threshold) for r in node.results[-2:]] == [
+            ("joint_1", 3, 36.0), ("joint_2", 3, 36.0)]
+    finally:
+        node.destroy_node()
+
+
+def _observer(ctx, ns: str, *extra):
     from rclpy.parameter import Parameter
 
     from jointwear_ros.nodes.friction_observer import FrictionObserverNode
 
-    ns = "/jw_robot_obs"
-    node = FrictionObserverNode(context=ctx, parameter_overrides=[
-        Parameter("joints", value=["joint_1", "joint_2"]), Parameter("joint_2.torque_scale", value=100.0),
-        Parameter("joint_states_topic", value=f"{ns}/js"), Parameter("status_topic", value=f"{ns}/st"),
-        Parameter("observations_topic", value=f"{ns}/obs")])
+    return FrictionObserverNode(context=ctx, parameter_overrides=[
+        Parameter("joints", value=["joint_1", "joint_2"]), Parameter("joint_states_topic", value=f"{ns}/js"),
+        Parameter("status_topic", value=f"{ns}/st"), Parameter("observations_topic", value=f"{ns}/obs"), *extra])
+
+
+def test_observer_per_joint_settings_and_node_level_changes(ctx):
+    from rclpy.parameter import Parameter
+
+    node = _observer(ctx, "/jw_robot_obs", Parameter("joint_2.torque_scale", value=100.0))
     try:
         c1, c2 = node.channels["joint_1"].core, node.channels["joint_2"].core
         assert (c1.config.torque_scale, c2.config.torque_scale) == (200.0, 100.0)
         assert (c1.config.joint_name, c2.config.joint_name) == ("joint_1", "joint_2")
+        # a node-level change sets every joint's (joint_2's own torque scale included)
         res = node.set_parameters_atomically([Parameter("torque_scale", value=150.0), Parameter("gear_ratio", value=50.0)])
         assert res.successful, res.reason
-        assert (c1.config.torque_scale, c2.config.torque_scale) == (150.0, 100.0)
+        assert (c1.config.torque_scale, c2.config.torque_scale) == (150.0, 150.0)
         assert (c1.config.gear_ratio, c2.config.gear_ratio) == (50.0, 50.0)
-        res = node.set_parameters_atomically([Parameter("joint_2.torque_scale", value=1.0)])
-        assert not res.successful and "read-only" in res.reason
-        # joint_2 is being tested: no joint changes
+        assert node.get_parameter("joint_2.torque_scale").value == 150.0
+        # a joint's own value at run time: that joint only
+        res = node.set_parameters_atomically([Parameter("joint_2.torque_scale", value=100.0)])
+        assert res.successful, res.reason
+        assert (c1.config.torque_scale, c2.config.torque_scale) == (150.0, 100.0)
+        # joint_2 is being tested: no change of any joint's settings that touches joint_2
         helper = Robot.__new__(Robot)
         node._on_status(helper.status((10.0, 3, CycleState.RUNNING, 2, 40.0, 0, 2, 0.0, 0.1, "joint_2"), 1))
         res = node.set_parameters_atomically([Parameter("min_samples", value=30)])
         assert not res.successful and "joint_2: cycle 3 speed #1 is being observed" in res.reason
         assert (c1.config.min_samples, c2.config.min_samples) == (20, 20)
+        assert (node.get_parameter("joint_1.min_samples").value, node.get_parameter("min_samples").value) == (20, 20)
+    finally:
+        node.destroy_node()
+
+
+def test_observer_per_joint_gear_and_torque_scale_refused_while_that_joint_is_observed_accepted_between(ctx):
+    from rclpy.parameter import Parameter
+
+    node = _observer(ctx, "/jw_robot_obs_live", Parameter("poll_grace", value=0.0))
+    helper = Robot.__new__(Robot)
+    try:
+        c1, c2 = node.channels["joint_1"].core, node.channels["joint_2"].core
+
+        def settings() -> list[tuple[float, float]]:
+            return [(c.config.gear_ratio, c.config.torque_scale) for c in (c1, c2)]
+
+        # cycle 3 tests joint_2: its speed #1 is being observed
+        node._on_status(helper.status((10.0, 3, CycleState.RUNNING, 2, 40.0, 0, 1, 0.0, 0.1, "joint_2"), 1))
+        for name, value in (("joint_2.gear_ratio", 80.0), ("joint_2.torque_scale", 60.0)):
+            res = node.set_parameters_atomically([Parameter(name, value=value)])
+            assert not res.successful, name
+            assert res.reason.startswith("joint_2: cycle 3 speed #1 is being observed"), res.reason
+            assert node.get_parameter(name).value == (100.0 if "gear" in name else 200.0)
+        assert settings() == [(100.0, 200.0), (100.0, 200.0)]
+        # the joint not under test can change meanwhile (its observations are not affected)
+        res = node.set_parameters_atomically([Parameter("joint_1.gear_ratio", value=80.0),
+                                              Parameter("joint_1.torque_scale", value=60.0)])
+        assert res.successful, res.reason
+        assert settings() == [(80.0, 60.0), (100.0, 200.0)]
+        # a node-level change would change joint_2 too: refused, joint_1 keeps its values
+        res = node.set_parameters_atomically([Parameter("gear_ratio", value=90.0)])
+        assert not res.successful and res.reason.startswith("joint_2: cycle 3"), res.reason
+        assert settings() == [(80.0, 60.0), (100.0, 200.0)]
+        assert node.get_parameter("joint_1.gear_ratio").value == 80.0
+        # an invalid value for a joint is refused with the reason (range check by rclpy, then the core's)
+        res = node.set_parameters_atomically([Parameter("joint_1.gear_ratio", value=-1.0)])
+        assert not res.successful and "joint_1.gear_ratio" in res.reason, res.reason
+        res = node.set_parameters_atomically([Parameter("joint_1.min_samples", value=1)])
+        assert not res.successful and res.reason.startswith("joint_1: ") and "min_samples" in res.reason, res.reason
+        # cycle 3 of joint_2 ends; its speed is processed (no samples: rejected) once the inputs fall silent
+        node._on_status(helper.status((12.0, 3, CycleState.DONE, 2, 0.0, 1, 1, 0.0, 0.1, "joint_2"), 1))
+        node._on_poll()
+        assert c2.active_segment is None and not c2.pending_segments
+        res = node.set_parameters_atomically([Parameter("joint_2.gear_ratio", value=80.0),
+                                              Parameter("joint_2.torque_scale", value=60.0)])
+        assert res.successful, res.reason
+        assert settings() == [(80.0, 60.0), (80.0, 60.0)]
+        assert [node.get_parameter(f"joint_2.{n}").value for n in ("gear_ratio", "torque_scale")] == [80.0, 60.0]
     finally:
         node.destroy_node()
 
