@@ -498,9 +498,11 @@ def test_estimator_per_joint_threshold_at_run_time_changes_that_joints_level_onl
         res = node.set_parameters_atomically([Parameter("joint_1.alarm_threshold", value=150.0)])
         assert not res.successful and "joint_1.alarm_threshold" in res.reason, res.reason
         unchanged()
-        # a node-level change reaches every joint, joint_2's own 40 replaced
-        res = node.set_parameters_atomically([Parameter("alarm_threshold", value=36.0)])
+        # a node-level change reaches every joint, joint_2's own 40 replaced (set_parameters: one
+        # parameter at a time, as the ~/set_parameters service behind `ros2 param set` does)
+        (res,) = node.set_parameters([Parameter("alarm_threshold", value=36.0)])
         assert res.successful, res.reason
+        assert [node.get_parameter(f"{j}.alarm_threshold").value for j in ("joint_1", "joint_2")] == [36.0, 36.0]
         assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (36.0, 36.0)
         _feed_cycle(node, helper.status, "joint_1", 3, 37.0, 50.0)
         _feed_cycle(node, helper.status, "joint_2", 3, 37.0, 60.0)

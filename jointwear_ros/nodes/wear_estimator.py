@@ -229,10 +229,9 @@ class WearEstimatorNode(Node):
                 return f"{j}: {exc}"
         done: list[tuple[_Joint, MonitorConfig]] = []
         try:
-            for j, cfg in new.items():
-                ch = self.channels[j]
+            for ch in (self.channels[j] for j in new):
                 old = ch.monitor.config
-                ch.monitor.reconfigure(cfg)  # raises with the reason when unusable
+                ch.monitor.reconfigure(new[ch.name])  # raises with the reason when unusable
                 done.append((ch, old))
         except (JointwearError, ValueError, TypeError) as exc:
             failed = ch.name
