@@ -498,6 +498,12 @@ def test_estimator_per_joint_threshold_at_run_time_changes_that_joints_level_onl
         res = node.set_parameters_atomically([Parameter("joint_1.alarm_threshold", value=150.0)])
         assert not res.successful and "joint_1.alarm_threshold" in res.reason, res.reason
         unchanged()
+        from jointwear_ros.nodes.joints import replaced_own_values, split_per_joint
+
+        call = {"alarm_threshold": 36.0, "joint_1.alarm_threshold": 36.0, "joint_2.alarm_threshold": 36.0}
+        assert split_per_joint(call, node.joints) == {"joint_1": {"alarm_threshold": 36.0},
+                                                      "joint_2": {"alarm_threshold": 36.0}}
+        assert replaced_own_values(node, call, node.joints) == ["joint_2.alarm_threshold 40.0 -> 36.0"]
         # a node-level change reaches every joint, joint_2's own 40 replaced (set_parameters: one
         # parameter at a time, as the ~/set_parameters service behind `ros2 param set` does)
         (res,) = node.set_parameters([Parameter("alarm_threshold", value=36.0)])
