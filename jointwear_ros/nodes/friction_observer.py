@@ -28,12 +28,17 @@ otherwise. The counts of "the current cycle" restart when a new cycle id of
 that joint appears on the status topic.
 
 Run-time parameters: the observer settings (tolerances, ``min_samples``,
-``gear_ratio``, ...) can change between cycles, for every joint that has no
-value of its own (``<joint>.<setting>``, read at start-up); while a speed of
-any joint is being observed a change is refused with the reason (live and
-replayed observations must use the same settings). ``joints``,
-``joint_name``, the topics and the periods are read at start-up only
-(read-only parameters).
+``gear_ratio``, ``torque_scale``, ...) are declared for every joint
+(``<joint>.<setting>``, by default the node-level value) and can change
+between cycles: ``<joint>.<setting>`` for that joint only, a node-level
+``<setting>`` for every joint (it sets every ``<joint>.<setting>`` in the same
+call, replacing a value a joint had of its own: set ``<joint>.<setting>``
+again afterwards to keep that joint different; the replaced values are
+logged). A change that would alter the settings of a joint while a speed of
+that joint is being observed is refused with the reason (live and replayed
+observations must use the same settings), as is a value a joint's settings
+cannot take; nothing changes then. ``joints``, ``joint_name``, the topics and
+the periods are read at start-up only (read-only parameters).
 
 Parameters: see ``config/friction_observer.yaml`` and ``docs/nodes-observer-estimator.md``.
 """
@@ -54,9 +59,10 @@ from sensor_msgs.msg import JointState, Temperature
 
 from .. import contract
 from ..contract import observation_from_msg, stamp_to_seconds
+from ..errors import JointwearError
 from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput
 from .diagnostics import OK, WARN, NodeDiagnostics, Report
-from .joints import declare_joint_settings, declare_joints
+from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
     ParamDecl,
     declare_parameters,
@@ -108,7 +114,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 )
 #: Parameters that can change at run time (between cycles)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
-#: Settings a joint may have of its own (``<joint>.<setting>`` in the params YAML, read at start-up)
+#: Settings each joint has of its own (``<joint>.<setting>``, default: the node-level value; live)
 JOINT_SETTINGS = LIVE_PARAMETERS
 
 
@@ -125,11 +131,9 @@ def high_rate_qos() -> QoSProfile:
 class _Joint:
     """One observed joint: its core, its counts and its ``friction_observer: <joint>`` status."""
 
-    def __init__(self, name: str, core: FrictionObserverCore, own: dict[str, Any]) -> None:
+    def __init__(self, name: str, core: FrictionObserverCore) -> None:
         self.name = name
         self.core = core
-        #: settings given for this joint (``<joint>.<setting>``): node-level changes leave them alone
-        self.own = own
         self.observations_published = 0
         self.rejections_total = 0
         #: bad messages that concern this joint (a whole bad message counts for every joint)
@@ -158,11 +162,11 @@ class FrictionObserverNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.params = p
         self.joints = declare_joints(self, str(p["joint_name"]))
-        own = declare_joint_settings(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS], p)
+        values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS])
         self.channels: dict[str, _Joint] = {}
         for j in self.joints:
-            cfg = ObserverConfig.from_mapping({**p, **own[j], "joint_name": j})
-            self.channels[j] = _Joint(j, FrictionObserverCore(cfg), own[j])
+            cfg = ObserverConfig.from_mapping({**p, **values[j], "joint_name": j})
+            self.channels[j] = _Joint(j, FrictionObserverCore(cfg))
         first = self.channels[self.joints[0]]
         #: the first joint's core (the only one of a one-joint setup)
         self.core = first.core
@@ -196,7 +200,9 @@ class FrictionObserverNode(Node):
             ch.diag.update(*self._report(ch))
         #: the first joint's status (the only one of a one-joint setup)
         self.diag: NodeDiagnostics = first.diag  # type: ignore[assignment]
-        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
+        self.add_pre_set_parameters_callback(propagate_node_level(JOINT_SETTINGS, self.joints))
+        on_parameter_change(self, self._on_parameters,
+                            LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in JOINT_SETTINGS))
         for ch in self.channels.values():
             cfg = ch.core.config
             self.get_logger().info(
@@ -396,20 +402,28 @@ class FrictionObserverNode(Node):
         return OK, f"{ch.observations_published} observation(s), {rej} window(s) rejected in all", values
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
-        # every joint or none: the new configs are built and the joints checked before any changes
-        new = {}
-        for ch in self.channels.values():
+        # a node-level change arrives with every joint's <joint>.<setting> (propagate_node_level);
+        # every joint or none: the new configs are built and the joints they change checked first
+        new: dict[str, ObserverConfig] = {}
+        for j, mine in split_per_joint(changes, self.joints).items():
+            ch = self.channels[j]
             cfg = ch.core.config
-            current = {f: getattr(cfg, f) for f in cfg.__dataclass_fields__}
-            mine = {k: v for k, v in changes.items() if k not in ch.own}
-            new[ch.name] = ObserverConfig.from_mapping(dict(current, **mine))
-        for ch in self.channels.values():
-            if new[ch.name] != ch.core.config:
-                why = ch.busy_reason()
+            if not mine:
+                continue
+            try:
+                new[j] = ObserverConfig.from_mapping({**{f: getattr(cfg, f) for f in cfg.__dataclass_fields__}, **mine})
+            except (JointwearError, ValueError, TypeError) as exc:
+                return f"{j}: {exc}"
+        for j, cfg in new.items():
+            if cfg != self.channels[j].core.config:
+                why = self.channels[j].busy_reason()
                 if why:
                     return why
-        for ch in self.channels.values():
-            ch.core.reconfigure(new[ch.name])
+        replaced = replaced_own_values(self, changes, self.joints)
+        for j, cfg in new.items():
+            self.channels[j].core.reconfigure(cfg)
+        if replaced:
+            self.get_logger().info(f"node-level change replaced joints' own values: {', '.join(replaced)}")
         return None
 
 

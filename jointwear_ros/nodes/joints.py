@@ -4,17 +4,21 @@ A node that serves a robot has a read-only ``joints`` parameter (the joint names
 in order; empty: the one joint ``joint_name``, as in every one-joint
 configuration). A setting may be given per joint, nested under the joint's name
 in the params YAML (ROS 2 turns it into a parameter ``<joint>.<setting>``,
-e.g. ``joint_3: {wear: 40.0}``); a joint without its own value takes the
-node-level one. Two ways to declare them:
+e.g. ``joint_3: {wear: 40.0}``). Every node that serves a robot (``joint_sim``,
+``test_cycle``, ``friction_observer``, ``wear_estimator``) declares them the
+same way:
 
-- :func:`declare_per_joint` (``joint_sim``, ``test_cycle``): every
-  ``<joint>.<setting>`` is declared, with the node-level value as default; a
-  node-level setting set at run time sets every joint's with it
-  (:func:`propagate_node_level`), ``<joint>.<setting>`` sets that joint only.
-- :func:`declare_joint_settings` (``friction_observer``, ``wear_estimator``):
-  only the per-joint settings given are declared (read-only), so ``ros2 param
-  list`` shows exactly what was set; a run-time change of a node-level setting
-  applies to every joint without a value of its own.
+- :func:`declare_per_joint`: every ``<joint>.<setting>`` is declared, for every
+  joint, with the node-level value as default (a joint not given its own value
+  in the YAML starts with the node-level one), read-only exactly when the
+  node-level setting is;
+- :func:`propagate_node_level` (a pre-set-parameters callback): a node-level
+  setting set at run time sets every joint's ``<joint>.<setting>`` in the same
+  call, **a value a joint was given of its own included** (unless that call
+  sets the joint's value itself); ``<joint>.<setting>`` set at run time changes
+  that joint only. The node validates the joints' new values together: one
+  joint's invalid value refuses the whole call (nothing changes).
+  :func:`split_per_joint` sorts a call's changes by joint.
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ from rclpy.parameter import Parameter
 from ..errors import ParameterError
 from .runtime import ParamDecl
 
-__all__ = ["declare_joint_settings", "declare_joints", "declare_per_joint", "propagate_node_level"]
+__all__ = ["declare_joints", "declare_per_joint", "propagate_node_level", "replaced_own_values", "split_per_joint"]
 
 _JOINTS_DESCRIPTION = ("joints served, in order (empty = the single joint joint_name); per-joint settings nest "
                        "under each name")
@@ -66,8 +70,10 @@ def declare_per_joint(node: Node, joints: Sequence[str], decls: Sequence[ParamDe
 
     The default is the node-level parameter's value (declared before), or ``defaults[name][i]`` for
     the i-th joint when given (e.g. a seed per joint). Same description, range and read-only flag as the
-    node-level one.
+    node-level one. Settings given for a joint not in ``joints`` are not used; they are logged
+    (a typo would otherwise silently leave that joint on the node-level value).
     """
+    _warn_stray(node, joints, [d.name for d in decls])
     out: dict[str, dict[str, Any]] = {}
     for i, j in enumerate(joints):
         out[j] = {}
@@ -106,36 +112,45 @@ def propagate_node_level(names: Sequence[str], joints: Sequence[str]) -> Callabl
     return pre
 
 
-def declare_joint_settings(node: Node, joints: Sequence[str], decls: Sequence[ParamDecl],
-                           node_values: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """Per joint, the settings given as ``<joint>.<name>`` parameters (declared read-only here).
+def split_per_joint(changes: Mapping[str, Any], joints: Sequence[str]) -> dict[str, dict[str, Any]]:
+    """The ``<joint>.<name>`` entries of a parameter change, by joint: joint -> name -> value.
 
-    ``decls`` are the node-level declarations of the settings a joint may have
-    of its own (their ranges apply to the per-joint values too);
-    ``node_values`` the node-level values (the default of each per-joint
-    parameter, so a value of the wrong type is refused by rclpy with the name).
-    Settings given for a joint not in ``joints`` are not used; they are logged
-    (a typo would otherwise silently leave that joint on the node-level value).
+    Only the joints of ``joints`` (each present, maybe empty); node-level names are left out (with
+    :func:`propagate_node_level` a node-level change arrives with every joint's ``<joint>.<name>``).
     """
+    out: dict[str, dict[str, Any]] = {j: {} for j in joints}
+    for key, value in changes.items():
+        joint, _, name = key.partition(".")
+        if name and joint in out:
+            out[joint][name] = value
+    return out
+
+
+def replaced_own_values(node: Node, changes: Mapping[str, Any], joints: Sequence[str]) -> list[str]:
+    """``<joint>.<name> old -> new`` for each joint value a node-level change in ``changes`` replaces
+    although it differed from the node-level value (a value of the joint's own), for a log line.
+
+    Call it from an on-set-parameters callback: the parameters still hold their old values.
+    """
+    out: list[str] = []
+    for name, value in changes.items():
+        if "." in name or not node.has_parameter(name):
+            continue
+        before = node.get_parameter(name).value
+        for j in joints:
+            full = f"{j}.{name}"
+            if full in changes and node.has_parameter(full):
+                own = node.get_parameter(full).value
+                if own != before and own != changes[full] and changes[full] == value:
+                    out.append(f"{full} {own!r} -> {value!r}")
+    return out
+
+
+def _warn_stray(node: Node, joints: Sequence[str], names: Sequence[str]) -> None:
     overrides = set(getattr(node, "_parameter_overrides", {}) or {})
-    names = {d.name: d for d in decls}
-    known = set(joints)
+    known, settings = set(joints), set(names)
     stray = sorted(k for k in overrides if "." in k and k.split(".", 1)[0] not in known
-                   and k.split(".", 1)[1] in names)
+                   and k.split(".", 1)[1] in settings)
     if stray:
         node.get_logger().warning(f"per-joint settings {', '.join(stray)} name a joint that is not in joints "
                                   f"{list(joints)!r}: not used (add the joint or fix the name)")
-    out: dict[str, dict[str, Any]] = {j: {} for j in joints}
-    for j in joints:
-        for name, d in names.items():
-            full = f"{j}.{name}"
-            if full not in overrides:
-                continue
-            text = f"{d.description} ({j} only; read at start-up: restart the node to change it)"
-            desc = ParameterDescriptor(description=text, read_only=True)
-            default = node_values[name]
-            if d.min is not None and d.max is not None and isinstance(default, float):
-                desc.floating_point_range = [FloatingPointRange(from_value=float(d.min), to_value=float(d.max))]
-            node.declare_parameter(full, default, desc)
-            out[j][name] = node.get_parameter(full).value
-    return out

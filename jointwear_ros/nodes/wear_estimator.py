@@ -4,8 +4,8 @@ A thin rclpy adapter over :class:`~jointwear_ros.monitor.WearMonitor` (the
 same core the offline replay runs), one monitor per joint it serves
 (``joints``; empty = the single joint ``joint_name``, see docs/robot.md), each
 with its own settings (``<joint>.params``, ``<joint>.hardware_id``,
-``<joint>.warn_threshold``, ...; a joint without its own value takes the
-node-level one). Observations go to the monitor of their ``joint_name``,
+``<joint>.warn_threshold``, ...: declared for every joint, by default the
+node-level value). Observations go to the monitor of their ``joint_name``,
 ``TestCycleStatus`` to the monitor of its ``joint_name`` (a robot cycle tests
 its joints one after another under one cycle id: each joint's monitor sees the
 RUNNING → DONE stream of a one-joint cycle). A monitor gathers observations per
@@ -24,12 +24,17 @@ observation or made its temperature unknown, see
 or status of a joint not served is ignored, counted (``ignored_messages``) and
 logged (throttled).
 
-Run-time parameter changes (``ros2 param set``) of the node-level estimator
-settings (thresholds, method, parameter set, timeouts, ...) are checked and
-apply from the next estimate, to every joint without a value of its own; an
-invalid one is refused with the reason (no joint changes). Topics,
-``joints``, ``joint_name``, ``hardware_id``, the per-joint settings and
-``diagnostics_period`` are read at start-up only (read-only parameters).
+Run-time parameter changes (``ros2 param set``) of the estimator settings
+(thresholds, method, parameter set, timeouts, ...) are checked and apply from
+the next estimate: ``<joint>.<setting>`` to that joint only; a node-level
+``<setting>`` to every joint (it sets every ``<joint>.<setting>`` in the same
+call, replacing a value a joint had of its own: set ``<joint>.<setting>``
+again afterwards to keep that joint different; the replaced values are
+logged). Each joint's new settings are checked as a whole; a change that
+cannot work for a joint is refused with the joint and the reason, and no joint
+changes. Topics, ``joints``, ``joint_name``, ``hardware_id`` (node level and
+per joint) and ``diagnostics_period`` are read at start-up only (read-only
+parameters).
 
 Parameters: see ``config/wear_estimator.yaml`` and ``docs/nodes-observer-estimator.md``.
 """
@@ -47,10 +52,10 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..contract import observation_from_msg
-from ..errors import InputDataError
+from ..errors import InputDataError, JointwearError, ParameterError
 from ..monitor import ERROR, OK, WARN, CycleResult, MonitorConfig, WearMonitor
 from .diagnostics import NodeDiagnostics, diagnostic_status
-from .joints import declare_joint_settings, declare_joints
+from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
@@ -81,7 +86,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 )
 #: Parameters that apply at run time (from the next estimate)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
-#: Settings a joint may have of its own (``<joint>.<setting>`` in the params YAML, read at start-up)
+#: Settings each joint has of its own (``<joint>.<setting>``, default: the node-level value; live ones live)
 JOINT_SETTINGS = (*LIVE_PARAMETERS, "hardware_id")
 
 
@@ -122,11 +127,9 @@ def estimate_to_msg(r: CycleResult) -> WearEstimate:
 class _Joint:
     """One joint's monitor, settings and ``wear_estimator: <joint>`` status."""
 
-    def __init__(self, name: str, monitor: WearMonitor, own: dict[str, Any], hardware_id: str) -> None:
+    def __init__(self, name: str, monitor: WearMonitor, hardware_id: str) -> None:
         self.name = name
         self.monitor = monitor
-        #: settings given for this joint (``<joint>.<setting>``): node-level changes leave them alone
-        self.own = own
         self.hardware_id = hardware_id
         self.results: list[CycleResult] = []
         self.diag: NodeDiagnostics | None = None
@@ -145,12 +148,15 @@ class WearEstimatorNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.params = p
         self.joints = declare_joints(self, str(p["joint_name"]))
-        own = declare_joint_settings(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS], p)
+        values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS])
         self.channels: dict[str, _Joint] = {}
         for j in self.joints:
-            settings = {**p, **own[j]}
-            monitor = WearMonitor(_monitor_config(settings, j))
-            self.channels[j] = _Joint(j, monitor, own[j], str(settings["hardware_id"]) or j)
+            settings = {**p, **values[j]}
+            try:
+                monitor = WearMonitor(_monitor_config(settings, j))
+            except (JointwearError, ValueError, TypeError) as exc:
+                raise ParameterError(f"wear_estimator: {j}: {exc}") from None
+            self.channels[j] = _Joint(j, monitor, str(settings["hardware_id"]) or j)
         first = self.channels[self.joints[0]]
         #: the first joint's monitor (the only one of a one-joint setup)
         self.monitor = first.monitor
@@ -177,7 +183,9 @@ class WearEstimatorNode(Node):
         self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, reliable,
                                  qos_overriding_options=overridable_qos())
         self.create_timer(float(p["diagnostics_period"]), self._on_timer, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
+        self.add_pre_set_parameters_callback(propagate_node_level(LIVE_PARAMETERS, self.joints))
+        on_parameter_change(self, self._on_parameters,
+                            LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in LIVE_PARAMETERS))
         for ch in self.channels.values():
             cfg = ch.monitor.config
             self.get_logger().info(
@@ -199,31 +207,42 @@ class WearEstimatorNode(Node):
         return self.diag.status
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
+        # a node-level change arrives with every joint's <joint>.<setting> (propagate_node_level);
         # every joint or none: all new configs are built first, a joint whose estimator cannot be
-        # built refuses the change and the joints already changed go back
+        # built refuses the change (naming the joint) and the joints already changed go back
+        per_joint = split_per_joint(changes, self.joints)
         new: dict[str, MonitorConfig] = {}
-        for ch in self.channels.values():
-            cfg = ch.monitor.config
+        for j, mine in per_joint.items():
+            if not mine:
+                continue
+            cfg = self.channels[j].monitor.config
             merged: dict[str, Any] = {f: getattr(cfg, f) for f in (
                 "joint_name", "method", "params", "seed", "warn_threshold", "alarm_threshold",
                 "use_measured_temperature", "done_timeout", "idle_timeout", "min_observations",
                 "observation_noise_std", "estimator_options")}
-            mine = {k: v for k, v in changes.items() if k not in ch.own}
             merged.update(mine)
-            if "estimator_options" in mine:
-                merged["estimator_options"] = _options(str(mine["estimator_options"]))
-            new[ch.name] = MonitorConfig.from_mapping(merged)
+            try:
+                if "estimator_options" in mine:
+                    merged["estimator_options"] = _options(str(mine["estimator_options"]))
+                new[j] = MonitorConfig.from_mapping(merged)
+            except (JointwearError, ValueError, TypeError) as exc:
+                return f"{j}: {exc}"
         done: list[tuple[_Joint, MonitorConfig]] = []
         try:
-            for ch in self.channels.values():
+            for ch in (self.channels[j] for j in new):
                 old = ch.monitor.config
                 ch.monitor.reconfigure(new[ch.name])  # raises with the reason when unusable
                 done.append((ch, old))
-        except Exception:
-            for ch, old in done:
-                ch.monitor.reconfigure(old)
-            raise
-        for ch in self.channels.values():
+        except (JointwearError, ValueError, TypeError) as exc:
+            failed = ch.name
+            for back, old in done:
+                back.monitor.reconfigure(old)
+            return f"{failed}: {exc}"
+        replaced = replaced_own_values(self, changes, self.joints)
+        if replaced:
+            self.get_logger().info(f"node-level change replaced joints' own values: {', '.join(replaced)}")
+        for j in new:
+            ch = self.channels[j]
             if not ch.results and ch.diag is not None:
                 ch.diag.update(OK, "no test cycle estimated yet", self._idle_values(ch.monitor.config))
         return None
