@@ -407,7 +407,9 @@ class WearMonitor:
 
     def _estimate(self, cid: int, cyc: _Cycle, stamp: float) -> CycleResult:
         cfg = self.config
-        obs = tuple(cyc.observations)
+        # in stamp order, however they arrived: a revision with a late observation equals the estimate
+        # made with every observation on time (replay = live whatever the timing)
+        obs = tuple(sorted(cyc.observations, key=lambda o: (o.stamp, o.speed)))
         partial = ""
         if cyc.speeds_total > 0 and len(obs) < cyc.speeds_total:
             partial = f"; {len(obs)} of {cyc.speeds_total} speeds observed"

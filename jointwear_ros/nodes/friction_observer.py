@@ -147,6 +147,7 @@ class _Joint:
         self.cycle_marks = (0, 0, 0)  # rejections, bad, lost at the start of the current cycle
         self.last_problem = ""
         self.temperatures_missing_seen = 0
+        self.observations_mark = 0  # observations published before the current cycle
         self.diag: NodeDiagnostics | None = None
 
     def busy_reason(self) -> str | None:
@@ -325,6 +326,7 @@ class FrictionObserverNode(Node):
         if cid != ch.cycle_id and cid > 0:
             ch.cycle_id = cid
             ch.cycle_marks = self._counts(ch)
+            ch.observations_mark = ch.observations_published
             ch.last_problem = ""
         out = ch.core.on_status(
             self._stamp(msg.header.stamp), cid, int(msg.state), int(msg.phase),
@@ -399,6 +401,7 @@ class FrictionObserverNode(Node):
         r0, b0, l0 = ch.cycle_marks
         values = [("cycle_id", str(ch.cycle_id)), ("observations", str(ch.observations_published)),
                   ("rejected_windows", str(rej)), ("bad_messages", str(bad)), ("lost_messages", str(lost)),
+                  ("observations_this_cycle", str(ch.observations_published - ch.observations_mark)),
                   ("rejected_windows_this_cycle", str(rej - r0)), ("lost_messages_this_cycle", str(lost - l0)),
                   ("samples_seen", str(core.samples_seen)), ("samples_skipped", str(core.samples_skipped)),
                   ("temperatures_skipped", str(core.temperatures_skipped)),

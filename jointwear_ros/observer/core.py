@@ -19,7 +19,7 @@ joint's sensor has been heard, a finished speed also waits until a
 temperature stamped at or after its end has arrived (each topic arrives in
 stamp order, so then every reading of the window is in), for at most
 ``temperature_wait`` seconds of joint-state stamps; a speed measured without
-its sensor's readings is counted in :attr:`FrictionObserverCore.temperatures_missing`.
+no reading at all (the sensor stopped) is counted in :attr:`FrictionObserverCore.temperatures_missing`.
 However late the sensor's topic comes within that bound, the observation is
 the same.
 
@@ -145,8 +145,8 @@ class FrictionObserverCore:
         self.samples_seen = 0
         self.samples_skipped = 0
         self.temperatures_skipped = 0
-        #: speeds measured without the readings of a sensor that was heard before (it stopped, or its
-        #: topic came later than ``temperature_wait``)
+        #: observations without a temperature although the joint's sensor was heard before (it stopped,
+        #: or its topic came later than ``temperature_wait``)
         self.temperatures_missing = 0
         self._temp_max = -math.inf  # newest temperature stamp seen (-inf: no sensor heard yet)
 
@@ -373,9 +373,10 @@ class FrictionObserverCore:
                 rej.append(Rejection(stamp=seg.t_end, joint_name=self.config.joint_name, cycle_id=seg.cycle_id,
                                      speed_index=seg.speed_index, speed=seg.speed, reason=reason))
             else:
-                if self._waits_for_temperature(seg):
-                    self.temperatures_missing += 1
                 r = measure_segment(t, p, v, e, seg, self.config, tt, tv)
+                if (isinstance(r, FrictionObservationData) and math.isnan(r.temperature)
+                        and math.isfinite(self._temp_max)):
+                    self.temperatures_missing += 1  # the sensor was heard, but not in this window
                 (obs if isinstance(r, FrictionObservationData) else rej).append(r)  # type: ignore[arg-type]
             done_until = max(done_until, seg.t_end)
         self._pending = keep

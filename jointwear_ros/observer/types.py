@@ -73,8 +73,8 @@ class ObserverConfig:
     temperature_wait : once a joint's temperature sensor has been heard, a finished speed waits for a
         temperature stamped at or after its end (so every reading of the window is in, however late the
         sensor's topic is delivered) until joint states stamped this much (s) later than its end have
-        been seen; then it is measured without the missing readings and counted in
-        ``temperatures_missing`` (a sensor that stopped, or delivers later than this).
+        been seen; then it is measured with the readings that came (none: temperature unknown, counted
+        in ``temperatures_missing``: a sensor that stopped, or delivers later than this).
     max_buffer_seconds : joint-state history kept at most (s) while a speed runs.
     idle_keep_seconds : joint-state history kept (s) while no speed runs.
     """
