@@ -24,7 +24,8 @@ all: env
 
 env: $(VENV)/.stamp-pkg
 
-$(VENV)/.stamp-deps: requirements.txt tools/fix_ros_cmake_paths.py
+$(VENV)/.stamp-deps: requirements.txt tools/fix_ros_cmake_paths.py tools/install_system_deps.sh
+	bash tools/install_system_deps.sh
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	@echo "installing ROS 2 Jazzy wheels and Python dependencies into $(VENV) (first run: ~1 min)"
 	$(PY) -m pip install --quiet --upgrade pip setuptools wheel 2>&1 | { grep -v "is ignored: it is neither" || true; }
