@@ -24,8 +24,7 @@ all: env
 
 env: $(VENV)/.stamp-pkg
 
-$(VENV)/.stamp-deps: requirements.txt tools/fix_ros_cmake_paths.py tools/install_system_deps.sh
-	bash tools/install_system_deps.sh
+$(VENV)/.stamp-deps: requirements.txt tools/fix_ros_cmake_paths.py
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	@echo "installing ROS 2 Jazzy wheels and Python dependencies into $(VENV) (first run: ~1 min)"
 	$(PY) -m pip install --quiet --upgrade pip setuptools wheel 2>&1 | { grep -v "is ignored: it is neither" || true; }
@@ -55,6 +54,7 @@ demo: env
 	$(VENV)/bin/jointwear demo --joints 6 --out out/demo
 
 test: env
+	bash tools/install_system_deps.sh
 	$(PY) -m pytest -q test
 
 bench: env
