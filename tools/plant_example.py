@@ -20,7 +20,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from jointwear_ros.history import EstimateRecord, HistoryStore  # noqa: E402
+from jointwear_ros.history import EstimateRecord, HistoryStore
 
 DAY = 86400.0
 ROBOTS = [f"cell_{i}" for i in range(1, 6)]

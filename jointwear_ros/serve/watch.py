@@ -209,7 +209,7 @@ class StoreWatcher:
         if self._store is not None:
             try:
                 self._store.close()
-            except Exception:  # noqa: BLE001 - closing a broken connection must not end the watcher
+            except Exception:
                 pass
         self._store, self._fp = None, None
 
@@ -223,7 +223,7 @@ class StoreWatcher:
         while not self._stop.wait(self.refresh_s):
             try:
                 self.poll()
-            except Exception as exc:  # noqa: BLE001 - the watcher must outlive any single poll
+            except Exception as exc:
                 self._publish(replace(self.snapshot, store_ok=False, error=f"internal error: {_one_line(exc)}",
                                       checked_at=self.clock(), version=self.snapshot.version + 1))
 

@@ -304,9 +304,10 @@ class _Plots:
         from ..trend.report import plot_trend
 
         recs = d.records[-self.max_estimates:]
+        result = d.result
 
         def draw(path: Path) -> None:
-            plot_trend(path, d.result, self.watcher.cfg, [r.time for r in recs], [r.wear for r in recs],
+            plot_trend(path, result, self.watcher.cfg, [r.time for r in recs], [r.wear for r in recs],
                        [r.wear_std for r in recs], d.maintenance_times)
 
         return self.get(("joint", snap.loads, robot, joint), draw)
