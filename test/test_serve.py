@@ -314,3 +314,30 @@ def test_serve_reads_a_postgresql_history_as_the_trend_does(postgres_url):
     finally:
         stop(proc)
     assert {k: r["level"] for k, r in rows.items()} == {k: t["level"] for k, t in tj.items()} == expected_levels()
+
+
+def test_the_watcher_re_reads_only_the_joints_that_changed(tmp_path):
+    from jointwear_ros.history import MaintenanceEvent
+    from jointwear_ros.serve.watch import StoreWatcher
+    from jointwear_ros.trend import TrendConfig
+
+    db = str(tmp_path / "plant.db")
+    write_plant(db)
+    w = StoreWatcher(db, TrendConfig(), stale_days=7)
+    try:
+        s1 = w.poll()
+        assert s1.store_ok and s1.last_changed == 30 and len(s1.views) == 30 and s1.estimates == 1800
+        s2 = w.poll()
+        assert (s2.loads, s2.version) == (s1.loads, s1.version)  # nothing changed: nothing re-read or re-shown
+        with HistoryStore(db) as store:
+            store.add_estimates([EstimateRecord("cell_1", "joint_1", 999, time.time() - 60, 9.0, 0.85)])
+        s3 = w.poll()
+        assert s3.last_changed == 1 and s3.version == s2.version + 1 and s3.estimates == 1801
+        assert s3.joints[("cell_1", "joint_1")].result.estimates_total == 61
+        assert all(s3.joints[k] is s2.joints[k] for k in s2.joints if k != ("cell_1", "joint_1"))
+        with HistoryStore(db) as store:  # a maintenance event is a change of that joint too
+            store.add_maintenance(MaintenanceEvent("cell_2", "joint_3", time.time() - 3 * DAY, "regrease"))
+        s4 = w.poll()
+        assert s4.last_changed == 1 and s4.joints[("cell_2", "joint_3")].result.segments == 2
+    finally:
+        w.stop()

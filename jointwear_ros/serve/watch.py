@@ -1,8 +1,9 @@
 """Read-only access to the history store and a background watcher that keeps the plant's snapshot current.
 
 Requests never touch the database: one thread polls the store every ``refresh_s`` seconds with a
-cheap fingerprint query (row counts and the newest row ids of ``estimates`` and ``maintenance``),
-re-reads the history through :meth:`HistoryStore.history` only when it changed, runs the trend
+cheap fingerprint query (per joint: row counts and the newest row ids of ``estimates`` and
+``maintenance``), re-reads through :meth:`HistoryStore.history` only the joints that changed (the
+whole store in one query when many did), runs their trend
 (:func:`~jointwear_ros.serve.core.analyze_plant`) and swaps in a new :class:`Snapshot`. Levels are
 re-derived every poll (a joint turns STALE with time, without any new row).
 
@@ -72,13 +73,16 @@ def open_readonly(url: str, *, timeout_s: float = 5.0) -> HistoryStore:
     return store
 
 
-def _fingerprint(store: HistoryStore) -> tuple[Any, ...]:
-    """Changes whenever a row is added to or removed from the store (cheap: two aggregate queries)."""
+def _fingerprint(store: HistoryStore, analysis_version: str) -> dict[tuple[str, str], tuple[Any, ...]]:
+    """Per joint: (estimates, newest estimate row id, maintenance events, newest event row id). Any row added to
+    or removed from a joint changes its entry; two grouped aggregate queries over the store's indexes."""
+    e, m = estimates_t.c, maintenance_t.c
     with store.engine.connect() as conn:
-        e = conn.execute(select(func.count(), func.max(estimates_t.c.id), func.max(estimates_t.c.inserted_ns))
-                         .select_from(estimates_t)).one()
-        m = conn.execute(select(func.count(), func.max(maintenance_t.c.id)).select_from(maintenance_t)).one()
-    return (*tuple(e), *tuple(m))
+        est = conn.execute(select(e.robot, e.joint, func.count(), func.max(e.id))
+                           .where(e.analysis_version == analysis_version).group_by(e.robot, e.joint)).all()
+        mnt = conn.execute(select(m.robot, m.joint, func.count(), func.max(m.id)).group_by(m.robot, m.joint)).all()
+    events = {(str(r), str(j)): (int(n), int(i)) for r, j, n, i in mnt}
+    return {(str(r), str(j)): (int(n), int(i), *events.get((str(r), str(j)), (0, 0))) for r, j, n, i in est}
 
 
 @dataclass(frozen=True)
@@ -108,6 +112,7 @@ class Snapshot:
     failures: int = 0
     estimates: int = 0
     last_load_s: float = math.nan
+    last_changed: int = 0  # joints re-read and re-analysed by the last load
 
     @property
     def fresh(self) -> bool:
@@ -136,7 +141,7 @@ class StoreWatcher:
         self.analysis_version, self.clock, self.opener = analysis_version, clock, opener
         self.snapshot = Snapshot()
         self._store: HistoryStore | None = None
-        self._fp: tuple[Any, ...] | None = None
+        self._fp: dict[tuple[str, str], tuple[Any, ...]] | None = None
         self._stop = threading.Event()
         self._changed = threading.Condition()
         self._thread: threading.Thread | None = None
@@ -155,12 +160,15 @@ class StoreWatcher:
                     raise HistoryError(f"schema version {v}, this software reads {SCHEMA_VERSION} "
                                        f"({'being created or migrated' if v < SCHEMA_VERSION else 'written by a newer jointwear'})")
                 self._store = store
-            fp = _fingerprint(self._store)
+            fp = _fingerprint(self._store, self.analysis_version)
             if fp != self._fp or not old.store_ok:
                 t0 = _time.perf_counter()
-                joints = self._load(now)
+                changed = {k for k, v in fp.items() if (self._fp or {}).get(k) != v}
+                joints = {k: d for k, d in old.joints.items() if k in fp and k not in changed}
+                joints.update(self._load(now, changed, full=len(changed) > max(8, len(fp) // 4)))
                 new = replace(old, joints=joints, loaded_at=now, loads=old.loads + 1,
-                              estimates=int(fp[0]), last_load_s=_time.perf_counter() - t0)
+                              estimates=sum(v[0] for v in fp.values()), last_load_s=_time.perf_counter() - t0,
+                              last_changed=len(changed))
                 self._fp = fp
             else:
                 new = replace(old, loaded_at=now)
@@ -176,11 +184,19 @@ class StoreWatcher:
         self._publish(new)
         return new
 
-    def _load(self, now: float) -> dict[tuple[str, str], JointData]:
+    def _load(self, now: float, keys: set[tuple[str, str]], full: bool) -> dict[tuple[str, str], JointData]:
+        """Read and analyse the joints ``keys`` (one query for all of the store when ``full``)."""
         assert self._store is not None
-        hist = self._store.history(self.analysis_version)
+        if full:
+            hist = self._store.history(self.analysis_version)
+        else:
+            hist = {}
+            for rb, jt in sorted(keys):
+                hist.update(self._store.history(self.analysis_version, robot=rb, joint=jt))
         items = []
         for (rb, jt), (recs, events) in sorted(hist.items()):
+            if (rb, jt) not in keys:
+                continue
             items.append(JointHistory(rb, jt, [r.time for r in recs], [r.wear for r in recs],
                                       [r.wear_std for r in recs], [r.cycle_id for r in recs],
                                       [e.time for e in events]))

@@ -114,7 +114,7 @@ class _PlantCollector:
                                   value=float(snap.loads))
         yield GaugeMetricFamily("jointwear_store_load_duration_seconds", "Duration of the last history read and "
                                 "trend", value=snap.last_load_s if math.isfinite(snap.last_load_s) else 0.0)
-        yield GaugeMetricFamily("jointwear_store_estimates", "Rows in the store's estimates table (last read)",
+        yield GaugeMetricFamily("jointwear_store_estimates", "Estimates of the served analysis version in the store (last read)",
                                 value=float(snap.estimates))
         info = GaugeMetricFamily("jointwear_serve_info", "The service: software version and settings",
                                  labels=["version", "alarm", "horizon_days", "stale_days"])
