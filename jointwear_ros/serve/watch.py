@@ -179,7 +179,8 @@ class StoreWatcher:
             msg = _one_line(exc)
             new = replace(old, store_ok=False, error=msg, checked_at=now, failures=old.failures + 1,
                           error_since=old.error_since if not old.store_ok and math.isfinite(old.error_since) else now)
-        if (new.views, new.store_ok, new.error) != (old.views, old.store_ok, old.error) or new.loads != old.loads:
+        if (_shown(new.views), new.store_ok, new.error) != (_shown(old.views), old.store_ok, old.error) \
+                or new.loads != old.loads:
             new = replace(new, version=old.version + 1)
         self._publish(new)
         return new
@@ -254,6 +255,12 @@ class StoreWatcher:
         with self._changed:
             self._changed.wait_for(lambda: self.snapshot.version != version, timeout=timeout)
             return self.snapshot
+
+
+def _shown(views: tuple[JointView, ...]) -> tuple[JointView, ...]:
+    """The views as a page shows them: ages to a tenth of a day (the page's precision), so the version
+    changes when something visible does, not on every poll."""
+    return tuple(replace(v, age_days=round(v.age_days, 1)) for v in views)
 
 
 def _one_line(exc: BaseException) -> str:
