@@ -56,11 +56,15 @@ def _bind(host: str, port: int) -> socket.socket:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    import uvicorn
+    try:
+        import uvicorn
 
+        from ..serve.web import create_app
+    except ImportError as exc:
+        raise UsageError(f"jointwear serve needs {exc.name or exc}: pip install 'jointwear_ros[serve]' "
+                         "(starlette, uvicorn, jinja2, prometheus_client)") from None
     from ..history import HistoryError, normalize_url
     from ..serve.watch import StoreWatcher, open_readonly
-    from ..serve.web import create_app
     from ..trend import TrendConfig
 
     horizon = parse_float(args.horizon_days, "--horizon-days")
