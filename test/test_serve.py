@@ -341,3 +341,29 @@ def test_the_watcher_re_reads_only_the_joints_that_changed(tmp_path):
         assert s4.last_changed == 1 and s4.joints[("cell_2", "joint_3")].result.segments == 2
     finally:
         w.stop()
+
+
+def test_a_locked_store_is_reported_and_requests_stay_fast(tmp_path):
+    import sqlite3
+
+    db = tmp_path / "plant.db"
+    write_plant(str(db))
+    proc, base = start_serve(str(db), "--refresh", "0.3")
+    locker = sqlite3.connect(str(db), timeout=1.0)
+    try:
+        assert api(base)["store_ok"]
+        locker.execute("PRAGMA locking_mode=EXCLUSIVE")  # another program takes the store for itself
+        locker.execute("BEGIN EXCLUSIVE")
+        state = wait_for(lambda: (lambda a: a if not a["store_ok"] else None)(api(base)), 30, "the lock to show")
+        assert "locked" in state["error"]
+        t0 = time.monotonic()
+        code, page = get(base + "/")  # served from the last snapshot, never waiting on the lock
+        assert code == 200 and "History store not readable" in page and time.monotonic() - t0 < 2.0
+        assert "jointwear_joint_level" not in metrics(base)
+        locker.rollback()
+        locker.close()
+        wait_for(lambda: api(base)["store_ok"], 30, "the store to be read again")
+        assert len(api(base)["joints"]) == 30
+    finally:
+        locker.close()
+        stop(proc)
