@@ -16,8 +16,11 @@ if [ "$(id -u)" != 0 ] || ! command -v apt-get >/dev/null 2>&1; then
 fi
 echo "installing Debian packages: ${need[*]} (first run: ~1 min)"
 export DEBIAN_FRONTEND=noninteractive
-apt-get update -qq >/dev/null
-apt-get install -y -qq --no-install-recommends "${need[@]}" >/dev/null
+if ! { apt-get update -qq >/dev/null && apt-get install -y -qq --no-install-recommends "${need[@]}" >/dev/null; }; then
+  # the rest of the suite still runs; the tests that need these fail and say how to install them
+  echo "install_system_deps: apt-get could not install ${need[*]}; the Prometheus and browser tests will fail" >&2
+  exit 0
+fi
 # the Debian package starts a prometheus service where systemd runs; the tests start their own
 if command -v systemctl >/dev/null 2>&1 && systemctl is-active --quiet prometheus 2>/dev/null; then
   systemctl stop prometheus >/dev/null 2>&1 || true

@@ -85,24 +85,23 @@ def cmd_serve(args: argparse.Namespace) -> int:
         probe = open_readonly(url)
     except HistoryError as exc:
         raise UsageError(f"--db {args.db}: {exc}") from None
+    probe.close()
+    sock = _bind(args.host, port)  # a port in use is found before anything is read
     watcher = StoreWatcher(url, TrendConfig(alarm=alarm, horizon_days=horizon), stale_days=stale,
                            refresh_s=refresh, analysis_version=args.analysis_version)
-    probe.close()
-    snap = watcher.poll()
-    if not snap.store_ok and _is_bad_store(snap.error):
-        watcher.stop()
-        raise UsageError(f"--db {args.db}: not a jointwear history store ({snap.error})")
-    sock = _bind(args.host, port)
-    host, bound = sock.getsockname()[:2]
-    shown = f"[{host}]" if ":" in host else host
-    print(f"jointwear serve: http://{shown}:{bound}/ (metrics /metrics, JSON /api/joints); store "
-          f"{'read: ' + str(len(snap.views)) + ' joints' if snap.store_ok else 'NOT readable: ' + snap.error}; "
-          f"refresh {refresh:g} s; Ctrl-C stops", flush=True)
-    if not snap.store_ok:
-        print(f"jointwear serve: warning: {snap.error} (the page says so; polling every {refresh:g} s)",
-              file=sys.stderr, flush=True)
-    watcher.start()
     try:
+        snap = watcher.poll()
+        if not snap.store_ok and _is_bad_store(snap.error):
+            raise UsageError(f"--db {args.db}: not a jointwear history store ({snap.error})")
+        host, bound = sock.getsockname()[:2]
+        shown = f"[{host}]" if ":" in host else host
+        print(f"jointwear serve: http://{shown}:{bound}/ (metrics /metrics, JSON /api/joints); store "
+              f"{'read: ' + str(len(snap.views)) + ' joints' if snap.store_ok else 'NOT readable: ' + snap.error}; "
+              f"refresh {refresh:g} s; Ctrl-C stops", flush=True)
+        if not snap.store_ok:
+            print(f"jointwear serve: warning: {snap.error} (the page says so; polling every {refresh:g} s)",
+                  file=sys.stderr, flush=True)
+        watcher.start()
         config = uvicorn.Config(create_app(watcher, poll_ms=int(max(1.0, min(refresh, 5.0)) * 1000)),
                                 log_level="warning", access_log=False, limit_concurrency=64,
                                 timeout_keep_alive=5, lifespan="on")
