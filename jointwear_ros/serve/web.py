@@ -291,8 +291,9 @@ class _Plots:
             ax.set_ylim(-0.8, len(views) - 0.2)
             ax.set_xlabel("current wear (trend) with its 90 % interval")
             ax.grid(axis="x", alpha=0.3)
-            ax.set_title(f"{len(snap.views)} joints, ranked: ERROR, WARN, STALE, OK (read {_ts(snap.loaded_at)})",
-                         fontsize=9)
+            shown = f"{len(views)} joints" if len(views) == len(snap.views) else \
+                f"the first {len(views)} of {len(snap.views)} joints"
+            ax.set_title(f"{shown}, ranked: ERROR, WARN, STALE, OK (read {_ts(snap.loaded_at)})", fontsize=9)
             save_figure(fig, path)
 
         return self.get(("plant", snap.version), draw)
