@@ -97,6 +97,23 @@ def test_plant_level_is_the_trend_level_unless_silent_and_never_hides_an_error(t
     assert LEVEL_NAMES[lv] in ("OK", "WARN", "ERROR", "STALE")
 
 
+nums = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.none())
+
+
+@given(st.sampled_from([OK, WARN, ERROR, STALE]), st.floats(allow_nan=True), st.floats(allow_nan=True), nums, nums,
+       nums, st.text(max_size=5))
+def test_api_rows_are_strict_json_with_nulls_where_unknown(level, wear, t, med, lo, hi, refused):
+    from jointwear_ros.serve.core import JointView
+
+    v = JointView("r", "j", int(level), int(level), wear, 0.3, 0.01, t, 1.0, med, lo, hi, 5, 5, "m", refused)
+    row = v.as_api()
+    json.dumps(row, allow_nan=False)  # NaN or inf would not be JSON
+    for key, x in (("wear", wear), ("time", t), ("days_to_alarm", med), ("days_to_alarm_low", lo),
+                   ("days_to_alarm_high", hi)):
+        assert row[key] == (x if x is not None and math.isfinite(x) else None)
+    assert row["level"] == LEVEL_NAMES[int(level)] and row["refused"] == (refused or None)
+
+
 # ---------------------------------------------------------------------------- one plant, every view agrees
 
 
