@@ -54,6 +54,7 @@ demo: env
 	$(VENV)/bin/jointwear demo --joints 6 --out out/demo
 
 test: env
+	bash tools/install_system_deps.sh
 	$(PY) -m pytest -q test
 
 # The process and graph tests (marker ros: real nodes over DDS) N times in a row, each run on
