@@ -31,7 +31,8 @@ import numpy.typing as npt
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import ObservationTable, WearResult
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, Rows, combine_rows, make_rng, prepare_rows, resolve_model
+from ._common import WEAR_RANGE, Rows, combine_rows, make_rng, prepare_rows, setup_model, with_set_info
+from .priors import parse_temperature_prior
 from .inverse import TemperatureTable, WearInverse, base_friction
 
 __all__ = ["PAPER_N_SAMPLES", "PAPER_TEMPERATURE_RANGE", "PaperEstimator", "PaperGridEstimator"]
@@ -57,15 +58,19 @@ class _PaperBase:
         params: Parameters | Mapping[str, float] | str | None = None,
         *,
         n_samples: int = PAPER_N_SAMPLES,
-        temperature_range: tuple[float, float] = PAPER_TEMPERATURE_RANGE,
+        temperature_range: tuple[float, float] | None = None,
         wear_range: tuple[float, float] = WEAR_RANGE,
-        noise_std: float = DEFAULT_NOISE_STD,
+        noise_std: float | None = None,
         default_load: float | None = None,
         use_temperature: bool = True,
         seed: int | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        self.model, self.params = resolve_model(model, params)
+        noise_std = setup_model(self, model, params, noise_std)
+        if temperature_range is None:
+            temperature_range = PAPER_TEMPERATURE_RANGE
+            if self.param_set is not None and self.param_set.temperature_prior:
+                temperature_range = parse_temperature_prior(self.param_set.temperature_prior).support(1.0)
         if int(n_samples) < 1:
             raise InputDataError(f"n_samples = {n_samples!r}: the paper's estimator needs at least one temperature sample")
         self.n_samples = int(n_samples)
@@ -140,11 +145,12 @@ class _PaperBase:
     def estimate(self, observations: ObservationTable) -> WearResult:
         """Eq. (11) per observation (speed); the cycle estimate combines them (see ``combine_rows``)."""
         rows = prepare_rows(observations, noise_std=self.noise_std, default_load=self.default_load,
-                            use_temperature=self.use_temperature)
+                            use_temperature=self.use_temperature, pset=self.param_set, extra=self.extra,
+                            params=self.params)
         w, spread = self.estimate_rows(rows.speed, rows.load, rows.tau_f, rows.temperature)
         std = self._row_std(rows, w, spread)
         lo, hi = self.temperature_range
-        return combine_rows(
+        return with_set_info(combine_rows(
             rows, w, std, method=self.name,
             info={
                 "n_samples": self.n_samples,
@@ -152,7 +158,7 @@ class _PaperBase:
                 "known_temperature": [bool(k) for k in rows.known_temperature],
                 "per_speed_sample_std": [float(s) for s in spread],
             },
-        )
+        ), self.param_set)
 
     def _row_std(self, rows: Rows, w: Array, spread: Array) -> Array:
         """Uncertainty of a row: the spread over T samples and the noise through the wear slope."""

@@ -22,7 +22,14 @@ from __future__ import annotations
 
 from .model import MODEL_SPECS, Model, paper_model, paper_wear_model, parse_model_spec, standard_model
 from .parameters import Parameter, Parameters, ParamSpec
-from .paramsets import ParameterSet, available_parameter_sets, load_parameter_set, load_parameter_set_info
+from .paramsets import (
+    ParameterSet,
+    SetUnits,
+    available_parameter_sets,
+    load_parameter_set,
+    load_parameter_set_info,
+    parameter_set_document,
+)
 from .terms import (
     STRIBECK_EXPONENT,
     TERMS,
@@ -52,6 +59,7 @@ __all__ = [
     "Parameter",
     "ParameterSet",
     "Parameters",
+    "SetUnits",
     "Stribeck",
     "TempStribeck",
     "TempViscous",
@@ -64,6 +72,7 @@ __all__ = [
     "load_parameter_set_info",
     "paper_model",
     "paper_wear_model",
+    "parameter_set_document",
     "parse_model_spec",
     "standard_model",
     "stribeck_shape",

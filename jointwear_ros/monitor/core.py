@@ -268,7 +268,7 @@ class WearMonitor:
         #: observations dropped by the screening, in all
         self.rejected_count = 0
         try:
-            self.valid_ranges: dict[str, tuple[float, float]] = dict(load_parameter_set_info(self.config.params).valid)
+            self.valid_ranges: dict[str, tuple[float, float]] = load_parameter_set_info(self.config.params).observation_valid()
         except JointwearError:  # an unknown set fails at estimation, with its reason in the result
             self.valid_ranges = {}
 
@@ -293,7 +293,7 @@ class WearMonitor:
         if config.joint_name != self.config.joint_name:
             raise InputDataError(f"joint_name cannot change ({self.config.joint_name!r} -> {config.joint_name!r})")
         make_estimator(config.method, params=config.params, seed=0, **dict(config.estimator_options))
-        valid = dict(load_parameter_set_info(config.params).valid)
+        valid = load_parameter_set_info(config.params).observation_valid()
         self.config = config
         self.valid_ranges = valid
 
