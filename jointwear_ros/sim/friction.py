@@ -31,7 +31,7 @@ import numpy.typing as npt
 
 from ..data.synth import HIDDEN_EFFECTS, effect_value
 from ..errors import ModelError, ParameterError
-from ..model import Parameters, load_parameter_set, parse_model_spec
+from ..model import Parameters, load_parameter_set_info, parse_model_spec
 
 __all__ = ["FrictionTable"]
 
@@ -89,7 +89,15 @@ class FrictionTable:
                 f"unknown hidden effect(s) {', '.join(unknown)}; known: {', '.join(HIDDEN_EFFECTS)}"
             )
         self.model = parse_model_spec(model)
-        pset = load_parameter_set(params) if isinstance(params, str) else params
+        # a joint-frame set (N·m, joint side: issue 18) is evaluated in its own units through its gear ratio
+        # and torque scale, so the simulator's friction stays normalized motor side
+        self._sf, self._tf = 1.0, 1.0
+        if isinstance(params, str):
+            info = load_parameter_set_info(params)
+            pset = info.parameters()
+            self._sf, self._tf = info.units.speed_factor, info.units.torque_factor
+        else:
+            pset = params
         self.params = self.model.make_params(pset)
         self.temperature = float(temperature)
         self.wear = float(wear)
@@ -134,11 +142,12 @@ class FrictionTable:
         self._inv_step = 1.0 / self.speed_step
         self._inv_pstep = 1.0 / self._pstep
 
-    def _model(self, v: Array, load: float) -> Array:
-        inputs: dict[str, object] = {"speed": v, "load_torque": load, "temperature": self.temperature}
+    def _model(self, v: Array, load: float | Array) -> Array:
+        inputs: dict[str, object] = {"speed": v * self._sf, "load_torque": np.asarray(load) * self._tf,
+                                     "temperature": self.temperature}
         if "wear" in self.model.variables:
             inputs["wear"] = self.wear
-        return np.asarray(self.model.evaluate(self.params, **inputs), dtype=float) * np.ones_like(v)
+        return np.asarray(self.model.evaluate(self.params, **inputs), dtype=float) / self._tf * np.ones_like(v)
 
     def _cols(self, v: Array, load: float, pos: Array, time: float) -> dict[str, Array]:
         n = v.size
@@ -180,10 +189,7 @@ class FrictionTable:
         tm = np.broadcast_to(np.abs(np.asarray(load_torque, dtype=float)), (n,)).astype(float)
         pos = np.broadcast_to(np.asarray(position, dtype=float), (n,)).astype(float)
         tt = np.broadcast_to(np.asarray(time, dtype=float), (n,)).astype(float)
-        inputs: dict[str, object] = {"speed": v, "load_torque": tm, "temperature": self.temperature}
-        if "wear" in self.model.variables:
-            inputs["wear"] = self.wear
-        out = np.asarray(self.model.evaluate(self.params, **inputs), dtype=float) * np.ones(n)
+        out = self._model(v, tm) * np.ones(n)
         cols = {"speed": v, "load_torque": tm, "position": pos, "lube_hours": np.full(n, self.lube_hours), "time": tt}
         for e in self.hidden_effects:
             out = out + effect_value(e, cols)
