@@ -431,14 +431,17 @@ def setup_model(
     """Give an estimator ``model`` (the core terms), ``extra``, ``params``, ``param_set``; return its noise_std.
 
     ``noise_std`` None takes the set's own ``noise_std`` (in its torque unit), else
-    the paper's :data:`DEFAULT_NOISE_STD`.
+    the paper's :data:`DEFAULT_NOISE_STD` converted to the set's torque unit.
     """
     m, p, pset = resolve_set(model, params)
     est.full_model = m
     est.model, est.extra = split_extra(m)
     est.params, est.param_set = p, pset
     if noise_std is None:
-        noise_std = pset.noise_std if pset is not None and pset.noise_std is not None else DEFAULT_NOISE_STD
+        if pset is not None and pset.noise_std is not None:
+            noise_std = pset.noise_std
+        else:  # the paper's sigma_e, in the set's torque unit
+            noise_std = DEFAULT_NOISE_STD * (pset.units.torque_factor if pset is not None else 1.0)
     return float(noise_std)
 
 
