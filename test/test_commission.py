@@ -202,3 +202,49 @@ def test_a_wear_calibration_file_is_used_and_named(tmp_path):
     r = commission(t, joint="j", wear_calibration=str(f), diagnose_baseline=False, cv_folds=0)
     assert r.wear.label == "file:cal.yaml" and r.wear["Fsw"] == 1.2e-3 and r.wear.source == "reducer swap 2025"
     assert math.isfinite(r.rmse)
+
+
+def _bag_with_temperature_topic(table: ObservationTable, path: Path, joint: str) -> None:
+    """A bag as the suite records it: observations without a temperature, /joint_temperature beside them."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from jointwear_ros.io.typestore import jointwear_typestore
+
+    store = jointwear_typestore()
+    obs_t, temp_t = "jointwear_msgs/msg/FrictionObservation", "sensor_msgs/msg/Temperature"
+    Obs, Temp = store.types[obs_t], store.types[temp_t]
+    Header, Time = store.types["std_msgs/msg/Header"], store.types["builtin_interfaces/msg/Time"]
+    msgs = []
+    for i in range(len(table)):
+        t = float(table["time"][i])
+        for k in range(3):  # the joint's temperature during the window before the observation
+            ts = t - 8.0 + 3.0 * k
+            msgs.append((ts, 1, Temp(header=Header(stamp=Time(sec=int(ts), nanosec=int((ts % 1) * 1e9)), frame_id=joint),
+                                     temperature=float(table["temperature"][i]), variance=0.0)))
+        fields = {f: float(table[f][i]) for f in ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus",
+                                                   "load_torque", "position")}
+        msgs.append((t, 0, Obs(header=Header(stamp=Time(sec=int(t), nanosec=int((t % 1) * 1e9)), frame_id=""),
+                               joint_name=joint, cycle_id=int(table["cycle"][i]), samples_plus=0, samples_minus=0,
+                               temperature=math.nan, **fields)))
+    msgs.sort(key=lambda m: m[0])
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conns = [w.add_connection("/friction_observations", obs_t, typestore=store),
+                 w.add_connection("/joint_temperature", temp_t, typestore=store)]
+        for ts, c, m in msgs:
+            w.write(conns[c], int(ts * 1e9), store.serialize_cdr(m, (obs_t, temp_t)[c]))
+
+
+def test_a_bag_without_observation_temperatures_takes_them_from_joint_temperature(tmp_path, capsys):
+    from jointwear_ros.io.observations import read_observations
+
+    t = synth_observations(n_cycles=12, seed=7, temperature=(20.0, 50.0))
+    bag = tmp_path / "baseline"
+    _bag_with_temperature_topic(t, bag, "joint_3")
+    tables = read_observations(bag)
+    assert list(tables) == ["joint_3"]
+    assert np.allclose(tables["joint_3"]["temperature"], t["temperature"])
+    out = tmp_path / "j3.yaml"
+    assert main(["commission", str(bag), "--joint", "joint_3", "--out", str(out), "--no-diagnose", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["valid"]["temperature"][0] == pytest.approx(float(np.min(t["temperature"])))
+    assert load_parameter_set_info(str(out)).provenance["data"] == [str(bag)]

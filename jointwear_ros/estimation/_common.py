@@ -191,9 +191,15 @@ def resolve_set(
 def resolve_model(
     model: Model | None, params: Parameters | Mapping[str, float] | str | ParameterSet | None
 ) -> tuple[Model, Parameters]:
-    """The model (default: the set's, else Eq. 9) and its parameters (default ``ref-2011r``; a name loads a set)."""
+    """The model (default: the set's, else Eq. 9) and its parameters (default ``ref-2011r``; a name loads a set).
+
+    A set whose model has terms of other inputs (``ripple(position)``) gives its core terms
+    (:func:`split_extra`): the bound, the cycle design and the study evaluate at speed, load,
+    temperature and wear, where a term of another input is a known offset that carries no
+    information about w, so the bound stays exact.
+    """
     m, p, _ = resolve_set(model, params)
-    return m, p
+    return split_extra(m)[0], p
 
 
 def split_extra(model: Model) -> tuple[Model, Model | None]:

@@ -61,6 +61,10 @@ class FrictionTable:
         Grid step of the speed table, rad/s.
     position_range
         Joint positions (rad) covered by the position table; clamped outside.
+    gear_ratio, torque_scale
+        The simulated joint's; a joint-frame parameter set (joint side, N·m) is evaluated at
+        joint speed = motor speed / gear_ratio and returns N·m / torque_scale (default: the
+        set's own gear ratio and torque scale).
     """
 
     def __init__(
@@ -76,6 +80,8 @@ class FrictionTable:
         speed_step: float = 0.01,
         position_range: tuple[float, float] = (-4.0, 4.0),
         position_step: float = 1e-3,
+        gear_ratio: float | None = None,
+        torque_scale: float | None = None,
     ) -> None:
         for name, val in (("temperature", temperature), ("wear", wear), ("lube_hours", lube_hours)):
             if not math.isfinite(val):
@@ -96,6 +102,9 @@ class FrictionTable:
             info = load_parameter_set_info(params)
             pset = info.parameters()
             self._sf, self._tf = info.units.speed_factor, info.units.torque_factor
+            if info.units.joint_side and gear_ratio is not None and torque_scale is not None:
+                # the simulated joint's own gear and scale: its joint speed and N·m are what the set describes
+                self._sf, self._tf = 1.0 / float(gear_ratio), float(torque_scale)
         else:
             pset = params
         self.params = self.model.make_params(pset)
