@@ -16,7 +16,7 @@ from typing import Any
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import WearEstimator
-from ._common import check_estimator_options, set_frame_table
+from ._common import check_estimator_options, resolve_model, set_frame_table
 from .bayes import BayesEstimator
 from .crb import (
     CRB_METHODS,
@@ -56,6 +56,7 @@ __all__ = [
     "make_estimator",
     "normal_prior",
     "parse_temperature_prior",
+    "resolve_model",
     "set_frame_table",
     "uniform_prior",
 ]
