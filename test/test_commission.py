@@ -248,3 +248,19 @@ def test_a_bag_without_observation_temperatures_takes_them_from_joint_temperatur
     doc = json.loads(capsys.readouterr().out)
     assert doc["valid"]["temperature"][0] == pytest.approx(float(np.min(t["temperature"])))
     assert load_parameter_set_info(str(out)).provenance["data"] == [str(bag)]
+
+
+def test_history_import_reestimates_observation_tables_with_a_set(tmp_path, capsys):
+    base = synth_observations(n_cycles=10, seed=3, temperature=(20.0, 50.0))
+    write_csv(base, tmp_path / "base.csv")
+    out = tmp_path / "j1.yaml"
+    assert main(["commission", str(tmp_path / "base.csv"), "--joint", "joint_1", "--out", str(out),
+                 "--no-diagnose"]) == 0
+    test = synth_observations(n_cycles=3, seed=8, model="paper+wear", wear=30.0)
+    write_csv(test, tmp_path / "w30.csv")
+    db = tmp_path / "h.sqlite"
+    capsys.readouterr()
+    assert main(["history", "import", str(tmp_path / "w30.csv"), "--db", str(db), "--reestimate",
+                 "--params", str(out), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["added"] == 3 and doc["analysis_versions"][0].startswith("joint:j1:")

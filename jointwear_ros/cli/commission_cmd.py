@@ -185,16 +185,15 @@ def _report(report: Path, table: Any, res: Any, doc: dict[str, Any]) -> None:
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:
-    from ..estimation import make_estimator, set_frame_table
+    from ..commission import estimate_cycles
+    from ..estimation import set_frame_table
     from ..model import ParameterSet, SetUnits, load_parameter_set_info
-    from ..types import ObservationTable
 
     pset = load_parameter_set_info(args.params)
-    est = make_estimator(args.method, params=pset, seed=args.seed)
     set_joint = str(pset.provenance.get("joint", "")) or args.joint or ""
-    rows: list[dict[str, Any]] = []
     inverse = ParameterSet("x", "", {}, units=SetUnits(pset.units.frame, 1.0 / (pset.units.gear_ratio or 1.0),
                                                        1.0 / (pset.units.torque_scale or 1.0)))
+    tables = []
     for path, joint, table in _read_all(args.data, set_joint):
         joint = joint or set_joint
         if args.joint and joint != args.joint:
@@ -204,13 +203,14 @@ def cmd_estimate(args: argparse.Namespace) -> int:
                 raise UsageError(f"--joint-side: parameter set {pset.name!r} is in the paper's normalized motor-side "
                                  "units; give the table in those units")
             table = set_frame_table(table, inverse)  # to the suite's units; the estimator maps back
-        groups = table.groups("cycle") if "cycle" in table else [(0.0, table)]
-        for cyc, t in groups:
-            r = est.estimate(ObservationTable(dict(t.columns), source=f"{path} [{joint}] cycle {cyc:g}"))
-            level = "alarm" if r.wear >= args.alarm else ("warn" if r.wear >= args.warn else "ok")
-            rows.append({"source": str(path), "joint": joint, "cycle": int(cyc), "estimate": r.wear,
-                         "std": r.wear_std, "temperature": r.temperature, "level": level, "method": r.method,
-                         "wear_calibration": r.info.get("wear_calibration"), "parameter_set": pset.name})
+        tables.append((path, joint, table))
+    rows: list[dict[str, Any]] = []
+    for c in estimate_cycles(tables, pset, args.method, args.seed):
+        r = c.result
+        rows.append({"source": c.source, "joint": c.joint, "cycle": c.cycle, "estimate": r.wear,
+                     "std": r.wear_std, "temperature": r.temperature, "level": c.level(args.warn, args.alarm),
+                     "method": r.method, "wear_calibration": r.info.get("wear_calibration"),
+                     "parameter_set": pset.name})
     if not rows:
         from ..errors import InputDataError
 

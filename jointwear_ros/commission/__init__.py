@@ -16,6 +16,7 @@ from .core import (
     commission,
     nominal_spec,
 )
+from .estimate import CycleEstimate, estimate_cycles
 from .wear import DEFAULT_WEAR_CALIBRATION, WearCalibration, paper_wear_values, relative_wear_values, wear_from_file
 
 __all__ = [
@@ -26,8 +27,10 @@ __all__ = [
     "MIN_TEMPERATURE_SPAN",
     "CommissionError",
     "CommissionResult",
+    "CycleEstimate",
     "WearCalibration",
     "commission",
+    "estimate_cycles",
     "nominal_spec",
     "paper_wear_values",
     "relative_wear_values",
