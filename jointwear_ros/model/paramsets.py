@@ -167,6 +167,14 @@ class ParameterSet:
         """Where the wear parameters came from (``paper`` for a set that does not say)."""
         return str(self.wear.get("calibration", "paper"))
 
+    def check_observation_range(self, var: str, value: float) -> None:
+        """:meth:`check_range` for a value in the suite's observation units (motor side, normalized)."""
+        rng = self.observation_valid().get(var)
+        if rng is not None and not rng[0] <= value <= rng[1]:
+            unit = {"speed": " (rad/s motor side)", "load_torque": " (normalized)"}.get(var, "")
+            raise ParameterSetError(f"{var} = {value:g}{unit} is outside the valid range [{rng[0]:g}, {rng[1]:g}] "
+                                    f"of parameter set {self.name!r}")
+
     def observation_valid(self) -> dict[str, tuple[float, float]]:
         """``valid`` in the suite's observation frame (motor side speed, normalized torques)."""
         out = dict(self.valid)
