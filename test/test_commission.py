@@ -264,3 +264,22 @@ def test_history_import_reestimates_observation_tables_with_a_set(tmp_path, caps
                  "--params", str(out), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["added"] == 3 and doc["analysis_versions"][0].startswith("joint:j1:")
+
+
+def test_the_documented_command_sequence_runs_as_written(tmp_path):
+    import os
+    import re
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "commissioning.md").read_text(encoding="utf-8")
+    block = re.search(r"^```sh\n(.*?)^```$", text, re.S | re.M).group(1)
+    script = f'jointwear() {{ "{sys.executable}" -m jointwear_ros "$@"; }}\n' + block
+    env = dict(os.environ, PYTHONPATH=str(root), MPLBACKEND="Agg")
+    r = subprocess.run(["bash", "-e", "-c", script], cwd=tmp_path, env=env, capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "joint_3.yaml").is_file() and (tmp_path / "report" / "commission.png").is_file()
+    est = json.loads(r.stdout[re.search(r'\{\s*"estimates"', r.stdout).start():])["estimates"]
+    assert all(e["estimate"] > 50 for e in est)  # ref-2011r on this joint: a confident error

@@ -177,7 +177,7 @@ def _report(report: Path, table: Any, res: Any, doc: dict[str, Any]) -> None:
     ax[1].scatter(np.abs(table.speed), table.tau_f - fitted, s=6)
     ax[1].axhline(0, color="k", lw=0.5)
     ax[1].set_xlabel(f"speed ({res.units.speed_unit})")
-    ax[1].set_ylabel("residual")
+    ax[1].set_ylabel(f"residual ({res.units.torque_unit})")
     ax[1].set_title(f"CV RMSE {res.cv_rmse:.3g}, verdict {res.verdict}")
     fig.tight_layout()
     fig.savefig(report / "commission.png", dpi=90)
