@@ -33,11 +33,11 @@ from scipy.optimize import least_squares
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from jointwear_ros.commission import commission  # noqa: E402
-from jointwear_ros.data import synth_observations  # noqa: E402
-from jointwear_ros.estimation import JointEstimator, set_frame_table  # noqa: E402
-from jointwear_ros.model import ParameterSet, SetUnits, load_parameter_set_info, paper_model, paper_wear_model  # noqa: E402
-from jointwear_ros.types import ObservationTable  # noqa: E402
+from jointwear_ros.commission import commission
+from jointwear_ros.data import synth_observations
+from jointwear_ros.estimation import JointEstimator, set_frame_table
+from jointwear_ros.model import ParameterSet, SetUnits, load_parameter_set_info, paper_model, paper_wear_model
+from jointwear_ros.types import ObservationTable
 
 WEARS = (10.0, 30.0, 40.0)
 N_TEST = 4  # test cycles per wear level
@@ -54,7 +54,7 @@ def tests(set_name: str, seed: int, hidden: tuple[str, ...] = ()) -> list[tuple[
         t = synth_observations(n_cycles=N_TEST, seed=seed + 100 * k, params=set_name, model="paper+wear", wear=w,
                                temperature=(25.0, 50.0), position=(TEST_POSITION, TEST_POSITION), effects=hidden)
         cols = {n: v for n, v in t.columns.items() if n not in ("temperature", "wear")}  # T unknown
-        for c, g in ObservationTable(cols, source=t.source).groups("cycle"):
+        for _, g in ObservationTable(cols, source=t.source).groups("cycle"):
             out.append((w, g))
     return out
 
@@ -96,7 +96,7 @@ def plain_pipeline(set_name: str, base: ObservationTable, cycles: list[tuple[flo
         tj = to_joint_side(t, info)
         v, ld, y = np.abs(tj.speed), np.abs(tj["load_torque"]), tj.tau_f
 
-        def r2(z: np.ndarray) -> np.ndarray:
+        def r2(z: np.ndarray, v: np.ndarray = v, ld: np.ndarray = ld, y: np.ndarray = y) -> np.ndarray:
             return np.asarray(mw.evaluate(p, speed=v, load_torque=ld, temperature=z[1], wear=z[0]) - y)
 
         sol = least_squares(r2, np.array([20.0, 40.0]), bounds=([0.0, 0.0], [100.0, 80.0]))

@@ -90,6 +90,7 @@ def cmd_commission(args: argparse.Namespace) -> int:
         raise UsageError("--gear-ratio and --torque-scale go together (DATA joint side: both say how it maps to "
                          "the motor side and the normalized torque)")
     out = check_output_file(args.out, "--out", ".yaml")
+    assert out is not None  # --out is required
     report = check_output_dir(args.report, "--report")
     wc = args.wear_calibration
     if wc not in ("paper", "relative") and not Path(wc).is_file():
@@ -222,7 +223,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     print(f"parameter set {pset.name} (model {pset.spec}, {pset.units.frame}, wear calibration "
           f"{pset.wear_calibration}), method {args.method}")
     print(f"{'joint':<10} {'cycle':>6} {'wear':>7} {'std':>6} {'T':>6} level")
-    for r in rows:
-        t = "-" if not math.isfinite(r["temperature"]) else f"{r['temperature']:.1f}"
-        print(f"{r['joint']:<10} {r['cycle']:>6} {r['estimate']:>7.2f} {r['std']:>6.2f} {t:>6} {r['level']}")
+    for row in rows:
+        t = "-" if not math.isfinite(row["temperature"]) else f"{row['temperature']:.1f}"
+        print(f"{row['joint'] or '-':<10} {row['cycle']:>6} {row['estimate']:>7.2f} {row['std']:>6.2f} {t:>6} "
+              f"{row['level']}")
     return 0

@@ -27,11 +27,12 @@ narrow for the temperature terms, a load span too narrow for the load terms.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +40,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputDataError
-from ..model import Model, ParameterSet, Parameters, SetUnits
+from ..model import Model, Parameters, ParameterSet, SetUnits
 from ..model.scaling import DataScales, data_parameters, on_bound, speed_starts
 from ..types import ObservationTable
 from .wear import DEFAULT_WEAR_CALIBRATION, WearCalibration, paper_wear_values, relative_wear_values, wear_from_file
@@ -112,7 +113,7 @@ class CommissionResult:
             covariance=self.covariance, noise_std=self.noise_std, temperature_prior=prior,
             wear={"calibration": self.wear.label, "source": self.wear.source, "parameters": list(self.wear)},
             provenance={"robot": self.robot, "joint": self.joint, "data": list(self.sources),
-                        "date": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+                        "date": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
                         "software": f"jointwear {__version__}", "observations": self.n, "cycles": self.n_cycles,
                         "converged": self.converged, "verdict": self.verdict},
         )
@@ -211,7 +212,7 @@ def _bands(speed: np.ndarray, resid: np.ndarray | None, vmax: float) -> list[dic
     v = np.abs(speed)
     out = []
     edges = [s * vmax for s in BAND_SHARES]
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    for lo, hi in itertools.pairwise(edges):
         m = (v >= lo) & (v < hi)
         if m.any():
             out.append({"lo": float(lo), "hi": float(hi), "n": int(m.sum()),

@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..errors import InputDataError
-from ..model import Model, Parameters
+from ..model import Model, Parameters, ParameterSet
 from ..types import WearEstimator
 from ._common import check_estimator_options, resolve_model, set_frame_table
 from .bayes import BayesEstimator
@@ -92,7 +92,7 @@ ESTIMATOR_METHODS: tuple[str, ...] = ("paper", "paper-grid", "bayes", "joint")
 def make_estimator(
     method: str,
     model: Model | None = None,
-    params: Parameters | Mapping[str, float] | str | None = None,
+    params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
     **options: Any,
 ) -> WearEstimator:
     """An estimator by name: ``paper``, ``paper-grid``, ``bayes`` or ``joint``.

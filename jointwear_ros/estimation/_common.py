@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_PARAMS",
     "WEAR_RANGE",
     "Rows",
+    "SetModel",
     "check_estimator_options",
     "check_observation_values",
     "combine_rows",
@@ -430,25 +431,36 @@ def combine_rows(
     )
 
 
+@dataclass(frozen=True)
+class SetModel:
+    """What an estimator takes from its model and set: the full model, its core terms, the extra terms
+    (inputs other than speed, load, temperature, wear; None without), the parameters, the set, sigma_e."""
+
+    full_model: Model
+    model: Model
+    extra: Model | None
+    params: Parameters
+    param_set: ParameterSet | None
+    noise_std: float
+
+
 def setup_model(
-    est: Any, model: Model | None, params: Parameters | Mapping[str, float] | str | ParameterSet | None,
+    model: Model | None, params: Parameters | Mapping[str, float] | str | ParameterSet | None,
     noise_std: float | None,
-) -> float:
-    """Give an estimator ``model`` (the core terms), ``extra``, ``params``, ``param_set``; return its noise_std.
+) -> SetModel:
+    """An estimator's model, parameters and set (:func:`resolve_set`, :func:`split_extra`) and its noise_std.
 
     ``noise_std`` None takes the set's own ``noise_std`` (in its torque unit), else
     the paper's :data:`DEFAULT_NOISE_STD` converted to the set's torque unit.
     """
     m, p, pset = resolve_set(model, params)
-    est.full_model = m
-    est.model, est.extra = split_extra(m)
-    est.params, est.param_set = p, pset
+    core, extra = split_extra(m)
     if noise_std is None:
         if pset is not None and pset.noise_std is not None:
             noise_std = pset.noise_std
         else:  # the paper's sigma_e, in the set's torque unit
             noise_std = DEFAULT_NOISE_STD * (pset.units.torque_factor if pset is not None else 1.0)
-    return float(noise_std)
+    return SetModel(m, core, extra, p, pset, float(noise_std))
 
 
 def with_set_info(result: WearResult, pset: ParameterSet | None) -> WearResult:

@@ -54,7 +54,7 @@ import numpy.typing as npt
 from scipy.special import logsumexp
 
 from ..errors import InputDataError, ModelError
-from ..model import Model, Parameters
+from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
 from ._common import WEAR_RANGE, combine_rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
 from .inverse import base_friction
@@ -320,7 +320,7 @@ class BayesEstimator:
     def __init__(
         self,
         model: Model | None = None,
-        params: Parameters | Mapping[str, float] | str | None = None,
+        params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
         *,
         prior: TemperaturePrior | str | object | None = None,
         noise_std: float | None = None,
@@ -336,7 +336,9 @@ class BayesEstimator:
     ) -> None:
         # seed/rng are accepted for a uniform factory interface; the estimator is deterministic
         del seed, rng
-        noise_std = setup_model(self, model, params, noise_std)
+        sm = setup_model(model, params, noise_std)
+        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
+        self.param_set, noise_std = sm.param_set, sm.noise_std
         if prior is None:
             prior = set_temperature_prior(self.param_set, None)
         self.prior = uniform_prior(*DEFAULT_BAYES_PRIOR) if prior is None else parse_temperature_prior(prior)

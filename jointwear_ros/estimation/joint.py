@@ -54,7 +54,7 @@ from scipy.optimize import minimize
 from scipy.special import logsumexp
 
 from ..errors import InputDataError
-from ..model import Model, Parameters
+from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
 from ._common import WEAR_RANGE, Rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
 from .crb import DEFAULT_CRB_PRIOR, temperature_nodes
@@ -148,7 +148,7 @@ class JointEstimator:
     def __init__(
         self,
         model: Model | None = None,
-        params: Parameters | Mapping[str, float] | str | None = None,
+        params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
         *,
         prior: TemperaturePrior | str | None = None,
         noise_std: float | None = None,
@@ -161,7 +161,9 @@ class JointEstimator:
         seed: int | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        noise_std = setup_model(self, model, params, noise_std)
+        sm = setup_model(model, params, noise_std)
+        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
+        self.param_set, noise_std = sm.param_set, sm.noise_std
         self.prior = parse_temperature_prior(prior if prior is not None
                                              else set_temperature_prior(self.param_set, DEFAULT_CRB_PRIOR))
         if not (math.isfinite(noise_std) and noise_std > 0):

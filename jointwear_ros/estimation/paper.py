@@ -29,11 +29,11 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import InputDataError
-from ..model import Model, Parameters
+from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
 from ._common import WEAR_RANGE, Rows, combine_rows, make_rng, prepare_rows, setup_model, with_set_info
-from .priors import parse_temperature_prior
 from .inverse import TemperatureTable, WearInverse, base_friction
+from .priors import parse_temperature_prior
 
 __all__ = ["PAPER_N_SAMPLES", "PAPER_TEMPERATURE_RANGE", "PaperEstimator", "PaperGridEstimator"]
 
@@ -55,7 +55,7 @@ class _PaperBase:
     def __init__(
         self,
         model: Model | None = None,
-        params: Parameters | Mapping[str, float] | str | None = None,
+        params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
         *,
         n_samples: int = PAPER_N_SAMPLES,
         temperature_range: tuple[float, float] | None = None,
@@ -66,7 +66,9 @@ class _PaperBase:
         seed: int | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        noise_std = setup_model(self, model, params, noise_std)
+        sm = setup_model(model, params, noise_std)
+        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
+        self.param_set, noise_std = sm.param_set, sm.noise_std
         if temperature_range is None:
             temperature_range = PAPER_TEMPERATURE_RANGE
             if self.param_set is not None and self.param_set.temperature_prior:
@@ -198,7 +200,7 @@ class PaperEstimator(_PaperBase):
 
     name = "paper"
 
-    def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | None = None,
+    def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
                  *, n_table: int = 16384, **options: object) -> None:
         super().__init__(model, params, **options)  # type: ignore[arg-type]
         self.n_table = int(n_table)
@@ -246,7 +248,7 @@ class PaperGridEstimator(_PaperBase):
 
     name = "paper-grid"
 
-    def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | None = None,
+    def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
                  *, grid_step: float = 0.1, **options: object) -> None:
         super().__init__(model, params, **options)  # type: ignore[arg-type]
         if not (grid_step > 0 and math.isfinite(grid_step)):

@@ -272,7 +272,7 @@ def load_parameter_set_info(name: str) -> ParameterSet:
         if str(k) == "temperature" and lo < ABSOLUTE_ZERO:
             raise ParameterSetError(f"{path}: valid temperature range starts at {lo:g} degC, below absolute zero")
         valid[str(k)] = (lo, hi)
-    spec = str(doc.get("model") or DEFAULT_SPEC).strip()
+    model_spec = str(doc.get("model") or DEFAULT_SPEC).strip()
     stderr, covariance = _read_covariance(path, doc.get("covariance"), values)
     noise = doc.get("noise_std")
     if noise is not None:
@@ -293,7 +293,7 @@ def load_parameter_set_info(name: str) -> ParameterSet:
         values=values,
         valid=valid,
         path=path,
-        spec=spec,
+        spec=model_spec,
         units=units,
         stderr=stderr,
         covariance=covariance,
