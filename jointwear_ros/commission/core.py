@@ -40,7 +40,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputDataError
-from ..model import Model, Parameters, ParameterSet, SetUnits
+from ..model import Model, Parameters, ParameterSet, SetUnits, split_model_spec
 from ..model.scaling import DataScales, data_parameters, on_bound, speed_starts
 from ..types import ObservationTable
 from .wear import DEFAULT_WEAR_CALIBRATION, WearCalibration, paper_wear_values, relative_wear_values, wear_from_file
@@ -152,16 +152,7 @@ class CommissionResult:
 
 def nominal_spec(spec: str) -> str:
     """``spec`` without its wear terms (a baseline is at w = 0): ``paper+wear`` -> ``paper``."""
-    parts: list[str] = []
-    depth, cur = 0, ""
-    for c in spec.replace("paper+wear", "paper"):  # '+' outside parentheses separates terms
-        depth += (c == "(") - (c == ")")
-        if c == "+" and depth == 0:
-            parts.append(cur.strip())
-            cur = ""
-        else:
-            cur += c
-    parts.append(cur.strip())
+    parts = ["paper" if p == "paper+wear" else p for p in split_model_spec(spec)]
     keep = [p for p in parts if p not in ("wear", "wear_stribeck", "wear_viscous")]
     if not keep:
         raise CommissionError(f"model {spec!r} has only wear terms; a baseline needs the nominal terms (e.g. paper)")

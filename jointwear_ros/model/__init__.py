@@ -20,7 +20,15 @@ jointwear_ros.errors.ModelError: model input 'speed' holds nan; the model needs 
 
 from __future__ import annotations
 
-from .model import MODEL_SPECS, Model, paper_model, paper_wear_model, parse_model_spec, standard_model
+from .model import (
+    MODEL_SPECS,
+    Model,
+    paper_model,
+    paper_wear_model,
+    parse_model_spec,
+    split_model_spec,
+    standard_model,
+)
 from .parameters import Parameter, Parameters, ParamSpec
 from .paramsets import (
     ParameterSet,
@@ -74,6 +82,7 @@ __all__ = [
     "paper_wear_model",
     "parameter_set_document",
     "parse_model_spec",
+    "split_model_spec",
     "standard_model",
     "stribeck_shape",
     "term_by_name",
