@@ -283,3 +283,30 @@ def test_the_documented_command_sequence_runs_as_written(tmp_path):
     assert (tmp_path / "joint_3.yaml").is_file() and (tmp_path / "report" / "commission.png").is_file()
     est = json.loads(r.stdout[re.search(r'\{\s*"estimates"', r.stdout).start():])["estimates"]
     assert all(e["estimate"] > 50 for e in est)  # ref-2011r on this joint: a confident error
+
+
+def test_the_live_monitor_takes_a_joint_side_set_by_path_and_screens_in_the_suites_units(tmp_path):
+    import shutil
+
+    from jointwear_ros.monitor import MonitorConfig, WearMonitor
+    from jointwear_ros.observer import STATE_RUNNING, FrictionObservationData
+
+    path = tmp_path / "base.yaml"
+    shutil.copy(load_parameter_set_info("arm6-base").path, path)
+    info = load_parameter_set_info(str(path))
+    m, p = info.model(), info.parameters()
+    sf, tf = info.units.speed_factor, info.units.torque_factor
+    mon = WearMonitor(MonitorConfig(joint_name="joint_1", method="joint", params=str(path)))
+    speeds = (2.0, 20.0, 47.0, 110.0, 250.0)  # motor side, as the observer publishes them
+    mon.on_status(9.0, 3, STATE_RUNNING, 0, len(speeds), "joint_1")
+    results = []
+    for i, v in enumerate(speeds):
+        tau = float(m.evaluate(p, speed=v * sf, load_torque=0.1 * tf, temperature=40.0, wear=30.0)) / tf
+        results += mon.add(FrictionObservationData(
+            stamp=10.0 + i, joint_name="joint_1", cycle_id=3, speed=v, tau_f=tau, tau_f_std=3e-4,
+            tau_plus=0.1 + tau, tau_minus=0.1 - tau, load_torque=0.1, temperature=40.0, position=0.0,
+            samples_plus=500, samples_minus=500))
+    assert len(results) == 1 and results[0].result is not None
+    r = results[0].result
+    assert r.wear == pytest.approx(30.0, abs=1.0) and r.info["parameter_set"] == "arm6-base"
+    assert mon.rejected_count == 0
