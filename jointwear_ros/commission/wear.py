@@ -73,17 +73,17 @@ def relative_wear_values(model: Model, params: Parameters, units: SetUnits, temp
     t_lo, t_hi = ref.valid.get("temperature", (-math.inf, math.inf))
     t_ref = min(max(temperature, t_lo), t_hi)
     load_ref = load / units.torque_factor
-    level_ref = float(pm.evaluate(pm.make_params(ref.parameters()), speed=0.0, load_torque=load_ref,
+    f0_ref = float(pm.evaluate(pm.make_params(ref.parameters()), speed=0.0, load_torque=load_ref,
                                   temperature=t_ref)) * units.torque_factor
     inputs: dict[str, Any] = {"speed": 0.0, "load_torque": load, "temperature": temperature, "wear": 0.0}
     inputs = {k: v for k, v in inputs.items() if k in model.variables}
     for var in model.variables:  # inputs of other terms: at 0 (a ripple's mean is 0 only on average; a level)
         inputs.setdefault(var, 0.0)
-    level = float(np.mean(model.evaluate(params, **inputs)))
-    if not (math.isfinite(level) and level > 0 and level_ref > 0):
-        raise InputDataError(f"the joint's nominal friction at v = 0 is {level:g} {units.torque_unit}; the relative "
+    f0 = float(np.mean(model.evaluate(params, **inputs)))
+    if not (math.isfinite(f0) and f0 > 0 and f0_ref > 0):
+        raise InputDataError(f"the joint's nominal friction at v = 0 is {f0:g} {units.torque_unit}; the relative "
                              "wear calibration needs a positive level: use --wear-calibration paper or FILE")
-    ratio = level / level_ref
+    ratio = f0 / f0_ref
     base = paper_wear_values(units)
     return {"Fsw": base["Fsw"] * ratio, "vsw": base["vsw"], "Fvw": base["Fvw"] * ratio}, ratio
 
