@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..errors import InputDataError
-from ..model import Model, Parameters, ParameterSet
+from ..model import Model, Parameters, ParameterSet, load_parameter_set_info
 from ..types import WearEstimator
 from ._common import check_estimator_options, resolve_model, set_frame_table
 from .bayes import BayesEstimator
@@ -115,5 +115,8 @@ def make_estimator(
     if unknown:
         raise InputDataError(f"estimator {key!r} takes no option {', '.join(unknown)}; "
                              f"it takes {', '.join(sorted(_accepted_options(cls)))}")
-    check_estimator_options(options)  # values no estimator can work with
+    if isinstance(params, str):
+        params = load_parameter_set_info(params)  # a missing set fails here, with its reason
+    factor = params.units.torque_factor if isinstance(params, ParameterSet) else 1.0
+    check_estimator_options(options, factor)  # values no estimator can work with
     return cls(model, params, **options)  # type: ignore[no-any-return]

@@ -60,10 +60,11 @@ MIN_TAU_F_STD = 1e-6
 TEMPERATURE_LIMITS = (-273.15, 1000.0)
 
 
-def check_estimator_options(options: Mapping[str, Any]) -> None:
+def check_estimator_options(options: Mapping[str, Any], torque_factor: float = 1.0) -> None:
     """Refuse estimator options no estimator can work with (the options :func:`make_estimator` passes on).
 
-    ``noise_std`` finite in (0, 1]; ``default_load`` None or finite with
+    ``noise_std`` finite in (0, 1] (x ``torque_factor``: a joint-side set's torque unit per normalized
+    unit; its noise is in N·m); ``default_load`` None or finite with
     magnitude at most :data:`MAX_TORQUE`; ``n_samples`` a whole number in
     [1, 1e6]; ``temperature_range`` two finite numbers low < high, low above
     absolute zero; ``seed`` None or a whole number >= 0. Other options are
@@ -88,9 +89,10 @@ def check_estimator_options(options: Mapping[str, Any]) -> None:
 
     if "noise_std" in options:
         x = number("noise_std", options["noise_std"])
-        if not (math.isfinite(x) and 0 < x <= 1):
+        if not (math.isfinite(x) and 0 < x <= torque_factor):
+            unit = "normalized torque" if torque_factor == 1.0 else "the parameter set's torque unit"
             raise InputDataError(f"estimator option noise_std = {options['noise_std']!r}: must be a finite number "
-                                 "in (0, 1] (normalized torque)")
+                                 f"in (0, {torque_factor:g}] ({unit})")
     if options.get("default_load") is not None:
         x = number("default_load", options["default_load"])
         if not (math.isfinite(x) and abs(x) <= MAX_TORQUE):
