@@ -310,3 +310,18 @@ def test_the_live_monitor_takes_a_joint_side_set_by_path_and_screens_in_the_suit
     r = results[0].result
     assert r.wear == pytest.approx(30.0, abs=1.0) and r.info["parameter_set"] == "arm6-base"
     assert mon.rejected_count == 0
+
+
+def test_wear_parameters_calibrated_from_a_table_of_known_wear(tmp_path):
+    """A history across a reducer replacement: cycles at known wear 0 and 40 fit Fsw, vsw, Fvw."""
+    base = synth_observations(n_cycles=12, seed=11, temperature=(20.0, 50.0))
+    worn = synth_observations(n_cycles=12, seed=12, temperature=(20.0, 50.0), model="paper+wear", wear=40.0)
+    known = ObservationTable({n: np.concatenate([np.asarray(base.get(n, 0.0) * np.ones(len(base))),
+                                                 np.asarray(worn[n])]) for n in worn.names}, source="known")
+    cal = tmp_path / "known_wear.csv"
+    write_csv(known, cal)
+    r = commission(base, joint="j", wear_calibration=str(cal), wear_table=known, diagnose_baseline=False, cv_folds=0)
+    truth = load_parameter_set_info("ref-2011r").values
+    assert r.wear.label == "file:known_wear.csv" and "known wear" in r.wear.source
+    assert r.wear["Fsw"] == pytest.approx(truth["Fsw"], rel=0.15)
+    assert r.wear["vsw"] == pytest.approx(truth["vsw"], rel=0.25)
