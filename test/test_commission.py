@@ -325,3 +325,14 @@ def test_wear_parameters_calibrated_from_a_table_of_known_wear(tmp_path):
     assert r.wear.label == "file:known_wear.csv" and "known wear" in r.wear.source
     assert r.wear["Fsw"] == pytest.approx(truth["Fsw"], rel=0.15)
     assert r.wear["vsw"] == pytest.approx(truth["vsw"], rel=0.25)
+
+
+def test_the_bound_of_a_set_with_an_extra_term_is_the_bound_of_its_core_model(tmp_path):
+    """A term of another input is a known offset: the Fisher information about w is the core model's."""
+    from jointwear_ros.estimation import crb_multi_speed
+
+    path = _ripple_set(tmp_path)
+    speeds = [10.0, 40.0, 80.0]
+    a = crb_multi_speed(None, path, speeds, 30.0)
+    b = crb_multi_speed(None, "ref-2011r", speeds, 30.0)
+    assert a == pytest.approx(b, rel=1e-12) and math.isfinite(a)
