@@ -310,6 +310,7 @@ def test_the_live_monitor_takes_a_joint_side_set_by_path_and_screens_in_the_suit
     r = results[0].result
     assert r.wear == pytest.approx(30.0, abs=1.0) and r.info["parameter_set"] == "arm6-base"
     assert mon.rejected_count == 0
+    assert dict(results[0].values)["wear_calibration"] == "paper"  # /diagnostics names the calibration
 
 
 def test_wear_parameters_calibrated_from_a_table_of_known_wear(tmp_path):

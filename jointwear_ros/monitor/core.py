@@ -453,6 +453,7 @@ class WearMonitor:
                   ("temperature_estimate", f"{res.temperature:.2f}"), ("n_observations", str(len(obs))),
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
+        values += [(k, str(res.info[k])) for k in ("parameter_set", "wear_calibration") if k in res.info]
         return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values + rev), obs,
                                        cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
 
