@@ -48,6 +48,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--noise", default=str(NOISE_STD), help=f"noise sigma_e (default {NOISE_STD})")
     s.add_argument("--irrelevant", type=int, default=0, metavar="N",
                    help="add N columns aux_01.. of random numbers nothing depends on (default 0)")
+    s.add_argument("--joint-side", action="store_true",
+                   help="write speeds and torques in a joint-frame set's units (joint side rad/s, N·m; --load and "
+                        "--speeds stay motor side, normalized)")
     s.add_argument("--json", action="store_true", help="print a JSON summary")
     s.set_defaults(func=cmd_synth)
 
@@ -100,11 +103,14 @@ def cmd_synth(args: argparse.Namespace) -> int:
         raise UsageError(f"--noise: {noise:g} must be within [0, 1] (normalized torque; the paper's is 0.0015)")
     info = load_parameter_set_info(args.params)
     for v in speeds:
-        info.check_range("speed", v)
+        info.check_observation_range("speed", v)
     for v in temperature:
-        info.check_range("temperature", v)
+        info.check_observation_range("temperature", v)
     for v in load:
-        info.check_range("load_torque", abs(v))
+        info.check_observation_range("load_torque", abs(v))
+    if args.joint_side and not info.units.joint_side:
+        raise UsageError(f"--joint-side: parameter set {info.name!r} is in the paper's normalized units; "
+                         "give a joint-frame set (units frame: joint), e.g. arm6-base")
     wear = None if args.wear is None else parse_float(args.wear, "--wear")
     if wear is not None:
         info.check_range("wear", wear)
@@ -121,6 +127,10 @@ def cmd_synth(args: argparse.Namespace) -> int:
         model="paper" if wear is None else "paper+wear", temperature=temperature, load=load,
         position=position, wear=0.0 if wear is None else wear, noise=noise, irrelevant=args.irrelevant,
     )
+    if args.joint_side:  # the table in the set's joint-side units (rad/s, N·m), as a real cell's log
+        from ..estimation import set_frame_table
+
+        table = set_frame_table(table, info)
     write_table(table, out)
     nf, _ = noise_floor(table)
     summary = {"out": str(out), "format": "csv" if is_csv else "rosbag2-mcap", "rows": len(table),
