@@ -38,6 +38,7 @@ import math
 import os
 import shutil
 import tempfile
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -253,19 +254,30 @@ def _fmt(v: float) -> str:
     return repr(float(v))
 
 
-def write_csv(table: ObservationTable, path: str | os.PathLike[str]) -> Path:
-    """Write ``table`` as CSV, atomically (a temporary file, then rename)."""
+def write_csv(table: ObservationTable, path: str | os.PathLike[str], *,
+              text_columns: Mapping[str, Sequence[str]] | None = None) -> Path:
+    """Write ``table`` as CSV, atomically (a temporary file, then rename).
+
+    ``text_columns`` (name -> one string per row, e.g. ``joint``) are written
+    after the numeric columns; :func:`read_csv` skips them again.
+    """
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
+    texts = dict(text_columns or {})
+    for name, vals in texts.items():
+        if len(vals) != len(table) or name in table:
+            raise InputDataError(f"text column {name!r}: {len(vals)} values for {len(table)} rows, or a numeric "
+                                 "column of that name exists")
     names = table.names
     fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent)
     try:
         with os.fdopen(fd, "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(names)
+            w.writerow(names + list(texts))
             cols = [table[n] for n in names]
+            tcols = list(texts.values())
             for i in range(len(table)):
-                w.writerow([_fmt(c[i]) for c in cols])
+                w.writerow([_fmt(c[i]) for c in cols] + [str(c[i]) for c in tcols])
         os.replace(tmp, p)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
