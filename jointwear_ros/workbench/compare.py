@@ -59,8 +59,18 @@ class BandError:
         return band_label(self.lo, self.hi)
 
 
-def band_rmse(speed: Array, residuals: Array, edges: Sequence[float] = SPEED_BAND_EDGES) -> list[BandError]:
-    """RMSE per speed band (bands without observations are left out)."""
+def band_rmse(speed: Array, residuals: Array, edges: Sequence[float] | None = None) -> list[BandError]:
+    """RMSE per speed band (bands without observations are left out).
+
+    ``edges`` default: :data:`SPEED_BAND_EDGES` (motor side rad/s) scaled by
+    the data's speed scale (:class:`~jointwear_ros.workbench.scales.DataScales`),
+    so joint-side speeds of a few rad/s get bands of their own.
+    """
+    if edges is None:
+        from .scales import DataScales
+
+        f = DataScales.from_arrays(speed=speed).speed
+        edges = SPEED_BAND_EDGES if f == 1.0 else tuple(e * f for e in SPEED_BAND_EDGES)
     v = np.abs(np.asarray(speed, dtype=float))
     r = np.asarray(residuals, dtype=float)
     out = []
