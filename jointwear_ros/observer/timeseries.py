@@ -86,6 +86,8 @@ class TimeseriesConfig:
         None: the ``accel_quantile`` quantile of the moving samples' |acceleration|.
     accel_quantile : see ``max_accel``.
     smooth_seconds : the velocity is smoothed over this long before it is differentiated.
+    min_plateau_fraction : a plateau covers at least this fraction of its motion in one direction
+        (from standstill or reversal to the next); the speed peaks of a sinusoid do not.
     window_half_width : plateau pairs are measured over the centre of their position overlap
         ± this (rad, joint side); None: the whole overlap. A narrower window keeps the load
         (gravity) nearly constant, so the standard error is not inflated by its variation.
@@ -106,6 +108,7 @@ class TimeseriesConfig:
     accel_quantile: float = 0.3
     smooth_seconds: float = 0.05
     window_half_width: float | None = None
+    min_plateau_fraction: float = 0.3
 
     def __post_init__(self) -> None:
         for name in ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "smooth_seconds"):
@@ -126,6 +129,9 @@ class TimeseriesConfig:
                                  "positive number (rad)")
         if self.max_accel is not None and not (math.isfinite(self.max_accel) and self.max_accel > 0):
             raise InputDataError(f"time-series setting max_accel = {self.max_accel!r} must be a positive number")
+        if not 0 <= self.min_plateau_fraction <= 1:
+            raise InputDataError(f"time-series setting min_plateau_fraction = {self.min_plateau_fraction!r} must be "
+                                 "in [0, 1]")
         if not 0 <= self.rest_fraction < 1:
             raise InputDataError(f"time-series setting rest_fraction = {self.rest_fraction!r} must be in [0, 1)")
 
@@ -314,13 +320,23 @@ def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], c
         pass_gap=max(0.05, 3.0 * dt), n_batches=cfg.n_batches,
     )
     tt = ex[temperature] if temperature is not None else None
+    # motions: runs in one direction, from standstill or reversal to the next
+    motion_len = np.zeros(t.size)
+    for d in (1, -1):
+        for a, b in _runs(moving & (sgn == d)):
+            motion_len[a:b] = t[b - 1] - t[a] + dt
+    short = 0
     for level in levels:
         at = moving & (np.abs(np.abs(v) - level) <= cfg.speed_tolerance * level)
         plats: list[tuple[int, int, int]] = []  # (start, stop, direction)
         for d in (1, -1):
             for a, b in _runs(at & (sgn == d)):
-                if b - a >= cfg.min_samples:
-                    plats.append((a, b, d))
+                if b - a < cfg.min_samples:
+                    continue
+                if t[b - 1] - t[a] + dt < cfg.min_plateau_fraction * motion_len[a]:
+                    short += 1
+                    continue
+                plats.append((a, b, d))
         plats.sort()
         used: set[int] = set()
         k = 0
@@ -358,6 +374,9 @@ def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], c
             out.rows.append(_row(r, ex, sel, cfg, load, extra_fields={
                 "samples_plus": r.samples_plus, "samples_minus": r.samples_minus,
                 "position_spread": float(np.std(q[sel])) if sel.any() else math.nan}))
+    if short and not out.rows:
+        out.rejected.append(f"{short} run(s) at a steady speed too short to be plateaus (under "
+                            f"{100 * cfg.min_plateau_fraction:g} % of their motion: speed peaks, not plateaus)")
     out.rows.sort(key=lambda r: (r["cycle"], r["speed"]))
     return out
 
