@@ -190,7 +190,7 @@ def write_log(path: Path, t, q, v, u, delim=",", extra=None) -> Path:
 
 
 def test_a_csv_log_converts_to_an_observation_table_the_workbench_reads(tmp_path, capsys):
-    t, q, v, u, fr = sweep(levels=(0.02, 0.05, 0.1, 0.2, 0.4, 0.6), hold=2.0)
+    t, q, v, u, _fr = sweep(levels=(0.02, 0.05, 0.1, 0.2, 0.4, 0.6), hold=2.0)
     log = write_log(tmp_path / "log.csv", t, q, v, u, delim=";", extra={"T_motor": np.full(t.size, 41.0)})
     out = tmp_path / "obs.csv"
     rc, stdout, err = run_main(capsys, "data", "from-timeseries", str(log), "--time", "time_s", "--position", "q_rad",
@@ -215,7 +215,7 @@ def test_a_csv_log_converts_to_an_observation_table_the_workbench_reads(tmp_path
 def test_bad_arguments_and_columns_are_one_line_and_exit_2(tmp_path, capsys, args, match):
     t, q, v, u, _ = sweep(levels=(0.2,))
     log = write_log(tmp_path / "log.csv", t, q, v, u)
-    rc, out, err = run_main(capsys, "data", "from-timeseries", str(log), *args, "--out", str(tmp_path / "o.csv"))
+    rc, _out, err = run_main(capsys, "data", "from-timeseries", str(log), *args, "--out", str(tmp_path / "o.csv"))
     assert rc == 2 and match in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "o.csv").exists()
 
