@@ -1,11 +1,8 @@
 """Workbench fits in any units: start values, bounds and grids from the data; a parameter on a bound is named.
 
 The real arm: the published friction model of the Franka Emika Panda (seven harmonic-drive joints, joint
-side, N·m), C. Gaz, M. Cognetti, A. Oliva, P. Robuffo Giordano, A. De Luca, "Dynamic Identification of the
-Franka Emika Panda Robot With Retrieval of Feasible Parameters Using Penalty-Based Optimization", IEEE RA-L
-4(4):4147-4154, 2019: per joint tau_f(v) = phi1 / (1 + exp(-phi2 (v + phi3))) - phi1 / (1 + exp(-phi2 phi3)).
-The numbers below are cited from that paper (not copied from any file); the sweep a cell would measure with
-forward and reverse plateaus is (tau_f(v) - tau_f(-v)) / 2 at 0.001-0.5 rad/s.
+side, N·m; Gaz et al., IEEE RA-L 2019, :mod:`jointwear_ros.data.published`), swept at 0.001-0.5 rad/s as a
+plateau test measures it.
 """
 
 from __future__ import annotations
@@ -20,27 +17,15 @@ from hypothesis import strategies as st
 from scipy.optimize import least_squares
 
 from jointwear_ros.cli import main
-from jointwear_ros.data import synth_observations
+from jointwear_ros.data import panda_friction_sweep, synth_observations
 from jointwear_ros.io.tables import write_csv
 from jointwear_ros.types import ObservationTable
 from jointwear_ros.workbench import DataScales, diagnose, fit_model, parse_spec
 
-PANDA_PHI1 = (0.54615, 0.87224, 0.64068, 1.2794, 0.83904, 0.30301, 0.56489)
-PANDA_PHI2 = (5.1181, 9.0657, 10.136, 5.5903, 8.3469, 17.133, 10.336)
-PANDA_PHI3 = (0.039533, 0.025882, -0.04607, 0.036194, 0.026226, -0.021047, 0.0035526)
 
-
-def panda_sweep(joint: int, noise: float = 0.002, n: int = 25, seed: int = 0) -> ObservationTable:
-    """Joint ``joint`` (0-based) of the Panda: the friction sweep a plateau test measures, N·m."""
-    a, b, c = PANDA_PHI1[joint], PANDA_PHI2[joint], PANDA_PHI3[joint]
-
-    def f(v: np.ndarray) -> np.ndarray:
-        return a / (1 + np.exp(-b * (v + c))) - a / (1 + np.exp(-b * c))
-
-    v = np.geomspace(0.001, 0.5, n)
-    y = (f(v) - f(-v)) / 2 + np.random.default_rng(seed + joint).normal(0.0, noise, n)
-    return ObservationTable({"speed": v, "tau_f": y, "tau_f_std": np.full(n, noise),
-                             "cycle": np.arange(n, dtype=float)}, source=f"panda_joint_{joint + 1}")
+def panda_sweep(joint: int) -> ObservationTable:
+    """Joint ``joint`` (0-based) of the Panda: the friction sweep a plateau test measures, N·m, 0.001-0.5 rad/s."""
+    return panda_friction_sweep(joint, noise=0.002, seed=0)
 
 
 def plain_least_squares_rmse(table: ObservationTable) -> float:
