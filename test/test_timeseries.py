@@ -119,6 +119,21 @@ def test_continuous_sinusoidal_motion_falls_back_to_steady_speed_bins_with_a_war
         assert abs(row["tau_f"] - (1.0 + 1.5 * row["speed"])) < 0.05, row
 
 
+def test_steady_bins_compare_the_directions_at_the_same_positions_so_gravity_cancels():
+    rate = 500.0
+    qf = np.arange(-1.0, 1.0, 0.3 / rate)       # forward through [-1, 1] at 0.3 rad/s
+    qr = np.arange(1.0, -0.2, -0.3 / rate)      # reverse only through [-0.2, 1]
+    q = np.concatenate((qf, qr))
+    v = np.concatenate((np.full(qf.size, 0.3), np.full(qr.size, -0.3)))
+    t = np.arange(q.size) / rate
+    u = 5.0 * np.sin(q) + np.sign(v) * 0.8 + np.random.default_rng(9).normal(0, 0.01, q.size)
+    matched = timeseries_observations(t, q, v, u, config=TimeseriesConfig(mode="bins", n_bins=1))
+    plain = timeseries_observations(t, q, v, u, config=TimeseriesConfig(mode="bins", n_bins=1, position_bins=0))
+    assert matched.rows[0]["tau_f"] == pytest.approx(0.8, abs=0.02)
+    assert abs(plain.rows[0]["tau_f"] - 0.8) > 0.5  # mean sin(q) differs between the two position ranges
+    assert matched.rows[0]["samples_plus"] < qf.size  # the forward samples outside [-0.2, 1] are left out
+
+
 def test_a_joint_that_never_moves_is_refused():
     t = np.arange(0.0, 10.0, 0.01)
     with pytest.raises(InputDataError, match="usable samples|never moves") as exc:

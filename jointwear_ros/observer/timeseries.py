@@ -22,11 +22,14 @@ Two ways to find the samples, tried in this order (``mode="auto"``):
 2. **Steady-speed bins** (continuous or sinusoidal motion, no plateaus): the
    samples whose |acceleration| is small (at most ``max_accel``, default the
    ``accel_quantile`` quantile of the moving samples' |acceleration|) are
-   binned by speed (``n_bins`` geometric bins); each bin with ``min_samples``
-   samples in both directions gives an observation with its sample counts and
-   position spread. Forward and reverse samples of a bin are at different
-   positions and accelerations, so gravity and inertia cancel only
-   approximately; the result says so in its warnings.
+   binned by speed (``n_bins`` geometric bins); within a speed bin, forward
+   and reverse samples are compared at the same positions (``position_bins``
+   bins of the positions both directions cover, so the gravity load cancels
+   to within a bin's width); each bin with ``min_samples`` matched samples in
+   both directions gives an observation with its sample counts and position
+   spread. The two directions' accelerations still differ, and positions match
+   only to a bin width, so gravity and inertia cancel only approximately; the
+   result says so in its warnings.
 
 Without velocity, velocity is the derivative of position (``numpy.gradient``
 over time). Standard errors are batch means (:func:`~jointwear_ros.observer.batch_means_se`),
@@ -47,6 +50,7 @@ Pure numpy/scipy; no ROS import.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -86,6 +90,8 @@ class TimeseriesConfig:
         None: the ``accel_quantile`` quantile of the moving samples' |acceleration|.
     accel_quantile : see ``max_accel``.
     smooth_seconds : the velocity is smoothed over this long before it is differentiated.
+    position_bins : in the steady-speed mode, forward and reverse samples are compared within this many
+        bins of the positions both cover (0: not matched by position).
     min_plateau_fraction : a plateau covers at least this fraction of its motion in one direction
         (from standstill or reversal to the next); the speed peaks of a sinusoid do not.
     window_half_width : plateau pairs are measured over the centre of their position overlap
@@ -109,6 +115,7 @@ class TimeseriesConfig:
     smooth_seconds: float = 0.05
     window_half_width: float | None = None
     min_plateau_fraction: float = 0.3
+    position_bins: int = 10
 
     def __post_init__(self) -> None:
         for name in ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "smooth_seconds"):
@@ -129,6 +136,8 @@ class TimeseriesConfig:
                                  "positive number (rad)")
         if self.max_accel is not None and not (math.isfinite(self.max_accel) and self.max_accel > 0):
             raise InputDataError(f"time-series setting max_accel = {self.max_accel!r} must be a positive number")
+        if int(self.position_bins) < 0:
+            raise InputDataError(f"time-series setting position_bins = {self.position_bins!r} must be >= 0")
         if not 0 <= self.min_plateau_fraction <= 1:
             raise InputDataError(f"time-series setting min_plateau_fraction = {self.min_plateau_fraction!r} must be "
                                  "in [0, 1]")
@@ -400,6 +409,57 @@ def _row(r: FrictionObservationData, ex: Mapping[str, Array], sel: npt.NDArray[n
 # --------------------------------------------------------------------------- bins
 
 
+def _match_positions(
+    q: Array, u: Array, fw: npt.NDArray[np.bool_], rv: npt.NDArray[np.bool_], cfg: TimeseriesConfig,
+) -> tuple[float, float, float, npt.NDArray[np.bool_], npt.NDArray[np.bool_]] | str:
+    """Forward and reverse samples compared at the same positions (so the load, e.g. gravity, cancels).
+
+    The positions both directions cover are cut into ``position_bins`` bins;
+    in each bin with at least 2 samples of each direction, ``d = (mean u+ - mean u-)/2``.
+    Returns u+ and u- (weighted means over the matched bins, weights
+    ``2 n+ n- / (n+ + n-)``), the standard error of their half difference
+    (from the bins' scatter; batch means with one bin) and the samples used,
+    or why there are none.
+    """
+    qf, qr = q[fw], q[rv]
+    lo, hi = max(float(qf.min()), float(qr.min())), min(float(qf.max()), float(qr.max()))
+    if cfg.position_bins == 0:
+        edges = np.array([-np.inf, np.inf])
+    elif not hi > lo:
+        return (f"forward samples at [{float(qf.min()):.3g}, {float(qf.max()):.3g}] rad, reverse at "
+                f"[{float(qr.min()):.3g}, {float(qr.max()):.3g}] rad: never at the same positions")
+    else:
+        edges = np.linspace(lo, hi, cfg.position_bins + 1)
+        edges[-1] = np.nextafter(hi, np.inf)
+    used_f = np.zeros_like(fw)
+    used_r = np.zeros_like(rv)
+    dp, dm, w = [], [], []
+    for a, b in itertools.pairwise(edges.tolist()):
+        f = fw & (q >= a) & (q < b)
+        r = rv & (q >= a) & (q < b)
+        nf, nr = int(f.sum()), int(r.sum())
+        if nf < 2 or nr < 2:
+            continue
+        dp.append(float(u[f].mean()))
+        dm.append(float(u[r].mean()))
+        w.append(2.0 * nf * nr / (nf + nr))
+        used_f |= f
+        used_r |= r
+    nf, nr = int(used_f.sum()), int(used_r.sum())
+    if nf < cfg.min_samples or nr < cfg.min_samples:
+        return (f"{nf} forward and {nr} reverse steady samples at common positions; need {cfg.min_samples} each")
+    ww = np.asarray(w)
+    up, um = float(np.dot(ww, dp) / ww.sum()), float(np.dot(ww, dm) / ww.sum())
+    d = 0.5 * (np.asarray(dp) - np.asarray(dm))
+    if d.size >= 2:
+        tau = 0.5 * (up - um)
+        se = float(math.sqrt(d.size / (d.size - 1) * float(np.sum(ww**2 * (d - tau) ** 2))) / ww.sum())
+    else:
+        se = 0.5 * math.hypot(batch_means_se(u[used_f], cfg.n_batches), batch_means_se(u[used_r], cfg.n_batches))
+    return up, um, se, used_f, used_r
+
+
+
 def _bins(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: TimeseriesConfig,
           temperature: str | None, load: str | None) -> TimeseriesResult:
     out = TimeseriesResult([], "bins")
@@ -430,9 +490,14 @@ def _bins(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: 
                 out.rejected.append(f"speed bin [{edges[b] * cfg.gear_ratio:.4g}, {edges[b + 1] * cfg.gear_ratio:.4g}) "
                                     f"rad/s: {nf} forward, {nr} reverse steady samples; need {cfg.min_samples} each")
             continue
-        up, um = e[fw] / cfg.torque_scale, e[rv] / cfg.torque_scale
-        mp, mm = float(up.mean()), float(um.mean())
-        sp, sm = batch_means_se(up, cfg.n_batches), batch_means_se(um, cfg.n_batches)
+        m = _match_positions(q, e / cfg.torque_scale, fw, rv, cfg)
+        if isinstance(m, str):
+            out.rejected.append(f"speed bin [{edges[b] * cfg.gear_ratio:.4g}, {edges[b + 1] * cfg.gear_ratio:.4g}) "
+                                f"rad/s: {m}")
+            continue
+        mp, mm, se, fw, rv = m
+        nf, nr = int(fw.sum()), int(rv.sum())
+        inbin = fw | rv
         k += 1
         spread = float(np.std(q[inbin]))
         spread_max = max(spread_max, spread)
@@ -444,7 +509,7 @@ def _bins(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: 
         r = FrictionObservationData(
             stamp=float(t[inbin].mean()), joint_name=cfg.joint_name, cycle_id=1,
             speed=0.5 * (float(speed[fw].mean()) + float(speed[rv].mean())) * cfg.gear_ratio,
-            tau_f=0.5 * (mp - mm), tau_f_std=0.5 * math.hypot(sp, sm), tau_plus=mp, tau_minus=mm,
+            tau_f=0.5 * (mp - mm), tau_f_std=se, tau_plus=mp, tau_minus=mm,
             load_torque=abs(0.5 * (mp + mm)), temperature=temp, position=float(q[inbin].mean()),
             samples_plus=nf, samples_minus=nr,
         )
@@ -455,8 +520,9 @@ def _bins(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: 
     if out.rows:
         out.warnings.append(
             f"{len(out.rows)} observations from steady-speed samples (|acceleration| <= {limit:.3g} rad/s^2) "
-            f"binned by speed: forward and reverse samples of a bin are at different positions (spread up to "
-            f"{spread_max:.3g} rad) and accelerations, so gravity and inertia cancel only approximately")
+            "binned by speed and matched by position (forward and reverse compared within the same position "
+            f"bins; spread up to {spread_max:.3g} rad): their accelerations differ and the positions match only "
+            "to a bin width, so gravity and inertia cancel only approximately")
     bad = [r for r in out.rows if not r["tau_f"] > 0]
     if bad:
         out.warnings.append(f"{len(bad)} bin(s) have tau_f <= 0 (u+ <= u-): gravity or inertia dominates there, "
