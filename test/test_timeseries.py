@@ -289,9 +289,13 @@ def demo_bag(tmp_path_factory) -> Path:
     pytest.importorskip("rclpy")
     from jointwear_ros.cli.demo_cmd import run_demo
 
-    res = run_demo(25.0, [20.0, 40.0, 80.0, 160.0], tmp_path_factory.mktemp("demo"), real_time_factor=3.0,
-                   timeout=120.0)
-    assert res.bag is not None
+    # a cell on a shared, loaded machine may trip its watchdog (speed not reached): one retry, then it must work
+    for attempt in range(2):
+        res = run_demo(25.0, [20.0, 40.0, 80.0, 160.0], tmp_path_factory.mktemp(f"demo{attempt}"),
+                       real_time_factor=3.0, timeout=120.0)
+        if res.bag is not None and len(replayed(Path(res.bag))) == 4:
+            break
+    assert res.bag is not None, res.final_state
     return Path(res.bag)
 
 

@@ -268,7 +268,7 @@ def cmd_from_timeseries(args: argparse.Namespace) -> int:
     cols = {n: np.array([r.get(n, math.nan) for r in rows], dtype=float) for n in names}
     # a column that is NaN in every row carries nothing (e.g. no temperature); the CSV rules refuse NaN cells
     cols = {n: c for n, c in cols.items() if n in ("speed", "tau_f") or np.isfinite(c).all()}
-    dropped = [n for n in names if n not in cols]
+    dropped = [n for n in names if n not in cols and np.isfinite([r.get(n, math.nan) for r in rows]).any()]
     table = ObservationTable(cols, source=str(out))
     joint = args.joint or ""
     write_csv(table, out, text_columns={"joint": [joint] * len(table)} if joint else None)

@@ -32,8 +32,10 @@ Two ways to find the samples, tried in this order (``mode="auto"``):
    result says so in its warnings.
 
 Without velocity, velocity is the derivative of position (``numpy.gradient``
-over time). Standard errors are batch means (:func:`~jointwear_ros.observer.batch_means_se`),
-as in the observer.
+over time). Standard errors are batch means (:func:`~jointwear_ros.observer.batch_means_se`)
+of the half difference ``(u+ - u-)/2``, the batches being position bins of the window (so a load
+that varies over the window cancels in each batch, as it does in the mean; the observer's batches
+of each direction alone would count that variation as noise).
 
 Pure numpy/scipy; no ROS import.
 
@@ -53,7 +55,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -380,6 +382,11 @@ def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], c
             k += 1
             sel = (t >= seg.t_start) & (t < seg.t_end) & (np.abs(q - seg.window_center) <= seg.window_half_width) \
                 & (np.abs(np.abs(v) - level) <= cfg.speed_tolerance * level)
+            # the standard error of (u+ - u-)/2 from position-matched batches: a load that varies over the
+            # window (gravity) cancels in the difference, but would inflate each direction's own batch means
+            m = _match_positions(q, e / cfg.torque_scale, sel & (v > 0), sel & (v < 0), cfg, bins=cfg.n_batches)
+            if not isinstance(m, str) and math.isfinite(m[2]):
+                r = replace(r, tau_f_std=m[2])
             out.rows.append(_row(r, ex, sel, cfg, load, extra_fields={
                 "samples_plus": r.samples_plus, "samples_minus": r.samples_minus,
                 "position_spread": float(np.std(q[sel])) if sel.any() else math.nan}))
@@ -411,6 +418,7 @@ def _row(r: FrictionObservationData, ex: Mapping[str, Array], sel: npt.NDArray[n
 
 def _match_positions(
     q: Array, u: Array, fw: npt.NDArray[np.bool_], rv: npt.NDArray[np.bool_], cfg: TimeseriesConfig,
+    bins: int | None = None,
 ) -> tuple[float, float, float, npt.NDArray[np.bool_], npt.NDArray[np.bool_]] | str:
     """Forward and reverse samples compared at the same positions (so the load, e.g. gravity, cancels).
 
@@ -421,15 +429,18 @@ def _match_positions(
     (from the bins' scatter; batch means with one bin) and the samples used,
     or why there are none.
     """
+    nbins = cfg.position_bins if bins is None else bins
+    if not (fw.any() and rv.any()):
+        return "no samples in one direction"
     qf, qr = q[fw], q[rv]
     lo, hi = max(float(qf.min()), float(qr.min())), min(float(qf.max()), float(qr.max()))
-    if cfg.position_bins == 0:
+    if nbins == 0:
         edges = np.array([-np.inf, np.inf])
     elif not hi > lo:
         return (f"forward samples at [{float(qf.min()):.3g}, {float(qf.max()):.3g}] rad, reverse at "
                 f"[{float(qr.min()):.3g}, {float(qr.max()):.3g}] rad: never at the same positions")
     else:
-        edges = np.linspace(lo, hi, cfg.position_bins + 1)
+        edges = np.linspace(lo, hi, nbins + 1)
         edges[-1] = np.nextafter(hi, np.inf)
     used_f = np.zeros_like(fw)
     used_r = np.zeros_like(rv)
