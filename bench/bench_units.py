@@ -21,33 +21,23 @@ Usage: python bench/run_all.py units   (or python bench/bench_units.py [--panda-
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from jointwear_ros.cli.common import format_table
 from jointwear_ros.data import panda_friction, panda_friction_sweep, synth_observations
 from jointwear_ros.observer.timeseries import TimeseriesConfig, timeseries_observations
 from jointwear_ros.types import ObservationTable
 from jointwear_ros.workbench import diagnose, fit_model, parse_spec
+from jointwear_ros.workbench.baseline import plain_standard_fit
 
 
 def plain_rmse(table: ObservationTable) -> float:
-    v, y = table.speed, table.tau_f
-
-    def res(p: np.ndarray) -> np.ndarray:
-        return p[0] + p[1] * np.exp(-np.abs(v / p[2]) ** 1.3) + p[3] * v - y
-
-    best = math.inf
-    for vs in np.geomspace(1e-3, 1.0, 13):
-        s = least_squares(res, [y.min(), y[0] - y.min(), vs, 0.0], bounds=([-np.inf, -np.inf, 1e-9, -np.inf], np.inf))
-        best = min(best, float(np.sqrt(np.mean(s.fun**2))))
-    return best
+    return plain_standard_fit(table.speed, table.tau_f, vs_range=(1e-3, 1.0)).rmse
 
 
 def panda_sweeps() -> None:

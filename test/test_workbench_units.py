@@ -8,19 +8,18 @@ plateau test measures it.
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from scipy.optimize import least_squares
 
 from jointwear_ros.cli import main
 from jointwear_ros.data import panda_friction_sweep, synth_observations
 from jointwear_ros.io.tables import write_csv
 from jointwear_ros.types import ObservationTable
 from jointwear_ros.workbench import DataScales, diagnose, fit_model, parse_spec
+from jointwear_ros.workbench.baseline import plain_standard_fit
 
 
 def panda_sweep(joint: int) -> ObservationTable:
@@ -30,16 +29,7 @@ def panda_sweep(joint: int) -> ObservationTable:
 
 def plain_least_squares_rmse(table: ObservationTable) -> float:
     """A plain scipy fit of Fc + Fs exp(-|v/vs|^1.3) + Fv v (no bounds but vs > 0), best of a start grid."""
-    v, y = table.speed, table.tau_f
-
-    def res(p: np.ndarray) -> np.ndarray:
-        return p[0] + p[1] * np.exp(-np.abs(v / p[2]) ** 1.3) + p[3] * v - y
-
-    best = math.inf
-    for vs in np.geomspace(1e-3, 1.0, 13):
-        s = least_squares(res, [y.min(), y[0] - y.min(), vs, 0.0], bounds=([-np.inf, -np.inf, 1e-9, -np.inf], np.inf))
-        best = min(best, float(np.sqrt(np.mean(s.fun**2))))
-    return best
+    return plain_standard_fit(table.speed, table.tau_f, vs_range=(1e-3, 1.0)).rmse
 
 
 def joint_side(table: ObservationTable, gear: float = 120.0, scale: float = 150.0) -> ObservationTable:

@@ -58,6 +58,7 @@ __all__ = [
     "read_bag",
     "read_csv",
     "read_table",
+    "read_text_file",
     "write_bag",
     "write_csv",
     "write_table",
@@ -125,18 +126,26 @@ def _parse_cell(text: str) -> float | None:
         return None
 
 
-def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
-    """Read an observation table from CSV (see the module docstring for the rules)."""
-    p = Path(path)
-    src = str(p)
+def read_text_file(path: str | os.PathLike[str]) -> str:
+    """A CSV file's text (UTF-8, a BOM dropped); every failure is one :class:`InputDataError` line."""
+    src = str(path)
     try:
-        raw = p.read_text(encoding="utf-8-sig")
+        return Path(path).read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputDataError(f"{src}: no such file") from None
+    except IsADirectoryError:
+        raise InputDataError(f"{src}: is a directory without metadata.yaml; give a CSV file or a rosbag2 bag") from None
     except UnicodeDecodeError as exc:
         raise InputDataError(f"{src}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); give a CSV file") from None
     except OSError as exc:
         raise InputDataError(f"{src}: cannot read ({exc.strerror})") from None
+
+
+def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
+    """Read an observation table from CSV (see the module docstring for the rules)."""
+    p = Path(path)
+    src = str(p)
+    raw = read_text_file(p)
     if not raw.strip():
         raise InputDataError(f"{src}: the file is empty; expected a header line with at least speed,tau_f and data rows")
     lines = list(csv.reader(io.StringIO(raw)))

@@ -39,6 +39,7 @@ import numpy.typing as npt
 
 from ..errors import InputDataError
 from .bags import JOINT_STATE_TYPE, TEMPERATURE_TYPE, read_messages, stamp_seconds
+from .tables import read_text_file
 
 __all__ = ["JointSeries", "read_joint_states", "read_timeseries", "read_timeseries_csv"]
 
@@ -83,16 +84,7 @@ def read_timeseries_csv(
     """Read a time-series CSV (see the module docstring); column arguments name the header columns."""
     p = Path(path)
     src = str(p)
-    try:
-        raw = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputDataError(f"{src}: no such file") from None
-    except IsADirectoryError:
-        raise InputDataError(f"{src}: is a directory without metadata.yaml; give a CSV file or a rosbag2 bag") from None
-    except UnicodeDecodeError as exc:
-        raise InputDataError(f"{src}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); give a CSV file") from None
-    except OSError as exc:
-        raise InputDataError(f"{src}: cannot read ({exc.strerror})") from None
+    raw = read_text_file(p)
     lines = [(i, ln) for i, ln in enumerate(raw.splitlines(), start=1) if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise InputDataError(f"{src}: no header line; expected column names such as {time},{position},{effort}")
