@@ -122,6 +122,7 @@ def test_a_clean_joint_recorded_joint_side_in_newton_metres_is_nothing_missing(c
     assert doc["verdict"] == "nothing_missing", doc["summary"]
     assert doc["suggestion"] is None
     assert doc["noise_floor"]["consistent"] is True and doc["noise_floor"]["value"] == pytest.approx(0.225)
+    assert doc["converged"] is True and doc["at_bound"] == []
 
 
 def test_joint_side_paper_fit_recovers_the_rescaled_parameters(clean_reference):

@@ -321,9 +321,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
         write_report(args.report, table, base, diagnosis=diag)
     if args.json:
-        print_json(diag.to_dict())
+        print_json({**diag.to_dict(), "converged": base.success, "at_bound": [h.to_dict() for h in base.at_bound]})
         return 0
     print_diagnosis(diag, table.source, args.top)
+    for h in base.at_bound:
+        print(f"# the model's own fit ended on a bound (not converged): {h}; the verdict is about a fit the "
+              "data may not identify")
     if args.report:
         print(f"# report written to {Path(args.report) / 'report.html'}")
     return 0
