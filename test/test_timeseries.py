@@ -318,3 +318,26 @@ def test_a_live_recorded_demo_bag_converted_both_ways_agrees(demo_bag, tmp_path,
         assert load == pytest.approx(o.load_torque, abs=0.01)
         # joint_sim publishes /joint_temperature: the converter takes it, as commissioning will
         assert table["temperature"][0] == pytest.approx(40.0, abs=5.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    data=st.lists(st.tuples(st.floats(allow_nan=True, allow_infinity=True, width=32),
+                            st.one_of(st.floats(-10, 10), st.just(math.nan)),
+                            st.one_of(st.floats(-5, 5), st.sampled_from([math.nan, math.inf, 0.0])),
+                            st.one_of(st.floats(-100, 100), st.just(math.nan))), min_size=0, max_size=300),
+    mode=st.sampled_from(["auto", "plateaus", "bins"]),
+    derive=st.booleans(),
+)
+def test_hostile_samples_give_a_one_line_error_or_finite_observations(data, mode, derive):
+    arr = np.array(data, dtype=float).reshape(-1, 4)
+    try:
+        r = timeseries_observations(arr[:, 0], arr[:, 1], None if derive else arr[:, 2], arr[:, 3],
+                                    config=TimeseriesConfig(mode=mode, min_samples=4))
+    except InputDataError as exc:
+        assert "\n" not in str(exc)
+        return
+    for row in r.rows:
+        for col in ("speed", "tau_f", "tau_plus", "tau_minus", "load_torque", "position"):
+            assert math.isfinite(row[col]), (col, row)
+        assert row["speed"] > 0 and row["samples_plus"] >= 4 and row["samples_minus"] >= 4
