@@ -37,6 +37,7 @@ from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Route
 
 from .. import __version__
+from ..contract import DiagnosticLevel
 from .core import JointView, level_counts, rank_views
 from .watch import Snapshot, StoreWatcher
 
@@ -244,7 +245,7 @@ def _tta(v: JointView) -> str:
         return "-"
     if v.days_to_alarm is None:
         return "no growth detected" if v.estimates else "-"
-    if v.trend_level == 2 and v.days_to_alarm == 0:
+    if v.trend_level == DiagnosticLevel.ERROR and v.days_to_alarm == 0:
         return "at the alarm now"
     return f"{_num(v.days_to_alarm, '%.0f')} ({_num(v.days_to_alarm_low, '%.0f')} to {_num(v.days_to_alarm_high, '%.0f')})"
 
