@@ -89,15 +89,21 @@ def cmd_import(args: argparse.Namespace) -> int:
         per_file.append({"file": str(path), "estimates": len(recs)})
         records.extend(recs)
     with HistoryStore(args.db) as store:  # everything was read and checked: now write, in one transaction
-        added = store.add_estimates(records)
-        total = store.count()
-    out = {"files": per_file, "read": len(records), "added": added, "duplicates": len(records) - added,
-           "total": total, "analysis_versions": sorted(versions)}
+        total_before = store.count()
+        res = store.write_estimates(records)
+    added = res.added
+    total = total_before + added
+    refused = [f.as_dict() for f in res.refused]
+    out = {"files": per_file, "read": len(records), "added": added, "duplicates": res.duplicates,
+           "refused": refused, "total": total, "analysis_versions": sorted(versions)}
     if args.json:
         print_json(out)
     else:
         print(f"read {len(records)} estimates from {len(per_file)} file(s): {added} added, "
-              f"{len(records) - added} already in the history; {total} stored")
+              f"{res.duplicates} already in the history, {len(refused)} refused; {total} stored")
+        for f in refused:
+            src = f"{f['source']} {f['bag']}".strip()
+            print(f"refused {f['robot']}/{f['joint']} cycle {f['cycle_id']} ({src}): {f['reason']}: {f['detail']}")
     return 0
 
 

@@ -10,9 +10,11 @@ from .store import (
     HistoryError,
     HistoryStore,
     MaintenanceEvent,
+    WriteResult,
     normalize_url,
 )
-from .trends import trends_from_store
+from .screen import REASONS, Refusal, ScreenConfig
+from .trends import screened_history, trends_from_store
 
 __all__ = [
     "LIVE",
@@ -22,6 +24,11 @@ __all__ = [
     "HistoryError",
     "HistoryStore",
     "MaintenanceEvent",
+    "REASONS",
+    "Refusal",
+    "ScreenConfig",
+    "WriteResult",
     "normalize_url",
+    "screened_history",
     "trends_from_store",
 ]
