@@ -54,6 +54,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     m.add_argument("--kind", required=True, help="regrease, reducer_replaced, ...")
     m.add_argument("--time", default=None, help="ISO 8601 or seconds since the epoch (default: now)")
     m.add_argument("--note", default="")
+    m.add_argument("--new-joint", action="store_true",
+                   help="the joint has no estimates in the history yet (else a joint it does not know is refused)")
     m.set_defaults(func=cmd_maintenance)
 
 
@@ -126,6 +128,7 @@ def cmd_maintenance(args: argparse.Namespace) -> int:
 
     t = time.time() if args.time is None else parse_time(args.time, "--time")
     with HistoryStore(args.db) as store:
-        new = store.add_maintenance(MaintenanceEvent(args.robot, args.joint, t, args.kind, args.note))
+        new = store.add_maintenance(MaintenanceEvent(args.robot, args.joint, t, args.kind, args.note),
+                                    new_joint=args.new_joint)
     print(f"{args.kind} of {args.robot}/{args.joint} at {t:.3f} " + ("recorded" if new else "was already recorded"))
     return 0

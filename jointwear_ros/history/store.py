@@ -461,13 +461,15 @@ class HistoryStore:
 
     def write_estimates(self, records: Iterable[EstimateRecord], *, now: float | None = None,
                         screen: ScreenConfig | None = None, strict: bool = True,
-                        not_before: dict[tuple[str, str], float] | None = None) -> WriteResult:
+                        not_before: dict[tuple[str, str], float] | None = None,
+                        extra_refused: Sequence[Refusal] = ()) -> WriteResult:
         """Screen and insert the records in one transaction: the accepted into ``estimates``, the refused into
         ``refused`` with their reason (:mod:`~jointwear_ros.history.screen`; ``now`` is the screening clock,
         default the wall clock). ``strict``: a malformed record (NaN, std <= 0, no name) raises
         :class:`InputDataError` before anything is written; else it is refused and kept like the others.
         ``not_before``: (robot, joint) -> the newest stamp so far (live arrival order: a stamp far before it is
-        a clock jump)."""
+        a clock jump). ``extra_refused``: refusals screened by the caller (the live node's clock-jump check), kept
+        in ``refused`` in the same transaction."""
         if self.read_only:
             raise HistoryError(f"{self.display_url}: opened read-only; nothing can be written")
         now = _time.time() if now is None else float(now)
@@ -477,8 +479,8 @@ class HistoryStore:
                 r.check(f"estimate {i}")
         now_ns = _time.time_ns()
         rows: list[dict[str, Any]] = []
-        refused: list[Refusal] = []
-        bad_rows: list[dict[str, Any]] = []
+        refused: list[Refusal] = list(extra_refused)
+        bad_rows: list[dict[str, Any]] = [_refused_row(f, now_ns) for f in refused]
         for r in records:
             nb = None if not_before is None else not_before.get((r.robot, r.joint))
             f = screen_record(r, now=now, cfg=screen, not_before=nb)
@@ -552,11 +554,30 @@ class HistoryStore:
         return [{k: r[k] for k in ("robot", "joint", "analysis_version", "cycle_id", "time", "wear", "wear_std",
                                    "source", "bag", "reason", "detail")} for r in rows]
 
-    def add_maintenance(self, ev: MaintenanceEvent) -> bool:
-        """Insert a maintenance event; False when the same event (robot, joint, time, kind) is already there."""
+    def add_maintenance(self, ev: MaintenanceEvent, *, now: float | None = None, future_tolerance_s: float = 3600.0,
+                        known_joints: Sequence[str] | None = None, new_joint: bool = False) -> bool:
+        """Insert a maintenance event; False when the same event (robot, joint, time, kind) is already there.
+
+        Refused (:class:`InputDataError`): an event more than ``future_tolerance_s`` after ``now`` (it would hide
+        every estimate before it: an ERROR joint showed OK), and, unless ``new_joint``, an event of a joint
+        without estimates in the history or ``known_joints`` (a misspelt name)."""
         if self.read_only:
             raise HistoryError(f"{self.display_url}: opened read-only; nothing can be written")
         ev.check()
+        now = _time.time() if now is None else float(now)
+        if ev.time > now + future_tolerance_s:
+            raise InputDataError(f"maintenance event {ev.kind!r} of {ev.robot}/{ev.joint} at {ev.time:.3f} is "
+                                 f"{(ev.time - now) / 86400.0:.3g} days in the future: record it when it is done")
+        if not new_joint:
+            try:
+                known = {j for r, j in self.joints(None) if r == ev.robot}
+            except SQLAlchemyError as exc:
+                raise HistoryError(f"{self.display_url}: cannot read the joints: {_one_line(exc)}") from None
+            known |= set(known_joints or ())
+            if ev.joint not in known:
+                raise InputDataError(f"joint {ev.joint!r} of robot {ev.robot!r} has no estimates in the history "
+                                     f"(known: {', '.join(sorted(known)) or 'none'}): check the name "
+                                     "(a new joint: --new-joint)")
         stmt = self._insert(maintenance_t).values(robot=ev.robot, joint=ev.joint, time_ns=ev.time_ns, kind=ev.kind,
                                                   note=ev.note)
         stmt = stmt.on_conflict_do_nothing(index_elements=["robot", "joint", "time_ns", "kind"]).returning(
