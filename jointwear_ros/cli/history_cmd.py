@@ -113,7 +113,12 @@ def cmd_export(args: argparse.Namespace) -> int:
     from ..history import HistoryStore
     from ..history.importers import write_csv
 
-    with HistoryStore(args.db) as store:
+    from ..history import normalize_url
+
+    url = normalize_url(args.db)
+    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
+        raise UsageError(f"--db {args.db}: no such history file")
+    with HistoryStore(url, read_only=True) as store:
         recs = store.estimates(robot=args.robot, joint=args.joint, analysis_version=args.analysis_version)
     n = write_csv(recs, args.out)
     print(f"{n} estimates written to {args.out}")

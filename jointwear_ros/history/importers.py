@@ -98,7 +98,7 @@ def estimates_from_csv(path: str | os.PathLike[str], *, robot: str | None = None
                 else:
                     t = parse_time(row.get("time") or "", where)
                 cid = _float(row, "cycle_id", where, 0.0)
-                if cid != int(cid):
+                if not math.isfinite(cid) or cid != int(cid):
                     raise InputDataError(f"{where}: cycle_id = {row.get('cycle_id')!r} is not an integer")
                 rec = EstimateRecord(
                     robot=(row.get("robot") or "").strip() or (robot or ""),

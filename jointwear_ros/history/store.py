@@ -60,7 +60,8 @@ from __future__ import annotations
 
 import math
 import time as _time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -353,6 +354,7 @@ class HistoryStore:
     def __init__(self, url: str | Path, *, create: bool = True, migrate_to: int | None = None,
                  read_only: bool = False) -> None:
         self.url = normalize_url(url)
+        self._display = ""
         self.read_only = bool(read_only)
         if self.read_only:
             create = False
@@ -360,6 +362,7 @@ class HistoryStore:
             if self.url.startswith("sqlite"):
                 path = self.url.split(":///", 1)[1] if ":///" in self.url else ""
                 if self.read_only and path and path != ":memory:":
+                    self._display = f"sqlite:///{path}"
                     self.engine: Engine = _sqlite_read_only_engine(Path(path).expanduser())
                 else:
                     if path and path != ":memory:":
@@ -393,9 +396,21 @@ class HistoryStore:
             raise InputDataError(f"database URL {str(url)!r}: its driver is not installed ({exc}); "
                                  "use sqlite:///path or postgresql://user@host/db") from None
 
+    @contextmanager
+    def _reading(self, what: str) -> Iterator[None]:
+        """Any database error while reading -> one :class:`HistoryError` line (a damaged page, a lost server)."""
+        try:
+            yield
+        except SQLAlchemyError as exc:
+            hint = ("; the file is damaged: restore it from a backup, or export what is readable with "
+                    "sqlite3 DB .recover") if "malformed" in str(exc) or "not a database" in str(exc) else ""
+            raise HistoryError(f"{self.display_url}: cannot read {what}: {_one_line(exc)}{hint}") from None
+
     @property
     def display_url(self) -> str:
         """The URL without a password."""
+        if getattr(self, "_display", None):
+            return str(self._display)
         try:
             return self.engine.url.render_as_string(hide_password=True)
         except AttributeError:
@@ -404,7 +419,7 @@ class HistoryStore:
     # ------------------------------------------------------------------ schema
     def schema_version(self) -> int:
         """The highest applied migration (0 for an empty database)."""
-        with self.engine.connect() as conn:
+        with self._reading("the schema version"), self.engine.connect() as conn:
             if not inspect(conn).has_table("schema_version"):
                 return 0
             v = conn.execute(select(schema_version_t.c.version).order_by(schema_version_t.c.version.desc())).first()
@@ -533,7 +548,7 @@ class HistoryStore:
         c = estimates_t.c
         q = select(c.id).where(c.robot == r.robot, c.joint == r.joint, c.analysis_version == r.analysis_version,
                                c.cycle_id == int(r.cycle_id), c.time_ns == r.time_ns).limit(1)
-        with self.engine.connect() as conn:
+        with self._reading("the estimates"), self.engine.connect() as conn:
             return conn.execute(q).first() is not None
 
     def refused(self, robot: str | None = None, joint: str | None = None,
@@ -549,7 +564,7 @@ class HistoryStore:
             q = q.where(c.joint == joint)
         if analysis_version is not None:
             q = q.where(c.analysis_version == analysis_version)
-        with self.engine.connect() as conn:
+        with self._reading("the refused estimates"), self.engine.connect() as conn:
             rows = conn.execute(q.order_by(c.robot, c.joint, c.id)).mappings().all()
         return [{k: r[k] for k in ("robot", "joint", "analysis_version", "cycle_id", "time", "wear", "wear_std",
                                    "source", "bag", "reason", "detail")} for r in rows]
@@ -603,7 +618,7 @@ class HistoryStore:
         if since is not None:
             q = q.where(c.time_ns >= int(since * 1e9))
         q = q.order_by(c.robot, c.joint, c.time_ns, c.id)
-        with self.engine.connect() as conn:
+        with self._reading("the estimates"), self.engine.connect() as conn:
             rows = conn.execute(q).mappings().all()
         return [_record(r) for r in rows]
 
@@ -613,7 +628,7 @@ class HistoryStore:
         q = select(func.count()).select_from(estimates_t)
         if analysis_version is not None:
             q = q.where(estimates_t.c.analysis_version == analysis_version)
-        with self.engine.connect() as conn:
+        with self._reading("the estimates"), self.engine.connect() as conn:
             return int(conn.execute(q).scalar_one())
 
     def maintenance(self, robot: str | None = None, joint: str | None = None) -> list[MaintenanceEvent]:
@@ -624,7 +639,7 @@ class HistoryStore:
             q = q.where(c.robot == robot)
         if joint is not None:
             q = q.where(c.joint == joint)
-        with self.engine.connect() as conn:
+        with self._reading("the maintenance events"), self.engine.connect() as conn:
             rows = conn.execute(q.order_by(c.robot, c.joint, c.time_ns, c.id)).mappings().all()
         return [MaintenanceEvent(r["robot"], r["joint"], r["time_ns"] * 1e-9, r["kind"], r["note"]) for r in rows]
 
@@ -633,13 +648,13 @@ class HistoryStore:
         q = select(estimates_t.c.robot, estimates_t.c.joint).distinct()
         if analysis_version is not None:
             q = q.where(estimates_t.c.analysis_version == analysis_version)
-        with self.engine.connect() as conn:
+        with self._reading("the joints"), self.engine.connect() as conn:
             return sorted((str(a), str(b)) for a, b in conn.execute(q).all())
 
     def analysis_versions(self) -> list[str]:
         """The analysis versions present."""
         q = select(estimates_t.c.analysis_version).distinct()
-        with self.engine.connect() as conn:
+        with self._reading("the analysis versions"), self.engine.connect() as conn:
             return sorted(str(r[0]) for r in conn.execute(q).all())
 
     def history(self, analysis_version: str | None = LIVE, robot: str | None = None,
