@@ -110,10 +110,8 @@ def cmd_import(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from ..history import HistoryStore
+    from ..history import HistoryStore, normalize_url
     from ..history.importers import write_csv
-
-    from ..history import normalize_url
 
     url = normalize_url(args.db)
     if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():

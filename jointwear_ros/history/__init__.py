@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .screen import REASONS, Refusal, ScreenConfig
 from .store import (
     LIVE,
     MIGRATIONS,
@@ -13,18 +14,17 @@ from .store import (
     WriteResult,
     normalize_url,
 )
-from .screen import REASONS, Refusal, ScreenConfig
 from .trends import screened_history, trends_from_store
 
 __all__ = [
     "LIVE",
     "MIGRATIONS",
+    "REASONS",
     "SCHEMA_VERSION",
     "EstimateRecord",
     "HistoryError",
     "HistoryStore",
     "MaintenanceEvent",
-    "REASONS",
     "Refusal",
     "ScreenConfig",
     "WriteResult",

@@ -231,7 +231,7 @@ class WearTrendNode(Node):
         if self.store is not None:
             try:
                 joints |= {j for r, j in self.store.joints(LIVE) if r == self.robot}
-            except Exception as exc:  # noqa: BLE001 - any driver error is a store failure
+            except Exception as exc:
                 self._fail("cannot read", exc)
         return sorted(joints)
 
@@ -290,7 +290,7 @@ class WearTrendNode(Node):
         try:
             res = self.store.write_estimates(ok, now=self._now(), screen=self.screen_cfg, strict=False,
                                              extra_refused=bad)
-        except Exception as exc:  # noqa: BLE001 - any driver error (disk full, connection lost) is a store failure
+        except Exception as exc:
             self._fail("cannot write", exc)
             return False
         for _ in items:
@@ -356,7 +356,7 @@ class WearTrendNode(Node):
             return False
         try:
             return self.store.has_estimate(rec)
-        except Exception:  # noqa: BLE001 - unknown while the store fails: screened as refused
+        except Exception:
             return False
 
     def _on_maintenance(self, req: RecordMaintenance.Request,
@@ -377,7 +377,7 @@ class WearTrendNode(Node):
             res.success, res.message = False, str(exc)
             self.get_logger().warning(f"maintenance event refused: {exc}")
             return res
-        except Exception as exc:  # noqa: BLE001 - the store failing is an answer, not a crash
+        except Exception as exc:
             res.success, res.message = False, f"the history store is failing: {exc}"
             self.get_logger().warning(f"maintenance event not recorded: {res.message}")
             return res
@@ -409,7 +409,7 @@ class WearTrendNode(Node):
         try:
             hist, _refused = screened_history(self.store, LIVE, robot=self.robot, joint=joint, now=self._now(),
                                               cfg=self.screen_cfg)
-        except Exception as exc:  # noqa: BLE001 - a failed read keeps the last history read
+        except Exception as exc:
             self._fail("cannot read", exc)
             return self._cache.get(joint)
         got = hist.get((self.robot, joint))
@@ -457,7 +457,7 @@ class WearTrendNode(Node):
         hw = str(self.params["hardware_id"]) or f"{self.robot}/{joint}"
         if r is None:
             values = [("robot", self.robot)]
-            level, message = OK, "no usable wear estimate stored yet"
+            level, message = int(OK), "no usable wear estimate stored yet"
         else:
             tta = r.time_to_alarm
             values = [("robot", self.robot), ("wear", f"{r.wear:.3f}"), ("wear_std", f"{r.wear_std:.3f}"),
@@ -468,7 +468,7 @@ class WearTrendNode(Node):
                       ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
                       ("horizon_days", f"{self.cfg.horizon_days:g}"),
                       ("alarm_threshold", f"{self.cfg.alarm:g}")]
-            level, message = r.level, r.message
+            level, message = int(r.level), r.message
         self._statuses[joint] = diagnostic_status(f"wear_trend: {joint}", hw, level, message, values)
 
     def _publish_diagnostics(self) -> None:
@@ -499,7 +499,7 @@ class WearTrendNode(Node):
                 (f"history store {self._url()} failing: {failing}; {len(self.pending)} estimate(s) buffered, "
                  f"retried every {float(self.params['retry_period']):g} s") if failing is not None
                 else "no wear estimates stored yet",
-                [("robot", self.robot), ("db_url", self._url())] + counters))
+                [("robot", self.robot), ("db_url", self._url()), *counters]))
         arr.status = statuses
         self.diag_pub.publish(arr)
 
