@@ -250,3 +250,16 @@ def test_processes_opening_a_new_store_at_once_agree_on_one_schema(db_url):
     assert sorted(int(o) for o, _ in outs) == [0, 0, 1]
     with HistoryStore(db_url) as s:
         assert s.schema_version() == SCHEMA_VERSION and s.count() == 1
+
+
+def test_times_are_stored_to_the_microsecond_and_read_back_exactly(db_url):
+    """Stamps with fractions of a second (a live estimate's header stamp) round-trip to the microsecond, and two
+    estimates of one cycle id 0.25 s apart are two entries (a store keeping whole seconds fails here)."""
+    ts = [T0 + 0.123456, T0 + 0.373456, T0 + 1.999999, T0 + 86400.000001]
+    recs = [EstimateRecord("robot_1", "joint_1", cycle_id=7, time=t, wear=10.0 + i, wear_std=0.8)
+            for i, t in enumerate(ts)]
+    with HistoryStore(db_url) as s:
+        assert s.add_estimates(recs) == 4
+        back = s.estimates()
+    assert [round(r.time * 1e6) for r in back] == [round(t * 1e6) for t in ts]
+    assert [r.time_ns for r in back] == [round(t * 1e6) * 1000 for t in ts]
