@@ -395,3 +395,55 @@ def test_wear_trend_applies_its_thresholds_at_run_time_and_refuses_the_rest(ctx,
         node.destroy_node()
         probe.node.destroy_node()
         ex.shutdown()
+
+
+def test_estimates_buffered_when_the_node_stops_are_stored_by_the_next_start(ctx, postgres_url, postgres_server,
+                                                                             tmp_path):
+    """Stopped while PostgreSQL refuses it, the node leaves its buffered estimates in its spool file; the next
+    start (the store back) writes them, once each, and removes the spool."""
+    from sqlalchemy.engine import make_url
+
+    ns = "/jw_trend_spool"
+    dbname = make_url(postgres_url).database
+    spool = tmp_path / "spool.jsonl"
+
+    def make():
+        return WearTrendNode(context=ctx, parameter_overrides=[
+            Parameter("db_url", value=postgres_url), Parameter("robot", value="cell_7"),
+            Parameter("estimate_topic", value=f"{ns}/wear_estimate"),
+            Parameter("trend_topic", value=f"{ns}/wear_trend"), Parameter("diagnostics_topic", value=f"{ns}/diagnostics"),
+            Parameter("retry_period", value=0.2), Parameter("buffer_path", value=str(spool))])
+
+    node = make()
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    series = _now_history(8, 20.0, 0.2, 9)
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        for c, t, w in series[:3]:
+            probe.pub.publish(_estimate("joint_4", c, t, w))
+        assert _spin_until(ex, lambda: node.stored == 3)
+        _set_connections(postgres_server.get_uri(), dbname, allow=False)
+        for c, t, w in series[3:]:
+            probe.pub.publish(_estimate("joint_4", c, t, w))
+        assert _spin_until(ex, lambda: len(node.pending) == 5)
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        assert len(spool.read_text().splitlines()) == 5
+        _set_connections(postgres_server.get_uri(), dbname, allow=True)
+        node = make()
+        ex.add_node(node)
+        assert _spin_until(ex, lambda: not node.pending and node.stored == 5)
+        assert not spool.exists()
+    finally:
+        _set_connections(postgres_server.get_uri(), dbname, allow=True)
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+    with HistoryStore(postgres_url) as st:
+        assert [r.cycle_id for r in st.estimates(robot="cell_7", joint="joint_4")] == list(range(1, 9))
