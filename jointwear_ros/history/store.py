@@ -557,13 +557,7 @@ class HistoryStore:
         if self.schema_version() < 3:
             return []
         c = refused_t.c
-        q = select(refused_t)
-        if robot is not None:
-            q = q.where(c.robot == robot)
-        if joint is not None:
-            q = q.where(c.joint == joint)
-        if analysis_version is not None:
-            q = q.where(c.analysis_version == analysis_version)
+        q = _filtered(refused_t, robot, joint, analysis_version)
         with self._reading("the refused estimates"), self.engine.connect() as conn:
             rows = conn.execute(q.order_by(c.robot, c.joint, c.id)).mappings().all()
         return [{k: r[k] for k in ("robot", "joint", "analysis_version", "cycle_id", "time", "wear", "wear_std",
@@ -608,13 +602,7 @@ class HistoryStore:
                   analysis_version: str | None = LIVE, since: float | None = None) -> list[EstimateRecord]:
         """Estimates in time order, filtered by robot/joint/analysis version (``None``: any)."""
         c = estimates_t.c
-        q = select(estimates_t)
-        if robot is not None:
-            q = q.where(c.robot == robot)
-        if joint is not None:
-            q = q.where(c.joint == joint)
-        if analysis_version is not None:
-            q = q.where(c.analysis_version == analysis_version)
+        q = _filtered(estimates_t, robot, joint, analysis_version)
         if since is not None:
             q = q.where(c.time_ns >= int(since * 1e9))
         q = q.order_by(c.robot, c.joint, c.time_ns, c.id)
@@ -706,6 +694,16 @@ def _refused_row(f: Refusal, now_ns: int) -> dict[str, Any]:
             "cycle_id": cid if -2**63 <= cid < 2**63 else -1, "time": txt(r.time), "wear": txt(r.wear),
             "wear_std": txt(r.wear_std), "hardware_id": r.hardware_id, "method": r.method, "params": r.params,
             "bag": r.bag, "source": r.source, "reason": f.reason, "detail": f.detail, "inserted_ns": now_ns}
+
+
+def _filtered(table: Table, robot: str | None, joint: str | None, analysis_version: str | None) -> Any:
+    """``SELECT table`` filtered by robot, joint and analysis version (``None``: any)."""
+    c = table.c
+    q = select(table)
+    for col, value in (("robot", robot), ("joint", joint), ("analysis_version", analysis_version)):
+        if value is not None:
+            q = q.where(c[col] == value)
+    return q
 
 
 def _record(r: Any) -> EstimateRecord:
