@@ -263,3 +263,19 @@ def test_times_are_stored_to_the_microsecond_and_read_back_exactly(db_url):
         back = s.estimates()
     assert [round(r.time * 1e6) for r in back] == [round(t * 1e6) for t in ts]
     assert [r.time_ns for r in back] == [round(t * 1e6) * 1000 for t in ts]
+
+
+def test_a_read_only_store_reads_and_never_writes(db_url):
+    with HistoryStore(db_url) as s:
+        s.add_estimates(_records(4))
+    with HistoryStore(db_url, read_only=True) as r:
+        assert r.count() == 4 and len(r.history()) == 1 and r.refused() == []
+        with pytest.raises(HistoryError, match="read-only"):
+            r.add_estimates(_records(2, joint="joint_9"))
+        with pytest.raises(HistoryError, match="read-only"):
+            r.add_maintenance(MaintenanceEvent("robot_1", "joint_1", T0, "regrease"))
+        if r.dialect == "postgresql":  # the session itself refuses writes, not only this class
+            with pytest.raises(Exception, match="read-only transaction"), r.engine.begin() as conn:
+                conn.execute(text("DELETE FROM estimates"))
+    with HistoryStore(db_url) as s:
+        assert s.count() == 4
