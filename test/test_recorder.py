@@ -441,7 +441,7 @@ def test_a_robot_cycle_recorded_with_per_cycle_bags_is_one_bag_and_its_replay_ma
         pubs[topic].publish(bytes(data))
         sent += 1
         if typ == "jointwear_msgs/msg/TestCycleStatus" or sent % 50 == 0:
-            assert _spin_until(ex, lambda: sum(rec.received.values()) == sent), (sent, rec.received)
+            assert _spin_until(ex, lambda n=sent: sum(rec.received.values()) == n), (sent, rec.received)
     assert _spin_until(ex, lambda: sum(rec.received.values()) == len(raw) and rec._bag is None and rec.bags)
     rec.on_shutdown()
     assert len(rec.bags) == 1 and rec.bags[0].name.endswith("_cycle1"), [b.name for b in rec.bags]
