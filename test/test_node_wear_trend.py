@@ -447,3 +447,56 @@ def test_estimates_buffered_when_the_node_stops_are_stored_by_the_next_start(ctx
         ex.shutdown()
     with HistoryStore(postgres_url) as st:
         assert [r.cycle_id for r in st.estimates(robot="cell_7", joint="joint_4")] == list(range(1, 9))
+
+
+def test_wear_trend_with_its_disk_full_reports_error_and_stores_everything_afterwards(ctx, tmp_path):
+    """The SQLite file cannot grow (the process's file-size limit at 1 byte: every write fails with "database or
+    disk is full", as on a full disk) while a series crosses 35: ERROR while it fails, the level follows the newest
+    estimate, and once the disk has room again every estimate is stored once."""
+    import resource
+
+    ns = "/jw_trend_full"
+    db = tmp_path / "full.db"
+    node = WearTrendNode(context=ctx, parameter_overrides=[
+        Parameter("db_url", value=str(db)), Parameter("robot", value="cell_7"),
+        Parameter("estimate_topic", value=f"{ns}/wear_estimate"), Parameter("trend_topic", value=f"{ns}/wear_trend"),
+        Parameter("diagnostics_topic", value=f"{ns}/diagnostics"), Parameter("diagnostics_period", value=0.2),
+        Parameter("retry_period", value=0.2), Parameter("buffer_path", value=str(tmp_path / "spool.jsonl"))])
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    series = _now_history(12, 29.0, 0.5, 10)
+    end = series[-1][1]
+    crossing = [(13 + k, end + (k + 1) * 600.0, 34.8 + 0.6 * k) for k in range(6)]  # 34.8 ... 37.8
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    old_handler = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG instead of a kill
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        for c, t, w in series:
+            probe.pub.publish(_estimate("joint_6", c, t - 2 * 3600.0, w, std=0.5))
+        assert _spin_until(ex, lambda: node.stored == 12)
+        try:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (1, hard))
+            for c, t, w in crossing:
+                probe.pub.publish(_estimate("joint_6", c, t - 2 * 3600.0, w, std=0.5))
+            failing = _spin_until(ex, lambda: len(node.pending) == 6 and node.store_error is not None
+                                  and probe.status("wear_trend: joint_6") is not None
+                                  and _values(probe.status("wear_trend: joint_6"))["buffered"] == "6")
+        finally:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+        assert failing, (node.store_error, len(node.pending))
+        s = probe.status("wear_trend: joint_6")
+        assert s.level == bytes([2]) and "history store failing" in s.message and "full" in s.message, s.message
+        assert probe.last("joint_6").level == WearTrend.ERROR and probe.last("joint_6").estimates_total == 18
+        assert node.rejected == 0
+        assert _spin_until(ex, lambda: node.store_error is None and not node.pending and node.stored == 18)
+    finally:
+        signal.signal(signal.SIGXFSZ, old_handler)
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+    with HistoryStore(db) as st:
+        assert [r.cycle_id for r in st.estimates(robot="cell_7", joint="joint_6")] == list(range(1, 19))
