@@ -198,13 +198,22 @@ class WearTrendNode(Node):
             self._update(joint)
         self.get_logger().info(
             f"wear history of {self.robot} in {self._url()}: "
-            f"{self.store.count(LIVE) if self.store is not None and self.store_error is None else '?'} estimates, "
+            f"{self._count()} estimates, "
             f"{len(joints)} joint(s) reloaded; WARN when the alarm {self.cfg.alarm:g} may come within "
             f"{self.cfg.horizon_days:g} days, ERROR at it"
         )
         self._publish_diagnostics()
 
     # ------------------------------------------------------------------ store plumbing
+    def _count(self) -> str:
+        if self.store is None or self.store_error is not None:
+            return "?"
+        try:
+            return str(self.store.count(LIVE))
+        except Exception as exc:  # a failed read never ends the node
+            self._fail("cannot read", exc)
+            return "?"
+
     def _url(self) -> str:
         return self.store.display_url if self.store is not None else str(self.params["db_url"])
 
@@ -231,7 +240,7 @@ class WearTrendNode(Node):
         if self.store is not None:
             try:
                 joints |= {j for r, j in self.store.joints(LIVE) if r == self.robot}
-            except Exception as exc:
+            except Exception as exc:  # any driver error is a store failure
                 self._fail("cannot read", exc)
         return sorted(joints)
 
@@ -290,7 +299,7 @@ class WearTrendNode(Node):
         try:
             res = self.store.write_estimates(ok, now=self._now(), screen=self.screen_cfg, strict=False,
                                              extra_refused=bad)
-        except Exception as exc:
+        except Exception as exc:  # any driver error (disk full, connection lost) is a store failure
             self._fail("cannot write", exc)
             return False
         for _ in items:
@@ -356,7 +365,7 @@ class WearTrendNode(Node):
             return False
         try:
             return self.store.has_estimate(rec)
-        except Exception:
+        except Exception:  # unknown while the store fails: screened as refused
             return False
 
     def _on_maintenance(self, req: RecordMaintenance.Request,
@@ -377,7 +386,7 @@ class WearTrendNode(Node):
             res.success, res.message = False, str(exc)
             self.get_logger().warning(f"maintenance event refused: {exc}")
             return res
-        except Exception as exc:
+        except Exception as exc:  # the store failing is an answer, not a crash
             res.success, res.message = False, f"the history store is failing: {exc}"
             self.get_logger().warning(f"maintenance event not recorded: {res.message}")
             return res
@@ -409,7 +418,7 @@ class WearTrendNode(Node):
         try:
             hist, _refused = screened_history(self.store, LIVE, robot=self.robot, joint=joint, now=self._now(),
                                               cfg=self.screen_cfg)
-        except Exception as exc:
+        except Exception as exc:  # a failed read keeps the last history read
             self._fail("cannot read", exc)
             return self._cache.get(joint)
         got = hist.get((self.robot, joint))
