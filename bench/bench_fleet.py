@@ -104,7 +104,7 @@ def _load(store: HistoryStore, version: str) -> float:
     from jointwear_ros.history.store import estimates_t
 
     rng = random.Random(1)
-    t0 = 1767225600.0
+    t0 = 1735689600.0  # 2025-01-01: 365 nights all in the past (the history refuses stamps in the future)
     rows = []
     now = time.time_ns()
     for j in range(JOINTS):
@@ -128,7 +128,7 @@ def bench_queries(url: str, label: str) -> dict[str, float]:
     store = HistoryStore(url)
     version = "bench"
     load_s = _load(store, version)
-    recs = [EstimateRecord("addbench", f"joint_{k}", cycle_id=n + 1, time=1.8e9 + 86400 * n, wear=10.0,
+    recs = [EstimateRecord("addbench", f"joint_{k}", cycle_id=n + 1, time=1.6e9 + 86400 * n, wear=10.0,
                            wear_std=0.85, analysis_version=version) for k in range(4) for n in range(500)]
     t = time.perf_counter()
     store.add_estimates(recs)

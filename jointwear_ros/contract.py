@@ -40,6 +40,7 @@ __all__ = [
     "RefusalReason",
     "observation_from_msg",
     "observation_to_msg",
+    "robot_cycle_over",
     "seconds_to_stamp_fields",
     "stamp_to_seconds",
 ]
@@ -74,6 +75,21 @@ class CycleState(_Contract):
 
 #: DONE, ABORTED, FAILED (``state in ENDED_STATES`` also works on a message's plain int).
 ENDED_STATES = frozenset({CycleState.DONE, CycleState.ABORTED, CycleState.FAILED})
+
+
+def robot_cycle_over(state: int, joints: int, joints_done: int) -> bool:
+    """Whether a ``TestCycleStatus`` ends its robot cycle: the last joint DONE (``joints_done + 1 >= joints``;
+    ``joints`` 0 is one joint), or any joint ABORTED or FAILED (the cycle stops there). A joint's DONE before
+    the last is not the end: the next joint runs under the same cycle id (docs/robot.md).
+
+    >>> robot_cycle_over(CycleState.DONE, 3, 0), robot_cycle_over(CycleState.DONE, 3, 2)
+    (False, True)
+    >>> robot_cycle_over(CycleState.FAILED, 3, 0), robot_cycle_over(CycleState.DONE, 0, 0)
+    (True, True)
+    """
+    if state in (CycleState.ABORTED, CycleState.FAILED):
+        return True
+    return state == CycleState.DONE and int(joints_done) + 1 >= max(int(joints), 1)
 
 
 class CyclePhase(_Contract):

@@ -97,7 +97,7 @@ def test_export_and_maintenance_from_the_command_line(fleet_csv, tmp_path, capsy
 def test_bags_import_their_recorded_estimates_or_a_re_estimation_once(tmp_path_factory, tmp_path, capsys):
     from test_replay import _synthetic  # the recorder-shaped synthetic bag of the replay tests
 
-    bag, _, result, _, _ = _synthetic(tmp_path_factory)
+    bag, _, result, _, _ = _synthetic(tmp_path_factory, t0=1.7e9 + 50.0)  # stamped as a cell on wall time
     db = tmp_path / "h.db"
     rc, out, _ = run(["history", "import", bag, "--db", db, "--robot", "cell_3", "--json"], capsys)
     assert rc == 0 and json.loads(out)["added"] == 1
@@ -116,6 +116,21 @@ def test_bags_import_their_recorded_estimates_or_a_re_estimation_once(tmp_path_f
     assert live.robot == "cell_3" and live.joint == "joint_1" and live.wear == result.result.wear
     assert live.bag == bag.name and live.source == "bag"
     assert redo.method == "paper" and redo.cycle_id == live.cycle_id and np.isfinite(redo.wear)
+
+
+def test_a_bag_stamped_by_a_clock_starting_at_zero_is_refused_with_the_reason_and_kept(tmp_path_factory, tmp_path,
+                                                                                       capsys):
+    from test_replay import _synthetic
+
+    bag, _, result, _, _ = _synthetic(tmp_path_factory)  # t0 = 50 s: 1970, a simulation clock from 0
+    db = tmp_path / "h.db"
+    rc, out, _ = run(["history", "import", bag, "--db", db, "--robot", "cell_3", "--json"], capsys)
+    info = json.loads(out)
+    assert rc == 0 and info["added"] == 0 and [f["reason"] for f in info["refused"]] == ["time_before_min"]
+    with HistoryStore(db) as s:
+        (kept,) = s.refused()
+    assert kept["reason"] == "time_before_min" and float(kept["wear"]) == result.result.wear
+    assert kept["bag"] == bag.name and kept["source"] == "bag"
 
 
 @pytest.mark.parametrize(("content", "says"), [
@@ -172,3 +187,43 @@ def test_a_bag_with_wear_trend_messages_reads_back(tmp_path):
         w.write(c, 5_000_000_000, store.serialize_cdr(msg, "jointwear_msgs/msg/WearTrend"))
     (m,) = list(read_messages(path))
     assert m.msg.joint_name == "joint_4" and m.msg.time_to_alarm_median == 62.0 and m.msg.growth_detected
+
+
+def _error_joint_with_bad_rows(path: Path, now: float) -> None:
+    """joint_5 of cell_7 at ERROR (wear 36-39 over the last 30 nights), joint_1 OK; then one row each of
+    wear 1e300, wear 0 with std 1e-300, a stamp ten years ahead and a stamp in 2000 (a reset controller clock)."""
+    rng = np.random.default_rng(5)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["robot", "joint", "time", "cycle_id", "wear", "wear_std"])
+        for i in range(30):
+            t = now - (30 - i) * DAY
+            w.writerow(["cell_7", "joint_5", repr(t), i + 1, repr(36.0 + 0.1 * i + rng.normal(0, 0.5)), "0.7"])
+            w.writerow(["cell_7", "joint_1", repr(t), i + 1, repr(12.0 + rng.normal(0, 0.5)), "0.7"])
+        w.writerow(["cell_7", "joint_5", repr(now - 0.5 * DAY), 31, "1e300", "0.7"])
+        w.writerow(["cell_7", "joint_5", repr(now - 0.4 * DAY), 32, "0", "1e-300"])
+        w.writerow(["cell_7", "joint_5", repr(now + 3652 * DAY), 33, "36.5", "0.7"])
+        w.writerow(["cell_7", "joint_5", "2000-01-01T00:00:00Z", 34, "40.0", "0.7"])
+
+
+def test_bad_rows_never_hide_an_error_joint_and_each_is_reported_with_its_reason(tmp_path, capsys):
+    import time
+
+    p = tmp_path / "h.csv"
+    _error_joint_with_bad_rows(p, time.time())
+    db = tmp_path / "h.db"
+    rc, out, _ = run(["history", "import", p, "--db", db, "--json"], capsys)
+    info = json.loads(out)
+    assert rc == 0 and info["added"] == 60
+    assert sorted((f["cycle_id"], f["reason"]) for f in info["refused"]) == [
+        (31, "wear_out_of_range"), (32, "std_out_of_range"), (33, "time_in_future"), (34, "time_before_min")]
+    rc, out, _ = run(["trend", "--db", db, "--json"], capsys)
+    res = json.loads(out)
+    j5 = next(j for j in res["joints"] if j["joint"] == "joint_5")
+    assert rc == 0 and j5["level"] == "ERROR" and 36.0 < j5["wear"] < 40.0 and j5["estimates"] == 30
+    assert j5["refused"] == 4
+    assert sorted((int(f["cycle_id"]), f["reason"]) for f in res["refused"]) == [
+        (31, "wear_out_of_range"), (32, "std_out_of_range"), (33, "time_in_future"), (34, "time_before_min")]
+    rc, out, _ = run(["trend", "--db", db], capsys)
+    assert rc == 0 and "joint_5  ERROR" in out.replace("cell_7  ", "")
+    assert out.count("refused cell_7/joint_5") == 4 and "wear_out_of_range" in out

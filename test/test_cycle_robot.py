@@ -321,3 +321,18 @@ def test_settings_cannot_change_while_a_cycle_runs():
         runner.reconfigure({"joint_1": CONFIGS["joint_1"]})
     with pytest.raises(CycleRequestError, match="hold_tolerance must be finite and > 0"):
         RobotCycleRunner(CONFIGS, 0.0)
+
+
+@pytest.mark.parametrize("joint", ["joint_2", "joint_3"])
+def test_a_held_joint_drifting_slowly_beyond_the_tolerance_fails_the_cycle(joint):
+    """A slow drift (gravity creeping through a brake), not a step: 4x hold_tolerance over one second. The
+    reference is where the joint was put, not where it has crept to (a reference that follows the joint let a
+    drift of 4x the tolerance end DONE)."""
+    sim = _robot()
+    runner = RobotCycleRunner(CONFIGS, HOLD)
+    _start(runner, sim, joints=["joint_1"], speeds=(40.0,))
+    drift = 4.0 * HOLD  # rad per second from t = 0.2 s
+    _run(runner, sim, hook=lambda s, readings: _push(joint, 0.2, position=lambda p: p + drift * (s.time - 0.2))(
+        s, readings))
+    assert runner.state == CycleState.FAILED and f"held joint {joint} moved" in runner.message, runner.message
+    assert sim.time < 0.2 + 1.5 * HOLD / drift + 0.1  # tripped as the drift passed the tolerance

@@ -6,10 +6,11 @@ import math
 import subprocess
 import sys
 import textwrap
+import time
 
 import numpy as np
 import pytest
-from sqlalchemy import inspect
+from sqlalchemy import inspect, text
 
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.history import (
@@ -107,13 +108,58 @@ def test_schema_migrates_forward_from_version_one_and_is_left_alone_when_current
         assert not any(ix["name"] == "ix_estimates_joint_time"
                        for ix in inspect(s.engine).get_indexes("estimates"))
         s.add_estimates(_records(3))
-    with pytest.raises(HistoryError, match="schema version 1, this software needs 2"):
+    with pytest.raises(HistoryError, match="schema version 1, this software needs 3"):
         HistoryStore(db_url, create=False)
     with HistoryStore(db_url) as s:
-        assert s.schema_version() == SCHEMA_VERSION == 2
+        assert s.schema_version() == SCHEMA_VERSION == 3
         assert any(ix["name"] == "ix_estimates_joint_time" for ix in inspect(s.engine).get_indexes("estimates"))
         assert s.count() == 3  # data kept
         assert s.migrate() == []
+
+
+def test_migration_to_three_moves_rows_the_screening_refuses_into_refused(db_url):
+    """Rows an older version stored unscreened (wear 1e300, std 1e-300, 2000, ten years ahead) leave the trend's
+    input on migration and are kept, with their reason, in ``refused``."""
+    good = _records(5)
+    bad = [EstimateRecord("robot_1", "joint_1", cycle_id=90 + i, time=t, wear=w, wear_std=sd)
+           for i, (t, w, sd) in enumerate([(T0, 1e300, 0.8), (T0 + DAY, 0.0, 1e-300),
+                                           (time.time() + 3650 * DAY, 36.0, 0.8), (946684800.0, 40.0, 0.8)])]
+    with HistoryStore(db_url, migrate_to=2) as s:
+        with s.engine.begin() as conn:  # as version 2 wrote them: no screening
+            from jointwear_ros.history.store import estimates_t
+            conn.execute(estimates_t.insert(), [
+                {"robot": r.robot, "joint": r.joint, "hardware_id": "", "cycle_id": r.cycle_id,
+                 "time_ns": r.time_ns, "wear": r.wear, "wear_std": r.wear_std, "temperature": None, "method": "",
+                 "params": "", "software_version": "", "bag": "", "analysis_version": "live", "source": "csv",
+                 "inserted_ns": 0} for r in good + bad])
+    with HistoryStore(db_url) as s:
+        assert s.count() == 5
+        ref = s.refused()
+    assert sorted((int(r["cycle_id"]), r["reason"]) for r in ref) == [
+        (90, "wear_out_of_range"), (91, "std_out_of_range"), (92, "time_in_future"), (93, "time_before_min")]
+    assert float(next(r for r in ref if r["cycle_id"] == 90)["wear"]) == 1e300
+
+
+def test_a_database_of_a_newer_schema_is_refused_in_one_line_and_not_written(db_url):
+    with HistoryStore(db_url) as s:
+        s.add_estimates(_records(2))
+        with s.engine.begin() as conn:
+            conn.execute(text("INSERT INTO schema_version (version, applied_ns) VALUES (99, 0)"))
+    for kw in ({}, {"create": False}, {"read_only": True}):
+        if kw.get("read_only") and not db_url.startswith("sqlite"):
+            continue
+        with pytest.raises(HistoryError, match="schema version 99 was written by a newer jointwear") as ei:
+            HistoryStore(db_url, **kw)
+        assert "\n" not in str(ei.value)
+    with _raw(db_url) as conn:
+        assert conn.execute(text("SELECT count(*) FROM estimates")).scalar_one() == 2
+
+
+def _raw(db_url):
+    from sqlalchemy import create_engine
+
+    from jointwear_ros.history import normalize_url
+    return create_engine(normalize_url(db_url)).connect()
 
 
 def test_an_empty_database_opened_without_create_is_refused(db_url):
@@ -204,3 +250,32 @@ def test_processes_opening_a_new_store_at_once_agree_on_one_schema(db_url):
     assert sorted(int(o) for o, _ in outs) == [0, 0, 1]
     with HistoryStore(db_url) as s:
         assert s.schema_version() == SCHEMA_VERSION and s.count() == 1
+
+
+def test_times_are_stored_to_the_microsecond_and_read_back_exactly(db_url):
+    """Stamps with fractions of a second (a live estimate's header stamp) round-trip to the microsecond, and two
+    estimates of one cycle id 0.25 s apart are two entries (a store keeping whole seconds fails here)."""
+    ts = [T0 + 0.123456, T0 + 0.373456, T0 + 1.999999, T0 + 86400.000001]
+    recs = [EstimateRecord("robot_1", "joint_1", cycle_id=7, time=t, wear=10.0 + i, wear_std=0.8)
+            for i, t in enumerate(ts)]
+    with HistoryStore(db_url) as s:
+        assert s.add_estimates(recs) == 4
+        back = s.estimates()
+    assert [round(r.time * 1e6) for r in back] == [round(t * 1e6) for t in ts]
+    assert [r.time_ns for r in back] == [round(t * 1e6) * 1000 for t in ts]
+
+
+def test_a_read_only_store_reads_and_never_writes(db_url):
+    with HistoryStore(db_url) as s:
+        s.add_estimates(_records(4))
+    with HistoryStore(db_url, read_only=True) as r:
+        assert r.count() == 4 and len(r.history()) == 1 and r.refused() == []
+        with pytest.raises(HistoryError, match="read-only"):
+            r.add_estimates(_records(2, joint="joint_9"))
+        with pytest.raises(HistoryError, match="read-only"):
+            r.add_maintenance(MaintenanceEvent("robot_1", "joint_1", T0, "regrease"))
+        if r.dialect == "postgresql":  # the session itself refuses writes, not only this class
+            with pytest.raises(Exception, match="read-only transaction"), r.engine.begin() as conn:
+                conn.execute(text("DELETE FROM estimates"))
+    with HistoryStore(db_url) as s:
+        assert s.count() == 4

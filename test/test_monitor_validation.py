@@ -85,3 +85,25 @@ def test_a_flood_of_bad_observations_keeps_memory_bounded():
     (r,) = mon.on_status(6000.0, 1, STATE_DONE, 0, 3, "joint_1")  # 5000 heard >= 3 speeds: estimated now
     assert r.result is None and dict(r.values)["observations_rejected"] == "5000"
     assert len(r.rejected) == 5 and "and 4995 more" in r.message
+
+
+@pytest.mark.parametrize(("temperature", "kept"), [
+    (20.0, True), (60.0, True), (19.99, False), (60.01, False), (40.0, True),
+    (PLAUSIBLE_TEMPERATURE[0], None), (PLAUSIBLE_TEMPERATURE[0] - 0.01, False),
+    (PLAUSIBLE_TEMPERATURE[1] + 0.01, False),
+])
+def test_the_temperature_bounds_hold_exactly_on_both_sides(temperature, kept):
+    """The parameter set's valid range [20, 60] degC and the plausible range, checked on both sides of each bound
+    (a bound widened by a degree, or a < for a <=, fails here)."""
+    o = _obs(50.0, 0.1, 3e-4, 0.1, temperature)
+    out, why = screen_observation(o, {"temperature": (20.0, 60.0)})
+    assert out is not None  # the friction measurement is kept; only its temperature may become unknown
+    if kept is None:  # plausible, but outside the valid range
+        assert math.isnan(out.temperature) and "valid range [20, 60]" in why
+    elif kept:
+        assert out.temperature == temperature and why == ""
+    else:
+        assert math.isnan(out.temperature) and "used as unknown" in why
+    wide, why_wide = screen_observation(o, {"temperature": (-100.0, 300.0)})
+    inside = PLAUSIBLE_TEMPERATURE[0] <= temperature <= PLAUSIBLE_TEMPERATURE[1]
+    assert (wide.temperature == temperature) == inside, why_wide

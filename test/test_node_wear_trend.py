@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
 from jointwear_msgs.msg import WearEstimate, WearTrend  # noqa: E402
 from jointwear_msgs.srv import RecordMaintenance  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
@@ -239,3 +239,264 @@ def test_wear_trend_node_writes_to_postgresql_given_as_its_db_url(ctx, postgres_
         ex.shutdown()
     with HistoryStore(postgres_url) as s:
         assert [r.cycle_id for r in s.estimates(robot="cell_7", joint="joint_5")] == list(range(1, 13))
+
+
+def _values(status):
+    return {kv.key: kv.value for kv in status.values}
+
+
+def _now_history(n, w0, rate, seed):
+    """n nightly estimates ending an hour ago (stamped by a cell on wall time)."""
+    rng = np.random.default_rng(seed)
+    end = time.time() - 3600.0
+    return [(i + 1, end - (n - 1 - i) * DAY, w0 + rate * i + rng.normal(0, 0.5)) for i in range(n)]
+
+
+def test_bad_estimates_never_hide_an_error_joint_and_each_is_counted_with_its_reason(ctx, tmp_path):
+    """A joint at ERROR, then wear 1e300, wear 0 with std 1e-300, a stamp ten years ahead and one in 2000: the
+    joint stays ERROR on /diagnostics, each refusal counted by reason and kept in the store's refused table."""
+    ns = "/jw_trend_bad"
+    db = str(tmp_path / "bad.db")
+    node = _node(ctx, ns, db)
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        hist = _now_history(30, 36.0, 0.1, 4)
+        for c, t, w in hist:
+            probe.pub.publish(_estimate("joint_5", c, t, w, std=0.7))
+        assert _spin_until(ex, lambda: node.stored == 30)
+        now = time.time()
+        for c, t, w, sd in [(31, now - 60, 1e300, 0.7), (32, now - 50, 0.0, 1e-300),
+                            (33, now + 3652 * DAY, 36.5, 0.7), (34, 946684800.0, 40.0, 0.7)]:
+            probe.pub.publish(_estimate("joint_5", c, t, w, std=sd))
+        assert _spin_until(ex, lambda: node.rejected == 4)
+        assert _spin_until(ex, lambda: probe.status("wear_trend: joint_5") is not None
+                           and _values(probe.status("wear_trend: joint_5")).get("refused_time_before_min") == "1")
+        s = probe.status("wear_trend: joint_5")
+        v = _values(s)
+        assert s.level == bytes([2]), s.message
+        assert 36.0 < float(v["wear"]) < 40.0 and v["estimates_total"] == "30"
+        assert (v["refused_wear_out_of_range"], v["refused_std_out_of_range"], v["refused_time_in_future"],
+                v["refused_time_before_min"]) == ("1", "1", "1", "1")
+        assert "newest estimate refused (time_before_min" in s.message
+        assert probe.last("joint_5").level == WearTrend.ERROR
+    finally:
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+    with HistoryStore(db) as st:
+        assert st.count() == 30
+        assert sorted((r["cycle_id"], r["reason"]) for r in st.refused()) == [
+            (31, "wear_out_of_range"), (32, "std_out_of_range"), (33, "time_in_future"), (34, "time_before_min")]
+
+
+def _set_connections(base_uri, db, allow):
+    import psycopg
+
+    with psycopg.connect(base_uri, autocommit=True) as conn:
+        conn.execute(f'ALTER DATABASE "{db}" ALLOW_CONNECTIONS {"true" if allow else "false"}')
+        if not allow:
+            conn.execute("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE datname = %s", (db,))
+
+
+def test_wear_trend_buffers_while_postgresql_refuses_then_stores_every_estimate_once(ctx, postgres_url,
+                                                                                      postgres_server, tmp_path):
+    """PostgreSQL stops accepting the node's connections during a series crossing 35: ERROR on /diagnostics while
+    it fails, the level follows the newest (buffered) estimate, and afterwards every estimate is stored once."""
+    ns = "/jw_trend_pgdown"
+    from sqlalchemy.engine import make_url
+
+    dbname = make_url(postgres_url).database
+    node = WearTrendNode(context=ctx, parameter_overrides=[
+        Parameter("db_url", value=postgres_url), Parameter("robot", value="cell_7"),
+        Parameter("estimate_topic", value=f"{ns}/wear_estimate"), Parameter("trend_topic", value=f"{ns}/wear_trend"),
+        Parameter("diagnostics_topic", value=f"{ns}/diagnostics"), Parameter("diagnostics_period", value=0.2),
+        Parameter("retry_period", value=0.2), Parameter("buffer_path", value=str(tmp_path / "spool.jsonl"))])
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    series = _now_history(20, 25.0, 0.5, 6)  # 25 -> 34.5 ...
+    end = series[-1][1]
+    crossing = [(21 + k, end + (k + 1) * 1800.0, 34.8 + 0.6 * k) for k in range(6)]  # 34.8 ... 37.8
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        for c, t, w in series:
+            probe.pub.publish(_estimate("joint_2", c, t - 3 * 3600.0, w, std=0.5))
+        assert _spin_until(ex, lambda: node.stored == 20)
+        assert probe.last("joint_2").level != WearTrend.ERROR
+        _set_connections(postgres_server.get_uri(), dbname, allow=False)
+        for c, t, w in crossing:
+            probe.pub.publish(_estimate("joint_2", c, t - 3 * 3600.0, w, std=0.5))
+        assert _spin_until(ex, lambda: len(node.pending) == 6 and node.store_error is not None)
+        assert _spin_until(ex, lambda: (probe.status("wear_trend: history") or DiagnosticStatus()).level == bytes([2])
+                           and _values(probe.status("wear_trend: joint_2"))["buffered"] == "6")
+        s = probe.status("wear_trend: joint_2")
+        assert s.level == bytes([2]) and "history store failing" in s.message and _values(s)["buffered"] == "6"
+        assert probe.last("joint_2").level == WearTrend.ERROR and probe.last("joint_2").estimates_total == 26
+        assert node.rejected == 0 and node.stored == 20
+        _set_connections(postgres_server.get_uri(), dbname, allow=True)
+        assert _spin_until(ex, lambda: node.store_error is None and not node.pending and node.stored == 26)
+        assert _spin_until(ex, lambda: "history store failing" not in probe.status("wear_trend: joint_2").message)
+        assert probe.status("wear_trend: joint_2").level == bytes([2])
+        assert not (tmp_path / "spool.jsonl").exists()
+    finally:
+        _set_connections(postgres_server.get_uri(), dbname, allow=True)
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+    with HistoryStore(postgres_url) as st:
+        assert [r.cycle_id for r in st.estimates(robot="cell_7", joint="joint_2")] == list(range(1, 27))
+
+
+def test_wear_trend_applies_its_thresholds_at_run_time_and_refuses_the_rest(ctx, tmp_path):
+    ns = "/jw_trend_params"
+    node = _node(ctx, ns, str(tmp_path / "p.db"))
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        for c, t, w in _now_history(20, 32.0, 0.0, 8):
+            probe.pub.publish(_estimate("joint_3", c, t, w, std=0.5))
+        assert _spin_until(ex, lambda: node.stored == 20 and probe.last("joint_3").estimates_total == 20)
+        assert probe.last("joint_3").level == WearTrend.OK
+        r = node.set_parameters([Parameter("alarm_threshold", value=30.0)])[0]
+        assert r.successful, r.reason
+        assert _spin_until(ex, lambda: probe.last("joint_3").level == WearTrend.ERROR
+                           and probe.last("joint_3").alarm_threshold == 30.0)
+        assert node.set_parameters([Parameter("min_estimates", value=1)])[0].successful is False
+        bad = node.set_parameters([Parameter("db_url", value="other.db")])[0]
+        assert not bad.successful and "read-only" in bad.reason
+        assert node.cfg.min_estimates == 5 and node.params["db_url"] == str(tmp_path / "p.db")
+        # maintenance: one in the future and one of a misspelt joint are refused with the reason
+        cli = probe.node.create_client(RecordMaintenance, "/wear_trend/record_maintenance")
+        assert cli.wait_for_service(timeout_sec=10.0)
+        req = RecordMaintenance.Request(joint_name="joint_3", kind="regrease")
+        req.stamp.sec = int(time.time() + 30 * DAY)
+        fut = cli.call_async(req)
+        assert _spin_until(ex, fut.done) and not fut.result().success
+        assert "in the future" in fut.result().message
+        fut = cli.call_async(RecordMaintenance.Request(joint_name="jiont_3", kind="regrease"))
+        assert _spin_until(ex, fut.done) and not fut.result().success
+        assert "'jiont_3'" in fut.result().message and "known: joint_3" in fut.result().message
+        assert probe.last("joint_3").level == WearTrend.ERROR
+    finally:
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+
+
+def test_estimates_buffered_when_the_node_stops_are_stored_by_the_next_start(ctx, postgres_url, postgres_server,
+                                                                             tmp_path):
+    """Stopped while PostgreSQL refuses it, the node leaves its buffered estimates in its spool file; the next
+    start (the store back) writes them, once each, and removes the spool."""
+    from sqlalchemy.engine import make_url
+
+    ns = "/jw_trend_spool"
+    dbname = make_url(postgres_url).database
+    spool = tmp_path / "spool.jsonl"
+
+    def make():
+        return WearTrendNode(context=ctx, parameter_overrides=[
+            Parameter("db_url", value=postgres_url), Parameter("robot", value="cell_7"),
+            Parameter("estimate_topic", value=f"{ns}/wear_estimate"),
+            Parameter("trend_topic", value=f"{ns}/wear_trend"), Parameter("diagnostics_topic", value=f"{ns}/diagnostics"),
+            Parameter("retry_period", value=0.2), Parameter("buffer_path", value=str(spool))])
+
+    node = make()
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    series = _now_history(8, 20.0, 0.2, 9)
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        for c, t, w in series[:3]:
+            probe.pub.publish(_estimate("joint_4", c, t, w))
+        assert _spin_until(ex, lambda: node.stored == 3)
+        _set_connections(postgres_server.get_uri(), dbname, allow=False)
+        for c, t, w in series[3:]:
+            probe.pub.publish(_estimate("joint_4", c, t, w))
+        assert _spin_until(ex, lambda: len(node.pending) == 5)
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        assert len(spool.read_text().splitlines()) == 5
+        _set_connections(postgres_server.get_uri(), dbname, allow=True)
+        node = make()
+        ex.add_node(node)
+        assert _spin_until(ex, lambda: not node.pending and node.stored == 5)
+        assert not spool.exists()
+    finally:
+        _set_connections(postgres_server.get_uri(), dbname, allow=True)
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+    with HistoryStore(postgres_url) as st:
+        assert [r.cycle_id for r in st.estimates(robot="cell_7", joint="joint_4")] == list(range(1, 9))
+
+
+def test_wear_trend_with_its_disk_full_reports_error_and_stores_everything_afterwards(ctx, tmp_path):
+    """The SQLite file cannot grow (the process's file-size limit at 1 byte: every write fails with "database or
+    disk is full", as on a full disk) while a series crosses 35: ERROR while it fails, the level follows the newest
+    estimate, and once the disk has room again every estimate is stored once."""
+    import resource
+
+    ns = "/jw_trend_full"
+    db = tmp_path / "full.db"
+    node = WearTrendNode(context=ctx, parameter_overrides=[
+        Parameter("db_url", value=str(db)), Parameter("robot", value="cell_7"),
+        Parameter("estimate_topic", value=f"{ns}/wear_estimate"), Parameter("trend_topic", value=f"{ns}/wear_trend"),
+        Parameter("diagnostics_topic", value=f"{ns}/diagnostics"), Parameter("diagnostics_period", value=0.2),
+        Parameter("retry_period", value=0.2), Parameter("buffer_path", value=str(tmp_path / "spool.jsonl"))])
+    probe = _Probe(ctx, ns)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    series = _now_history(12, 29.0, 0.5, 10)
+    end = series[-1][1]
+    crossing = [(13 + k, end + (k + 1) * 600.0, 34.8 + 0.6 * k) for k in range(6)]  # 34.8 ... 37.8
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    old_handler = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG instead of a kill
+    try:
+        assert _spin_until(ex, lambda: probe.pub.get_subscription_count() >= 1)
+        for c, t, w in series:
+            probe.pub.publish(_estimate("joint_6", c, t - 2 * 3600.0, w, std=0.5))
+        assert _spin_until(ex, lambda: node.stored == 12)
+        try:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (1, hard))
+            for c, t, w in crossing:
+                probe.pub.publish(_estimate("joint_6", c, t - 2 * 3600.0, w, std=0.5))
+            failing = _spin_until(ex, lambda: len(node.pending) == 6 and node.store_error is not None
+                                  and probe.status("wear_trend: joint_6") is not None
+                                  and _values(probe.status("wear_trend: joint_6"))["buffered"] == "6")
+        finally:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+        assert failing, (node.store_error, len(node.pending))
+        s = probe.status("wear_trend: joint_6")
+        assert s.level == bytes([2]) and "history store failing" in s.message and "full" in s.message, s.message
+        assert probe.last("joint_6").level == WearTrend.ERROR and probe.last("joint_6").estimates_total == 18
+        assert node.rejected == 0
+        assert _spin_until(ex, lambda: node.store_error is None and not node.pending and node.stored == 18)
+    finally:
+        signal.signal(signal.SIGXFSZ, old_handler)
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+        ex.shutdown()
+    with HistoryStore(db) as st:
+        assert [r.cycle_id for r in st.estimates(robot="cell_7", joint="joint_6")] == list(range(1, 19))

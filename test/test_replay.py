@@ -73,8 +73,8 @@ def synthetic_bag(tmp_path_factory) -> tuple[Path, list, object]:
     return path, observations, result
 
 
-def _synthetic(tmp_path_factory):
-    cyc = synthetic_cycle(SPEEDS, wear=25.0, rate=500.0, noise_std=0.002, seed=3, t0=50.0)
+def _synthetic(tmp_path_factory, t0=50.0):
+    cyc = synthetic_cycle(SPEEDS, wear=25.0, rate=500.0, noise_std=0.002, seed=3, t0=t0)
     out = observe_arrays(_observer_config(), cyc.stamps, cyc.position, cyc.velocity, cyc.effort, cyc.statuses)
     assert len(out.observations) == len(SPEEDS), out.rejections
     monitor = WearMonitor(_monitor_config())

@@ -80,7 +80,17 @@ def _extra(store, observations, results):
 
 @pytest.fixture(scope="module")
 def robot_bag(tmp_path_factory):
-    cyc = synthetic_robot_cycle(JOINTS, WEARS, SPEEDS, rate=500.0, seed=4, noise_std=0.002,
+    return _robot_bag(tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def robot_bag_wall_clock(tmp_path_factory):
+    """The same robot cycle stamped as a cell on wall time (the history refuses stamps before 2010)."""
+    return _robot_bag(tmp_path_factory, t0=1.7e9 + 100.0)
+
+
+def _robot_bag(tmp_path_factory, t0=100.0):
+    cyc = synthetic_robot_cycle(JOINTS, WEARS, SPEEDS, rate=500.0, seed=4, noise_std=0.002, t0=t0,
                                 torque_scales=TORQUE_SCALES, temperatures=TEMPERATURES, temperature_rate=2.0)
     observations, results = _live(cyc)
     store = jointwear_typestore()
@@ -149,8 +159,9 @@ def test_replay_json_has_an_entry_per_joint_and_keeps_the_one_joint_fields(robot
     assert "joint_2: wear" in text and "level ERROR" in text
 
 
-def test_history_import_of_a_robot_bag_stores_one_entry_per_joint_and_cycle_once(robot_bag, tmp_path, capsys):
-    path, _, results = robot_bag
+def test_history_import_of_a_robot_bag_stores_one_entry_per_joint_and_cycle_once(robot_bag_wall_clock, tmp_path,
+                                                                                  capsys):
+    path, _, results = robot_bag_wall_clock
     db = tmp_path / "h.db"
     assert cli_main(["history", "import", str(path), "--db", str(db), "--robot", "cell_7", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["added"] == 3

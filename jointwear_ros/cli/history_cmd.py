@@ -58,6 +58,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     m.add_argument("--kind", required=True, help="regrease, reducer_replaced, ...")
     m.add_argument("--time", default=None, help="ISO 8601 or seconds since the epoch (default: now)")
     m.add_argument("--note", default="")
+    m.add_argument("--new-joint", action="store_true",
+                   help="the joint has no estimates in the history yet (else a joint it does not know is refused)")
     m.set_defaults(func=cmd_maintenance)
 
 
@@ -131,23 +133,32 @@ def cmd_import(args: argparse.Namespace) -> int:
         per_file.append({"file": str(path), "estimates": len(recs)})
         records.extend(recs)
     with HistoryStore(args.db) as store:  # everything was read and checked: now write, in one transaction
-        added = store.add_estimates(records)
-        total = store.count()
-    out = {"files": per_file, "read": len(records), "added": added, "duplicates": len(records) - added,
-           "total": total, "analysis_versions": sorted(versions)}
+        total_before = store.count()
+        res = store.write_estimates(records)
+    added = res.added
+    total = total_before + added
+    refused = [f.as_dict() for f in res.refused]
+    out = {"files": per_file, "read": len(records), "added": added, "duplicates": res.duplicates,
+           "refused": refused, "total": total, "analysis_versions": sorted(versions)}
     if args.json:
         print_json(out)
     else:
         print(f"read {len(records)} estimates from {len(per_file)} file(s): {added} added, "
-              f"{len(records) - added} already in the history; {total} stored")
+              f"{res.duplicates} already in the history, {len(refused)} refused; {total} stored")
+        for f in refused:
+            src = f"{f['source']} {f['bag']}".strip()
+            print(f"refused {f['robot']}/{f['joint']} cycle {f['cycle_id']} ({src}): {f['reason']}: {f['detail']}")
     return 0
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from ..history import HistoryStore
+    from ..history import HistoryStore, normalize_url
     from ..history.importers import write_csv
 
-    with HistoryStore(args.db) as store:
+    url = normalize_url(args.db)
+    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
+        raise UsageError(f"--db {args.db}: no such history file")
+    with HistoryStore(url, read_only=True) as store:
         recs = store.estimates(robot=args.robot, joint=args.joint, analysis_version=args.analysis_version)
     n = write_csv(recs, args.out)
     print(f"{n} estimates written to {args.out}")
@@ -162,6 +173,7 @@ def cmd_maintenance(args: argparse.Namespace) -> int:
 
     t = time.time() if args.time is None else parse_time(args.time, "--time")
     with HistoryStore(args.db) as store:
-        new = store.add_maintenance(MaintenanceEvent(args.robot, args.joint, t, args.kind, args.note))
+        new = store.add_maintenance(MaintenanceEvent(args.robot, args.joint, t, args.kind, args.note),
+                                    new_joint=args.new_joint)
     print(f"{args.kind} of {args.robot}/{args.joint} at {t:.3f} " + ("recorded" if new else "was already recorded"))
     return 0

@@ -48,7 +48,7 @@ def _safe(name: str) -> str:
 def cmd_trend(args: argparse.Namespace) -> int:
     import time
 
-    from ..history import HistoryStore
+    from ..history import HistoryStore, screened_history
     from ..serve.core import joint_view
     from ..trend import TrendConfig, analyze_joint
     from ..trend.report import plot_trend, rank_key, write_html
@@ -66,8 +66,8 @@ def cmd_trend(args: argparse.Namespace) -> int:
     url = normalize_url(args.db)
     if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
         raise UsageError(f"--db {args.db}: no such history file (fill it with jointwear history import or wear_trend)")
-    with HistoryStore(url, create=False) as store:
-        hist = store.history(args.analysis_version, robot=args.robot, joint=args.joint)
+    with HistoryStore(url, read_only=True) as store:
+        hist, refused = screened_history(store, args.analysis_version, robot=args.robot, joint=args.joint)
     if not hist and (args.robot or args.joint):
         raise UsageError(f"no estimates of robot {args.robot or '*'} joint {args.joint or '*'} "
                          f"(analysis version {args.analysis_version!r}) in {args.db}")
@@ -94,17 +94,21 @@ def cmd_trend(args: argparse.Namespace) -> int:
                 images[(r.robot, r.joint)] = name
     if args.html is not None:
         write_html(Path(args.html), results, images)
+    n_refused: dict[tuple[str, str], int] = {}
+    for f in refused:
+        n_refused[(f["robot"], f["joint"])] = n_refused.get((f["robot"], f["joint"]), 0) + 1
     if args.json:
         rows_json = []
         for r in results:
             v = views[(r.robot, r.joint)]
             rows_json.append({**r.as_dict(), "level": v.level_name, "trend_level": r.level_name,
-                              "newest_time": v.time, "age_days": v.age_days})
-        print_json({"joints": rows_json})
+                              "newest_time": v.time, "age_days": v.age_days,
+                              "refused": n_refused.get((r.robot, r.joint), 0)})
+        print_json({"joints": rows_json, "refused": refused})
         return 0
     if not results:
-        print(f"no estimates in {args.db}")
-        return 0
+        print(f"no estimates in {args.db}" + (f" ({len(refused)} refused)" if refused else "")
+              + ": fill it with jointwear history import FILE... --db DB, or run the wear_trend node on it")
 
     def days(x: float) -> str:
         return "-" if x is None or math.isnan(x) else ("unbounded" if math.isinf(x) else f"{x:.0f}")
@@ -115,7 +119,12 @@ def cmd_trend(args: argparse.Namespace) -> int:
         rows.append([r.robot, r.joint, views[(r.robot, r.joint)].level_name, r.estimates, f"{r.wear:.1f} ± {r.wear_std:.1f}",
                      f"{r.rate_per_day:+.3f}",
                      "no growth" if tta is None else f"{days(tta.median)} ({days(tta.lo90)}-{days(tta.hi90)})"])
-    print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)"], rows))
+    if rows:
+        print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)"], rows))
+    for f in refused:
+        what = (f"maintenance {f.get('kind')} at {f.get('time')}" if f.get("source") == "maintenance"
+                else f"cycle {f.get('cycle_id')} wear {f.get('wear')} std {f.get('wear_std')} time {f.get('time')}")
+        print(f"refused {f['robot']}/{f['joint']} {what}: {f['reason']}: {f['detail']}")
     if args.html is not None:
         print(f"page: {Path(args.html) / 'index.html'}")
     return 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .screen import REASONS, Refusal, ScreenConfig
 from .store import (
     LIVE,
     MIGRATIONS,
@@ -10,18 +11,24 @@ from .store import (
     HistoryError,
     HistoryStore,
     MaintenanceEvent,
+    WriteResult,
     normalize_url,
 )
-from .trends import trends_from_store
+from .trends import screened_history, trends_from_store
 
 __all__ = [
     "LIVE",
     "MIGRATIONS",
+    "REASONS",
     "SCHEMA_VERSION",
     "EstimateRecord",
     "HistoryError",
     "HistoryStore",
     "MaintenanceEvent",
+    "Refusal",
+    "ScreenConfig",
+    "WriteResult",
     "normalize_url",
+    "screened_history",
     "trends_from_store",
 ]

@@ -98,7 +98,7 @@ def estimates_from_csv(path: str | os.PathLike[str], *, robot: str | None = None
                 else:
                     t = parse_time(row.get("time") or "", where)
                 cid = _float(row, "cycle_id", where, 0.0)
-                if cid != int(cid):
+                if not math.isfinite(cid) or cid != int(cid):
                     raise InputDataError(f"{where}: cycle_id = {row.get('cycle_id')!r} is not an integer")
                 rec = EstimateRecord(
                     robot=(row.get("robot") or "").strip() or (robot or ""),
@@ -147,7 +147,7 @@ def estimates_from_bag(path: str | os.PathLike[str], *, robot: str, params: str 
             robot=robot, joint=joint, cycle_id=int(m.msg.cycle_id), time=t, wear=float(m.msg.wear),
             wear_std=float(m.msg.wear_std), hardware_id=hardware_id or f"{robot}/{joint}",
             temperature=float(m.msg.temperature_estimate), method=str(m.msg.method), params=params,
-            software_version="", bag=p.name, analysis_version=LIVE, source="bag",
+            software_version="", bag=p.name, analysis_version=LIVE, source="bag", received=m.log_time * 1e-9,
         ).check(f"{p}: WearEstimate at log time {m.log_time} ns"))
     if out and not params:
         recorded = recorded_node_params(events, "wear_estimator").get("params")

@@ -24,6 +24,12 @@ Tables
     robot, joint, time_ns, kind (``regrease``, ``reducer_replaced``, ...),
     note; ``UNIQUE (robot, joint, time_ns, kind)``. An event starts a new
     segment of the joint's trend.
+``refused``
+    every estimate the screening refused (:mod:`~jointwear_ros.history.screen`: a wear or std
+    outside the physical range, a time before 2010 or in the future, a jumped clock, a malformed
+    value), kept with its values as text (exactly as given, NaN and 1e300 included), the reason code
+    and a one-line explanation; never read by the trend. ``UNIQUE (robot, joint, analysis_version,
+    cycle_id, time, wear, wear_std)``: the same bad row imported twice is one entry.
 ``schema_version``
     one row per applied migration (version, applied_ns). :data:`MIGRATIONS`
     are forward only; :meth:`HistoryStore.migrate` applies the missing ones
@@ -44,15 +50,19 @@ relies on when it is killed.
 >>> [r.wear for r in s.estimates(robot="robot_1", joint="joint_1")]
 [10.0]
 >>> s.schema_version()
-2
+3
+>>> r = s.write_estimates([EstimateRecord("robot_1", "joint_1", cycle_id=2, time=1.7e9, wear=1e300, wear_std=0.8)])
+>>> r.added, [f.reason for f in r.refused], [x["wear"] for x in s.refused()]
+(0, ['wear_out_of_range'], ['1e+300'])
 """
 
 from __future__ import annotations
 
 import math
 import time as _time
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -77,6 +87,7 @@ from sqlalchemy.exc import ArgumentError, OperationalError, SQLAlchemyError
 
 from .. import __version__
 from ..errors import InputDataError, JointwearError
+from .screen import Refusal, ScreenConfig, screen_record
 
 __all__ = [
     "LIVE",
@@ -86,6 +97,7 @@ __all__ = [
     "HistoryError",
     "HistoryStore",
     "MaintenanceEvent",
+    "WriteResult",
     "normalize_url",
 ]
 
@@ -115,6 +127,9 @@ class EstimateRecord:
     bag: str = ""
     analysis_version: str = LIVE
     source: str = "live"
+    #: when the estimate was received or recorded (a bag's log time), seconds since the epoch; NaN when
+    #: unknown. Not stored: the screening compares it with ``time`` to detect a jumped clock.
+    received: float = math.nan
 
     @property
     def time_ns(self) -> int:
@@ -203,6 +218,29 @@ schema_version_t = Table(
 )
 
 
+refused_t = Table(
+    "refused", metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("robot", String(200), nullable=False),
+    Column("joint", String(200), nullable=False),
+    Column("analysis_version", String(200), nullable=False, default=LIVE),
+    Column("cycle_id", BigInteger, nullable=False),
+    Column("time", String(40), nullable=False),
+    Column("wear", String(40), nullable=False),
+    Column("wear_std", String(40), nullable=False),
+    Column("hardware_id", String(200), nullable=False, default=""),
+    Column("method", String(100), nullable=False, default=""),
+    Column("params", String(200), nullable=False, default=""),
+    Column("bag", Text, nullable=False, default=""),
+    Column("source", String(20), nullable=False, default="live"),
+    Column("reason", String(40), nullable=False),
+    Column("detail", Text, nullable=False, default=""),
+    Column("inserted_ns", BigInteger, nullable=False),
+    UniqueConstraint("robot", "joint", "analysis_version", "cycle_id", "time", "wear", "wear_std",
+                     name="uq_refused_identity"),
+)
+
+
 def _m1(conn: Connection) -> None:
     """Version 1: the three tables."""
     metadata.create_all(conn, tables=[estimates_t, maintenance_t, schema_version_t])
@@ -215,8 +253,32 @@ def _m2(conn: Connection) -> None:
     conn.execute(text("CREATE INDEX IF NOT EXISTS ix_maintenance_joint_time ON maintenance (robot, joint, time_ns)"))
 
 
+def _m3(conn: Connection) -> None:
+    """Version 3: the ``refused`` table; rows stored before the screening existed that it refuses (wear or std
+    outside the physical range, a time before 2010 or in the future) move there, with their reason."""
+    metadata.create_all(conn, tables=[refused_t])
+    conn.execute(text("CREATE INDEX IF NOT EXISTS ix_refused_joint ON refused (robot, joint)"))
+    c = ScreenConfig()
+    now_ns = _time.time_ns()
+    cases = [
+        ("wear_out_of_range", f"wear < {c.wear_min!r} OR wear > {c.wear_max!r}"),
+        ("std_out_of_range", f"wear_std < {c.std_min!r} OR wear_std > {c.std_max!r}"),
+        ("time_before_min", f"time_ns < {int(c.min_time * 1e9)}"),
+        ("time_in_future", f"time_ns > {now_ns + int(c.future_tolerance_s * 1e9)}"),
+    ]
+    for reason, cond in cases:
+        conn.execute(text(
+            "INSERT INTO refused (robot, joint, analysis_version, cycle_id, time, wear, wear_std, hardware_id, "
+            "method, params, bag, source, reason, detail, inserted_ns) "
+            "SELECT robot, joint, analysis_version, cycle_id, CAST(time_ns / 1000000000.0 AS VARCHAR(40)), "
+            "CAST(wear AS VARCHAR(40)), CAST(wear_std AS VARCHAR(40)), hardware_id, method, params, bag, source, "
+            f"'{reason}', 'moved by the schema-3 migration', {now_ns} FROM estimates WHERE {cond} "
+            "ON CONFLICT DO NOTHING"))
+        conn.execute(text(f"DELETE FROM estimates WHERE {cond}"))
+
+
 #: forward migrations, version -> function; applied in order, each in its own transaction
-MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2}
+MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2, 3: _m3}
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
@@ -233,7 +295,41 @@ def normalize_url(url: str | Path) -> str:
         return f"sqlite:///{u}"
     if u.startswith(("postgresql://", "postgres://")):
         return "postgresql+psycopg://" + u.split("://", 1)[1]
+    scheme = u.split("://", 1)[0].lower()
+    if scheme not in ("sqlite", "sqlite+pysqlite", "postgresql+psycopg"):
+        raise InputDataError(f"database URL scheme {scheme + '://'!r} is not supported: use a file path, "
+                             "sqlite:///path or postgresql://user@host/db")
     return u
+
+
+def _sqlite_read_only_engine(path: Path) -> Engine:
+    """An engine that never writes and never creates a file: a reader who may only read the history (another
+    user, a read-only filesystem) must not leave ``-wal``/``-shm`` files that block the owner's writes.
+
+    While a writer has the database open (its ``-wal`` exists) the reader joins it read-only (``mode=ro``);
+    otherwise nobody is writing and the file is opened ``immutable`` (no locks, no side files).
+    """
+    import sqlite3
+    from urllib.parse import quote
+
+    if not path.is_file():
+        raise HistoryError(f"{path}: no such history file")
+    uri = "file:" + quote(str(path.resolve()))
+    uri += "?mode=ro" if Path(str(path) + "-wal").exists() else "?immutable=1"
+
+    def connect() -> sqlite3.Connection:
+        conn = sqlite3.connect(uri, uri=True, timeout=30.0, check_same_thread=False)
+        conn.execute("PRAGMA query_only=1")
+        return conn
+
+    return create_engine("sqlite://", creator=connect)
+
+
+def _pg_read_only(dbapi_conn: Any, _record: Any) -> None:
+    cur = dbapi_conn.cursor()
+    cur.execute("SET SESSION CHARACTERISTICS AS TRANSACTION READ ONLY")
+    cur.close()
+    dbapi_conn.commit()
 
 
 def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
@@ -255,32 +351,66 @@ class HistoryStore:
     migrate_to : with ``create``, stop at this schema version (tests of migrations).
     """
 
-    def __init__(self, url: str | Path, *, create: bool = True, migrate_to: int | None = None) -> None:
+    def __init__(self, url: str | Path, *, create: bool = True, migrate_to: int | None = None,
+                 read_only: bool = False) -> None:
         self.url = normalize_url(url)
+        self._display = ""
+        self.read_only = bool(read_only)
+        if self.read_only:
+            create = False
         try:
             if self.url.startswith("sqlite"):
                 path = self.url.split(":///", 1)[1] if ":///" in self.url else ""
-                if path and path != ":memory:":
-                    Path(path).expanduser().parent.mkdir(parents=True, exist_ok=True)
-                self.engine: Engine = create_engine(self.url, connect_args={"timeout": 30.0})
-                event.listen(self.engine, "connect", _sqlite_pragmas)
+                if self.read_only and path and path != ":memory:":
+                    self._display = f"sqlite:///{path}"
+                    self.engine: Engine = _sqlite_read_only_engine(Path(path).expanduser())
+                else:
+                    if path and path != ":memory:":
+                        Path(path).expanduser().parent.mkdir(parents=True, exist_ok=True)
+                    self.engine = create_engine(self.url, connect_args={"timeout": 30.0})
+                    event.listen(self.engine, "connect", _sqlite_pragmas)
             else:
                 self.engine = create_engine(self.url, pool_pre_ping=True)
+                if self.read_only:
+                    event.listen(self.engine, "connect", _pg_read_only)
             self.dialect = self.engine.dialect.name
+            found = self.schema_version()
+            if found > SCHEMA_VERSION:
+                raise HistoryError(f"{self.display_url}: schema version {found} was written by a newer jointwear "
+                                   f"(this one knows up to {SCHEMA_VERSION}): upgrade jointwear to use it; "
+                                   "nothing was written")
             if create:
                 self.migrate(migrate_to)
-            elif self.schema_version() != SCHEMA_VERSION:
-                raise HistoryError(f"{self.display_url}: schema version {self.schema_version()}, "
-                                   f"this software needs {SCHEMA_VERSION}; open it with create=True to migrate")
+            elif found != SCHEMA_VERSION:
+                raise HistoryError(f"{self.display_url}: schema version {found}, "
+                                   f"this software needs {SCHEMA_VERSION}"
+                                   + ("; it holds no history yet (fill it with jointwear history import or the "
+                                      "wear_trend node)" if found == 0 else
+                                      "; jointwear history import (or the wear_trend node) migrates it"))
         except ArgumentError as exc:
             raise InputDataError(f"database URL {str(url)!r} is not valid ({exc}); "
                                  "use sqlite:///path or postgresql://user@host/db") from None
         except (OperationalError, SQLAlchemyError, OSError) as exc:
             raise HistoryError(f"{self.display_url}: cannot open the history store: {_one_line(exc)}") from None
+        except ModuleNotFoundError as exc:
+            raise InputDataError(f"database URL {str(url)!r}: its driver is not installed ({exc}); "
+                                 "use sqlite:///path or postgresql://user@host/db") from None
+
+    @contextmanager
+    def _reading(self, what: str) -> Iterator[None]:
+        """Any database error while reading -> one :class:`HistoryError` line (a damaged page, a lost server)."""
+        try:
+            yield
+        except SQLAlchemyError as exc:
+            hint = ("; the file is damaged: restore it from a backup, or export what is readable with "
+                    "sqlite3 DB .recover") if "malformed" in str(exc) or "not a database" in str(exc) else ""
+            raise HistoryError(f"{self.display_url}: cannot read {what}: {_one_line(exc)}{hint}") from None
 
     @property
     def display_url(self) -> str:
         """The URL without a password."""
+        if getattr(self, "_display", None):
+            return str(self._display)
         try:
             return self.engine.url.render_as_string(hide_password=True)
         except AttributeError:
@@ -289,7 +419,7 @@ class HistoryStore:
     # ------------------------------------------------------------------ schema
     def schema_version(self) -> int:
         """The highest applied migration (0 for an empty database)."""
-        with self.engine.connect() as conn:
+        with self._reading("the schema version"), self.engine.connect() as conn:
             if not inspect(conn).has_table("schema_version"):
                 return 0
             v = conn.execute(select(schema_version_t.c.version).order_by(schema_version_t.c.version.desc())).first()
@@ -338,35 +468,71 @@ class HistoryStore:
         raise HistoryError(f"{self.display_url}: dialect {self.dialect!r} is not supported (SQLite or PostgreSQL)")
 
     # ------------------------------------------------------------------ writing
-    def add_estimates(self, records: Iterable[EstimateRecord]) -> int:
-        """Insert the records (one transaction); return how many were new. Duplicates are skipped."""
-        now = _time.time_ns()
-        rows = []
-        for i, r in enumerate(records):
-            r.check(f"estimate {i}")
+    def add_estimates(self, records: Iterable[EstimateRecord], *, now: float | None = None,
+                      screen: ScreenConfig | None = None) -> int:
+        """Insert the records (one transaction); return how many accepted ones were new. Duplicates are
+        skipped; the ones the screening refuses are kept in ``refused`` (see :meth:`write_estimates`)."""
+        return self.write_estimates(records, now=now, screen=screen).added
+
+    def write_estimates(self, records: Iterable[EstimateRecord], *, now: float | None = None,
+                        screen: ScreenConfig | None = None, strict: bool = True,
+                        not_before: dict[tuple[str, str], float] | None = None,
+                        extra_refused: Sequence[Refusal] = ()) -> WriteResult:
+        """Screen and insert the records in one transaction: the accepted into ``estimates``, the refused into
+        ``refused`` with their reason (:mod:`~jointwear_ros.history.screen`; ``now`` is the screening clock,
+        default the wall clock). ``strict``: a malformed record (NaN, std <= 0, no name) raises
+        :class:`InputDataError` before anything is written; else it is refused and kept like the others.
+        ``not_before``: (robot, joint) -> the newest stamp so far (live arrival order: a stamp far before it is
+        a clock jump). ``extra_refused``: refusals screened by the caller (the live node's clock-jump check), kept
+        in ``refused`` in the same transaction."""
+        if self.read_only:
+            raise HistoryError(f"{self.display_url}: opened read-only; nothing can be written")
+        now = _time.time() if now is None else float(now)
+        records = list(records)
+        if strict:
+            for i, r in enumerate(records):
+                r.check(f"estimate {i}")
+        now_ns = _time.time_ns()
+        rows: list[dict[str, Any]] = []
+        refused: list[Refusal] = list(extra_refused)
+        bad_rows: list[dict[str, Any]] = [_refused_row(f, now_ns) for f in refused]
+        for r in records:
+            nb = None if not_before is None else not_before.get((r.robot, r.joint))
+            f = screen_record(r, now=now, cfg=screen, not_before=nb)
+            if f is not None:
+                refused.append(f)
+                bad_rows.append(_refused_row(f, now_ns))
+                continue
             d = asdict(r)
             d.pop("time")
+            d.pop("received")
             d["time_ns"] = r.time_ns
             d["cycle_id"] = int(r.cycle_id)
             d["temperature"] = float(r.temperature) if math.isfinite(float(r.temperature)) else None
-            d["inserted_ns"] = now
+            d["inserted_ns"] = now_ns
             rows.append(d)
-        if not rows:
-            return 0
+        res = WriteResult(added=0, duplicates=0, refused=refused)
+        if not rows and not bad_rows:
+            return res
         stmt = self._insert(estimates_t).on_conflict_do_nothing(
             index_elements=["robot", "joint", "analysis_version", "cycle_id", "time_ns"]).returning(estimates_t.c.id)
+        bad_stmt = self._insert(refused_t).on_conflict_do_nothing(
+            index_elements=["robot", "joint", "analysis_version", "cycle_id", "time", "wear", "wear_std"]
+        ).returning(refused_t.c.id)
         # one lock order for every writer: concurrent transactions inserting overlapping keys in different
         # orders deadlock on PostgreSQL's unique index (seen with 4 writers); sorted, they queue instead
         rows.sort(key=lambda d: (d["robot"], d["joint"], d["analysis_version"], d["cycle_id"], d["time_ns"]))
-        n = 0
+        bad_rows.sort(key=lambda d: (d["robot"], d["joint"], d["analysis_version"], d["cycle_id"], d["time"]))
         for attempt in range(5):
-            n = 0
+            n = nb_new = 0
             try:
                 with self.engine.begin() as conn:
                     for start in range(0, len(rows), 1000):
                         # executemany with RETURNING ("insertmanyvalues": multi-row INSERTs on SQLite and
                         # psycopg): the rows returned are exactly the new ones, on every dialect
                         n += len(conn.execute(stmt, rows[start:start + 1000]).all())
+                    for start in range(0, len(bad_rows), 1000):
+                        nb_new += len(conn.execute(bad_stmt, bad_rows[start:start + 1000]).all())
                 break
             except OperationalError as exc:  # deadlock / serialization failure / locked: retry the transaction
                 if attempt == 4 or not _retryable(exc):
@@ -374,11 +540,53 @@ class HistoryStore:
                 _time.sleep(0.05 * (attempt + 1))
             except SQLAlchemyError as exc:
                 raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
-        return n
+        res.added, res.duplicates, res.refused_new = n, len(rows) - n, nb_new
+        return res
 
-    def add_maintenance(self, ev: MaintenanceEvent) -> bool:
-        """Insert a maintenance event; False when the same event (robot, joint, time, kind) is already there."""
+    def has_estimate(self, r: EstimateRecord) -> bool:
+        """Whether an estimate with this identity (robot, joint, analysis version, cycle id, time) is stored."""
+        c = estimates_t.c
+        q = select(c.id).where(c.robot == r.robot, c.joint == r.joint, c.analysis_version == r.analysis_version,
+                               c.cycle_id == int(r.cycle_id), c.time_ns == r.time_ns).limit(1)
+        with self._reading("the estimates"), self.engine.connect() as conn:
+            return conn.execute(q).first() is not None
+
+    def refused(self, robot: str | None = None, joint: str | None = None,
+                analysis_version: str | None = LIVE) -> list[dict[str, Any]]:
+        """The refused estimates (values as stored text, reason, detail), oldest insert first."""
+        if self.schema_version() < 3:
+            return []
+        c = refused_t.c
+        q = _filtered(refused_t, robot, joint, analysis_version)
+        with self._reading("the refused estimates"), self.engine.connect() as conn:
+            rows = conn.execute(q.order_by(c.robot, c.joint, c.id)).mappings().all()
+        return [{k: r[k] for k in ("robot", "joint", "analysis_version", "cycle_id", "time", "wear", "wear_std",
+                                   "source", "bag", "reason", "detail")} for r in rows]
+
+    def add_maintenance(self, ev: MaintenanceEvent, *, now: float | None = None, future_tolerance_s: float = 3600.0,
+                        known_joints: Sequence[str] | None = None, new_joint: bool = False) -> bool:
+        """Insert a maintenance event; False when the same event (robot, joint, time, kind) is already there.
+
+        Refused (:class:`InputDataError`): an event more than ``future_tolerance_s`` after ``now`` (it would hide
+        every estimate before it: an ERROR joint showed OK), and, unless ``new_joint``, an event of a joint
+        without estimates in the history or ``known_joints`` (a misspelt name)."""
+        if self.read_only:
+            raise HistoryError(f"{self.display_url}: opened read-only; nothing can be written")
         ev.check()
+        now = _time.time() if now is None else float(now)
+        if ev.time > now + future_tolerance_s:
+            raise InputDataError(f"maintenance event {ev.kind!r} of {ev.robot}/{ev.joint} at {ev.time:.3f} is "
+                                 f"{(ev.time - now) / 86400.0:.3g} days in the future: record it when it is done")
+        if not new_joint:
+            try:
+                known = {j for r, j in self.joints(None) if r == ev.robot}
+            except SQLAlchemyError as exc:
+                raise HistoryError(f"{self.display_url}: cannot read the joints: {_one_line(exc)}") from None
+            known |= set(known_joints or ())
+            if ev.joint not in known:
+                raise InputDataError(f"joint {ev.joint!r} of robot {ev.robot!r} has no estimates in the history "
+                                     f"(known: {', '.join(sorted(known)) or 'none'}): check the name "
+                                     "(a new joint: --new-joint)")
         stmt = self._insert(maintenance_t).values(robot=ev.robot, joint=ev.joint, time_ns=ev.time_ns, kind=ev.kind,
                                                   note=ev.note)
         stmt = stmt.on_conflict_do_nothing(index_elements=["robot", "joint", "time_ns", "kind"]).returning(
@@ -394,17 +602,11 @@ class HistoryStore:
                   analysis_version: str | None = LIVE, since: float | None = None) -> list[EstimateRecord]:
         """Estimates in time order, filtered by robot/joint/analysis version (``None``: any)."""
         c = estimates_t.c
-        q = select(estimates_t)
-        if robot is not None:
-            q = q.where(c.robot == robot)
-        if joint is not None:
-            q = q.where(c.joint == joint)
-        if analysis_version is not None:
-            q = q.where(c.analysis_version == analysis_version)
+        q = _filtered(estimates_t, robot, joint, analysis_version)
         if since is not None:
             q = q.where(c.time_ns >= int(since * 1e9))
         q = q.order_by(c.robot, c.joint, c.time_ns, c.id)
-        with self.engine.connect() as conn:
+        with self._reading("the estimates"), self.engine.connect() as conn:
             rows = conn.execute(q).mappings().all()
         return [_record(r) for r in rows]
 
@@ -414,7 +616,7 @@ class HistoryStore:
         q = select(func.count()).select_from(estimates_t)
         if analysis_version is not None:
             q = q.where(estimates_t.c.analysis_version == analysis_version)
-        with self.engine.connect() as conn:
+        with self._reading("the estimates"), self.engine.connect() as conn:
             return int(conn.execute(q).scalar_one())
 
     def maintenance(self, robot: str | None = None, joint: str | None = None) -> list[MaintenanceEvent]:
@@ -425,7 +627,7 @@ class HistoryStore:
             q = q.where(c.robot == robot)
         if joint is not None:
             q = q.where(c.joint == joint)
-        with self.engine.connect() as conn:
+        with self._reading("the maintenance events"), self.engine.connect() as conn:
             rows = conn.execute(q.order_by(c.robot, c.joint, c.time_ns, c.id)).mappings().all()
         return [MaintenanceEvent(r["robot"], r["joint"], r["time_ns"] * 1e-9, r["kind"], r["note"]) for r in rows]
 
@@ -434,13 +636,13 @@ class HistoryStore:
         q = select(estimates_t.c.robot, estimates_t.c.joint).distinct()
         if analysis_version is not None:
             q = q.where(estimates_t.c.analysis_version == analysis_version)
-        with self.engine.connect() as conn:
+        with self._reading("the joints"), self.engine.connect() as conn:
             return sorted((str(a), str(b)) for a, b in conn.execute(q).all())
 
     def analysis_versions(self) -> list[str]:
         """The analysis versions present."""
         q = select(estimates_t.c.analysis_version).distinct()
-        with self.engine.connect() as conn:
+        with self._reading("the analysis versions"), self.engine.connect() as conn:
             return sorted(str(r[0]) for r in conn.execute(q).all())
 
     def history(self, analysis_version: str | None = LIVE, robot: str | None = None,
@@ -462,6 +664,46 @@ class HistoryStore:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+@dataclass
+class WriteResult:
+    """What :meth:`HistoryStore.write_estimates` did: new accepted rows, accepted ones already stored, and every
+    refusal of the call (``refused_new`` of them were not yet in ``refused``)."""
+
+    added: int
+    duplicates: int
+    refused: list[Refusal] = field(default_factory=list)
+    refused_new: int = 0
+
+
+def _refused_row(f: Refusal, now_ns: int) -> dict[str, Any]:
+    r = f.record
+
+    def txt(x: Any) -> str:
+        try:
+            return repr(float(x))[:40]
+        except (TypeError, ValueError):
+            return str(x)[:40]
+
+    try:
+        cid = int(r.cycle_id)
+    except (TypeError, ValueError, OverflowError):
+        cid = -1
+    return {"robot": str(r.robot)[:200], "joint": str(r.joint)[:200], "analysis_version": r.analysis_version,
+            "cycle_id": cid if -2**63 <= cid < 2**63 else -1, "time": txt(r.time), "wear": txt(r.wear),
+            "wear_std": txt(r.wear_std), "hardware_id": r.hardware_id, "method": r.method, "params": r.params,
+            "bag": r.bag, "source": r.source, "reason": f.reason, "detail": f.detail, "inserted_ns": now_ns}
+
+
+def _filtered(table: Table, robot: str | None, joint: str | None, analysis_version: str | None) -> Any:
+    """``SELECT table`` filtered by robot, joint and analysis version (``None``: any)."""
+    c = table.c
+    q = select(table)
+    for col, value in (("robot", robot), ("joint", joint), ("analysis_version", analysis_version)):
+        if value is not None:
+            q = q.where(c[col] == value)
+    return q
 
 
 def _record(r: Any) -> EstimateRecord:

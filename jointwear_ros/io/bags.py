@@ -144,7 +144,26 @@ def check_bag_path(path: Path) -> Path:
         )
     if p.is_file() and p.suffix not in (".mcap", ".db3", ".bag"):
         raise InputDataError(f"{p}: not a bag (expected a rosbag2 directory or an .mcap file)")
+    if p.is_dir():
+        _check_metadata(p / "metadata.yaml")
     return p
+
+
+def _check_metadata(meta: Path) -> None:
+    """A metadata.yaml that is not the rosbag2 mapping (a scalar, a list, bad YAML) in one line, before a reader
+    fails on it with "'int' object is not subscriptable"."""
+    import yaml
+
+    try:
+        doc = yaml.safe_load(meta.read_text(encoding="utf-8", errors="replace"))
+    except (yaml.YAMLError, OSError) as exc:
+        raise InputDataError(f"{meta}: not readable YAML ({str(exc).splitlines()[0]}); "
+                             f"`jointwear bag recover {meta.parent}` rebuilds it from the .mcap") from None
+    info = doc.get("rosbag2_bagfile_information") if isinstance(doc, dict) else None
+    if not isinstance(info, dict):
+        raise InputDataError(f"{meta}: not rosbag2 metadata (a {type(doc).__name__}, no "
+                             f"rosbag2_bagfile_information mapping); `jointwear bag recover {meta.parent}` "
+                             "rebuilds it from the .mcap")
 
 
 @dataclass(frozen=True)

@@ -438,7 +438,7 @@ def recover_bag(src: str | os.PathLike[str], out: str | os.PathLike[str] | None 
     s = Path(src)
     if not s.exists():
         raise InputDataError(f"{s}: no such bag or file")
-    bag_dir = s.parent if s.is_file() else s
+    bag_dir = (s.parent if s.is_file() else s).resolve()  # absolute: "x.mcap" run from its own folder has parent "."
     dst = Path(out) if out is not None else bag_dir.with_name(bag_dir.name + "_recovered")
     if dst.exists():
         raise InputDataError(f"{dst}: already exists; give a new --out directory (recover never overwrites)")

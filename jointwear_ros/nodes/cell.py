@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from ..contract import CycleState, RefusalReason
+from ..contract import CycleState, RefusalReason, robot_cycle_over
 from ..errors import JointwearError
 from ..resources import config_path
 
@@ -261,10 +261,7 @@ class Operator:
         for st in self.statuses:
             if st.cycle_id != cycle_id:
                 continue
-            if st.state in (CycleState.ABORTED, CycleState.FAILED):
-                return True
-            n = max(len(st.joints), 1)
-            if st.state == CycleState.DONE and st.joints_done + 1 >= n:
+            if robot_cycle_over(st.state, len(st.joints), st.joints_done):
                 return True
         return False
 

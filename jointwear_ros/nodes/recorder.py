@@ -29,8 +29,11 @@ reception, the disk has less than ``min_free_disk_mb`` free or more than
 
 ``split: session`` writes one bag for the node's lifetime; ``split: cycle``
 starts a bag when ``/test_cycle/status`` shows a new ``cycle_id`` RUNNING and
-closes it ``cycle_tail`` seconds after that cycle's DONE/ABORTED/FAILED (so
-the cycle's WearEstimate is in it) or when the next cycle starts. On shutdown
+closes it ``cycle_tail`` seconds after that cycle's end (so the cycle's
+WearEstimate is in it) or when the next cycle starts. A robot cycle (several
+joints one after another under one cycle id) is one bag: it ends with its last
+joint's DONE or any ABORTED/FAILED (``contract.robot_cycle_over``), not with the
+DONE of each joint. On shutdown
 the open bag is closed properly (its MCAP summary and indexes written).
 
 Messages lost before they reach the recorder (a reliable publisher's history
@@ -69,7 +72,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.typesys.store import Typestore
 
-from ..contract import ENDED_STATES, CycleState
+from ..contract import ENDED_STATES, CycleState, robot_cycle_over
 from ..io.bags import LOST_KEY, STATUS_TYPE, ensure_msgtype
 from ..io.mcap_bag import COMPRESSIONS, McapBagWriter, qos_profiles_v9
 from ..io.typestore import new_jointwear_typestore
@@ -464,7 +467,10 @@ class RecorderNode(Node):
     def _status(self, item: _Item) -> tuple[int, int] | None:
         try:
             msg: Any = self._store.deserialize_cdr(item.data, STATUS_TYPE)
-            return int(msg.cycle_id), int(msg.state)
+            # a robot cycle (several joints, one cycle id) ends with its last joint's DONE or any ABORTED/FAILED;
+            # a joint's DONE before the last is not the end (one bag per robot cycle, not per joint)
+            over = robot_cycle_over(int(msg.state), len(msg.joints), int(msg.joints_done))
+            return int(msg.cycle_id), int(msg.state) if over or int(msg.state) not in ENDED_STATES else -1
         except Exception as exc:
             self.get_logger().warning(f"undecodable status message on {item.topic}: {exc}", throttle_duration_sec=5.0)
             return None

@@ -21,15 +21,43 @@ On start the node reloads the robot's history from the store and publishes
 the trend of every joint it holds, so a restart loses nothing. The service
 ``~/record_maintenance`` (``jointwear_msgs/srv/RecordMaintenance``) records a
 maintenance event (regrease, reducer replaced): the joint's trend starts a new
-segment. A malformed estimate (NaN, std <= 0) is rejected with the reason,
-logged and counted (``rejected`` in the diagnostics); the node keeps running.
+segment; an event in the future or of a joint the history does not know (a
+misspelt name) is refused with the reason.
+
+Every estimate is screened first (:mod:`~jointwear_ros.history.screen`): a
+malformed one (NaN, std <= 0), a wear or std outside the physical range, a stamp
+before 2010, beyond ``future_tolerance`` ahead of the node's clock, or more than
+``clock_tolerance`` before the joint's newest estimate (the estimator's clock
+jumped back) is refused with the reason, kept in the store's ``refused`` table,
+logged and counted (``rejected`` and ``refused_<reason>`` in the diagnostics; the
+joint's message names it while its newest estimate is a refused one); it never
+reaches the trend. The node keeps running.
+
+**Nothing reported is lost.** When the store fails (disk full, PostgreSQL down,
+a locked or damaged file), the estimates it could not take wait in a bounded
+buffer (``buffer_max``), spooled to ``buffer_path`` on disk when it can be
+written, and are written again every ``retry_period`` until the store takes them
+(inserts are idempotent: none twice); meanwhile ``/diagnostics`` says ERROR
+("history store failing: ...", ``buffered``) on every joint and on
+``wear_trend: history``, and each joint's trend includes its buffered estimates,
+so the level follows the newest estimate, not the last stored one. A failed read
+keeps the last history read; nothing ends the node. A store that cannot be opened
+at start is opened again at every retry. ``alarm_threshold``, ``horizon_days``,
+``min_estimates``, ``future_tolerance`` and ``clock_tolerance`` apply at run time
+(every joint's trend recomputed); a bad value is refused with the reason; the
+others are read at start-up.
 
 Parameters: see ``config/wear_trend.yaml`` and ``docs/history-trend.md``.
 """
 
 from __future__ import annotations
 
+import json
 import math
+import os
+from collections import deque
+from dataclasses import asdict, replace
+from pathlib import Path
 from typing import Any
 
 from builtin_interfaces.msg import Time as TimeMsg
@@ -44,30 +72,46 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from .. import __version__
 from ..contract import stamp_to_seconds
 from ..errors import JointwearError
-from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent
+from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, normalize_url, screened_history
+from ..history.screen import REASONS, Refusal, ScreenConfig, screen_record
 from ..trend import ERROR, OK, WARN, TrendConfig, TrendResult, analyze_joint
 from .diagnostics import diagnostic_status
-from .runtime import ParamDecl, declare_parameters, overridable_qos, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
 
-__all__ = ["PARAMETERS", "WearTrendNode", "main", "trend_to_msg"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearTrendNode", "main", "trend_to_msg"]
 
 _T = TrendConfig()
+_S = ScreenConfig()
 
 PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("robot", "robot_1", "robot name the estimates belong to (WearEstimate has none)"),
+    ParamDecl("robot", "robot_1", "robot name the estimates belong to (WearEstimate has none)", read_only=True),
     ParamDecl("db_url", "wear_history.db", "history store: a file path or sqlite:///path (SQLite, WAL), "
-              "or postgresql://user@host/db"),
-    ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id and stored hardware id (empty = robot/joint)"),
-    ParamDecl("params", "ref-2011r", "friction-model parameter set the estimates were made with (stored)"),
+              "or postgresql://user@host/db", read_only=True),
+    ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id and stored hardware id (empty = robot/joint)",
+              read_only=True),
+    ParamDecl("params", "ref-2011r", "friction-model parameter set the estimates were made with (stored)",
+              read_only=True),
     ParamDecl("alarm_threshold", _T.alarm, "wear at which the level is ERROR", 0.0, 100.0),
     ParamDecl("horizon_days", _T.horizon_days, "WARN when the 90 % interval's lower bound of the time to alarm "
               "is within this many days", 0.0, 3650.0),
     ParamDecl("min_estimates", _T.min_estimates, "estimates a segment needs before it has a trend"),
-    ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications", 0.01, 60.0),
-    ParamDecl("estimate_topic", "/jointwear/wear_estimate", "WearEstimate input"),
-    ParamDecl("trend_topic", "/jointwear/wear_trend", "WearTrend output (one message per joint and update)"),
-    ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output"),
+    ParamDecl("future_tolerance", _S.future_tolerance_s, "s an estimate may be stamped ahead of the node's clock",
+              0.0, 86400.0),
+    ParamDecl("clock_tolerance", _S.clock_tolerance_s, "s an estimate may be stamped before its joint's newest "
+              "one (more: the estimator's clock jumped back)", 1.0, 86400.0 * 365),
+    ParamDecl("buffer_max", 10000, "estimates kept while the store fails (the oldest dropped beyond, counted)",
+              read_only=True),
+    ParamDecl("buffer_path", "", "spool file of the estimates waiting for the store (empty: next to an SQLite "
+              "file, else ~/.ros/wear_trend_<robot>.pending.jsonl)", read_only=True),
+    ParamDecl("retry_period", 1.0, "s between attempts to write the buffered estimates", 0.05, 600.0,
+              read_only=True),
+    ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications", 0.01, 60.0, read_only=True),
+    ParamDecl("estimate_topic", "/jointwear/wear_estimate", "WearEstimate input", read_only=True),
+    ParamDecl("trend_topic", "/jointwear/wear_trend", "WearTrend output (one message per joint and update)",
+              read_only=True),
+    ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output", read_only=True),
 )
+LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
 
 def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: float) -> WearTrend:
@@ -92,6 +136,14 @@ def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: flo
     return m
 
 
+def _default_spool(db_url: str, robot: str) -> Path:
+    url = normalize_url(db_url)
+    if url.startswith("sqlite:///") and url[len("sqlite:///"):] not in ("", ":memory:"):
+        return Path(url[len("sqlite:///"):]).expanduser().with_name(
+            Path(url[len("sqlite:///"):]).name + f".{robot}.pending.jsonl")
+    return Path(os.environ.get("ROS_HOME", "~/.ros")).expanduser() / f"wear_trend_{robot}.pending.jsonl"
+
+
 class WearTrendNode(Node):
     """The wear trend node (see the module docstring)."""
 
@@ -102,69 +154,241 @@ class WearTrendNode(Node):
         self.robot = str(p["robot"])
         self.cfg = TrendConfig(alarm=float(p["alarm_threshold"]), horizon_days=float(p["horizon_days"]),
                                min_estimates=int(p["min_estimates"]))
-        self.store = HistoryStore(str(p["db_url"]))
+        self.screen_cfg = replace(_S, future_tolerance_s=float(p["future_tolerance"]),
+                                  clock_tolerance_s=float(p["clock_tolerance"]))
         self.stored = 0
         self.duplicates = 0
         self.rejected = 0
+        self.refused_by_reason: dict[str, int] = {}
+        self.dropped = 0  # buffer overflow while the store failed
+        self.store_error: str | None = None
+        self.store_failures = 0
         self.trends: dict[str, TrendResult] = {}
         self._statuses: dict[str, DiagnosticStatus] = {}
+        #: joint -> (records, events) of the last successful read (used while reads fail)
+        self._cache: dict[str, tuple[list[EstimateRecord], list[MaintenanceEvent]]] = {}
+        #: estimates (and refusals) waiting for the store, oldest first
+        self.pending: deque[tuple[EstimateRecord, Refusal | None]] = deque()
+        self._buffer_max = max(1, int(p["buffer_max"]))
+        self.spool = Path(str(p["buffer_path"])) if str(p["buffer_path"]) else _default_spool(str(p["db_url"]),
+                                                                                               self.robot)
+        self._spool_ok = True
+        self._newest: dict[str, float] = {}  # joint -> newest accepted stamp (live arrival order)
+        self._last_refusal: dict[str, Refusal | None] = {}
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
         latched = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.trend_pub = self.create_publisher(WearTrend, str(p["trend_topic"]), latched,
                                                qos_overriding_options=overridable_qos())
         self.diag_pub = self.create_publisher(DiagnosticArray, str(p["diagnostics_topic"]), 10)
+        self.store: HistoryStore | None = None
+        self._open_store()
+        self._load_spool()
         self.create_subscription(WearEstimate, str(p["estimate_topic"]), self._on_estimate, reliable,
                                  qos_overriding_options=overridable_qos())
         self.create_service(RecordMaintenance, "~/record_maintenance", self._on_maintenance)
-        self.create_timer(float(p["diagnostics_period"]), self._publish_diagnostics,
-                          clock=Clock(clock_type=ClockType.STEADY_TIME))
-        joints = [j for r, j in self.store.joints(LIVE) if r == self.robot]
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(float(p["diagnostics_period"]), self._publish_diagnostics, clock=steady)
+        self.create_timer(float(p["retry_period"]), self._retry, clock=steady)
+        on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
+        if self.pending:
+            self._flush()
+        joints = self._known_joints()
         for joint in joints:
             self._update(joint)
         self.get_logger().info(
-            f"wear history of {self.robot} in {self.store.display_url}: {self.store.count(LIVE)} estimates, "
+            f"wear history of {self.robot} in {self._url()}: "
+            f"{self._count()} estimates, "
             f"{len(joints)} joint(s) reloaded; WARN when the alarm {self.cfg.alarm:g} may come within "
             f"{self.cfg.horizon_days:g} days, ERROR at it"
         )
         self._publish_diagnostics()
+
+    # ------------------------------------------------------------------ store plumbing
+    def _count(self) -> str:
+        if self.store is None or self.store_error is not None:
+            return "?"
+        try:
+            return str(self.store.count(LIVE))
+        except Exception as exc:  # a failed read never ends the node
+            self._fail("cannot read", exc)
+            return "?"
+
+    def _url(self) -> str:
+        return self.store.display_url if self.store is not None else str(self.params["db_url"])
+
+    def _fail(self, what: str, exc: Exception) -> None:
+        text = f"{what}: {exc}"
+        if self.store_error is None:
+            self.get_logger().error(f"history store failing: {text}; estimates are buffered and retried every "
+                                    f"{float(self.params['retry_period']):g} s")
+        self.store_error = text
+        self.store_failures += 1
+
+    def _open_store(self) -> bool:
+        if self.store is not None:
+            return True
+        try:
+            self.store = HistoryStore(str(self.params["db_url"]))
+        except JointwearError as exc:
+            self._fail("cannot open", exc)
+            return False
+        return True
+
+    def _known_joints(self) -> list[str]:
+        joints = set(self._cache) | {r.joint for r, _ in self.pending}
+        if self.store is not None:
+            try:
+                joints |= {j for r, j in self.store.joints(LIVE) if r == self.robot}
+            except Exception as exc:  # any driver error is a store failure
+                self._fail("cannot read", exc)
+        return sorted(joints)
+
+    def _load_spool(self) -> None:
+        """Estimates a previous run could not store (it was stopped while the store failed)."""
+        if not self.spool.is_file():
+            return
+        n = 0
+        try:
+            for line in self.spool.read_text(encoding="utf-8").splitlines():
+                try:
+                    rec = EstimateRecord(**json.loads(line))
+                    f = screen_record(rec, now=self._now(), cfg=self.screen_cfg)
+                    self.pending.append((rec, f))
+                    n += 1
+                except (ValueError, TypeError):
+                    continue  # a line cut by a crash
+        except OSError as exc:
+            self.get_logger().warning(f"cannot read the buffer {self.spool}: {exc}")
+        if n:
+            self.get_logger().info(f"{n} estimate(s) buffered by a previous run reloaded from {self.spool}")
+
+    def _spool_append(self, rec: EstimateRecord) -> None:
+        if not self._spool_ok:
+            return
+        try:
+            self.spool.parent.mkdir(parents=True, exist_ok=True)
+            with self.spool.open("a", encoding="utf-8") as fh:
+                fh.write(json.dumps(asdict(rec)) + "\n")  # NaN/inf as JSON's NaN/Infinity, read back by json
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError as exc:  # the disk the store failed on may be full too: memory only, said so
+            self._spool_ok = False
+            self.get_logger().error(f"cannot spool the buffer to {self.spool} ({exc}); buffered in memory only")
+
+    def _spool_clear(self) -> None:
+        try:
+            self.spool.unlink(missing_ok=True)
+        except OSError:
+            pass
+        self._spool_ok = True
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _flush(self) -> bool:
+        """Write every buffered estimate (accepted and refused) in one transaction; True when the buffer is empty."""
+        if not self.pending:
+            return True
+        if not self._open_store():
+            return False
+        assert self.store is not None
+        items = list(self.pending)
+        ok = [r for r, f in items if f is None]
+        bad = [f for _, f in items if f is not None]
+        try:
+            res = self.store.write_estimates(ok, now=self._now(), screen=self.screen_cfg, strict=False,
+                                             extra_refused=bad)
+        except Exception as exc:  # any driver error (disk full, connection lost) is a store failure
+            self._fail("cannot write", exc)
+            return False
+        for _ in items:
+            self.pending.popleft()
+        self._spool_clear()
+        self.stored += res.added
+        self.duplicates += res.duplicates
+        if self.store_error is not None:
+            self.get_logger().info(f"history store writable again: {len(items)} buffered estimate(s) written "
+                                   f"({res.added} new)")
+        self.store_error = None
+        return True
+
+    def _retry(self) -> None:
+        if self.store_error is None and not self.pending:
+            return
+        was = self.store_error
+        if self._flush() and was is not None:
+            for joint in self._known_joints():
+                self._update(joint)
+            self._publish_diagnostics()
 
     # ------------------------------------------------------------------ callbacks
     def _on_estimate(self, msg: WearEstimate) -> None:
         joint = str(msg.joint_name)
         t = stamp_to_seconds(msg.header.stamp)
         if t <= 0:
-            t = self.get_clock().now().nanoseconds * 1e-9
+            t = self._now()
         rec = EstimateRecord(
             robot=self.robot, joint=joint, cycle_id=int(msg.cycle_id), time=t, wear=float(msg.wear),
             wear_std=float(msg.wear_std), hardware_id=str(self.params["hardware_id"]) or f"{self.robot}/{joint}",
             temperature=float(msg.temperature_estimate), method=str(msg.method), params=str(self.params["params"]),
             software_version=__version__, bag="", analysis_version=LIVE, source="live",
         )
-        try:
-            n = self.store.add_estimates([rec])
-        except JointwearError as exc:
-            self.rejected += 1
-            self.get_logger().warning(f"WearEstimate of {joint!r} cycle {msg.cycle_id} not stored: {exc}")
+        f = screen_record(rec, now=self._now(), cfg=self.screen_cfg, not_before=self._newest.get(joint))
+        if f is not None and f.reason == "clock_jump" and self._stored_already(rec):
+            self.duplicates += 1  # the same estimate again (a bag played onto the graph, a restarted estimator)
             return
-        if n:
-            self.stored += 1
+        if f is not None:
+            self.rejected += 1
+            self.refused_by_reason[f.reason] = self.refused_by_reason.get(f.reason, 0) + 1
+            self._last_refusal[joint] = f
+            self.get_logger().warning(f"WearEstimate of {joint!r} cycle {msg.cycle_id} refused "
+                                      f"({f.reason}): {f.detail}; kept in the history's refused table")
         else:
-            self.duplicates += 1
+            self._newest[joint] = max(self._newest.get(joint, -math.inf), rec.time)
+            self._last_refusal[joint] = None
+        self.pending.append((rec, f))
+        if len(self.pending) > self._buffer_max:
+            lost, _ = self.pending.popleft()
+            self.dropped += 1
+            self.get_logger().error(f"buffer full ({self._buffer_max}): the oldest buffered estimate "
+                                    f"({lost.joint} cycle {lost.cycle_id}) is dropped")
+        if not self._flush():
+            self._spool_append(rec)  # the store failed: this one waits, on disk where possible
         self._update(joint)
+
+    def _stored_already(self, rec: EstimateRecord) -> bool:
+        recs = self._cache.get(rec.joint, ([], []))[0]
+        if any(r.cycle_id == rec.cycle_id and r.time_ns == rec.time_ns for r in recs):
+            return True
+        if self.store is None:
+            return False
+        try:
+            return self.store.has_estimate(rec)
+        except Exception:  # unknown while the store fails: screened as refused
+            return False
 
     def _on_maintenance(self, req: RecordMaintenance.Request,
                         res: RecordMaintenance.Response) -> RecordMaintenance.Response:
         robot = str(req.robot) or self.robot
         t = stamp_to_seconds(req.stamp)
         if t <= 0:
-            t = self.get_clock().now().nanoseconds * 1e-9
+            t = self._now()
         try:
+            if self.store is None and not self._open_store():
+                raise JointwearError(f"the history store is failing ({self.store_error}); try again later")
+            assert self.store is not None
             new = self.store.add_maintenance(MaintenanceEvent(robot, str(req.joint_name), t, str(req.kind),
-                                                              str(req.note)))
+                                                              str(req.note)),
+                                             now=self._now(), future_tolerance_s=self.screen_cfg.future_tolerance_s,
+                                             known_joints=self._known_joints() if robot == self.robot else None)
         except JointwearError as exc:
             res.success, res.message = False, str(exc)
             self.get_logger().warning(f"maintenance event refused: {exc}")
+            return res
+        except Exception as exc:  # the store failing is an answer, not a crash
+            res.success, res.message = False, f"the history store is failing: {exc}"
+            self.get_logger().warning(f"maintenance event not recorded: {res.message}")
             return res
         res.success = True
         res.message = (f"{req.kind} of {robot}/{req.joint_name} at {t:.3f} recorded" if new
@@ -174,32 +398,59 @@ class WearTrendNode(Node):
             self._update(str(req.joint_name))
         return res
 
+    def _on_parameters(self, changes: dict[str, Any]) -> str | None:
+        p = {**self.params, **changes}
+        cfg = TrendConfig(alarm=float(p["alarm_threshold"]), horizon_days=float(p["horizon_days"]),
+                          min_estimates=int(p["min_estimates"]))
+        scfg = replace(self.screen_cfg, future_tolerance_s=float(p["future_tolerance"]),
+                       clock_tolerance_s=float(p["clock_tolerance"]))
+        self.params.update(changes)
+        self.cfg, self.screen_cfg = cfg, scfg
+        for joint in self._known_joints():
+            self._update(joint)
+        return None
+
     # ------------------------------------------------------------------ trend
+    def _read(self, joint: str) -> tuple[list[EstimateRecord], list[MaintenanceEvent]] | None:
+        if self.store is None and not self._open_store():
+            return self._cache.get(joint)
+        assert self.store is not None
+        try:
+            hist, _refused = screened_history(self.store, LIVE, robot=self.robot, joint=joint, now=self._now(),
+                                              cfg=self.screen_cfg)
+        except Exception as exc:  # a failed read keeps the last history read
+            self._fail("cannot read", exc)
+            return self._cache.get(joint)
+        got = hist.get((self.robot, joint))
+        if got is not None:
+            self._cache[joint] = got
+            if got[0]:
+                self._newest[joint] = max(self._newest.get(joint, -math.inf), max(r.time for r in got[0]))
+        return got
+
     def _update(self, joint: str) -> None:
-        hist = self.store.history(LIVE, robot=self.robot, joint=joint).get((self.robot, joint))
-        if hist is None:
+        got = self._read(joint)
+        recs, events = got if got is not None else ([], [])
+        waiting = [r for r, f in self.pending if f is None and r.joint == joint]
+        if waiting:  # the newest estimates the store has not taken yet count: the level follows them
+            have = {(r.cycle_id, r.time_ns) for r in recs}
+            recs = sorted([*recs, *(r for r in waiting if (r.cycle_id, r.time_ns) not in have)],
+                          key=lambda r: (r.time, r.cycle_id))
+        if not recs:
+            if self._last_refusal.get(joint) is not None:
+                self._set_status(joint, None)
             return
-        recs, events = hist
         try:
             r = analyze_joint([x.time for x in recs], [x.wear for x in recs], [x.wear_std for x in recs],
                               cycle_ids=[x.cycle_id for x in recs], maintenance_times=[e.time for e in events],
                               cfg=self.cfg, robot=self.robot, joint=joint)
-        except JointwearError as exc:  # pragma: no cover - the store only holds checked records
+        except JointwearError as exc:  # pragma: no cover - only screened records get here
             self.get_logger().error(f"trend of {joint} failed: {exc}")
             return
         previous = self.trends.get(joint)
         self.trends[joint] = r
         self.trend_pub.publish(trend_to_msg(r, self.get_clock().now().to_msg(), self.cfg.horizon_days, self.cfg.alarm))
-        tta = r.time_to_alarm
-        values = [("robot", self.robot), ("wear", f"{r.wear:.3f}"), ("wear_std", f"{r.wear_std:.3f}"),
-                  ("rate_per_day", f"{r.rate_per_day:.4f}"), ("estimates", str(r.estimates)),
-                  ("estimates_total", str(r.estimates_total)),
-                  ("time_to_alarm_median", "nan" if tta is None else f"{tta.median:.1f}"),
-                  ("time_to_alarm_lo90", "nan" if tta is None else f"{tta.lo90:.1f}"),
-                  ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
-                  ("horizon_days", f"{self.cfg.horizon_days:g}")]
-        hw = str(self.params["hardware_id"]) or f"{self.robot}/{joint}"
-        self._statuses[joint] = diagnostic_status(f"wear_trend: {joint}", hw, r.level, r.message, values)
+        self._set_status(joint, r)
         if previous is None or previous.level != r.level:
             log = self.get_logger()
             text = f"{self.robot}/{joint}: {r.level_name}: {r.message}"
@@ -211,28 +462,72 @@ class WearTrendNode(Node):
                 log.info(text)
         self._publish_diagnostics()
 
+    def _set_status(self, joint: str, r: TrendResult | None) -> None:
+        hw = str(self.params["hardware_id"]) or f"{self.robot}/{joint}"
+        if r is None:
+            values = [("robot", self.robot)]
+            level, message = int(OK), "no usable wear estimate stored yet"
+        else:
+            tta = r.time_to_alarm
+            values = [("robot", self.robot), ("wear", f"{r.wear:.3f}"), ("wear_std", f"{r.wear_std:.3f}"),
+                      ("rate_per_day", f"{r.rate_per_day:.4f}"), ("estimates", str(r.estimates)),
+                      ("estimates_total", str(r.estimates_total)),
+                      ("time_to_alarm_median", "nan" if tta is None else f"{tta.median:.1f}"),
+                      ("time_to_alarm_lo90", "nan" if tta is None else f"{tta.lo90:.1f}"),
+                      ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
+                      ("horizon_days", f"{self.cfg.horizon_days:g}"),
+                      ("alarm_threshold", f"{self.cfg.alarm:g}")]
+            level, message = int(r.level), r.message
+        self._statuses[joint] = diagnostic_status(f"wear_trend: {joint}", hw, level, message, values)
+
     def _publish_diagnostics(self) -> None:
         arr = DiagnosticArray()
         arr.header.stamp = self.get_clock().now().to_msg()
+        counters = [("stored", str(self.stored)), ("duplicates", str(self.duplicates)),
+                    ("rejected", str(self.rejected)), ("buffered", str(len(self.pending))),
+                    ("dropped", str(self.dropped))]
+        counters += [(f"refused_{k}", str(self.refused_by_reason[k])) for k in REASONS if k in self.refused_by_reason]
+        failing = self.store_error
         statuses = []
         for j in sorted(self._statuses):  # the node's counters as of now, on every joint's status
             s = self._statuses[j]
-            statuses.append(diagnostic_status(s.name, s.hardware_id, s.level[0], s.message,
-                                    [(kv.key, kv.value) for kv in s.values]
-                                    + [("stored", str(self.stored)), ("duplicates", str(self.duplicates)),
-                                       ("rejected", str(self.rejected))]))
-        arr.status = statuses or [diagnostic_status(
-            "wear_trend: history", str(self.params["hardware_id"]) or self.robot, OK,
-            "no wear estimates stored yet", [("robot", self.robot)])]
+            level, message = s.level[0], s.message
+            last = self._last_refusal.get(j)
+            if last is not None:  # the joint's newest estimate is unusable: say so (the level stays the trend's)
+                message = f"newest estimate refused ({last.reason}: {last.detail}); {message}"
+            if failing is not None:
+                level = ERROR
+                waiting = sum(1 for r, f in self.pending if r.joint == j)
+                message = f"history store failing ({failing}); {waiting} estimate(s) of {j} buffered; {message}"
+            statuses.append(diagnostic_status(s.name, s.hardware_id, level, message,
+                                              [(kv.key, kv.value) for kv in s.values] + counters))
+        if failing is not None or not statuses:
+            statuses.append(diagnostic_status(
+                "wear_trend: history", str(self.params["hardware_id"]) or self.robot,
+                ERROR if failing is not None else OK,
+                (f"history store {self._url()} failing: {failing}; {len(self.pending)} estimate(s) buffered, "
+                 f"retried every {float(self.params['retry_period']):g} s") if failing is not None
+                else "no wear estimates stored yet",
+                [("robot", self.robot), ("db_url", self._url()), *counters]))
+        arr.status = statuses
         self.diag_pub.publish(arr)
 
     def on_shutdown(self) -> None:
-        """Called by ``run_node`` on exit: let reliable subscribers get the last trends; close the store."""
+        """Called by ``run_node`` on exit: a last attempt at the buffer (kept in its spool file otherwise); let
+        reliable subscribers get the last trends; close the store."""
+        if self.pending and not self._flush():
+            if not self._spool_ok or not self.spool.is_file():
+                self._spool_ok = True
+                self._spool_clear()
+                for rec, _ in self.pending:
+                    self._spool_append(rec)
+            self.get_logger().error(f"{len(self.pending)} estimate(s) not stored at exit: kept in {self.spool}")
         try:
             self.trend_pub.wait_for_all_acked(Duration(seconds=0.5))
         except Exception:  # pragma: no cover - best effort on the way out
             pass
-        self.store.close()
+        if self.store is not None:
+            self.store.close()
 
 
 def main(args: list[str] | None = None) -> int:

@@ -324,7 +324,7 @@ class _Context:
     def basis_size(self, x: Array) -> int:
         """Basis functions for a column: fewer when it has few distinct values (a per-cycle column, few cycles)."""
         distinct = np.unique(x).size
-        return int(np.clip(distinct // 4 + 1, 3, N_BASIS))
+        return int(np.clip(distinct // 4 + 1, 4, N_BASIS))  # a cubic B-spline basis needs 4 or more
 
     def f_test(self, d: Array, noise: float | None) -> float:
         """Nested F (or chi-square, with a noise floor) test of design ``d[0]`` against the speed shapes alone."""

@@ -153,6 +153,11 @@ class Diagnosis:
     support: float = 1.0
     #: Candidates of other columns that win some resamples: explanations the data does not rule out.
     alternatives: list[str] = field(default_factory=list)
+    #: Rows whose residual is far outside the robust noise floor (:func:`find_outliers`), found before any shape
+    #: is fitted: a shape that only isolates them is not a missing effect.
+    outliers: list[Outlier] = field(default_factory=list)
+    #: The suggestion owes most of its gain to the outlying rows (it isolates them): not ``found``.
+    isolates_outliers: bool = False
 
     @property
     def noise_floor(self) -> float:
@@ -181,8 +186,21 @@ class Diagnosis:
         return (f"noise floor {nf.value:.5f} ({nf.method}: p = {nf.p_value:.2g}, "
                 f"{'consistent' if nf.consistent else 'NOT consistent'} with the noise)")
 
+    def _outlier_text(self) -> str:
+        if not self.outliers:
+            return ""
+        rows = ", ".join(f"row {o.row} (cycle {o.cycle:g}, speed {o.speed:g}, {o.z:+.1f} std)" for o in self.outliers[:5])
+        more = f" and {len(self.outliers) - 5} more" if len(self.outliers) > 5 else ""
+        iso = (f" The best shape, {self.suggestion}, owes most of its gain to them: it isolates them, it is not a "
+               "missing effect." if self.isolates_outliers else "")
+        return (f" {len(self.outliers)} outlying observation(s): {rows}{more}; check them (a bad sample, a "
+                f"disturbed cycle) before trusting any shape.{iso}")
+
     def summary(self) -> str:
         """The verdict in a few sentences: what is missing, or that nothing is, or what stays unexplained."""
+        return self._summary() + self._outlier_text()
+
+    def _summary(self) -> str:
         b = self.best
         if self.verdict == "nothing_missing":
             top = self.variables[0] if self.variables else None
@@ -254,7 +272,82 @@ class Diagnosis:
             "support": self.support,
             "alternatives": list(self.alternatives),
             "candidates": [c.to_dict() for c in self.candidates],
+            "outliers": [o.to_dict() for o in self.outliers],
         }
+
+
+@dataclass(frozen=True)
+class Outlier:
+    """One observation far outside the robust noise floor: its row (0-based, table order), cycle, speed, residual
+    and standardised residual."""
+
+    row: int
+    cycle: float
+    speed: float
+    residual: float
+    z: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {"row": self.row, "cycle": self.cycle, "speed": self.speed, "residual": self.residual, "z": self.z}
+
+
+#: At most this share of the rows (and at least 2) are reported as outliers; more is structure, not outliers.
+OUTLIER_MAX_SHARE = 0.02
+#: A candidate that owes at least this share of its gain (residual sum of squares) to the outlying rows only
+#: isolates them: never ``found``.
+OUTLIER_GAIN_SHARE = 0.5
+
+
+def _gain_on(outliers: Sequence[Outlier], before: Array, after: Array) -> float:
+    """Share of the fall in the residual sum of squares from ``before`` to ``after`` made on the outlying rows."""
+    if not outliers:
+        return 0.0
+    b, a = np.asarray(before, dtype=float), np.asarray(after, dtype=float)
+    gain = float(np.sum(b**2) - np.sum(a**2))
+    if not gain > 0:
+        return 0.0
+    rows = [o.row for o in outliers]
+    return float(np.sum(b[rows] ** 2 - a[rows] ** 2)) / gain
+
+
+def find_outliers(table: ObservationTable, residuals: Array, alpha: float = 0.01) -> list[Outlier]:
+    """Rows whose residual is beyond the robust noise floor (a Bonferroni bound at ``alpha`` over the rows).
+
+    Each residual is standardised by its ``tau_f_std`` when the table has it; the scale is then re-estimated
+    robustly (1.4826 x the median absolute deviation), so a few gross rows cannot inflate it. Returns the
+    outlying rows, worst first; none when there are more than ``OUTLIER_MAX_SHARE`` of the rows (that is
+    structure a shape may explain, not outliers).
+
+    >>> import numpy as np
+    >>> from jointwear_ros.data.synth import synth_observations
+    >>> t = synth_observations(n_cycles=10, seed=1)
+    >>> r = np.random.default_rng(0).normal(0.0, 0.0015, len(t)); r[[7, 30]] += 0.02
+    >>> sorted(o.row for o in find_outliers(t, r))
+    [7, 30]
+    """
+    r = np.asarray(residuals, dtype=float)
+    n = r.size
+    if n < 8:
+        return []
+    z = r.copy()
+    if "tau_f_std" in table:
+        sd = np.asarray(table["tau_f_std"], dtype=float)
+        ok = np.isfinite(sd) & (sd > 0)
+        if ok.all():
+            z = r / sd
+    med = float(np.median(z))
+    scale = 1.4826 * float(np.median(np.abs(z - med)))
+    if not math.isfinite(scale) or scale <= 0:
+        return []
+    u = (z - med) / scale
+    bound = float(stats.norm.isf(alpha / (2 * n)))
+    rows = np.flatnonzero(np.abs(u) > bound)
+    if rows.size == 0 or rows.size > max(2, int(OUTLIER_MAX_SHARE * n)):
+        return []
+    cyc = np.asarray(table["cycle"], dtype=float) if "cycle" in table else np.full(n, np.nan)
+    spd = np.asarray(table.speed, dtype=float)
+    out = [Outlier(int(i), float(cyc[i]), float(spd[i]), float(r[i]), float(u[i])) for i in rows]
+    return sorted(out, key=lambda o: -abs(o.z))
 
 
 #: Evaluation budget of each start of a candidate fit. Candidates that are nearly
@@ -475,6 +568,7 @@ def diagnose(
         base = fit_model(base.model, table, base.params, folds=folds, n_starts=1)
     noise = noise_test(table, base.residuals, base.n_free, alpha=alpha / 2)
     nf = noise.value
+    outliers = find_outliers(table, base.residuals, alpha=alpha)  # before any shape is fitted
     variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf,
                                     tangent=_tangent(base, table), components=_components(base, table))
     if mode not in ("guided", "full"):
@@ -529,7 +623,7 @@ def diagnose(
     results = _prefer_simple(results)
     diag = Diagnosis(
         model=base.spec, n=n, rmse=base.rmse, cv_rmse=base.cv_rmse, noise=noise, alpha=alpha,
-        candidates=results, base=base, variables=variables,
+        candidates=results, base=base, variables=variables, outliers=outliers,
     )
     sig_vars = [v for v in variables if v.significant]
     best = diag.best
@@ -560,7 +654,11 @@ def diagnose(
     # a wrong "found" is worse than "unexplained": the data must pick the best term's column(s) clearly
     # over every other explanation, cycle resample after cycle resample
     stable = diag.support >= STABLE_SUPPORT
-    diag.verdict = "found" if at_floor and not left and diag.agrees and stable else "unexplained"
+    # outlying rows first: a shape whose gain comes mostly from a few gross rows (a narrow step isolating them)
+    # is not a missing effect
+    diag.isolates_outliers = _gain_on(outliers, base.residuals, best.fit.residuals) >= OUTLIER_GAIN_SHARE
+    diag.verdict = ("found" if at_floor and not left and diag.agrees and stable and not diag.isolates_outliers
+                    else "unexplained")
     return diag
 
 
