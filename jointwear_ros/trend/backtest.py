@@ -223,7 +223,8 @@ def line_limit(t_days: Array, y: Array, r: Array, cfg: TrendConfig) -> Array:
 
 def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, span_days: float,
                       max_true_days: float = 365.0, min_estimates: int = 0,
-                      prior: RatePrior | None = None) -> dict[str, dict[str, Any]]:
+                      prior: RatePrior | None = None,
+                      backtests: Sequence[NightlyBacktest] | None = None) -> dict[str, dict[str, Any]]:
     """Per family (``j.profile``) and ``"all"``: the calibration figures of issue 23.
 
     Scored nights: before the true crossing, with a true time to alarm of 1 to ``max_true_days`` days and at
@@ -234,11 +235,12 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
     the span plus twice the horizon, and ``early_warn_nights``: WARN or ERROR while the true time to alarm of
     the night's wear law is more than twice the horizon away (a step joint warned before its unrecorded
     replacement is not a false warning); ``false_error_nights``: ERROR while the true wear is more than 1
-    below the alarm; lead of the first WARN before the true crossing (median, days).
+    below the alarm; lead of the first WARN before the true crossing (median, days). ``backtests``: the
+    joints' :func:`backtest_joint` results when already run (to score them twice).
     """
     acc: dict[str, dict[str, Any]] = {}
-    for j in joints:
-        b = backtest_joint(j, cfg, epoch0, prior)
+    for i, j in enumerate(joints):
+        b = backtests[i] if backtests is not None else backtest_joint(j, cfg, epoch0, prior)
         for key in (j.profile, "all"):
             a = acc.setdefault(key, {"joints": 0, "nights": 0, "scored": 0, "intervals": 0, "covered": 0,
                                      "unbounded": 0, "rel": [], "line": [], "never_nights": 0, "false_nights": 0,
