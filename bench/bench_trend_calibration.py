@@ -93,6 +93,8 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
             r = analyze_joint(t, w, s, cfg=AFTER, prior=pr if use else None)
             d_last = (t[-1] - EPOCH0) / DAY
             true = j.segment_crossing(d_last) - d_last
+            if not 1.0 <= true <= 365.0:
+                continue
             n += 1
             tta = r.time_to_alarm
             if tta is not None and tta.lo90 <= true <= tta.hi90:

@@ -3,7 +3,9 @@
 JSON (``--json``): ``{"joints": [{"robot", "joint", "estimates", "wear",
 "wear_std", "rate_per_day", "time_to_alarm_days": {"median", "lo90", "hi90"}
 or null, "level", ...}]}``, times in days from the joint's last estimate (a
-bound beyond the prediction horizon is null). ``--plot DIR`` writes one PNG
+bound beyond the prediction horizon is null; ``time_to_alarm_days`` also holds
+``model_weights`` and ``unbounded_reason``). ``--fleet-prior``: each joint's
+prior from its siblings (off by default). ``--plot DIR`` writes one PNG
 per joint, ``--html DIR`` a page ranking the joints by time to alarm.
 """
 
@@ -31,6 +33,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--analysis-version", default="live", help="which estimates (default live)")
     p.add_argument("--horizon", default="30", help="WARN horizon in days (default 30)")
     p.add_argument("--alarm", default="35", help="alarm wear level (default 35)")
+    p.add_argument("--fleet-prior", action="store_true",
+                   help="each joint's prior from its siblings in the store (same parameter set and joint name, "
+                        "at least 5; off by default)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--plot", default=None, metavar="DIR", help="write one PNG per joint into DIR")
     p.add_argument("--html", default=None, metavar="DIR", help="write DIR/index.html ranking the joints (and PNGs)")
@@ -61,13 +66,19 @@ def cmd_trend(args: argparse.Namespace) -> int:
     if not hist and (args.robot or args.joint):
         raise UsageError(f"no estimates of robot {args.robot or '*'} joint {args.joint or '*'} "
                          f"(analysis version {args.analysis_version!r}) in {args.db}")
+    priors = {}
+    if args.fleet_prior:
+        from ..history.trends import fleet_priors
+
+        with HistoryStore(url, create=False) as store:
+            priors = fleet_priors(store.history(args.analysis_version), cfg)
     results = []
     raw = {}
     draw = args.plot is not None or args.html is not None
     for key, (recs, events) in sorted(hist.items()):
         r = analyze_joint([x.time for x in recs], [x.wear for x in recs], [x.wear_std for x in recs],
                           cycle_ids=[x.cycle_id for x in recs], maintenance_times=[e.time for e in events],
-                          cfg=cfg, robot=key[0], joint=key[1], smooth=draw)
+                          cfg=cfg, robot=key[0], joint=key[1], smooth=draw, prior=priors.get(key))
         results.append(r)
         raw[key] = (recs, events)
     images: dict[tuple[str, str], str] = {}

@@ -100,6 +100,7 @@ __all__ = [
     "FilterOutput",
     "Member",
     "RatePrior",
+    "SiblingFit",
     "TimeToAlarm",
     "TrendConfig",
     "TrendResult",
@@ -109,12 +110,15 @@ __all__ = [
     "collapse_revisions",
     "crossing_cdf",
     "crossing_quantiles",
+    "current_segment",
     "filter_bank",
     "fleet_prior",
     "forecast_band",
     "kalman_llt",
     "last_segment",
+    "pool_prior",
     "rts_smooth",
+    "sibling_fit",
     "trend_states",
     "unbounded_reason",
 ]
@@ -157,9 +161,9 @@ class TrendConfig:
     horizon_days: float = 30.0
     accel_noise: tuple[float, ...] = (1e-4, 1e-3)
     jerk_noise: tuple[float, ...] = (1e-8,)
-    efold_days: tuple[float, ...] = (480.0, 240.0, 160.0, 120.0, 90.0, 60.0, 45.0)
-    prior_line: float = 0.45
-    prior_accelerated: float = 0.35
+    efold_days: tuple[float, ...] = (160.0, 120.0, 90.0, 60.0, 45.0)
+    prior_line: float = 0.6
+    prior_accelerated: float = 0.3
     step_rate_per_day: float = 1.0 / 730.0
     level_prior_mean: float = 50.0
     level_prior_std: float = 30.0
@@ -749,7 +753,7 @@ def last_segment(times: Array, maintenance_times: Sequence[float]) -> tuple[int,
 # ---------------------------------------------------------------------------- one joint
 
 
-def _clean(times: Any, wear: Any, wear_std: Any, cycle_ids: Any, maintenance_times: Sequence[float],
+def current_segment(times: Any, wear: Any, wear_std: Any, cycle_ids: Any, maintenance_times: Sequence[float],
            cfg: TrendConfig, where: str) -> tuple[Array, Array, Array, int, float, int]:
     """Checked, revision-collapsed estimates of the current segment: (t, w, s, total, segment start, segments)."""
     t = np.asarray(times, float)
@@ -786,7 +790,7 @@ def analyze_joint(
 ) -> TrendResult:
     """The trend of one joint from its estimates (times in seconds since the epoch); ``prior``: a fleet prior."""
     cfg = cfg or TrendConfig()
-    t, w, s, total, seg_start, segs = _clean(times, wear, wear_std, cycle_ids, maintenance_times, cfg,
+    t, w, s, total, seg_start, segs = current_segment(times, wear, wear_std, cycle_ids, maintenance_times, cfg,
                                              f"{robot}/{joint}")
     n = len(t)
     if n == 0:
@@ -856,35 +860,60 @@ def _days(x: float) -> str:
 # ---------------------------------------------------------------------------- the fleet as a prior
 
 
-def fleet_prior(segments: Sequence[tuple[Array, Array, Array]], cfg: TrendConfig | None = None, *,
-                min_joints: int = 5, source: str = "fleet") -> RatePrior | None:
-    """Empirical-Bayes prior from sibling joints: the rates' distribution and the members' weights.
+@dataclass(frozen=True)
+class SiblingFit:
+    """What one sibling joint contributes to a fleet prior: its current rate, the rate's posterior variance and
+    its members' posterior weights (under the default prior)."""
 
-    ``segments``: per sibling, its current segment's (times in days, wear, wear std). Each sibling with at
-    least ``cfg.min_estimates`` estimates is fitted with the default prior; the fleet's rate distribution is
-    estimated by the method of moments (the spread of the siblings' rates less their mean posterior variance,
-    DerSimonian-Laird), and the member weights are the siblings' mean posterior weights, half-mixed with the
-    default prior weights so that no member is ruled out by the fleet. None when fewer than ``min_joints``
-    siblings have a trend.
+    rate: float
+    rate_var: float
+    weights: Array
 
-    The prior's rate std is at least 0.01 wear/day and at most ``slope_prior_std``.
+
+def sibling_fit(t_days: Array, y: Array, r: Array, cfg: TrendConfig | None = None) -> SiblingFit | None:
+    """Fit one sibling's current segment (times in days) with the default prior; None below ``min_estimates``."""
+    cfg = cfg or TrendConfig()
+    t = np.asarray(t_days, float)
+    if len(t) < cfg.min_estimates:
+        return None
+    st = trend_states(t - t[0], y, r, cfg, rows=np.array([len(t) - 1]))
+    return SiblingFit(float(st.rate[0]), float(st.rate_std[0]) ** 2, st.weights[:, 0].copy())
+
+
+def pool_prior(fits: Sequence[SiblingFit | None], cfg: TrendConfig | None = None, *, min_joints: int = 5,
+               source: str = "fleet") -> RatePrior | None:
+    """Empirical-Bayes prior from sibling fits: the rates' distribution and the members' weights.
+
+    The fleet's rate distribution ``N(mu, s^2)`` by the method of moments (the spread of the siblings' rates
+    less their mean posterior variance, DerSimonian-Laird), ``s`` clipped to [0.01, ``slope_prior_std``]; the
+    member weights are the siblings' mean posterior weights half-mixed with the default prior weights, so that
+    no member is ruled out by the fleet. None with fewer than ``min_joints`` (>= 2) siblings.
     """
     cfg = cfg or TrendConfig()
-    rates, rvars, weights = [], [], []
-    for t, y, r in segments:
-        t = np.asarray(t, float)
-        if len(t) < cfg.min_estimates:
-            continue
-        st = trend_states(t - t[0], y, r, cfg, rows=np.array([len(t) - 1]))
-        rates.append(float(st.rate[0]))
-        rvars.append(float(st.rate_std[0]) ** 2)
-        weights.append(st.weights[:, 0])
-    if len(rates) < max(int(min_joints), 2):
+    ok = [f for f in fits if f is not None]
+    if len(ok) < max(int(min_joints), 2):
         return None
-    ra, rv = np.array(rates), np.array(rvars)
+    ra, rv = np.array([f.rate for f in ok]), np.array([f.rate_var for f in ok])
     mu = float(ra.mean())
     tau2 = float(ra.var(ddof=1) - rv.mean())
     sd = float(np.clip(math.sqrt(max(tau2, 0.0)), 0.01, cfg.slope_prior_std))
-    w = 0.5 * np.mean(weights, axis=0) + 0.5 * _default_weights(cfg)
+    w = 0.5 * np.mean([f.weights for f in ok], axis=0) + 0.5 * _default_weights(cfg)
     return RatePrior(mean=mu, std=sd, weights=tuple(float(x) for x in w / w.sum()), source=source,
-                     joints=len(rates))
+                     joints=len(ok))
+
+
+def fleet_prior(segments: Sequence[tuple[Array, Array, Array]], cfg: TrendConfig | None = None, *,
+                min_joints: int = 5, source: str = "fleet") -> RatePrior | None:
+    """The prior a joint gets from its siblings' current segments ``(times in days, wear, wear std)``:
+    :func:`sibling_fit` of each, :func:`pool_prior` of them.
+
+    >>> import numpy as np
+    >>> t = np.arange(40.0)
+    >>> sibs = [(t, 5 + r * t, np.full(40, 0.5)) for r in (0.10, 0.12, 0.14, 0.16, 0.18)]
+    >>> p = fleet_prior(sibs)
+    >>> round(p.mean, 2), p.joints
+    (0.14, 5)
+    """
+    cfg = cfg or TrendConfig()
+    return pool_prior([sibling_fit(t, y, r, cfg) for t, y, r in segments], cfg, min_joints=min_joints,
+                      source=source)
