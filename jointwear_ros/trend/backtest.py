@@ -197,12 +197,12 @@ def score_at_lead(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float,
 def line_limit(t_days: Array, y: Array, r: Array, cfg: TrendConfig) -> Array:
     """The straight-line limit: per night, the 90 % interval and median (n, 3) of the time to alarm that a
     straight line fitted (weighted least squares, flat prior) to all the estimates so far gives."""
-    from .core import crossing_cdf, crossing_quantiles, _tau_grid
+    from .core import crossing_cdf, crossing_quantiles, tau_grid
 
     t = np.asarray(t_days, float)
     w = 1.0 / np.asarray(r, float) ** 2
     out = np.full((len(t), 3), np.inf)
-    tau = _tau_grid(float(cfg.max_horizon_days))
+    tau = tau_grid(float(cfg.max_horizon_days))
     C = np.cumsum(np.stack([w, w * t, w * t * t, w * y, w * t * y]), axis=1)
     for n in range(2, len(t)):
         sw, st, stt, sy, sty = C[:, n]

@@ -119,6 +119,7 @@ __all__ = [
     "pool_prior",
     "rts_smooth",
     "sibling_fit",
+    "tau_grid",
     "trend_states",
     "unbounded_reason",
 ]
@@ -525,7 +526,8 @@ def _steady_at(t: Array, y: Array, r: Array, n: int, efold: float, cfg: TrendCon
 _GRID_CACHE: dict[float, Array] = {}
 
 
-def _tau_grid(max_days: float) -> Array:
+def tau_grid(max_days: float) -> Array:
+    """The grid of days ahead on which crossing probabilities are evaluated (0, then 700 log-spaced to the horizon)."""
     g = _GRID_CACHE.get(max_days)
     if g is None:
         g = np.concatenate([[0.0], np.geomspace(0.01, max_days, 700)])
@@ -633,7 +635,7 @@ def trend_states(t_days: Array, y: Array, r: Array, cfg: TrendConfig, rows: Arra
     logprior = np.log(np.maximum(pr.member_weights(cfg), 1e-300))
     bank = filter_bank(t, y, r, cfg, pr)
     adaptive = [i for i, m in enumerate(members) if m.kind == "adaptive"]
-    tau = _tau_grid(float(cfg.max_horizon_days))
+    tau = tau_grid(float(cfg.max_horizon_days))
     bases = [forecast_basis(m, tau, cfg) for m in members]
     M, N = len(members), len(idx)
     W = np.zeros((M, N))
@@ -886,7 +888,7 @@ def pool_prior(fits: Sequence[SiblingFit | None], cfg: TrendConfig | None = None
 
     The fleet's rate distribution ``N(mu, s^2)`` by the method of moments (the spread of the siblings' rates
     less their mean posterior variance, DerSimonian-Laird), ``s`` clipped to [0.01, ``slope_prior_std``]; the
-    member weights are the siblings' mean posterior weights half-mixed with the default prior weights, so that
+    member weights are the siblings' mean posterior weights mixed 4:1 with the default prior weights, so that
     no member is ruled out by the fleet. None with fewer than ``min_joints`` (>= 2) siblings.
     """
     cfg = cfg or TrendConfig()
@@ -897,7 +899,7 @@ def pool_prior(fits: Sequence[SiblingFit | None], cfg: TrendConfig | None = None
     mu = float(ra.mean())
     tau2 = float(ra.var(ddof=1) - rv.mean())
     sd = float(np.clip(math.sqrt(max(tau2, 0.0)), 0.01, cfg.slope_prior_std))
-    w = 0.5 * np.mean([f.weights for f in ok], axis=0) + 0.5 * _default_weights(cfg)
+    w = 0.8 * np.mean([f.weights for f in ok], axis=0) + 0.2 * _default_weights(cfg)
     return RatePrior(mean=mu, std=sd, weights=tuple(float(x) for x in w / w.sum()), source=source,
                      joints=len(ok))
 

@@ -133,7 +133,9 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
                   for k in names]
         axw.barh(names, vals, color=colors)
         for i, v in enumerate(vals):
-            axw.text(min(v, 0.8) + 0.02, i, f"{100 * v:.0f} %", va="center", fontsize=7)
+            inside = v > 0.75
+            axw.text(v - 0.02 if inside else v + 0.02, i, f"{100 * v:.0f} %", va="center", fontsize=7,
+                     ha="right" if inside else "left", color="white" if inside else "black")
         axw.set_xlim(0, 1.0)
         axw.set_xlabel("weight (evidence × prior)")
         axw.set_title("models of the trend", fontsize=9)
