@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_trend_core import T0, _series  # one synthetic series helper for both trend test modules
 
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.trend import (
@@ -26,14 +27,6 @@ from jointwear_ros.trend import (
 from jointwear_ros.trend.backtest import backtest_joint, line_limit, score_calibration
 from jointwear_ros.trend.core import unbounded_reason
 from jointwear_ros.trend.families import EPOCH0, FAMILIES, make_family
-
-T0 = 1.7e9
-
-
-def _series(n, rate, w0=10.0, std=0.85, seed=0):
-    rng = np.random.default_rng(seed)
-    t = T0 + DAY * np.arange(n)
-    return t, w0 + rate * np.arange(n) + rng.normal(0, std, n), np.full(n, std)
 
 
 def _issue_linear():
@@ -71,7 +64,7 @@ def test_interval_quantiles_are_the_5_50_95_points_of_the_mixture():
     cfg = TrendConfig()
     st_ = trend_states((t - t[0]) / DAY, w, s, cfg, rows=np.array([len(t) - 1]), keep=True)
     lo, med, hi = st_.quantiles[0]
-    from jointwear_ros.trend.core import _crossing, tau_grid, forecast_basis
+    from jointwear_ros.trend.core import _crossing, forecast_basis, tau_grid
 
     tau = tau_grid(cfg.max_horizon_days)
     members = bank_members(cfg)

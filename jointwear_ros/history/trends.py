@@ -38,8 +38,8 @@ def fleet_priors(hist: History, cfg: TrendConfig | None = None,
     for key in hist:
         jt = types[key]
         prior = None
-        for level, same in (("type", lambda k: types[k] == jt), ("parameter set", lambda k: types[k][0] == jt[0])):
-            sibs = [fits[k] for k in hist if k != key and same(k)]
+        for level, n_key in (("type", 2), ("parameter set", 1)):
+            sibs = [fits[k] for k in hist if k != key and types[k][:n_key] == jt[:n_key]]
             label = f"{level} {jt[0] or '(none)'}" + (f"/{jt[1]}" if level == "type" else "")
             prior = pool_prior(sibs, cfg, min_joints=min_joints, source=f"fleet: {label}")
             if prior is not None:

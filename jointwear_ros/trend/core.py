@@ -476,9 +476,9 @@ def _regression_evidence(S: Array, ua: Array, upa: Array, cfg: TrendConfig, pr: 
     quad = b1 * c0 + b2 * c1
     logdet_v = math.log(cfg.level_prior_std ** 2) + math.log(pr.std ** 2) - 2.0 * np.log(upa)
     ev = -0.5 * (sc + syy + pl * ml * ml + ps * ms * ms - quad + logdet_v + np.log(det))
-    mean = np.empty(c0.shape + (2,))
+    mean = np.empty((*c0.shape, 2))
     mean[..., 0], mean[..., 1] = c0, c1
-    cov = np.empty(c0.shape + (2, 2))
+    cov = np.empty((*c0.shape, 2, 2))
     cov[..., 0, 0], cov[..., 0, 1], cov[..., 1, 0], cov[..., 1, 1] = a22 / det, -a12 / det, -a12 / det, a11 / det
     return ev, mean, cov
 

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["EPOCH0", "FAMILIES", "CalibrationJoint", "make_family", "make_calibration_set"]
+__all__ = ["EPOCH0", "FAMILIES", "CalibrationJoint", "make_calibration_set", "make_family"]
 
 Array = NDArray[np.float64]
 DAY = 86400.0
@@ -88,10 +88,11 @@ class CalibrationJoint:
 
     def segment_crossing(self, day: float, alarm: float = 35.0, max_days: float = 20000.0) -> float:
         """The day the wear law of ``day``'s segment reaches ``alarm`` (``day`` when there already; inf never)."""
-        if math.isfinite(self.step_day) and day < self.step_day:
-            law = self._law
-        else:
-            law = self.true_wear
+        before = math.isfinite(self.step_day) and day < self.step_day
+
+        def law(d: Array) -> Array:
+            return self._law(d) if before else self.true_wear(d)
+
         if float(law(np.array(day))) >= alarm:
             return day
         lo, hi = day, day + max_days
