@@ -58,6 +58,24 @@ LINEAR_EXPECTED = (46.068, 49.919, 54.355)
 WARN_EXPECTED = (8.457, 9.843, 11.311)
 
 
+def test_adaptive_members_alone_give_their_exact_interval():
+    """Pins the random-walk and quadratic forecasts (q tau^3/3, q tau^5/20): issue 13's bank on the WARN joint."""
+    cfg = TrendConfig(efold_days=(), prior_line=0.0, prior_accelerated=0.0, step_rate_per_day=0.0)
+    q = analyze_joint(*_series(90, 0.25, w0=10.0), cfg=cfg).time_to_alarm
+    assert (q.lo90, q.median, q.hi90) == pytest.approx((6.295, 10.080, 15.478), abs=0.02)
+    assert q.model_weights["line"] == 0.0
+
+
+def test_accelerated_member_alone_gives_its_exact_interval_around_the_truth():
+    """Pins the accelerated shape's forecast basis e (exp(tau / e) - 1): the paper's law, e = 90 d, 100 nights."""
+    rng = np.random.default_rng(4)
+    d = np.arange(100.0)
+    w = 3 + 0.05 * 90 * np.expm1(d / 90) + rng.normal(0, 0.85, 100)
+    cfg = TrendConfig(efold_days=(90.0,), accel_noise=(), jerk_noise=(), prior_line=0.0, prior_accelerated=1.0)
+    q = analyze_joint(T0 + DAY * d, w, np.full(100, 0.85), cfg=cfg).time_to_alarm
+    assert (q.lo90, q.median, q.hi90) == pytest.approx((85.573, 89.356, 93.331), abs=0.02)  # truth 89.39
+
+
 def test_interval_quantiles_are_the_5_50_95_points_of_the_mixture():
     """A planted change of the quantile levels (e.g. 10 / 90 %) moves the interval: the mixture's own CDF says."""
     t, w, s = _issue_linear()

@@ -120,9 +120,9 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
         pp["covered"] += int(inside.sum())
         pp["intervals"] += int(has.sum())
         fin = has & np.isfinite(b.hi90)
-        widths.extend((b.hi90 - b.lo90)[fin].tolist())
+        widths.extend((b.hi90[fin] - b.lo90[fin]).tolist())
         fin &= b.true_tta >= 1.0
-        rel_widths.extend(((b.hi90 - b.lo90)[fin] / b.true_tta[fin]).tolist())
+        rel_widths.extend(((b.hi90[fin] - b.lo90[fin]) / b.true_tta[fin]).tolist())
         grid = np.linspace(0.0, span_days + 2 * cfg.horizon_days, 400)
         if float(np.max(j.true_wear(grid))) < cfg.alarm:
             never_nights += len(b.days)
@@ -252,13 +252,14 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
               & (b.count >= min_estimates))
         has = ok & b.growth & np.isfinite(b.lo90)
         inside = has & (b.lo90 <= b.true_tta) & (b.true_tta <= b.hi90)
-        rel = ((b.hi90 - b.lo90) / b.true_tta)[has]
+        rel = (b.hi90[has] - b.lo90[has]) / b.true_tta[has]  # an unbounded interval: inf
         line_ratio: list[float] = []
         if j.profile == "linear":
             lim = line_limit((np.asarray(j.times) - j.times[0]) / DAY, np.asarray(j.wear), np.asarray(j.wear_std), cfg)
-            lw = lim[:, 2] - lim[:, 0]
+            with np.errstate(invalid="ignore"):  # nights without a line interval: inf - inf
+                lw = lim[:, 2] - lim[:, 0]
             fin = has & np.isfinite(lw) & (lw > 0)
-            line_ratio = ((b.hi90 - b.lo90)[fin] / lw[fin]).tolist()
+            line_ratio = ((b.hi90[fin] - b.lo90[fin]) / lw[fin]).tolist()
         grid = np.linspace(0.0, span_days + 2 * cfg.horizon_days, 400)
         never = float(np.max(j.true_wear(grid))) < cfg.alarm
         false_error = int(((b.level >= ERROR) & (b.true_wear < cfg.alarm - 1.0)).sum())
