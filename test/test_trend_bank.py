@@ -287,3 +287,61 @@ def test_calibration_backtest_keeps_coverage_narrows_and_never_warns_a_flat_join
     assert s["linear"]["median_width_over_line"] <= 2.0, s["linear"]
     assert s["flat"]["flat_warn_nights"] == 0 and s["all"]["false_error_nights"] == 0
     assert s["step"]["early_warn_per_1000"] <= 5.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(-0.5, 1.0), st.floats(1e-8, 0.09)), min_size=2, max_size=30))
+def test_pooled_prior_is_a_proper_prior_within_its_clips(rows):
+    from jointwear_ros.trend import SiblingFit
+
+    cfg = TrendConfig()
+    m = len(bank_members(cfg))
+    fits = [SiblingFit(r, v, np.full(m, 1.0 / m)) for r, v in rows]
+    pr = pool_prior(fits, cfg, min_joints=2)
+    assert pr is not None and pr.joints == len(rows)
+    assert 0.01 <= pr.std <= cfg.slope_prior_std
+    assert min(r for r, _ in rows) - 1e-12 <= pr.mean <= max(r for r, _ in rows) + 1e-12
+    assert sum(pr.weights) == pytest.approx(1.0) and min(pr.weights) > 0
+
+
+def test_fleet_priors_fall_back_from_the_joint_type_to_the_parameter_set():
+    from types import SimpleNamespace
+
+    from jointwear_ros.history.trends import fleet_priors
+
+    hist = {}
+    for i, (t, w, s) in enumerate(_siblings(7, seed=1)):
+        name = "joint_1" if i < 3 else f"joint_{i}"  # three joint_1s (too few alone), seven of one parameter set
+        recs = [SimpleNamespace(time=T0 + DAY * t[k], wear=float(w[k]), wear_std=float(s[k]), cycle_id=k + 1,
+                                params="ref-2011r") for k in range(len(t))]
+        hist[(f"robot_{i}", name)] = (recs, [])
+    pri = fleet_priors(hist, TrendConfig())
+    assert pri[("robot_0", "joint_1")].source == "fleet: parameter set ref-2011r"
+    assert all(p is not None and p.joints == 6 for p in pri.values())  # leave-one-out: never its own sibling
+    assert fleet_priors(hist, TrendConfig(), min_joints=8) == dict.fromkeys(hist)
+
+
+def test_trend_plot_shows_the_interval_and_every_models_weight(tmp_path, monkeypatch):
+    import jointwear_ros.plots as plots
+    from jointwear_ros.trend.report import plot_trend
+
+    seen = {}
+    real = plots.save_figure
+
+    def keep(fig, path):
+        seen["fig"] = fig
+        labels = [t.get_text() for t in fig.axes[1].get_yticklabels()]
+        seen["labels"] = labels
+        seen["legend"] = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+        return real(fig, path)
+
+    monkeypatch.setattr(plots, "save_figure", keep)
+    t, w, s = _series(120, 0.2, w0=5.0, seed=5)
+    w[70:] = 2.0 + 0.15 * np.arange(50) + np.random.default_rng(9).normal(0, 0.85, 50)
+    r = analyze_joint(t, w, s, robot="cell_7", joint="joint_3")
+    out = plot_trend(tmp_path / "p.png", r, TrendConfig(), t, w, s)
+    assert out.stat().st_size > 10_000
+    assert sorted(seen["labels"]) == sorted(m.name for m in bank_members(TrendConfig()))
+    assert "alarm time 90 %" in seen["legend"] and "predicted crossing (median)" in seen["legend"]
+    assert any(x.startswith("step without a maintenance event") for x in seen["legend"])
+    assert any(x.startswith("fit: line after the step") for x in seen["legend"])
