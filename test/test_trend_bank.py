@@ -113,6 +113,7 @@ def test_warn_exactly_when_the_lower_bound_is_within_the_horizon_on_both_sides()
     lo = analyze_joint(t, w, s).time_to_alarm.lo90
     assert analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo + 0.05)).level_name == "WARN"
     assert analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo - 0.05)).level_name == "OK"
+    assert analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo)).level_name == "WARN"  # "within": <=
 
 
 def test_error_exactly_when_the_wear_is_at_or_above_the_alarm_on_both_sides():
@@ -122,6 +123,7 @@ def test_error_exactly_when_the_wear_is_at_or_above_the_alarm_on_both_sides():
     below = analyze_joint(t, w, s, cfg=TrendConfig(alarm=wear + 0.01))
     assert above.level_name == "ERROR" and above.time_to_alarm.median == 0.0
     assert below.level_name != "ERROR" and below.time_to_alarm.median > 0.0
+    assert analyze_joint(t, w, s, cfg=TrendConfig(alarm=wear)).level_name == "ERROR"  # "at or above": >=
 
 
 def test_no_warn_without_growth_even_when_the_lower_bound_would_be_near():
