@@ -40,6 +40,16 @@ Array = npt.NDArray[np.float64]
 _SKIP = ("tau_f", "tau_f_std", "tau_plus", "tau_minus")
 
 
+def _units(table: ObservationTable) -> tuple[str, str]:
+    """Axis units: (torque unit, speed axis label). The paper's (normalized, motor side) only for data at its scale."""
+    from .scales import DataScales
+
+    s = DataScales.from_table(table)
+    if s.identity:
+        return "normalized", "speed v, motor side [rad/s]"
+    return "unit of tau_f", "speed v [rad/s]"
+
+
 def residual_columns(table: ObservationTable) -> list[str]:
     """Columns to plot residuals against: speed first, then every other non-constant numeric column."""
     cols = ["speed"] + [c for c in table.names if c not in _SKIP and c != "speed"]
@@ -53,8 +63,9 @@ def plot_fit(path: Path, table: ObservationTable, fit: FitResult, title: str = "
     v = table.speed
     ax.plot(v, table.tau_f, "o", ms=3, color="0.6", label="observed tau_f")
     ax.plot(v, fit.fitted, ".", ms=4, color="C3", label=f"fitted ({fit.n_free} params)")
-    ax.set_xlabel("speed v, motor side [rad/s]")
-    ax.set_ylabel("friction torque [normalized]")
+    tu, side = _units(table)
+    ax.set_xlabel(side)
+    ax.set_ylabel(f"friction torque [{tu}]")
     ax.set_title(title or f"fit: RMSE {fit.rmse:.5f}, CV RMSE {fit.cv_rmse:.5f}")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
@@ -69,7 +80,7 @@ def plot_fit(path: Path, table: ObservationTable, fit: FitResult, title: str = "
     med = ", ".join(f"{c}={float(np.median(table[c])):.3g}" for c in inputs if c != "speed")
     axc.set_title(f"components at the median inputs ({med})" if med else "components", fontsize=9)
     axc.axhline(0.0, color="grey", lw=0.6)
-    axc.set_xlabel("speed v, motor side [rad/s]")
+    axc.set_xlabel(side)
     axc.grid(alpha=0.3)
     axc.legend(fontsize=7, ncol=2)
     return save_figure(fig, path)
@@ -92,7 +103,7 @@ def plot_residuals(
             ax.axhspan(-nf, nf, color="0.85", zorder=0, label=f"noise floor ±{nf:.4f}")
         ax.axhline(0.0, color="grey", lw=0.6)
         ax.set_xlabel(c)
-        ax.set_ylabel("residual [normalized]")
+        ax.set_ylabel(f"residual [{_units(table)[0]}]")
         ax.grid(alpha=0.3)
     for k in range(len(cols), nrow * ncol):
         axes[k // ncol][k % ncol].axis("off")
@@ -124,7 +135,7 @@ def plot_band_errors(path: Path, table: ObservationTable, fits: Sequence[tuple[s
         ax.axhline(nf, color="black", ls="--", lw=1, label="noise floor")
     ax.set_xticks(x + width * (len(fits) - 1) / 2, labels)
     ax.set_xlabel("speed band [rad/s]")
-    ax.set_ylabel("RMSE [normalized]")
+    ax.set_ylabel(f"RMSE [{_units(table)[0]}]")
     ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=8)
     return save_figure(fig, path)
@@ -152,7 +163,7 @@ def plot_error_fall(path: Path, history: History) -> Path:
         ax.annotate(added, (xi, v.cv_rmse or v.rmse or 1.0), fontsize=7, rotation=20,
                     xytext=(4, 6), textcoords="offset points")
     ax.set_xlabel("model version")
-    ax.set_ylabel("error [normalized]")
+    ax.set_ylabel("error [unit of tau_f]")
     ax.set_title("error over model versions")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
@@ -194,7 +205,7 @@ def plot_dependence(path: Path, table: ObservationTable, diagnosis: Diagnosis) -
         if math.isfinite(nf):
             axr.axhspan(-nf, nf, color="0.88", zorder=0, label=f"noise floor ±{nf:.4f}")
         axr.set_xlabel(single.name)
-        axr.set_ylabel("data - model [normalized]")
+        axr.set_ylabel(f"data - model [{_units(table)[0]}]")
         axr.set_title(f"{single.name}: {single.shape_hint}", fontsize=9)
         axr.grid(alpha=0.3)
         axr.legend(fontsize=7)
