@@ -3,10 +3,12 @@
 JSON (``--json``): ``{"joints": [{"robot", "joint", "estimates", "wear",
 "wear_std", "rate_per_day", "time_to_alarm_days": {"median", "lo90", "hi90"}
 or null, "level", "trend_level", "newest_time", "age_days", ...}]}``, times in days from the joint's last estimate (a
-bound beyond the prediction horizon is null). ``level`` is the plant's level
+bound beyond the prediction horizon is null; ``time_to_alarm_days`` also holds
+``model_weights`` and ``unbounded_reason``). ``level`` is the plant's level
 (:func:`jointwear_ros.serve.core.plant_level`, as ``jointwear serve`` shows it): the
 trend's OK / WARN / ERROR, or STALE when the newest estimate is older than
-``--stale-days`` and the trend's level is not ERROR; ``trend_level`` is the trend's own. ``--plot DIR`` writes one PNG
+``--stale-days`` and the trend's level is not ERROR; ``trend_level`` is the trend's own.
+``--fleet-prior``: each joint's prior from its siblings (off by default). ``--plot DIR`` writes one PNG
 per joint, ``--html DIR`` a page ranking the joints by time to alarm.
 """
 
@@ -34,6 +36,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--analysis-version", default="live", help="which estimates (default live)")
     p.add_argument("--horizon", default="30", help="WARN horizon in days (default 30)")
     p.add_argument("--alarm", default="35", help="alarm wear level (default 35)")
+    p.add_argument("--fleet-prior", action="store_true",
+                   help="each joint's prior from its siblings in the store (same parameter set and joint name, "
+                        "at least 5; off by default)")
     p.add_argument("--stale-days", default="7", help="STALE when the newest estimate is older (default 7)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--plot", default=None, metavar="DIR", help="write one PNG per joint into DIR")
@@ -66,8 +71,14 @@ def cmd_trend(args: argparse.Namespace) -> int:
     url = normalize_url(args.db)
     if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
         raise UsageError(f"--db {args.db}: no such history file (fill it with jointwear history import or wear_trend)")
+    priors = {}
     with HistoryStore(url, read_only=True) as store:
         hist, refused = screened_history(store, args.analysis_version, robot=args.robot, joint=args.joint)
+        if args.fleet_prior:
+            from ..history.trends import fleet_priors
+
+            # every joint of the version is a sibling, whatever --robot / --joint select (screened too)
+            priors = fleet_priors(screened_history(store, args.analysis_version)[0], cfg)
     if not hist and (args.robot or args.joint):
         raise UsageError(f"no estimates of robot {args.robot or '*'} joint {args.joint or '*'} "
                          f"(analysis version {args.analysis_version!r}) in {args.db}")
@@ -77,7 +88,7 @@ def cmd_trend(args: argparse.Namespace) -> int:
     for key, (recs, events) in sorted(hist.items()):
         r = analyze_joint([x.time for x in recs], [x.wear for x in recs], [x.wear_std for x in recs],
                           cycle_ids=[x.cycle_id for x in recs], maintenance_times=[e.time for e in events],
-                          cfg=cfg, robot=key[0], joint=key[1], smooth=draw)
+                          cfg=cfg, robot=key[0], joint=key[1], smooth=draw, prior=priors.get(key))
         results.append(r)
         raw[key] = (recs, events)
     now = time.time()

@@ -36,9 +36,9 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from .core import DAY, ERROR, WARN, TrendConfig, filter_bank, trend_states
+from .core import DAY, ERROR, WARN, RatePrior, TrendConfig, trend_states
 
-__all__ = ["NightlyBacktest", "backtest_joint", "score_at_lead", "score_fleet"]
+__all__ = ["NightlyBacktest", "backtest_joint", "line_limit", "score_at_lead", "score_calibration", "score_fleet"]
 
 Array = NDArray[np.float64]
 
@@ -69,26 +69,29 @@ class NightlyBacktest:
     hi90: Array
     true_tta: Array
     true_wear: Array
+    count: NDArray[np.int_]  # estimates in the segment so far
 
 
-def backtest_joint(j: _Joint, cfg: TrendConfig, epoch0: float) -> NightlyBacktest:
+def backtest_joint(j: _Joint, cfg: TrendConfig, epoch0: float, prior: RatePrior | None = None) -> NightlyBacktest:
     """Run the trend as it would have run at every night of ``j``'s history."""
     t = np.asarray(j.times, float)
     n = len(t)
     level = np.zeros(n, int)
     growth = np.zeros(n, bool)
     qs = np.full((n, 3), np.inf)
+    count = np.zeros(n, int)
     bounds = sorted(m for m in j.maintenance_times)
     seg_id = np.searchsorted(np.asarray(bounds, float), t, side="right") if bounds else np.zeros(n, int)
     for s in np.unique(seg_id):
         idx = np.nonzero(seg_id == s)[0]
-        bank = filter_bank((t[idx] - t[idx[0]]) / DAY, np.asarray(j.wear)[idx], np.asarray(j.wear_std)[idx], cfg)
-        st = trend_states(bank, cfg)
+        st = trend_states((t[idx] - t[idx[0]]) / DAY, np.asarray(j.wear)[idx], np.asarray(j.wear_std)[idx], cfg,
+                          prior=prior)
         level[idx], growth[idx], qs[idx] = st.level, st.growth, st.quantiles
+        count[idx] = np.arange(1, len(idx) + 1)
     days = (t - epoch0) / DAY
     cross = np.array([j.segment_crossing(float(d), cfg.alarm) for d in days])
     return NightlyBacktest(days=days, level=level, growth=growth, lo90=qs[:, 0], median=qs[:, 1], hi90=qs[:, 2],
-                           true_tta=cross - days, true_wear=np.asarray(j.true_wear(days), float))
+                           true_tta=cross - days, true_wear=np.asarray(j.true_wear(days), float), count=count)
 
 
 def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_days: float) -> dict[str, Any]:
@@ -117,9 +120,9 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
         pp["covered"] += int(inside.sum())
         pp["intervals"] += int(has.sum())
         fin = has & np.isfinite(b.hi90)
-        widths.extend((b.hi90 - b.lo90)[fin].tolist())
+        widths.extend((b.hi90[fin] - b.lo90[fin]).tolist())
         fin &= b.true_tta >= 1.0
-        rel_widths.extend(((b.hi90 - b.lo90)[fin] / b.true_tta[fin]).tolist())
+        rel_widths.extend(((b.hi90[fin] - b.lo90[fin]) / b.true_tta[fin]).tolist())
         grid = np.linspace(0.0, span_days + 2 * cfg.horizon_days, 400)
         if float(np.max(j.true_wear(grid))) < cfg.alarm:
             never_nights += len(b.days)
@@ -189,3 +192,124 @@ def score_at_lead(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float,
         ratios.append(float((b.hi90[i] - b.lo90[i]) / b.true_tta[i]) if b.growth[i] else math.inf)
     return {"joints": scored, "coverage": hits / scored if scored else math.nan,
             "median_width_over_true": float(np.median(ratios)) if ratios else math.nan}
+
+
+def line_limit(t_days: Array, y: Array, r: Array, cfg: TrendConfig) -> Array:
+    """The straight-line limit: per night, the 90 % interval and median (n, 3) of the time to alarm that a
+    straight line fitted (weighted least squares, flat prior) to all the estimates so far gives."""
+    from .core import crossing_cdf, crossing_quantiles, tau_grid
+
+    t = np.asarray(t_days, float)
+    w = 1.0 / np.asarray(r, float) ** 2
+    out = np.full((len(t), 3), np.inf)
+    tau = tau_grid(float(cfg.max_horizon_days))
+    C = np.cumsum(np.stack([w, w * t, w * t * t, w * y, w * t * y]), axis=1)
+    for n in range(2, len(t)):
+        sw, st, stt, sy, sty = C[:, n]
+        tn = t[n]
+        # design in (level at t_n, rate): x = [1, t - t_n]
+        a11, a12 = sw, st - tn * sw
+        a22 = stt - 2 * tn * st + tn * tn * sw
+        b1, b2 = sy, sty - tn * sy
+        det = a11 * a22 - a12 * a12
+        if det <= 1e-12 * max(a11 * a22, 1e-300):
+            continue
+        cov = np.array([[a22, -a12], [-a12, a11]]) / det
+        m = cov @ np.array([b1, b2])
+        F = crossing_cdf(m[None, :], cov[None], 0.0, cfg, tau)
+        out[n] = crossing_quantiles(F, tau)[0]
+    return out
+
+
+def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, span_days: float,
+                      max_true_days: float = 365.0, min_estimates: int = 0,
+                      prior: RatePrior | None = None,
+                      backtests: Sequence[NightlyBacktest] | None = None) -> dict[str, dict[str, Any]]:
+    """Per family (``j.profile``) and ``"all"``: the calibration figures of issue 23.
+
+    Scored nights: before the true crossing, with a true time to alarm of 1 to ``max_true_days`` days and at
+    least ``min_estimates`` estimates in the segment so far (60: the issue's "history of 60 nightly estimates").
+    ``coverage`` over scored nights with an interval; ``median_width_over_true`` with an unbounded
+    interval counted as infinitely wide; ``width_over_line`` (linear family) the width relative to the
+    straight-line limit (:func:`line_limit`); false warnings on joints that never reach the alarm within
+    the span plus twice the horizon, and ``early_warn_nights``: WARN or ERROR while the true time to alarm of
+    the night's wear law is more than twice the horizon away (a step joint warned before its unrecorded
+    replacement is not a false warning); ``false_error_nights``: ERROR while the true wear is more than 1
+    below the alarm; lead of the first WARN before the true crossing (median, days). ``backtests``: the
+    joints' :func:`backtest_joint` results when already run (to score them twice).
+    """
+    acc: dict[str, dict[str, Any]] = {}
+    for i, j in enumerate(joints):
+        b = backtests[i] if backtests is not None else backtest_joint(j, cfg, epoch0, prior)
+        for key in (j.profile, "all"):
+            a = acc.setdefault(key, {"joints": 0, "nights": 0, "scored": 0, "intervals": 0, "covered": 0,
+                                     "unbounded": 0, "rel": [], "line": [], "never_nights": 0, "false_nights": 0,
+                                     "false_error_nights": 0, "leads": [], "missed": 0, "crossing_joints": 0,
+                                     "early": 0, "flat_warn": 0})
+            a["joints"] += 1
+            a["nights"] += len(b.days)
+        ok = ((b.true_wear < cfg.alarm) & (b.true_tta >= 1.0) & (b.true_tta <= max_true_days)
+              & (b.count >= min_estimates))
+        has = ok & b.growth & np.isfinite(b.lo90)
+        inside = has & (b.lo90 <= b.true_tta) & (b.true_tta <= b.hi90)
+        rel = (b.hi90[has] - b.lo90[has]) / b.true_tta[has]  # an unbounded interval: inf
+        line_ratio: list[float] = []
+        if j.profile == "linear":
+            lim = line_limit((np.asarray(j.times) - j.times[0]) / DAY, np.asarray(j.wear), np.asarray(j.wear_std), cfg)
+            with np.errstate(invalid="ignore"):  # nights without a line interval: inf - inf
+                lw = lim[:, 2] - lim[:, 0]
+            fin = has & np.isfinite(lw) & (lw > 0)
+            line_ratio = ((b.hi90[fin] - b.lo90[fin]) / lw[fin]).tolist()
+        grid = np.linspace(0.0, span_days + 2 * cfg.horizon_days, 400)
+        never = float(np.max(j.true_wear(grid))) < cfg.alarm
+        false_error = int(((b.level >= ERROR) & (b.true_wear < cfg.alarm - 1.0)).sum())
+        lead: float | None = None
+        crossing = False
+        reached = np.nonzero(b.true_wear >= cfg.alarm)[0]
+        if len(reached):
+            crossing = True
+            k = int(reached[0])
+            d_cross = float(b.days[k - 1] + b.true_tta[k - 1]) if k > 0 else float(b.days[k])
+            seg0 = getattr(j, "step_day", math.nan)
+            seg0 = seg0 if math.isfinite(seg0) and seg0 <= d_cross else -math.inf
+            warn = np.nonzero((b.days >= seg0) & (b.level >= WARN))[0]
+            if len(warn) and b.days[warn[0]] <= d_cross:
+                lead = d_cross - float(b.days[warn[0]])
+        for key in (j.profile, "all"):
+            a = acc[key]
+            a["scored"] += int(ok.sum())
+            a["intervals"] += int(has.sum())
+            a["covered"] += int(inside.sum())
+            a["unbounded"] += int((has & ~np.isfinite(b.hi90)).sum())
+            a["rel"] += rel.tolist()
+            a["line"] += line_ratio
+            a["false_error_nights"] += false_error
+            a["early"] += int(((b.level >= WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
+            if j.profile == "flat":
+                a["flat_warn"] += int((b.level >= WARN).sum())
+            if never:
+                a["never_nights"] += len(b.days)
+                a["false_nights"] += int((b.level >= WARN).sum())
+            if crossing:
+                a["crossing_joints"] += 1
+                if lead is None:
+                    a["missed"] += 1
+                else:
+                    a["leads"].append(lead)
+    out: dict[str, dict[str, Any]] = {}
+    for key, a in acc.items():
+        out[key] = {
+            "joints": a["joints"], "nights": a["nights"], "scored_nights": a["scored"],
+            "interval_fraction": a["intervals"] / a["scored"] if a["scored"] else math.nan,
+            "coverage": a["covered"] / a["intervals"] if a["intervals"] else math.nan,
+            "unbounded_fraction": a["unbounded"] / a["intervals"] if a["intervals"] else math.nan,
+            "median_width_over_true": float(np.median(a["rel"])) if a["rel"] else math.nan,
+            "median_width_over_line": float(np.median(a["line"])) if a["line"] else math.nan,
+            "false_per_1000": 1000.0 * a["false_nights"] / a["never_nights"] if a["never_nights"] else math.nan,
+            "false_nights": a["false_nights"], "false_error_nights": a["false_error_nights"],
+            "early_warn_per_1000": 1000.0 * a["early"] / a["nights"] if a["nights"] else math.nan,
+            "flat_warn_nights": a["flat_warn"],
+            "median_lead_days": float(np.median(a["leads"])) if a["leads"] else math.nan,
+            "joints_crossing": a["crossing_joints"], "joints_missed": a["missed"],
+        }
+    return out

@@ -1,58 +1,66 @@
 """Wear trend of one joint: current wear and rate, time to the alarm with a 90 % interval, a level.
 
-The model is a **local linear trend** (level ``L``, rate ``S`` in wear per
-day) whose rate follows an integrated random walk, observed through each
-estimate's own standard deviation::
+The trend is a **bank of models**, averaged with weights from the evidence of the joint's own
+estimates (Bayesian model averaging: a documented prior weight times each model's marginal
+likelihood of the segment's estimates, each observed through its own standard deviation):
+
+*Steady members* (sharp when the data are steady), each a 2-parameter regression with a Gaussian
+prior, solved in closed form:
+
+- ``line``: ``w(t) = L + S t`` (a local linear trend with ``q = 0``);
+- ``accelerated <e> d``: the paper's accelerated wear (Sections 3 and 6: the friction change grows
+  with use), ``w(t) = L + S e (exp(t / e) - 1)``, the rate growing e-fold every ``e`` days, for each
+  ``e`` of :attr:`TrendConfig.efold_days` (considered over at most :attr:`TrendConfig.max_efolds`
+  e-foldings of the segment).
+
+Each steady member also allows **one unrecorded step** (a reducer replaced without a maintenance
+event, a jump): a change of level and rate at an estimate ``k``, with a prior rate
+:attr:`TrendConfig.step_rate_per_day` of such steps; the member's evidence sums over "no step" and
+every ``k`` (a product-partition model with at most one change), its prediction uses the line after
+the step in proportion to that step's posterior.
+
+*Adaptive members* (robust to acceleration of any shape): local linear trends whose rate follows a
+random walk of spectral density ``q`` (wear² / day³; :attr:`TrendConfig.accel_noise`) and a local
+quadratic trend (acceleration with a random walk, :attr:`TrendConfig.jerk_noise`), 2- and 3-state
+Kalman filters with irregular steps and per-estimate variance (hand-written in numpy: a few lines,
+and the fleet backtest runs at hundreds of joint-nights per second; statsmodels'
+``UnobservedComponents`` assumes equal steps and fits the observation variance)::
 
     L(t + dt) = L(t) + S(t) dt + eta_L,    S(t + dt) = S(t) + eta_S
     Q(dt) = q [[dt^3/3, dt^2/2], [dt^2/2, dt]]  (+ q_L dt on the level)
     y_k = L(t_k) + e_k,   e_k ~ N(0, wear_std_k^2)
 
-with ``q`` (:attr:`TrendConfig.accel_noise`, wear² per day³) the spectral
-density of the rate's random walk, i.e. how fast the wear may accelerate.
-Next to it, a **local quadratic trend** (a third state, the acceleration, with
-a random walk of density :attr:`TrendConfig.jerk_noise`) for wear that keeps
-accelerating (the paper's accelerated wear test, Sections 3 and 6). A *bank*
-of these filters (several ``q``, one quadratic) runs on the estimates, and
-their results are averaged with weights from each one's predictive
-likelihood of the estimates (equal prior weights): a steady joint keeps the
-weight on a small ``q``; an accelerating one moves it to a large ``q`` and
-the quadratic model as the data show the acceleration.
+**Priors** (documented in docs/history-trend.md): at a segment's start (and after a step) the level is
+``N(level_prior_mean, level_prior_std^2)`` = N(50, 30²) (wear lies in 0-100) and the rate
+``N(0, slope_prior_std^2)`` = N(0, 0.2²) wear/day, the same for every member so that their evidences
+compare; the fleet prior (:class:`RatePrior`, :func:`fleet_prior`) replaces the rate prior and the
+member weights by what the joint's siblings show. Prior member weights: ``prior_line`` for the line,
+``prior_accelerated`` shared by the accelerated shapes, the rest shared by the adaptive members.
+With these, a steady joint puts its weight on the line and its interval approaches the straight-line
+limit; an accelerating one moves it to an accelerated shape or an adaptive member as the data show
+the acceleration; a jump moves it to the step.
 
-Each is a 2- or 3-state Kalman filter with irregular time steps and
-per-observation noise (and an RTS smoother for the plotted band),
-hand-written in numpy: a few lines, it takes each estimate's own variance
-and uneven gaps directly, and it runs the fleet backtest at thousands of
-joint-nights per second; a general state-space library (statsmodels
-``UnobservedComponents``: equal steps, a fitted, not a given, observation
-variance) does not give that as simply.
+**Time to alarm.** From each member's state at the last estimate, the wear ``tau`` days ahead is
+Gaussian, ``h(tau) m`` with variance ``h P h' (+ process noise for the adaptive members: q tau^3/3,
+quadratic q tau^5/20)``, ``h = [1, tau]`` (line, random walk), ``[1, e (exp(tau / e) - 1)]``
+(accelerated), ``[1, tau, tau^2/2]`` (quadratic). The probability that the alarm ``a`` has been
+crossed by ``tau`` is the running maximum over ``tau' <= tau`` of ``P(wear(tau') >= a)`` (exact for a
+monotone curve with uncertain parameters; for the random-walk part it ignores paths that cross and
+come back, which wear does not do). These curves are averaged with the members' weights; the 5 %,
+50 % and 95 % points are the 90 % interval and the median (a point not reached within
+``max_horizon_days`` is infinite: unbounded, and :attr:`TimeToAlarm.unbounded_reason` says why). When
+the rate is not credibly positive (``P(S > 0) < growth_probability``) there is no time to alarm:
+*no growth detected*.
 
-**Time to alarm.** From each filter's state ``(L, S[, A]) ~ N(m, P)`` at the
-last estimate, the wear ``tau`` days ahead is Gaussian with mean ``L + S tau
-(+ A tau^2/2)`` and variance ``h P h' + q tau^3/3`` (quadratic: ``+ q
-tau^5/20``), ``h = [1, tau(, tau^2/2)]``. The probability
-that the alarm ``a`` has been crossed by ``tau`` is taken as the running
-maximum over ``tau' <= tau`` of ``P(wear(tau') >= a)`` (exact for a straight
-line with uncertain level and rate; for the random-walk part it ignores
-paths that cross and come back, which wear does not do). These curves are
-averaged with the filters' weights; the 5 %, 50 % and 95 % points are the
-90 % interval and the median (a point not reached within
-``max_horizon_days`` is infinite: unbounded). When the rate is not
-credibly positive (``P(S > 0) < growth_probability``) there is no time to
-alarm: *no growth detected*.
+**Level** (``diagnostic_msgs/DiagnosticStatus`` bytes): ERROR when the current wear estimate
+(the mixture's level) is at or above the alarm, the wear_estimator's convention (``w_hat >= 35``);
+WARN when growth is detected and the 90 % interval's lower bound is within ``horizon_days``; else OK.
+Fewer than ``min_estimates`` estimates in the current segment give no trend (OK or ERROR only).
 
-**Level** (``diagnostic_msgs/DiagnosticStatus`` bytes): ERROR when the
-current wear estimate (filtered level) is at or above the alarm, the
-wear_estimator's convention (``w_hat >= 35``); WARN when growth is detected
-and the 90 % interval's lower bound is within ``horizon_days``; else OK.
-Fewer than ``min_estimates`` estimates in the current segment give no trend
-(OK or ERROR only).
-
-**Segments.** A maintenance event (regrease, reducer replaced) starts a new
-segment: the trend uses the estimates after the joint's last event.
-**Revisions.** A wear_estimator may re-estimate a cycle (same cycle id, later
-stamp); estimates of the same cycle id within ``revision_window_s`` are one
-cycle and the newest is kept.
+**Segments.** A maintenance event (regrease, reducer replaced) starts a new segment: the trend
+uses the estimates after the joint's last event. **Revisions.** A wear_estimator may re-estimate a
+cycle (same cycle id, later stamp); estimates of the same cycle id within ``revision_window_s`` are
+one cycle and the newest is kept.
 
 Pure numpy/scipy: no ROS, no database.
 
@@ -62,6 +70,8 @@ Pure numpy/scipy: no ROS, no database.
 >>> r = analyze_joint(t, w, np.full(60, 0.85))
 >>> round(r.rate_per_day, 2), r.level_name, round(r.time_to_alarm.median)
 (0.3, 'WARN', 24)
+>>> max(r.time_to_alarm.model_weights, key=r.time_to_alarm.model_weights.get)
+'line'
 >>> analyze_joint(t, np.full(60, 12.0), np.full(60, 0.85)).time_to_alarm is None
 True
 """
@@ -86,21 +96,32 @@ __all__ = [
     "LEVEL_NAMES",
     "OK",
     "WARN",
+    "Component",
     "FilterOutput",
+    "Member",
+    "RatePrior",
+    "SiblingFit",
     "TimeToAlarm",
     "TrendConfig",
     "TrendResult",
     "TrendStates",
     "analyze_joint",
-    "bank_weights",
+    "bank_members",
     "collapse_revisions",
     "crossing_cdf",
     "crossing_quantiles",
+    "current_segment",
     "filter_bank",
+    "fleet_prior",
+    "forecast_band",
     "kalman_llt",
     "last_segment",
+    "pool_prior",
     "rts_smooth",
+    "sibling_fit",
+    "tau_grid",
     "trend_states",
+    "unbounded_reason",
 ]
 
 DAY = 86400.0
@@ -119,11 +140,18 @@ class TrendConfig:
     ----------
     alarm : wear at which the alarm is raised (35, the paper's).
     horizon_days : WARN when the 90 % interval's lower bound of the time to alarm is within it.
-    accel_noise : candidate values of ``q``, spectral density of the rate's random walk, wear² / day³ (how
-        fast wear may accelerate); the trend averages over them, weighted by how well each explains the
-        joint's estimates (equal prior weights). One value: a plain Kalman filter.
-    level_noise : ``q_L``, random walk of the level, wear² / day (0: wear has no jumps between maintenance).
-    slope_prior_std : prior standard deviation of the rate at a segment's start, wear / day.
+    accel_noise : ``q`` of the adaptive local-linear members, spectral density of the rate's random walk,
+        wear² / day³ (how fast wear may accelerate).
+    jerk_noise : jerk density of the local-quadratic member(s).
+    efold_days : e-folding times of the accelerated-wear members, days.
+    prior_line, prior_accelerated : prior weight of the line and of all accelerated shapes together; the
+        rest (``1 - prior_line - prior_accelerated``) is shared by the adaptive members.
+    step_rate_per_day : prior rate of an unrecorded step (reducer replaced, jump), per day.
+    level_prior_mean, level_prior_std : prior of the wear at a segment's start (and after a step).
+    slope_prior_std : prior standard deviation of the rate at a segment's start, wear / day (mean 0).
+    accel_prior_std : prior std of the quadratic member's acceleration, wear / day².
+    max_efolds : an accelerated shape is considered over at most this many e-folding times of a segment.
+    level_noise : ``q_L``, random walk of the adaptive members' level, wear² / day.
     min_estimates : estimates a segment needs before it has a trend.
     growth_probability : ``P(rate > 0)`` needed to call it growth.
     max_horizon_days : times to alarm beyond it are reported as infinite.
@@ -132,34 +160,51 @@ class TrendConfig:
 
     alarm: float = 35.0
     horizon_days: float = 30.0
-    accel_noise: tuple[float, ...] = (1e-5, 1e-4, 1e-3)
+    accel_noise: tuple[float, ...] = (1e-4, 1e-3)
     jerk_noise: tuple[float, ...] = (1e-8,)
+    efold_days: tuple[float, ...] = (160.0, 120.0, 90.0, 60.0, 45.0)
+    prior_line: float = 0.6
+    prior_accelerated: float = 0.3
+    step_rate_per_day: float = 1.0 / 730.0
+    level_prior_mean: float = 50.0
+    level_prior_std: float = 30.0
     accel_prior_std: float = 0.003
     level_noise: float = 0.0
     slope_prior_std: float = 0.2
+    max_efolds: float = 10.0
+    evidence_temperature: float = 1.25
     min_estimates: int = 5
     growth_probability: float = 0.95
     max_horizon_days: float = 3650.0
     revision_window_s: float = 3600.0
 
     def __post_init__(self) -> None:
-        q = self.accel_noise
-        qs = (q,) if isinstance(q, (int, float)) else tuple(q)
-        if not qs or not all(math.isfinite(float(x)) and float(x) >= 0 for x in qs):
-            raise InputDataError(f"trend setting accel_noise = {q!r} must be one or more finite numbers >= 0")
-        object.__setattr__(self, "accel_noise", tuple(float(x) for x in qs))
-        jq = self.jerk_noise
-        jqs = (jq,) if isinstance(jq, (int, float)) else tuple(jq)
-        if not all(math.isfinite(float(x)) and float(x) >= 0 for x in jqs):
-            raise InputDataError(f"trend setting jerk_noise = {jq!r} must be finite numbers >= 0")
-        object.__setattr__(self, "jerk_noise", tuple(float(x) for x in jqs))
+        for name, allow_empty in (("accel_noise", True), ("jerk_noise", True), ("efold_days", True)):
+            q = getattr(self, name)
+            qs = (q,) if isinstance(q, (int, float)) else tuple(q)
+            if (not qs and not allow_empty) or not all(math.isfinite(float(x)) and float(x) >= 0 for x in qs):
+                raise InputDataError(f"trend setting {name} = {q!r} must be finite numbers >= 0")
+            object.__setattr__(self, name, tuple(float(x) for x in qs))
+        if any(e <= 0 for e in self.efold_days):
+            raise InputDataError(f"trend setting efold_days = {self.efold_days!r} must be > 0 days")
         for name in ("alarm", "horizon_days", "level_noise", "slope_prior_std", "accel_prior_std",
-                     "max_horizon_days", "revision_window_s"):
+                     "max_horizon_days", "revision_window_s", "prior_line", "prior_accelerated",
+                     "step_rate_per_day", "level_prior_std", "max_efolds", "evidence_temperature"):
             v = float(getattr(self, name))
             if not (math.isfinite(v) and v >= 0):
                 raise InputDataError(f"trend setting {name} = {v!r} must be a finite number >= 0")
-        if self.slope_prior_std <= 0 or self.max_horizon_days <= 0:
-            raise InputDataError("trend settings slope_prior_std and max_horizon_days must be > 0")
+        if not math.isfinite(float(self.level_prior_mean)):
+            raise InputDataError(f"trend setting level_prior_mean = {self.level_prior_mean!r} must be finite")
+        if min(self.slope_prior_std, self.max_horizon_days, self.level_prior_std, self.evidence_temperature) <= 0:
+            raise InputDataError("trend settings slope_prior_std, level_prior_std, evidence_temperature and "
+                                 "max_horizon_days must be > 0")
+        n_adapt = len(self.accel_noise) + len(self.jerk_noise)
+        rest = 1.0 - self.prior_line - (self.prior_accelerated if self.efold_days else 0.0)
+        if rest < -1e-12 or (n_adapt == 0 and rest > 1e-12) or (self.prior_line <= 0 and n_adapt == 0
+                                                                  and not self.efold_days):
+            raise InputDataError(f"trend prior weights: line {self.prior_line:g} + accelerated "
+                                 f"{self.prior_accelerated:g} must be <= 1 (the rest goes to the {n_adapt} "
+                                 "adaptive member(s); with none they must sum to 1)")
         if not 0.5 <= self.growth_probability < 1:
             raise InputDataError(f"growth_probability = {self.growth_probability!r} must be in [0.5, 1)")
         if int(self.min_estimates) < 2:
@@ -172,21 +217,76 @@ class TrendConfig:
 
 
 @dataclass(frozen=True)
+class Member:
+    """One model of the bank: ``kind`` "steady" (``efold`` inf: the line) or "adaptive" (``q``, ``order``)."""
+
+    name: str
+    kind: str
+    efold: float = math.inf
+    q: float = 0.0
+    order: int = 2
+
+
+def bank_members(cfg: TrendConfig) -> list[Member]:
+    """The models of the bank, steady first: line, accelerated shapes, random-walk rates, quadratic."""
+    out = [Member("line", "steady")]
+    out += [Member(f"accelerated {e:g} d", "steady", efold=e) for e in cfg.efold_days]
+    out += [Member(f"random-walk rate q={q:g}", "adaptive", q=q, order=2) for q in cfg.accel_noise]
+    out += [Member(f"quadratic jerk={q:g}", "adaptive", q=q, order=3) for q in cfg.jerk_noise]
+    return out
+
+
+def _default_weights(cfg: TrendConfig) -> Array:
+    n_acc, n_ad = len(cfg.efold_days), len(cfg.accel_noise) + len(cfg.jerk_noise)
+    w = [cfg.prior_line] + ([cfg.prior_accelerated / n_acc] * n_acc if n_acc else [])
+    rest = max(1.0 - sum(w), 0.0)
+    w += [rest / n_ad] * n_ad if n_ad else []
+    a = np.asarray(w, float)
+    return np.asarray(a / a.sum(), float)
+
+
+@dataclass(frozen=True)
+class RatePrior:
+    """The prior a joint's trend starts from: the rate ``N(mean, std^2)`` wear/day at a segment's start and
+    the members' prior weights (None: the config's). :func:`fleet_prior` estimates one from siblings."""
+
+    mean: float = 0.0
+    std: float = 0.2
+    weights: tuple[float, ...] | None = None
+    source: str = "default"
+    joints: int = 0
+
+    def member_weights(self, cfg: TrendConfig) -> Array:
+        if self.weights is None:
+            return _default_weights(cfg)
+        w = np.asarray(self.weights, float)
+        return np.asarray(w / w.sum(), float)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"rate_mean": self.mean, "rate_std": self.std, "source": self.source, "joints": self.joints,
+                "member_weights": None if self.weights is None else list(self.weights)}
+
+
+@dataclass(frozen=True)
 class TimeToAlarm:
-    """Days from the last estimate until the trend crosses the alarm: median and 90 % interval (inf: beyond)."""
+    """Days from the last estimate until the trend crosses the alarm: median and 90 % interval (inf: beyond),
+    the members' weights and, for an infinite bound, why the data cannot bound it."""
 
     median: float
     lo90: float
     hi90: float
+    model_weights: dict[str, float] = field(default_factory=dict)
+    unbounded_reason: str | None = None
 
-    def as_dict(self) -> dict[str, float]:
-        return {"median": self.median, "lo90": self.lo90, "hi90": self.hi90}
+    def as_dict(self) -> dict[str, Any]:
+        return {"median": self.median, "lo90": self.lo90, "hi90": self.hi90,
+                "model_weights": dict(self.model_weights), "unbounded_reason": self.unbounded_reason}
 
 
 @dataclass(frozen=True)
 class FilterOutput:
-    """Filtered (or smoothed) states for one ``q``: ``t_days`` (n,), ``mean`` (n, 2), ``cov`` (n, 2, 2),
-    ``loglik`` (n,) the cumulative log-likelihood of the estimates up to each one (predictive, after the first)."""
+    """Filtered (or smoothed) states of one adaptive member: ``t_days`` (n,), ``mean`` (n, d), ``cov`` (n, d, d),
+    ``loglik`` (n,) the cumulative log-likelihood (marginal, with the level and rate priors) up to each estimate."""
 
     t_days: Array
     mean: Array
@@ -194,6 +294,18 @@ class FilterOutput:
     loglik: Array
     q: float
     order: int = 2
+
+
+@dataclass(frozen=True)
+class Component:
+    """One Gaussian of the mixture at a night: member index, weight, state mean and covariance (level, rate[, acc])
+    at that night, and for a steady member after a step the index of the first estimate after it (else -1)."""
+
+    member: int
+    weight: float
+    mean: Array
+    cov: Array
+    step_at: int = -1
 
 
 @dataclass
@@ -220,6 +332,12 @@ class TrendResult:
     times: Array = field(default_factory=lambda: np.zeros(0))
     wears: Array = field(default_factory=lambda: np.zeros(0))
     wear_stds: Array = field(default_factory=lambda: np.zeros(0))
+    model_weights: dict[str, float] = field(default_factory=dict)
+    step_probability: float = 0.0
+    step_time: float = math.nan
+    components: list[Component] = field(default_factory=list)
+    members: list[Member] = field(default_factory=list)
+    prior: RatePrior | None = None
 
     @property
     def level_name(self) -> str:
@@ -235,10 +353,12 @@ class TrendResult:
             "rate_std_per_day": self.rate_std, "growth_detected": self.growth_detected,
             "estimates_total": self.estimates_total, "segments": self.segments,
             "last_time": self.last_time, "segment_start": self.segment_start, "message": self.message,
+            "step_probability": self.step_probability,
+            "fleet_prior": None if self.prior is None or self.prior.source == "default" else self.prior.as_dict(),
         }
 
 
-# ---------------------------------------------------------------------------- filter
+# ---------------------------------------------------------------------------- adaptive members (Kalman)
 
 
 def _transition(dt: float, order: int, q: float, ql: float) -> tuple[Array, Array]:
@@ -257,13 +377,16 @@ def _transition(dt: float, order: int, q: float, ql: float) -> tuple[Array, Arra
 
 
 def kalman_llt(t_days: Array, y: Array, r: Array, cfg: TrendConfig, q: float | None = None,
-               order: int = 2) -> FilterOutput:
+               order: int = 2, prior: RatePrior | None = None) -> FilterOutput:
     """Filtered states at each estimate (times in days, ascending) for one ``q``.
 
     ``order`` 2: the local linear trend (level, rate); 3: local quadratic (level, rate, acceleration
-    with prior std ``cfg.accel_prior_std``), for wear that keeps accelerating.
+    with prior std ``cfg.accel_prior_std``), for wear that keeps accelerating. The level starts from
+    ``N(level_prior_mean, level_prior_std^2)``, the rate from the prior's ``N(mean, std^2)``; ``loglik``
+    is the marginal log-likelihood of the estimates so far (comparable with the steady members').
     """
     q = float(cfg.accel_noise[0] if q is None else q)
+    pr = prior or RatePrior(std=cfg.slope_prior_std)
     t = np.asarray(t_days, float)
     y = np.asarray(y, float)
     var = np.asarray(r, float) ** 2
@@ -272,8 +395,8 @@ def kalman_llt(t_days: Array, y: Array, r: Array, cfg: TrendConfig, q: float | N
     cov = np.zeros((n, order, order))
     ll = np.zeros(n)
     m = np.zeros(order)
-    m[0] = y[0] if n else 0.0
-    P = np.diag([1e6, cfg.slope_prior_std ** 2, cfg.accel_prior_std ** 2][:order])
+    m[0], m[1] = cfg.level_prior_mean, pr.mean
+    P = np.diag([cfg.level_prior_std ** 2, pr.std ** 2, cfg.accel_prior_std ** 2][:order])
     total = 0.0
     for k in range(n):
         if k > 0:
@@ -282,8 +405,7 @@ def kalman_llt(t_days: Array, y: Array, r: Array, cfg: TrendConfig, q: float | N
             P = F @ P @ F.T + Q
         s_ = P[0, 0] + var[k]
         v = y[k] - m[0]
-        if k > 0:
-            total += -0.5 * (math.log(2 * math.pi * s_) + v * v / s_)
+        total += -0.5 * (math.log(2 * math.pi * s_) + v * v / s_)
         K = P[:, 0] / s_
         m = m + K * v
         P = P - np.outer(K, P[0, :])
@@ -292,18 +414,11 @@ def kalman_llt(t_days: Array, y: Array, r: Array, cfg: TrendConfig, q: float | N
     return FilterOutput(t, mean, cov, ll, q, order)
 
 
-def filter_bank(t_days: Array, y: Array, r: Array, cfg: TrendConfig) -> list[FilterOutput]:
-    """One filter per candidate: each ``q`` of ``cfg.accel_noise`` (order 2), each of ``cfg.jerk_noise`` (order 3)."""
-    return ([kalman_llt(t_days, y, r, cfg, q, 2) for q in cfg.accel_noise]
-            + [kalman_llt(t_days, y, r, cfg, q, 3) for q in cfg.jerk_noise])
-
-
-def bank_weights(bank: Sequence[FilterOutput]) -> Array:
-    """Posterior weight of each ``q`` after each estimate (K, n): equal priors times the likelihood."""
-    ll = np.stack([f.loglik for f in bank])
-    ll = ll - ll.max(axis=0, keepdims=True)
-    w = np.exp(ll)
-    return np.asarray(w / w.sum(axis=0, keepdims=True), float)
+def filter_bank(t_days: Array, y: Array, r: Array, cfg: TrendConfig,
+                prior: RatePrior | None = None) -> list[FilterOutput]:
+    """The adaptive members: each ``q`` of ``cfg.accel_noise`` (order 2), each of ``cfg.jerk_noise`` (order 3)."""
+    return ([kalman_llt(t_days, y, r, cfg, q, 2, prior) for q in cfg.accel_noise]
+            + [kalman_llt(t_days, y, r, cfg, q, 3, prior) for q in cfg.jerk_noise])
 
 
 def rts_smooth(f: FilterOutput, cfg: TrendConfig) -> FilterOutput:
@@ -319,12 +434,100 @@ def rts_smooth(f: FilterOutput, cfg: TrendConfig) -> FilterOutput:
     return FilterOutput(f.t_days, ms, Ps, f.loglik, f.q, f.order)
 
 
+# ---------------------------------------------------------------------------- steady members (closed form)
+
+_LOG2PI = math.log(2 * math.pi)
+
+
+def logsumexp(x: Array) -> float:
+    """log(sum(exp(x))) of a 1-D array (-inf when empty or all -inf); scipy's is 10x slower on short arrays."""
+    m = float(np.max(x)) if len(x) else -math.inf
+    if not math.isfinite(m):
+        return m
+    return m + math.log(float(np.exp(x - m).sum()))
+
+
+def _basis(dt: Array, efold: float) -> tuple[Array, Array]:
+    """u(dt), u'(dt) of a steady member, ``dt`` days relative to the night (<= 0): the line or
+    ``e (exp(dt / e) - 1)``."""
+    if math.isinf(efold):
+        return dt, np.ones_like(dt)
+    x = dt / efold
+    return efold * np.expm1(x), np.exp(x)
+
+
+def _regression_evidence(S: Array, ua: Array, upa: Array, cfg: TrendConfig, pr: RatePrior
+                         ) -> tuple[Array, Array, Array]:
+    """Log evidence, posterior mean (., 2) and covariance (., 2, 2) of ``w = c0 + c1 u(t)`` on segments with
+    sufficient statistics ``S`` (7, .) = sums of w, w u, w u², w y, w u y, w y², log(2 pi r²), w = 1/r², the
+    prior ``N`` on (level, rate) at each segment's first estimate, where u = ``ua`` and u' = ``upa``.
+    ``(c0, c1)`` are the level and rate at the night (u = 0, u' = 1 there)."""
+    sw, su, suu, sy, suy, syy, sc = S
+    pl, ps = 1.0 / cfg.level_prior_std ** 2, 1.0 / pr.std ** 2
+    ml, ms = cfg.level_prior_mean, pr.mean
+    a11 = sw + pl
+    a12 = su + pl * ua
+    a22 = suu + pl * ua * ua + ps * upa * upa
+    b1 = sy + pl * ml
+    b2 = suy + ua * pl * ml + upa * ps * ms
+    det = a11 * a22 - a12 * a12
+    c0 = (a22 * b1 - a12 * b2) / det
+    c1 = (a11 * b2 - a12 * b1) / det
+    quad = b1 * c0 + b2 * c1
+    logdet_v = math.log(cfg.level_prior_std ** 2) + math.log(pr.std ** 2) - 2.0 * np.log(upa)
+    ev = -0.5 * (sc + syy + pl * ml * ml + ps * ms * ms - quad + logdet_v + np.log(det))
+    mean = np.empty((*c0.shape, 2))
+    mean[..., 0], mean[..., 1] = c0, c1
+    cov = np.empty((*c0.shape, 2, 2))
+    cov[..., 0, 0], cov[..., 0, 1], cov[..., 1, 0], cov[..., 1, 1] = a22 / det, -a12 / det, -a12 / det, a11 / det
+    return ev, mean, cov
+
+
+def _steady_at(t: Array, y: Array, r: Array, n: int, efold: float, cfg: TrendConfig, pr: RatePrior,
+               keep: int = 3) -> tuple[float, list[tuple[float, Array, Array, int]]]:
+    """One steady member at night ``n`` (estimates 0..n): its log evidence (summed over no step / a step
+    before each estimate) and its components (posterior weight within the member, mean, cov, step index)."""
+    tt, yy, rr = t[: n + 1], y[: n + 1], r[: n + 1]
+    dt = tt - tt[-1]
+    u, up = _basis(dt, efold)
+    w = 1.0 / rr ** 2
+    P = np.zeros((7, n + 2))  # prefix sums of the sufficient statistics
+    wu, wy = w * u, w * yy
+    for row, v in enumerate((w, wu, wu * u, wy, wu * yy, wy * yy, np.log(2 * math.pi * rr * rr))):
+        np.cumsum(v, out=P[row, 1:])
+    valid = -dt <= cfg.max_efolds * efold  # segment starts an accelerated shape may use
+    ks = np.arange(n + 1)
+    after = P[:, [n + 1]] - P[:, ks]
+    ev_a, mean_a, cov_a = _regression_evidence(after, u[ks], up[ks], cfg, pr)
+    ev_a = np.where(valid[ks], ev_a, -np.inf)
+    span = float(tt[-1] - tt[0])
+    h = cfg.step_rate_per_day
+    logp = np.full(n + 1, -np.inf)
+    logp[0] = -h * span
+    if n >= 1 and span > 0 and h > 0:
+        ev_b, _, _ = _regression_evidence(P[:, ks[1:]], np.full(n, u[0]), np.full(n, up[0]), cfg, pr)
+        ev_b = np.where(valid[0], ev_b, -np.inf)
+        gaps = np.diff(tt) / span
+        with np.errstate(divide="ignore"):
+            logp[1:] = math.log(-math.expm1(-h * span)) + np.log(gaps) + ev_b
+    total = logp + ev_a
+    if not np.isfinite(total).any():
+        return -math.inf, []
+    lev = float(logsumexp(total))
+    post = np.exp(total - lev)
+    order = [0] + [int(k) for k in np.argsort(-post[1:])[:keep] + 1 if post[k] > 1e-4] if n >= 1 else [0]
+    order = [k for k in order if post[k] > 0]
+    tot = float(sum(post[k] for k in order))
+    return lev, [(float(post[k] / tot), mean_a[k], cov_a[k], k if k > 0 else -1) for k in order]
+
+
 # ---------------------------------------------------------------------------- time to alarm
 
 _GRID_CACHE: dict[float, Array] = {}
 
 
-def _tau_grid(max_days: float) -> Array:
+def tau_grid(max_days: float) -> Array:
+    """The grid of days ahead on which crossing probabilities are evaluated (0, then 700 log-spaced to the horizon)."""
     g = _GRID_CACHE.get(max_days)
     if g is None:
         g = np.concatenate([[0.0], np.geomspace(0.01, max_days, 700)])
@@ -332,18 +535,33 @@ def _tau_grid(max_days: float) -> Array:
     return g
 
 
-def crossing_cdf(mean: Array, cov: Array, q: float, cfg: TrendConfig, tau: Array) -> Array:
-    """P(alarm crossed by tau) for states (N, d), (N, d, d) -> (N, len(tau)), running max over tau."""
+def forecast_basis(m: Member, tau: Array, cfg: TrendConfig) -> tuple[Array, Array]:
+    """``H`` (d, G) and the process-noise variance (G,) of member ``m``'s wear ``tau`` days ahead."""
+    tau = np.asarray(tau, float)
+    if m.kind == "steady":
+        u, _ = _basis(tau, m.efold)
+        return np.stack([np.ones_like(tau), u]), np.zeros_like(tau)
+    H = np.stack([np.ones_like(tau), tau, tau * tau / 2][: m.order])
+    noise = m.q * tau ** 3 / 3 if m.order == 2 else m.q * tau ** 5 / 20
+    return H, noise + cfg.level_noise * tau
+
+
+def _crossing(mean: Array, cov: Array, H: Array, extra: Array, alarm: float) -> Array:
     m = np.atleast_2d(mean)
     d = m.shape[1]
     P = cov.reshape(-1, d, d)
-    tau = np.asarray(tau, float)
-    H = np.stack([np.ones_like(tau), tau, tau * tau / 2][:d])  # (d, G)
     mu = m @ H
-    v = np.einsum("ig,nij,jg->ng", H, P, H)
-    v = v + (q * tau ** 3 / 3 if d == 2 else q * tau ** 5 / 20)[None, :] + cfg.level_noise * tau[None, :]
-    z = (mu - cfg.alarm) / np.sqrt(np.maximum(v, 1e-12))
+    v = np.einsum("ig,nij,jg->ng", H, P, H) + extra[None, :]
+    z = (mu - alarm) / np.sqrt(np.maximum(v, 1e-12))
     return np.asarray(np.maximum.accumulate(ndtr(z), axis=1))
+
+
+def crossing_cdf(mean: Array, cov: Array, q: float, cfg: TrendConfig, tau: Array) -> Array:
+    """P(alarm crossed by tau) for adaptive states (N, d), (N, d, d) -> (N, len(tau)), running max over tau
+    (``q = 0``, d = 2: a straight line with uncertain level and rate)."""
+    d = np.atleast_2d(mean).shape[1]
+    H, extra = forecast_basis(Member("", "adaptive", q=q, order=d), tau, cfg)
+    return _crossing(mean, cov, H, extra, cfg.alarm)
 
 
 def crossing_quantiles(F: Array, tau: Array, probs: Sequence[float] = (0.05, 0.5, 0.95)) -> Array:
@@ -362,9 +580,32 @@ def crossing_quantiles(F: Array, tau: Array, probs: Sequence[float] = (0.05, 0.5
     return out
 
 
+def forecast_band(comps: Sequence[Component], members: Sequence[Member], cfg: TrendConfig, tau: Array,
+                  probs: Sequence[float] = (0.05, 0.5, 0.95)) -> Array:
+    """Quantiles (len(tau), len(probs)) of the mixture's wear ``tau`` days ahead (for the plot)."""
+    tau = np.asarray(tau, float)
+    mus, sds, ws = [], [], []
+    for c in comps:
+        H, extra = forecast_basis(members[c.member], tau, cfg)
+        mus.append(c.mean @ H)
+        sds.append(np.sqrt(np.maximum(np.einsum("ig,ij,jg->g", H, c.cov, H) + extra, 1e-12)))
+        ws.append(c.weight)
+    mu, sd, w = np.array(mus), np.array(sds), np.array(ws)[:, None]
+    lo = (mu - 5 * sd).min(axis=0)
+    hi = (mu + 5 * sd).max(axis=0)
+    out = np.zeros((len(tau), len(probs)))
+    for g in range(len(tau)):
+        x = np.linspace(lo[g], hi[g], 801)
+        F = (w[:, 0][:, None] * ndtr((x[None, :] - mu[:, g][:, None]) / sd[:, g][:, None])).sum(axis=0)
+        out[g] = np.interp(probs, F / F[-1], x)
+    return out
+
+
 @dataclass(frozen=True)
 class TrendStates:
-    """The trend after each estimate of a segment (arrays of length n): what the levels are made of."""
+    """The trend after each estimate of a segment (or ``rows``; arrays of that length): what the levels are
+    made of. ``weights`` (M, n): each member's posterior weight; ``reach`` (n, M): each member's probability
+    of the alarm within ``max_horizon_days``; ``mixtures``: the components at each row (``keep=True``)."""
 
     wear: Array
     wear_std: Array
@@ -374,32 +615,98 @@ class TrendStates:
     growth: NDArray[np.bool_]
     quantiles: Array  # (n, 3): lo90, median, hi90 in days
     level: NDArray[np.int_]
-    weights: Array  # (K, n) weight of each q
+    weights: Array  # (M, n)
+    step_probability: Array
+    reach: Array
+    p_growth_steady: Array
+    mixtures: list[list[Component]] = field(default_factory=list)
 
 
-def trend_states(bank: Sequence[FilterOutput], cfg: TrendConfig, rows: Array | None = None) -> TrendStates:
-    """Mix the filters of a bank (weights by likelihood) into the trend after each estimate (or ``rows``)."""
-    W = bank_weights(bank)
-    n = len(bank[0].t_days)
-    idx = np.arange(n) if rows is None else np.asarray(rows, int)
-    W = W[:, idx]
-    means = [f.mean[idx] for f in bank]
-    covs = [f.cov[idx] for f in bank]
-    wear = sum(W[k] * means[k][:, 0] for k in range(len(bank)))
-    rate = sum(W[k] * means[k][:, 1] for k in range(len(bank)))
-    wear_var = sum(W[k] * (covs[k][:, 0, 0] + (means[k][:, 0] - wear) ** 2) for k in range(len(bank)))
-    rate_var = sum(W[k] * (covs[k][:, 1, 1] + (means[k][:, 1] - rate) ** 2) for k in range(len(bank)))
-    p_growth = sum(W[k] * ndtr(means[k][:, 1] / np.sqrt(np.maximum(covs[k][:, 1, 1], 1e-18)))
-                   for k in range(len(bank)))
-    tau = _tau_grid(float(cfg.max_horizon_days))
-    F = sum(W[k][:, None] * crossing_cdf(means[k], covs[k], bank[k].q, cfg, tau) for k in range(len(bank)))
-    qs = crossing_quantiles(np.asarray(F), tau)
-    n_used = idx + 1
-    growth = (p_growth >= cfg.growth_probability) & (n_used >= cfg.min_estimates)
-    level = np.full(len(idx), OK)
+def trend_states(t_days: Array, y: Array, r: Array, cfg: TrendConfig, rows: Array | None = None,
+                 prior: RatePrior | None = None, keep: bool = False) -> TrendStates:
+    """The model-averaged trend after each estimate of a segment (times in days, ascending), or at ``rows``."""
+    pr = prior or RatePrior(std=cfg.slope_prior_std)
+    t = np.asarray(t_days, float)
+    y = np.asarray(y, float)
+    r = np.asarray(r, float)
+    n_all = len(t)
+    idx = np.arange(n_all) if rows is None else np.asarray(rows, int)
+    members = bank_members(cfg)
+    logprior = np.log(np.maximum(pr.member_weights(cfg), 1e-300))
+    bank = filter_bank(t, y, r, cfg, pr)
+    adaptive = [i for i, m in enumerate(members) if m.kind == "adaptive"]
+    tau = tau_grid(float(cfg.max_horizon_days))
+    bases = [forecast_basis(m, tau, cfg) for m in members]
+    M, N = len(members), len(idx)
+    W = np.zeros((M, N))
+    out = {k: np.zeros(N) for k in ("wear", "wvar", "rate", "rvar", "pg", "pgs", "step")}
+    qs = np.zeros((N, 3))
+    reach = np.zeros((N, M))
+    mixtures: list[list[Component]] = []
+    for j, n in enumerate(idx):
+        lev = np.full(M, -np.inf)
+        comps_by_member: list[list[tuple[float, Array, Array, int]]] = [[] for _ in members]
+        for i, m in enumerate(members):
+            if m.kind == "steady":
+                if logprior[i] > -600:
+                    lev[i], comps_by_member[i] = _steady_at(t, y, r, int(n), m.efold, cfg, pr)
+            else:
+                f = bank[adaptive.index(i)]
+                lev[i] = f.loglik[n]
+                comps_by_member[i] = [(1.0, f.mean[n], f.cov[n], -1)]
+        lw = logprior + lev / cfg.evidence_temperature
+        w = np.exp(lw - logsumexp(lw))
+        W[:, j] = w
+        comps = [Component(i, float(w[i] * cw), mu, P, k) for i in range(M) if w[i] > 1e-9
+                 for (cw, mu, P, k) in comps_by_member[i]]
+        F = np.zeros(len(tau))
+        wear = sum(c.weight * c.mean[0] for c in comps)
+        rate = sum(c.weight * c.mean[1] for c in comps)
+        out["wear"][j], out["rate"][j] = wear, rate
+        out["wvar"][j] = sum(c.weight * (c.cov[0, 0] + (c.mean[0] - wear) ** 2) for c in comps)
+        out["rvar"][j] = sum(c.weight * (c.cov[1, 1] + (c.mean[1] - rate) ** 2) for c in comps)
+        pg = [c.weight * float(ndtr(c.mean[1] / math.sqrt(max(c.cov[1, 1], 1e-18)))) for c in comps]
+        out["pg"][j] = sum(pg)
+        ws = sum(c.weight for c in comps if members[c.member].kind == "steady")
+        out["pgs"][j] = (sum(p for p, c in zip(pg, comps) if members[c.member].kind == "steady") / ws
+                         if ws > 0 else math.nan)
+        out["step"][j] = sum(c.weight for c in comps if c.step_at >= 0)
+        for i in range(M):
+            mine = [c for c in comps if c.member == i]
+            if not mine:
+                continue
+            Fi = _crossing(np.array([c.mean for c in mine]), np.array([c.cov for c in mine]), *bases[i], cfg.alarm)
+            cw = np.array([c.weight for c in mine])
+            Fm = cw @ Fi
+            F += Fm
+            reach[j, i] = Fm[-1] / cw.sum()
+        qs[j] = crossing_quantiles(F[None, :], tau)[0]
+        if keep:
+            mixtures.append(comps)
+    growth = (out["pg"] >= cfg.growth_probability) & (idx + 1 >= cfg.min_estimates)
+    level = np.full(N, OK)
     level[growth & (qs[:, 0] <= cfg.horizon_days)] = WARN
-    level[wear >= cfg.alarm] = ERROR
-    return TrendStates(wear, np.sqrt(wear_var), rate, np.sqrt(rate_var), p_growth, growth, qs, level, W)
+    level[out["wear"] >= cfg.alarm] = ERROR
+    return TrendStates(out["wear"], np.sqrt(out["wvar"]), out["rate"], np.sqrt(out["rvar"]), out["pg"], growth, qs,
+                       level, W, out["step"], reach, out["pgs"], mixtures)
+
+
+def unbounded_reason(st: TrendStates, j: int, members: Sequence[Member], cfg: TrendConfig) -> str | None:
+    """Why the 90 % interval of row ``j`` has no upper bound (None when it has one)."""
+    if math.isfinite(float(st.quantiles[j, 2])):
+        return None
+    w = st.weights[:, j]
+    steady = np.array([m.kind == "steady" for m in members])
+    ws, wa = float(w[steady].sum()), float(w[~steady].sum())
+    reach_s = float((w[steady] * st.reach[j, steady]).sum() / ws) if ws > 0 else 0.0
+    if wa > 0 and reach_s >= 0.95:
+        return (f"acceleration not identified: {100 * wa:.0f} % of the weight is on models whose rate may wander "
+                "(random walk), which do not bound the latest time")
+    pgs = float(st.p_growth_steady[j])
+    if not math.isfinite(pgs) or pgs < 0.95:
+        return (f"rate not distinguishable from zero (P(rate > 0) = {pgs:.2f} under the steady models): the data "
+                "bound the earliest time, not the latest")
+    return f"at the slowest plausible rate the alarm lies beyond the {cfg.max_horizon_days:g}-day horizon"
 
 
 # ---------------------------------------------------------------------------- segments and revisions
@@ -448,6 +755,28 @@ def last_segment(times: Array, maintenance_times: Sequence[float]) -> tuple[int,
 # ---------------------------------------------------------------------------- one joint
 
 
+def current_segment(times: Any, wear: Any, wear_std: Any, cycle_ids: Any, maintenance_times: Sequence[float],
+           cfg: TrendConfig, where: str) -> tuple[Array, Array, Array, int, float, int]:
+    """Checked, revision-collapsed estimates of the current segment: (t, w, s, total, segment start, segments)."""
+    t = np.asarray(times, float)
+    w = np.asarray(wear, float)
+    s = np.asarray(wear_std, float)
+    if not (t.shape == w.shape == s.shape) or t.ndim != 1:
+        raise InputDataError(f"{where}: times, wear and wear_std must be 1-D of one length "
+                             f"(got {t.shape}, {w.shape}, {s.shape})")
+    bad = ~(np.isfinite(t) & np.isfinite(w) & np.isfinite(s) & (s > 0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputDataError(f"{where}: estimate {i} is not usable (time {t[i]!r}, wear {w[i]!r}, "
+                             f"std {s[i]!r}): need finite values and std > 0")
+    total = len(t)
+    cid = np.zeros(total, int) if cycle_ids is None else np.asarray(cycle_ids)
+    keep = collapse_revisions(t, cid, cfg.revision_window_s) if total else np.zeros(0, int)
+    t, w, s = t[keep], w[keep], s[keep]
+    first, seg_start, segs = last_segment(t, maintenance_times)
+    return t[first:], w[first:], s[first:], total, seg_start, segs
+
+
 def analyze_joint(
     times: Array | Sequence[float],
     wear: Array | Sequence[float],
@@ -459,41 +788,42 @@ def analyze_joint(
     robot: str = "",
     joint: str = "",
     smooth: bool = False,
+    prior: RatePrior | None = None,
 ) -> TrendResult:
-    """The trend of one joint from its estimates (times in seconds since the epoch)."""
+    """The trend of one joint from its estimates (times in seconds since the epoch); ``prior``: a fleet prior."""
     cfg = cfg or TrendConfig()
-    t = np.asarray(times, float)
-    w = np.asarray(wear, float)
-    s = np.asarray(wear_std, float)
-    if not (t.shape == w.shape == s.shape) or t.ndim != 1:
-        raise InputDataError(f"{robot}/{joint}: times, wear and wear_std must be 1-D of one length "
-                             f"(got {t.shape}, {w.shape}, {s.shape})")
-    bad = ~(np.isfinite(t) & np.isfinite(w) & np.isfinite(s) & (s > 0))
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise InputDataError(f"{robot}/{joint}: estimate {i} is not usable (time {t[i]!r}, wear {w[i]!r}, "
-                             f"std {s[i]!r}): need finite values and std > 0")
-    total = len(t)
-    cid = np.zeros(total, int) if cycle_ids is None else np.asarray(cycle_ids)
-    keep = collapse_revisions(t, cid, cfg.revision_window_s) if total else np.zeros(0, int)
-    t, w, s = t[keep], w[keep], s[keep]
-    first, seg_start, segs = last_segment(t, maintenance_times)
-    t, w, s = t[first:], w[first:], s[first:]
+    t, w, s, total, seg_start, segs = current_segment(times, wear, wear_std, cycle_ids, maintenance_times, cfg,
+                                             f"{robot}/{joint}")
     n = len(t)
     if n == 0:
         return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, OK,
-                           "no estimates since the last maintenance event", False, math.nan, seg_start, segs)
-    bank = filter_bank((t - t[0]) / DAY, w, s, cfg)
-    st = trend_states(bank, cfg, rows=np.array([n - 1]))
+                           "no estimates since the last maintenance event", False, math.nan, seg_start, segs,
+                           prior=prior)
+    members = bank_members(cfg)
+    st = trend_states((t - t[0]) / DAY, w, s, cfg, rows=np.array([n - 1]), prior=prior, keep=True)
     qs = st.quantiles
     level, growth = int(st.level[0]), bool(st.growth[0])
     wear_now, wear_sd = float(st.wear[0]), float(st.wear_std[0])
     rate, rate_sd = float(st.rate[0]), float(st.rate_std[0])
-    best = int(np.argmax(st.weights[:, 0]))
-    f = bank[best]
+    weights = {m.name: round(float(x), 4) for m, x in zip(members, st.weights[:, 0])}
+    comps = st.mixtures[0]
+    step_p = float(st.step_probability[0])
+    step_time = math.nan
+    if step_p >= 0.5:
+        by_k: dict[int, float] = {}
+        for c in comps:
+            if c.step_at >= 0:
+                by_k[c.step_at] = by_k.get(c.step_at, 0.0) + c.weight
+        step_time = float(t[max(by_k, key=lambda k: by_k[k])])
+    adaptive = [i for i, m in enumerate(members) if m.kind == "adaptive"]
+    f = None
+    if adaptive:
+        best = max(adaptive, key=lambda i: st.weights[i, 0])
+        m = members[best]
+        f = kalman_llt((t - t[0]) / DAY, w, s, cfg, m.q, m.order, prior)
     tta: TimeToAlarm | None
     if wear_now >= cfg.alarm:
-        tta = TimeToAlarm(0.0, 0.0, 0.0)
+        tta = TimeToAlarm(0.0, 0.0, 0.0, weights)
         msg = f"wear {wear_now:.1f} ± {wear_sd:.1f} at or above the alarm {cfg.alarm:g}"
     elif n < cfg.min_estimates:
         tta = None
@@ -502,18 +832,90 @@ def analyze_joint(
         tta = None
         msg = f"no growth detected (rate {rate:+.3f} ± {rate_sd:.3f} /day); wear {wear_now:.1f} ± {wear_sd:.1f}"
     else:
-        tta = TimeToAlarm(float(qs[0, 1]), float(qs[0, 0]), float(qs[0, 2]))
+        reason = unbounded_reason(st, 0, members, cfg)
+        tta = TimeToAlarm(float(qs[0, 1]), float(qs[0, 0]), float(qs[0, 2]), weights, reason)
         msg = (f"alarm {cfg.alarm:g} in {_days(tta.median)} (90 %: {_days(tta.lo90)} to {_days(tta.hi90)}); "
                f"wear {wear_now:.1f} ± {wear_sd:.1f}, rate {rate:+.3f} /day")
+        if reason:
+            msg += f"; no upper bound: {reason}"
         if level == WARN:
             msg = f"alarm possible within {cfg.horizon_days:g} days: " + msg
+    if step_p >= 0.5:
+        from datetime import UTC, datetime
+
+        msg += (f"; a step in the estimates at {datetime.fromtimestamp(step_time, UTC):%Y-%m-%d} without a "
+                f"maintenance event (P = {step_p:.2f}): the trend follows the estimates after it")
     return TrendResult(
         robot=robot, joint=joint, estimates=n, estimates_total=total, wear=wear_now, wear_std=wear_sd,
         rate_per_day=rate, rate_std=rate_sd, time_to_alarm=tta, level=level, message=msg,
         growth_detected=growth, last_time=float(t[-1]), segment_start=float(seg_start), segments=segs,
-        filtered=f, smoothed=rts_smooth(f, cfg) if smooth else None, times=t, wears=w, wear_stds=s,
+        filtered=f, smoothed=rts_smooth(f, cfg) if (smooth and f is not None) else None, times=t, wears=w,
+        wear_stds=s, model_weights=weights, step_probability=step_p, step_time=step_time, components=comps,
+        members=members, prior=prior,
     )
 
 
 def _days(x: float) -> str:
     return "unbounded" if not math.isfinite(x) else f"{x:.0f} d"
+
+
+# ---------------------------------------------------------------------------- the fleet as a prior
+
+
+@dataclass(frozen=True)
+class SiblingFit:
+    """What one sibling joint contributes to a fleet prior: its current rate, the rate's posterior variance and
+    its members' posterior weights (under the default prior)."""
+
+    rate: float
+    rate_var: float
+    weights: Array
+
+
+def sibling_fit(t_days: Array, y: Array, r: Array, cfg: TrendConfig | None = None) -> SiblingFit | None:
+    """Fit one sibling's current segment (times in days) with the default prior; None below ``min_estimates``."""
+    cfg = cfg or TrendConfig()
+    t = np.asarray(t_days, float)
+    if len(t) < cfg.min_estimates:
+        return None
+    st = trend_states(t - t[0], y, r, cfg, rows=np.array([len(t) - 1]))
+    return SiblingFit(float(st.rate[0]), float(st.rate_std[0]) ** 2, st.weights[:, 0].copy())
+
+
+def pool_prior(fits: Sequence[SiblingFit | None], cfg: TrendConfig | None = None, *, min_joints: int = 5,
+               source: str = "fleet") -> RatePrior | None:
+    """Empirical-Bayes prior from sibling fits: the rates' distribution and the members' weights.
+
+    The fleet's rate distribution ``N(mu, s^2)`` by the method of moments (the spread of the siblings' rates
+    less their mean posterior variance, DerSimonian-Laird), ``s`` clipped to [0.01, ``slope_prior_std``]; the
+    member weights are the siblings' mean posterior weights mixed 4:1 with the default prior weights, so that
+    no member is ruled out by the fleet. None with fewer than ``min_joints`` (>= 2) siblings.
+    """
+    cfg = cfg or TrendConfig()
+    ok = [f for f in fits if f is not None]
+    if len(ok) < max(int(min_joints), 2):
+        return None
+    ra, rv = np.array([f.rate for f in ok]), np.array([f.rate_var for f in ok])
+    mu = float(ra.mean())
+    tau2 = float(ra.var(ddof=1) - rv.mean())
+    sd = float(np.clip(math.sqrt(max(tau2, 0.0)), 0.01, cfg.slope_prior_std))
+    w = 0.8 * np.mean([f.weights for f in ok], axis=0) + 0.2 * _default_weights(cfg)
+    return RatePrior(mean=mu, std=sd, weights=tuple(float(x) for x in w / w.sum()), source=source,
+                     joints=len(ok))
+
+
+def fleet_prior(segments: Sequence[tuple[Array, Array, Array]], cfg: TrendConfig | None = None, *,
+                min_joints: int = 5, source: str = "fleet") -> RatePrior | None:
+    """The prior a joint gets from its siblings' current segments ``(times in days, wear, wear std)``:
+    :func:`sibling_fit` of each, :func:`pool_prior` of them.
+
+    >>> import numpy as np
+    >>> t = np.arange(40.0)
+    >>> sibs = [(t, 5 + r * t, np.full(40, 0.5)) for r in (0.10, 0.12, 0.14, 0.16, 0.18)]
+    >>> p = fleet_prior(sibs)
+    >>> round(p.mean, 2), p.joints
+    (0.14, 5)
+    """
+    cfg = cfg or TrendConfig()
+    return pool_prior([sibling_fit(t, y, r, cfg) for t, y, r in segments], cfg, min_joints=min_joints,
+                      source=source)

@@ -1,9 +1,12 @@
 """Figures and a static HTML page of wear trends (matplotlib, Agg; no server).
 
 :func:`plot_trend` draws one joint: every estimate with its ±2 std error bar
-(all segments; maintenance events as vertical lines), the smoothed trend of
-the current segment with its 90 % band, the forecast with its 90 % band, the
-alarm threshold, and the predicted crossing (median, 90 % interval shaded).
+(all segments; maintenance events as vertical lines; a detected step without
+an event dashed), the fit of the current segment by its top-weighted model with
+its 90 % band, the forecast of the model average (median and 90 % band), the
+alarm threshold, the predicted crossing (median, 90 % interval shaded, and why
+it has no upper bound when it has none), and beside it the weights of the
+bank's models.
 :func:`write_html` writes ``index.html`` ranking joints by time to alarm
 (ERROR first, then WARN, then the soonest median; no growth last).
 """
@@ -17,12 +20,14 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
-from .core import DAY, TrendConfig, TrendResult, rts_smooth
+from .core import DAY, TrendConfig, TrendResult, forecast_band, forecast_basis, rts_smooth
 
 __all__ = ["plot_trend", "rank_key", "write_html"]
 
 Z90 = 1.6448536269514722
+Array = NDArray[np.float64]
 
 
 def rank_key(r: TrendResult) -> tuple[float, float, str, str]:
@@ -36,54 +41,108 @@ def _dt(t: np.ndarray) -> list[datetime]:
     return [datetime.fromtimestamp(float(x), UTC) for x in np.atleast_1d(t)]
 
 
+def _history_fit(r: TrendResult, cfg: TrendConfig) -> tuple[Array, Array, Array, str] | None:
+    """The top-weighted member's fit over the segment: times (s), level, 90 % half-width, its name."""
+    if not r.components or not len(r.times):
+        return None
+    w: dict[int, float] = {}
+    for c in r.components:
+        w[c.member] = w.get(c.member, 0.0) + c.weight
+    best = max(w, key=lambda i: w[i])
+    m = r.members[best]
+    if m.kind == "adaptive":
+        f = r.smoothed if r.smoothed is not None else (rts_smooth(r.filtered, cfg) if r.filtered is not None else None)
+        if f is None:
+            return None
+        return r.times, f.mean[:, 0], Z90 * np.sqrt(np.maximum(f.cov[:, 0, 0], 0)), m.name
+    mine = [c for c in r.components if c.member == best]
+    c = max(mine, key=lambda c: c.weight)
+    first = c.step_at if c.step_at >= 0 else 0
+    x = r.times[first:]
+    H, _ = forecast_basis(m, (x - r.last_time) / DAY, cfg)
+    mu = c.mean @ H
+    sd = np.sqrt(np.maximum(np.einsum("ig,ij,jg->g", H, c.cov, H), 0))
+    return x, mu, Z90 * sd, m.name + (" after the step" if c.step_at >= 0 else "")
+
+
 def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence[float],
                all_wear: Sequence[float], all_std: Sequence[float], maintenance_times: Sequence[float] = ()) -> Path:
-    """One joint's history and trend as a PNG."""
+    """One joint's history and trend as a PNG: left the estimates, the fit, the forecast and the alarm-time
+    interval; right the weights of the bank's models (what the interval is made of)."""
     from ..plots import new_figure, save_figure
 
-    fig, axes = new_figure(size=(9.0, 4.8))
-    ax = axes[0][0]
+    fig, axes = new_figure(1, 2, size=(12.0, 5.0))
+    ax, axw = axes[0]
+    ax.get_gridspec().set_width_ratios([3.3, 1.0])
     t = np.asarray(all_times, float)
     ax.errorbar(_dt(t), all_wear, yerr=2 * np.asarray(all_std, float), fmt="o", ms=2.5, lw=0.6, color="0.35",
                 ecolor="0.7", label="estimates ± 2 std")
     for m in maintenance_times:
         ax.axvline(_dt(np.array([m]))[0], color="tab:green", ls=":", lw=1.2)
-    if r.filtered is not None and len(r.times):
-        s = r.smoothed if r.smoothed is not None else rts_smooth(r.filtered, cfg)
-        lvl, sd = s.mean[:, 0], np.sqrt(np.maximum(s.cov[:, 0, 0], 0))
-        x = _dt(r.times)
-        ax.plot(x, lvl, color="tab:blue", lw=1.6, label="trend (smoothed)")
-        ax.fill_between(x, lvl - Z90 * sd, lvl + Z90 * sd, color="tab:blue", alpha=0.2, lw=0, label="trend 90 %")
-        f = r.filtered
-        m, P, q, d = f.mean[-1], f.cov[-1], f.q, f.order
-        tta = r.time_to_alarm
+    if r.step_probability >= 0.5 and math.isfinite(r.step_time):
+        ax.axvline(_dt(np.array([r.step_time]))[0], color="tab:purple", ls="--", lw=1.0,
+                   label=f"step without a maintenance event (P = {r.step_probability:.2f})")
+    fit = _history_fit(r, cfg)
+    if fit is not None:
+        x_s, lvl, half, name = fit
+        x = _dt(x_s)
+        ax.plot(x, lvl, color="tab:blue", lw=1.6, label=f"fit: {name}")
+        ax.fill_between(x, lvl - half, lvl + half, color="tab:blue", alpha=0.2, lw=0, label="fit 90 %")
+    tta = r.time_to_alarm
+    if r.components and len(r.times):
         end = 60.0
         if tta is not None and math.isfinite(tta.hi90):
             end = max(end, tta.hi90 * 1.1)
         elif tta is not None and math.isfinite(tta.median):
             end = max(end, tta.median * 1.5)
         end = min(end, cfg.max_horizon_days)
-        tau = np.linspace(0.0, end, 120)
-        H = np.stack([np.ones_like(tau), tau, tau * tau / 2][:d])
-        mu = m @ H
-        var = np.einsum("ig,ij,jg->g", H, P, H) + (q * tau ** 3 / 3 if d == 2 else q * tau ** 5 / 20)
+        tau = np.linspace(0.0, end, 90)
+        band = forecast_band(r.components, r.members, cfg, tau)
         xf = _dt(r.last_time + tau * DAY)
-        ax.plot(xf, mu, color="tab:orange", lw=1.4, ls="--", label="forecast")
-        ax.fill_between(xf, mu - Z90 * np.sqrt(var), mu + Z90 * np.sqrt(var), color="tab:orange", alpha=0.15, lw=0,
-                        label="forecast 90 %")
+        ax.plot(xf, band[:, 1], color="tab:orange", lw=1.4, ls="--", label="forecast (all models, median)")
+        ax.fill_between(xf, band[:, 0], band[:, 2], color="tab:orange", alpha=0.15, lw=0, label="forecast 90 %")
         if tta is not None and math.isfinite(tta.median) and tta.median > 0:
             lo = r.last_time + tta.lo90 * DAY
             hi = r.last_time + (tta.hi90 if math.isfinite(tta.hi90) else end) * DAY
-            ax.axvspan(_dt(np.array([lo]))[0], _dt(np.array([hi]))[0], color="tab:red", alpha=0.12,
-                       label="alarm time 90 %")
+            lab = "alarm time 90 %" + ("" if math.isfinite(tta.hi90) else " (no upper bound)")
+            ax.axvspan(_dt(np.array([lo]))[0], _dt(np.array([hi]))[0], color="tab:red", alpha=0.12, label=lab)
             ax.plot(_dt(np.array([r.last_time + tta.median * DAY])), [cfg.alarm], "v", color="tab:red", ms=9,
                     label="predicted crossing (median)")
     ax.axhline(cfg.alarm, color="tab:red", lw=1.2, label=f"alarm {cfg.alarm:g}")
     ax.set_ylabel("wear (0-100)")
-    ax.set_title(f"{r.robot} / {r.joint}: {r.level_name} - {r.message}", fontsize=8.5)
+    title = f"{r.robot} / {r.joint}: {r.level_name}"
+    if tta is not None and tta.median > 0:
+        title += (f" - alarm in {_fmt_days(tta.median)} d (90 %: {_fmt_days(tta.lo90)} to "
+                  f"{_fmt_days(tta.hi90)} d)")
+    elif tta is None:
+        title += " - " + r.message.split(";")[0]
+    ax.set_title(title, fontsize=9)
+    if tta is not None and tta.unbounded_reason:
+        ax.text(0.01, 0.02, "no upper bound: " + tta.unbounded_reason, transform=ax.transAxes, fontsize=7,
+                color="tab:red", va="bottom", wrap=True)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
-    fig.autofmt_xdate()
+    for lab in ax.get_xticklabels():
+        lab.set_rotation(25)
+        lab.set_ha("right")
+    weights = r.model_weights
+    if weights:
+        names = list(weights)[::-1]
+        vals = [weights[k] for k in names]
+        colors = ["tab:blue" if k == "line" else "tab:orange" if k.startswith("accelerated") else "tab:gray"
+                  for k in names]
+        axw.barh(names, vals, color=colors)
+        for i, v in enumerate(vals):
+            inside = v > 0.75
+            axw.text(v - 0.02 if inside else v + 0.02, i, f"{100 * v:.0f} %", va="center", fontsize=7,
+                     ha="right" if inside else "left", color="white" if inside else "black")
+        axw.set_xlim(0, 1.0)
+        axw.set_xlabel("weight (evidence × prior)")
+        axw.set_title("models of the trend", fontsize=9)
+        axw.tick_params(axis="y", labelsize=7)
+        axw.grid(alpha=0.3, axis="x")
+    else:
+        axw.axis("off")
     return save_figure(fig, Path(path))
 
 

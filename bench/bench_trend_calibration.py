@@ -1,0 +1,136 @@
+"""Calibration of the time to alarm on the histories a planner meets, before and after issue 23.
+
+Usage: python bench/run_all.py trend_calibration   (or python bench/bench_trend_calibration.py
+[--per-family N] [--days D] [--seed S] [--quick])
+
+Seven families of joints with known true wear (``jointwear_ros.trend.families``: linear,
+accelerating (half the paper's exponential shape, half a power law no model has), flat, a step
+without a maintenance event, a gap of weeks, irregular cadence, estimate std varying by night),
+backtested at every night: the trend sees only the estimates so far. Per family, for two banks:
+
+- *before*: issue 13's bank (random-walk rates q = 1e-5, 1e-4, 1e-3 and the quadratic, equal
+  prior weights);
+- *after*: issue 23's (the line and the accelerated shapes with an unrecorded step, next to the
+  adaptive members; documented prior weights, tempered evidence; ``TrendConfig()``).
+
+Printed: coverage of the 90 % interval (target 85-95 % per family), the share of intervals without
+an upper bound, the median width / true time to alarm (target <= 0.6; an unbounded interval counts as
+infinitely wide), on linear joints the median width / the straight-line limit (target <= 2), WARN or
+ERROR nights on flat joints (target 0), false ERROR nights (ERROR while the true wear is more than 1
+below the alarm; target 0), early warnings (WARN/ERROR while the true time to alarm is > 60 days) per
+1,000 joint-nights, the median lead of the first WARN before the true crossing. Scored nights: the true
+time to alarm 1-365 days; once over every such night, once over those with at least 60 estimates in the
+segment (the issue's "history of 60 nightly estimates").
+
+Then the fleet prior: young joints (8-20 estimates) whose 30 linear siblings have full histories, at
+their last night, with and without :func:`jointwear_ros.trend.fleet_prior` (leave-one-out).
+Benchmarks measure; they do not pass or fail.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from jointwear_ros.cli.common import format_table
+from jointwear_ros.trend import DAY, TrendConfig, analyze_joint, fleet_prior
+from jointwear_ros.trend.backtest import backtest_joint, score_calibration
+from jointwear_ros.trend.families import EPOCH0, FAMILIES, make_family
+
+BEFORE = TrendConfig(accel_noise=(1e-5, 1e-4, 1e-3), jerk_noise=(1e-8,), efold_days=(), prior_line=0.0,
+                     prior_accelerated=0.0, evidence_temperature=1.0, step_rate_per_day=0.0)
+AFTER = TrendConfig()
+
+
+def pct(x: float) -> str:
+    return "-" if math.isnan(x) else f"{100 * x:.1f}"
+
+
+def num(x: float, spec: str = ".2f") -> str:
+    return "-" if math.isnan(x) else ("inf" if math.isinf(x) else format(x, spec))
+
+
+def table(score: dict[str, dict[str, float]]) -> str:
+    rows = []
+    for f in (*FAMILIES, "all"):
+        v = score[f]
+        rows.append([f, v["joints"], v["scored_nights"], pct(v["coverage"]), pct(v["interval_fraction"]),
+                     pct(v["unbounded_fraction"]), num(v["median_width_over_true"]),
+                     num(v["median_width_over_line"]), v["flat_warn_nights"], v["false_error_nights"],
+                     num(v["early_warn_per_1000"]), num(v["median_lead_days"], ".1f"),
+                     f"{v['joints_crossing'] - v['joints_missed']}/{v['joints_crossing']}"])
+    return format_table(["family", "joints", "nights", "coverage %", "with interval %", "unbounded %",
+                         "width/true", "width/line", "flat warn", "false ERROR", "early /1000", "lead d",
+                         "warned"], rows)
+
+
+def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[list[str]]:
+    """Young joints with and without the fleet prior of their siblings (same type: linear, rate 0.10-0.20)."""
+    rng = np.random.default_rng(seed)
+    fam = make_family("linear", siblings + young, days=180, seed=seed + 1)
+    for j in fam:  # a joint type: rates spread less than the benchmark's 0.06-0.25
+        j.rate = float(rng.uniform(0.10, 0.20))
+        d = (j.times - EPOCH0) / DAY
+        j.wear = j.true_wear(d) + rng.normal(0, 1, len(d)) * j.wear_std
+    sibs = [((j.times - j.times[0]) / DAY, j.wear, j.wear_std) for j in fam[:siblings]]
+    out = []
+    t0 = time.perf_counter()
+    pr = fleet_prior(sibs, AFTER)
+    t_prior = time.perf_counter() - t0
+    assert pr is not None
+    for use in (False, True):
+        hits = n = 0
+        widths: list[float] = []
+        for k, j in enumerate(fam[siblings:]):
+            m = 8 + (k % 13)
+            # a joint whose history holds only its last m estimates (newly connected), 100-160 days in
+            last = int(np.searchsorted(j.times, j.times[0] + (100 + 3 * k) * DAY))
+            idx = slice(max(last - m, 0), last)
+            t, w, s = j.times[idx], j.wear[idx], j.wear_std[idx]
+            r = analyze_joint(t, w, s, cfg=AFTER, prior=pr if use else None)
+            d_last = (t[-1] - EPOCH0) / DAY
+            true = j.segment_crossing(d_last) - d_last
+            if not 1.0 <= true <= 365.0:
+                continue
+            n += 1
+            tta = r.time_to_alarm
+            if tta is not None and tta.lo90 <= true <= tta.hi90:
+                hits += 1
+            widths.append((tta.hi90 - tta.lo90) / true if tta is not None else math.inf)
+        out.append(["with fleet prior" if use else "own estimates only", str(n), pct(hits / n),
+                    num(float(np.median(widths)))])
+    out.append([f"fleet prior: rate N({pr.mean:.3f}, {pr.std:.3f}²) from {pr.joints} siblings in "
+                f"{1000 * t_prior:.0f} ms", "", "", ""])
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--per-family", type=int, default=20)
+    ap.add_argument("--days", type=int, default=180)
+    ap.add_argument("--seed", type=int, default=2027)
+    ap.add_argument("--quick", action="store_true", help="5 joints per family")
+    a = ap.parse_args()
+    n = 5 if a.quick else a.per_family
+    joints = [j for i, f in enumerate(FAMILIES) for j in make_family(f, n, days=a.days, seed=a.seed, first=i * n)]
+    nights = sum(len(j.times) for j in joints)
+    print(f"{len(joints)} joints ({n} per family), {a.days} days, {nights} estimates, seed {a.seed}")
+    for name, cfg in (("before (issue 13 bank)", BEFORE), ("after (issue 23 bank, TrendConfig())", AFTER)):
+        t0 = time.process_time()
+        runs = [backtest_joint(j, cfg, EPOCH0) for j in joints]
+        dt = time.process_time() - t0
+        for m in (0, 60):
+            s = score_calibration(joints, cfg, EPOCH0, a.days, min_estimates=m, backtests=runs)
+            print(f"\n{name}; nights with >= {m} estimates in the segment:")
+            print(table(s))
+        print(f"{nights / dt:.0f} trend updates (joint-nights) per CPU second")
+    print("\nfleet prior: young joints (8-20 estimates) at their last night, 30 siblings of the same type")
+    print(format_table(["trend", "joints", "coverage %", "median width/true"], fleet_experiment(a.seed)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
