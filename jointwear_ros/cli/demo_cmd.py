@@ -525,6 +525,12 @@ def check_overrides(overrides: dict[str, dict[str, Any]]) -> None:
                 raise UsageError(f"--set {node}.{name}: {node} has no parameter {name!r}; "
                                  f"it has {', '.join(sorted(known))}")
             decl = known[name]
+            if decl is not None and isinstance(decl.default, float) and not isinstance(decl.default, bool):
+                if isinstance(value, int) and not isinstance(value, bool):
+                    value = values[name] = float(value)  # 30 where 30.0 is declared: what everyone types
+                elif not isinstance(value, float):
+                    raise UsageError(f"--set {node}.{name}={value!r}: {node}.{name} is a number "
+                                     f"(default {decl.default:g})")
             if decl is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
                 if not math.isfinite(float(value)):
                     raise UsageError(f"--set {node}.{name}={value}: not a finite number")
