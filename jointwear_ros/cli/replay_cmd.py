@@ -119,7 +119,19 @@ def replay_summary(result: Any) -> dict[str, Any]:
         "comparison": result.comparison(),
         "joint_state_samples": result.samples,
         "messages_lost": result.messages_lost,
+        "settings": getattr(result, "settings", {}),
     }
+
+
+def settings_line(settings: dict[str, str]) -> str:
+    """Which method, parameter set and settings a replay used, and where each came from (one line)."""
+    src = {"given": "given", "recorded": "recorded in the bag", "recorded estimates": "named by the recorded "
+           "estimates", "config": "NOT recorded in the bag: from the config files"}
+    rest = ("the other estimator settings recorded in the bag" if settings.get("estimator") == "recorded"
+            else "the other estimator settings NOT recorded in the bag: from the config files")
+    return (f"method {settings.get('method') or '?'} ({src.get(settings.get('method_from', ''), '?')}), "
+            f"parameter set {settings.get('params') or '?'} ({src.get(settings.get('params_from', ''), '?')}); "
+            + rest)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -161,13 +173,18 @@ def cmd_replay(args: argparse.Namespace) -> int:
         w = c["wear"]
         est = "no estimate" if w is None else f"wear {w['estimate']:.2f} ± {w['std']:.2f} ({w['method']})"
         print(f"{c['joint']} cycle {c['cycle_id']}: {est}, level {c['diagnostic_level']}: {c['message']}")
+    print("settings: " + settings_line(result.settings))
     cmp_ = summary["comparison"]
     o, e = cmp_["observations"], cmp_["estimates"]
     if o["recorded"] or e["recorded"]:
         od = "n/a" if o["max_abs_diff"] is None else f"{o['max_abs_diff']:.3g}"
         ed = "n/a" if e["max_abs_diff"] is None else f"{e['max_abs_diff']:.3g}"
-        print(f"vs recorded: observations {o['matched']}/{o['recorded']} matched, max |diff| {od}; "
-              f"estimates {e['matched']}/{e['recorded']} matched, max |diff| {ed}")
+        print(f"vs recorded: observations {o['matched']}/{o['recorded']} matched"
+              + (f", {len(o['differ'])} DIFFER" if o["differ"] else "") + f", max |diff| {od}; "
+              f"estimates {e['matched']}/{e['recorded']} matched"
+              + (f", {len(e['differ'])} DIFFER" if e["differ"] else "") + f", max |diff| {ed}")
+        for d in e["differ"]:
+            print(f"DIFFERS: {d}")
     else:
         print("the bag holds no recorded FrictionObservation/WearEstimate messages to compare with")
     if len(summary["joints"]) > 1:

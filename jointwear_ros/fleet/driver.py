@@ -100,31 +100,12 @@ class Progress:
 
 def expand_bags(patterns: Sequence[str]) -> list[Path]:
     """Bag directories named by ``patterns`` (paths or globs; a directory that is not a bag stands for
-    the bags under it), de-duplicated, in the order given. Raises InputDataError when a pattern
-    names nothing."""
-    import glob
+    the bags under it), each bag once (its directory and the ``.mcap`` in it are one bag), in the order
+    given. Raises InputDataError when a pattern names nothing. What was matched and skipped, and why:
+    :func:`jointwear_ros.io.bags.discover_bags`."""
+    from ..io.bags import discover_bags
 
-    from ..io.bags import find_bags
-
-    out: list[Path] = []
-    seen: set[str] = set()
-    for pat in patterns:
-        matches = sorted(glob.glob(pat, recursive=True)) if glob.has_magic(pat) else [pat]
-        found: list[Path] = []
-        for m in matches:
-            p = Path(m)
-            if p.is_dir() and not (p / "metadata.yaml").is_file():
-                found.extend(find_bags(p))
-            elif p.exists() or not glob.has_magic(pat):
-                found.append(p)
-        if not found:
-            raise InputDataError(f"{pat}: no bag matches (give rosbag2 bag directories, a glob, or a directory of bags)")
-        for p in found:
-            key = str(p.resolve())
-            if key not in seen:
-                seen.add(key)
-                out.append(p)
-    return out
+    return discover_bags(patterns).bags
 
 
 def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Callable[[], None]]:
