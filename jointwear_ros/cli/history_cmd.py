@@ -14,7 +14,13 @@ from pathlib import Path
 from . import UsageError
 from .common import print_json
 
-__all__ = ["register"]
+__all__ = ["MAINTENANCE_KINDS", "register"]
+
+#: what ``history maintenance --kind`` takes: each starts a new trend segment
+MAINTENANCE_KINDS = ("regrease", "reducer_replaced", "motor_replaced", "joint_replaced", "other")
+
+#: a maintenance time later than now by more than this is refused (a clock off by minutes is not)
+FUTURE_TOLERANCE_S = 3600.0
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -51,7 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     m.add_argument("--db", required=True, help="history store URL or SQLite file path")
     m.add_argument("--robot", required=True)
     m.add_argument("--joint", required=True)
-    m.add_argument("--kind", required=True, help="regrease, reducer_replaced, ...")
+    m.add_argument("--kind", required=True, help=f"what was done: {', '.join(MAINTENANCE_KINDS)}")
     m.add_argument("--time", default=None, help="ISO 8601 or seconds since the epoch (default: now)")
     m.add_argument("--note", default="")
     m.set_defaults(func=cmd_maintenance)
@@ -62,42 +68,66 @@ def _is_csv(path: Path) -> bool:
 
 
 def cmd_import(args: argparse.Namespace) -> int:
+    from ..errors import InputDataError
     from ..history import HistoryStore
     from ..history.importers import estimates_from_bag, estimates_from_csv, reestimate_bag
-    from .common import node_params
+    from ..io.bags import discover_bags
+    from .common import check_method, node_params
 
     if not args.reestimate and (args.method or args.params or args.analysis_version):
         raise UsageError("--method, --params and --analysis-version need --reestimate")
+    # every input is checked before any work: the method, the parameter set, every path
+    check_method(args.method, "--method")
+    if args.params:
+        from ..model import load_parameter_set_info
+
+        load_parameter_set_info(args.params)
+    if not args.robot.strip():
+        raise UsageError("--robot: empty robot name")
+    selection = discover_bags(args.files, accept=_is_csv)
+    observer = node_params(None, "friction_observer.yaml", "friction_observer") if args.reestimate else {}
+    monitor = node_params(None, "wear_estimator.yaml", "wear_estimator") if args.reestimate else {}
     records = []
     per_file = []
+    failed = []
     versions = set()
-    for f in args.files:
-        path = Path(f)
-        if not path.exists():
-            raise UsageError(f"{path}: no such file or bag directory")
-        if _is_csv(path):
-            recs = estimates_from_csv(path, robot=args.robot)
-        elif args.reestimate:
-            recs, version = reestimate_bag(
-                path, robot=args.robot,
-                observer_params=node_params(None, "friction_observer.yaml", "friction_observer"),
-                monitor_params=node_params(None, "wear_estimator.yaml", "wear_estimator"),
-                method=args.method, params=args.params, analysis_version=args.analysis_version)
-            versions.add(version)
-        else:
-            recs = estimates_from_bag(path, robot=args.robot)
+    for path in selection.bags:
+        try:
+            if _is_csv(path):
+                recs = estimates_from_csv(path, robot=args.robot)
+            elif args.reestimate:
+                recs, version = reestimate_bag(path, robot=args.robot, observer_params=observer,
+                                               monitor_params=monitor, method=args.method, params=args.params,
+                                               analysis_version=args.analysis_version)
+                versions.add(version)
+            else:
+                recs = estimates_from_bag(path, robot=args.robot)
+        except InputDataError as exc:  # one bad bag is reported, the others are imported (a bad table: exit 2)
+            if _is_csv(path):
+                raise
+            failed.append({"file": str(path), "error": str(exc)})
+            continue
         per_file.append({"file": str(path), "estimates": len(recs)})
         records.extend(recs)
+    if not per_file:
+        raise UsageError("nothing to import: " + "; ".join([f["error"] for f in failed[:3]]
+                                                           + [f"{k['path']}: {k['reason']}" for k in selection.skipped[:3]])
+                         + ("" if len(failed) <= 3 else f"; and {len(failed) - 3} more"))
     with HistoryStore(args.db) as store:  # everything was read and checked: now write, in one transaction
         added = store.add_estimates(records)
         total = store.count()
     out = {"files": per_file, "read": len(records), "added": added, "duplicates": len(records) - added,
-           "total": total, "analysis_versions": sorted(versions)}
+           "total": total, "analysis_versions": sorted(versions), "failed": failed, "not_bags": selection.skipped}
     if args.json:
         print_json(out)
     else:
         print(f"read {len(records)} estimates from {len(per_file)} file(s): {added} added, "
-              f"{len(records) - added} already in the history; {total} stored")
+              f"{len(records) - added} already in the history; {total} stored"
+              + (f"; {len(failed)} file(s) FAILED, not imported:" if failed else ""))
+        for f in failed:
+            print(f"failed: {f['error']}")
+        for s_ in selection.skipped:
+            print(f"not a bag, skipped: {s_['path']}: {s_['reason']}")
     return 0
 
 
@@ -117,9 +147,25 @@ def cmd_maintenance(args: argparse.Namespace) -> int:
 
     from ..history import HistoryStore, MaintenanceEvent
     from ..history.importers import parse_time
+    from .fleet_cmd import _open_store
 
-    t = time.time() if args.time is None else parse_time(args.time, "--time")
-    with HistoryStore(args.db) as store:
+    now = time.time()
+    t = now if args.time is None else parse_time(args.time, "--time")
+    if args.kind not in MAINTENANCE_KINDS:
+        raise UsageError(f"--kind {args.kind}: unknown maintenance kind; choose one of {', '.join(MAINTENANCE_KINDS)}")
+    if t > now + FUTURE_TOLERANCE_S:
+        raise UsageError(f"--time {args.time}: in the future; a maintenance event is recorded after it was done "
+                         "(a future one would hide every estimate before it)")
+    with _open_store(args.db, must_exist=True) as store:
+        known = store.joints(analysis_version=None)
+        if (args.robot, args.joint) not in known:
+            robots = sorted({r for r, _ in known})
+            if args.robot not in robots:
+                raise UsageError(f"--robot {args.robot}: no estimates of this robot in {args.db}; robots there: "
+                                 f"{', '.join(robots) or 'none (import estimates first)'}")
+            joints = [j for r, j in known if r == args.robot]
+            raise UsageError(f"--joint {args.joint}: {args.robot} has no such joint in {args.db}; its joints: "
+                             f"{', '.join(joints)}")
         new = store.add_maintenance(MaintenanceEvent(args.robot, args.joint, t, args.kind, args.note))
     print(f"{args.kind} of {args.robot}/{args.joint} at {t:.3f} " + ("recorded" if new else "was already recorded"))
     return 0

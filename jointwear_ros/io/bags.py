@@ -423,7 +423,7 @@ def discover_bags(patterns: Iterable[str | os.PathLike[str]], *, accept: Callabl
         magic = glob.has_magic(pat)
         matches = sorted(glob.glob(pat, recursive=True)) if magic else [pat]
         if not magic and not Path(pat).exists():
-            raise InputDataError(f"{pat}: no such bag directory or file")
+            raise InputDataError(f"{pat}: no such file or bag directory")
         if not matches:
             raise InputDataError(f"{pat}: no bag matches (give rosbag2 bag directories, a glob, or a directory of bags)")
         for m in matches:
@@ -441,8 +441,8 @@ def discover_bags(patterns: Iterable[str | os.PathLike[str]], *, accept: Callabl
                     for b in under:
                         take(b)
                 else:
-                    skipped.append({"path": str(p), "reason": "a directory with no bag in it (no metadata.yaml, "
-                                                              "no .mcap file)"})
+                    skipped.append({"path": str(p), "reason": "not a rosbag2 bag (no metadata.yaml) and no bag "
+                                                              "under it"})
             else:
                 skipped.append({"path": str(p), "reason": "not a bag (a rosbag2 bag is a directory with "
                                                           "metadata.yaml and its .mcap file)"})
