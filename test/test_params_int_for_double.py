@@ -119,3 +119,23 @@ def test_demo_set_takes_an_integer_for_a_double_and_refuses_a_word_up_front():
     assert o["joint_sim"]["temperature"] == 30.0 and isinstance(o["joint_sim"]["temperature"], float)
     with pytest.raises(UsageError, match="joint_sim.temperature"):
         check_overrides(parse_overrides(["joint_sim.temperature=warm"]))
+
+
+def test_cycle_ids_stay_unique_across_restarts_of_test_cycle(ctx, monkeypatch):
+    """Issue 24, point 7: every run of the demo used cycle 1, so runs collapsed into one history entry."""
+    from rclpy.parameter import Parameter
+
+    import jointwear_ros.nodes.test_cycle as tc
+
+    ids = []
+    for now in (1_795_600_000.2, 1_795_600_031.9):  # a node started, stopped, started again 31 s later
+        monkeypatch.setattr(tc.time, "time", lambda now=now: now)
+        node = tc.TestCycleNode(context=ctx)
+        ids.append(node.next_cycle_id)
+        node.destroy_node()
+    assert ids == [1_795_600_000, 1_795_600_031]
+    node = tc.TestCycleNode(context=ctx, parameter_overrides=[Parameter("first_cycle_id", value=7)])
+    try:
+        assert node.next_cycle_id == 7
+    finally:
+        node.destroy_node()
