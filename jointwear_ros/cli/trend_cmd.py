@@ -88,15 +88,14 @@ def cmd_trend(args: argparse.Namespace) -> int:
         print(f"no estimates in {args.db}")
         return 0
 
-    def days(x: float) -> str:
-        return "-" if x is None or math.isnan(x) else ("unbounded" if math.isinf(x) else f"{x:.0f}")
+    from ..trend.report import time_to_alarm_text
 
     rows = []
     for r in sorted(results, key=rank_key):
-        tta = r.time_to_alarm
-        rows.append([r.robot, r.joint, r.level_name, r.estimates, f"{r.wear:.1f} ± {r.wear_std:.1f}",
-                     f"{r.rate_per_day:+.3f}",
-                     "no growth" if tta is None else f"{days(tta.median)} ({days(tta.lo90)}-{days(tta.hi90)})"])
+        fin = math.isfinite(r.wear)
+        rows.append([r.robot, r.joint, r.level_name, r.estimates, f"{r.wear:.1f} ± {r.wear_std:.1f}" if fin else "-",
+                     f"{r.rate_per_day:+.3f}" if math.isfinite(r.rate_per_day) else "-",
+                     time_to_alarm_text(r, "-")])
     print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)"], rows))
     if args.html is not None:
         print(f"page: {Path(args.html) / 'index.html'}")

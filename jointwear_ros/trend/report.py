@@ -13,6 +13,7 @@ from __future__ import annotations
 import html
 import math
 from collections.abc import Sequence
+from typing import Any
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -87,6 +88,19 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
     return save_figure(fig, Path(path))
 
 
+def time_to_alarm_text(r: Any, sep: str = " to ") -> str:
+    """A joint's days to alarm in words: the median and 90 % interval, or why there is none
+    (past the alarm already, no growth detected, no estimate since the last maintenance)."""
+    tta = r.time_to_alarm
+    if not math.isfinite(r.wear):
+        return "no estimate since the last maintenance"
+    if tta is None:
+        return "no growth detected"
+    if math.isfinite(tta.hi90) and tta.hi90 <= 0.0:
+        return "past the alarm already"
+    return f"{_fmt_days(tta.median)} ({_fmt_days(tta.lo90)}{sep}{_fmt_days(tta.hi90)})"
+
+
 def _fmt_days(x: float) -> str:
     return "unbounded" if not math.isfinite(x) else f"{x:.0f}"
 
@@ -100,8 +114,7 @@ def write_html(out_dir: Path, results: Sequence[TrendResult], images: dict[tuple
     rows = []
     for i, r in enumerate(sorted(results, key=rank_key), start=1):
         tta = r.time_to_alarm
-        cell = ("no growth detected" if tta is None else
-                f"{_fmt_days(tta.median)} ({_fmt_days(tta.lo90)} to {_fmt_days(tta.hi90)})")
+        cell = time_to_alarm_text(r)
         img = images.get((r.robot, r.joint))
         link = f'<a href="{html.escape(img)}">figure</a>' if img else ""
         rows.append(
