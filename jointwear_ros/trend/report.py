@@ -47,14 +47,15 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
     t = np.asarray(all_times, float)
     ax.errorbar(_dt(t), all_wear, yerr=2 * np.asarray(all_std, float), fmt="o", ms=2.5, lw=0.6, color="0.35",
                 ecolor="0.7", label="estimates ± 2 std")
-    for m in maintenance_times:
-        ax.axvline(_dt(np.array([m]))[0], color="tab:green", ls=":", lw=1.2)
+    for i, m in enumerate(maintenance_times):
+        ax.axvline(_dt(np.array([m]))[0], color="tab:green", ls=":", lw=1.2, label="maintenance" if i == 0 else None)
     if r.filtered is not None and len(r.times):
         s = r.smoothed if r.smoothed is not None else rts_smooth(r.filtered, cfg)
         lvl, sd = s.mean[:, 0], np.sqrt(np.maximum(s.cov[:, 0, 0], 0))
         x = _dt(r.times)
-        ax.plot(x, lvl, color="tab:blue", lw=1.6, label="trend (smoothed)")
-        ax.fill_between(x, lvl - Z90 * sd, lvl + Z90 * sd, color="tab:blue", alpha=0.2, lw=0, label="trend 90 %")
+        if len(x) >= 2:  # a trend of one estimate is that estimate: nothing more to draw (or to list)
+            ax.plot(x, lvl, color="tab:blue", lw=1.6, label="trend (smoothed)")
+            ax.fill_between(x, lvl - Z90 * sd, lvl + Z90 * sd, color="tab:blue", alpha=0.2, lw=0, label="trend 90 %")
         f = r.filtered
         m, P, q, d = f.mean[-1], f.cov[-1], f.q, f.order
         tta = r.time_to_alarm
@@ -70,8 +71,11 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
         var = np.einsum("ig,ij,jg->g", H, P, H) + (q * tau ** 3 / 3 if d == 2 else q * tau ** 5 / 20)
         xf = _dt(r.last_time + tau * DAY)
         ax.plot(xf, mu, color="tab:orange", lw=1.4, ls="--", label="forecast")
-        ax.fill_between(xf, mu - Z90 * np.sqrt(var), mu + Z90 * np.sqrt(var), color="tab:orange", alpha=0.15, lw=0,
-                        label="forecast 90 %")
+        # wear does not fall within a segment (maintenance starts a new one) and is never below 0: the band's
+        # lower edge stops at the current level's lower bound (a Gaussian band of a few estimates would reach below)
+        floor = max(0.0, float(m[0] - Z90 * math.sqrt(max(P[0, 0], 0.0))))
+        ax.fill_between(xf, np.maximum(mu - Z90 * np.sqrt(var), floor), mu + Z90 * np.sqrt(var), color="tab:orange",
+                        alpha=0.15, lw=0, label="forecast 90 %")
         if tta is not None and math.isfinite(tta.median) and tta.median > 0:
             lo = r.last_time + tta.lo90 * DAY
             hi = r.last_time + (tta.hi90 if math.isfinite(tta.hi90) else end) * DAY
@@ -124,7 +128,9 @@ def write_html(out_dir: Path, results: Sequence[TrendResult], images: dict[tuple
             f"<td>{r.estimates}</td><td>{html.escape(r.message)}</td><td>{link}</td></tr>")
     figs = "\n".join(f'<h3 id="{html.escape(a)}-{html.escape(b)}">{html.escape(a)} / {html.escape(b)}</h3>'
                      f'<img src="{html.escape(p)}" alt="trend of {html.escape(a)} {html.escape(b)}" width="900">'
-                     for (a, b), p in sorted(images.items()))
+                     for (a, b), p in ((k, images[k]) for k in ((r.robot, r.joint)
+                                                                for r in sorted(results, key=rank_key))
+                                       if k in images))  # in the table's ranked order
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse}}
