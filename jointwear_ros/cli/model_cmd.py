@@ -434,9 +434,15 @@ def cmd_add(args: argparse.Namespace) -> int:
     before = _fit(table, model, params, args.folds)
     after = _fit(table, model2, params2, args.folds)
     if history is not None:
-        if history.last is None or history.last.model != before.spec or history.last.data != table.source:
+        # each (model, data) once: `model add` run again adds no duplicate version (the error-fall chart
+        # would go down, up, down)
+        def known(spec: str) -> bool:
+            return any(v.model == spec and v.data == table.source for v in history.versions)
+
+        if not known(before.spec):
             history.add(before, table)
-        history.add(after, table, note=f"added {args.term}")
+        if not known(after.spec):
+            history.add(after, table, note=f"added {args.term}")
     if args.plot:
         from ..workbench.report import plot_band_errors, plot_error_fall, plot_residuals
 
