@@ -533,9 +533,9 @@ def check_overrides(overrides: dict[str, dict[str, Any]]) -> None:
                                      f"(default {decl.default:g})")
             if decl is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
                 if not math.isfinite(float(value)):
-                    raise UsageError(f"--set {node}.{name}={value}: not a finite number")
+                    raise UsageError(f"--set {node}.{name}={value:g}: not a finite number")
                 if (decl.min is not None and value < decl.min) or (decl.max is not None and value > decl.max):
-                    raise UsageError(f"--set {node}.{name}={value}: outside the declared range "
+                    raise UsageError(f"--set {node}.{name}={value:g}: outside the declared range "
                                      f"[{decl.min}, {decl.max}]")
         if node == "wear_estimator" and "method" in values:
             check_method(str(values["method"]), "--set wear_estimator.method")
