@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from . import UsageError
-from .common import format_table, parse_float, print_json
+from .common import format_table, open_history, parse_float, print_json
 
 __all__ = ["register"]
 
@@ -78,14 +78,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 def _open_store(url: str, *, must_exist: bool) -> Any:
-    from ..history import HistoryStore, normalize_url
-
-    u = normalize_url(url)
-    if must_exist and u.startswith("sqlite:///"):
-        path = Path(u.split(":///", 1)[1]).expanduser()
-        if not path.is_file():
-            raise UsageError(f"--db {url}: no such history file")
-    return HistoryStore(u)
+    return open_history(url, must_exist=must_exist)
 
 
 def _workers(text: str) -> int:

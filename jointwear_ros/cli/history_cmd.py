@@ -147,7 +147,7 @@ def cmd_maintenance(args: argparse.Namespace) -> int:
 
     from ..history import HistoryStore, MaintenanceEvent
     from ..history.importers import parse_time
-    from .fleet_cmd import _open_store
+    from .common import open_history
 
     now = time.time()
     t = now if args.time is None else parse_time(args.time, "--time")
@@ -156,7 +156,7 @@ def cmd_maintenance(args: argparse.Namespace) -> int:
     if t > now + FUTURE_TOLERANCE_S:
         raise UsageError(f"--time {args.time}: in the future; a maintenance event is recorded after it was done "
                          "(a future one would hide every estimate before it)")
-    with _open_store(args.db, must_exist=True) as store:
+    with open_history(args.db, must_exist=True) as store:
         known = store.joints(analysis_version=None)
         if (args.robot, args.joint) not in known:
             robots = sorted({r for r, _ in known})
