@@ -18,7 +18,7 @@ export MPLBACKEND ?= Agg
 
 MSG_SRCS := $(wildcard msg_defs/msg/*.msg msg_defs/srv/*.srv) msg_defs/CMakeLists.txt msg_defs/package.xml
 
-.PHONY: all env demo test bench lint mutation clean distclean
+.PHONY: all env demo test test-repeat bench lint mutation clean distclean
 
 all: env
 
@@ -54,7 +54,18 @@ demo: env
 	$(VENV)/bin/jointwear demo --joints 6 --out out/demo
 
 test: env
+	bash tools/install_system_deps.sh
 	$(PY) -m pytest -q test
+
+# The process and graph tests (marker ros: real nodes over DDS) N times in a row, each run on
+# fresh domains; run it before you stop after touching a node, the cell library or those tests.
+# A failure that shows up once in N runs is a race to find, not noise.
+N ?= 3
+test-repeat: env
+	@for i in $$(seq 1 $(N)); do \
+	  echo "== process and graph tests, run $$i of $(N)"; \
+	  $(PY) -m pytest -q -m ros test || exit 1; \
+	done
 
 bench: env
 	$(PY) bench/run_all.py

@@ -16,6 +16,9 @@ setup(
         ("share/" + package_name + "/config", glob("config/*.yaml")),
         ("share/" + package_name + "/config/params", glob("config/params/*.yaml")),
         ("share/" + package_name + "/launch", glob("launch/*.launch.py")),
+        ("share/" + package_name + "/config/prometheus", glob("config/prometheus/*.yml")),
+        ("share/" + package_name + "/config/grafana", glob("config/grafana/*.json")),
+        ("share/" + package_name + "/config/foxglove", glob("config/foxglove/*")),
     ],
     install_requires=["setuptools", "numpy", "scipy", "pyyaml", "matplotlib", "mcap", "rosbags", "threadpoolctl",
                       "sqlalchemy>=2.0", "psycopg[binary]>=3.1"],
@@ -24,7 +27,8 @@ setup(
     maintainer_email="maintainers@jointwear.dev",
     description="Robot-joint wear diagnosis from static friction (ROS 2 Jazzy node suite).",
     license="Apache-2.0",
-    extras_require={"fleet": ["dask[distributed]"]},  # jointwear fleet reprocess (Dask)
+    extras_require={"fleet": ["dask[distributed]"],  # jointwear fleet reprocess (Dask)
+                    "serve": ["starlette", "uvicorn", "jinja2", "prometheus_client"]},  # jointwear serve
     entry_points={
         "console_scripts": [
             "jointwear = jointwear_ros.cli:main",

@@ -47,9 +47,12 @@ def test_csv_import_twice_adds_nothing_and_trend_json_follows_the_contract(fleet
     again = json.loads(out)
     assert rc == 0 and again["added"] == 0 and again["total"] == first["added"]
     rc, out, _ = run(["trend", "--db", db, "--json"], capsys)
+    assert rc == 0  # the fixture's history ended in 2024: silent since, every joint below the alarm is STALE
+    assert {j["level"] for j in json.loads(out)["joints"] if j["trend_level"] != "ERROR"} == {"STALE"}
+    rc, out, _ = run(["trend", "--db", db, "--json", "--stale-days", "1e6"], capsys)
     assert rc == 0
     joints = json.loads(out)["joints"]
-    assert len(joints) == 6
+    assert len(joints) == 6 and all(j["level"] == j["trend_level"] for j in joints)
     for j in joints:
         assert {"robot", "joint", "estimates", "wear", "wear_std", "rate_per_day", "time_to_alarm_days",
                 "level"} <= set(j)

@@ -102,17 +102,22 @@ def test_installed_node_starts_with_its_installed_params_file(prefix, tmp_path):
     env = _env(prefix)
     env.setdefault("ROS_DOMAIN_ID", os.environ.get("ROS_DOMAIN_ID", "42"))
     params = prefix / "share" / "jointwear_ros" / "config" / "wear_estimator.yaml"
-    proc = subprocess.Popen([str(prefix / "lib" / "jointwear_ros" / "wear_estimator"), "--ros-args",
-                             "--params-file", str(params)],
-                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    log = tmp_path / "wear_estimator.log"
+    with log.open("w") as fh:
+        proc = subprocess.Popen([str(prefix / "lib" / "jointwear_ros" / "wear_estimator"), "--ros-args",
+                                 "--params-file", str(params)],
+                                cwd=tmp_path, env=env, stdout=fh, stderr=subprocess.STDOUT, text=True)
     try:
-        # a node that came up stays up; one that cannot find its resources exits at once
-        deadline = time.monotonic() + 8.0
-        while time.monotonic() < deadline and proc.poll() is None:
-            time.sleep(0.2)
-        assert proc.poll() is None, proc.communicate()[0]
+        # the node came up (it logs what it estimates, after loading its parameter set) and is still up;
+        # one that cannot find its resources exits instead
+        deadline = time.monotonic() + 60.0
+        while "estimating wear of" not in log.read_text() and proc.poll() is None:
+            assert time.monotonic() < deadline, log.read_text()
+            time.sleep(0.1)
+        assert proc.poll() is None, log.read_text()
     finally:
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=20)
+        proc.wait(timeout=20)
+    out = log.read_text()
     assert proc.returncode == 0, out
     assert "unknown parameter set" not in out

@@ -311,3 +311,27 @@ def test_nan_tau_f_std_means_not_given_and_is_kept():
     mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
     (r,) = [x for o in _obs(1, 40.0, temperature=40.0) for x in mon.add(replace(o, tau_f_std=math.nan))]
     assert r.rejected == () and r.result is not None and r.level == ERROR
+
+
+@pytest.mark.parametrize("method", ["paper", "joint", "bayes"])
+def test_a_revision_with_a_middle_speed_late_equals_the_on_time_estimate_exactly(method):
+    # the observer can finish a speed of a joint after later ones (a window waiting for its temperature,
+    # a loaded machine): the estimate of every observation must not depend on the order they came in,
+    # or a replay (which may hear them in another order) differs from the live estimate
+    speeds = (20.0, 30.0, 40.0, 50.0, 60.0)
+    obs = _obs(7, 33.0, temperature=40.0, speeds=speeds)
+    late = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5, method=method))
+    late.on_status(9.0, 7, STATE_RUNNING, 0, 5, "joint_1")
+    for o in (obs[0], obs[2], obs[3], obs[4]):
+        assert late.add(o) == []
+    late.on_status(20.0, 7, STATE_DONE, 5, 5, "joint_1")
+    (partial,) = late.poll(22.5)
+    assert partial.revision == 0 and "4 of 5 speeds observed" in partial.message
+    (rev,) = late.add(obs[1], now=23.0)
+    assert rev.revision == 1 and rev.result is not None
+    on_time = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5, method=method))
+    on_time.on_status(9.0, 7, STATE_RUNNING, 0, 5, "joint_1")
+    (full,) = [r for o in obs for r in on_time.add(o)]
+    assert full.result is not None
+    assert (rev.result.wear, rev.result.wear_std) == (full.result.wear, full.result.wear_std)
+    assert rev.result.speeds == full.result.speeds == speeds

@@ -44,6 +44,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 
 from jointwear_ros.contract import CycleState  # noqa: E402
+from jointwear_ros.nodes.cell import die_with_parent  # noqa: E402
 from jointwear_ros.nodes.runtime import loopback_env, seconds_to_stamp  # noqa: E402
 from jointwear_ros.observer.synthetic import synthetic_robot_cycle  # noqa: E402
 
@@ -93,7 +94,8 @@ class Child:
         self.log = tempfile.NamedTemporaryFile(prefix=f"{name}-", suffix=".log", delete=False)
         cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args",
                "--params-file", str(ROOT / "config" / f"{name}.yaml"), "--params-file", str(params_file)]
-        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT)
+        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT,
+                                     preexec_fn=die_with_parent)
 
     def alive(self) -> bool:
         return self.proc.poll() is None
@@ -205,14 +207,18 @@ class Robot:
         m.temperature = float(celsius)
         return m
 
-    def run_cycle(self, cycle_id: int, wears, t0: float, *, drop_joint_2: bool = False):
+    def run_cycle(self, cycle_id: int, wears, t0: float, *, drop_joint_2: bool = False,
+                  temperature_delay: float = 0.0):
         """Publish one robot cycle in stamp order (flow-controlled on the observer's samples_seen); return it.
 
-        ``drop_joint_2``: one JointState 0.3 s into joint_2's test lacks joint_2."""
+        ``drop_joint_2``: one JointState 0.3 s into joint_2's test lacks joint_2.
+        ``temperature_delay``: each temperature reading is published only after the joint states stamped
+        up to this many seconds later (a sensor topic delivered late, as after a stall)."""
         cyc = synthetic_robot_cycle(JOINTS, wears, SPEEDS, cycle_id=cycle_id, t0=t0, rate=RATE, seed=cycle_id,
                                     torque_scales=TORQUE_SCALES, temperatures=TEMPERATURES, temperature_rate=2.0,
                                     noise_std=0.004)
-        events = [(s[0][0], 0, s) for s in cyc.statuses] + [(t[0], 1, t) for t in cyc.temperatures]
+        events = [(s[0][0], 0, s) for s in cyc.statuses]
+        events += [(t[0] + temperature_delay, 1, t) for t in cyc.temperatures]
         events += [(float(t), 2, i) for i, t in enumerate(cyc.stamps)]
         events.sort(key=lambda e: (e[0], e[1]))
         drop_joint_2_at = float(cyc.cycles["joint_2"].stamps[0]) + 0.3 if drop_joint_2 else None
@@ -338,9 +344,20 @@ def test_observer_and_estimator_processes_through_robot_cycles_of_three_joints(c
         robot.spin_until(lambda: _level(robot.last("friction_observer: joint_2")) == OK, 10.0,
                          "joint_2's observer status to start clean in cycle 2")
 
+        # cycle 3: the temperature topic 3 s (of stamps) behind the joint states, far beyond reorder_margin:
+        # each observation still carries its joint's temperature, and equals the offline core's on the
+        # same streams (replay = live whatever the interleaving)
+        t_end = float(robot.observations[-1].header.stamp.sec) + 10.0
+        third = robot.run_cycle(3, wears2, t_end, temperature_delay=3.0)
+        robot.spin_until(lambda: sum(e.cycle_id == 3 for e in robot.estimates) == 3
+                         and sum(o.cycle_id == 3 for o in robot.observations) == 9, 90.0, "cycle 3's estimates")
+        _check_cycle(robot, 3, wears2)
+        _check_offline_equals_live(robot, third, 3)
+        assert all(robot.value(f"friction_observer: {j}", "temperatures_missing") == "0" for j in JOINTS)
+
         # exact totals: nothing more was published than one observation per speed and one estimate per joint
-        assert len(robot.observations) == 2 * len(JOINTS) * len(SPEEDS)
-        assert len(robot.estimates) == 2 * len(JOINTS)
+        assert len(robot.observations) == 3 * len(JOINTS) * len(SPEEDS)
+        assert len(robot.estimates) == 3 * len(JOINTS)
         assert robot.value("friction_observer: joint_1", "ignored_messages") == "2"
         assert robot.value("friction_observer: joint_2", "rejected_windows") == "0"
         for c in children:
@@ -361,6 +378,25 @@ def _cycle_levels_ready(robot: Robot, cycle_id: int) -> bool:
         if s is None or {v.key: v.value for v in s.values}.get("cycle_id") != str(cycle_id):
             return False
     return True
+
+
+def _check_offline_equals_live(robot: Robot, cyc, cycle_id: int) -> None:
+    """The pure observer core, fed the cycle's streams in stamp order, gives exactly the live observations."""
+    import yaml
+
+    from jointwear_ros.observer import ObserverConfig, observe_arrays
+
+    node_level = yaml.safe_load((ROOT / "config" / "friction_observer.yaml").read_text())
+    base = dict(node_level["friction_observer"]["ros__parameters"])
+    for k, j in enumerate(JOINTS):
+        cfg = ObserverConfig.from_mapping({**base, "joint_name": j, "torque_scale": TORQUE_SCALES[k]})
+        out = observe_arrays(cfg, cyc.stamps, cyc.position[:, k], cyc.velocity[:, k], cyc.effort[:, k],
+                             [st for st, _ in cyc.statuses], [(t, c) for t, c, jn in cyc.temperatures if jn == j])
+        live = sorted((o for o in robot.observations if o.cycle_id == cycle_id and o.joint_name == j),
+                      key=lambda o: o.speed)
+        offline = sorted(out.observations, key=lambda o: o.speed)
+        assert [(o.speed, o.tau_f, o.tau_f_std, o.temperature) for o in offline] == [
+            (o.speed, o.tau_f, o.tau_f_std, o.temperature) for o in live], j
 
 
 def _check_cycle(robot: Robot, cycle_id: int, wears) -> None:

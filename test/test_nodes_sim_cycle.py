@@ -37,6 +37,7 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
+from jointwear_ros.nodes.cell import die_with_parent  # noqa: E402
 from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
 
 pytestmark = pytest.mark.ros
@@ -62,7 +63,8 @@ class Child:
                "--params-file", str(ROOT / "config" / f"{name}.yaml")]
         for k, v in params.items():
             cmd += ["-p", f"{k}:={_fmt(v)}"]
-        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT)
+        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT,
+                                     preexec_fn=die_with_parent)
 
     def stop(self, sig: int = signal.SIGINT, timeout: float = 10.0) -> int:
         if self.proc.poll() is None:

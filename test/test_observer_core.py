@@ -356,3 +356,72 @@ def test_memory_stays_bounded_when_a_speed_never_ends():
         peak = max(peak, core.buffered_samples)
     assert core.samples_seen == t.size
     assert peak <= int(cfg.max_buffer_seconds * rate) + 4096 + 500, peak
+
+
+# ------------------------------------------------------------------ a late temperature topic
+
+def _events_temperature_late(cycle, delay, seed=0):
+    """The status and joint-state streams on time; the temperature topic ``delay`` s late (in order)."""
+    rng = np.random.default_rng(seed)
+    ev = [(float(s[0]), "status", s) for s in cycle.statuses]
+    ev += [(float(k), "temp", t) for k, t in zip(_arrivals([t[0] for t in cycle.temperatures], delay, 0.02, rng),
+                                                 cycle.temperatures)]
+    ev += [(float(ts), "js", i) for i, ts in enumerate(cycle.stamps)]
+    ev.sort(key=lambda e: e[0])
+    return ev
+
+
+@pytest.mark.parametrize("delay", [0.6, 1.5, 3.0, 4.5])
+def test_a_temperature_topic_late_by_more_than_the_reorder_margin_changes_nothing(cycle, delay):
+    # DDS orders per topic only: after a stall or in a burst, the joint states of seconds arrive before
+    # the readings stamped among them. Every observation must still carry its window's temperature.
+    reference = _run(cycle)
+    assert all(math.isfinite(o.temperature) for o in reference.observations)
+    core = FrictionObserverCore(CFG)
+    obs, rej = _feed_events(core, _events_temperature_late(cycle, delay, seed=int(delay * 10)), cycle)
+    assert obs == reference.observations and rej == reference.rejections, delay
+    assert core.temperatures_missing == 0
+
+
+def test_a_sensor_that_stops_gives_unknown_temperature_after_the_bounded_wait_and_is_counted(cycle):
+    first_end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    temps = [t for t in cycle.temperatures if t[0] < first_end - 1.0]  # the sensor dies before speed 1 ends
+    core = FrictionObserverCore(CFG)
+    ev = [(float(s[0]), "status", s) for s in cycle.statuses] + [(float(t[0]), "temp", t) for t in temps]
+    ev += [(float(ts), "js", i) for i, ts in enumerate(cycle.stamps)]
+    ev.sort(key=lambda e: e[0])
+    emitted_at = None
+    got = []
+    for _, kind, a in ev:
+        out = (core.on_status(*a) if kind == "status" else core.on_temperature(*a) if kind == "temp"
+               else core.on_joint_state(cycle.stamps[a], cycle.position[a], cycle.velocity[a], cycle.effort[a]))
+        got += out.observations
+        if out.observations and emitted_at is None:
+            emitted_at = core._max_stamp
+    # waited temperature_wait of joint-state stamps for the reading, not longer
+    assert emitted_at is not None
+    assert first_end + CFG.temperature_wait < emitted_at < first_end + CFG.temperature_wait + 0.01
+    got += core.flush().observations  # the last speeds have not had temperature_wait of stamps yet
+    ref = _run(cycle, temperatures=temps)
+    assert got == ref.observations  # the readings there were are used; none is made up
+    # speed 1's window began while the sensor lived: its readings are used; the others have none
+    assert len(got) == 4 and math.isfinite(got[0].temperature)
+    assert core.temperatures_missing == sum(math.isnan(o.temperature) for o in got) == 3
+
+
+def test_a_joint_without_a_sensor_does_not_wait(cycle):
+    core = FrictionObserverCore(CFG)
+    first_end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    ev = [(float(s[0]), "status", s) for s in cycle.statuses]
+    ev += [(float(ts), "js", i) for i, ts in enumerate(cycle.stamps)]
+    ev.sort(key=lambda e: e[0])
+    for _, kind, a in ev:
+        out = (core.on_status(*a) if kind == "status"
+               else core.on_joint_state(cycle.stamps[a], cycle.position[a], cycle.velocity[a], cycle.effort[a]))
+        if out.observations:
+            assert core._max_stamp < first_end + CFG.reorder_margin + 0.01
+            assert math.isnan(out.observations[0].temperature)
+            break
+    else:
+        pytest.fail("no observation")
+    assert core.temperatures_missing == 0

@@ -14,9 +14,10 @@ from typing import Any
 from ..cycle import CycleConfig, plan_cycle
 from ..cycle.schedule import MAX_SCHEDULE_JOINTS, ScheduleError, rotation_schedule
 from ..errors import JointwearError
+from ..estimation import resolve_model
 from ..estimation.design import PAPER_SECONDS_PER_SPEED, design_cycle
 from ..estimation.priors import parse_temperature_prior
-from ..model import load_parameter_set_info, paper_wear_model
+from ..model import load_parameter_set_info
 from . import UsageError
 from .common import check_temperature_prior, format_table, parse_float, parse_float_list, print_json
 
@@ -126,8 +127,8 @@ def cmd_design(args: argparse.Namespace) -> int:
     if args.no_repeats and len(set(cands)) < n:
         raise UsageError(f"--no-repeats: {n} distinct speeds needed but --speeds-candidates gives {len(set(cands))}")
 
-    model = paper_wear_model()
-    d = design_cycle(model, model.make_params(info.parameters()), budget=budget, seconds_per_speed=sps,
+    model, set_params = resolve_model(None, info)  # the set's own model (its core terms)
+    d = design_cycle(model, set_params, budget=budget, seconds_per_speed=sps,
                      candidates=cands, wear=wear, load=load, noise_std=noise, prior=prior,
                      allow_repeats=not args.no_repeats, progress=_progress if sys.stderr.isatty() else None)
     if args.json:

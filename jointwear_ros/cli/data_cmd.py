@@ -48,6 +48,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--noise", default=str(NOISE_STD), help=f"noise sigma_e (default {NOISE_STD})")
     s.add_argument("--irrelevant", type=int, default=0, metavar="N",
                    help="add N columns aux_01.. of random numbers nothing depends on (default 0)")
+    s.add_argument("--joint-side", action="store_true",
+                   help="write speeds and torques in a joint-frame set's units (joint side rad/s, N·m; --load and "
+                        "--speeds stay motor side, normalized)")
     s.add_argument("--json", action="store_true", help="print a JSON summary")
     s.set_defaults(func=cmd_synth)
 
@@ -71,6 +74,43 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
     e = dsub.add_parser("effects", help="list the hidden effects synth offers")
     e.set_defaults(func=cmd_effects)
+
+    ts = dsub.add_parser(
+        "from-timeseries",
+        help="a joint's recorded time series (CSV, or JointState in a bag) -> friction observations",
+        description="Friction observations, Eq. (5), from a joint's recorded samples: constant-speed plateaus in "
+                    "both directions paired and measured as the friction observer does (tau_f = (u+ - u-)/2 per "
+                    "speed, with its batch-means standard error), or, without plateaus, steady-speed samples "
+                    "(small acceleration) binned by speed. Other numeric columns are kept, averaged per "
+                    "observation. Output in the data's units unless --gear-ratio/--torque-scale are given.",
+    )
+    ts.add_argument("files", nargs="+", metavar="FILE", help="CSV files or rosbag2 bags (sensor_msgs/JointState)")
+    ts.add_argument("--time", help="CSV column of the time, s")
+    ts.add_argument("--position", help="CSV column of the joint position, rad")
+    ts.add_argument("--velocity", help="CSV column of the joint velocity, rad/s (default: from the position)")
+    ts.add_argument("--effort", help="CSV column of the applied torque (or current times the torque constant)")
+    ts.add_argument("--temperature", help="CSV column of the joint temperature, degC")
+    ts.add_argument("--load", help="CSV column of the load torque (same unit as --effort); "
+                                   "default |(u+ + u-)/2|")
+    ts.add_argument("--joint", help="the joint: its name in a bag's JointState (needed for a bag); written into "
+                                    "the table's joint column")
+    ts.add_argument("--topic", help="JointState topic of a bag (default: every JointState topic)")
+    ts.add_argument("--out", required=True, metavar="OBS.csv", help="output observation table (CSV)")
+    ts.add_argument("--mode", default="auto", choices=("auto", "plateaus", "bins"),
+                    help="plateaus, steady-speed bins, or plateaus when there are any (default auto)")
+    ts.add_argument("--gear-ratio", default="1", help="output speed = |velocity| x this (default 1: as recorded)")
+    ts.add_argument("--torque-scale", default="1", help="output torque = effort / this (default 1: as recorded)")
+    ts.add_argument("--speed-tolerance", default="0.05",
+                    help="a sample is at a speed level within this fraction of it (default 0.05)")
+    ts.add_argument("--min-samples", type=int, default=20, help="samples needed per direction (default 20)")
+    ts.add_argument("--bins", type=int, default=12, help="speed bins without plateaus (default 12)")
+    ts.add_argument("--max-accel", default=None,
+                    help="steady-speed samples: |acceleration| at most this, rad/s^2 (default: the 30 %% quantile)")
+    ts.add_argument("--window", default=None, metavar="HALF_WIDTH",
+                    help="measure a plateau pair over the centre of its position overlap +- this, rad "
+                         "(default: the whole overlap)")
+    ts.add_argument("--json", action="store_true", help="print a JSON summary")
+    ts.set_defaults(func=cmd_from_timeseries)
 
     sh = dsub.add_parser("show", help="summary of an observation table (CSV or bag)")
     sh.add_argument("data", metavar="DATA")
@@ -118,11 +158,14 @@ def cmd_synth(args: argparse.Namespace) -> int:
         raise UsageError(f"--noise: {noise:g} must be within [0, 1] (normalized torque; the paper's is 0.0015)")
     info = load_parameter_set_info(args.params)
     for v in speeds:
-        info.check_range("speed", v)
+        info.check_observation_range("speed", v)
     for v in temperature:
-        info.check_range("temperature", v)
+        info.check_observation_range("temperature", v)
     for v in load:
-        info.check_range("load_torque", abs(v))
+        info.check_observation_range("load_torque", abs(v))
+    if args.joint_side and not info.units.joint_side:
+        raise UsageError(f"--joint-side: parameter set {info.name!r} is in the paper's normalized units; "
+                         "give a joint-frame set (units frame: joint), e.g. arm6-base")
     wear = None if args.wear is None else parse_float(args.wear, "--wear")
     if wear is not None:
         info.check_range("wear", wear)
@@ -139,6 +182,10 @@ def cmd_synth(args: argparse.Namespace) -> int:
         model="paper" if wear is None else "paper+wear", temperature=temperature, load=load,
         position=position, wear=0.0 if wear is None else wear, noise=noise, irrelevant=args.irrelevant,
     )
+    if args.joint_side:  # the table in the set's joint-side units (rad/s, N·m), as a real cell's log
+        from ..estimation import set_frame_table
+
+        table = set_frame_table(table, info)
     write_table(table, out)
     nf, _ = noise_floor(table)
     summary = {"out": str(out), "format": "csv" if is_csv else "rosbag2-mcap", "rows": len(table),
@@ -230,4 +277,85 @@ def cmd_synth_history(args: argparse.Namespace) -> int:
     for m in maintenance:
         print(f"regreased: jointwear history maintenance --db DB --robot {m['robot']} --joint {m['joint']} "
               f"--kind regrease --time {m['time']}")
+
+
+def cmd_from_timeseries(args: argparse.Namespace) -> int:
+    from ..errors import InputDataError
+    from ..io.tables import write_csv
+    from ..io.timeseries import read_timeseries
+    from ..observer.timeseries import TimeseriesConfig, timeseries_observations
+    from ..types import ObservationTable
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".csv":
+        raise UsageError(f"--out: {out} must end in .csv (an observation table)")
+    check_output_file(out, "--out")
+    gear = parse_float(args.gear_ratio, "--gear-ratio")
+    scale = parse_float(args.torque_scale, "--torque-scale")
+    tol = parse_float(args.speed_tolerance, "--speed-tolerance")
+    for flag, v in (("--gear-ratio", gear), ("--torque-scale", scale)):
+        if not v > 0:
+            raise UsageError(f"{flag}: {v:g} must be a positive number")
+    if not 0 < tol < 1:
+        raise UsageError(f"--speed-tolerance: {tol:g} must be between 0 and 1 (a fraction of the speed)")
+    if not 4 <= args.min_samples <= 1_000_000:
+        raise UsageError(f"--min-samples: {args.min_samples} must be 4 to 1000000")
+    if not 1 <= args.bins <= 1000:
+        raise UsageError(f"--bins: {args.bins} must be 1 to 1000")
+    max_accel = None if args.max_accel is None else parse_float(args.max_accel, "--max-accel")
+    if max_accel is not None and not max_accel > 0:
+        raise UsageError(f"--max-accel: {max_accel:g} must be a positive number")
+    window = None if args.window is None else parse_float(args.window, "--window")
+    if window is not None and not window > 0:
+        raise UsageError(f"--window: {window:g} must be a positive half width, rad")
+    cfg = TimeseriesConfig(joint_name=args.joint or "", gear_ratio=gear, torque_scale=scale, mode=args.mode,
+                           speed_tolerance=tol, min_samples=args.min_samples, n_bins=args.bins, max_accel=max_accel,
+                           window_half_width=window)
+    series = [read_timeseries(f, time=args.time, position=args.position, effort=args.effort, velocity=args.velocity,
+                              temperature=args.temperature, load=args.load, joint=args.joint, topic=args.topic)
+              for f in args.files]
+    rows: list[dict[str, float]] = []
+    sources: list[dict[str, object]] = []
+    cycle0 = 0
+    for s in series:
+        try:
+            res = timeseries_observations(s.time, s.position, s.velocity, s.effort, s.extra, cfg,
+                                          temperature=s.temperature, load=s.load)
+        except InputDataError as exc:
+            raise InputDataError(f"{s.source}: {exc}") from None
+        for r in res.rows:
+            r["cycle"] += cycle0
+        cycle0 = int(max([r["cycle"] for r in res.rows], default=cycle0))
+        rows.extend(res.rows)
+        sources.append({"file": s.source, **res.to_dict()})
+    if not rows:
+        why = "; ".join(str(w) for src in sources for w in src["rejected"][:2])  # type: ignore[index]
+        raise InputDataError(f"{', '.join(args.files)}: no friction observation found ({why or 'no motion'}); "
+                             "check the columns, --speed-tolerance, --min-samples or try --mode bins")
+    names: list[str] = []
+    for r in rows:
+        names.extend(k for k in r if k not in names)
+    cols = {n: np.array([r.get(n, math.nan) for r in rows], dtype=float) for n in names}
+    # a column that is NaN in every row carries nothing (e.g. no temperature); the CSV rules refuse NaN cells
+    cols = {n: c for n, c in cols.items() if n in ("speed", "tau_f") or np.isfinite(c).all()}
+    dropped = [n for n in names if n not in cols and np.isfinite([r.get(n, math.nan) for r in rows]).any()]
+    table = ObservationTable(cols, source=str(out))
+    joint = args.joint or ""
+    write_csv(table, out, text_columns={"joint": [joint] * len(table)} if joint else None)
+    warnings = [f"{src['file']}: {w}" for src in sources for w in src["warnings"]]  # type: ignore[attr-defined]
+    if dropped:
+        warnings.append(f"column(s) {', '.join(dropped)} left out: not known for every observation")
+    summary = {"out": str(out), "observations": len(table), "columns": table.names + (["joint"] if joint else []),
+               "joint": joint or None, "sources": sources, "warnings": warnings}
+    if args.json:
+        print_json(summary)
+        return 0
+    print(f"# wrote {len(table)} friction observations to {out}")
+    for src in sources:
+        print(f"# {src['file']}: {src['observations']} from {src['method']} ({src['samples']} samples)")
+    for w in warnings:
+        print(f"# warning: {w}")
+    show = [c for c in ("cycle", "speed", "tau_f", "tau_f_std", "load_torque", "temperature", "position",
+                        "samples_plus", "samples_minus", "position_spread") if c in cols]
+    print(format_table(show, [[cols[c][i] for c in show] for i in range(len(table))], floatfmt=".5g"))
     return 0

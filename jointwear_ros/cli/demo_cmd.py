@@ -375,9 +375,14 @@ def run_demo(
         op.spin_until(finished, timeout, children, f"the WearEstimate of cycle {cycle_id}", tick)
 
         def complete() -> bool:
-            # the estimator revises a cycle's estimate when an observation comes late: wait
-            # briefly until the newest estimate of each joint covers every observation the operator saw
-            for j in names:
+            # The estimator estimates a joint when all its speeds are in, or done_timeout after DONE
+            # (a rejected window sends nothing): on a loaded machine the observer can be later than that,
+            # and the estimator then revises the estimate with the late observation. So wait until the
+            # observer has finished every speed of each joint (its status counts observations and
+            # rejected windows per cycle) and the newest estimate covers every observation.
+            for j in op.joints_started(cycle_id):  # type: ignore[union-attr]
+                if not op.observer_done(cycle_id, j):  # type: ignore[union-attr]
+                    return False
                 seen = {round(o.speed, 9) for o in op.observations  # type: ignore[union-attr]
                         if o.cycle_id == cycle_id and o.joint_name == j}
                 ests = estimates_of(j)
@@ -386,9 +391,9 @@ def run_demo(
             return True
 
         try:
-            op.spin_until(complete, 5.0, children, f"a revised WearEstimate of cycle {cycle_id}")
+            op.spin_until(complete, 60.0, children, f"every observation of cycle {cycle_id} in its joint's estimate")
         except DemoError as exc:
-            _progress(f"{exc}; reporting the newest estimate")
+            _progress(f"{exc}; reporting the newest estimate, which may lack an observation")
         for joint, true_wear in zip(names, wears):
             per_joint.append(_joint_result(op, children, cycle_id, joint, true_wear, estimates_of, diags_of))
         observations = [_msg_dict(o, OBSERVATION_FIELDS) for o in op.observations if o.cycle_id == cycle_id]

@@ -9,7 +9,9 @@ written.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
+from typing import Any
 
 from . import UsageError
 from .common import print_json
@@ -33,7 +35,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                                     "with --reestimate a replay of the observer and estimator with today's model) "
                                     "and CSV tables (robot, joint, time, wear, wear_std) to the history. "
                                     "Importing the same data twice adds nothing.")
-    i.add_argument("files", nargs="+", metavar="FILE", help="bag directories and/or .csv files")
+    i.add_argument("files", nargs="+", metavar="FILE",
+                   help="bag directories and/or .csv files (estimates; with --reestimate also observation tables, "
+                        "as jointwear estimate takes them)")
     i.add_argument("--db", required=True, help="history store URL or SQLite file path")
     i.add_argument("--robot", default="robot_1", help="robot of bag estimates and of CSV rows without one")
     i.add_argument("--reestimate", action="store_true",
@@ -67,6 +71,41 @@ def _is_csv(path: Path) -> bool:
     return path.is_file() and path.suffix.lower() == ".csv"
 
 
+def _is_observation_table(path: Path) -> bool:
+    """A CSV of friction observations (``speed`` and ``tau_f`` columns), not of estimates."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8", errors="replace") as fh:
+        header = {h.strip() for h in next(csv.reader(fh), [])}
+    return {"speed", "tau_f"} <= header
+
+
+def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], str]:
+    """Observation tables (as ``jointwear estimate`` takes them) estimated with --params / --method."""
+    from .. import __version__
+    from ..commission import estimate_cycles
+    from ..history.store import EstimateRecord
+    from ..io.observations import read_observations
+    from ..model import load_parameter_set_info
+
+    pset = load_parameter_set_info(args.params or "ref-2011r")
+    method = args.method or "joint"
+    version = args.analysis_version or f"{method}:{pset.name}:{__version__}"
+    default_joint = str(pset.provenance.get("joint", "")) or "joint_1"
+    tables = [(str(path), j or default_joint, t) for j, t in read_observations(path, default_joint).items()]
+    out = []
+    for c in estimate_cycles(tables, pset, method):
+        if not math.isfinite(c.time):
+            raise UsageError(f"{path}: an observation table needs a 'time' column (s since the epoch) for the history")
+        out.append(EstimateRecord(
+            robot=args.robot, joint=c.joint, cycle_id=c.cycle, time=c.time, wear=float(c.result.wear),
+            wear_std=float(c.result.wear_std), hardware_id=f"{args.robot}/{c.joint}",
+            temperature=float(c.result.temperature), method=c.result.method, params=pset.name,
+            software_version=__version__, bag=path.name, analysis_version=version, source="table",
+        ).check(f"{path}: cycle {c.cycle} of {c.joint}"))
+    return out, version
+
+
 def cmd_import(args: argparse.Namespace) -> int:
     from ..errors import InputDataError
     from ..history import HistoryStore
@@ -93,7 +132,10 @@ def cmd_import(args: argparse.Namespace) -> int:
     versions = set()
     for path in selection.bags:
         try:
-            if _is_csv(path):
+            if _is_csv(path) and args.reestimate and _is_observation_table(path):
+                recs, version = _reestimate_table(path, args)
+                versions.add(version)
+            elif _is_csv(path):
                 recs = estimates_from_csv(path, robot=args.robot)
             elif args.reestimate:
                 recs, version = reestimate_bag(path, robot=args.robot, observer_params=observer,

@@ -270,10 +270,14 @@ def _print_fit(table: Any, fit: Any) -> None:
                        [[fit.rmse, fit.cv_rmse, f"{fit.aic:.1f}", f"{fit.bic:.1f}", fit.n_free, fit.success]]))
     if not fit.success:
         print(f"# solver: {fit.message}")
+    for h in fit.at_bound:
+        print(f"# on a bound (not converged): {h}; its stderr means nothing, the data may not identify it")
     print()
-    rows = [[n, f"{p.value:.6g}", "fixed" if not p.vary else f"{p.stderr:.3g}" if p.stderr is not None else "-", p.unit]
+    hits = {h.name: h for h in fit.at_bound}
+    rows = [[n, f"{p.value:.6g}", "fixed" if not p.vary else f"{p.stderr:.3g}" if p.stderr is not None else "-", p.unit,
+             f"{hits[n].side} {hits[n].bound:.6g}" if n in hits else ""]
             for n, p in fit.params.items()]
-    print(format_table(["parameter", "value", "stderr", "unit"], rows))
+    print(format_table(["parameter", "value", "stderr", "unit", "on bound"], rows))
     strong = [(a, b, fit.correlation(a, b)) for i, a in enumerate(fit.free) for b in fit.free[i + 1:]]
     strong = [s for s in strong if np.isfinite(s[2]) and abs(s[2]) > 0.95]
     if strong:
@@ -340,9 +344,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
         write_report(args.report, table, base, diagnosis=diag)
     if args.json:
-        print_json(diag.to_dict())
+        print_json({**diag.to_dict(), "converged": base.success, "at_bound": [h.to_dict() for h in base.at_bound]})
         return 0
     print_diagnosis(diag, table.source, args.top)
+    for h in base.at_bound:
+        print(f"# the model's own fit ended on a bound (not converged): {h}; the verdict is about a fit the "
+              "data may not identify")
     if args.report:
         print(f"# report written to {Path(args.report) / 'report.html'}")
     return 0

@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from ..estimation import ESTIMATOR_METHODS, make_estimator
+from ..estimation import ESTIMATOR_METHODS, make_estimator, resolve_model
 from ..estimation.priors import TemperaturePrior, parse_temperature_prior
-from ..model import load_parameter_set_info, paper_wear_model
+from ..model import load_parameter_set_info
 from . import UsageError
 from .common import (
     check_output_dir,
@@ -204,13 +204,13 @@ def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, 
             if method == "joint" and point == "mode":
                 point = "map"
             opts["point"] = point
-    model = paper_wear_model()
+    model, _ = resolve_model(None, info)  # the set's own model (its core terms)
     return make_estimator(method, model, params, **opts)
 
 
 def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, float, float, float]:
     info = load_parameter_set_info(args.params)
-    params = paper_wear_model().make_params(info.parameters())
+    _, params = resolve_model(None, info)
     true_t = _prior(args.true_temperature, "--true-temperature", info)
     seed = _int(args.seed, "--seed", 0)
     wear = parse_float(args.true_wear, "--true-wear")
@@ -261,7 +261,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     unit = "cycles" if args.method == "joint" else "speeds"
     if args.hcr and args.method == "joint":
         raise UsageError("--hcr: the HCR bound is per speed; a joint study has one multi-speed bound (crb)")
-    res = run_study(est, setup, model=paper_wear_model(), params=params, hcr=bool(args.hcr),
+    res = run_study(est, setup, model=resolve_model(None, info)[0], params=params, hcr=bool(args.hcr),
                     progress=_Bar(f"study {args.method} ({unit})", args.quiet))
     if args.plot:
         _plot_study(res, Path(args.plot))
@@ -307,7 +307,7 @@ def _cmd_robustness(args: argparse.Namespace) -> int:
     if args.true_temperature != DEFAULT_TRUE_T:
         scenarios = {f"given {true_t.label}": true_t}
     setup = StudySetup(speeds=speeds, runs=runs, true_wear=wear, load=load, noise_std=noise, seed=seed)
-    rows = robustness_study(ests, scenarios, setup, model=paper_wear_model(), params=params, tolerance=tol,
+    rows = robustness_study(ests, scenarios, setup, model=resolve_model(None, info)[0], params=params, tolerance=tol,
                             progress=_Bar("robustness (scenario x method)", args.quiet))
     summary = {m: all(r.unbiased for r in rows if r.method == m) for m in methods}
     if args.json:
@@ -335,7 +335,7 @@ def _cmd_case(args: argparse.Namespace) -> int:
     ests = {m: _estimator(m, args, true_t, params, None) for m in methods}
     setup = CaseSetup(speeds=tuple(speeds), load=load, noise_std=noise, temperature=true_t, mismatch=mismatch,
                       seed=seed)
-    res = run_case_study(ests, setup, model=paper_wear_model(), params=params,
+    res = run_case_study(ests, setup, model=resolve_model(None, info)[0], params=params,
                          progress=_Bar("case study (methods)", args.quiet))
     if args.plot:
         _plot_case(res, Path(args.plot))

@@ -2,8 +2,11 @@
 
 JSON (``--json``): ``{"joints": [{"robot", "joint", "estimates", "wear",
 "wear_std", "rate_per_day", "time_to_alarm_days": {"median", "lo90", "hi90"}
-or null, "level", ...}]}``, times in days from the joint's last estimate (a
-bound beyond the prediction horizon is null). ``--plot DIR`` writes one PNG
+or null, "level", "trend_level", "newest_time", "age_days", ...}]}``, times in days from the joint's last estimate (a
+bound beyond the prediction horizon is null). ``level`` is the plant's level
+(:func:`jointwear_ros.serve.core.plant_level`, as ``jointwear serve`` shows it): the
+trend's OK / WARN / ERROR, or STALE when the newest estimate is older than
+``--stale-days`` and the trend's level is not ERROR; ``trend_level`` is the trend's own. ``--plot DIR`` writes one PNG
 per joint, ``--html DIR`` a page ranking the joints by time to alarm.
 """
 
@@ -24,13 +27,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser("trend", help="wear trend and time to alarm of every joint in the history",
                        description="Per joint (current segment, after the last maintenance): current wear and "
                                    "rate, the time until the trend reaches the alarm as a median and 90 % "
-                                   "interval, and the level (OK / WARN / ERROR).")
+                                   "interval, and the level (OK / WARN / ERROR, STALE when silent).")
     p.add_argument("--db", required=True, help="history store URL or SQLite file path")
     p.add_argument("--robot", default=None, help="only this robot")
     p.add_argument("--joint", default=None, help="only this joint")
     p.add_argument("--analysis-version", default="live", help="which estimates (default live)")
     p.add_argument("--horizon", default="30", help="WARN horizon in days (default 30)")
     p.add_argument("--alarm", default="35", help="alarm wear level (default 35)")
+    p.add_argument("--stale-days", default="7", help="STALE when the newest estimate is older (default 7)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--plot", default=None, metavar="DIR", help="write one PNG per joint into DIR")
     p.add_argument("--html", default=None, metavar="DIR", help="write DIR/index.html ranking the joints (and PNGs)")
@@ -42,12 +46,18 @@ def _safe(name: str) -> str:
 
 
 def cmd_trend(args: argparse.Namespace) -> int:
+    import time
+
     from ..history import HistoryStore
+    from ..serve.core import joint_view
     from ..trend import TrendConfig, analyze_joint
     from ..trend.report import plot_trend, rank_key, write_html
 
     horizon = parse_float(args.horizon, "--horizon")
     alarm = parse_float(args.alarm, "--alarm")
+    stale = parse_float(args.stale_days, "--stale-days")
+    if stale <= 0:
+        raise UsageError(f"--stale-days {stale:g} must be > 0 days")
     if horizon < 0 or not 0 < alarm <= 100:
         raise UsageError(f"--horizon {horizon:g} must be >= 0 days and --alarm {alarm:g} in (0, 100]")
     cfg = TrendConfig(alarm=alarm, horizon_days=horizon)
@@ -70,6 +80,9 @@ def cmd_trend(args: argparse.Namespace) -> int:
                           cfg=cfg, robot=key[0], joint=key[1], smooth=draw)
         results.append(r)
         raw[key] = (recs, events)
+    now = time.time()
+    views = {(r.robot, r.joint): joint_view(r, max(x.time for x in raw[(r.robot, r.joint)][0]), now, stale)
+             for r in results}
     images: dict[tuple[str, str], str] = {}
     for out_dir in [d for d in (args.plot, args.html) if d is not None]:
         for r in results:
@@ -82,7 +95,12 @@ def cmd_trend(args: argparse.Namespace) -> int:
     if args.html is not None:
         write_html(Path(args.html), results, images)
     if args.json:
-        print_json({"joints": [r.as_dict() for r in results]})
+        rows_json = []
+        for r in results:
+            v = views[(r.robot, r.joint)]
+            rows_json.append({**r.as_dict(), "level": v.level_name, "trend_level": r.level_name,
+                              "newest_time": v.time, "age_days": v.age_days})
+        print_json({"joints": rows_json})
         return 0
     if not results:
         print(f"no estimates in {args.db}")
@@ -93,7 +111,8 @@ def cmd_trend(args: argparse.Namespace) -> int:
     rows = []
     for r in sorted(results, key=rank_key):
         fin = math.isfinite(r.wear)
-        rows.append([r.robot, r.joint, r.level_name, r.estimates, f"{r.wear:.1f} ± {r.wear_std:.1f}" if fin else "-",
+        rows.append([r.robot, r.joint, views[(r.robot, r.joint)].level_name, r.estimates,
+                     f"{r.wear:.1f} ± {r.wear_std:.1f}" if fin else "-",
                      f"{r.rate_per_day:+.3f}" if math.isfinite(r.rate_per_day) else "-",
                      time_to_alarm_text(r, "-")])
     print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)"], rows))

@@ -9,6 +9,17 @@
 
 from __future__ import annotations
 
+from .published import PANDA_FRICTION, panda_friction, panda_friction_sweep
 from .synth import DEFAULT_SPEEDS, EFFECT_FAMILIES, HIDDEN_EFFECTS, NOISE_STD, HiddenEffect, synth_observations
 
-__all__ = ["DEFAULT_SPEEDS", "EFFECT_FAMILIES", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]
+__all__ = [
+    "DEFAULT_SPEEDS",
+    "EFFECT_FAMILIES",
+    "HIDDEN_EFFECTS",
+    "NOISE_STD",
+    "PANDA_FRICTION",
+    "HiddenEffect",
+    "panda_friction",
+    "panda_friction_sweep",
+    "synth_observations",
+]

@@ -64,7 +64,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import InputDataError
-from ..model import load_parameter_set, parse_model_spec, stribeck_shape
+from ..model import load_parameter_set_info, parse_model_spec, stribeck_shape
 from ..types import ObservationTable
 
 __all__ = ["DEFAULT_SPEEDS", "EFFECT_FAMILIES", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]
@@ -226,8 +226,10 @@ def synth_observations(
     gen = rng if rng is not None else np.random.default_rng(seed)
 
     m = parse_model_spec(model)
-    pset = load_parameter_set(params)
-    p = m.make_params(pset)
+    info = load_parameter_set_info(params)
+    p = m.make_params(info.parameters())
+    # a joint-frame set (N·m, joint side) is evaluated in its own units and the table kept in the suite's
+    sf, tf = info.units.speed_factor, info.units.torque_factor
     ns = sp.size
     n = n_cycles * ns
     cycle = np.repeat(np.arange(n_cycles, dtype=float), ns)
@@ -249,11 +251,11 @@ def synth_observations(
         "position": pos,
         "lube_hours": hours,
     }
-    inputs = dict(speed=v, load_torque=tm, temperature=T)
+    inputs = dict(speed=v * sf, load_torque=tm * tf, temperature=T)
     if model == "paper+wear":
         cols["wear"] = np.full(n, float(wear))
         inputs["wear"] = cols["wear"]
-    tau = m.evaluate(p, **inputs)
+    tau = m.evaluate(p, **inputs) / tf
     # columns added after issue 3 come from a separate stream, so the older columns keep their values
     extra = np.random.Generator(cast(Any, gen.bit_generator).jumped())  # PCG64 (default_rng) jumps
     cols["hours_running"] = np.repeat(extra.uniform(0.0, 8.0, n_cycles), ns)

@@ -14,9 +14,9 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..errors import InputDataError
-from ..model import Model, Parameters
+from ..model import Model, Parameters, ParameterSet, load_parameter_set_info
 from ..types import WearEstimator
-from ._common import check_estimator_options
+from ._common import check_estimator_options, resolve_model, set_frame_table
 from .bayes import BayesEstimator
 from .crb import (
     CRB_METHODS,
@@ -56,6 +56,8 @@ __all__ = [
     "make_estimator",
     "normal_prior",
     "parse_temperature_prior",
+    "resolve_model",
+    "set_frame_table",
     "uniform_prior",
 ]
 
@@ -90,7 +92,7 @@ ESTIMATOR_METHODS: tuple[str, ...] = ("paper", "paper-grid", "bayes", "joint")
 def make_estimator(
     method: str,
     model: Model | None = None,
-    params: Parameters | Mapping[str, float] | str | None = None,
+    params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
     **options: Any,
 ) -> WearEstimator:
     """An estimator by name: ``paper``, ``paper-grid``, ``bayes`` or ``joint``.
@@ -113,5 +115,8 @@ def make_estimator(
     if unknown:
         raise InputDataError(f"estimator {key!r} takes no option {', '.join(unknown)}; "
                              f"it takes {', '.join(sorted(_accepted_options(cls)))}")
-    check_estimator_options(options)  # values no estimator can work with
+    if isinstance(params, str):
+        params = load_parameter_set_info(params)  # a missing set fails here, with its reason
+    factor = params.units.torque_factor if isinstance(params, ParameterSet) else 1.0
+    check_estimator_options(options, factor)  # values no estimator can work with
     return cls(model, params, **options)  # type: ignore[no-any-return]

@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import InputDataError
-from ..model import Model, Parameters, load_parameter_set, paper_wear_model
+from ..errors import InputDataError, ModelError
+from ..model import Model, Parameters, ParameterSet, load_parameter_set_info, paper_wear_model
 from ..types import ObservationTable, WearResult
 
 __all__ = [
@@ -23,13 +23,22 @@ __all__ = [
     "DEFAULT_PARAMS",
     "WEAR_RANGE",
     "Rows",
+    "SetModel",
     "check_estimator_options",
     "check_observation_values",
     "combine_rows",
     "make_rng",
     "prepare_rows",
     "resolve_model",
+    "resolve_set",
+    "set_frame_table",
+    "setup_model",
+    "split_extra",
+    "with_set_info",
 ]
+
+#: Inputs every estimator supplies itself (the grid variables and the standard columns).
+STANDARD_INPUTS = ("speed", "load_torque", "temperature", "wear")
 
 Array = npt.NDArray[np.float64]
 
@@ -51,10 +60,11 @@ MIN_TAU_F_STD = 1e-6
 TEMPERATURE_LIMITS = (-273.15, 1000.0)
 
 
-def check_estimator_options(options: Mapping[str, Any]) -> None:
+def check_estimator_options(options: Mapping[str, Any], torque_factor: float = 1.0) -> None:
     """Refuse estimator options no estimator can work with (the options :func:`make_estimator` passes on).
 
-    ``noise_std`` finite in (0, 1]; ``default_load`` None or finite with
+    ``noise_std`` finite in (0, 1] (x ``torque_factor``: a joint-side set's torque unit per normalized
+    unit; its noise is in N·m); ``default_load`` None or finite with
     magnitude at most :data:`MAX_TORQUE`; ``n_samples`` a whole number in
     [1, 1e6]; ``temperature_range`` two finite numbers low < high, low above
     absolute zero; ``seed`` None or a whole number >= 0. Other options are
@@ -79,9 +89,10 @@ def check_estimator_options(options: Mapping[str, Any]) -> None:
 
     if "noise_std" in options:
         x = number("noise_std", options["noise_std"])
-        if not (math.isfinite(x) and 0 < x <= 1):
+        if not (math.isfinite(x) and 0 < x <= torque_factor):
+            unit = "normalized torque" if torque_factor == 1.0 else "the parameter set's torque unit"
             raise InputDataError(f"estimator option noise_std = {options['noise_std']!r}: must be a finite number "
-                                 "in (0, 1] (normalized torque)")
+                                 f"in (0, {torque_factor:g}] ({unit})")
     if options.get("default_load") is not None:
         x = number("default_load", options["default_load"])
         if not (math.isfinite(x) and abs(x) <= MAX_TORQUE):
@@ -159,16 +170,100 @@ def check_observation_values(table: ObservationTable, *, temperature: bool = Tru
                                  "NaN for unknown)")
 
 
-def resolve_model(
-    model: Model | None, params: Parameters | Mapping[str, float] | str | None
-) -> tuple[Model, Parameters]:
-    """The model (default Eq. 9) and its parameters (default ``ref-2011r``; a name loads a set)."""
-    m = model if model is not None else paper_wear_model()
+def resolve_set(
+    model: Model | None, params: Parameters | Mapping[str, float] | str | ParameterSet | None
+) -> tuple[Model, Parameters, ParameterSet | None]:
+    """The model, its parameters and the parameter set they came from (None for values passed in).
+
+    ``params`` a name or a YAML path loads a set (default ``ref-2011r``); the model is
+    then the set's own (its ``model`` spec, Eq. 9 when it names none) unless ``model`` is given.
+    """
+    pset: ParameterSet | None = None
     if params is None:
         params = DEFAULT_PARAMS
     if isinstance(params, str):
-        params = load_parameter_set(params)
-    return m, m.make_params(params)
+        params = load_parameter_set_info(params)
+    if isinstance(params, ParameterSet):
+        pset = params
+        m = model if model is not None else pset.model()
+        return m, m.make_params(pset.parameters()), pset
+    m = model if model is not None else paper_wear_model()
+    return m, m.make_params(params), None
+
+
+def resolve_model(
+    model: Model | None, params: Parameters | Mapping[str, float] | str | ParameterSet | None
+) -> tuple[Model, Parameters]:
+    """The model (default: the set's, else Eq. 9) and its parameters (default ``ref-2011r``; a name loads a set).
+
+    A set whose model has terms of other inputs (``ripple(position)``) gives its core terms
+    (:func:`split_extra`): the bound, the cycle design and the study evaluate at speed, load,
+    temperature and wear, where a term of another input is a known offset that carries no
+    information about w, so the bound stays exact.
+    """
+    m, p, _ = resolve_set(model, params)
+    return split_extra(m)[0], p
+
+
+def split_extra(model: Model) -> tuple[Model, Model | None]:
+    """``(core, extra)``: the terms of the standard inputs, and those needing other inputs (or None).
+
+    A term of another input (``ripple(position)``, a column the set names) enters a
+    wear estimate as a known per-observation offset: its value is computed from the
+    observation's own input and taken off ``tau_f``, which is exact as long as the
+    term depends on neither temperature nor wear (checked here; :class:`ModelError`).
+
+    >>> from jointwear_ros.model import parse_model_spec
+    >>> core, extra = split_extra(parse_model_spec("paper+wear"))
+    >>> core.spec == "coulomb + load_coulomb + load_stribeck + temp_stribeck + temp_viscous + wear_stribeck + wear_viscous", extra
+    (True, None)
+    """
+    core = [t for t in model.terms if all(v in STANDARD_INPUTS for v in t.variables)]
+    extra = [t for t in model.terms if t not in core]
+    for t in extra:
+        shared = [v for v in t.variables if v in ("temperature", "wear")]
+        if shared:
+            raise ModelError(f"term {t.name!r} of model {model.spec!r} needs {', '.join(v for v in t.variables if v not in STANDARD_INPUTS)} "
+                             f"and {' and '.join(shared)}; the wear estimators take a term of another input as a "
+                             "known offset, which needs it to depend on neither temperature nor wear")
+    if not core:
+        raise ModelError(f"model {model.spec!r} has no term of speed, load or temperature")
+    return Model(core), (Model(extra) if extra else None)
+
+
+def set_frame_table(table: ObservationTable, pset: ParameterSet | None) -> ObservationTable:
+    """The suite's observations (motor side, normalized) in a joint-frame set's units (identity otherwise)."""
+    if pset is None or not pset.units.joint_side:
+        return table
+    sf, tf = pset.units.speed_factor, pset.units.torque_factor
+    cols = dict(table.columns)
+    cols["speed"] = np.asarray(cols["speed"], dtype=float) * sf
+    for name in ("tau_f", "tau_f_std", "load_torque", "tau_plus", "tau_minus"):
+        if name in cols:
+            cols[name] = np.asarray(cols[name], dtype=float) * tf
+    return ObservationTable(cols, source=table.source)
+
+
+def extra_offset(table: ObservationTable, extra: Model | None, params: Parameters) -> Array:
+    """The known offset of the extra terms per row (0 without them); a missing input is refused with the reason."""
+    n = len(table)
+    if extra is None:
+        return np.zeros(n)
+    where = table.source or "observations"
+    inputs: dict[str, Array] = {}
+    for var in extra.variables:
+        if var not in table:
+            terms = ", ".join(t.name for t in extra.terms if var in t.variables)
+            raise InputDataError(f"{where}: column {var!r} is missing; the parameter set's model needs it for "
+                                 f"{terms}: give {var!r} with each observation")
+        col = np.asarray(table[var], dtype=float)
+        bad = np.flatnonzero(~np.isfinite(col))
+        if bad.size:
+            i = int(bad[0])
+            raise InputDataError(f"{where}: row {i}: {var} {float(col[i])!r} is not finite; the parameter set's "
+                                 f"model needs {var!r} for every observation")
+        inputs[var] = col
+    return np.asarray(np.broadcast_to(extra.evaluate(params, **inputs), (n,)), dtype=float)
 
 
 def make_rng(rng: np.random.Generator | None = None, seed: int | None = None) -> np.random.Generator:
@@ -205,6 +300,9 @@ def prepare_rows(
     noise_std: float = DEFAULT_NOISE_STD,
     default_load: float | None = None,
     use_temperature: bool = True,
+    pset: ParameterSet | None = None,
+    extra: Model | None = None,
+    params: Parameters | None = None,
 ) -> Rows:
     """Check one cycle's observations and return them as arrays.
 
@@ -214,6 +312,10 @@ def prepare_rows(
     infinite or below absolute zero, or a ``tau_f_std`` is negative.
     (The wear monitor screens live observations before this, dropping or
     correcting them one by one: :mod:`jointwear_ros.monitor.validation`.)
+
+    With ``pset`` in the joint frame the rows come back in its units (speed
+    joint side, torques N·m); with ``extra`` terms (inputs other than speed, load,
+    temperature) their value per row is taken off ``tau_f`` (see :func:`split_extra`).
     """
     if not isinstance(table, ObservationTable):
         raise InputDataError(
@@ -281,7 +383,17 @@ def prepare_rows(
         ok = np.isfinite(given) & (given > 0)
         # no friction observation is known better than MIN_TAU_F_STD: keeps the weights 1/std^2 finite
         sig[ok] = np.maximum(given[ok], MIN_TAU_F_STD)
-    return Rows(speed=speed.copy(), tau_f=tau.copy(), load=load, temperature=temp, noise_std=sig, source=where)
+    speed, tau = speed.copy(), tau.copy()
+    if pset is not None and pset.units.joint_side:
+        sf, tf = pset.units.speed_factor, pset.units.torque_factor
+        speed, tau, load = speed * sf, tau * tf, load * tf
+        if "tau_f_std" in table:  # the default noise_std is the set's own, already in its unit
+            sig = np.where(ok, sig * tf, sig)
+    if extra is not None:
+        if params is None:
+            raise ValueError("prepare_rows: extra terms need params")
+        tau = tau - extra_offset(set_frame_table(table, pset), extra, params)
+    return Rows(speed=speed, tau_f=tau, load=load, temperature=temp, noise_std=sig, source=where)
 
 
 def combine_rows(
@@ -319,3 +431,57 @@ def combine_rows(
         per_speed_wear=tuple(float(w) for w in wear),
         info=dict(info or {}, per_speed_std=[float(s) for s in np.sqrt(var)], interval="estimate +- 2 std"),
     )
+
+
+@dataclass(frozen=True)
+class SetModel:
+    """What an estimator takes from its model and set: the full model, its core terms, the extra terms
+    (inputs other than speed, load, temperature, wear; None without), the parameters, the set, sigma_e."""
+
+    full_model: Model
+    model: Model
+    extra: Model | None
+    params: Parameters
+    param_set: ParameterSet | None
+    noise_std: float
+
+
+def setup_model(
+    model: Model | None, params: Parameters | Mapping[str, float] | str | ParameterSet | None,
+    noise_std: float | None,
+) -> SetModel:
+    """An estimator's model, parameters and set (:func:`resolve_set`, :func:`split_extra`) and its noise_std.
+
+    ``noise_std`` None takes the set's own ``noise_std`` (in its torque unit), else
+    the paper's :data:`DEFAULT_NOISE_STD` converted to the set's torque unit.
+    """
+    m, p, pset = resolve_set(model, params)
+    core, extra = split_extra(m)
+    if noise_std is None:
+        if pset is not None and pset.noise_std is not None:
+            noise_std = pset.noise_std
+        else:  # the paper's sigma_e, in the set's torque unit
+            noise_std = DEFAULT_NOISE_STD * (pset.units.torque_factor if pset is not None else 1.0)
+    return SetModel(m, core, extra, p, pset, float(noise_std))
+
+
+def with_set_info(result: WearResult, pset: ParameterSet | None) -> WearResult:
+    """The result with the parameter set, its model, units and wear calibration named in ``info``."""
+    from dataclasses import replace
+
+    info = dict(result.info)
+    if pset is None:
+        info.setdefault("wear_calibration", "given parameters")
+    else:
+        info["parameter_set"] = pset.name
+        info["model"] = pset.spec
+        info["units"] = pset.units.frame
+        info["wear_calibration"] = pset.wear_calibration
+    return replace(result, info=info)
+
+
+def set_temperature_prior(pset: ParameterSet | None, default: Any) -> Any:
+    """The set's ``temperature_prior`` (commissioned sets carry their covered range) or ``default``."""
+    if pset is not None and pset.temperature_prior:
+        return pset.temperature_prior
+    return default

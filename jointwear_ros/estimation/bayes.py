@@ -54,9 +54,9 @@ import numpy.typing as npt
 from scipy.special import logsumexp
 
 from ..errors import InputDataError, ModelError
-from ..model import Model, Parameters
+from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, combine_rows, prepare_rows, resolve_model
+from ._common import WEAR_RANGE, combine_rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
 from .inverse import base_friction
 from .priors import TemperaturePrior, parse_temperature_prior, uniform_prior
 
@@ -320,10 +320,10 @@ class BayesEstimator:
     def __init__(
         self,
         model: Model | None = None,
-        params: Parameters | Mapping[str, float] | str | None = None,
+        params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
         *,
         prior: TemperaturePrior | str | object | None = None,
-        noise_std: float = DEFAULT_NOISE_STD,
+        noise_std: float | None = None,
         wear_range: tuple[float, float] = WEAR_RANGE,
         point: str = "mode",
         grid_step: float = 0.1,
@@ -336,7 +336,11 @@ class BayesEstimator:
     ) -> None:
         # seed/rng are accepted for a uniform factory interface; the estimator is deterministic
         del seed, rng
-        self.model, self.params = resolve_model(model, params)
+        sm = setup_model(model, params, noise_std)
+        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
+        self.param_set, noise_std = sm.param_set, sm.noise_std
+        if prior is None:
+            prior = set_temperature_prior(self.param_set, None)
         self.prior = uniform_prior(*DEFAULT_BAYES_PRIOR) if prior is None else parse_temperature_prior(prior)
         if not (math.isfinite(noise_std) and noise_std > 0):
             raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
@@ -464,7 +468,8 @@ class BayesEstimator:
     def estimate(self, observations: ObservationTable) -> WearResult:
         """Posterior mean per observation (speed); the cycle estimate combines them (see ``combine_rows``)."""
         rows = prepare_rows(observations, noise_std=self.noise_std, default_load=self.default_load,
-                            use_temperature=self.use_temperature)
+                            use_temperature=self.use_temperature, pset=self.param_set, extra=self.extra,
+                            params=self.params)
         s = self.summarize_rows(rows.speed, rows.load, rows.tau_f, rows.temperature, noise_std=rows.noise_std)
         res = combine_rows(
             rows, s.point(self.point), np.maximum(s.std, 1e-6), method=self.name,
@@ -485,7 +490,7 @@ class BayesEstimator:
                 method=res.method, speeds=res.speeds, per_speed_wear=res.per_speed_wear,
                 info=dict(res.info, interval=f"equal-tailed {CREDIBLE_LEVEL:.0%} credible interval"),
             )
-        return res
+        return with_set_info(res, self.param_set)
 
 
 def _store(out: list[Array], idx: Array, s: PosteriorSummary) -> None:

@@ -54,9 +54,9 @@ from scipy.optimize import minimize
 from scipy.special import logsumexp
 
 from ..errors import InputDataError
-from ..model import Model, Parameters
+from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, Rows, prepare_rows, resolve_model
+from ._common import WEAR_RANGE, Rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
 from .crb import DEFAULT_CRB_PRIOR, temperature_nodes
 from .priors import TemperaturePrior, parse_temperature_prior
 
@@ -122,9 +122,11 @@ class JointEstimator:
         Friction model (default Eq. 9) and parameters (default ``ref-2011r``).
     prior
         Temperature prior (a :class:`TemperaturePrior` or a spec such as
-        ``"uniform:25:55"``); default U(25, 55) degC.
+        ``"uniform:25:55"``); default the set's ``temperature_prior`` (a commissioned
+        set's covered range), else U(25, 55) degC.
     noise_std
-        sigma_e for rows without ``tau_f_std`` (normalized torque).
+        sigma_e for rows without ``tau_f_std`` (the set's torque unit); default the
+        set's ``noise_std``, else the paper's 0.0015.
     wear_range
         Support of the flat prior on w (default [0, 100]).
     wear_step
@@ -146,10 +148,10 @@ class JointEstimator:
     def __init__(
         self,
         model: Model | None = None,
-        params: Parameters | Mapping[str, float] | str | None = None,
+        params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
         *,
-        prior: TemperaturePrior | str = DEFAULT_CRB_PRIOR,
-        noise_std: float = DEFAULT_NOISE_STD,
+        prior: TemperaturePrior | str | None = None,
+        noise_std: float | None = None,
         wear_range: tuple[float, float] = WEAR_RANGE,
         wear_step: float = 1.0 / 32.0,
         point: str = "mean",
@@ -159,8 +161,11 @@ class JointEstimator:
         seed: int | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        self.model, self.params = resolve_model(model, params)
-        self.prior = parse_temperature_prior(prior)
+        sm = setup_model(model, params, noise_std)
+        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
+        self.param_set, noise_std = sm.param_set, sm.noise_std
+        self.prior = parse_temperature_prior(prior if prior is not None
+                                             else set_temperature_prior(self.param_set, DEFAULT_CRB_PRIOR))
         if not (math.isfinite(noise_std) and noise_std > 0):
             raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
         self.noise_std = float(noise_std)
@@ -345,7 +350,8 @@ class JointEstimator:
     def estimate(self, observations: ObservationTable) -> WearResult:
         """w and T from all rows of one cycle; see the module docstring."""
         rows = prepare_rows(observations, noise_std=self.noise_std, default_load=self.default_load,
-                            use_temperature=self.use_temperature)
+                            use_temperature=self.use_temperature, pset=self.param_set, extra=self.extra,
+                            params=self.params)
         known = rows.known_temperature
         temp = rows.temperature if known.any() else None
         post = self.posterior(rows.speed, rows.load, rows.tau_f, rows.noise_std, temp)
@@ -357,7 +363,7 @@ class JointEstimator:
         # a posterior on one grid point has std 0 on the grid; the grid cannot resolve better than
         # its step (uniform quantization, step / sqrt(12)): never report a certainty it does not have
         resolution = float(self.w_grid[1] - self.w_grid[0]) / math.sqrt(12.0) if self.w_grid.size > 1 else 0.0
-        return WearResult(
+        return with_set_info(WearResult(
             wear=est,
             wear_std=max(post.wear_std, resolution),
             wear_low=post.wear_low,
@@ -378,7 +384,7 @@ class JointEstimator:
                 "known_temperature": [bool(k) for k in known],
                 "per_speed_wear": "each row's least-squares w at the estimated temperature",
             },
-        )
+        ), self.param_set)
 
     def _per_row(self, rows: Rows, temps: Array) -> Array:
         f = self.model.evaluate(self.params, speed=rows.speed[:, None], load_torque=rows.load[:, None],

@@ -29,10 +29,11 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import InputDataError
-from ..model import Model, Parameters
+from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, Rows, combine_rows, make_rng, prepare_rows, resolve_model
+from ._common import WEAR_RANGE, Rows, combine_rows, make_rng, prepare_rows, setup_model, with_set_info
 from .inverse import TemperatureTable, WearInverse, base_friction
+from .priors import parse_temperature_prior
 
 __all__ = ["PAPER_N_SAMPLES", "PAPER_TEMPERATURE_RANGE", "PaperEstimator", "PaperGridEstimator"]
 
@@ -54,18 +55,24 @@ class _PaperBase:
     def __init__(
         self,
         model: Model | None = None,
-        params: Parameters | Mapping[str, float] | str | None = None,
+        params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
         *,
         n_samples: int = PAPER_N_SAMPLES,
-        temperature_range: tuple[float, float] = PAPER_TEMPERATURE_RANGE,
+        temperature_range: tuple[float, float] | None = None,
         wear_range: tuple[float, float] = WEAR_RANGE,
-        noise_std: float = DEFAULT_NOISE_STD,
+        noise_std: float | None = None,
         default_load: float | None = None,
         use_temperature: bool = True,
         seed: int | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        self.model, self.params = resolve_model(model, params)
+        sm = setup_model(model, params, noise_std)
+        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
+        self.param_set, noise_std = sm.param_set, sm.noise_std
+        if temperature_range is None:
+            temperature_range = PAPER_TEMPERATURE_RANGE
+            if self.param_set is not None and self.param_set.temperature_prior:
+                temperature_range = parse_temperature_prior(self.param_set.temperature_prior).support(1.0)
         if int(n_samples) < 1:
             raise InputDataError(f"n_samples = {n_samples!r}: the paper's estimator needs at least one temperature sample")
         self.n_samples = int(n_samples)
@@ -140,11 +147,12 @@ class _PaperBase:
     def estimate(self, observations: ObservationTable) -> WearResult:
         """Eq. (11) per observation (speed); the cycle estimate combines them (see ``combine_rows``)."""
         rows = prepare_rows(observations, noise_std=self.noise_std, default_load=self.default_load,
-                            use_temperature=self.use_temperature)
+                            use_temperature=self.use_temperature, pset=self.param_set, extra=self.extra,
+                            params=self.params)
         w, spread = self.estimate_rows(rows.speed, rows.load, rows.tau_f, rows.temperature)
         std = self._row_std(rows, w, spread)
         lo, hi = self.temperature_range
-        return combine_rows(
+        return with_set_info(combine_rows(
             rows, w, std, method=self.name,
             info={
                 "n_samples": self.n_samples,
@@ -152,7 +160,7 @@ class _PaperBase:
                 "known_temperature": [bool(k) for k in rows.known_temperature],
                 "per_speed_sample_std": [float(s) for s in spread],
             },
-        )
+        ), self.param_set)
 
     def _row_std(self, rows: Rows, w: Array, spread: Array) -> Array:
         """Uncertainty of a row: the spread over T samples and the noise through the wear slope."""
@@ -192,7 +200,7 @@ class PaperEstimator(_PaperBase):
 
     name = "paper"
 
-    def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | None = None,
+    def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
                  *, n_table: int = 16384, **options: object) -> None:
         super().__init__(model, params, **options)  # type: ignore[arg-type]
         self.n_table = int(n_table)
@@ -240,7 +248,7 @@ class PaperGridEstimator(_PaperBase):
 
     name = "paper-grid"
 
-    def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | None = None,
+    def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
                  *, grid_step: float = 0.1, **options: object) -> None:
         super().__init__(model, params, **options)  # type: ignore[arg-type]
         if not (grid_step > 0 and math.isfinite(grid_step)):

@@ -38,6 +38,7 @@ import math
 import os
 import shutil
 import tempfile
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +58,7 @@ __all__ = [
     "read_bag",
     "read_csv",
     "read_table",
+    "read_text_file",
     "write_bag",
     "write_csv",
     "write_table",
@@ -124,18 +126,26 @@ def _parse_cell(text: str) -> float | None:
         return None
 
 
-def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
-    """Read an observation table from CSV (see the module docstring for the rules)."""
-    p = Path(path)
-    src = str(p)
+def read_text_file(path: str | os.PathLike[str]) -> str:
+    """A CSV file's text (UTF-8, a BOM dropped); every failure is one :class:`InputDataError` line."""
+    src = str(path)
     try:
-        raw = p.read_text(encoding="utf-8-sig")
+        return Path(path).read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputDataError(f"{src}: no such file") from None
+    except IsADirectoryError:
+        raise InputDataError(f"{src}: is a directory without metadata.yaml; give a CSV file or a rosbag2 bag") from None
     except UnicodeDecodeError as exc:
         raise InputDataError(f"{src}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); give a CSV file") from None
     except OSError as exc:
         raise InputDataError(f"{src}: cannot read ({exc.strerror})") from None
+
+
+def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
+    """Read an observation table from CSV (see the module docstring for the rules)."""
+    p = Path(path)
+    src = str(p)
+    raw = read_text_file(p)
     if not raw.strip():
         raise InputDataError(f"{src}: the file is empty; expected a header line with at least speed,tau_f and data rows")
     lines = list(csv.reader(io.StringIO(raw)))
@@ -253,19 +263,30 @@ def _fmt(v: float) -> str:
     return repr(float(v))
 
 
-def write_csv(table: ObservationTable, path: str | os.PathLike[str]) -> Path:
-    """Write ``table`` as CSV, atomically (a temporary file, then rename)."""
+def write_csv(table: ObservationTable, path: str | os.PathLike[str], *,
+              text_columns: Mapping[str, Sequence[str]] | None = None) -> Path:
+    """Write ``table`` as CSV, atomically (a temporary file, then rename).
+
+    ``text_columns`` (name -> one string per row, e.g. ``joint``) are written
+    after the numeric columns; :func:`read_csv` skips them again.
+    """
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
+    texts = dict(text_columns or {})
+    for name, vals in texts.items():
+        if len(vals) != len(table) or name in table:
+            raise InputDataError(f"text column {name!r}: {len(vals)} values for {len(table)} rows, or a numeric "
+                                 "column of that name exists")
     names = table.names
     fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent)
     try:
         with os.fdopen(fd, "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(names)
+            w.writerow(names + list(texts))
             cols = [table[n] for n in names]
+            tcols = list(texts.values())
             for i in range(len(table)):
-                w.writerow([_fmt(c[i]) for c in cols])
+                w.writerow([_fmt(c[i]) for c in cols] + [str(c[i]) for c in tcols])
         os.replace(tmp, p)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

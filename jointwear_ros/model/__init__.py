@@ -20,9 +20,24 @@ jointwear_ros.errors.ModelError: model input 'speed' holds nan; the model needs 
 
 from __future__ import annotations
 
-from .model import MODEL_SPECS, Model, paper_model, paper_wear_model, parse_model_spec, standard_model
+from .model import (
+    MODEL_SPECS,
+    Model,
+    paper_model,
+    paper_wear_model,
+    parse_model_spec,
+    split_model_spec,
+    standard_model,
+)
 from .parameters import Parameter, Parameters, ParamSpec
-from .paramsets import ParameterSet, available_parameter_sets, load_parameter_set, load_parameter_set_info
+from .paramsets import (
+    ParameterSet,
+    SetUnits,
+    available_parameter_sets,
+    load_parameter_set,
+    load_parameter_set_info,
+    parameter_set_document,
+)
 from .terms import (
     STRIBECK_EXPONENT,
     TERMS,
@@ -52,6 +67,7 @@ __all__ = [
     "Parameter",
     "ParameterSet",
     "Parameters",
+    "SetUnits",
     "Stribeck",
     "TempStribeck",
     "TempViscous",
@@ -64,7 +80,9 @@ __all__ = [
     "load_parameter_set_info",
     "paper_model",
     "paper_wear_model",
+    "parameter_set_document",
     "parse_model_spec",
+    "split_model_spec",
     "standard_model",
     "stribeck_shape",
     "term_by_name",

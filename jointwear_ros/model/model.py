@@ -19,7 +19,8 @@ from ..errors import ModelError, ParameterError
 from .parameters import Parameter, Parameters
 from .terms import Term, term_by_name
 
-__all__ = ["MODEL_SPECS", "Model", "paper_model", "paper_wear_model", "parse_model_spec", "standard_model"]
+__all__ = ["MODEL_SPECS", "Model", "paper_model", "paper_wear_model", "parse_model_spec", "split_model_spec",
+           "standard_model"]
 
 Array = npt.NDArray[np.float64]
 
@@ -248,6 +249,15 @@ def parse_model_spec(spec: str, resolver: Any = None) -> Model:
             term = term_by_name(part)
         terms.append(term)
     return Model(terms)
+
+
+def split_model_spec(text: str) -> list[str]:
+    """The parts of a spec: split on '+' outside parentheses; the named spec 'paper+wear' stays one name.
+
+    >>> split_model_spec("paper+wear + ripple(position, w0=3)")
+    ['paper+wear', 'ripple(position, w0=3)']
+    """
+    return _split_top_level(text)
 
 
 def _split_top_level(text: str) -> list[str]:

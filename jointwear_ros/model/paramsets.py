@@ -4,6 +4,17 @@ A parameter set file holds ``name``, ``description``, ``valid`` (input ranges in
 which the set is meaningful) and ``parameters`` (name -> value). Units and
 bounds come from the terms' :class:`~jointwear_ros.model.parameters.ParamSpec`.
 
+A set may also carry its own model (issue 18): ``model`` (a spec string, default
+``paper+wear``, Eq. 9; candidate terms such as ``ripple(position)`` resolve
+through the workbench's library), ``units`` (``frame: motor_normalized``, the
+paper's motor side and normalized torque, the default; or ``frame: joint``,
+joint side rad/s and N·m, with ``gear_ratio`` and ``torque_scale`` mapping the
+suite's observations into it), ``covariance`` (``names`` and ``matrix`` of the
+fitted parameters), ``noise_std`` (a friction observation's noise in the set's
+torque unit), ``wear`` (``calibration``: where the wear parameters came from)
+and ``provenance`` (robot, joint, data, date, software). Sets without these
+keys (``ref-2011r``) read as before. See docs/commissioning.md.
+
 Sets are looked up, in order, in ``$JOINTWEAR_PARAMS_PATH`` (``:``-separated
 directories), then ``config/params`` of every place
 :func:`jointwear_ros.resources.resource_dirs` names (the source tree of a
@@ -31,6 +42,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -39,10 +51,67 @@ from ..resources import resource_dirs
 from .parameters import Parameter, Parameters
 from .terms import TERMS
 
-__all__ = ["ParameterSet", "available_parameter_sets", "load_parameter_set", "load_parameter_set_info"]
+if TYPE_CHECKING:
+    from .model import Model
+
+__all__ = ["FRAMES", "ParameterSet", "SetUnits", "available_parameter_sets", "load_parameter_set",
+           "load_parameter_set_info", "parameter_set_document"]
 
 #: 0 K in degC.
 ABSOLUTE_ZERO = -273.15
+#: The model a set without a ``model`` key has: Eq. (9).
+DEFAULT_SPEC = "paper+wear"
+#: Frames a set's parameters can be in.
+FRAMES = ("motor_normalized", "joint")
+
+
+@dataclass(frozen=True)
+class SetUnits:
+    """The units a set's parameters (and its ``valid`` ranges) are in.
+
+    ``motor_normalized`` (the paper's): speed motor side rad/s, torques normalized;
+    ``joint``: speed joint side rad/s, torques N·m. ``gear_ratio`` (motor speed =
+    joint speed x gear_ratio) and ``torque_scale`` (N·m per normalized unit) map the
+    suite's observations (motor side, normalized) into a joint-frame set.
+
+    >>> u = SetUnits("joint", 120.0, 50.0)
+    >>> u.speed_factor, u.torque_factor, u.torque_unit
+    (0.008333333333333333, 50.0, 'N·m')
+    """
+
+    frame: str = "motor_normalized"
+    gear_ratio: float | None = None
+    torque_scale: float | None = None
+
+    @property
+    def joint_side(self) -> bool:
+        return self.frame == "joint"
+
+    @property
+    def speed_factor(self) -> float:
+        """Set-frame speed per suite (motor side) speed."""
+        return 1.0 / float(self.gear_ratio or 1.0) if self.joint_side else 1.0
+
+    @property
+    def torque_factor(self) -> float:
+        """Set-frame torque per suite (normalized) torque."""
+        return float(self.torque_scale or 1.0) if self.joint_side else 1.0
+
+    @property
+    def torque_unit(self) -> str:
+        return "N·m" if self.joint_side else "normalized"
+
+    @property
+    def speed_unit(self) -> str:
+        return "rad/s joint side" if self.joint_side else "rad/s motor side"
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"frame": self.frame, "speed": self.speed_unit, "torque": self.torque_unit}
+        if self.gear_ratio is not None:
+            out["gear_ratio"] = float(self.gear_ratio)
+        if self.torque_scale is not None:
+            out["torque_scale"] = float(self.torque_scale)
+        return out
 
 
 @dataclass(frozen=True)
@@ -54,17 +123,66 @@ class ParameterSet:
     values: dict[str, float]
     valid: dict[str, tuple[float, float]] = field(default_factory=dict)
     path: Path | None = None
+    spec: str = DEFAULT_SPEC
+    units: SetUnits = field(default_factory=SetUnits)
+    stderr: dict[str, float] = field(default_factory=dict)
+    covariance: tuple[tuple[str, ...], tuple[tuple[float, ...], ...]] | None = None
+    noise_std: float | None = None
+    temperature_prior: str | None = None
+    wear: dict[str, Any] = field(default_factory=dict)
+    provenance: dict[str, Any] = field(default_factory=dict)
 
     def parameters(self) -> Parameters:
-        """All values as :class:`Parameters`, with units and bounds from the terms."""
+        """All values as :class:`Parameters`, with units and bounds from the terms.
+
+        The terms' bounds are the paper's normalized units; a joint-frame set's
+        parameters get unbounded :class:`Parameter` entries with the same unit label.
+        """
         specs = {s.name: s for t in TERMS.values() for s in t.params}
         out = Parameters()
         for n, v in self.values.items():
             spec = specs.get(n)
             if spec is None:
                 out.add(Parameter(n, v))
+            elif self.units.joint_side:
+                out.add(Parameter(n, v, unit=spec.unit, description=spec.description))
             else:
                 out.add(Parameter.from_spec(spec, v))
+            if n in self.stderr:
+                out[n].stderr = self.stderr[n]
+        return out
+
+    def model(self) -> Model:
+        """The set's model (its ``model`` spec; Eq. 9 when the file names none)."""
+        from .model import parse_model_spec
+
+        if self.spec == DEFAULT_SPEC:
+            return parse_model_spec(self.spec)
+        from ..workbench.candidates import resolve_term  # candidate terms (ripple(position), ...)
+
+        return parse_model_spec(self.spec, resolver=resolve_term)
+
+    @property
+    def wear_calibration(self) -> str:
+        """Where the wear parameters came from (``paper`` for a set that does not say)."""
+        return str(self.wear.get("calibration", "paper"))
+
+    def check_observation_range(self, var: str, value: float) -> None:
+        """:meth:`check_range` for a value in the suite's observation units (motor side, normalized)."""
+        rng = self.observation_valid().get(var)
+        if rng is not None and not rng[0] <= value <= rng[1]:
+            unit = {"speed": " (rad/s motor side)", "load_torque": " (normalized)"}.get(var, "")
+            raise ParameterSetError(f"{var} = {value:g}{unit} is outside the valid range [{rng[0]:g}, {rng[1]:g}] "
+                                    f"of parameter set {self.name!r}")
+
+    def observation_valid(self) -> dict[str, tuple[float, float]]:
+        """``valid`` in the suite's observation frame (motor side speed, normalized torques)."""
+        out = dict(self.valid)
+        sf, tf = self.units.speed_factor, self.units.torque_factor
+        if "speed" in out:
+            out["speed"] = (out["speed"][0] / sf, out["speed"][1] / sf)
+        if "load_torque" in out:
+            out["load_torque"] = (out["load_torque"][0] / tf, out["load_torque"][1] / tf)
         return out
 
     def check_range(self, var: str, value: float) -> None:
@@ -120,6 +238,7 @@ def load_parameter_set_info(name: str) -> ParameterSet:
     if not isinstance(doc, dict) or not isinstance(doc.get("parameters"), dict):
         raise ParameterSetError(f"{path}: expected a mapping with a 'parameters' mapping")
     specs = {s.name: s for t in TERMS.values() for s in t.params}
+    units = _read_units(path, doc.get("units"))
     values: dict[str, float] = {}
     for k, v in doc["parameters"].items():
         if isinstance(v, bool):
@@ -131,7 +250,7 @@ def load_parameter_set_info(name: str) -> ParameterSet:
         if not math.isfinite(fv):
             raise ParameterSetError(f"{path}: parameter {k!r} = {v!r} is not finite")
         spec = specs.get(str(k))
-        if spec is not None and not spec.min <= fv <= spec.max:
+        if spec is not None and not units.joint_side and not spec.min <= fv <= spec.max:
             raise ParameterSetError(
                 f"{path}: parameter {k!r} = {fv:g} is outside its physical bounds [{spec.min:g}, {spec.max:g}] "
                 f"({spec.unit})"
@@ -153,13 +272,106 @@ def load_parameter_set_info(name: str) -> ParameterSet:
         if str(k) == "temperature" and lo < ABSOLUTE_ZERO:
             raise ParameterSetError(f"{path}: valid temperature range starts at {lo:g} degC, below absolute zero")
         valid[str(k)] = (lo, hi)
+    model_spec = str(doc.get("model") or DEFAULT_SPEC).strip()
+    stderr, covariance = _read_covariance(path, doc.get("covariance"), values)
+    noise = doc.get("noise_std")
+    if noise is not None:
+        try:
+            noise = float(noise)
+        except (TypeError, ValueError):
+            noise = math.nan
+        if not (math.isfinite(noise) and noise > 0):
+            raise ParameterSetError(f"{path}: noise_std = {doc.get('noise_std')!r} must be a positive number "
+                                    f"({units.torque_unit})")
+    wear = doc.get("wear") or {}
+    prov = doc.get("provenance") or {}
+    if not isinstance(wear, dict) or not isinstance(prov, dict):
+        raise ParameterSetError(f"{path}: 'wear' and 'provenance' must be mappings")
     return ParameterSet(
         name=str(doc.get("name", path.stem)),
         description=str(doc.get("description", "")).strip(),
         values=values,
         valid=valid,
         path=path,
+        spec=model_spec,
+        units=units,
+        stderr=stderr,
+        covariance=covariance,
+        noise_std=noise,
+        temperature_prior=(str(doc["temperature_prior"]) if doc.get("temperature_prior") else None),
+        wear=dict(wear),
+        provenance=dict(prov),
     )
+
+
+def _read_units(path: Path, doc: Any) -> SetUnits:
+    if doc is None:
+        return SetUnits()
+    if not isinstance(doc, dict):
+        raise ParameterSetError(f"{path}: 'units' must be a mapping (frame, gear_ratio, torque_scale)")
+    frame = str(doc.get("frame", "motor_normalized"))
+    if frame not in FRAMES:
+        raise ParameterSetError(f"{path}: units frame {frame!r} unknown; use one of {', '.join(FRAMES)}")
+    out: dict[str, float | None] = {}
+    for key in ("gear_ratio", "torque_scale"):
+        v = doc.get(key)
+        if v is None:
+            out[key] = None
+            continue
+        try:
+            fv = float(v)
+        except (TypeError, ValueError):
+            fv = math.nan
+        if not (math.isfinite(fv) and fv > 0) or isinstance(v, bool):
+            raise ParameterSetError(f"{path}: units {key} = {v!r} must be a positive number")
+        out[key] = fv
+    if frame == "joint" and (out["gear_ratio"] is None or out["torque_scale"] is None):
+        raise ParameterSetError(f"{path}: a joint-frame set needs units gear_ratio and torque_scale "
+                                "(how the suite's motor-side, normalized observations map into it)")
+    return SetUnits(frame, out["gear_ratio"], out["torque_scale"])
+
+
+def _read_covariance(path: Path, doc: Any, values: dict[str, float]
+                     ) -> tuple[dict[str, float], tuple[tuple[str, ...], tuple[tuple[float, ...], ...]] | None]:
+    if doc is None:
+        return {}, None
+    try:
+        names = tuple(str(n) for n in doc["names"])
+        mat = tuple(tuple(float(x) for x in row) for row in doc["matrix"])
+    except (TypeError, KeyError, ValueError):
+        raise ParameterSetError(f"{path}: 'covariance' must hold 'names' and a square 'matrix'") from None
+    if len(mat) != len(names) or any(len(r) != len(names) for r in mat):
+        raise ParameterSetError(f"{path}: covariance matrix is not {len(names)}x{len(names)} (one row per name)")
+    unknown = [n for n in names if n not in values]
+    if unknown:
+        raise ParameterSetError(f"{path}: covariance names {', '.join(unknown)} that are not parameters of the set")
+    stderr = {}
+    for i, n in enumerate(names):
+        d = mat[i][i]
+        if not (math.isfinite(d) and d >= 0):
+            raise ParameterSetError(f"{path}: covariance of {n!r} = {d!r} is not a variance (finite, >= 0)")
+        stderr[n] = math.sqrt(d)
+    return stderr, (names, mat)
+
+
+def parameter_set_document(pset: ParameterSet) -> dict[str, Any]:
+    """The YAML document of a set (what :func:`load_parameter_set_info` reads back)."""
+    doc: dict[str, Any] = {"name": pset.name, "description": pset.description, "model": pset.spec,
+                           "units": pset.units.to_dict()}
+    doc["valid"] = {k: [float(lo), float(hi)] for k, (lo, hi) in pset.valid.items()}
+    if pset.noise_std is not None:
+        doc["noise_std"] = float(pset.noise_std)
+    if pset.temperature_prior:
+        doc["temperature_prior"] = pset.temperature_prior
+    doc["parameters"] = {k: float(v) for k, v in pset.values.items()}
+    if pset.covariance is not None:
+        names, mat = pset.covariance
+        doc["covariance"] = {"names": list(names), "matrix": [[float(x) for x in row] for row in mat]}
+    if pset.wear:
+        doc["wear"] = dict(pset.wear)
+    if pset.provenance:
+        doc["provenance"] = dict(pset.provenance)
+    return doc
 
 
 def load_parameter_set(name: str) -> Parameters:

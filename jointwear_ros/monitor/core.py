@@ -268,7 +268,7 @@ class WearMonitor:
         #: observations dropped by the screening, in all
         self.rejected_count = 0
         try:
-            self.valid_ranges: dict[str, tuple[float, float]] = dict(load_parameter_set_info(self.config.params).valid)
+            self.valid_ranges: dict[str, tuple[float, float]] = load_parameter_set_info(self.config.params).observation_valid()
         except JointwearError:  # an unknown set fails at estimation, with its reason in the result
             self.valid_ranges = {}
 
@@ -293,7 +293,7 @@ class WearMonitor:
         if config.joint_name != self.config.joint_name:
             raise InputDataError(f"joint_name cannot change ({self.config.joint_name!r} -> {config.joint_name!r})")
         make_estimator(config.method, params=config.params, seed=0, **dict(config.estimator_options))
-        valid = dict(load_parameter_set_info(config.params).valid)
+        valid = load_parameter_set_info(config.params).observation_valid()
         self.config = config
         self.valid_ranges = valid
 
@@ -407,7 +407,9 @@ class WearMonitor:
 
     def _estimate(self, cid: int, cyc: _Cycle, stamp: float) -> CycleResult:
         cfg = self.config
-        obs = tuple(cyc.observations)
+        # in stamp order, however they arrived: a revision with a late observation equals the estimate
+        # made with every observation on time (replay = live whatever the timing)
+        obs = tuple(sorted(cyc.observations, key=lambda o: (o.stamp, o.speed)))
         partial = ""
         if cyc.speeds_total > 0 and len(obs) < cyc.speeds_total:
             partial = f"; {len(obs)} of {cyc.speeds_total} speeds observed"
@@ -453,6 +455,7 @@ class WearMonitor:
                   ("temperature_estimate", f"{res.temperature:.2f}"), ("n_observations", str(len(obs))),
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
+        values += [(k, str(res.info[k])) for k in ("parameter_set", "wear_calibration") if k in res.info]
         return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values + rev), obs,
                                        cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
 

@@ -35,7 +35,8 @@ from ..contract import CycleState, RefusalReason
 from ..errors import JointwearError
 from ..resources import config_path
 
-__all__ = ["CellError", "Child", "Operator", "after", "ready_conditions", "start_child", "stop_children"]
+__all__ = ["CellError", "Child", "Operator", "after", "die_with_parent", "ready_conditions", "start_child",
+           "stop_children"]
 
 
 class CellError(JointwearError):
@@ -90,6 +91,35 @@ def _param_args(params: Mapping[str, Any]) -> list[str]:
     return out
 
 
+def _prctl() -> Callable[..., int] | None:
+    """libc's ``prctl`` on Linux (None elsewhere), looked up once, before any fork."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        import ctypes
+
+        return ctypes.CDLL(None, use_errno=True).prctl  # type: ignore[no-any-return]
+    except (OSError, AttributeError):  # pragma: no cover - a libc without prctl
+        return None
+
+
+_PRCTL = _prctl()
+_PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent() -> None:
+    """``preexec_fn`` for a node process: SIGTERM it when the process that started it dies.
+
+    A cell whose driver (``jointwear demo``, a script, a test) is killed hard must not leave nodes
+    running: a test_cycle node could go on moving a joint, and nodes left on the domain answer the
+    next cell's messages. SIGTERM lets the node stop as on Ctrl-C (zero command first). Linux only
+    (``prctl(PR_SET_PDEATHSIG)``); elsewhere nothing. The signal follows the *thread* that started
+    the child: start children from a thread that lives as long as they should (the main thread).
+    """
+    if _PRCTL is not None:
+        _PRCTL(_PR_SET_PDEATHSIG, int(signal.SIGTERM))
+
+
 def start_child(name: str, params: Mapping[str, Any], env: Mapping[str, str], logdir: Path) -> Child:
     """Start node ``name`` with its config file and ``params`` overrides; output to ``logdir/<name>.log``."""
     cmd = [_executable(name), "--ros-args"]
@@ -101,7 +131,8 @@ def start_child(name: str, params: Mapping[str, Any], env: Mapping[str, str], lo
     fh = log.open("wb")
     fh.write(("$ " + " ".join(cmd) + "\n").encode())
     fh.flush()
-    proc = subprocess.Popen(cmd, env=dict(env), stdout=fh, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    proc = subprocess.Popen(cmd, env=dict(env), stdout=fh, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                            preexec_fn=die_with_parent)
     return Child(name, proc, log, fh)
 
 
@@ -186,6 +217,9 @@ class Operator:
             raise CellError(f"the operator needs distinct joint names, got {self.joints}")
         self.joint_name = self.joints[0]
         self._diag_names = {f"wear_estimator: {j}": j for j in self.joints}
+        #: the newest ``friction_observer: <joint>`` status of each joint (its per-cycle counts)
+        self.observer_status: dict[str, Any] = {}
+        self._observer_names = {f"friction_observer: {j}": j for j in self.joints}
         qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.observations: list[Any] = []
         self.estimates: list[Any] = []
@@ -214,6 +248,8 @@ class Operator:
         for st in msg.status:
             if st.name in self._diag_names:
                 self.diagnostics.append((self._heard, st))
+            elif st.name in self._observer_names:
+                self.observer_status[self._observer_names[st.name]] = st
 
     def _on_status(self, msg: Any) -> None:
         self.status = msg
@@ -231,6 +267,33 @@ class Operator:
             if st.state == CycleState.DONE and st.joints_done + 1 >= n:
                 return True
         return False
+
+    def observer_done(self, cycle_id: int, joint: str) -> bool:
+        """The observer has finished every speed ``joint`` ran in cycle ``cycle_id`` (an observation or a
+        rejected window each, per its ``friction_observer: <joint>`` status) and this operator has
+        heard each of those observations. A joint whose test ended early counts the speeds it began."""
+        mine = [st for st in self.statuses if st.cycle_id == cycle_id and st.joint_name == joint]
+        if not mine:
+            return False
+        if any(st.state == CycleState.DONE for st in mine):
+            expected = max(int(st.speeds_total) for st in mine)
+        elif any(st.state in (CycleState.ABORTED, CycleState.FAILED) for st in mine):
+            expected = max(int(st.speeds_done) for st in mine) + 1
+        else:
+            return False
+        st = self.observer_status.get(joint)
+        if st is None:
+            return False
+        kv = {v.key: v.value for v in st.values}
+        if kv.get("cycle_id") != str(cycle_id):
+            return False
+        try:
+            observed = int(kv["observations_this_cycle"])
+            rejected = int(kv["rejected_windows_this_cycle"])
+        except (KeyError, ValueError):
+            return False
+        heard = sum(1 for o in self.observations if o.cycle_id == cycle_id and o.joint_name == joint)
+        return observed + rejected >= expected and heard >= observed
 
     def joints_started(self, cycle_id: int) -> list[str]:
         """The joints of cycle ``cycle_id`` that have started (been RUNNING), in order."""

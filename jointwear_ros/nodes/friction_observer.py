@@ -107,6 +107,9 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("reorder_margin", _DEFAULTS.reorder_margin, "s the inputs may be out of stamp order", 0.0, 60.0),
     ParamDecl("poll_grace", _DEFAULTS.poll_grace, "s of silence on every input after which finished speeds are processed",
               0.0, 60.0),
+    ParamDecl("temperature_wait", _DEFAULTS.temperature_wait,
+              "s of joint-state stamps a finished speed waits for its joint's temperature readings "
+              "(once the sensor was heard)", 0.0, 600.0),
     ParamDecl("max_buffer_seconds", _DEFAULTS.max_buffer_seconds, "s of joint states kept at most", 1.0, 3600.0),
     ParamDecl("poll_period", 0.5, "s (wall) between checks for silent inputs", 0.01, 60.0, read_only=True),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
@@ -143,6 +146,8 @@ class _Joint:
         self.cycle_id = 0
         self.cycle_marks = (0, 0, 0)  # rejections, bad, lost at the start of the current cycle
         self.last_problem = ""
+        self.temperatures_missing_seen = 0
+        self.observations_mark = 0  # observations published before the current cycle
         self.diag: NodeDiagnostics | None = None
 
     def busy_reason(self) -> str | None:
@@ -321,6 +326,7 @@ class FrictionObserverNode(Node):
         if cid != ch.cycle_id and cid > 0:
             ch.cycle_id = cid
             ch.cycle_marks = self._counts(ch)
+            ch.observations_mark = ch.observations_published
             ch.last_problem = ""
         out = ch.core.on_status(
             self._stamp(msg.header.stamp), cid, int(msg.state), int(msg.phase),
@@ -373,12 +379,19 @@ class FrictionObserverNode(Node):
                 del self.rejections[:-1000]
             ch.last_problem = f"window rejected: {r}"
             self.get_logger().warning(f"{ch.name}: window rejected: {r}")
+        if ch.core.temperatures_missing > ch.temperatures_missing_seen:
+            ch.temperatures_missing_seen = ch.core.temperatures_missing
+            ch.last_problem = (f"no temperature reading within temperature_wait "
+                               f"({ch.core.config.temperature_wait:g} s) after a speed's end: the sensor stopped "
+                               "or is late; that observation's temperature is unknown")
+            self.get_logger().warning(f"{ch.name}: {ch.last_problem}", throttle_duration_sec=5.0)
         if (out.observations or out.rejections) and ch.diag is not None:
             ch.diag.update(*self._report(ch))
 
     # -- health and run-time parameters -----------------------------------------------
     def _counts(self, ch: _Joint) -> tuple[int, int, int]:
-        return ch.rejections_total, ch.bad + ch.core.temperatures_skipped, sum(self.lost_messages.values())
+        return (ch.rejections_total, ch.bad + ch.core.temperatures_skipped + ch.core.temperatures_missing,
+                sum(self.lost_messages.values()))
 
     def _report(self, ch: _Joint | None = None) -> Report:
         """The ``friction_observer: <joint>`` status of ``ch`` (default: the first joint)."""
@@ -388,9 +401,11 @@ class FrictionObserverNode(Node):
         r0, b0, l0 = ch.cycle_marks
         values = [("cycle_id", str(ch.cycle_id)), ("observations", str(ch.observations_published)),
                   ("rejected_windows", str(rej)), ("bad_messages", str(bad)), ("lost_messages", str(lost)),
+                  ("observations_this_cycle", str(ch.observations_published - ch.observations_mark)),
                   ("rejected_windows_this_cycle", str(rej - r0)), ("lost_messages_this_cycle", str(lost - l0)),
                   ("samples_seen", str(core.samples_seen)), ("samples_skipped", str(core.samples_skipped)),
                   ("temperatures_skipped", str(core.temperatures_skipped)),
+                  ("temperatures_missing", str(core.temperatures_missing)),
                   ("buffered_samples", str(core.buffered_samples)), ("joint_missing", str(ch.missing)),
                   ("gear_ratio", f"{core.config.gear_ratio:g}"), ("torque_scale", f"{core.config.torque_scale:g}"),
                   ("ignored_messages", str(self.ignored_messages)),

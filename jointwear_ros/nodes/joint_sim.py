@@ -91,7 +91,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("gravity_angle", 0.0, "joint angle of the largest gravity torque, rad", -10.0, 10.0),
     ParamDecl("hidden_effects", "", "comma-separated hidden friction effects: " + ", ".join(HIDDEN_EFFECTS)),
     ParamDecl("lube_hours", 0.0, "hours since lubrication (lubrication effect)", 0.0, 1e6),
-    ParamDecl("params", "ref-2011r", "friction parameter set", read_only=True),
+    ParamDecl("params", "ref-2011r", "friction parameter set: a name or a YAML path", read_only=True),
     ParamDecl("seed", 0, "seed of the noise generator (joint i of joints: seed + i unless <joint>.seed is given)",
               read_only=True),
     ParamDecl("initial_position", 0.0, "joint position at start, rad", -100.0, 100.0, read_only=True),

@@ -66,7 +66,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("joint_name", _D.joint_name, "joint whose wear is estimated when joints is empty", read_only=True),
     ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the joint name)", read_only=True),
     ParamDecl("method", _D.method, "estimator: paper, paper-grid, bayes, joint"),
-    ParamDecl("params", _D.params, "friction-model parameter set"),
+    ParamDecl("params", _D.params, "friction-model parameter set: a name or a YAML path (a commissioned set)"),
     ParamDecl("seed", _D.seed, "base seed; each cycle's seed derives from it and the cycle id"),
     ParamDecl("estimator_options", "", "JSON object of extra estimator options, e.g. {\"n_samples\": 200}"),
     ParamDecl("warn_threshold", _D.warn_threshold, "wear at which the level becomes WARN", 0.0, 100.0),

@@ -12,6 +12,17 @@ and a finished speed is processed only once a message stamped
 messages interleave within ``reorder_margin``, the observations are the same:
 the live run and a replay in bag log order agree exactly.
 
+The temperature sensor is a topic of its own, and DDS orders messages per
+topic only: after a stall, or in a burst, the joint states of several seconds
+may arrive before the temperature readings stamped among them. So once a
+joint's sensor has been heard, a finished speed also waits until a
+temperature stamped at or after its end has arrived (each topic arrives in
+stamp order, so then every reading of the window is in), for at most
+``temperature_wait`` seconds of joint-state stamps; a speed measured without
+no reading at all (the sensor stopped) is counted in :attr:`FrictionObserverCore.temperatures_missing`.
+However late the sensor's topic comes within that bound, the observation is
+the same.
+
 After a speed is processed, samples older than its end are dropped; newer
 samples are kept (the next speed may already have started).
 
@@ -134,6 +145,10 @@ class FrictionObserverCore:
         self.samples_seen = 0
         self.samples_skipped = 0
         self.temperatures_skipped = 0
+        #: observations without a temperature although the joint's sensor was heard before (it stopped,
+        #: or its topic came later than ``temperature_wait``)
+        self.temperatures_missing = 0
+        self._temp_max = -math.inf  # newest temperature stamp seen (-inf: no sensor heard yet)
 
     def reconfigure(self, config: ObserverConfig) -> None:
         """Use ``config`` from now on; only between speeds (nothing active or pending), same joint.
@@ -240,9 +255,19 @@ class FrictionObserverCore:
             self.temperatures_skipped += 1
             return ObserverOutput([], [])
         if math.isfinite(stamp):
-            self._temp_t.append(float(stamp))
+            stamp = float(stamp)
+            self._temp_t.append(stamp)
             self._temp_v.append(float(celsius))
-            return self._advance(float(stamp))
+            if stamp > self._temp_max:
+                self._temp_max = stamp
+                if self._pending:  # a speed may have been waiting for this reading
+                    self._due = min(self._seg_due(seg) for seg in self._pending)
+                    if self._max_stamp > self._due_margin():
+                        out = self._process_due()
+                        more = self._advance(stamp)
+                        return ObserverOutput(out.observations + more.observations,
+                                              out.rejections + more.rejections)
+            return self._advance(stamp)
         return ObserverOutput([], [])
 
     def poll(self, now: float) -> ObserverOutput:
@@ -299,7 +324,7 @@ class FrictionObserverCore:
             speeds_total=act.speeds_total, completed=completed, end_state=end_state,
         )
         self._pending.append(seg)
-        self._due = min(self._due, seg.t_end + self.config.reorder_margin)
+        self._due = min(self._due, self._seg_due(seg))
 
     def _advance(self, stamp: float) -> ObserverOutput:
         if stamp > self._max_stamp:
@@ -308,10 +333,26 @@ class FrictionObserverCore:
             return self._process_due()
         return ObserverOutput([], [])
 
+    def _waits_for_temperature(self, seg: SpeedSegment) -> bool:
+        """The joint has a temperature sensor and no reading stamped at or after ``seg``'s end came yet."""
+        return math.isfinite(self._temp_max) and self._temp_max < seg.t_end
+
+    def _seg_due(self, seg: SpeedSegment) -> float:
+        """The joint-state stamp past which ``seg`` is processed whatever else arrives."""
+        cfg = self.config
+        if self._waits_for_temperature(seg):
+            return seg.t_end + max(cfg.reorder_margin, cfg.temperature_wait)
+        return seg.t_end + cfg.reorder_margin
+
+    def _due_margin(self) -> float:
+        """The earliest end + ``reorder_margin`` of the pending speeds (ready then but for the temperature)."""
+        return min((s.t_end for s in self._pending), default=math.inf) + self.config.reorder_margin
+
     def _process_due(self) -> ObserverOutput:
         margin = self.config.reorder_margin
         horizon = self._max_stamp
-        return self._process(lambda seg: seg.t_end + margin < horizon)
+        return self._process(lambda seg: seg.t_end + margin < horizon and (
+            not self._waits_for_temperature(seg) or horizon > self._seg_due(seg)))
 
     def _process(self, ready: object) -> ObserverOutput:
         obs: list[FrictionObservationData] = []
@@ -333,11 +374,13 @@ class FrictionObserverCore:
                                      speed_index=seg.speed_index, speed=seg.speed, reason=reason))
             else:
                 r = measure_segment(t, p, v, e, seg, self.config, tt, tv)
+                if (isinstance(r, FrictionObservationData) and math.isnan(r.temperature)
+                        and math.isfinite(self._temp_max)):
+                    self.temperatures_missing += 1  # the sensor was heard, but not in this window
                 (obs if isinstance(r, FrictionObservationData) else rej).append(r)  # type: ignore[arg-type]
             done_until = max(done_until, seg.t_end)
         self._pending = keep
-        margin = self.config.reorder_margin
-        self._due = min((s.t_end + margin for s in keep), default=math.inf)
+        self._due = min((self._seg_due(s) for s in keep), default=math.inf)
         if math.isfinite(done_until):
             self._drop_before(done_until)
         return ObserverOutput(obs, rej)

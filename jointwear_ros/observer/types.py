@@ -70,6 +70,11 @@ class ObserverConfig:
         order on arrival; a finished speed is processed once a message stamped this much later
         than its end has been seen.
     poll_grace : extra wait (s) before :meth:`poll` processes a finished speed on the clock alone.
+    temperature_wait : once a joint's temperature sensor has been heard, a finished speed waits for a
+        temperature stamped at or after its end (so every reading of the window is in, however late the
+        sensor's topic is delivered) until joint states stamped this much (s) later than its end have
+        been seen; then it is measured with the readings that came (none: temperature unknown, counted
+        in ``temperatures_missing``: a sensor that stopped, or delivers later than this).
     max_buffer_seconds : joint-state history kept at most (s) while a speed runs.
     idle_keep_seconds : joint-state history kept (s) while no speed runs.
     """
@@ -88,6 +93,7 @@ class ObserverConfig:
     n_batches: int = 10
     reorder_margin: float = 0.5
     poll_grace: float = 1.0
+    temperature_wait: float = 5.0
     max_buffer_seconds: float = 120.0
     idle_keep_seconds: float = 2.0
 
@@ -97,7 +103,8 @@ class ObserverConfig:
             value = float(getattr(self, name))
             if not (math.isfinite(value) and value > 0):
                 raise InputDataError(f"observer setting {name} = {value!r} must be a positive number")
-        nonneg = ("speed_tolerance_min", "max_speed_std_min", "reorder_margin", "poll_grace", "idle_keep_seconds")
+        nonneg = ("speed_tolerance_min", "max_speed_std_min", "reorder_margin", "poll_grace", "idle_keep_seconds",
+                  "temperature_wait")
         for name in nonneg:
             value = float(getattr(self, name))
             if not (math.isfinite(value) and value >= 0):

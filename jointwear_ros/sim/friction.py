@@ -31,7 +31,7 @@ import numpy.typing as npt
 
 from ..data.synth import HIDDEN_EFFECTS, effect_value
 from ..errors import ModelError, ParameterError
-from ..model import Parameters, load_parameter_set, parse_model_spec
+from ..model import Parameters, load_parameter_set_info, parse_model_spec
 
 __all__ = ["FrictionTable"]
 
@@ -61,6 +61,10 @@ class FrictionTable:
         Grid step of the speed table, rad/s.
     position_range
         Joint positions (rad) covered by the position table; clamped outside.
+    gear_ratio, torque_scale
+        The simulated joint's; a joint-frame parameter set (joint side, N·m) is evaluated at
+        joint speed = motor speed / gear_ratio and returns N·m / torque_scale (default: the
+        set's own gear ratio and torque scale).
     """
 
     def __init__(
@@ -76,6 +80,8 @@ class FrictionTable:
         speed_step: float = 0.01,
         position_range: tuple[float, float] = (-4.0, 4.0),
         position_step: float = 1e-3,
+        gear_ratio: float | None = None,
+        torque_scale: float | None = None,
     ) -> None:
         for name, val in (("temperature", temperature), ("wear", wear), ("lube_hours", lube_hours)):
             if not math.isfinite(val):
@@ -89,7 +95,18 @@ class FrictionTable:
                 f"unknown hidden effect(s) {', '.join(unknown)}; known: {', '.join(HIDDEN_EFFECTS)}"
             )
         self.model = parse_model_spec(model)
-        pset = load_parameter_set(params) if isinstance(params, str) else params
+        # a joint-frame set (N·m, joint side: issue 18) is evaluated in its own units through its gear ratio
+        # and torque scale, so the simulator's friction stays normalized motor side
+        self._sf, self._tf = 1.0, 1.0
+        if isinstance(params, str):
+            info = load_parameter_set_info(params)
+            pset = info.parameters()
+            self._sf, self._tf = info.units.speed_factor, info.units.torque_factor
+            if info.units.joint_side and gear_ratio is not None and torque_scale is not None:
+                # the simulated joint's own gear and scale: its joint speed and N·m are what the set describes
+                self._sf, self._tf = 1.0 / float(gear_ratio), float(torque_scale)
+        else:
+            pset = params
         self.params = self.model.make_params(pset)
         self.temperature = float(temperature)
         self.wear = float(wear)
@@ -134,11 +151,12 @@ class FrictionTable:
         self._inv_step = 1.0 / self.speed_step
         self._inv_pstep = 1.0 / self._pstep
 
-    def _model(self, v: Array, load: float) -> Array:
-        inputs: dict[str, object] = {"speed": v, "load_torque": load, "temperature": self.temperature}
+    def _model(self, v: Array, load: float | Array) -> Array:
+        inputs: dict[str, object] = {"speed": v * self._sf, "load_torque": np.asarray(load) * self._tf,
+                                     "temperature": self.temperature}
         if "wear" in self.model.variables:
             inputs["wear"] = self.wear
-        return np.asarray(self.model.evaluate(self.params, **inputs), dtype=float) * np.ones_like(v)
+        return np.asarray(self.model.evaluate(self.params, **inputs), dtype=float) / self._tf * np.ones_like(v)
 
     def _cols(self, v: Array, load: float, pos: Array, time: float) -> dict[str, Array]:
         n = v.size
@@ -180,10 +198,7 @@ class FrictionTable:
         tm = np.broadcast_to(np.abs(np.asarray(load_torque, dtype=float)), (n,)).astype(float)
         pos = np.broadcast_to(np.asarray(position, dtype=float), (n,)).astype(float)
         tt = np.broadcast_to(np.asarray(time, dtype=float), (n,)).astype(float)
-        inputs: dict[str, object] = {"speed": v, "load_torque": tm, "temperature": self.temperature}
-        if "wear" in self.model.variables:
-            inputs["wear"] = self.wear
-        out = np.asarray(self.model.evaluate(self.params, **inputs), dtype=float) * np.ones(n)
+        out = self._model(v, tm) * np.ones(n)
         cols = {"speed": v, "load_torque": tm, "position": pos, "lube_hours": np.full(n, self.lube_hours), "time": tt}
         for e in self.hidden_effects:
             out = out + effect_value(e, cols)

@@ -170,6 +170,8 @@ class JointSim:
             wear=cfg.wear,
             hidden_effects=cfg.hidden_effects,
             lube_hours=cfg.lube_hours,
+            gear_ratio=cfg.gear_ratio,
+            torque_scale=cfg.torque_scale,
         )
         self.time = 0.0
         self.position = float(cfg.initial_position)  # joint side, rad
@@ -205,6 +207,7 @@ class JointSim:
         friction = ("temperature", "wear", "hidden_effects", "lube_hours")
         if any(getattr(config, n) != getattr(old, n) for n in friction):
             self.friction = FrictionTable(config.params, config.model, temperature=config.temperature, wear=config.wear,
+                                          gear_ratio=config.gear_ratio, torque_scale=config.torque_scale,
                                           hidden_effects=config.hidden_effects, lube_hours=config.lube_hours)
         self.config = config
         self._offset_std = math.sqrt(2.0) * config.noise_std

@@ -18,6 +18,7 @@ from .compare import SPEED_BAND_EDGES, BandError, NoiseFloor, band_rmse, noise_f
 from .dependence import VariableDependence, residual_dependence
 from .diagnose import VERDICTS, CandidateResult, Diagnosis, diagnose
 from .fit import FitResult, fit_model, group_folds
+from .scales import BoundHit, DataScales, bound_hits, scale_parameters
 from .shapes import HarmonicRipple, Scale, Spline, Step
 
 __all__ = [
@@ -26,8 +27,10 @@ __all__ = [
     "SPEED_BAND_EDGES",
     "VERDICTS",
     "BandError",
+    "BoundHit",
     "CandidateResult",
     "CandidateTerm",
+    "DataScales",
     "Diagnosis",
     "FitResult",
     "HarmonicRipple",
@@ -37,6 +40,7 @@ __all__ = [
     "Step",
     "VariableDependence",
     "band_rmse",
+    "bound_hits",
     "candidate_library",
     "candidate_variables",
     "diagnose",
@@ -48,4 +52,5 @@ __all__ = [
     "residual_dependence",
     "residual_structure",
     "resolve_term",
+    "scale_parameters",
 ]

@@ -337,12 +337,23 @@ def linear_params(term: Term) -> tuple[str, ...]:
 
 
 def start_grid(term: Term, x: Inputs) -> list[dict[str, float]]:
-    """Starting values of ``term``'s nonlinear parameters to try."""
+    """Starting values of ``term``'s nonlinear parameters to try, scaled to the data's speeds.
+
+    The grids are written for the paper's joint (motor side, up to ~280 rad/s);
+    a speed-like parameter (``rad/s``) is scaled by the data's speed scale
+    (:class:`~jointwear_ros.workbench.scales.DataScales`), so joint-side data
+    at a few rad/s get Stribeck speeds inside their own range.
+    """
+    from .scales import DataScales, scale_grid
+
     if isinstance(term, CandidateTerm):
-        return term.grid(x)
-    if term.name in PAPER_CANDIDATES and type(term) is TERMS.get(term.name):
-        return [dict(g) for g in PAPER_CANDIDATES[term.name][1]]
-    return [{}]
+        grid = term.grid(x)
+    elif term.name in PAPER_CANDIDATES and type(term) is TERMS.get(term.name):
+        grid = [dict(g) for g in PAPER_CANDIDATES[term.name][1]]
+    else:
+        return [{}]
+    sc = DataScales.from_arrays(speed=x.get("speed"))
+    return grid if sc.speed == 1.0 else scale_grid(term.params, grid, sc)
 
 
 def describe_term(term: Term) -> str:

@@ -33,6 +33,7 @@ __all__ = [
     "noise_floor",
     "noise_test",
     "residual_structure",
+    "speed_band_edges",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -59,8 +60,27 @@ class BandError:
         return band_label(self.lo, self.hi)
 
 
-def band_rmse(speed: Array, residuals: Array, edges: Sequence[float] = SPEED_BAND_EDGES) -> list[BandError]:
-    """RMSE per speed band (bands without observations are left out)."""
+def speed_band_edges(speed: Array) -> tuple[float, ...]:
+    """:data:`SPEED_BAND_EDGES` scaled by the data's speed scale (unchanged for motor-side data).
+
+    >>> speed_band_edges(np.array([0.01, 1.3]))[:3]
+    (0.0, 0.1, 0.3)
+    """
+    from .scales import DataScales
+
+    f = DataScales.from_arrays(speed=speed).speed
+    return SPEED_BAND_EDGES if f == 1.0 else tuple(e * f for e in SPEED_BAND_EDGES)
+
+
+def band_rmse(speed: Array, residuals: Array, edges: Sequence[float] | None = None) -> list[BandError]:
+    """RMSE per speed band (bands without observations are left out).
+
+    ``edges`` default: :data:`SPEED_BAND_EDGES` (motor side rad/s) scaled by
+    the data's speed scale (:class:`~jointwear_ros.workbench.scales.DataScales`),
+    so joint-side speeds of a few rad/s get bands of their own.
+    """
+    if edges is None:
+        edges = speed_band_edges(speed)
     v = np.abs(np.asarray(speed, dtype=float))
     r = np.asarray(residuals, dtype=float)
     out = []

@@ -61,7 +61,7 @@ from .candidates import (
     parse_spec,
     start_grid,
 )
-from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, noise_test
+from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, noise_test, speed_band_edges
 from .dependence import VariableDependence, is_angle, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
 from .shapes import HarmonicRipple, Scale, Spline, Step
@@ -288,7 +288,7 @@ def fit_candidate(
 
 def _speed_region(speed: Array, r0: Array, r1: Array) -> tuple[float, float]:
     v = np.abs(speed)
-    edges = SPEED_BAND_EDGES
+    edges = speed_band_edges(v)
     gains = []
     for lo, hi in itertools.pairwise(edges):
         m = (v >= lo) & (v < hi)

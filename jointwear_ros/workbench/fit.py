@@ -6,6 +6,14 @@ never raises on non-convergence: it returns a :class:`FitResult` with
 ``success`` and ``message``, RMSE, cross-validated RMSE (folds grouped by test
 cycle), AIC/BIC, parameter values with standard errors and correlations.
 
+Units: the terms' own start values and bounds are written for the paper's
+joint (motor side, normalized torque); they are first scaled to the data's
+speed and torque scales (:mod:`jointwear_ros.workbench.scales`), so a joint
+recorded in N·m at a few rad/s is fitted in its own numbers. A parameter that
+ends on a bound made by that scaling has the bound widened tenfold and the
+fit resumed (twice at most); a parameter still on a bound is named in
+``at_bound`` and the fit is then not ``success`` (converged).
+
 Starting values: the given parameters (a parameter set, or each term's
 physically sensible default); the parameters the model is linear in are then
 solved for by linear least squares (variable projection), and, where the
@@ -42,6 +50,7 @@ from scipy.optimize import least_squares
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import ObservationTable
+from .scales import BoundHit, DataScales, bound_hits, scale_parameters
 
 __all__ = ["FitResult", "fit_model", "group_folds", "information_criteria", "model_inputs"]
 
@@ -72,6 +81,8 @@ class FitResult:
     fitted: Array
     nfev: int = 0
     cv_residuals: Array | None = field(default=None, repr=False)
+    at_bound: list[BoundHit] = field(default_factory=list)
+    scales: DataScales | None = field(default=None, repr=False)
 
     @property
     def spec(self) -> str:
@@ -86,7 +97,13 @@ class FitResult:
         return float(self.correlations[i, j])
 
     def to_dict(self) -> dict[str, Any]:
-        """The CLI's JSON: rmse, cv_rmse, aic, bic, params {name: {value, stderr}} and more."""
+        """The CLI's JSON: rmse, cv_rmse, aic, bic, parameters {name: {value, stderr, ...}} and more.
+
+        ``params`` and ``parameters`` are the same table (``parameters`` adds
+        each one's bounds and whether it ended on one); ``at_bound`` lists the
+        parameters on a bound, ``converged`` is ``success``.
+        """
+        hits = {h.name: h for h in self.at_bound}
         return {
             "model": self.spec,
             "equation": self.model.equation(),
@@ -107,6 +124,21 @@ class FitResult:
                 }
                 for n, p in self.params.items()
             },
+            "parameters": {
+                n: {
+                    "value": p.value,
+                    "stderr": p.stderr,
+                    "vary": p.vary,
+                    "unit": p.unit,
+                    "min": p.min,
+                    "max": p.max,
+                    "at_bound": None if n not in hits else hits[n].side,
+                }
+                for n, p in self.params.items()
+            },
+            "converged": self.success,
+            "at_bound": [h.to_dict() for h in self.at_bound],
+            "scales": None if self.scales is None else self.scales.to_dict(),
             "correlations": {
                 a: {b: float(self.correlations[i, j]) for j, b in enumerate(self.free) if j != i}
                 for i, a in enumerate(self.free)
@@ -279,6 +311,9 @@ def fit_model(
     folds: Array | None = None,
     cv_max_nfev: int | None = 60,
     max_nfev: int | None = None,
+    scales: DataScales | None = None,
+    rescale: bool = True,
+    widen: int = 2,
 ) -> FitResult:
     """Fit ``model`` to ``table`` by nonlinear least squares.
 
@@ -302,6 +337,12 @@ def fit_model(
         of each row directly); ``cv_folds < 2`` skips cross-validation.
     cv_max_nfev
         Evaluation budget of each fold's refit (warm-started at the full fit).
+    scales, rescale
+        The data's scales (default: measured from ``table``); ``rescale=False``
+        keeps the terms' numbers as they are.
+    widen
+        How many times a bound made by the scaling is widened tenfold when the
+        fit ends on it.
 
     Returns
     -------
@@ -311,6 +352,10 @@ def fit_model(
     y = np.asarray(table.tau_f, dtype=float)
     n = y.size
     p0 = model.make_params(params)
+    sc = (scales if scales is not None else DataScales.from_table(table)) if rescale else None
+    auto: set[str] = set()
+    if sc is not None:
+        p0, auto = scale_parameters(model, p0, sc)
     if fixed:
         p0.set_vary(fixed, False)
     prob = _Problem(model, x, y, p0)
@@ -365,6 +410,8 @@ def fit_model(
                     best = polished
             except (ValueError, np.linalg.LinAlgError) as exc:
                 message = f"solver failed polishing the best start: {exc}"
+        if best is not None:
+            prob, best = _widen_bounds(model, x, y, p0, prob, best, auto, widen, max_nfev)
         theta = best.x if best is not None else prob.clip(theta_base)
         success = bool(best is not None and best.status > 0)
         message = best.message if best is not None else (message or "no start gave a finite cost")
@@ -389,6 +436,10 @@ def fit_model(
     for i, nm in enumerate(prob.free):
         out_params[nm].value = float(theta[i])
         out_params[nm].stderr = float(std[i])
+    hits = bound_hits(out_params, prob.free) if n else []
+    if hits:
+        success = False
+        message = f"{message}; ended on a bound: {'; '.join(str(h) for h in hits)}"
 
     cv_rmse = math.nan
     cv_res: Array | None = None
@@ -401,8 +452,42 @@ def fit_model(
     return FitResult(
         model=model, params=out_params, success=success, message=str(message), n=n, n_free=k, ssr=ssr,
         rmse=rmse, cv_rmse=cv_rmse, aic=aic, bic=bic, free=list(prob.free), correlations=corr,
-        residuals=resid, fitted=resid + y, nfev=nfev, cv_residuals=cv_res,
+        residuals=resid, fitted=resid + y, nfev=nfev, cv_residuals=cv_res, at_bound=hits, scales=sc,
     )
+
+
+def _widen_bounds(
+    model: Model, x: Mapping[str, Array], y: Array, params: Parameters, prob: _Problem, best: Any,
+    auto: set[str], rounds: int, max_nfev: int | None,
+) -> tuple[_Problem, Any]:
+    """Widen tenfold the scaled bounds ``best`` ended on (not a bound at 0: a sign) and resume the fit.
+
+    ``params`` is changed in place (its bounds are the fit's); returns the
+    problem of the final bounds and its best solution.
+    """
+    for _ in range(max(rounds, 0)):
+        trial = params.copy()
+        for i, nm in enumerate(prob.free):
+            trial[nm].value = float(best.x[i])
+        hits = [h for h in bound_hits(trial, prob.free) if h.name in auto and h.bound != 0.0]
+        if not hits:
+            break
+        for h in hits:
+            p = params[h.name]
+            if h.side == "lower":
+                p.min = p.min / 10.0 if p.min > 0 else p.min * 10.0
+            else:
+                p.max = p.max * 10.0 if p.max > 0 else p.max / 10.0
+        new = _Problem(model, x, y, params)
+        try:
+            sol = new.solve(new.clip(best.x), max_nfev=max_nfev)
+        except (ValueError, np.linalg.LinAlgError):
+            break
+        prob = new
+        if np.isfinite(sol.cost) and sol.cost <= best.cost:
+            sol.nfev += best.nfev
+            best = sol
+    return prob, best
 
 
 #: Solver tolerance of the cross-validation refits: each fold's held-out

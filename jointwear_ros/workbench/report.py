@@ -40,6 +40,16 @@ Array = npt.NDArray[np.float64]
 _SKIP = ("tau_f", "tau_f_std", "tau_plus", "tau_minus")
 
 
+def _units(table: ObservationTable) -> tuple[str, str]:
+    """Axis units: (torque unit, speed axis label). The paper's (normalized, motor side) only for data at its scale."""
+    from .scales import DataScales
+
+    s = DataScales.from_table(table)
+    if s.identity:
+        return "normalized", "speed v, motor side [rad/s]"
+    return "unit of tau_f", "speed v [rad/s]"
+
+
 def residual_columns(table: ObservationTable) -> list[str]:
     """Columns to plot residuals against: speed first, then every other non-constant numeric column."""
     cols = ["speed"] + [c for c in table.names if c not in _SKIP and c != "speed"]
@@ -52,9 +62,13 @@ COLUMN_UNITS = {"speed": "rad/s, motor side", "time": "s", "temperature": "°C",
                 "motor_temperature": "°C"}
 
 
-def column_label(name: str) -> str:
-    """``speed [rad/s, motor side]``: a column's name with its unit when known."""
+def column_label(name: str, table: ObservationTable | None = None) -> str:
+    """``speed [rad/s, motor side]``: a column's name with its unit when known (the speed side and the
+    torque unit of ``table``'s scale, as :func:`_units`)."""
     unit = COLUMN_UNITS.get(name)
+    if table is not None and name in ("speed", "load_torque"):
+        tu, side = _units(table)
+        unit = ("rad/s, motor side" if "motor side" in side else "rad/s") if name == "speed" else tu
     return f"{name} [{unit}]" if unit else name
 
 
@@ -66,8 +80,9 @@ def plot_fit(path: Path, table: ObservationTable, fit: FitResult, title: str = "
     # the fitted values as small marks under the data (open circles on top), so the data stays visible
     ax.plot(v, fit.fitted, "_", ms=7, mew=1.2, color="C3", alpha=0.8, zorder=2, label=f"fitted ({fit.n_free} params)")
     ax.plot(v, table.tau_f, "o", ms=4, mfc="none", mew=0.7, color="0.35", zorder=3, label="observed tau_f")
-    ax.set_xlabel("speed v, motor side [rad/s]")
-    ax.set_ylabel("friction torque [normalized]")
+    tu, side = _units(table)
+    ax.set_xlabel(side)
+    ax.set_ylabel(f"friction torque [{tu}]")
     ax.set_title(title or f"fit: RMSE {fit.rmse:.5f}, CV RMSE {fit.cv_rmse:.5f}")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
@@ -82,7 +97,7 @@ def plot_fit(path: Path, table: ObservationTable, fit: FitResult, title: str = "
     med = ", ".join(f"{c}={float(np.median(table[c])):.3g}" for c in inputs if c != "speed")
     axc.set_title(f"components at the median inputs ({med})" if med else "components", fontsize=9)
     axc.axhline(0.0, color="grey", lw=0.6)
-    axc.set_xlabel("speed v, motor side [rad/s]")
+    axc.set_xlabel(side)
     axc.grid(alpha=0.3)
     axc.legend(fontsize=7, ncol=2)
     return save_figure(fig, path)
@@ -104,8 +119,8 @@ def plot_residuals(
         if math.isfinite(nf):
             ax.axhspan(-nf, nf, color="0.85", zorder=0, label=f"noise floor ±{nf:.4f}")
         ax.axhline(0.0, color="grey", lw=0.6)
-        ax.set_xlabel(column_label(c))
-        ax.set_ylabel("residual [normalized]")
+        ax.set_xlabel(column_label(c, table))
+        ax.set_ylabel(f"residual [{_units(table)[0]}]")
         ax.grid(alpha=0.3)
     for k in range(len(cols), nrow * ncol):
         axes[k // ncol][k % ncol].axis("off")
@@ -137,7 +152,7 @@ def plot_band_errors(path: Path, table: ObservationTable, fits: Sequence[tuple[s
         ax.axhline(nf, color="black", ls="--", lw=1, label="noise floor")
     ax.set_xticks(x + width * (len(fits) - 1) / 2, labels)
     ax.set_xlabel("speed band [rad/s]")
-    ax.set_ylabel("RMSE [normalized]")
+    ax.set_ylabel(f"RMSE [{_units(table)[0]}]")
     ax.grid(alpha=0.3, axis="y")
     # below the axes, never over the bars (model specs are long)
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=1, frameon=False)
@@ -172,7 +187,7 @@ def plot_error_fall(path: Path, history: History) -> Path:
         ax.annotate(_short(text, 40), (xi, v.cv_rmse or v.rmse or 1.0), fontsize=7, rotation=20,
                     xytext=(4, 6), textcoords="offset points")
     ax.set_xlabel("model version")
-    ax.set_ylabel("error [normalized]")
+    ax.set_ylabel("error [unit of tau_f]")
     ax.set_title("error over model versions")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
@@ -213,8 +228,8 @@ def plot_dependence(path: Path, table: ObservationTable, diagnosis: Diagnosis) -
         nf = diagnosis.noise.value
         if math.isfinite(nf):
             axr.axhspan(-nf, nf, color="0.88", zorder=0, label=f"noise floor ±{nf:.4f}")
-        axr.set_xlabel(column_label(single.name))
-        axr.set_ylabel("data - model [normalized]")
+        axr.set_xlabel(column_label(single.name, table))
+        axr.set_ylabel(f"data - model [{_units(table)[0]}]")
         axr.set_title(f"{single.name}: {single.shape_hint}" if single.significant else
                       f"{single.name}: no significant dependence (the strongest column, for reference)", fontsize=9)
         axr.grid(alpha=0.3)

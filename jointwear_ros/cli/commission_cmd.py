@@ -1,0 +1,230 @@
+"""``jointwear commission`` and ``jointwear estimate``: a joint's own model, and wear estimates with it.
+
+``commission DATA... --joint J --out SET.yaml`` fits the joint's nominal model on
+baseline cycles (bags of this suite or observation tables) and writes a parameter
+set that carries the model (see :mod:`jointwear_ros.commission`).
+``estimate DATA... --params SET.yaml`` estimates the wear of every test cycle of
+every joint in the data with that set. Both check every input before any work;
+bad input is one line and exit 2, and nothing is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import UsageError
+from .common import check_output_dir, check_output_file, print_json
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    c = sub.add_parser("commission", help="identify a joint's nominal friction model from its baseline cycles",
+                       description="Fit a joint's nominal (w = 0, as installed) friction model on baseline test "
+                                   "cycles (bags of this suite or observation tables), validate it on held-out "
+                                   "cycles, run the workbench's diagnosis on it, and write a parameter set that "
+                                   "carries the model, its covariance, valid ranges, units, wear calibration and "
+                                   "provenance.")
+    c.add_argument("data", nargs="+", metavar="DATA", help="bag directories and/or observation CSV tables")
+    c.add_argument("--joint", required=True, help="the joint to commission")
+    c.add_argument("--robot", default="", help="robot name (provenance)")
+    c.add_argument("--model", default="paper", help="nominal model spec (default paper; e.g. 'paper + ripple(position)')")
+    c.add_argument("--gear-ratio", type=float, default=None,
+                   help="DATA is joint side (rad/s, N·m): motor speed = joint speed x this (with --torque-scale)")
+    c.add_argument("--torque-scale", type=float, default=None, help="N·m (joint side) per normalized torque unit")
+    c.add_argument("--wear-calibration", default="relative",
+                   help="paper | relative (default: Eq. 8 scaled to the joint's nominal level) | FILE")
+    c.add_argument("--name", default=None, help="name of the set (default: the --out file's stem)")
+    c.add_argument("--out", required=True, help="parameter set YAML to write")
+    c.add_argument("--report", default=None, metavar="DIR", help="write a fit plot and the JSON report here")
+    c.add_argument("--no-diagnose", action="store_true", help="skip the workbench verdict on the baseline")
+    c.add_argument("--json", action="store_true", help="print JSON")
+    c.set_defaults(func=cmd_commission)
+
+    e = sub.add_parser("estimate", help="wear estimate of every test cycle with a parameter set",
+                       description="Estimate the wear of every test cycle of every joint in observation tables "
+                                   "or bags with a parameter set (a commissioned one, or a named set).")
+    e.add_argument("data", nargs="+", metavar="DATA", help="bag directories and/or observation CSV tables")
+    e.add_argument("--params", required=True, metavar="SET", help="parameter set name or YAML path")
+    e.add_argument("--method", default="joint", help="estimator: joint (default), bayes, paper, paper-grid")
+    e.add_argument("--joint", default=None, help="only this joint (tables without a joint column: the set's joint)")
+    e.add_argument("--joint-side", action="store_true",
+                   help="tables are joint side (rad/s, N·m), as the set's units; default: the suite's units "
+                        "(motor side, normalized)")
+    e.add_argument("--alarm", type=float, default=35.0, help="alarm level of wear (default 35)")
+    e.add_argument("--warn", type=float, default=30.0, help="warning level of wear (default 30)")
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--json", action="store_true", help="print JSON")
+    e.set_defaults(func=cmd_estimate)
+
+
+def _positive(value: float | None, flag: str) -> None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise UsageError(f"{flag} {value!r}: must be a positive number")
+
+
+def _read_all(paths: list[str], default_joint: str | None) -> list[tuple[str, str, Any]]:
+    from ..io.observations import read_observations
+
+    out = []
+    for p in paths:
+        for joint, table in read_observations(p, default_joint).items():
+            out.append((p, joint, table))
+    return out
+
+
+def cmd_commission(args: argparse.Namespace) -> int:
+    from ..commission import commission
+    from ..errors import InputDataError
+    from ..model import SetUnits, parameter_set_document
+    from ..types import ObservationTable
+
+    _positive(args.gear_ratio, "--gear-ratio")
+    _positive(args.torque_scale, "--torque-scale")
+    if (args.gear_ratio is None) != (args.torque_scale is None):
+        raise UsageError("--gear-ratio and --torque-scale go together (DATA joint side: both say how it maps to "
+                         "the motor side and the normalized torque)")
+    out = check_output_file(args.out, "--out", ".yaml")
+    assert out is not None  # --out is required
+    report = check_output_dir(args.report, "--report")
+    wc = args.wear_calibration
+    if wc not in ("paper", "relative") and not Path(wc).is_file():
+        raise UsageError(f"--wear-calibration {wc!r}: use paper, relative or an existing calibration FILE")
+    units = SetUnits("joint", args.gear_ratio, args.torque_scale) if args.gear_ratio else SetUnits()
+    parts = []
+    for path, joint, table in _read_all(args.data, args.joint):
+        if joint not in (args.joint, ""):
+            continue
+        if Path(path).is_dir() or Path(path).suffix in (".mcap", ".db3"):
+            if units.joint_side:  # bags hold the suite's units: to joint side with the given gear and scale
+                from ..estimation import set_frame_table
+                from ..model import ParameterSet
+
+                table = set_frame_table(table, ParameterSet("x", "", {}, units=units))
+        parts.append(table)
+    if not parts:
+        raise InputDataError(f"no observations of joint {args.joint!r} in {', '.join(args.data)}")
+    cols: dict[str, list[np.ndarray]] = {}
+    names = [n for n in parts[0].names if all(n in t for t in parts)]
+    for i, t in enumerate(parts):
+        for n in names:
+            x = np.asarray(t[n], dtype=float)
+            if n == "cycle":
+                x = x + 1e6 * i  # cycles of different files stay apart
+            cols.setdefault(n, []).append(x)
+    table = ObservationTable({n: np.concatenate(v) for n, v in cols.items()}, source=", ".join(args.data))
+    wear_table = None
+    if wc not in ("paper", "relative") and Path(wc).suffix not in (".yaml", ".yml"):
+        from ..io.tables import read_table
+
+        wear_table = read_table(wc)
+    res = commission(table, joint=args.joint, robot=args.robot, model=args.model, units=units,
+                     wear_calibration=wc, wear_table=wear_table, diagnose_baseline=not args.no_diagnose,
+                     sources=[str(Path(p)) for p in args.data])
+    import yaml
+
+    pset = res.parameter_set(args.name or out.stem)
+    out.write_text(yaml.safe_dump(parameter_set_document(pset), sort_keys=False, allow_unicode=True), encoding="utf-8")
+    doc = res.to_dict(str(out))
+    if report is not None:
+        _report(report, table, res, doc)
+    if args.json:
+        print_json(doc)
+        return 0
+    print(f"commissioned {args.joint}: model {res.set_spec} ({res.units.frame}), {res.n} observations in "
+          f"{res.n_cycles} cycles, {res.seconds:.1f} s")
+    print(f"{'parameter':<12} {'value':>13} {'stderr':>11}")
+    for n, p in res.params.items():
+        se = "-" if p.stderr is None or not math.isfinite(p.stderr) else f"{p.stderr:.3g}"
+        print(f"{n:<12} {p.value:>13.6g} {se:>11}")
+    for k, v in res.wear.items():
+        print(f"{k:<12} {v:>13.6g} {'(' + res.wear.label + ')':>11}")
+    print(f"fit: {'converged' if res.converged else 'NOT converged'} ({res.message}); RMSE {res.rmse:.4g}, "
+          f"CV RMSE {res.cv_rmse:.4g}, noise floor {res.noise_floor:.4g} ({res.noise_method})")
+    print("CV RMSE per speed band: " + ", ".join(f"{b['lo']:.3g}-{b['hi']:.3g}: {b['cv_rmse']:.3g}"
+                                                   for b in res.bands))
+    print("valid: " + ", ".join(f"{k} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in res.valid.items()))
+    print(f"workbench verdict on the baseline: {res.verdict}" + (f" (suggests {res.suggestion})" if res.suggestion else ""))
+    print(f"wear calibration: {res.wear.label}: {res.wear.source}")
+    for w in res.warnings:
+        print(f"warning: {w}")
+    print(f"wrote {out}")
+    return 0
+
+
+def _report(report: Path, table: Any, res: Any, doc: dict[str, Any]) -> None:
+    import json
+
+    import matplotlib.pyplot as plt
+
+    report.mkdir(parents=True, exist_ok=True)
+    (report / "commission.json").write_text(json.dumps(doc, indent=2, default=str), encoding="utf-8")
+    from ..workbench import parse_spec
+    from ..workbench.fit import model_inputs
+
+    m = parse_spec(res.spec)
+    fitted = m.evaluate(res.params, **model_inputs(m, table))
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    sc = ax[0].scatter(np.abs(table.speed), table.tau_f, s=6, c=table.get("temperature"), cmap="coolwarm")
+    ax[0].set_xlabel(f"speed ({res.units.speed_unit})")
+    ax[0].set_ylabel(f"tau_f ({res.units.torque_unit})")
+    ax[0].set_title(f"{res.joint}: baseline")
+    fig.colorbar(sc, ax=ax[0], label="temperature (degC)")
+    ax[1].scatter(np.abs(table.speed), table.tau_f - fitted, s=6)
+    ax[1].axhline(0, color="k", lw=0.5)
+    ax[1].set_xlabel(f"speed ({res.units.speed_unit})")
+    ax[1].set_ylabel(f"residual ({res.units.torque_unit})")
+    ax[1].set_title(f"CV RMSE {res.cv_rmse:.3g}, verdict {res.verdict}")
+    fig.tight_layout()
+    fig.savefig(report / "commission.png", dpi=90)
+    plt.close(fig)
+
+
+def cmd_estimate(args: argparse.Namespace) -> int:
+    from ..commission import estimate_cycles
+    from ..estimation import set_frame_table
+    from ..model import ParameterSet, SetUnits, load_parameter_set_info
+
+    pset = load_parameter_set_info(args.params)
+    set_joint = str(pset.provenance.get("joint", "")) or args.joint or ""
+    inverse = ParameterSet("x", "", {}, units=SetUnits(pset.units.frame, 1.0 / (pset.units.gear_ratio or 1.0),
+                                                       1.0 / (pset.units.torque_scale or 1.0)))
+    tables = []
+    for path, joint, table in _read_all(args.data, set_joint):
+        joint = joint or set_joint
+        if args.joint and joint != args.joint:
+            continue
+        if args.joint_side:
+            if not pset.units.joint_side:
+                raise UsageError(f"--joint-side: parameter set {pset.name!r} is in the paper's normalized motor-side "
+                                 "units; give the table in those units")
+            table = set_frame_table(table, inverse)  # to the suite's units; the estimator maps back
+        tables.append((path, joint, table))
+    rows: list[dict[str, Any]] = []
+    for c in estimate_cycles(tables, pset, args.method, args.seed):
+        r = c.result
+        rows.append({"source": c.source, "joint": c.joint, "cycle": c.cycle, "estimate": r.wear,
+                     "std": r.wear_std, "temperature": r.temperature, "level": c.level(args.warn, args.alarm),
+                     "method": r.method, "wear_calibration": r.info.get("wear_calibration"),
+                     "parameter_set": pset.name})
+    if not rows:
+        from ..errors import InputDataError
+
+        raise InputDataError(f"no observations{' of joint ' + args.joint if args.joint else ''} in "
+                             f"{', '.join(args.data)}")
+    if args.json:
+        print_json({"estimates": rows})
+        return 0
+    print(f"parameter set {pset.name} (model {pset.spec}, {pset.units.frame}, wear calibration "
+          f"{pset.wear_calibration}), method {args.method}")
+    print(f"{'joint':<10} {'cycle':>6} {'wear':>7} {'std':>6} {'T':>6} level")
+    for row in rows:
+        t = "-" if not math.isfinite(row["temperature"]) else f"{row['temperature']:.1f}"
+        print(f"{row['joint'] or '-':<10} {row['cycle']:>6} {row['estimate']:>7.2f} {row['std']:>6.2f} {t:>6} "
+              f"{row['level']}")
+    return 0

@@ -1,0 +1,169 @@
+"""The plant's view of the trend: one row per joint with its level, as the page, the API and the metrics show it.
+
+Pure Python over :class:`~jointwear_ros.trend.TrendResult` (no web framework, no database): the same
+function decides the level for ``jointwear trend --json``, the plant page, ``/api/joints`` and
+``/metrics``, so they cannot disagree.
+
+**Levels** (``diagnostic_msgs/DiagnosticStatus`` bytes): OK (0), WARN (1) and ERROR (2) as the trend
+decides them; **STALE** (3) when the joint's newest estimate (any segment) is older than ``stale_days``
+and the trend's level is not ERROR: an alarm is never hidden by age, but a joint that has gone
+silent is not shown as fine either. A joint whose history the trend refuses (:class:`InputDataError`)
+is STALE too, with the reason: there is no current estimate anyone should trust.
+
+>>> plant_level(OK, last_time=0.0, now=8 * DAY, stale_days=7), plant_level(ERROR, 0.0, 8 * DAY, 7)
+(3, 2)
+>>> LEVEL_NAMES[plant_level(WARN, last_time=0.0, now=6 * DAY, stale_days=7)]
+'WARN'
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from ..contract import DiagnosticLevel
+from ..errors import InputDataError
+from ..trend import DAY, ERROR, OK, WARN, TrendConfig, TrendResult, analyze_joint
+
+__all__ = [
+    "LEVEL_NAMES",
+    "STALE",
+    "JointHistory",
+    "JointView",
+    "analyze_plant",
+    "joint_view",
+    "level_counts",
+    "plant_level",
+    "rank_views",
+    "refused_view",
+]
+
+STALE = DiagnosticLevel.STALE
+#: every level the plant view shows, by byte value
+LEVEL_NAMES = {int(lv): lv.name for lv in (OK, WARN, ERROR, STALE)}
+
+
+def plant_level(trend_level: int, last_time: float, now: float, stale_days: float) -> int:
+    """The trend's level, or STALE when the newest estimate (``last_time``, s) is older than ``stale_days``
+    at ``now`` (s) and the trend's level is not ERROR. A ``last_time`` that is not finite is STALE."""
+    if int(trend_level) == ERROR:
+        return int(ERROR)
+    if not math.isfinite(last_time) or now - last_time > stale_days * DAY:
+        return int(STALE)
+    return int(trend_level)
+
+
+@dataclass(frozen=True)
+class JointHistory:
+    """What the trend takes for one joint (times in s since the epoch, ascending)."""
+
+    robot: str
+    joint: str
+    times: Sequence[float]
+    wear: Sequence[float]
+    wear_std: Sequence[float]
+    cycle_ids: Sequence[int]
+    maintenance_times: Sequence[float] = ()
+
+
+@dataclass(frozen=True)
+class JointView:
+    """One joint as the plant sees it. Times in s since the epoch, durations in days; NaN/None: unknown."""
+
+    robot: str
+    joint: str
+    level: int
+    trend_level: int
+    wear: float
+    wear_std: float
+    rate_per_day: float
+    time: float  # the newest estimate (any segment)
+    age_days: float
+    days_to_alarm: float | None  # median; inf = beyond the prediction horizon; None = no growth / no trend
+    days_to_alarm_low: float | None
+    days_to_alarm_high: float | None
+    estimates: int
+    estimates_total: int
+    message: str
+    refused: str = ""  # why the trend refused this joint's history ("" when it did not)
+
+    @property
+    def level_name(self) -> str:
+        return LEVEL_NAMES[self.level]
+
+    def as_api(self) -> dict[str, Any]:
+        """``/api/joints`` row: the issue's keys first (level as its name, nulls where unknown), then extras."""
+
+        def num(x: float | None) -> float | None:
+            return None if x is None or not math.isfinite(x) else float(x)
+
+        return {
+            "robot": self.robot, "joint": self.joint, "level": self.level_name, "wear": num(self.wear),
+            "wear_std": num(self.wear_std), "time": num(self.time), "days_to_alarm": num(self.days_to_alarm),
+            "days_to_alarm_low": num(self.days_to_alarm_low), "days_to_alarm_high": num(self.days_to_alarm_high),
+            "trend_level": LEVEL_NAMES[self.trend_level], "age_days": num(self.age_days),
+            "rate_per_day": num(self.rate_per_day), "estimates": self.estimates,
+            "estimates_total": self.estimates_total, "message": self.message, "refused": self.refused or None,
+        }
+
+
+def joint_view(r: TrendResult, newest_time: float, now: float, stale_days: float) -> JointView:
+    """The plant's row of one trend result; ``newest_time`` is the joint's newest estimate (any segment)."""
+    tta = r.time_to_alarm
+    level = plant_level(r.level, newest_time, now, stale_days)
+    age = (now - newest_time) / DAY if math.isfinite(newest_time) else math.nan
+    msg = r.message
+    if level == STALE:
+        msg = f"no estimate for {age:.1f} days (stale after {stale_days:g}); last trend: {r.level_name}, {msg}"
+    return JointView(
+        robot=r.robot, joint=r.joint, level=level, trend_level=int(r.level), wear=r.wear, wear_std=r.wear_std,
+        rate_per_day=r.rate_per_day, time=newest_time, age_days=age,
+        days_to_alarm=None if tta is None else tta.median, days_to_alarm_low=None if tta is None else tta.lo90,
+        days_to_alarm_high=None if tta is None else tta.hi90, estimates=r.estimates,
+        estimates_total=r.estimates_total, message=msg,
+    )
+
+
+def refused_view(robot: str, joint: str, reason: str, newest_time: float, now: float, n: int) -> JointView:
+    """A joint whose history the trend refused: STALE with the reason (no number is shown as current)."""
+    age = (now - newest_time) / DAY if math.isfinite(newest_time) else math.nan
+    return JointView(robot, joint, int(STALE), int(STALE), math.nan, math.nan, math.nan, newest_time, age,
+                     None, None, None, 0, n, f"history refused by the trend: {reason}", refused=reason)
+
+
+def analyze_plant(histories: Iterable[JointHistory], cfg: TrendConfig, now: float, stale_days: float,
+                  smooth: bool = False) -> list[tuple[JointView, TrendResult | None]]:
+    """The trend and the plant's row of every joint (a refused history gives a row and ``None``)."""
+    out: list[tuple[JointView, TrendResult | None]] = []
+    for h in histories:
+        newest = max((float(t) for t in h.times), default=math.nan)
+        try:
+            r = analyze_joint(h.times, h.wear, h.wear_std, cycle_ids=h.cycle_ids,
+                              maintenance_times=h.maintenance_times, cfg=cfg, robot=h.robot, joint=h.joint,
+                              smooth=smooth)
+        except InputDataError as exc:
+            out.append((refused_view(h.robot, h.joint, str(exc), newest, now, len(h.times)), None))
+            continue
+        out.append((joint_view(r, newest, now, stale_days), r))
+    return out
+
+
+def rank_views(views: Iterable[JointView]) -> list[JointView]:
+    """ERROR first, then WARN, STALE, OK; within a level the soonest time to alarm, then by name."""
+    order = {int(ERROR): 0, int(WARN): 1, int(STALE): 2, int(OK): 3}
+
+    def key(v: JointView) -> tuple[int, float, str, str]:
+        t = v.days_to_alarm
+        return (order[v.level], math.inf if t is None or math.isnan(t) else t, v.robot, v.joint)
+
+    return sorted(views, key=key)
+
+
+def level_counts(views: Iterable[JointView]) -> dict[str, int]:
+    """Joints per level name (every level present, zeros included)."""
+    counts = {name: 0 for name in LEVEL_NAMES.values()}
+    for v in views:
+        counts[v.level_name] += 1
+    return counts
