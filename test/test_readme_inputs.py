@@ -58,3 +58,12 @@ def test_a_maintenance_event_needs_an_existing_history(tmp_path, capsys):
     assert cli_main(["history", "maintenance", "--db", str(tmp_path / "none.db"), "--robot", "r", "--joint", "j",
                      "--kind", "regrease"]) == 2
     assert "no such history file" in capsys.readouterr().err and not Path(tmp_path / "none.db").exists()
+
+
+def test_a_range_or_list_starting_with_a_minus_sign_is_a_value(tmp_path, capsys):
+    """docs/workbench.md's `data synth ... --position -2.5:2.5` ran into argparse's 'expected one argument'."""
+    assert cli_main(["data", "synth", str(tmp_path / "x.csv"), "--cycles", "2", "--position", "-2.5:2.5"]) == 0
+    assert cli_main(["data", "synth", str(tmp_path / "y.csv"), "--cycles", "2", "--position", "-1e-1:2"]) == 0
+    capsys.readouterr()
+    with pytest.raises(SystemExit):  # an option that does not exist is still one
+        cli_main(["data", "synth", str(tmp_path / "z.csv"), "--no-such-flag"])

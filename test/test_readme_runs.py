@@ -46,6 +46,8 @@ def command_lines(md: Path) -> list[tuple[int, str]]:
             continue
         first = text.count("\n", 0, m.start(2)) + 1
         joined = re.sub(r"\\\n\s*", " ", m.group(2))
+        # a synopsis continues on indented lines of options: `    [--json] --out FILE`
+        joined = re.sub(r"\n[ \t]+(?=\[|--)", " ", joined)
         lines = m.group(2).splitlines()
         n = 0
         for line in joined.splitlines():
@@ -60,9 +62,16 @@ def command_lines(md: Path) -> list[tuple[int, str]]:
 def _words(cmd: str) -> list[str]:
     """The command's arguments with the optional parts taken (``[--json]`` -> ``--json``) and the
     repetition marks dropped (``BAG...`` -> ``BAG``; ``--db ...`` -> ``--db X``)."""
+    # shell expansions of a documented script: arithmetic -> 1, "${array[@]}" -> nothing, others -> X
+    cmd = re.sub(r"\$\(\(.*?\)\)", "1", cmd)
+    cmd = re.sub(r'"?\$\{\w+\[@\]\}"?', " ", cmd)
+    cmd = re.sub(r"\$\{[^}]*\}|\$\w+", "X", cmd)
+    cmd = re.sub(r"(\w)\[(=[^\]]*)\]", r"\1\2", cmd)  # NAME[=VALUE] -> NAME=VALUE
     cmd = cmd.replace("]...", "]").replace("[", " ").replace("]", " ")
     words = []
     for w in shlex.split(cmd)[1:]:
+        if "|" in w and not w.startswith("-"):  # alternatives: auto|plateaus|bins -> auto
+            w = w.split("|")[0]
         if w == "...":
             w = "X"
         elif w in PLACEHOLDER_VALUES:
@@ -74,8 +83,8 @@ def _words(cmd: str) -> list[str]:
     return words
 
 
-#: placeholders of arguments that take a choice, with a valid choice
-PLACEHOLDER_VALUES = {"EFFECT": "ripple"}
+#: placeholders of arguments that take a choice or a whole number, with a valid value
+PLACEHOLDER_VALUES = {"EFFECT": "ripple", "N": "2", "K": "5"}
 
 ALL = [(md, line, cmd) for md in documents() for line, cmd in command_lines(md)]
 
