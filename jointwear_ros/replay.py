@@ -37,15 +37,20 @@ from .io.bags import (
     check_bag_path,
     estimate_fields,
     read_messages,
+    recorded_settings,
     status_fields,
     temperature_value,
 )
-from .io.params import nest, recorded_node_params
+from .io.params import nest
 from .io.recover import check_bag
 from .monitor import MonitorConfig, WearMonitor
 from .observer import FrictionObservationData, FrictionObserverCore, ObserverConfig
 
-__all__ = ["ReplayResult", "replay_bag"]
+__all__ = ["MATCH_TOLERANCE", "ReplayResult", "replay_bag"]
+
+#: a replayed value matches the recorded one within this relative tolerance (of max(1, |recorded|));
+#: the same cores on the same data give the same numbers, so anything more is a difference
+MATCH_TOLERANCE = 1e-9
 
 
 @dataclass
@@ -67,6 +72,17 @@ class ReplayResult:
 
     #: the joints replayed (each through its own cores), in order
     joints: list[str] = field(default_factory=list)
+    #: where the settings came from: ``observer``/``estimator`` ("recorded" in the bag, or "config" files),
+    #: ``method``/``params`` and their ``method_from``/``params_from`` ("given", "recorded",
+    #: "recorded estimates": the method the live estimates name, "config")
+    settings: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def settings_recorded(self) -> bool:
+        """True when every setting that decides the estimates came from the bag or was given."""
+        s = self.settings
+        return s.get("method_from") != "config" and s.get("params_from") != "config" and (
+            s.get("estimator") == "recorded" or (s.get("method_from") == "given" and s.get("params_from") == "given"))
 
     def comparison(self, joint: str | None = None) -> dict[str, Any]:
         """Replayed vs recorded: observations matched by (joint, cycle_id, speed), estimates by (joint, cycle_id).
@@ -88,40 +104,59 @@ class ReplayResult:
         observations = [o for o in self.observations if joint is None or o.joint_name == joint]
         cycles = [c for c in self.cycles if joint is None or c.joint_name == joint]
         rec = {(jn(o["joint_name"]), int(o["cycle_id"]), round(float(o["speed"]), 9)): o for o in rec_obs}
-        matched, max_diff, missing = 0, 0.0, []
+        def diff(pairs: Any) -> float:
+            out = 0.0
+            for a, b in pairs:
+                a, b = float(a), float(b)
+                if math.isnan(a) and math.isnan(b):
+                    continue
+                d = abs(a - b)
+                out = max(out, d) if math.isfinite(d) else math.inf
+            return out
+
+        def same(pairs: list[tuple[float, float]]) -> bool:
+            return all((math.isnan(float(a)) and math.isnan(float(b)))
+                       or abs(float(a) - float(b)) <= MATCH_TOLERANCE * max(1.0, abs(float(b))) for a, b in pairs)
+
+        paired, matched, max_diff, missing, differ = 0, 0, 0.0, [], []
         for o in observations:
             r = rec.get((o.joint_name, int(o.cycle_id), round(float(o.speed), 9)))
             if r is None:
                 missing.append(f"{o.joint_name} cycle {o.cycle_id} speed {o.speed:g}")
                 continue
-            matched += 1
-            for f in numeric:
-                a, b = float(getattr(o, f)), float(r[f])
-                if math.isnan(a) and math.isnan(b):
-                    continue
-                max_diff = max(max_diff, abs(a - b)) if math.isfinite(a - b) else math.inf
+            paired += 1
+            pairs = [(getattr(o, f), r[f]) for f in numeric]
+            max_diff = max(max_diff, diff(pairs))
+            if same(pairs):
+                matched += 1
+            else:
+                differ.append(f"{o.joint_name} cycle {o.cycle_id} speed {o.speed:g}")
         est = {(jn(e["joint_name"]), int(e["cycle_id"])): e for e in rec_est}  # the newest per joint and cycle
         newest = {(c.joint_name, int(c.cycle_id)): c for c in cycles if c.result is not None}
-        e_matched, e_diff = 0, 0.0
+        e_paired, e_matched, e_diff, e_differ = 0, 0, 0.0, []
         for key, c in newest.items():
             e = est.get(key)
             if e is None:
                 continue
-            e_matched += 1
-            for a, b in ((c.result.wear, e["wear"]), (c.result.wear_std, e["wear_std"]),
-                         (c.result.wear_low, e["wear_low"]), (c.result.wear_high, e["wear_high"])):
-                d = abs(float(a) - float(b))
-                e_diff = max(e_diff, d) if math.isfinite(d) else (e_diff if math.isnan(a) and math.isnan(b) else math.inf)
+            e_paired += 1
+            pairs = [(c.result.wear, e["wear"]), (c.result.wear_std, e["wear_std"]),
+                     (c.result.wear_low, e["wear_low"]), (c.result.wear_high, e["wear_high"])]
+            e_diff = max(e_diff, diff(pairs))
+            if same(pairs) and str(c.result.method) == str(e.get("method", c.result.method)):
+                e_matched += 1
+            else:
+                e_differ.append(f"{key[0]} cycle {key[1]}: replayed {float(c.result.wear):.2f} ({c.result.method}), "
+                                f"recorded {float(e['wear']):.2f} ({e.get('method', '?')})")
         return {
             "observations": {
-                "recorded": len(rec_obs), "replayed": len(observations),
-                "matched": matched, "max_abs_diff": max_diff if matched else None,
+                "recorded": len(rec_obs), "replayed": len(observations), "paired": paired,
+                "matched": matched, "differ": differ, "max_abs_diff": max_diff if paired else None,
                 "not_recorded": missing,
             },
             "estimates": {
                 "recorded": len(rec_est), "replayed": sum(c.result is not None for c in cycles),
-                "revisions": sum(getattr(c, "revision", 0) > 0 for c in cycles),
-                "matched": e_matched, "max_abs_diff": e_diff if e_matched else None,
+                "revisions": sum(getattr(c, "revision", 0) > 0 for c in cycles), "paired": e_paired,
+                "matched": e_matched, "differ": e_differ, "max_abs_diff": e_diff if e_paired else None,
             },
         }
 
@@ -200,13 +235,31 @@ def replay_bag(
     obs_params = dict(observer_params)
     mon_params = dict(monitor_params)
     rec_obs: dict[str, Any] = {}
+    rec_mon: dict[str, Any] = {}
     if use_recorded_params:
-        events = [m.msg for m in read_messages(p, topics=["/parameter_events"])]
-        rec_obs = recorded_node_params(events, observer_node)
+        recorded = recorded_settings(p)
+        rec_obs = recorded.get(observer_node.lstrip("/"), {})
+        rec_mon = recorded.get(monitor_node.lstrip("/"), {})
         obs_params.update(rec_obs)
-        mon_params.update(recorded_node_params(events, monitor_node))
+        mon_params.update(rec_mon)
+    overrides = dict(overrides or {})
+    settings = {
+        "observer": "recorded" if rec_obs else "config",
+        "estimator": "recorded" if rec_mon else "config",
+        "method_from": "given" if "method" in overrides else "recorded" if "method" in rec_mon else "config",
+        "params_from": "given" if "params" in overrides else "recorded" if "params" in rec_mon else "config",
+    }
+    if use_recorded_params and settings["method_from"] == "config":
+        # no recorded settings, but the live estimates name their method: use it, never another one
+        topic = str(mon_params.get("estimate_topic", "/jointwear/wear_estimate"))
+        methods = [str(m.msg.method) for m in read_messages(p, topics=[topic]) if m.msgtype == ESTIMATE_TYPE]
+        if methods and methods[-1]:
+            overrides["method"] = methods[-1]
+            settings["method_from"] = "recorded estimates"
     if overrides:
         mon_params.update(overrides)
+    settings["method"] = str(mon_params.get("method", ""))
+    settings["params"] = str(mon_params.get("params", ""))
     # the topics the live nodes used (their parameters), unless given
     joint_states_topic = joint_states_topic or str(obs_params.get("joint_states_topic", "/joint_states"))
     status_topic = status_topic or str(obs_params.get("status_topic", "/test_cycle/status"))
@@ -320,5 +373,5 @@ def replay_bag(
         bag=str(p), observations=observations, rejections=rejections, cycles=cycles,
         recorded_observations=recorded_obs, recorded_estimates=recorded_est, samples=samples,
         statuses=statuses, observer_params=obs_params, monitor_params=mon_params,
-        messages_lost=bag_messages_lost(p), joints=joints,
+        messages_lost=bag_messages_lost(p), joints=joints, settings=settings,
     )

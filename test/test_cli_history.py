@@ -102,6 +102,7 @@ def test_export_and_maintenance_from_the_command_line(fleet_csv, tmp_path, capsy
 
 
 def test_bags_import_their_recorded_estimates_or_a_re_estimation_once(tmp_path_factory, tmp_path, capsys):
+    # the synthetic bag holds no recorded estimator settings: a re-estimation needs --params and --method
     from test_replay import _synthetic  # the recorder-shaped synthetic bag of the replay tests
 
     bag, _, result, _, _ = _synthetic(tmp_path_factory, t0=1.7e9 + 50.0)  # stamped as a cell on wall time
@@ -110,11 +111,11 @@ def test_bags_import_their_recorded_estimates_or_a_re_estimation_once(tmp_path_f
     assert rc == 0 and json.loads(out)["added"] == 1
     rc, out, _ = run(["history", "import", bag, bag, "--db", db, "--robot", "cell_3", "--json"], capsys)
     assert json.loads(out)["added"] == 0
-    rc, out, _ = run(["history", "import", bag, "--db", db, "--robot", "cell_3", "--reestimate",
+    rc, out, _ = run(["history", "import", bag, "--db", db, "--robot", "cell_3", "--reestimate", "--params", "ref-2011r",
                       "--method", "paper", "--json"], capsys)
     info = json.loads(out)
     assert rc == 0 and info["added"] == 1 and info["analysis_versions"] == ["paper:ref-2011r:0.1.0"]
-    rc, out, _ = run(["history", "import", bag, "--db", db, "--robot", "cell_3", "--reestimate",
+    rc, out, _ = run(["history", "import", bag, "--db", db, "--robot", "cell_3", "--reestimate", "--params", "ref-2011r",
                       "--method", "paper", "--json"], capsys)
     assert json.loads(out)["added"] == 0
     with HistoryStore(db) as s:

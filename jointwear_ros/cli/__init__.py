@@ -16,9 +16,11 @@ import argparse
 import importlib
 import os
 import pkgutil
+import re
 import sys
 import traceback
 from collections.abc import Sequence
+from typing import Any
 
 from ..errors import JointwearError
 
@@ -38,7 +40,16 @@ class UsageError(JointwearError):
 
 
 class _Parser(argparse.ArgumentParser):
-    """ArgumentParser whose errors are one line and exit code 2."""
+    """ArgumentParser whose errors are one line and exit code 2.
+
+    A value that starts with a minus sign is a value, not an option, when it is a number, a range or
+    a list of numbers (``--position -2.5:2.5``, ``--speeds -5,5``): argparse alone knows only
+    ``-2`` and ``-2.5``.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:[:,]-?\d*\.?\d+(?:[eE][-+]?\d+)?)*$")
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")

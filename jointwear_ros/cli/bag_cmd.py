@@ -11,7 +11,9 @@ reporting corrupt chunks; the input is never modified.
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
+from . import UsageError
 from .common import format_table, print_json
 
 __all__ = ["register"]
@@ -22,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     bsub = p.add_subparsers(dest="bag_command", metavar="ACTION", parser_class=type(p))
     bsub.required = True
     i = bsub.add_parser("info", help="check a bag (CRCs) and show its topics, types, counts and duration")
-    i.add_argument("bag", metavar="BAG", help="rosbag2 bag directory")
+    i.add_argument("bag", nargs="+", metavar="BAG", help="rosbag2 bag directories or globs (each bag once)")
     i.add_argument("--json", action="store_true", help="print JSON")
     i.set_defaults(func=cmd_info)
     r = bsub.add_parser(
@@ -39,12 +41,25 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from ..io.bags import bag_info
+    from ..io.bags import bag_info, discover_bags
 
-    info = bag_info(args.bag)
+    selection = discover_bags(args.bag)
+    if not selection.bags:
+        raise UsageError("no bag among " + "; ".join(f"{s['path']}: {s['reason']}" for s in selection.skipped[:3]))
+    infos = [bag_info(b) for b in selection.bags]  # a damaged bag: exit 2 naming it, before anything is printed
     if args.json:
-        print_json(info.as_dict())
+        print_json(infos[0].as_dict() if len(infos) == 1 else [i.as_dict() for i in infos])
         return 0
+    for n, info in enumerate(infos):
+        if n:
+            print()
+        _print_info(info)
+    for s in selection.skipped:
+        print(f"not a bag, skipped: {s['path']}: {s['reason']}")
+    return 0
+
+
+def _print_info(info: Any) -> None:
     print(f"bag: {info.path}")
     print(f"storage: {info.storage} (metadata version {info.version}), {info.message_count} messages, "
           f"{info.duration_ns * 1e-9:.3f} s from {info.start_ns * 1e-9:.3f} s")
@@ -59,7 +74,8 @@ def cmd_info(args: argparse.Namespace) -> int:
         print("INCOMPLETE: the recorder was told these messages were lost before it received them: "
               + ", ".join(f"{t} {n}" for t, n in info.messages_lost.items())
               + " (a publisher's history overflowed while the recorder was stalled)")
-    return 0
+    else:
+        print("messages lost while recording: none")
 
 
 def cmd_recover(args: argparse.Namespace) -> int:

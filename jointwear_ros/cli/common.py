@@ -32,6 +32,7 @@ __all__ = [
     "check_text_file",
     "format_table",
     "node_params",
+    "open_history",
     "parse_float",
     "parse_float_list",
     "parse_int",
@@ -253,3 +254,16 @@ def check_method(method: str | None, flag: str) -> None:
 
     if method is not None and str(method).strip().lower() not in ESTIMATOR_METHODS:
         raise UsageError(f"{flag}: unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
+
+
+def open_history(url: str, *, must_exist: bool) -> Any:
+    """The history store at ``url`` (a URL or an SQLite path); ``must_exist``: an SQLite file that is not
+    there is a one-line error (nothing created)."""
+    from ..history import HistoryStore, normalize_url
+
+    u = normalize_url(url)
+    if must_exist and u.startswith("sqlite:///"):
+        path = Path(u.split(":///", 1)[1]).expanduser()
+        if not path.is_file():
+            raise UsageError(f"--db {url}: no such history file")
+    return HistoryStore(u)

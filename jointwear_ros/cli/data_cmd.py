@@ -54,6 +54,24 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--json", action="store_true", help="print a JSON summary")
     s.set_defaults(func=cmd_synth)
 
+    h = dsub.add_parser(
+        "synth-history",
+        help="write a synthetic wear history (nightly estimates of a fleet of joints) as a history CSV",
+        description="Nightly wear estimates of ROBOTS x JOINTS joints over DAYS days, ending now, each joint with "
+                    "its own profile in turn (linear growth, accelerating, flat, regreased once) and the joint "
+                    "estimator's calibrated noise, as a CSV that `jointwear history import` reads (robot, joint, "
+                    "time, wear, wear_std, cycle_id, temperature). The regrease events are printed as the "
+                    "`jointwear history maintenance` commands that record them.",
+    )
+    h.add_argument("out", metavar="OUT.csv", help="output CSV file")
+    h.add_argument("--robots", type=int, default=2, help="robots (default 2)")
+    h.add_argument("--joints", type=int, default=6, help="joints per robot (default 6)")
+    h.add_argument("--days", type=int, default=120, help="nights of estimates (default 120)")
+    h.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    h.add_argument("--json", action="store_true",
+                   help='print JSON {"out", "estimates", "joints", "maintenance": [{"robot", "joint", "time", "kind"}]}')
+    h.set_defaults(func=cmd_synth_history)
+
     e = dsub.add_parser("effects", help="list the hidden effects synth offers")
     e.set_defaults(func=cmd_effects)
 
@@ -217,6 +235,48 @@ def cmd_show(args: argparse.Namespace) -> int:
     print(format_table(["column", "min", "max", "mean", "non-finite"],
                        [[s["column"], s["min"], s["max"], s["mean"], s["non_finite"]] for s in stats], floatfmt=".5g"))
     return 0
+
+
+def cmd_synth_history(args: argparse.Namespace) -> int:
+    """A synthetic fleet's nightly estimates (``data/fleet.py``) shifted to end now, as a history CSV."""
+    import time
+    from datetime import UTC, datetime
+
+    from ..data.fleet import DAY, EPOCH0, make_fleet
+    from ..history import EstimateRecord
+    from ..history.importers import write_csv
+
+    for flag, v, hi in (("--robots", args.robots, 1000), ("--joints", args.joints, 64), ("--days", args.days, 3650)):
+        if not 1 <= v <= hi:
+            raise UsageError(f"{flag}: {v} is outside 1-{hi}")
+    if args.robots * args.joints * args.days > MAX_ROWS:
+        raise UsageError(f"{args.robots} robots x {args.joints} joints x {args.days} days is more than {MAX_ROWS} "
+                         "estimates; ask for fewer")
+    out = Path(args.out)
+    check_output_file(out, "OUT")
+    if out.suffix.lower() != ".csv":
+        raise UsageError(f"{out}: give a .csv file name")
+    fleet = make_fleet(args.robots * args.joints, args.days, seed=args.seed, joints_per_robot=args.joints)
+    shift = (time.time() - 6 * 3600.0) - (EPOCH0 + args.days * DAY)  # the last night ends a few hours ago
+    records, maintenance = [], []
+    for j in fleet:
+        for t, w, sd, temp, cid in zip(j.times, j.wear, j.wear_std, j.temperature, j.cycle_ids):
+            records.append(EstimateRecord(robot=j.robot, joint=j.joint, cycle_id=int(cid), time=float(t) + shift,
+                                          wear=float(w), wear_std=float(sd), temperature=float(temp), method="joint",
+                                          params="ref-2011r", hardware_id=f"{j.robot}/{j.joint}",
+                                          source="synthetic"))
+        for t in j.maintenance_times:
+            maintenance.append({"robot": j.robot, "joint": j.joint, "kind": "regrease",
+                                "time": datetime.fromtimestamp(t + shift, UTC).strftime("%Y-%m-%dT%H:%M:%SZ")})
+    n = write_csv(records, out)
+    if args.json:
+        print_json({"out": str(out), "estimates": n, "joints": len(fleet), "maintenance": maintenance})
+        return 0
+    print(f"{n} estimates of {len(fleet)} joints over {args.days} nights written to {out} "
+          f"(profiles: linear, accelerating, flat, regreased once; seed {args.seed})")
+    for m in maintenance:
+        print(f"regreased: jointwear history maintenance --db DB --robot {m['robot']} --joint {m['joint']} "
+              f"--kind regrease --time {m['time']}")
 
 
 def cmd_from_timeseries(args: argparse.Namespace) -> int:

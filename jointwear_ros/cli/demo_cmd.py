@@ -530,11 +530,17 @@ def check_overrides(overrides: dict[str, dict[str, Any]]) -> None:
                 raise UsageError(f"--set {node}.{name}: {node} has no parameter {name!r}; "
                                  f"it has {', '.join(sorted(known))}")
             decl = known[name]
+            if decl is not None and isinstance(decl.default, float) and not isinstance(decl.default, bool):
+                if isinstance(value, int) and not isinstance(value, bool):
+                    value = values[name] = float(value)  # 30 where 30.0 is declared: what everyone types
+                elif not isinstance(value, float):
+                    raise UsageError(f"--set {node}.{name}={value!r}: {node}.{name} is a number "
+                                     f"(default {decl.default:g})")
             if decl is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
                 if not math.isfinite(float(value)):
-                    raise UsageError(f"--set {node}.{name}={value}: not a finite number")
+                    raise UsageError(f"--set {node}.{name}={value:g}: not a finite number")
                 if (decl.min is not None and value < decl.min) or (decl.max is not None and value > decl.max):
-                    raise UsageError(f"--set {node}.{name}={value}: outside the declared range "
+                    raise UsageError(f"--set {node}.{name}={value:g}: outside the declared range "
                                      f"[{decl.min}, {decl.max}]")
         if node == "wear_estimator" and "method" in values:
             check_method(str(values["method"]), "--set wear_estimator.method")

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from . import UsageError
-from .common import format_table, parse_float, print_json
+from .common import format_table, open_history, parse_float, print_json
 
 __all__ = ["register"]
 
@@ -37,8 +37,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="bag directories, globs (quote them: 'bags/**/jointwear_*'), or directories of bags")
     r.add_argument("--db", required=True, help="history URL: sqlite:///path, postgresql://user@host/db, or a path")
     r.add_argument("--params", default=None, metavar="SET",
-                   help="friction-model parameter set (name or YAML path); default: each bag's recorded one")
+                   help="friction-model parameter set (name or YAML path); default: each bag's recorded one "
+                        "(a bag without recorded settings is refused unless --params and --method are given)")
     r.add_argument("--method", default=None, help="estimator (paper, paper-grid, bayes, joint); default: recorded")
+    r.add_argument("--robot", default=None,
+                   help="robot of every bag's estimates (as `history import --robot`); default: the robot the "
+                        "cell recorded (wear_trend's `robot`, the estimator's `robot` or `hardware_id`), else the "
+                        "name of the directory holding the bag")
     r.add_argument("--label", default=None, help="name the analysis version (default: <params>/<method>/<hash of "
                                                  "the set's content, the method and the software version>)")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -73,14 +78,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 def _open_store(url: str, *, must_exist: bool) -> Any:
-    from ..history import HistoryStore, normalize_url
-
-    u = normalize_url(url)
-    if must_exist and u.startswith("sqlite:///"):
-        path = Path(u.split(":///", 1)[1]).expanduser()
-        if not path.is_file():
-            raise UsageError(f"--db {url}: no such history file")
-    return HistoryStore(u)
+    return open_history(url, must_exist=must_exist)
 
 
 def _workers(text: str) -> int:
@@ -94,7 +92,8 @@ def _workers(text: str) -> int:
 
 
 def cmd_reprocess(args: argparse.Namespace) -> int:
-    from ..fleet import Progress, analysis_version, expand_bags, reprocess
+    from ..fleet import Progress, analysis_version, reprocess
+    from ..io.bags import discover_bags
 
     workers = _workers(args.workers)
     if args.method is not None:
@@ -104,14 +103,21 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
             raise UsageError(f"--method: unknown method {args.method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
         args.method = args.method.strip().lower()
     analysis_version(args.params, args.method, label=args.label)  # a bad set or label: exit 2 before any work
-    bags = expand_bags(args.bags)
+    if args.robot is not None and not args.robot.strip():
+        raise UsageError("--robot: empty robot name")
+    selection = discover_bags(args.bags)  # a missing bag or a glob that matches nothing: exit 2, nothing written
+    if not selection.bags:
+        raise UsageError(f"{' '.join(args.bags)}: no bag among the matched paths ("
+                         + "; ".join(f"{s['path']}: {s['reason']}" for s in selection.skipped[:3]) + ")")
     store = _open_store(args.db, must_exist=False)
     try:
-        bar = Progress(len(bags), enabled=not args.quiet)
-        rep = reprocess(bags, store, params=args.params, method=args.method, label=args.label,
-                        scheduler=args.scheduler, workers=workers, progress=bar)
+        bar = Progress(len(selection.bags), enabled=not args.quiet)
+        rep = reprocess(selection.bags, store, params=args.params, method=args.method, label=args.label,
+                        scheduler=args.scheduler, workers=workers, progress=bar,
+                        robot=args.robot.strip() if args.robot else None)
     finally:
         store.close()
+    rep.not_bags = selection.skipped
     if args.json:
         print_json(rep.as_dict())
         return 0
@@ -119,8 +125,16 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
     print(f"analysis version {rep.analysis_version}: {rep.bags} bags, {rep.processed} replayed, {rep.skipped} "
           f"skipped (already done), {len(rep.failed)} failed; {rep.estimates} new estimates in the history "
           f"({rep.seconds:.1f} s{rate})")
+    if rep.settings:
+        print(format_table(["bag", "robot", "method", "params", "other settings"],
+                           [[Path(b["bag"]).name, f"{b['robot']} ({b['robot_from']})",
+                             f"{b['method']} ({b['method_from']})", f"{b['params']} ({b['params_from']})",
+                             "recorded" if b.get("estimator") == "recorded" else "config files (method and "
+                             "params given)"] for b in rep.settings]))
     for f in rep.failed:
         print(f"failed: {f['error']}")
+    for s_ in rep.not_bags:
+        print(f"not a bag, skipped: {s_['path']}: {s_['reason']}")
     return 0
 
 

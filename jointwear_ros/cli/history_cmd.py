@@ -16,7 +16,13 @@ from typing import Any
 from . import UsageError
 from .common import print_json
 
-__all__ = ["register"]
+__all__ = ["MAINTENANCE_KINDS", "register"]
+
+#: what ``history maintenance --kind`` takes: each starts a new trend segment
+MAINTENANCE_KINDS = ("regrease", "reducer_replaced", "motor_replaced", "joint_replaced", "other")
+
+#: a maintenance time later than now by more than this is refused (a clock off by minutes is not)
+FUTURE_TOLERANCE_S = 3600.0
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -55,7 +61,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     m.add_argument("--db", required=True, help="history store URL or SQLite file path")
     m.add_argument("--robot", required=True)
     m.add_argument("--joint", required=True)
-    m.add_argument("--kind", required=True, help="regrease, reducer_replaced, ...")
+    m.add_argument("--kind", required=True, help=f"what was done: {', '.join(MAINTENANCE_KINDS)}")
     m.add_argument("--time", default=None, help="ISO 8601 or seconds since the epoch (default: now)")
     m.add_argument("--note", default="")
     m.add_argument("--new-joint", action="store_true",
@@ -103,35 +109,54 @@ def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], 
 
 
 def cmd_import(args: argparse.Namespace) -> int:
+    from ..errors import InputDataError
     from ..history import HistoryStore
     from ..history.importers import estimates_from_bag, estimates_from_csv, reestimate_bag
-    from .common import node_params
+    from ..io.bags import discover_bags
+    from .common import check_method, node_params
 
     if not args.reestimate and (args.method or args.params or args.analysis_version):
         raise UsageError("--method, --params and --analysis-version need --reestimate")
+    # every input is checked before any work: the method, the parameter set, every path
+    check_method(args.method, "--method")
+    if args.params:
+        from ..model import load_parameter_set_info
+
+        load_parameter_set_info(args.params)
+    if not args.robot.strip():
+        raise UsageError("--robot: empty robot name")
+    selection = discover_bags(args.files, accept=_is_csv)
+    observer = node_params(None, "friction_observer.yaml", "friction_observer") if args.reestimate else {}
+    monitor = node_params(None, "wear_estimator.yaml", "wear_estimator") if args.reestimate else {}
     records = []
     per_file = []
+    failed = []
     versions = set()
-    for f in args.files:
-        path = Path(f)
-        if not path.exists():
-            raise UsageError(f"{path}: no such file or bag directory")
-        if _is_csv(path) and args.reestimate and _is_observation_table(path):
-            recs, version = _reestimate_table(path, args)
-            versions.add(version)
-        elif _is_csv(path):
-            recs = estimates_from_csv(path, robot=args.robot)
-        elif args.reestimate:
-            recs, version = reestimate_bag(
-                path, robot=args.robot,
-                observer_params=node_params(None, "friction_observer.yaml", "friction_observer"),
-                monitor_params=node_params(None, "wear_estimator.yaml", "wear_estimator"),
-                method=args.method, params=args.params, analysis_version=args.analysis_version)
-            versions.add(version)
-        else:
-            recs = estimates_from_bag(path, robot=args.robot)
+    for path in selection.bags:
+        try:
+            if _is_csv(path) and args.reestimate and _is_observation_table(path):
+                recs, version = _reestimate_table(path, args)
+                versions.add(version)
+            elif _is_csv(path):
+                recs = estimates_from_csv(path, robot=args.robot)
+            elif args.reestimate:
+                recs, version = reestimate_bag(path, robot=args.robot, observer_params=observer,
+                                               monitor_params=monitor, method=args.method, params=args.params,
+                                               analysis_version=args.analysis_version)
+                versions.add(version)
+            else:
+                recs = estimates_from_bag(path, robot=args.robot)
+        except InputDataError as exc:  # one bad bag is reported, the others are imported (a bad table: exit 2)
+            if _is_csv(path):
+                raise
+            failed.append({"file": str(path), "error": str(exc)})
+            continue
         per_file.append({"file": str(path), "estimates": len(recs)})
         records.extend(recs)
+    if not per_file:
+        raise UsageError("nothing to import: " + "; ".join([f["error"] for f in failed[:3]]
+                                                           + [f"{k['path']}: {k['reason']}" for k in selection.skipped[:3]])
+                         + ("" if len(failed) <= 3 else f"; and {len(failed) - 3} more"))
     with HistoryStore(args.db) as store:  # everything was read and checked: now write, in one transaction
         total_before = store.count()
         res = store.write_estimates(records)
@@ -139,12 +164,18 @@ def cmd_import(args: argparse.Namespace) -> int:
     total = total_before + added
     refused = [f.as_dict() for f in res.refused]
     out = {"files": per_file, "read": len(records), "added": added, "duplicates": res.duplicates,
-           "refused": refused, "total": total, "analysis_versions": sorted(versions)}
+           "refused": refused, "total": total, "analysis_versions": sorted(versions), "failed": failed,
+           "not_bags": selection.skipped}
     if args.json:
         print_json(out)
     else:
         print(f"read {len(records)} estimates from {len(per_file)} file(s): {added} added, "
-              f"{res.duplicates} already in the history, {len(refused)} refused; {total} stored")
+              f"{res.duplicates} already in the history, {len(refused)} refused; {total} stored"
+              + (f"; {len(failed)} file(s) FAILED, not imported:" if failed else ""))
+        for f in failed:
+            print(f"failed: {f['error']}")
+        for s_ in selection.skipped:
+            print(f"not a bag, skipped: {s_['path']}: {s_['reason']}")
         for f in refused:
             src = f"{f['source']} {f['bag']}".strip()
             print(f"refused {f['robot']}/{f['joint']} cycle {f['cycle_id']} ({src}): {f['reason']}: {f['detail']}")
@@ -168,11 +199,28 @@ def cmd_export(args: argparse.Namespace) -> int:
 def cmd_maintenance(args: argparse.Namespace) -> int:
     import time
 
-    from ..history import HistoryStore, MaintenanceEvent
+    from ..history import MaintenanceEvent
     from ..history.importers import parse_time
+    from .common import open_history
 
-    t = time.time() if args.time is None else parse_time(args.time, "--time")
-    with HistoryStore(args.db) as store:
+    now = time.time()
+    t = now if args.time is None else parse_time(args.time, "--time")
+    if args.kind not in MAINTENANCE_KINDS:
+        raise UsageError(f"--kind {args.kind}: unknown maintenance kind; choose one of {', '.join(MAINTENANCE_KINDS)}")
+    if t > now + FUTURE_TOLERANCE_S:
+        raise UsageError(f"--time {args.time}: in the future; a maintenance event is recorded after it was done "
+                         "(a future one would hide every estimate before it)")
+    with open_history(args.db, must_exist=True) as store:
+        known = store.joints(analysis_version=None)
+        if (args.robot, args.joint) not in known and not args.new_joint:
+            robots = sorted({r for r, _ in known})
+            if args.robot not in robots:
+                raise UsageError(f"--robot {args.robot}: no estimates of this robot in {args.db}; robots there: "
+                                 f"{', '.join(robots) or 'none (import estimates first)'}; --new-joint for a "
+                                 "joint without estimates yet")
+            joints = [j for r, j in known if r == args.robot]
+            raise UsageError(f"--joint {args.joint}: {args.robot} has no such joint in {args.db}; its joints: "
+                             f"{', '.join(joints)}; --new-joint for a joint without estimates yet")
         new = store.add_maintenance(MaintenanceEvent(args.robot, args.joint, t, args.kind, args.note),
                                     new_joint=args.new_joint)
     print(f"{args.kind} of {args.robot}/{args.joint} at {t:.3f} " + ("recorded" if new else "was already recorded"))

@@ -184,7 +184,10 @@ def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
         raise UsageError(f"--folds: {args.folds} must be 0 (no cross-validation) or at least 2")
     model = parse_spec(spec)
     table = read_table(args.data, topic=args.topic)
-    start = load_parameter_set_info(args.params).parameters() if args.params else None
+    info = load_parameter_set_info(args.params) if args.params else None
+    start = info.parameters() if info is not None else None
+    if info is not None:
+        _check_table_in_range(table, info)
     params = model.make_params(start)
     for item in args.fix:
         name, _, value = item.partition("=")
@@ -208,6 +211,26 @@ def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
             f"parameters; give more than {n_free} rows, or hold parameters with --fix"
         )
     return table, model, params
+
+
+def _check_table_in_range(table: Any, info: Any) -> None:
+    """The table's temperatures inside the parameter set's valid range (as ``model curve`` checks its
+    argument): temperatures in kelvin against a set in degC are refused before any fit. (Speeds and loads
+    beyond the set's range are left to the fit: the set only gives starting values there.)"""
+    import numpy as np
+
+    for var, (lo, hi) in info.valid.items():
+        if var != "temperature" or var not in table.columns:
+            continue
+        col = np.asarray(table.columns[var], dtype=float)
+        col = col[np.isfinite(col)]
+        if col.size == 0:
+            continue
+        vmin, vmax = float(col.min()), float(col.max())
+        if vmin < lo or vmax > hi:
+            hint = ("; in kelvin? the set is in degC (subtract 273.15)" if var == "temperature" and vmin > 200 else "")
+            raise UsageError(f"{table.source}: column {var} runs from {vmin:g} to {vmax:g}, outside the valid range "
+                             f"[{lo:g}, {hi:g}] of parameter set {info.name!r}{hint}")
 
 
 def _fit(table: Any, model: Any, params: Any, folds: int) -> Any:
@@ -418,9 +441,15 @@ def cmd_add(args: argparse.Namespace) -> int:
     before = _fit(table, model, params, args.folds)
     after = _fit(table, model2, params2, args.folds)
     if history is not None:
-        if history.last is None or history.last.model != before.spec or history.last.data != table.source:
+        # each (model, data) once: `model add` run again adds no duplicate version (the error-fall chart
+        # would go down, up, down)
+        def known(spec: str) -> bool:
+            return any(v.model == spec and v.data == table.source for v in history.versions)
+
+        if not known(before.spec):
             history.add(before, table)
-        history.add(after, table, note=f"added {args.term}")
+        if not known(after.spec):
+            history.add(after, table, note=f"added {args.term}")
     if args.plot:
         from ..workbench.report import plot_band_errors, plot_error_fall, plot_residuals
 

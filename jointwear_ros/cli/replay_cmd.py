@@ -38,7 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                     "order, offline (no ROS runtime), and compare with the observations and estimate recorded "
                     "live. With --publish, play the bag onto a live ROS graph with /clock.",
     )
-    p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (as the recorder writes it)")
+    p.add_argument("bag", nargs="+", metavar="BAG",
+                   help="rosbag2 bag directories (as the recorder writes them) or globs; several are replayed one "
+                        "after another (each bag once); --publish plays one")
     p.add_argument("--json", action="store_true", help="print JSON (fields observations, wear, comparison, ...)")
     p.add_argument("--method", default=None, help="estimator method instead of the recorded/configured one")
     p.add_argument("--observer-params", default=None, metavar="YAML",
@@ -119,11 +121,36 @@ def replay_summary(result: Any) -> dict[str, Any]:
         "comparison": result.comparison(),
         "joint_state_samples": result.samples,
         "messages_lost": result.messages_lost,
+        "settings": getattr(result, "settings", {}),
     }
 
 
+def settings_line(settings: dict[str, str]) -> str:
+    """Which method, parameter set and settings a replay used, and where each came from (one line)."""
+    src = {"given": "given", "recorded": "recorded in the bag", "recorded estimates": "named by the recorded "
+           "estimates", "config": "NOT recorded in the bag: from the config files"}
+    rest = ("the other estimator settings recorded in the bag" if settings.get("estimator") == "recorded"
+            else "the other estimator settings NOT recorded in the bag: from the config files")
+    return (f"method {settings.get('method') or '?'} ({src.get(settings.get('method_from', ''), '?')}), "
+            f"parameter set {settings.get('params') or '?'} ({src.get(settings.get('params_from', ''), '?')}); "
+            + rest)
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
+    import glob
+
+    from ..io.bags import check_bag_path, discover_bags
+
+    for b in args.bag:
+        if not glob.has_magic(b):
+            check_bag_path(Path(b))  # a missing bag: the reader's own one line
+    selection = discover_bags(args.bag)
+    if not selection.bags:
+        raise UsageError("no bag among " + "; ".join(f"{s['path']}: {s['reason']}" for s in selection.skipped[:3]))
     if args.publish:
+        if len(selection.bags) > 1:
+            raise UsageError(f"--publish plays one bag; {len(selection.bags)} given")
+        args.bag = str(selection.bags[0])
         return _publish(args)
     from ..replay import replay_bag
 
@@ -133,17 +160,21 @@ def cmd_replay(args: argparse.Namespace) -> int:
     if args.estimator_params is not None and "method" in estimator:
         check_method(str(estimator["method"]), f"--estimator-params {args.estimator_params}: method")
     overrides = {"method": args.method} if args.method else None
-    result = replay_bag(
-        args.bag,
-        observer,
-        estimator,
-        use_recorded_params=not args.ignore_recorded_params,
-        overrides=overrides,
-    )
-    summary = replay_summary(result)
+    results = [replay_bag(b, observer, estimator, use_recorded_params=not args.ignore_recorded_params,
+                          overrides=overrides) for b in selection.bags]  # a bad bag: exit 2 before any output
     if args.json:
-        print_json(summary)
+        summaries = [replay_summary(r) for r in results]
+        print_json(summaries[0] if len(summaries) == 1 else summaries)
         return 0
+    for n, result in enumerate(results):
+        if n:
+            print()
+        _print_replay(result)
+    return 0
+
+
+def _print_replay(result: Any) -> None:
+    summary = replay_summary(result)
     print(f"bag: {result.bag}  ({result.samples} joint-state samples, {result.statuses} status messages)")
     if result.messages_lost:
         print("warning: INCOMPLETE bag, messages lost while recording: "
@@ -161,13 +192,18 @@ def cmd_replay(args: argparse.Namespace) -> int:
         w = c["wear"]
         est = "no estimate" if w is None else f"wear {w['estimate']:.2f} ± {w['std']:.2f} ({w['method']})"
         print(f"{c['joint']} cycle {c['cycle_id']}: {est}, level {c['diagnostic_level']}: {c['message']}")
+    print("settings: " + settings_line(result.settings))
     cmp_ = summary["comparison"]
     o, e = cmp_["observations"], cmp_["estimates"]
     if o["recorded"] or e["recorded"]:
         od = "n/a" if o["max_abs_diff"] is None else f"{o['max_abs_diff']:.3g}"
         ed = "n/a" if e["max_abs_diff"] is None else f"{e['max_abs_diff']:.3g}"
-        print(f"vs recorded: observations {o['matched']}/{o['recorded']} matched, max |diff| {od}; "
-              f"estimates {e['matched']}/{e['recorded']} matched, max |diff| {ed}")
+        print(f"vs recorded: observations {o['matched']}/{o['recorded']} matched"
+              + (f", {len(o['differ'])} DIFFER" if o["differ"] else "") + f", max |diff| {od}; "
+              f"estimates {e['matched']}/{e['recorded']} matched"
+              + (f", {len(e['differ'])} DIFFER" if e["differ"] else "") + f", max |diff| {ed}")
+        for d in e["differ"]:
+            print(f"DIFFERS: {d}")
     else:
         print("the bag holds no recorded FrictionObservation/WearEstimate messages to compare with")
     if len(summary["joints"]) > 1:
@@ -176,8 +212,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
             est = "no estimate" if w is None else f"wear {w['estimate']:.2f} ± {w['std']:.2f}"
             print(f"{j['joint']}: {est}, level {j['diagnostic_level']}; {j['observations']} observation(s), "
                   f"{j['rejections']} rejected; estimates {c['estimates']['matched']}/{c['estimates']['recorded']} "
-                  "matched the recorded ones")
-    return 0
+                  "matched the recorded ones" + (f", {len(c['estimates']['differ'])} DIFFER"
+                                                  if c["estimates"]["differ"] else ""))
 
 
 # --------------------------------------------------------------------------- --publish

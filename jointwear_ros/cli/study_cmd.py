@@ -427,7 +427,19 @@ def _plot_case(res: Any, out: Path) -> None:
         ax.plot(res.speeds, 3 * d["std"], ls=":", label=f"{m}: 3 std")
     ax.set_xlabel("speed v [rad/s]")
     ax.set_ylabel("dw = w_hat - w*")
-    ax.set_ylim(-20, 40)
+    # every curve whole (no cut at a fixed limit); a symmetric log scale when the worst case dwarfs the rest
+    import numpy as np
+
+    vals = np.concatenate([np.asarray(d[key], float).ravel() * f for d in res.methods.values()
+                           for key, f in (("mean", 1.0), ("worst", 1.0), ("std", 3.0))])  # what is drawn
+    vals = vals[np.isfinite(vals)]
+    if vals.size:
+        lo, hi = min(float(vals.min()), 0.0), max(float(vals.max()), 1.0)
+        if hi - lo > 100.0:
+            ax.set_yscale("symlog", linthresh=5.0)
+            ax.set_ylabel("dw = w_hat - w* (linear within ±5, logarithmic beyond)")
+        pad = 0.05 * (hi - lo)
+        ax.set_ylim(lo - pad, hi + pad)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     ax.set_title("Fig. 14: bias, worst case and 3 std of dw over speed")

@@ -121,15 +121,15 @@ def cmd_trend(args: argparse.Namespace) -> int:
         print(f"no estimates in {args.db}" + (f" ({len(refused)} refused)" if refused else "")
               + ": fill it with jointwear history import FILE... --db DB, or run the wear_trend node on it")
 
-    def days(x: float) -> str:
-        return "-" if x is None or math.isnan(x) else ("unbounded" if math.isinf(x) else f"{x:.0f}")
+    from ..trend.report import time_to_alarm_text
 
     rows = []
     for r in sorted(results, key=rank_key):
-        tta = r.time_to_alarm
-        rows.append([r.robot, r.joint, views[(r.robot, r.joint)].level_name, r.estimates, f"{r.wear:.1f} ± {r.wear_std:.1f}",
-                     f"{r.rate_per_day:+.3f}",
-                     "no growth" if tta is None else f"{days(tta.median)} ({days(tta.lo90)}-{days(tta.hi90)})"])
+        fin = math.isfinite(r.wear)
+        rows.append([r.robot, r.joint, views[(r.robot, r.joint)].level_name, r.estimates,
+                     f"{r.wear:.1f} ± {r.wear_std:.1f}" if fin else "-",
+                     f"{r.rate_per_day:+.3f}" if math.isfinite(r.rate_per_day) else "-",
+                     time_to_alarm_text(r, "-")])
     if rows:
         print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)"], rows))
     for f in refused:

@@ -45,10 +45,15 @@ class ReprocessReport:
     scheduler: str = ""
     bag_seconds: list[float] = field(default_factory=list)
     bag_cpu_seconds: list[float] = field(default_factory=list)
+    #: per bag re-analysed: ``bag``, ``robot``, ``method``, ``params`` and where each came from
+    settings: list[dict[str, str]] = field(default_factory=list)
+    #: matched paths that are not bags, with the reason (``{"path", "reason"}``)
+    not_bags: list[dict[str, str]] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {
             "bags": self.bags, "estimates": self.estimates, "skipped": self.skipped, "failed": self.failed,
+            "settings": self.settings, "not_bags": self.not_bags,
             "analysis_version": self.analysis_version, "seconds": self.seconds, "processed": self.processed,
             "workers": self.workers, "scheduler": self.scheduler,
             "bags_per_second": self.processed / self.seconds if self.seconds > 0 else None,
@@ -100,31 +105,12 @@ class Progress:
 
 def expand_bags(patterns: Sequence[str]) -> list[Path]:
     """Bag directories named by ``patterns`` (paths or globs; a directory that is not a bag stands for
-    the bags under it), de-duplicated, in the order given. Raises InputDataError when a pattern
-    names nothing."""
-    import glob
+    the bags under it), each bag once (its directory and the ``.mcap`` in it are one bag), in the order
+    given. Raises InputDataError when a pattern names nothing. What was matched and skipped, and why:
+    :func:`jointwear_ros.io.bags.discover_bags`."""
+    from ..io.bags import discover_bags
 
-    from ..io.bags import find_bags
-
-    out: list[Path] = []
-    seen: set[str] = set()
-    for pat in patterns:
-        matches = sorted(glob.glob(pat, recursive=True)) if glob.has_magic(pat) else [pat]
-        found: list[Path] = []
-        for m in matches:
-            p = Path(m)
-            if p.is_dir() and not (p / "metadata.yaml").is_file():
-                found.extend(find_bags(p))
-            elif p.exists() or not glob.has_magic(pat):
-                found.append(p)
-        if not found:
-            raise InputDataError(f"{pat}: no bag matches (give rosbag2 bag directories, a glob, or a directory of bags)")
-        for p in found:
-            key = str(p.resolve())
-            if key not in seen:
-                seen.add(key)
-                out.append(p)
-    return out
+    return discover_bags(patterns).bags
 
 
 def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Callable[[], None]]:
@@ -141,9 +127,21 @@ def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Ca
         return client, client.close
     if workers < 1:
         raise InputDataError(f"--workers {workers}: must be at least 1")
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # no fixed port 8787
-                           silence_logs=logging.ERROR)
+    # The worker processes ignore SIGINT (they inherit it from here): Ctrl-C reaches the whole process
+    # group, and only this process should act on it (one line, `jointwear: interrupted`); the workers
+    # are stopped when the cluster is closed, not killed mid-task printing their tracebacks.
+    import signal
+    import threading
+
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    try:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # no fixed port 8787
+                               silence_logs=logging.ERROR)
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
     client = Client(cluster)
 
     def close() -> None:
@@ -176,6 +174,7 @@ def reprocess(
     batch: int = 25,
     flush_seconds: float = 2.0,
     software_version: str = __version__,
+    robot: str | None = None,
 ) -> ReprocessReport:
     """Re-analyse ``bags`` with parameter set ``params`` and ``method`` into ``store`` (a HistoryStore).
 
@@ -239,7 +238,7 @@ def reprocess(
         for path, _fp in todo:
             fut = client.submit(reprocess_bag, path, params=params, method=method, version=version,
                                 observer_params=op, monitor_params=mp, software_version=software_version,
-                                pure=False)
+                                robot=robot, pure=False)
             futures[fut] = path
         for fut in as_completed(list(futures)):
             path = futures.pop(fut)
@@ -256,6 +255,7 @@ def reprocess(
                 bar.update(failed=1)
                 continue
             report.processed += 1
+            report.settings.append({"bag": path, **outcome.settings})
             report.bag_seconds.append(outcome.seconds)
             report.bag_cpu_seconds.append(outcome.cpu_seconds)
             pending.append(outcome)
@@ -271,6 +271,7 @@ def reprocess(
             if close is not None:
                 close()
     report.failed.sort(key=lambda f: f["bag"])
+    report.settings.sort(key=lambda f: f["bag"])
     report.seconds = time.perf_counter() - t0
     return report
 

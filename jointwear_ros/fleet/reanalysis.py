@@ -71,6 +71,9 @@ class BagOutcome:
     cpu_seconds: float = 0.0
     observations: int = 0
     rejections: int = 0
+    #: what the bag was re-analysed with: ``robot``, ``method``, ``params`` and where each came from
+    #: (``method_from``/``params_from``: given, recorded, recorded estimates; ``estimator``: recorded or given)
+    settings: dict[str, str] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -201,11 +204,14 @@ def reprocess_bag(
     monitor_params: dict[str, Any] | None = None,
     use_recorded_params: bool = True,
     software_version: str = __version__,
+    robot: str | None = None,
 ) -> BagOutcome:
     """Re-run the observer and the wear monitor on ``bag`` with parameter set ``params`` and ``method``.
 
-    ``None`` for ``params``/``method`` keeps the bag's recorded (or configured)
-    one. The monitor's newest result per cycle is kept (a re-estimate after a
+    ``None`` for ``params``/``method`` keeps the bag's recorded one; a bag that does not hold the
+    wear_estimator's recorded settings is refused (its ``error`` says so) unless both are given: the
+    config files are never taken for what the cell ran. ``robot`` names the robot of every estimate
+    (default: as :func:`bag_identity`). The monitor's newest result per cycle is kept (a re-estimate after a
     late observation replaces its first estimate, as a consumer would). Never
     raises for a bad bag: the outcome's ``error`` says what went wrong.
     """
@@ -235,11 +241,21 @@ def reprocess_bag(
             overrides["method"] = method
         rep = replay_bag(path, observer_params, monitor_params, use_recorded_params=use_recorded_params,
                          overrides=overrides or None)
-        from ..io.bags import read_messages
-        from ..io.params import recorded_node_params
+        if not rep.settings_recorded:
+            missing = [f"--{k}" for k in ("params", "method") if rep.settings.get(f"{k}_from") != "given"]
+            out.error = (f"{path}: the bag does not hold the wear estimator's recorded settings (recorded before "
+                         f"jointwear recorded them, or by a recorder started after the nodes); give "
+                         f"{' and '.join(missing)} to re-analyse it with those (nothing is guessed)")
+            return out
+        from ..io.bags import recorded_settings
 
-        events = [m.msg for m in read_messages(path, topics=["/parameter_events"])] if use_recorded_params else []
-        robot, hw = bag_identity(rep.monitor_params, path, recorded_node_params(events, "wear_trend"))
+        trend_params = recorded_settings(path).get("wear_trend", {}) if use_recorded_params else {}
+        robot_, hw = bag_identity(rep.monitor_params, path, trend_params)
+        robot_from = "given" if robot else "recorded" if (
+            trend_params.get("robot") or rep.monitor_params.get("robot") or rep.monitor_params.get("hardware_id")
+        ) else "folder"
+        robot = robot or robot_
+        out.settings = {"robot": robot, "robot_from": robot_from, **{k: str(v) for k, v in rep.settings.items()}}
         p_name = str(rep.monitor_params.get("params", params or ""))
         # the newest result per (joint, cycle): a revision replaces its cycle's first estimate, wherever
         # the other joints' results of a robot cycle came in between

@@ -124,8 +124,9 @@ def spec_cycle(spec: BagSpec) -> SyntheticCycle:
 
 
 def write_cycle_bag(path: str | os.PathLike[str], spec: BagSpec, cycle: SyntheticCycle | None = None,
-                    store: Any = None) -> Path:
-    """Write one night's bag of ``spec`` to ``path`` (a new directory) and return it."""
+                    store: Any = None, parameters: bool = True) -> Path:
+    """Write one night's bag of ``spec`` to ``path`` (a new directory) and return it; ``parameters=False``
+    leaves the nodes' parameters out (a bag recorded by a recorder started after the nodes, an old bag)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
     ts = store if store is not None else jointwear_typestore()
@@ -145,6 +146,8 @@ def write_cycle_bag(path: str | os.PathLike[str], spec: BagSpec, cycle: Syntheti
         (t_start + 0.001, 0, _param_event(ts, t_start + 0.001, "wear_estimator", params_est)),
         (t_start + 0.002, 0, _param_event(ts, t_start + 0.002, "wear_trend", params_trend)),
     ]
+    if not parameters:
+        events = []
     for st in cyc.statuses:
         t, cid, state, phase, speed, done, total, centre, hw, joint = st
         events.append((t, 1, T[st_type](

@@ -174,6 +174,10 @@ def reestimate_bag(path: str | os.PathLike[str], *, robot: str, observer_params:
     if params:
         overrides["params"] = params
     res = replay_bag(path, observer_params, monitor_params, overrides=overrides or None)
+    if not res.settings_recorded:
+        missing = [f"--{k}" for k in ("params", "method") if res.settings.get(f"{k}_from") != "given"]
+        raise InputDataError(f"{path}: the bag does not hold the wear estimator's recorded settings; give "
+                             f"{' and '.join(missing)} to re-estimate it with those (nothing is guessed)")
     used_method = str(res.monitor_params.get("method", method or ""))
     used_params = str(res.monitor_params.get("params", params or ""))
     version = analysis_version or f"{used_method}:{used_params}:{__version__}"

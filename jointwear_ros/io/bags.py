@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import os
 import sys
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,19 +29,25 @@ from ..errors import InputDataError
 from .typestore import jointwear_typestore
 
 #: ``custom_data`` key of a bag's metadata.yaml where the recorder notes lost messages (JSON ``{topic: count}``)
+#: ``custom_data`` key of the recorder's snapshot of every node's parameters (JSON ``{node: {name: value}}``)
+NODE_PARAMS_KEY = "jointwear.node_parameters"
 LOST_KEY = "jointwear.messages_lost"
 
 __all__ = [
     "ESTIMATE_TYPE",
     "JOINT_STATE_TYPE",
     "LOST_KEY",
+    "NODE_PARAMS_KEY",
     "OBSERVATION_TYPE",
     "STATUS_TYPE",
     "TEMPERATURE_TYPE",
     "BagInfo",
     "BagMessage",
+    "BagSelection",
+    "bag_custom_data",
     "bag_info",
     "bag_messages_lost",
+    "discover_bags",
     "ensure_msgtype",
     "estimate_fields",
     "find_bags",
@@ -50,6 +56,7 @@ __all__ = [
     "messages_lost",
     "msg_search_dirs",
     "read_messages",
+    "recorded_settings",
     "stamp_seconds",
     "status_fields",
     "temperature_value",
@@ -313,6 +320,48 @@ def bag_messages_lost(p: Path) -> dict[str, int]:
     return messages_lost(info.get("custom_data") if isinstance(info, dict) else None)
 
 
+def bag_custom_data(p: Path) -> dict[str, Any]:
+    """The ``custom_data`` of a bag's metadata.yaml ({} when none or unreadable: the readers report that)."""
+    meta = p / "metadata.yaml" if p.is_dir() else p.parent / "metadata.yaml"
+    if not meta.is_file():
+        return {}
+    import yaml
+
+    try:
+        info = (yaml.safe_load(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
+    except (yaml.YAMLError, OSError, AttributeError):
+        return {}
+    custom = info.get("custom_data") if isinstance(info, dict) else None
+    return dict(custom) if isinstance(custom, dict) else {}
+
+
+def recorded_settings(path: str | os.PathLike[str]) -> dict[str, dict[str, Any]]:
+    """Every node's parameters as the bag recorded them: node name -> flattened parameters.
+
+    The recorder writes a snapshot of every node's parameters into each bag's metadata.yaml as it
+    opens the bag (``custom_data`` key ``jointwear.node_parameters``, JSON ``{node: {name: value}}``;
+    nodes found later are added), so a bag recorded per cycle, or by a recorder started after the
+    nodes, carries its settings too; the bag's ``/parameter_events`` (declarations and run-time
+    changes seen while recording) apply over it. A node absent from both is absent here.
+    """
+    from .params import recorded_node_params
+
+    p = check_bag_path(Path(path))
+    out: dict[str, dict[str, Any]] = {}
+    text = bag_custom_data(p).get(NODE_PARAMS_KEY)
+    if text:
+        try:
+            snap = json.loads(text)
+        except (TypeError, ValueError):
+            raise InputDataError(f"{p}: metadata.yaml custom_data {NODE_PARAMS_KEY} is not JSON") from None
+        if isinstance(snap, dict):
+            out = {str(n).lstrip("/"): dict(v) for n, v in snap.items() if isinstance(v, dict)}
+    events = [m.msg for m in read_messages(p, topics=["/parameter_events"])]
+    for node in {str(ev.node).lstrip("/") for ev in events}:
+        out.setdefault(node, {}).update(recorded_node_params(events, node))
+    return out
+
+
 def messages_lost(custom_data: Any) -> dict[str, int]:
     """The recorder's per-topic lost-message counts from a bag's ``custom_data`` ({} when none).
 
@@ -338,6 +387,87 @@ def find_bags(root: str | os.PathLike[str]) -> list[Path]:
         return []
     found = [m.parent for m in r.rglob("metadata.yaml")]
     return sorted(found, key=lambda d: (d.stat().st_mtime, str(d)))
+
+
+BAG_FILE_SUFFIXES = (".mcap", ".db3")
+
+
+@dataclass(frozen=True)
+class BagSelection:
+    """What :func:`discover_bags` found: each bag once, and every matched path it did not take, with why."""
+
+    bags: list[Path]
+    #: ``{"path", "reason"}`` for each matched path that is not a bag (and is not part of one taken)
+    skipped: list[dict[str, str]]
+
+
+def _bag_of(p: Path) -> Path | None:
+    """The bag a path belongs to: a bag directory itself, the directory of a bag's storage file or
+    ``metadata.yaml``, or a bare storage file; None when it is none of these."""
+    if p.is_dir():
+        if (p / "metadata.yaml").is_file() or any(f.suffix in BAG_FILE_SUFFIXES for f in p.iterdir() if f.is_file()):
+            return p  # a directory of .mcap without metadata.yaml is a (broken) bag: its readers say how to recover it
+        return None
+    if p.is_file() and (p.name == "metadata.yaml" or p.suffix in BAG_FILE_SUFFIXES):
+        if (p.parent / "metadata.yaml").is_file():
+            return p.parent
+        return p if p.suffix in BAG_FILE_SUFFIXES else None
+    return None
+
+
+def discover_bags(patterns: Iterable[str | os.PathLike[str]], *, accept: Callable[[Path], bool] | None = None,
+                  ) -> BagSelection:
+    """The bags named by ``patterns`` (paths or globs, ``**`` recursive), each counted once, in the order given.
+
+    A bag's directory and the ``.mcap`` (or ``metadata.yaml``) inside it name the same bag (a glob like
+    ``'bags/**/jointwear_*'`` matches both); a directory that is not a bag stands for the bags under
+    it. A matched path that is not a bag is listed in ``skipped`` with the reason; ``accept(path)``
+    True keeps such a path as it is (e.g. a ``.csv`` table for ``history import``). Raises
+    :class:`InputDataError` when a pattern matches nothing, or a plain path does not exist.
+    """
+    import glob
+
+    bags: list[Path] = []
+    skipped: list[dict[str, str]] = []
+    seen: set[Path] = set()
+
+    def take(b: Path) -> None:
+        key = b.resolve()
+        if key not in seen:
+            seen.add(key)
+            bags.append(b)
+
+    for pattern in patterns:
+        pat = str(pattern)
+        magic = glob.has_magic(pat)
+        matches = sorted(glob.glob(pat, recursive=True)) if magic else [pat]
+        if not magic and not Path(pat).exists():
+            raise InputDataError(f"{pat}: no such file or bag directory")
+        if not matches:
+            raise InputDataError(f"{pat}: no bag matches (give rosbag2 bag directories, a glob, or a directory of bags)")
+        for m in matches:
+            p = Path(m)
+            if accept is not None and accept(p):
+                take(p)
+                continue
+            bag = _bag_of(p)
+            if bag is not None:
+                take(bag)
+            elif p.is_dir():
+                under = sorted({b for f in p.rglob("*") if f.is_file() and (b := _bag_of(f)) is not None},
+                               key=lambda d: (d.stat().st_mtime, str(d)))
+                if under:
+                    for b in under:
+                        take(b)
+                else:
+                    skipped.append({"path": str(p), "reason": "not a rosbag2 bag (no metadata.yaml) and no bag "
+                                                              "under it"})
+            else:
+                skipped.append({"path": str(p), "reason": "not a bag (a rosbag2 bag is a directory with "
+                                                          "metadata.yaml and its .mcap file)"})
+    # a path skipped under one pattern but inside a bag taken under another is not worth a line
+    skipped = [s for s in skipped if Path(s["path"]).resolve().parent not in seen]
+    return BagSelection(bags, skipped)
 
 
 # --------------------------------------------------------------------------- conversion

@@ -32,7 +32,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from ..errors import ParameterError
-from .runtime import ParamDecl
+from .runtime import ParamDecl, declare_accepting_integers
 
 __all__ = ["declare_joints", "declare_per_joint", "propagate_node_level", "replaced_own_values", "split_per_joint"]
 
@@ -88,10 +88,10 @@ def declare_per_joint(node: Node, joints: Sequence[str], decls: Sequence[ParamDe
             if d.min is not None and d.max is not None and isinstance(d.default, float):
                 desc.floating_point_range = [FloatingPointRange(from_value=float(d.min), to_value=float(d.max))]
             try:
-                node.declare_parameter(f"{j}.{d.name}", default, desc)
+                declare_accepting_integers(node, f"{j}.{d.name}", default, desc)
             except InvalidParameterTypeException as exc:
                 raise ParameterError(f"{node.get_name()}: parameter {j}.{d.name}: {exc}; give it the type of "
-                                     f"{d.name} (e.g. 40.0 for a float, not 40)") from None
+                                     f"{d.name}") from None
             out[j][d.name] = node.get_parameter(f"{j}.{d.name}").value
     return out
 

@@ -73,8 +73,9 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 from rosbags.typesys.store import Typestore
 
 from ..contract import ENDED_STATES, CycleState, robot_cycle_over
-from ..io.bags import LOST_KEY, STATUS_TYPE, ensure_msgtype
+from ..io.bags import LOST_KEY, NODE_PARAMS_KEY, STATUS_TYPE, ensure_msgtype
 from ..io.mcap_bag import COMPRESSIONS, McapBagWriter, qos_profiles_v9
+from ..io.params import parameter_value
 from ..io.typestore import new_jointwear_typestore
 from .runtime import ParamDecl, declare_parameters, run_node, subscribe_reporting_loss
 
@@ -124,6 +125,14 @@ class _Lost:
     count: int
 
 
+@dataclass(frozen=True)
+class _Params:
+    """A node's parameters as its ``~/get_parameters`` service answered (queued for the writer thread)."""
+
+    node: str
+    values: dict[str, Any]
+
+
 class _Bag:
     """One open bag (:class:`~jointwear_ros.io.mcap_bag.McapBagWriter`); connections are added as topics arrive.
 
@@ -144,6 +153,17 @@ class _Bag:
         self.count = 0
         self.lost: dict[str, int] = {}
         self._lost_noted: dict[str, int] = {}
+        #: node -> parameters as they stood when the bag opened (or when the node was first seen)
+        self.node_params: dict[str, dict[str, Any]] = {}
+
+    def note_params(self, node: str, values: dict[str, Any]) -> None:
+        """Keep ``node``'s settings in metadata.yaml (``custom_data`` jointwear.node_parameters): the first
+        snapshot of each node only, its later changes are the bag's /parameter_events."""
+        if node in self.node_params:
+            return
+        self.node_params[node] = dict(values)
+        self._writer.custom_data[NODE_PARAMS_KEY] = json.dumps(self.node_params, sort_keys=True, default=str)
+        self._writer._meta_dirty = True
 
     @property
     def synced(self) -> int:
@@ -250,7 +270,10 @@ class RecorderNode(Node):
         self._offered: dict[str, list[Qos]] = {}
         self._subs: dict[str, Any] = {}
         self._skipped: set[str] = set()
-        self._queue: queue.SimpleQueue[_Item | _Lost | None] = queue.SimpleQueue()
+        self._queue: queue.SimpleQueue[_Item | _Lost | _Params | None] = queue.SimpleQueue()
+        #: every node's parameters (writer thread): asked once per node, kept current from /parameter_events
+        self._settings: dict[str, dict[str, Any]] = {}
+        self._asked: dict[str, int] = {}
         self._bag: _Bag | None = None
         self._bags: list[Path] = []
         self._cycle: int | None = None
@@ -300,7 +323,9 @@ class RecorderNode(Node):
         return not any(r.search(topic) for r in self._exclude)
 
     def discover(self) -> None:
-        """Subscribe to every wanted topic that has publishers and is not yet recorded."""
+        """Subscribe to every wanted topic that has publishers and is not yet recorded; ask every new node
+        for its parameters (they go into each bag's metadata.yaml)."""
+        self._ask_settings()
         for topic, types in self.get_topic_names_and_types():
             if topic in self._subs or topic in self._skipped or not self.wanted(topic):
                 continue
@@ -335,6 +360,60 @@ class RecorderNode(Node):
                 f"recording {topic} ({msgtype}, {'reliable' if reliable else 'best effort'}"
                 f"{', transient local' if latched else ''})"
             )
+
+    def _ask_settings(self) -> None:
+        """Ask each node not asked yet for all its parameters (``~/list_parameters``, then ``~/get_parameters``,
+        asynchronously); the answer is queued to the writer thread. A node whose services are not up yet
+        is asked again at the next discovery (at most 20 times)."""
+        from rcl_interfaces.srv import GetParameters, ListParameters
+
+        me = self.get_fully_qualified_name()
+        for name, ns in self.get_node_names_and_namespaces():
+            fqn = (ns.rstrip("/") + "/" + name) if ns != "/" else "/" + name
+            if fqn == me or name.startswith("_") or self._asked.get(fqn, 0) < 0 or self._asked.get(fqn, 0) >= 20:
+                continue
+            self._asked[fqn] = self._asked.get(fqn, 0) + 1
+            lister = self.create_client(ListParameters, f"{fqn}/list_parameters")
+            if not lister.service_is_ready():
+                self.destroy_client(lister)
+                continue
+            self._asked[fqn] = -1  # asked: not again
+
+            def listed(future: Any, fqn: str = fqn, lister: Any = lister) -> None:
+                self.destroy_client(lister)
+                try:
+                    names = list(future.result().result.names)
+                except Exception:
+                    return
+                getter = self.create_client(GetParameters, f"{fqn}/get_parameters")
+
+                def got(f2: Any) -> None:
+                    self.destroy_client(getter)
+                    try:
+                        values = [parameter_value(v) for v in f2.result().values]
+                    except Exception:
+                        return
+                    self._queue.put(_Params(fqn.lstrip("/"), {n: v for n, v in zip(names, values) if v is not None}))
+
+                getter.call_async(GetParameters.Request(names=names)).add_done_callback(got)
+
+            lister.call_async(ListParameters.Request()).add_done_callback(listed)
+
+    def _settings_event(self, item: _Item) -> None:
+        """Keep the settings snapshot current from a recorded ParameterEvent (new bags start from it)."""
+        try:
+            ev: Any = self._store.deserialize_cdr(item.data, "rcl_interfaces/msg/ParameterEvent")
+        except Exception:
+            return
+        node = str(ev.node).lstrip("/")
+        if node not in self._settings:
+            return  # not asked yet: its answer will hold these values
+        for param in (*ev.new_parameters, *ev.changed_parameters):
+            value = parameter_value(param.value)
+            if value is not None:
+                self._settings[node][str(param.name)] = value
+        for param in ev.deleted_parameters:
+            self._settings[node].pop(str(param.name), None)
 
     def _skip(self, topic: str, why: str) -> None:
         self._skipped.add(topic)
@@ -407,6 +486,8 @@ class RecorderNode(Node):
         except OSError as exc:
             self._fail(path, f"cannot create the bag: {_os_error(exc)}")
             return
+        for node, values in sorted(self._settings.items()):
+            bag.note_params(node, values)
         with self._lock:
             self._bag = bag
             self._bags.append(path)
@@ -475,11 +556,18 @@ class RecorderNode(Node):
             self.get_logger().warning(f"undecodable status message on {item.topic}: {exc}", throttle_duration_sec=5.0)
             return None
 
-    def _handle(self, item: _Item | _Lost) -> None:
+    def _handle(self, item: _Item | _Lost | _Params) -> None:
+        if isinstance(item, _Params):
+            self._settings[item.node] = dict(item.values)
+            if self._bag is not None:
+                self._bag.note_params(item.node, item.values)
+            return
         if isinstance(item, _Lost):
             if self._bag is not None:
                 self._bag.lost[item.topic] = self._bag.lost.get(item.topic, 0) + item.count
             return
+        if item.msgtype == "rcl_interfaces/msg/ParameterEvent":
+            self._settings_event(item)
         if self.fatal is not None:
             self.dropped += 1
             return

@@ -21,9 +21,10 @@ from typing import Any
 import rclpy
 import rclpy.logging
 from builtin_interfaces.msg import Time
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 
@@ -31,6 +32,8 @@ from ..contract import seconds_to_stamp_fields
 
 __all__ = [
     "ParamDecl",
+    "accept_integers_for_doubles",
+    "declare_accepting_integers",
     "declare_parameters",
     "loopback_env",
     "on_parameter_change",
@@ -76,15 +79,67 @@ class ParamDecl:
     read_only: bool = False
 
 
+def _as_double(p: Parameter, declared: int) -> Parameter:
+    """``p`` as a DOUBLE (DOUBLE_ARRAY) when it is an INTEGER (INTEGER_ARRAY) given for a parameter
+    declared DOUBLE (DOUBLE_ARRAY): ``30`` where ``30.0`` is meant is what every user types."""
+    if declared == ParameterType.PARAMETER_DOUBLE and p.type_ == Parameter.Type.INTEGER:
+        return Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+    if declared == ParameterType.PARAMETER_DOUBLE_ARRAY and p.type_ == Parameter.Type.INTEGER_ARRAY:
+        return Parameter(p.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in p.value])
+    return p
+
+
+def accept_integers_for_doubles(node: Node) -> None:
+    """Let ``ros2 param set`` (any set_parameters call) give an integer for a parameter declared as a
+    double (an integer array for a double array): it is converted before rclpy checks the type.
+
+    rclpy hands every pre-set-parameters callback the original list and concatenates their
+    outputs, so a second callback would send each parameter twice; here the node's pre-set
+    callbacks are chained instead (each gets the previous one's list, as a node-level setting
+    copied to every joint by ``joints.propagate_node_level``), then the conversion applies to the
+    result. Idempotent."""
+    if getattr(node, "_jointwear_int_for_double", False):
+        return
+    node._jointwear_int_for_double = True  # type: ignore[attr-defined]
+
+    def convert(p: Parameter) -> Parameter:
+        if not node.has_parameter(p.name):
+            return p
+        return _as_double(p, node.describe_parameter(p.name).type)
+
+    def chained(parameter_list: list[Parameter]) -> list[Parameter]:
+        params = list(parameter_list)
+        for callback in node._pre_set_parameters_callbacks:
+            params = list(callback(params))
+        return [convert(p) for p in params]
+
+    node._call_pre_set_parameters_callback = chained  # type: ignore[method-assign]
+
+
+def declare_accepting_integers(node: Node, name: str, default: Any, desc: ParameterDescriptor) -> None:
+    """``node.declare_parameter`` where an integer override (params file, ``--ros-args -p``) of a
+    double parameter is taken as that double, and run-time sets get the same (see
+    :func:`accept_integers_for_doubles`)."""
+    accept_integers_for_doubles(node)
+    overrides = node._parameter_overrides  # rclpy's own: the only way to see a file's value before declaring
+    if name in overrides and not isinstance(default, (bool, Parameter.Type)):
+        declared = Parameter.Type.from_parameter_value(default).value
+        overrides[name] = _as_double(overrides[name], declared)
+    node.declare_parameter(name, default, desc)
+
+
 def declare_parameters(node: Node, decls: Sequence[ParamDecl]) -> dict[str, Any]:
-    """Declare each parameter with a descriptor; return name -> current value."""
+    """Declare each parameter with a descriptor; return name -> current value.
+
+    An integer given for a double (in a params file, ``--ros-args -p`` or later with ``ros2 param
+    set``) is taken as that double."""
     out: dict[str, Any] = {}
     for d in decls:
         text = d.description + (" (read at start-up: restart the node to change it)" if d.read_only else "")
         desc = ParameterDescriptor(description=text, read_only=d.read_only)
         if d.min is not None and d.max is not None and isinstance(d.default, float):
             desc.floating_point_range = [FloatingPointRange(from_value=float(d.min), to_value=float(d.max))]
-        node.declare_parameter(d.name, d.default, desc)
+        declare_accepting_integers(node, d.name, d.default, desc)
         out[d.name] = node.get_parameter(d.name).value
     return out
 

@@ -81,7 +81,7 @@ from ..cycle import (
     RobotCycleRunner,
     plan_robot_cycle,
 )
-from ..errors import JointwearError
+from ..errors import JointwearError, ParameterError
 from .diagnostics import ERROR, OK, WARN, NodeDiagnostics
 from .joints import declare_joints, declare_per_joint, propagate_node_level
 from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
@@ -124,6 +124,9 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0,
               read_only=True),
     ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0, read_only=True),
+    ParamDecl("first_cycle_id", 0, "id of the first cycle after start, each next one +1; 0: the wall-clock "
+              "second (Unix time) the node started, so ids stay unique per joint across restarts of the node "
+              "and of the cell (the history and the trend tell cycles apart by id)", read_only=True),
     ParamDecl("motion_enabled", False, "allow motion of a real joint (not needed when simulator is true); "
               "setting it false stops a running cycle at once"),
     ParamDecl("simulator", False, "the joint is the simulator (joint_sim): motion allowed without motion_enabled"),
@@ -179,7 +182,10 @@ class TestCycleNode(Node):
         self.max_duration = float(p["max_duration"])
         plan_robot_cycle(self.configs)  # the default speeds of every joint must be plannable
         self.runner = RobotCycleRunner(self.configs, self.hold_tolerance)
-        self.next_cycle_id = 1
+        first = int(p["first_cycle_id"])
+        if not 0 <= first < 2**32 - 10**6:
+            raise ParameterError(f"test_cycle: first_cycle_id = {first} must be 0 (Unix time) or 1 to {2**32 - 10**6 - 1}")
+        self.next_cycle_id = first or int(time.time())
         self.readings: dict[str, JointReading] = {}
         self._wall_last: dict[str, float] = {}
         self.state_timeout_wall = float(p["state_timeout_wall"])

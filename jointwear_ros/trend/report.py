@@ -18,6 +18,7 @@ import math
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -77,13 +78,13 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
     t = np.asarray(all_times, float)
     ax.errorbar(_dt(t), all_wear, yerr=2 * np.asarray(all_std, float), fmt="o", ms=2.5, lw=0.6, color="0.35",
                 ecolor="0.7", label="estimates ± 2 std")
-    for m in maintenance_times:
-        ax.axvline(_dt(np.array([m]))[0], color="tab:green", ls=":", lw=1.2)
+    for i, m in enumerate(maintenance_times):
+        ax.axvline(_dt(np.array([m]))[0], color="tab:green", ls=":", lw=1.2, label="maintenance" if i == 0 else None)
     if r.step_probability >= 0.5 and math.isfinite(r.step_time):
         ax.axvline(_dt(np.array([r.step_time]))[0], color="tab:purple", ls="--", lw=1.0,
                    label=f"step without a maintenance event (P = {r.step_probability:.2f})")
     fit = _history_fit(r, cfg)
-    if fit is not None:
+    if fit is not None and len(r.times) >= 2:  # a trend of one estimate is that estimate: nothing more to draw
         x_s, lvl, half, name = fit
         x = _dt(x_s)
         ax.plot(x, lvl, color="tab:blue", lw=1.6, label=f"fit: {name}")
@@ -100,7 +101,11 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
         band = forecast_band(r.components, r.members, cfg, tau)
         xf = _dt(r.last_time + tau * DAY)
         ax.plot(xf, band[:, 1], color="tab:orange", lw=1.4, ls="--", label="forecast (all models, median)")
-        ax.fill_between(xf, band[:, 0], band[:, 2], color="tab:orange", alpha=0.15, lw=0, label="forecast 90 %")
+        # wear does not fall within a segment (maintenance starts a new one) and is never below 0: the band's
+        # lower edge stops at the current wear's lower bound (a band of a few estimates would reach below)
+        floor = max(0.0, float(r.wear - Z90 * r.wear_std)) if math.isfinite(r.wear) and math.isfinite(r.wear_std) else 0.0
+        ax.fill_between(xf, np.maximum(band[:, 0], floor), band[:, 2], color="tab:orange", alpha=0.15, lw=0,
+                        label="forecast 90 %")
         if tta is not None and math.isfinite(tta.median) and tta.median > 0:
             lo = r.last_time + tta.lo90 * DAY
             hi = r.last_time + (tta.hi90 if math.isfinite(tta.hi90) else end) * DAY
@@ -146,6 +151,19 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
     return save_figure(fig, Path(path))
 
 
+def time_to_alarm_text(r: Any, sep: str = " to ") -> str:
+    """A joint's days to alarm in words: the median and 90 % interval, or why there is none
+    (past the alarm already, no growth detected, no estimate since the last maintenance)."""
+    tta = r.time_to_alarm
+    if not math.isfinite(r.wear):
+        return "no estimate since the last maintenance"
+    if tta is None:
+        return "no growth detected"
+    if math.isfinite(tta.hi90) and tta.hi90 <= 0.0:
+        return "past the alarm already"
+    return f"{_fmt_days(tta.median)} ({_fmt_days(tta.lo90)}{sep}{_fmt_days(tta.hi90)})"
+
+
 def _fmt_days(x: float) -> str:
     return "unbounded" if not math.isfinite(x) else f"{x:.0f}"
 
@@ -158,9 +176,7 @@ def write_html(out_dir: Path, results: Sequence[TrendResult], images: dict[tuple
     colors = {"OK": "#2e7d32", "WARN": "#ef6c00", "ERROR": "#c62828"}
     rows = []
     for i, r in enumerate(sorted(results, key=rank_key), start=1):
-        tta = r.time_to_alarm
-        cell = ("no growth detected" if tta is None else
-                f"{_fmt_days(tta.median)} ({_fmt_days(tta.lo90)} to {_fmt_days(tta.hi90)})")
+        cell = time_to_alarm_text(r)
         img = images.get((r.robot, r.joint))
         link = f'<a href="{html.escape(img)}">figure</a>' if img else ""
         rows.append(
@@ -170,7 +186,9 @@ def write_html(out_dir: Path, results: Sequence[TrendResult], images: dict[tuple
             f"<td>{r.estimates}</td><td>{html.escape(r.message)}</td><td>{link}</td></tr>")
     figs = "\n".join(f'<h3 id="{html.escape(a)}-{html.escape(b)}">{html.escape(a)} / {html.escape(b)}</h3>'
                      f'<img src="{html.escape(p)}" alt="trend of {html.escape(a)} {html.escape(b)}" width="900">'
-                     for (a, b), p in sorted(images.items()))
+                     for (a, b), p in ((k, images[k]) for k in ((r.robot, r.joint)
+                                                                for r in sorted(results, key=rank_key))
+                                       if k in images))  # in the table's ranked order
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse}}

@@ -56,13 +56,30 @@ def residual_columns(table: ObservationTable) -> list[str]:
     return [c for c in cols if np.all(np.isfinite(table[c])) and np.ptp(table[c]) > 0]
 
 
+#: units of the standard observation columns on a plot axis
+COLUMN_UNITS = {"speed": "rad/s, motor side", "time": "s", "temperature": "°C", "load_torque": "normalized",
+                "position": "rad", "wear": "0-100", "cycle_id": "", "lube_hours": "h", "hours_running": "h",
+                "motor_temperature": "°C"}
+
+
+def column_label(name: str, table: ObservationTable | None = None) -> str:
+    """``speed [rad/s, motor side]``: a column's name with its unit when known (the speed side and the
+    torque unit of ``table``'s scale, as :func:`_units`)."""
+    unit = COLUMN_UNITS.get(name)
+    if table is not None and name in ("speed", "load_torque"):
+        tu, side = _units(table)
+        unit = ("rad/s, motor side" if "motor side" in side else "rad/s") if name == "speed" else tu
+    return f"{name} [{unit}]" if unit else name
+
+
 def plot_fit(path: Path, table: ObservationTable, fit: FitResult, title: str = "") -> Path:
     """Data and fitted values against speed; term contributions at the median of the other inputs."""
     fig, axes = new_figure(1, 2, size=(13.0, 5.0))
     ax, axc = axes[0]
     v = table.speed
-    ax.plot(v, table.tau_f, "o", ms=3, color="0.6", label="observed tau_f")
-    ax.plot(v, fit.fitted, ".", ms=4, color="C3", label=f"fitted ({fit.n_free} params)")
+    # the fitted values as small marks under the data (open circles on top), so the data stays visible
+    ax.plot(v, fit.fitted, "_", ms=7, mew=1.2, color="C3", alpha=0.8, zorder=2, label=f"fitted ({fit.n_free} params)")
+    ax.plot(v, table.tau_f, "o", ms=4, mfc="none", mew=0.7, color="0.35", zorder=3, label="observed tau_f")
     tu, side = _units(table)
     ax.set_xlabel(side)
     ax.set_ylabel(f"friction torque [{tu}]")
@@ -102,7 +119,7 @@ def plot_residuals(
         if math.isfinite(nf):
             ax.axhspan(-nf, nf, color="0.85", zorder=0, label=f"noise floor ±{nf:.4f}")
         ax.axhline(0.0, color="grey", lw=0.6)
-        ax.set_xlabel(c)
+        ax.set_xlabel(column_label(c, table))
         ax.set_ylabel(f"residual [{_units(table)[0]}]")
         ax.grid(alpha=0.3)
     for k in range(len(cols), nrow * ncol):
@@ -137,7 +154,9 @@ def plot_band_errors(path: Path, table: ObservationTable, fits: Sequence[tuple[s
     ax.set_xlabel("speed band [rad/s]")
     ax.set_ylabel(f"RMSE [{_units(table)[0]}]")
     ax.grid(alpha=0.3, axis="y")
-    ax.legend(fontsize=8)
+    # below the axes, never over the bars (model specs are long)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=1, frameon=False)
+    fig.set_size_inches(9.0, 4.5 + 0.22 * (len(fits) + 1))
     return save_figure(fig, path)
 
 
@@ -158,9 +177,14 @@ def plot_error_fall(path: Path, history: History) -> Path:
         ax.plot(x, nf, ":", color="black", label="noise floor")
     ax.set_yscale("log")
     ax.set_xticks(x, [f"v{v.version}" for v in vs])
+    prev: list[str] = []
     for xi, v in zip(x, vs):
-        added = v.model.split(" + ")[-1]
-        ax.annotate(added, (xi, v.cv_rmse or v.rmse or 1.0), fontsize=7, rotation=20,
+        terms = [t.strip() for t in v.model.split(" + ")]
+        added = [t for t in terms if t not in prev]
+        text = ("base model" if not prev else "+ " + " + ".join(added) if added
+                else "- " + " - ".join(t for t in prev if t not in terms) or "refit")
+        prev = terms
+        ax.annotate(_short(text, 40), (xi, v.cv_rmse or v.rmse or 1.0), fontsize=7, rotation=20,
                     xytext=(4, 6), textcoords="offset points")
     ax.set_xlabel("model version")
     ax.set_ylabel("error [unit of tau_f]")
@@ -204,9 +228,10 @@ def plot_dependence(path: Path, table: ObservationTable, diagnosis: Diagnosis) -
         nf = diagnosis.noise.value
         if math.isfinite(nf):
             axr.axhspan(-nf, nf, color="0.88", zorder=0, label=f"noise floor ±{nf:.4f}")
-        axr.set_xlabel(single.name)
+        axr.set_xlabel(column_label(single.name, table))
         axr.set_ylabel(f"data - model [{_units(table)[0]}]")
-        axr.set_title(f"{single.name}: {single.shape_hint}", fontsize=9)
+        axr.set_title(f"{single.name}: {single.shape_hint}" if single.significant else
+                      f"{single.name}: no significant dependence (the strongest column, for reference)", fontsize=9)
         axr.grid(alpha=0.3)
         axr.legend(fontsize=7)
     else:
@@ -218,7 +243,11 @@ def _table_html(headers: Sequence[str], rows: Sequence[Sequence[object]]) -> str
     def cell(v: object) -> str:
         if isinstance(v, (float, np.floating)):
             f = float(v)
-            return "nan" if not math.isfinite(f) else f"{f:.6g}"
+            if not math.isfinite(f):
+                return "nan"
+            if f != 0.0 and abs(f) < 1e-9:
+                return "< 1e-9" if f > 0 else "> -1e-9"
+            return f"{f:.4g}"
         return html.escape(str(v))
 
     head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
@@ -304,11 +333,16 @@ def write_report(
                   v.test, v.shape_hint] for v in diagnosis.variables[:15]]))
             parts.append(_img(files["dependence.png"], "explained share per column; the strongest column's residual"))
             parts.append("<h3>Candidate terms</h3>")
-            parts.append(_table_html(
-                ["term", "variables", "meaning", "CV RMSE", "x floor", "ΔBIC", "p", "significant", "speed region"],
-                [[c.term, ", ".join(c.variables), c.description, c.cv_rmse, diagnosis.noise.ratio(c.cv_rmse),
-                  c.delta_bic, c.p_value, "yes" if c.significant else "no", c.speed_region_label]
-                 for c in diagnosis.candidates[:15]]))
+            if not diagnosis.candidates:
+                parts.append("<p>none tried: the residual is consistent with the noise and no column explains "
+                             "it, so no term was fitted.</p>")
+            else:
+                parts.append(_table_html(
+                    ["term", "variables", "meaning", "CV RMSE", "x floor", "ΔBIC", "p", "significant",
+                     "speed region"],
+                    [[c.term, ", ".join(c.variables), c.description, c.cv_rmse, diagnosis.noise.ratio(c.cv_rmse),
+                      c.delta_bic, c.p_value, "yes" if c.significant else "no", c.speed_region_label]
+                     for c in diagnosis.candidates[:15]]))
             if diagnosis.stability:
                 parts.append("<p>chosen in bootstrap resamples by cycle: " + html.escape(", ".join(
                     f"{t} {100 * f:.0f} %" for t, f in sorted(diagnosis.stability.items(), key=lambda kv: -kv[1])))
