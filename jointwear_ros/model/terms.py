@@ -116,6 +116,10 @@ UNIT_DIMENSIONS: dict[str, Dimension] = {
 }
 
 
+def _unit_dimension(unit: str) -> Dimension:
+    return UNIT_DIMENSIONS.get(unit.strip(), Dimension())
+
+
 def stribeck_shape(v: Array, vs: Array | float, alpha: float = STRIBECK_EXPONENT) -> tuple[Array, Array]:
     """Stribeck shape ``S = exp(-|v / vs|**alpha)`` and ``r**alpha`` with ``r = |v/vs|``.
 
@@ -156,8 +160,7 @@ class Term:
         """The dimension of parameter ``name``: declared in :attr:`dimensions`, else implied by its unit."""
         if name in self.dimensions:
             return self.dimensions[name]
-        unit = next((p.unit for p in self.params if p.name == name), "")
-        return UNIT_DIMENSIONS.get(unit.strip(), Dimension())
+        return _unit_dimension(next((p.unit for p in self.params if p.name == name), ""))
 
     # -- composition ---------------------------------------------------------
     def __add__(self, other: Term | Model) -> Model:
@@ -264,7 +267,7 @@ class LoadCoulomb(Term):
     name = "load_coulomb"
     variables = ("load_torque",)
     params = (ParamSpec("Fctm", "-", 0.06, 0.0, 10.0, "Coulomb friction per unit load torque"),)
-    dimensions = {"Fctm": Dimension(torque=1, load=-1)}
+    dimensions: ClassVar[Mapping[str, Dimension]] = {"Fctm": Dimension(torque=1, load=-1)}
     equation = "Fctm*|tau_m|"
     paper_ref = "Eq. (6a)"
 
@@ -295,7 +298,7 @@ class LoadStribeck(Term):
         ParamSpec("Fstm", "-", 0.08, 0.0, 10.0, "Stribeck amplitude per unit load torque"),
         ParamSpec("vstm", "rad/s", 12.0, 0.1, 500.0, "Stribeck speed of the load term"),
     )
-    dimensions = {"Fstm": Dimension(torque=1, load=-1)}
+    dimensions: ClassVar[Mapping[str, Dimension]] = {"Fstm": Dimension(torque=1, load=-1)}
     equation = "Fstm*|tau_m|*exp(-|v/vstm|^1.3)"
     paper_ref = "Eq. (6a)"
 
@@ -565,7 +568,7 @@ def param_dimension(name: str, unit: str = "") -> Dimension:
     for cls in TERMS.values():
         if name in cls().param_names:
             return cls().dimension(name)
-    return UNIT_DIMENSIONS.get(unit.strip(), Dimension())
+    return _unit_dimension(unit)
 
 
 def term_by_name(name: str) -> Term:

@@ -5,6 +5,7 @@ Pure numpy/scipy (plus matplotlib for plots in :mod:`.report`); no ROS import.
 
 from __future__ import annotations
 
+from ..model.scaling import BoundHit, DataScales, on_bound, scale_parameters
 from .candidates import (
     ENTRY_POINT_GROUP,
     SHAPES,
@@ -17,7 +18,6 @@ from .candidates import (
 from .compare import SPEED_BAND_EDGES, BandError, NoiseFloor, band_rmse, noise_floor, noise_test, residual_structure
 from .dependence import VariableDependence, residual_dependence
 from .diagnose import VERDICTS, CandidateResult, Diagnosis, diagnose
-from ..model.scaling import BoundHit, DataScales, on_bound, scale_parameters
 from .fit import FitResult, fit_model, group_folds
 from .shapes import HarmonicRipple, Scale, Spline, Step
 
