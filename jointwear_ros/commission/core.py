@@ -41,7 +41,7 @@ import numpy as np
 from .. import __version__
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet, SetUnits, split_model_spec
-from ..model.scaling import DataScales, data_parameters, on_bound, speed_starts
+from ..model.scaling import BoundHit, DataScales, data_parameters, speed_starts
 from ..types import ObservationTable
 from .wear import DEFAULT_WEAR_CALIBRATION, WearCalibration, paper_wear_values, relative_wear_values, wear_from_file
 
@@ -84,7 +84,7 @@ class CommissionResult:
     suggestion: str | None
     summary: str
     wear: WearCalibration
-    on_bound: list[tuple[str, float, float]]
+    on_bound: list[BoundHit]
     converged: bool
     message: str
     n: int
@@ -127,7 +127,7 @@ class CommissionResult:
             "units": self.units.to_dict(),
             "parameters": {n: {"value": p.value, "stderr": p.stderr, "vary": p.vary} for n, p in self.params.items()}
             | {k: {"value": v, "stderr": None, "vary": False} for k, v in self.wear.items()},
-            "on_bound": [{"name": n, "value": v, "bound": b} for n, v, b in self.on_bound],
+            "on_bound": [h.to_dict() for h in self.on_bound],
             "converged": self.converged,
             "message": self.message,
             "valid": {k: list(v) for k, v in self.valid.items()},
@@ -245,8 +245,7 @@ def commission(
         if np.nanmax(np.abs(w)) > 0:
             warnings.append(f"{where}: the baseline holds wear levels up to {np.nanmax(w):g}; commissioning treats "
                             "it as w = 0 (as installed)")
-    scales = DataScales.of(speed=table.speed, tau_f=table.tau_f, load_torque=table.get("load_torque"),
-                           temperature=table.get("temperature"))
+    scales = DataScales.from_table(table)
     given = m.make_params()
     p0 = data_parameters(m.param_names, scales, given)
     from ..workbench.candidates import start_grid
@@ -259,11 +258,11 @@ def commission(
         grid = start_grid(term, dict(table.model_inputs()))
         starts = [dict(s, **g) for s in starts for g in grid][:24]
     fit = fit_model(m, table, p0, starts=starts, cv_folds=cv_folds)
-    bound = on_bound(fit.params)
+    bound = fit.at_bound
     converged = bool(fit.success and not bound and all(math.isfinite(fit.stderr(n)) for n in fit.free))
-    for n, v, b in bound:
-        warnings.append(f"parameter {n} = {v:.6g} ended on its bound {b:.6g}: the data do not pin it down; "
-                        "the fit is not converged")
+    for h in bound:
+        warnings.append(f"parameter {h.name} = {h.value:.6g} ended on its {h.side} bound {h.bound:.6g}: the data do "
+                        "not pin it down; the fit is not converged")
     bad_se = [n for n in fit.free if not math.isfinite(fit.stderr(n))]
     if bad_se:
         warnings.append(f"no standard error for {', '.join(bad_se)} (singular covariance): the data do not "
@@ -305,7 +304,7 @@ def commission(
     n_cycles = int(np.unique(table["cycle"]).size) if "cycle" in table else 1
     return CommissionResult(
         joint=joint, robot=robot, spec=m.spec, units=units, params=fit.params, covariance=covariance, valid=valid,
-        rmse=fit.rmse, cv_rmse=fit.cv_rmse, bands=_bands(table.speed, fit.cv_residuals, scales.speed),
+        rmse=fit.rmse, cv_rmse=fit.cv_rmse, bands=_bands(table.speed, fit.cv_residuals, scales.speed_level),
         noise_floor=nf.value, noise_method=nf.method, noise_consistent=bool(nf.consistent), verdict=verdict,
         suggestion=suggestion, summary=summary, wear=wear, on_bound=bound, converged=converged,
         message=fit.message, n=len(table), n_cycles=n_cycles, noise_std=float(noise_std), warnings=warnings,

@@ -1,19 +1,36 @@
-"""Start values, bounds and starts of a fit taken from the data, in the data's own units.
+"""Fits in the data's units: the data's scales, start values and bounds from them, bound hits.
 
-No constant here is tuned to the paper's normalized joint: every magnitude is a
-multiple of the data's own scales (its friction level, its speed range, its load
-range, its temperature span), so the same fit works on normalized motor-side
-observations and on joint-side N·m. What a parameter's magnitude is made of
-(torque, speed, load, temperature, wear) is its *dimension*, known for the
-built-in terms; a term that is not built in keeps its own start and bounds.
+No fit may assume the paper's normalized joint (motor side speeds of tens to hundreds of
+rad/s, friction of about 0.1): a real joint's data are often joint side, in N·m, speeds a
+hundred times smaller and torques a hundred times larger. :class:`DataScales` measures a
+data set once (its largest and median friction, its largest speed and load torque, its
+temperature mean and span), and every parameter's magnitude follows from its *dimension*,
+which the term declares (:meth:`~jointwear_ros.model.terms.Term.dimension`: a viscous
+coefficient is a torque per speed, ``Fctm`` a torque per load torque, ``Tv0`` a temperature).
+Two ways to a fit's starts and bounds use it:
 
->>> import numpy as np
+- :func:`data_parameters` (commissioning, which has no parameter set to start from): each
+  built-in parameter's start and bounds are multiples (:data:`RELATIVE`, the one table of
+  them) of the data's level of its dimension (:meth:`DataScales.level`).
+- :func:`scale_parameters` (the workbench, which starts from given values or the terms'
+  own numbers, written for the paper's joint): those numbers times the data's scale in
+  powers of ten of the paper's (:meth:`DataScales.factor`); data within half a decade of the
+  paper's keep them exactly. :func:`scale_grid` does the same for a term's start grid.
+
+:func:`on_bound` names every free parameter a fit left on a bound (:class:`BoundHit`); such
+a fit is not called converged.
+
 >>> s = DataScales.of(speed=[0.01, 0.5], tau_f=[12.0, 20.0], load_torque=[0, 40.0], temperature=[20, 45])
->>> s.torque, s.speed, s.load, s.temperature_span
+>>> s.torque_top, s.speed_level, s.load_level, s.temperature_span
 (20.0, 0.5, 40.0, 25.0)
 >>> p = data_parameters(["Fc0", "vs0", "Tv0"], s)
 >>> p["Fc0"].value, p["vs0"].min, p["Tv0"].max
 (10.0, 0.0005, 1000.0)
+>>> s = DataScales.of(speed=[0.01, 0.5, 1.3], tau_f=[12.0, 10.5, 14.0])
+>>> s.speed, s.torque, s.factor("s/rad")
+(0.01, 100.0, 10000.0)
+>>> DataScales.of(speed=[2.0, 47.0, 250.0], tau_f=[0.07, 0.08, 0.16]).factor("rad/s")
+1.0
 """
 
 from __future__ import annotations
@@ -21,129 +38,298 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from .parameters import Parameter, Parameters
+from .terms import Dimension, Term, param_dimension
 
-__all__ = ["DIMENSIONS", "DataScales", "data_parameters", "on_bound", "speed_starts"]
+if TYPE_CHECKING:
+    from .model import Model
 
-#: Dimension of each built-in parameter: exponents of (torque, speed, load, temperature, wear).
-DIMENSIONS: dict[str, tuple[int, int, int, int, int]] = {
-    "Fc0": (1, 0, 0, 0, 0),
-    "Fctm": (1, 0, -1, 0, 0),
-    "Fstm": (1, 0, -1, 0, 0),
-    "vstm": (0, 1, 0, 0, 0),
-    "Fs0": (1, 0, 0, 0, 0),
-    "FsT": (1, 0, 0, -1, 0),
-    "vs0": (0, 1, 0, 0, 0),
-    "vsT": (0, 1, 0, -1, 0),
-    "Fv0": (1, -1, 0, 0, 0),
-    "FvT": (1, -1, 0, 0, 0),
-    "Tv0": (0, 0, 0, 1, 0),
-    "Fsw": (1, 0, 0, 0, -1),
-    "vsw": (0, 1, 0, 0, -1),
-    "Fvw": (1, -1, 0, 0, -1),
-    "Fs": (1, 0, 0, 0, 0),
-    "vs": (0, 1, 0, 0, 0),
-    "Fv": (1, -1, 0, 0, 0),
+__all__ = [
+    "REFERENCE_SPEED",
+    "REFERENCE_TORQUE",
+    "RELATIVE",
+    "BoundHit",
+    "DataScales",
+    "Relative",
+    "data_parameters",
+    "on_bound",
+    "scale_grid",
+    "scale_parameters",
+    "speed_starts",
+]
+
+#: The largest speed of the paper's test cycles is of this order (motor side, rad/s).
+REFERENCE_SPEED = 100.0
+#: The paper's friction is of this order (normalized torque).
+REFERENCE_TORQUE = 0.1
+
+
+class Relative(NamedTuple):
+    """A parameter's start and bounds as multiples of the data's level of its dimension.
+
+    ``absolute``: the bounds are in the parameter's own unit (physical limits), not multiples.
+    """
+
+    start: float
+    lo: float
+    hi: float
+    absolute: bool = False
+
+
+#: Start and bounds of each built-in parameter, in units of the data's level of its dimension:
+#: positive speeds and Coulomb levels, wide elsewhere. ``Tv0`` is a temperature constant in
+#: degC whatever the torque unit: its bounds are physical limits.
+RELATIVE: dict[str, Relative] = {
+    "Fc0": Relative(0.5, 0.0, 10.0),
+    "Fctm": Relative(0.05, 0.0, 100.0),
+    "Fstm": Relative(0.05, 0.0, 100.0),
+    "vstm": Relative(0.05, 1e-3, 20.0),
+    "Fs0": Relative(0.1, -1e3, 1e3),
+    "FsT": Relative(0.0, -1e3, 1e3),
+    "vs0": Relative(0.1, 1e-3, 20.0),
+    "vsT": Relative(0.0, -20.0, 20.0),
+    "Fv0": Relative(0.2, -1e3, 1e3),
+    "FvT": Relative(0.2, -1e3, 1e3),
+    "Tv0": Relative(1.0, 1.0, 1000.0, absolute=True),
+    "Fsw": Relative(0.01, 0.0, 1e3),
+    "vsw": Relative(0.01, 1e-4, 10.0),
+    "Fvw": Relative(0.0, -1e3, 1e3),
+    "Fs": Relative(0.2, -1e3, 1e3),
+    "vs": Relative(0.1, 1e-3, 20.0),
+    "Fv": Relative(0.3, -1e3, 1e3),
 }
 
-#: Start of each built-in parameter, in units of its dimension's scale.
-_START = {"Fc0": 0.5, "Fctm": 0.05, "Fstm": 0.05, "vstm": 0.05, "Fs0": 0.1, "FsT": 0.0, "vs0": 0.1, "vsT": 0.0,
-          "Fv0": 0.2, "FvT": 0.2, "Tv0": 1.0, "Fsw": 0.01, "vsw": 0.01, "Fvw": 0.0, "Fs": 0.2, "vs": 0.1, "Fv": 0.3}
-#: Bounds, in the same units: positive speeds and Coulomb levels, wide elsewhere.
-_BOUNDS = {"Fc0": (0.0, 10.0), "Fctm": (0.0, 100.0), "Fstm": (0.0, 100.0), "vstm": (1e-3, 20.0),
-           "Fs0": (-1e3, 1e3), "FsT": (-1e3, 1e3), "vs0": (1e-3, 20.0), "vsT": (-20.0, 20.0),
-           "Fv0": (-1e3, 1e3), "FvT": (-1e3, 1e3), "Tv0": (-math.inf, math.inf), "Fsw": (0.0, 1e3),
-           "vsw": (1e-4, 10.0), "Fvw": (-1e3, 1e3), "Fs": (-1e3, 1e3), "vs": (1e-3, 20.0), "Fv": (-1e3, 1e3)}
-#: Tv0 is a temperature constant in degC whatever the torque unit: physical limits.
-_TV0_BOUNDS = (1.0, 1000.0)
+_SPEED = Dimension(speed=1)
+
+
+def _decade(x: float) -> float:
+    """``x`` rounded to the nearest power of ten (1 for a non-positive or non-finite x)."""
+    if not (math.isfinite(x) and x > 0):
+        return 1.0
+    return float(10.0 ** round(math.log10(x)))
+
+
+def _or(x: float, default: float) -> float:
+    return x if math.isfinite(x) else default
+
+
+def _abs_finite(a: Any) -> npt.NDArray[np.float64]:
+    x = np.abs(np.asarray([] if a is None else a, dtype=float).reshape(-1))
+    return x[np.isfinite(x)]
+
+
+def _top(a: Any) -> float:
+    """The largest |value| (NaN when none is positive)."""
+    x = _abs_finite(a)
+    return float(x.max()) if x.size and x.max() > 0 else math.nan
 
 
 @dataclass(frozen=True)
 class DataScales:
-    """The magnitudes of one data set: friction, speed, load, temperature (and wear 100)."""
+    """The magnitudes of one data set, measured once; NaN where not measured.
 
-    torque: float
-    speed: float
-    load: float
-    temperature: float
-    temperature_span: float
+    ``speed_level`` is the largest |speed|, ``torque_level`` the median and ``torque_top``
+    the largest |tau_f|, ``load_level`` the largest |load_torque|; ``temperature`` and
+    ``temperature_span`` the mean and span of the temperatures (40 and 20 degC when not
+    measured, a span at least 1). :attr:`speed` and :attr:`torque` are the data's scales
+    in powers of ten of the paper's (1 for data at the paper's scale).
+    """
+
+    speed_level: float = math.nan
+    torque_level: float = math.nan
+    torque_top: float = math.nan
+    load_level: float = math.nan
+    temperature: float = 40.0
+    temperature_span: float = 20.0
     wear: float = 100.0
 
     @classmethod
-    def of(cls, *, speed: npt.ArrayLike, tau_f: npt.ArrayLike, load_torque: npt.ArrayLike | None = None,
-           temperature: npt.ArrayLike | None = None) -> DataScales:
-        """Scales of arrays: the largest |value| of each (temperature: its mean and span)."""
-        def top(a: npt.ArrayLike | None) -> float:
-            if a is None:
-                return math.nan
-            x = np.abs(np.asarray(a, dtype=float))
-            x = x[np.isfinite(x)]
-            return float(x.max()) if x.size and x.max() > 0 else math.nan
-
-        t = np.asarray([] if temperature is None else temperature, dtype=float)
+    def of(cls, *, speed: npt.ArrayLike | None = None, tau_f: npt.ArrayLike | None = None,
+           load_torque: npt.ArrayLike | None = None, temperature: npt.ArrayLike | None = None) -> DataScales:
+        """Scales of arrays (any may be missing)."""
+        t = np.asarray([] if temperature is None else temperature, dtype=float).reshape(-1)
         t = t[np.isfinite(t)]
+        f = _abs_finite(tau_f)
+        f = f[f > 0]
         return cls(
-            torque=top(tau_f) if math.isfinite(top(tau_f)) else 1.0,
-            speed=top(speed) if math.isfinite(top(speed)) else 1.0,
-            load=top(load_torque) if math.isfinite(top(load_torque)) else 1.0,
+            speed_level=_top(speed),
+            torque_level=float(np.median(f)) if f.size else math.nan,
+            torque_top=_top(tau_f),
+            load_level=_top(load_torque),
             temperature=float(np.mean(t)) if t.size else 40.0,
             temperature_span=max(float(np.ptp(t)), 1.0) if t.size else 20.0,
         )
 
-    def scale(self, dims: tuple[int, int, int, int, int]) -> float:
-        tq, sp, ld, tp, wr = dims
-        return float(self.torque**tq * self.speed**sp * self.load**ld * self.temperature_span**tp * self.wear**wr)
+    @classmethod
+    def from_table(cls, table: Any) -> DataScales:
+        """Scales of an :class:`~jointwear_ros.types.ObservationTable` (the columns it has)."""
+        return cls.of(**{c: table[c] for c in ("speed", "tau_f", "load_torque", "temperature") if c in table})
+
+    @property
+    def speed(self) -> float:
+        """The largest speed in powers of ten of the paper's (:data:`REFERENCE_SPEED`)."""
+        return _decade(self.speed_level / REFERENCE_SPEED)
+
+    @property
+    def torque(self) -> float:
+        """The median friction in powers of ten of the paper's (:data:`REFERENCE_TORQUE`)."""
+        return _decade(self.torque_level / REFERENCE_TORQUE)
+
+    @property
+    def identity(self) -> bool:
+        return self.speed == 1.0 and self.torque == 1.0
+
+    def factor(self, dimension: Dimension | str, name: str = "") -> float:
+        """How much a parameter of this dimension (or unit, of parameter ``name``) moves from the paper's
+        numbers: torque (and load torque, in the same unit) and speed by their powers of ten; a
+        temperature and the wear do not scale."""
+        d = dimension if isinstance(dimension, Dimension) else param_dimension(name, dimension)
+        return float(self.torque ** (d.torque + d.load) * self.speed**d.speed)
+
+    def level(self, dimension: Dimension) -> float:
+        """The data's own magnitude of a dimension: the largest friction, speed and load torque, the
+        temperature span, wear 100 (a scale not measured counts as 1)."""
+        d = dimension
+        return float(_or(self.torque_top, 1.0) ** d.torque * _or(self.speed_level, 1.0) ** d.speed
+                     * _or(self.load_level, 1.0) ** d.load * self.temperature_span**d.temperature
+                     * self.wear**d.wear)
+
+    def to_dict(self) -> dict[str, float]:
+        return {"speed_factor": self.speed, "torque_factor": self.torque,
+                "speed_level": self.speed_level, "torque_level": self.torque_level}
+
+
+def _moves(d: Dimension) -> bool:
+    """Does a parameter of this dimension move with the data's powers of ten (:meth:`DataScales.factor`)?"""
+    return (d.torque + d.load, d.speed) != (0, 0)
 
 
 def data_parameters(names: Iterable[str], scales: DataScales,
                     given: Mapping[str, Parameter] | None = None) -> Parameters:
-    """Start values and bounds of the named built-in parameters from the data's scales.
+    """Start values and bounds of the named built-in parameters from the data's levels (:data:`RELATIVE`).
 
     A name that is not a built-in parameter is taken from ``given`` (its own
     start and bounds) or left out.
     """
     out = Parameters()
     for n in names:
-        if n in DIMENSIONS:
-            s = scales.scale(DIMENSIONS[n])
-            lo, hi = _TV0_BOUNDS if n == "Tv0" else (_BOUNDS[n][0] * s, _BOUNDS[n][1] * s)
-            start = scales.temperature_span * 1.0 if n == "Tv0" else _START[n] * s
-            if n == "Tv0":
-                start = min(max(start, lo), hi)
-            out.add(Parameter(n, float(start), float(lo), float(hi)))
+        if n in RELATIVE:
+            r = RELATIVE[n]
+            s = scales.level(param_dimension(n))
+            lo, hi = (r.lo, r.hi) if r.absolute else (r.lo * s, r.hi * s)
+            out.add(Parameter(n, float(min(max(r.start * s, lo), hi)), float(lo), float(hi)))
         elif given is not None and n in given:
             g = given[n]
             out.add(Parameter(n, g.value, g.min, g.max, g.vary, g.unit, g.description))
     return out
 
 
-def on_bound(params: Parameters, rtol: float = 1e-6) -> list[tuple[str, float, float]]:
-    """``(name, value, bound)`` of every free parameter that ended on (within ``rtol`` of the range) a finite bound."""
-    hit: list[tuple[str, float, float]] = []
-    for n, p in params.items():
-        if not p.vary:
-            continue
-        span = p.max - p.min if math.isfinite(p.max - p.min) else max(abs(p.value), 1.0)
-        tol = rtol * max(span, 1e-300)
-        for b in (p.min, p.max):
-            if math.isfinite(b) and abs(p.value - b) <= tol:
-                hit.append((n, p.value, b))
-                break
-    return hit
-
-
 def speed_starts(names: Sequence[str], scales: DataScales, fractions: Sequence[float] = (0.03, 0.1, 0.3)
                  ) -> list[dict[str, float]]:
-    """Starts of the Stribeck speeds among ``names``: each at a few fractions of the data's top speed."""
-    speeds = [n for n in names if n in ("vstm", "vs0", "vs")]
-    if not speeds:
-        return [{}]
+    """Starts of the built-in Stribeck speeds among ``names``: each at a few fractions of the data's top speed."""
+    speeds = [n for n in names if n in RELATIVE and param_dimension(n) == _SPEED]
     out: list[dict[str, float]] = [{}]
     for n in speeds:
-        out = [dict(o, **{n: f * scales.speed}) for o in out for f in fractions]
+        out = [dict(o, **{n: f * _or(scales.speed_level, 1.0)}) for o in out for f in fractions]
     return out
 
+
+def scale_parameters(model: Model, params: Parameters, scales: DataScales) -> tuple[Parameters, set[str]]:
+    """A copy of ``params`` with the terms' own starts and bounds scaled to the data (:meth:`DataScales.factor`).
+
+    Only parameters whose bounds are still their term's (a caller's bounds are
+    kept) are scaled; a value still at the term's default scales with them.
+    Returns the copy and the names of the parameters whose bounds came from
+    the scaling (a torque or speed dimension; a fit may widen those when it ends
+    on one). Parameters of a dimension that does not scale keep their terms' numbers.
+    """
+    out = params.copy()
+    auto: set[str] = set()
+    specs = {s.name: (t, s) for t in model.terms for s in t.params}
+    for name, (term, spec) in specs.items():
+        if name not in out:
+            continue
+        p = out[name]
+        d = term.dimension(name)
+        if (p.min, p.max) != (spec.min, spec.max) or not _moves(d):
+            continue
+        auto.add(name)
+        f = scales.factor(d)
+        if f == 1.0:
+            continue
+        p.min, p.max = spec.min * f, spec.max * f
+        if p.value == spec.default:
+            p.value = spec.default * f
+        p.value = float(min(max(p.value, p.min), p.max))
+    return out, auto
+
+
+def scale_grid(term: Term, grid: Sequence[Mapping[str, float]], scales: DataScales) -> list[dict[str, float]]:
+    """Start points ``grid`` of ``term`` (written for the paper's joint) scaled to the data by each
+    parameter's dimension."""
+    return [{k: v * scales.factor(term.dimension(k)) for k, v in g.items()} for g in grid]
+
+
+class BoundHit(tuple[str, float, float]):
+    """A parameter a fit left on a bound: the triple ``(name, value, bound)``, and ``side``.
+
+    It unpacks and compares as the triple; ``side`` (``"lower"`` or ``"upper"``)
+    says which of the parameter's bounds it is.
+    """
+
+    side: str
+
+    def __new__(cls, name: str, value: float, bound: float, side: str) -> BoundHit:
+        hit = super().__new__(cls, (name, float(value), float(bound)))
+        hit.side = side
+        return hit
+
+    def __getnewargs__(self) -> tuple[str, float, float, str]:  # type: ignore[override]
+        return (self.name, self.value, self.bound, self.side)
+
+    @property
+    def name(self) -> str:
+        return self[0]
+
+    @property
+    def value(self) -> float:
+        return self[1]
+
+    @property
+    def bound(self) -> float:
+        return self[2]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "value": self.value, "bound": self.bound, "side": self.side}
+
+    def __repr__(self) -> str:
+        return f"BoundHit({self.name!r}, {self.value!r}, {self.bound!r}, {self.side!r})"
+
+    def __str__(self) -> str:
+        return f"{self.name} = {self.value:.6g} on its {self.side} bound {self.bound:.6g}"
+
+
+def on_bound(params: Parameters, names: Iterable[str] | None = None, rtol: float = 1e-6) -> list[BoundHit]:
+    """The parameters of ``names`` (default: the free ones) whose value is on a finite bound: within
+    ``rtol`` of it, relative (a bound at 0: within ``rtol * 1e-3`` of the bounded range).
+
+    >>> on_bound(Parameters([Parameter("a", 0.0, 0.0, 1.0), Parameter("b", 2.0, 0.0, 2.0)]))
+    [BoundHit('a', 0.0, 0.0, 'lower'), BoundHit('b', 2.0, 2.0, 'upper')]
+    """
+    out = []
+    for n in params.free() if names is None else names:
+        p = params[n]
+        span = p.max - p.min
+        for side, b in (("lower", p.min), ("upper", p.max)):
+            if not math.isfinite(b):
+                continue
+            tol = rtol * abs(b) if b != 0 else rtol * 1e-3 * (span if math.isfinite(span) else 1.0)
+            if abs(p.value - b) <= tol:
+                out.append(BoundHit(n, float(p.value), float(b), side))
+                break
+    return out

@@ -20,6 +20,17 @@ Input variables (arrays, broadcast against each other):
 Torques (the terms' values) are normalized to the maximum manipulation
 torque at low speed (dimensionless).
 
+Each parameter has a *dimension* (:class:`Dimension`): what its magnitude is made
+of, as exponents of the data's torque, speed, load torque, temperature and wear
+scales. A fit in any units takes its start values and bounds from it
+(:mod:`jointwear_ros.model.scaling`). The unit a parameter is written in implies
+it (:data:`UNIT_DIMENSIONS`: ``s/rad`` is torque per speed); a term declares the
+dimension of a parameter whose unit does not say it (:attr:`Term.dimensions`:
+``Fctm``, written ``-``, is a torque per load torque).
+
+>>> LoadCoulomb().dimension("Fctm"), TempViscous().dimension("Fv0")
+(Dimension(torque=1, speed=0, load=-1, temperature=0, wear=0), Dimension(torque=1, speed=-1, load=0, temperature=0, wear=0))
+
 The wear Stribeck term of Eq. (7) at 47 rad/s and w = 35 (Eq. 8 values):
 
 >>> t = term_by_name("wear_stribeck")
@@ -33,7 +44,7 @@ The wear Stribeck term of Eq. (7) at 47 rad/s and w = 35 (Eq. 8 values):
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -47,7 +58,9 @@ if TYPE_CHECKING:
 __all__ = [
     "STRIBECK_EXPONENT",
     "TERMS",
+    "UNIT_DIMENSIONS",
     "Coulomb",
+    "Dimension",
     "LoadCoulomb",
     "LoadStribeck",
     "Stribeck",
@@ -57,6 +70,7 @@ __all__ = [
     "Viscous",
     "WearStribeck",
     "WearViscous",
+    "param_dimension",
     "stribeck_shape",
 ]
 
@@ -66,6 +80,44 @@ Values = Mapping[str, float]
 
 #: The Stribeck shape exponent the paper fixes for every exponential term.
 STRIBECK_EXPONENT = 1.3
+
+
+class Dimension(NamedTuple):
+    """What a parameter's magnitude is made of: exponents of the data's scales.
+
+    ``torque`` (the friction's unit), ``speed``, ``load`` (the load torque's),
+    ``temperature`` (degrees C) and ``wear`` (0-100). A viscous coefficient is
+    ``Dimension(torque=1, speed=-1)``; a pure number is all zeros.
+    """
+
+    torque: int = 0
+    speed: int = 0
+    load: int = 0
+    temperature: int = 0
+    wear: int = 0
+
+
+#: The dimension a parameter's unit implies. The paper's torques are normalized, so ``-`` is a
+#: torque; ``w`` is wear; ``x``, ``y`` are a candidate term's columns, of unknown unit (pure numbers
+#: here). A unit not listed does not scale.
+UNIT_DIMENSIONS: dict[str, Dimension] = {
+    "-": Dimension(torque=1),
+    "1/degC": Dimension(torque=1, temperature=-1),
+    "1/w": Dimension(torque=1, wear=-1),
+    "-/x": Dimension(torque=1),
+    "-/(x*y)": Dimension(torque=1),
+    "rad/s": Dimension(speed=1),
+    "rad/s/degC": Dimension(speed=1, temperature=-1),
+    "rad/s/w": Dimension(speed=1, wear=-1),
+    "s/rad": Dimension(torque=1, speed=-1),
+    "s/rad/w": Dimension(torque=1, speed=-1, wear=-1),
+    "s/rad/x": Dimension(torque=1, speed=-1),
+    "degC": Dimension(temperature=1),
+}
+
+
+def _unit_dimension(unit: str) -> Dimension:
+    return UNIT_DIMENSIONS.get(unit.strip(), Dimension())
 
 
 def stribeck_shape(v: Array, vs: Array | float, alpha: float = STRIBECK_EXPONENT) -> tuple[Array, Array]:
@@ -101,6 +153,14 @@ class Term:
     params: ClassVar[tuple[ParamSpec, ...]] = ()
     equation: ClassVar[str] = ""
     paper_ref: ClassVar[str] = ""
+    #: Dimensions of the parameters whose unit does not imply it (see :data:`UNIT_DIMENSIONS`).
+    dimensions: ClassVar[Mapping[str, Dimension]] = {}
+
+    def dimension(self, name: str) -> Dimension:
+        """The dimension of parameter ``name``: declared in :attr:`dimensions`, else implied by its unit."""
+        if name in self.dimensions:
+            return self.dimensions[name]
+        return _unit_dimension(next((p.unit for p in self.params if p.name == name), ""))
 
     # -- composition ---------------------------------------------------------
     def __add__(self, other: Term | Model) -> Model:
@@ -207,6 +267,7 @@ class LoadCoulomb(Term):
     name = "load_coulomb"
     variables = ("load_torque",)
     params = (ParamSpec("Fctm", "-", 0.06, 0.0, 10.0, "Coulomb friction per unit load torque"),)
+    dimensions: ClassVar[Mapping[str, Dimension]] = {"Fctm": Dimension(torque=1, load=-1)}
     equation = "Fctm*|tau_m|"
     paper_ref = "Eq. (6a)"
 
@@ -237,6 +298,7 @@ class LoadStribeck(Term):
         ParamSpec("Fstm", "-", 0.08, 0.0, 10.0, "Stribeck amplitude per unit load torque"),
         ParamSpec("vstm", "rad/s", 12.0, 0.1, 500.0, "Stribeck speed of the load term"),
     )
+    dimensions: ClassVar[Mapping[str, Dimension]] = {"Fstm": Dimension(torque=1, load=-1)}
     equation = "Fstm*|tau_m|*exp(-|v/vstm|^1.3)"
     paper_ref = "Eq. (6a)"
 
@@ -495,6 +557,18 @@ TERMS: dict[str, type[Term]] = {
         Viscous,
     )
 }
+
+
+def param_dimension(name: str, unit: str = "") -> Dimension:
+    """The dimension of a parameter by name: a built-in term's (as the term declares it), else its unit's.
+
+    >>> param_dimension("Fstm"), param_dimension("a", "s/rad").speed, param_dimension("b", "1/x")
+    (Dimension(torque=1, speed=0, load=-1, temperature=0, wear=0), -1, Dimension(torque=0, speed=0, load=0, temperature=0, wear=0))
+    """
+    for cls in TERMS.values():
+        if name in cls().param_names:
+            return cls().dimension(name)
+    return _unit_dimension(unit)
 
 
 def term_by_name(name: str) -> Term:

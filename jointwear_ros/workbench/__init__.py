@@ -5,6 +5,7 @@ Pure numpy/scipy (plus matplotlib for plots in :mod:`.report`); no ROS import.
 
 from __future__ import annotations
 
+from ..model.scaling import BoundHit, DataScales, on_bound, scale_parameters
 from .candidates import (
     ENTRY_POINT_GROUP,
     SHAPES,
@@ -18,7 +19,6 @@ from .compare import SPEED_BAND_EDGES, BandError, NoiseFloor, band_rmse, noise_f
 from .dependence import VariableDependence, residual_dependence
 from .diagnose import VERDICTS, CandidateResult, Diagnosis, diagnose
 from .fit import FitResult, fit_model, group_folds
-from .scales import BoundHit, DataScales, bound_hits, scale_parameters
 from .shapes import HarmonicRipple, Scale, Spline, Step
 
 __all__ = [
@@ -40,7 +40,6 @@ __all__ = [
     "Step",
     "VariableDependence",
     "band_rmse",
-    "bound_hits",
     "candidate_library",
     "candidate_variables",
     "diagnose",
@@ -48,6 +47,7 @@ __all__ = [
     "group_folds",
     "noise_floor",
     "noise_test",
+    "on_bound",
     "parse_spec",
     "residual_dependence",
     "residual_structure",

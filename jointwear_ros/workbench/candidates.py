@@ -46,6 +46,7 @@ import numpy.typing as npt
 
 from ..errors import ModelError
 from ..model import MODEL_SPECS, STRIBECK_EXPONENT, TERMS, Model, ParamSpec, Term, parse_model_spec, stribeck_shape
+from ..model.scaling import DataScales, scale_grid
 from ..types import ObservationTable
 
 __all__ = [
@@ -341,19 +342,17 @@ def start_grid(term: Term, x: Inputs) -> list[dict[str, float]]:
 
     The grids are written for the paper's joint (motor side, up to ~280 rad/s);
     a speed-like parameter (``rad/s``) is scaled by the data's speed scale
-    (:class:`~jointwear_ros.workbench.scales.DataScales`), so joint-side data
+    (:class:`~jointwear_ros.model.scaling.DataScales`), so joint-side data
     at a few rad/s get Stribeck speeds inside their own range.
     """
-    from .scales import DataScales, scale_grid
-
     if isinstance(term, CandidateTerm):
         grid = term.grid(x)
     elif term.name in PAPER_CANDIDATES and type(term) is TERMS.get(term.name):
         grid = [dict(g) for g in PAPER_CANDIDATES[term.name][1]]
     else:
         return [{}]
-    sc = DataScales.from_arrays(speed=x.get("speed"))
-    return grid if sc.speed == 1.0 else scale_grid(term.params, grid, sc)
+    sc = DataScales.of(speed=x.get("speed"))
+    return grid if sc.speed == 1.0 else scale_grid(term, grid, sc)
 
 
 def describe_term(term: Term) -> str:

@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import stats
 
+from ..model.scaling import DataScales
 from ..types import ObservationTable
 
 __all__ = [
@@ -66,9 +67,7 @@ def speed_band_edges(speed: Array) -> tuple[float, ...]:
     >>> speed_band_edges(np.array([0.01, 1.3]))[:3]
     (0.0, 0.1, 0.3)
     """
-    from .scales import DataScales
-
-    f = DataScales.from_arrays(speed=speed).speed
+    f = DataScales.of(speed=speed).speed
     return SPEED_BAND_EDGES if f == 1.0 else tuple(e * f for e in SPEED_BAND_EDGES)
 
 
@@ -76,7 +75,7 @@ def band_rmse(speed: Array, residuals: Array, edges: Sequence[float] | None = No
     """RMSE per speed band (bands without observations are left out).
 
     ``edges`` default: :data:`SPEED_BAND_EDGES` (motor side rad/s) scaled by
-    the data's speed scale (:class:`~jointwear_ros.workbench.scales.DataScales`),
+    the data's speed scale (:class:`~jointwear_ros.model.scaling.DataScales`),
     so joint-side speeds of a few rad/s get bands of their own.
     """
     if edges is None:

@@ -8,7 +8,7 @@ cycle), AIC/BIC, parameter values with standard errors and correlations.
 
 Units: the terms' own start values and bounds are written for the paper's
 joint (motor side, normalized torque); they are first scaled to the data's
-speed and torque scales (:mod:`jointwear_ros.workbench.scales`), so a joint
+speed and torque scales (:mod:`jointwear_ros.model.scaling`), so a joint
 recorded in N·m at a few rad/s is fitted in its own numbers. A parameter that
 ends on a bound made by that scaling has the bound widened tenfold and the
 fit resumed (twice at most); a parameter still on a bound is named in
@@ -49,8 +49,8 @@ from scipy.optimize import least_squares
 
 from ..errors import InputDataError
 from ..model import Model, Parameters
+from ..model.scaling import BoundHit, DataScales, on_bound, scale_parameters
 from ..types import ObservationTable
-from .scales import BoundHit, DataScales, bound_hits, scale_parameters
 
 __all__ = ["FitResult", "fit_model", "group_folds", "information_criteria", "model_inputs"]
 
@@ -436,7 +436,7 @@ def fit_model(
     for i, nm in enumerate(prob.free):
         out_params[nm].value = float(theta[i])
         out_params[nm].stderr = float(std[i])
-    hits = bound_hits(out_params, prob.free) if n else []
+    hits = on_bound(out_params, prob.free) if n else []
     if hits:
         success = False
         message = f"{message}; ended on a bound: {'; '.join(str(h) for h in hits)}"
@@ -469,7 +469,7 @@ def _widen_bounds(
         trial = params.copy()
         for i, nm in enumerate(prob.free):
             trial[nm].value = float(best.x[i])
-        hits = [h for h in bound_hits(trial, prob.free) if h.name in auto and h.bound != 0.0]
+        hits = [h for h in on_bound(trial, prob.free) if h.name in auto and h.bound != 0.0]
         if not hits:
             break
         for h in hits:

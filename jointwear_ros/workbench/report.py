@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from ..model.scaling import DataScales
 from ..plots import new_figure, save_figure
 from ..types import ObservationTable
 from .compare import band_rmse, noise_floor, noise_test, residual_structure
@@ -42,8 +43,6 @@ _SKIP = ("tau_f", "tau_f_std", "tau_plus", "tau_minus")
 
 def _units(table: ObservationTable) -> tuple[str, str]:
     """Axis units: (torque unit, speed axis label). The paper's (normalized, motor side) only for data at its scale."""
-    from .scales import DataScales
-
     s = DataScales.from_table(table)
     if s.identity:
         return "normalized", "speed v, motor side [rad/s]"
