@@ -260,8 +260,12 @@ def test_history_import_reestimates_observation_tables_with_a_set(tmp_path, caps
     write_csv(test, tmp_path / "w30.csv")
     db = tmp_path / "h.sqlite"
     capsys.readouterr()
+    # the synthetic table counts its time from 0: the history needs to know when that was
     assert main(["history", "import", str(tmp_path / "w30.csv"), "--db", str(db), "--reestimate",
-                 "--params", str(out), "--json"]) == 0
+                 "--params", str(out), "--json"]) == 2
+    assert "--time-origin" in capsys.readouterr().err and not db.exists()
+    assert main(["history", "import", str(tmp_path / "w30.csv"), "--db", str(db), "--reestimate",
+                 "--params", str(out), "--time-origin", "2026-01-05T06:00:00Z", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["added"] == 3 and doc["analysis_versions"][0].startswith("joint:j1:")
 

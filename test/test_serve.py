@@ -22,7 +22,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from jointwear_ros.history import EstimateRecord, HistoryStore
+from jointwear_ros.history import SCHEMA_VERSION, EstimateRecord, HistoryStore
 from jointwear_ros.serve.core import LEVEL_NAMES, STALE, plant_level, rank_views
 from jointwear_ros.trend import DAY, ERROR, OK, WARN
 
@@ -270,7 +270,7 @@ def test_serve_never_writes_and_survives_the_store_going_away_and_coming_back(tm
 
 def test_a_store_being_migrated_is_reported_then_served_once_migrated(tmp_path):
     db = tmp_path / "old.db"
-    with HistoryStore(str(db), migrate_to=1) as s:  # schema version 1 of 2: a migration is pending
+    with HistoryStore(str(db), migrate_to=1) as s:  # schema version 1: a migration is pending
         s.add_estimates([EstimateRecord("r", "j", 1, time.time() - 3600, 10.0, 0.8)])
     proc, base = start_serve(str(db), "--refresh", "0.3")
     try:
@@ -278,7 +278,7 @@ def test_a_store_being_migrated_is_reported_then_served_once_migrated(tmp_path):
         assert state["store_ok"] is False and "schema version 1" in state["error"] and state["joints"] == []
         assert "being created or migrated" in get(base + "/")[1]
         with HistoryStore(str(db)) as s:  # the owner migrates it
-            assert s.schema_version() == 2
+            assert s.schema_version() == SCHEMA_VERSION
         wait_for(lambda: api(base)["store_ok"], 10, "the migrated store to be read")
         assert [j["level"] for j in api(base)["joints"]] == ["OK"]
     finally:
@@ -293,7 +293,7 @@ def test_bad_db_and_a_port_in_use_are_one_line_and_exit_2(tmp_path, served, caps
     port = int(served.rsplit(":", 1)[1])
     for args, what in [(["--db", str(tmp_path / "none.db")], "no such history file"),
                        (["--db", str(junk)], "not a jointwear history store"),
-                       (["--db", "mysql://x@y/z"], "not a history store URL"),
+                       (["--db", "mysql://x@y/z"], "is not supported"),
                        (["--db", str(junk).replace("junk", "none"), "--port", "x"], "--port"),
                        (["--db", str(tmp_path / "none.db"), "--stale-days", "0"], "--stale-days")]:
         rc = main(["serve", *args])
@@ -383,4 +383,37 @@ def test_a_locked_store_is_reported_and_requests_stay_fast(tmp_path):
         assert len(api(base)["joints"]) == 30
     finally:
         locker.close()
+        stop(proc)
+
+
+def test_bad_rows_written_straight_into_the_store_never_hide_an_error_joint(tmp_path):
+    # a joint at ERROR, then rows another tool wrote straight into the database (past the importer's
+    # screening): wear 1e300, wear 0 with std 1e-300, ten years ahead, the year 2000. The page, the API and
+    # /metrics keep the joint at ERROR and count the refused rows.
+    import sqlite3
+
+    db = tmp_path / "plant.db"
+    now = time.time()
+    with HistoryStore(str(db)) as store:
+        assert store.add_estimates([EstimateRecord("cell_1", "joint_2", cycle_id=k + 1, time=now - (8 - k) * 86400.0,
+                                                   wear=37.0 + 0.2 * k, wear_std=0.8) for k in range(8)]) == 8
+    bad = [(100, now - 3600.0, 1e300, 0.8), (101, now - 1800.0, 0.0, 1e-300), (102, now + 10 * 365.25 * 86400, 5.0, 0.8),
+           (103, 946684800.0, 40.0, 0.8)]
+    with sqlite3.connect(db) as conn:
+        for cid, t, w, s in bad:
+            conn.execute("INSERT INTO estimates (robot, joint, hardware_id, cycle_id, time_ns, wear, wear_std, method, "
+                         "params, software_version, bag, analysis_version, source, inserted_ns) VALUES "
+                         "('cell_1', 'joint_2', '', ?, ?, ?, ?, '', '', '', '', 'live', 'live', ?)",
+                         (cid, int(t * 1e9), w, s, int(now * 1e9)))
+    proc, base = start_serve(str(db), "--refresh", "0.3")
+    try:
+        (row,) = [j for j in api(base)["joints"] if j["joint"] == "joint_2"]
+        assert row["level"] == "ERROR" and 37.0 < row["wear"] < 40.0, row
+        assert row["rows_refused"] == 4, row
+        m = metrics(base)
+        assert m["jointwear_joint_level"][("cell_1", "joint_2")] == 2.0
+        assert m["jointwear_joint_estimates_refused"][("cell_1", "joint_2")] == 4.0
+        _, page = get(base + "/")
+        assert '<tr data-robot="cell_1" data-joint="joint_2" data-level="ERROR">' in page
+    finally:
         stop(proc)

@@ -46,6 +46,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     i.add_argument("--params", default=None, help="with --reestimate: parameter set")
     i.add_argument("--analysis-version", default=None,
                    help="with --reestimate: version the estimates are stored under (default METHOD:PARAMS:VERSION)")
+    i.add_argument("--time-origin", default=None,
+                   help="observation tables whose time column counts from the start of the recording (not s since "
+                        "the epoch): when time 0 was, ISO 8601 or s since the epoch")
     i.add_argument("--json", action="store_true", help="print JSON")
     i.set_defaults(func=cmd_import)
 
@@ -87,6 +90,8 @@ def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], 
     from .. import __version__
     from ..commission import estimate_cycles
     from ..history.store import EstimateRecord
+    from ..history.importers import parse_time
+    from ..history.screen import ScreenConfig
     from ..io.observations import read_observations
     from ..model import load_parameter_set_info
 
@@ -95,12 +100,19 @@ def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], 
     version = args.analysis_version or f"{method}:{pset.name}:{__version__}"
     default_joint = str(pset.provenance.get("joint", "")) or "joint_1"
     tables = [(str(path), j or default_joint, t) for j, t in read_observations(path, default_joint).items()]
+    origin = 0.0 if args.time_origin is None else parse_time(args.time_origin, "--time-origin")
+    cycles = estimate_cycles(tables, pset, method)
     out = []
-    for c in estimate_cycles(tables, pset, method):
+    for c in cycles:
         if not math.isfinite(c.time):
             raise UsageError(f"{path}: an observation table needs a 'time' column (s since the epoch) for the history")
+    first = min((c.time for c in cycles), default=math.nan)
+    if args.time_origin is None and first < ScreenConfig().min_time:
+        raise UsageError(f"{path}: its time column starts at {first:.0f} s, not a time since the epoch (before "
+                         "2010): give --time-origin, when its time 0 was (ISO 8601, e.g. 2026-03-01T06:00:00Z)")
+    for c in cycles:
         out.append(EstimateRecord(
-            robot=args.robot, joint=c.joint, cycle_id=c.cycle, time=c.time, wear=float(c.result.wear),
+            robot=args.robot, joint=c.joint, cycle_id=c.cycle, time=c.time + origin, wear=float(c.result.wear),
             wear_std=float(c.result.wear_std), hardware_id=f"{args.robot}/{c.joint}",
             temperature=float(c.result.temperature), method=c.result.method, params=pset.name,
             software_version=__version__, bag=path.name, analysis_version=version, source="table",
@@ -115,8 +127,8 @@ def cmd_import(args: argparse.Namespace) -> int:
     from ..io.bags import discover_bags
     from .common import check_method, node_params
 
-    if not args.reestimate and (args.method or args.params or args.analysis_version):
-        raise UsageError("--method, --params and --analysis-version need --reestimate")
+    if not args.reestimate and (args.method or args.params or args.analysis_version or args.time_origin):
+        raise UsageError("--method, --params, --analysis-version and --time-origin need --reestimate")
     # every input is checked before any work: the method, the parameter set, every path
     check_method(args.method, "--method")
     if args.params:

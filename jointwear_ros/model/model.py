@@ -109,8 +109,12 @@ class Model:
         """Parameters for this model: each term's defaults, overridden by ``values``.
 
         ``values`` may hold more names than the model needs (a whole parameter
-        set); extra names are ignored.
+        set); extra names are ignored. A :class:`~jointwear_ros.model.paramsets.ParameterSet`
+        (what ``make_estimator`` hands an estimator) gives its values.
         """
+        if values is not None and not isinstance(values, Mapping) and isinstance(getattr(values, "values", None),
+                                                                                 Mapping):
+            values = values.values  # type: ignore[union-attr]  # a ParameterSet
         src: Mapping[str, Any] = values if values is not None else {}
         out = Parameters()
         for t in self.terms:

@@ -88,6 +88,9 @@ class JointView:
     estimates_total: int
     message: str
     refused: str = ""  # why the trend refused this joint's history ("" when it did not)
+    #: stored estimates of the joint the history's screening refused (impossible values, bad times): never
+    #: part of the trend, so one bad row cannot hide an alarm; counted so that someone looks
+    rows_refused: int = 0
 
     @property
     def level_name(self) -> str:
@@ -106,6 +109,7 @@ class JointView:
             "trend_level": LEVEL_NAMES[self.trend_level], "age_days": num(self.age_days),
             "rate_per_day": num(self.rate_per_day), "estimates": self.estimates,
             "estimates_total": self.estimates_total, "message": self.message, "refused": self.refused or None,
+            "rows_refused": self.rows_refused,
         }
 
 

@@ -38,6 +38,7 @@ from sqlalchemy.pool import NullPool
 from ..errors import JointwearError
 from ..history import LIVE, SCHEMA_VERSION, EstimateRecord, HistoryError, HistoryStore, normalize_url
 from ..history.store import estimates_t, maintenance_t
+from ..history.trends import screened_history
 from ..trend import TrendConfig, TrendResult
 from .core import JointHistory, JointView, analyze_plant, joint_view, refused_view
 
@@ -70,6 +71,7 @@ def open_readonly(url: str, *, timeout_s: float = 5.0) -> HistoryStore:
     # the store's queries over our read-only engine (HistoryStore.__init__ would open it for writing)
     store = HistoryStore.__new__(HistoryStore)
     store.url, store.engine, store.dialect = u, engine, engine.dialect.name
+    store.read_only, store._display = True, u
     return store
 
 
@@ -94,6 +96,7 @@ class JointData:
     maintenance_times: list[float]
     newest_time: float
     refused: str = ""  # why the trend refused the history
+    rows_refused: int = 0  # stored rows the screening refused
 
 
 @dataclass(frozen=True)
@@ -188,12 +191,20 @@ class StoreWatcher:
     def _load(self, now: float, keys: set[tuple[str, str]], full: bool) -> dict[tuple[str, str], JointData]:
         """Read and analyse the joints ``keys`` (one query for all of the store when ``full``)."""
         assert self._store is not None
+        # screened as the trend command and the wear_trend node screen it: a stored row with an impossible
+        # wear or std, or a time far in the future or the past, never reaches the trend (it would hide an alarm)
+        refused: list[dict[str, Any]] = []
         if full:
-            hist = self._store.history(self.analysis_version)
+            hist, refused = screened_history(self._store, self.analysis_version, now=now)
         else:
             hist = {}
             for rb, jt in sorted(keys):
-                hist.update(self._store.history(self.analysis_version, robot=rb, joint=jt))
+                h, f = screened_history(self._store, self.analysis_version, robot=rb, joint=jt, now=now)
+                hist.update(h)
+                refused += f
+        n_refused: dict[tuple[str, str], int] = {}
+        for f in refused:
+            n_refused[(str(f["robot"]), str(f["joint"]))] = n_refused.get((str(f["robot"]), str(f["joint"])), 0) + 1
         items = []
         for (rb, jt), (recs, events) in sorted(hist.items()):
             if (rb, jt) not in keys:
@@ -205,16 +216,18 @@ class StoreWatcher:
         for h, (view, r) in zip(items, analyze_plant(items, self.cfg, now, self.stale_days, smooth=False)):
             recs, events = hist[(h.robot, h.joint)]
             out[(h.robot, h.joint)] = JointData(r, recs, [e.time for e in events],
-                                                max((x.time for x in recs), default=math.nan), view.refused)
+                                                max((x.time for x in recs), default=math.nan), view.refused,
+                                                n_refused.get((h.robot, h.joint), 0))
         return out
 
     def _views(self, joints: dict[tuple[str, str], JointData], now: float) -> tuple[JointView, ...]:
         views = []
         for (rb, jt), d in sorted(joints.items()):
             if d.result is None:
-                views.append(refused_view(rb, jt, d.refused, d.newest_time, now, len(d.records)))
+                v = refused_view(rb, jt, d.refused, d.newest_time, now, len(d.records))
             else:
-                views.append(joint_view(d.result, d.newest_time, now, self.stale_days))
+                v = joint_view(d.result, d.newest_time, now, self.stale_days)
+            views.append(replace(v, rows_refused=d.rows_refused))
         return tuple(views)
 
     def _publish(self, snap: Snapshot) -> None:

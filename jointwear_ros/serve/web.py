@@ -78,15 +78,16 @@ class _PlantCollector:
                                       "Time stamp of the joint's newest estimate", labels=lab),
             "n": GaugeMetricFamily("jointwear_joint_estimates", "Estimates in the joint's current segment",
                                    labels=lab),
-            "refused": GaugeMetricFamily("jointwear_joint_estimates_refused", "Estimates of the joint the trend "
-                                         "refused (the whole history when it cannot be used)", labels=lab),
+            "refused": GaugeMetricFamily("jointwear_joint_estimates_refused", "Estimates of the joint refused: by the "
+                                         "history's screening (impossible values, bad times), or the whole history "
+                                         "when the trend cannot use it", labels=lab),
         }
         now = self.watcher.clock()
         if snap.store_ok:
             for v in snap.views:
                 k = [v.robot, v.joint]
                 fams["level"].add_metric(k, float(v.level))
-                fams["refused"].add_metric(k, float(v.estimates_total if v.refused else 0))
+                fams["refused"].add_metric(k, float(v.rows_refused + (v.estimates_total if v.refused else 0)))
                 if math.isfinite(v.time):
                     fams["age"].add_metric(k, max(0.0, now - v.time))
                     fams["last"].add_metric(k, v.time)
