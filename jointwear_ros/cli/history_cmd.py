@@ -89,9 +89,9 @@ def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], 
     """Observation tables (as ``jointwear estimate`` takes them) estimated with --params / --method."""
     from .. import __version__
     from ..commission import estimate_cycles
-    from ..history.store import EstimateRecord
     from ..history.importers import parse_time
     from ..history.screen import ScreenConfig
+    from ..history.store import EstimateRecord
     from ..io.observations import read_observations
     from ..model import load_parameter_set_info
 
