@@ -108,7 +108,7 @@ def test_one_update_late_by_the_reaction_time_anywhere_in_the_braking_stays_insi
     # cycle plans (accel_limit = acceleration): what the planner's stopping allowance is for
     speed = 160.0
     centre = outermost_centre(CFG, speed)
-    runner, plan, low, high = run_cycle(CFG, speed, centre, stall=CFG.reaction_time, stall_at=stall_at,
+    runner, plan, _low, high = run_cycle(CFG, speed, centre, stall=CFG.reaction_time, stall_at=stall_at,
                                         temperature=temperature, accel_limit=CFG.acceleration)
     assert runner.state == CycleState.DONE, runner.message
     assert high <= CFG.joint_limits[1], (high, plan.extent)
