@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -177,3 +178,19 @@ def test_schedule_bad_arguments_are_one_line_errors(capsys, tmp_path, args, matc
     rc, out = schedule(capsys, tmp_path, *args)
     assert rc == 2 and out.out == ""
     assert match in out.err and len(out.err.strip().splitlines()) == 1, out.err
+
+
+@pytest.mark.parametrize(("extra", "match"), [
+    # the yaml's stopping allowance is the node's: a reaction time joint_3's ±1.2 rad cannot take at 160 rad/s
+    ("    reaction_time: 0.3\n    joint_limits: [-1.2, 1.2]\n", r"speed #8 = 160 rad/s .* stopping allowance 0\.528 rad"),
+    # the control period is the node's 1 / command_rate
+    ("    command_rate: 2.0\n    joint_limits: [-1.2, 1.2]\n", r"speed #7 = 120 rad/s .* stopping allowance 0\.744 rad .*= 0\.62 s\)"),
+    ("    command_rate: 0.0\n", "command_rate = 0.0 must be a rate in Hz > 0"),
+])
+def test_schedule_plans_with_the_nodes_stopping_allowance(capsys, tmp_path, extra, match):
+    f = tmp_path / "test_cycle.yaml"
+    f.write_text("test_cycle:\n  ros__parameters:\n    joints: [joint_1]\n" + extra)
+    rc = main(["cycle", "schedule", "--params-file", str(f)])
+    out = capsys.readouterr()
+    assert rc == 2 and out.out == "" and len(out.err.strip().splitlines()) == 1, out.err
+    assert re.search(match, out.err), out.err

@@ -156,9 +156,9 @@ def cmd_design(args: argparse.Namespace) -> int:
 
 
 #: CycleConfig fields a test_cycle parameter file sets (node level, or nested under a joint's name).
-_PLAN_FIELDS = ("gear_ratio", "speeds", "window_half_width", "position", "joint_limits", "limit_margin", "max_speed",
-                "min_speed", "max_speeds", "max_duration", "acceleration", "approach_speed", "steady_time",
-                "settle_time")
+_PLAN_FIELDS = ("gear_ratio", "speeds", "window_half_width", "position", "joint_limits", "limit_margin",
+                "reaction_time", "velocity_lag", "max_speed", "min_speed", "max_speeds", "max_duration", "acceleration",
+                "approach_speed", "steady_time", "settle_time")
 
 
 def _joint_cycle_config(params: dict[str, Any], joint: str, where: str) -> CycleConfig:
@@ -181,6 +181,12 @@ def _joint_cycle_config(params: dict[str, Any], joint: str, where: str) -> Cycle
         except (TypeError, ValueError):
             raise UsageError(f"{where}: {joint}.{name} = {value!r} is not valid for {name}") from None
         values[name] = value
+    rate = params.get("command_rate")
+    if rate is not None:  # the node's control period, part of each speed's stopping allowance
+        try:
+            values["control_period"] = 1.0 / float(rate)
+        except (TypeError, ValueError, ZeroDivisionError):
+            raise UsageError(f"{where}: command_rate = {rate!r} must be a rate in Hz > 0") from None
     return CycleConfig(joint_name=joint, **values)
 
 

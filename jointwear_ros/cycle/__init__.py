@@ -19,6 +19,7 @@ from .plan import (
     move_duration,
     plan_cycle,
     run_up,
+    stop_allowance,
 )
 from .robot import JointResult, RobotCycleRunner, RobotPlan, RobotStatusView, plan_robot_cycle
 from .runner import CycleRunner, CycleState, CycleStatusView, JointReading, Phase
@@ -42,4 +43,5 @@ __all__ = [
     "plan_cycle",
     "plan_robot_cycle",
     "run_up",
+    "stop_allowance",
 ]

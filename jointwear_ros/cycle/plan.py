@@ -11,6 +11,25 @@ where ``c`` is the window centre, ``h`` its half width and the **run-up**
 and then hold the speed for ``steady_time`` before the window, so the speed is
 constant (the velocity loop settled) everywhere inside ``[c - h, c + h]``; the
 same distance after the window is where the joint brakes.
+
+**Stopping allowance.** A velocity command holds until the next control update,
+so a joint stops past its target by what it travels while the update is late
+and while its velocity loop follows the braking command. Every planned
+position of a speed (its sweep start ``A`` and end ``B``, reached by the sweeps
+at ``w`` and ``A`` also by the approach) therefore stays
+``limit_margin + s(w)`` inside the joint limits, with the allowance
+
+``s(w) = max(w, approach_speed) * (control_period + reaction_time + velocity_lag)``
+
+where ``control_period`` is the time between control updates (the node's
+``1 / command_rate``), ``reaction_time`` the lateness of one update the plan
+allows for (a starved process, a late joint state; in the node's clock, so sim
+time when the simulator runs faster than real time) and ``velocity_lag`` how
+long the joint's velocity loop keeps the old speed after the command changes.
+A speed whose positions do not fit is refused before anything moves, with the
+allowance in the reason. The runner, in addition, brakes early by its own
+measured update interval (:mod:`jointwear_ros.cycle.runner`), so a steadily
+slow loop stops at the target and the allowance is left for a sudden stall.
 """
 
 from __future__ import annotations
@@ -31,6 +50,7 @@ __all__ = [
     "move_duration",
     "plan_cycle",
     "run_up",
+    "stop_allowance",
 ]
 
 #: Default cycle speeds, motor side, rad/s (the project's shared defaults).
@@ -63,7 +83,20 @@ class CycleConfig:
         Observation window half width and default centre, joint side, rad.
     joint_limits
         Allowed joint positions, rad; every planned position must stay
-        ``limit_margin`` inside.
+        ``limit_margin`` plus the stopping allowance of its speed inside
+        (:func:`stop_allowance`).
+    limit_margin
+        Fixed distance every planned position stays inside the limits, rad.
+    control_period
+        Time between two control updates of the runner, s (the node's
+        ``1 / command_rate``).
+    reaction_time
+        Lateness of one control update beyond ``control_period`` that the
+        plan allows for, s (node clock): while an update is late the joint
+        keeps its commanded speed.
+    velocity_lag
+        Time the joint's velocity loop takes to follow a braking command, s
+        (the joint keeps travelling at about its old speed that long).
     max_speed
         Largest allowed speed, motor side, rad/s.
     acceleration
@@ -109,6 +142,9 @@ class CycleConfig:
     steady_time: float = 0.3
     settle_time: float = 0.3
     limit_margin: float = 0.02
+    control_period: float = 0.01
+    reaction_time: float = 0.1
+    velocity_lag: float = 0.02
     state_timeout: float = 0.25
     speed_tolerance: float = 0.05
     effort_limit: float = 150.0
@@ -124,13 +160,13 @@ class CycleConfig:
         positive = (
             "gear_ratio", "window_half_width", "max_speed", "acceleration", "approach_speed",
             "state_timeout", "speed_tolerance", "effort_limit", "position_tolerance", "approach_tolerance",
-            "move_timeout_factor", "min_speed", "max_duration",
+            "move_timeout_factor", "min_speed", "max_duration", "control_period",
         )
         for name in positive:
             val = getattr(self, name)
             if not (math.isfinite(val) and val > 0):
                 raise CycleRequestError(f"test cycle setting {name} must be finite and > 0, got {val}")
-        for name in ("steady_time", "settle_time", "limit_margin"):
+        for name in ("steady_time", "settle_time", "limit_margin", "reaction_time", "velocity_lag"):
             val = getattr(self, name)
             if not (math.isfinite(val) and val >= 0):
                 raise CycleRequestError(f"test cycle setting {name} must be finite and >= 0, got {val}")
@@ -151,6 +187,18 @@ def run_up(velocity: float, config: CycleConfig) -> float:
     """Distance (rad) to reach ``velocity`` (joint rad/s) and hold it ``steady_time`` before the window."""
     w = abs(velocity)
     return w * w / (2.0 * config.acceleration) + w * config.steady_time
+
+
+def stop_allowance(velocity: float, config: CycleConfig) -> float:
+    """Distance (rad) a joint may travel past a target reached at ``velocity`` (joint rad/s) before it stops.
+
+    ``max(|velocity|, approach_speed) * (control_period + reaction_time + velocity_lag)``: the travel
+    while one control update is late by up to ``reaction_time`` and while the velocity loop follows
+    the braking command (the approach speed too: the sweep start is also the approach target).
+    See the module docstring.
+    """
+    w = max(abs(velocity), config.approach_speed)
+    return w * (config.control_period + config.reaction_time + config.velocity_lag)
 
 
 def move_duration(distance: float, cruise: float, accel: float) -> float:
@@ -275,11 +323,14 @@ def plan_cycle(
     for i, v in enumerate(sp):
         w = v / config.gear_ratio
         r = run_up(w, config)
+        s = stop_allowance(w, config)
         start, end = c - h - r, c + h + r
-        if start < lo + m or end > hi - m:
+        if start < lo + m + s or end > hi - m - s:
             raise CycleRequestError(
                 f"speed #{i + 1} = {v:g} rad/s needs positions [{start:.3f}, {end:.3f}] rad (window {c:g} ± {h:g} "
-                f"plus run-up {r:.3f} rad), beyond the joint limits [{lo:g}, {hi:g}] rad (margin {m:g}); "
+                f"plus run-up {r:.3f} rad), beyond the joint limits [{lo:g}, {hi:g}] rad less margin {m:g} and "
+                f"stopping allowance {s:.3f} rad (travel in control_period + reaction_time + velocity_lag = "
+                f"{config.control_period + config.reaction_time + config.velocity_lag:g} s); "
                 "use a lower speed or a position nearer the middle",
                 RefusalReason.OUTSIDE_LIMITS,
             )

@@ -4,9 +4,20 @@
 and the latest joint reading (both in one clock: the node's, which may be sim
 time). It returns the velocity command to send (joint rad/s) and keeps the
 state and phase that the status topic reports. Moves are position-feedback
-trapezoids: ``w_cmd = min(cruise, a * t_move, sqrt(2 a * remaining))`` (never
+trapezoids: ``w_cmd = min(cruise, a * t_move, brake(remaining))`` (never
 below a small creep speed until the target is reached), so braking points
 follow the measured position and the joint stops at each target.
+
+The command holds until the next update, so braking must start one update
+interval ``T`` early: ``brake(rem) = sqrt((a T)^2 + 2 a rem) - a T``, the speed
+from which the joint, travelling ``T`` at it and then braking at ``a``, stops
+at the target. ``T`` is the runner's own measured update interval (the longest
+of the last ``LEAD_UPDATES`` intervals in its clock), at least
+``control_period`` and at most ``control_period + reaction_time`` and
+``steady_time`` (the braking never reaches back into the window). With ``T = 0``
+this is the plain ``sqrt(2 a rem)``, which overshoots by the travel of every
+late update. A single update later than the recent ones is what the planner's
+stopping allowance is for (:func:`jointwear_ros.cycle.plan.stop_allowance`).
 
 Watchdog (any trip: command 0, state FAILED, the reason in ``message``):
 
@@ -26,6 +37,7 @@ Watchdog (any trip: command 0, state FAILED, the reason in ``message``):
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 from ..contract import CyclePhase, CycleState
@@ -85,6 +97,8 @@ class CycleRunner:
     CREEP = 0.05
     #: Approach moves tried before the cycle fails for not reaching a sweep start.
     MAX_APPROACHES = 4
+    #: Update intervals remembered for the braking lead (the longest of them is used).
+    LEAD_UPDATES = 50
 
     def __init__(self, config: CycleConfig | None = None) -> None:
         self.config = config if config is not None else CycleConfig()
@@ -101,6 +115,8 @@ class CycleRunner:
         self._move: _Move | None = None
         self._settle_until = 0.0
         self._started = False
+        self._last_update: float | None = None
+        self._intervals: deque[float] = deque(maxlen=self.LEAD_UPDATES)
 
     # -- control -------------------------------------------------------------
     @property
@@ -123,6 +139,8 @@ class CycleRunner:
         self._move = None
         self._started = False
         self._t_start = now
+        self._last_update = None
+        self._intervals.clear()
 
     def abort(self, reason: str = "aborted by operator") -> bool:
         """Stop a running cycle (state ABORTED); False if none was running."""
@@ -167,6 +185,20 @@ class CycleRunner:
             message=self.message,
         )
 
+    @property
+    def lead(self) -> float:
+        """The braking lead ``T``, s: the measured update interval, clamped (see the module docstring)."""
+        cfg = self.config
+        measured = max(self._intervals, default=0.0)
+        return max(0.0, min(max(measured, cfg.control_period), cfg.control_period + cfg.reaction_time,
+                            cfg.steady_time))
+
+    def brake_speed(self, remaining: float) -> float:
+        """Largest speed (joint rad/s) from which the joint stops within ``remaining`` rad (see the module docstring)."""
+        a = self.config.acceleration
+        at = a * self.lead
+        return math.sqrt(at * at + 2.0 * a * max(remaining, 0.0)) - at
+
     # -- the machine ---------------------------------------------------------
     def update(self, now: float, reading: JointReading | None, wall_age: float | None = None) -> float:
         """Advance the machine; return the velocity command (joint rad/s; 0 unless running).
@@ -180,6 +212,9 @@ class CycleRunner:
         if not self.running or self.plan is None:
             self.command = 0.0
             return 0.0
+        if self._last_update is not None and now > self._last_update:
+            self._intervals.append(now - self._last_update)
+        self._last_update = now
         reason = self._watchdog(now, reading, wall_age)
         if reason is not None:
             self._finish(CycleState.FAILED, f"watchdog: {reason}")
@@ -279,7 +314,7 @@ class CycleRunner:
                         )
                         return 0.0
             a = cfg.acceleration
-            w = min(mv.cruise, a * (now - mv.t_start) + self.CREEP * mv.cruise, math.sqrt(2.0 * a * rem))
+            w = min(mv.cruise, a * (now - mv.t_start) + self.CREEP * mv.cruise, self.brake_speed(rem))
             w = max(w, self.CREEP * mv.cruise)
             return mv.direction * w
 

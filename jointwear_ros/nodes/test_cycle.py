@@ -102,6 +102,11 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("position", 0.0, "default window centre, joint rad", -100.0, 100.0),
     ParamDecl("joint_limits", [-1.5, 1.5], "allowed joint positions [low, high], rad"),
     ParamDecl("limit_margin", 0.02, "planned positions stay this far inside the limits, rad", 0.0, 10.0),
+    ParamDecl("reaction_time", 0.1, "lateness of one control update (s, node time) the plan allows for: each "
+              "speed's positions also keep the stopping allowance speed x (1/command_rate + reaction_time + "
+              "velocity_lag) inside the limits", 0.0, 10.0),
+    ParamDecl("velocity_lag", 0.02, "time the joint's velocity loop takes to follow a braking command, s (part of "
+              "the stopping allowance)", 0.0, 10.0),
     ParamDecl("max_speed", 280.0, "largest allowed speed, motor side, rad/s", 1e-3, 1e6),
     ParamDecl("min_speed", 1.0, "smallest allowed speed, motor side, rad/s", 1e-3, 1e6),
     ParamDecl("max_speeds", 32, "most speeds in one cycle"),
@@ -134,11 +139,13 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               read_only=True),
 )
 #: Parameter name -> CycleConfig field, for the settings that apply from the next request
-_CYCLE_FIELDS = ("speeds", "window_half_width", "position", "joint_limits", "limit_margin", "max_speed", "min_speed",
+_CYCLE_FIELDS = ("speeds", "window_half_width", "position", "joint_limits", "limit_margin", "reaction_time",
+                 "velocity_lag", "max_speed", "min_speed",
                  "max_speeds", "max_duration", "acceleration", "approach_speed", "steady_time", "settle_time",
                  "state_timeout", "speed_tolerance", "effort_limit", "approach_tolerance")
 #: Settings each joint may have of its own (``<joint>.<setting>``; the node-level value is the default)
-PER_JOINT = ("gear_ratio", "speeds", "window_half_width", "position", "joint_limits", "limit_margin", "max_speed",
+PER_JOINT = ("gear_ratio", "speeds", "window_half_width", "position", "joint_limits", "limit_margin", "reaction_time",
+             "velocity_lag", "max_speed",
              "min_speed", "acceleration", "approach_speed", "steady_time", "settle_time", "speed_tolerance",
              "effort_limit", "approach_tolerance")
 _DECLS = {d.name: d for d in PARAMETERS}
@@ -177,6 +184,7 @@ class TestCycleNode(Node):
         live = [n for n in PER_JOINT if not _DECLS[n].read_only]
         self._values = declare_per_joint(self, self.joints, [_DECLS[n] for n in PER_JOINT])
         self.node_values = {name: _cycle_value(name, p[name]) for name in ("max_speeds", "max_duration", "state_timeout")}
+        self.node_values["control_period"] = 1.0 / float(p["command_rate"])  # the runner's update interval
         self.configs = self._build_configs(self._values, self.node_values)
         self.hold_tolerance = float(p["hold_tolerance"])
         self.max_duration = float(p["max_duration"])
