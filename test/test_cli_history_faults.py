@@ -87,7 +87,7 @@ def test_a_damaged_database_page_is_one_line_exit_2_and_import_writes_nothing(pa
 @pytest.mark.parametrize("url", ["mysql://u@h/d", "mongodb://x/y", "oracle://a"])
 def test_an_unsupported_database_url_scheme_is_one_line_exit_2(url, tmp_path, capsys):
     for args in (["trend", "--db", url], ["history", "export", "--db", url, "--out", tmp_path / "e.csv"],
-                 ["history", "maintenance", "--db", url, "--robot", "r", "--joint", "j", "--kind", "x"]):
+                 ["history", "maintenance", "--db", url, "--robot", "r", "--joint", "j", "--kind", "regrease"]):
         rc, _, err = run(args, capsys)
         _one_line_exit_2(rc, err, "is not supported")
 
@@ -98,7 +98,7 @@ def test_a_maintenance_event_in_the_future_or_of_a_misspelt_joint_is_refused(db,
     _one_line_exit_2(rc, err, "days in the future")
     rc, _, err = run([*base, "--joint", "jiont_3"], capsys)
     _one_line_exit_2(rc, err, "'jiont_3' of robot 'cell_7' has no estimates")
-    assert "known: joint_3" in err
+    assert "its joints: joint_3" in err
     with HistoryStore(db) as s:
         assert s.maintenance() == []
     rc, out, _ = run([*base, "--joint", "joint_9", "--new-joint"], capsys)

@@ -387,7 +387,7 @@ def test_wear_trend_applies_its_thresholds_at_run_time_and_refuses_the_rest(ctx,
         assert "in the future" in fut.result().message
         fut = cli.call_async(RecordMaintenance.Request(joint_name="jiont_3", kind="regrease"))
         assert _spin_until(ex, fut.done) and not fut.result().success
-        assert "'jiont_3'" in fut.result().message and "known: joint_3" in fut.result().message
+        assert "'jiont_3'" in fut.result().message and "its joints: joint_3" in fut.result().message
         assert probe.last("joint_3").level == WearTrend.ERROR
     finally:
         ex.remove_node(node)

@@ -74,7 +74,7 @@ def test_trend_figure_shows_maintenance_in_its_legend(saved, tmp_path):
     r, cfg = _trend(t, w, np.full(40, 0.8), [m])
     plot_trend(tmp_path / "m.png", r, cfg, t, w, np.full(40, 0.8), [m])
     labels = _labels(saved["m.png"].axes[0])
-    assert labels.count("maintenance") == 1 and "trend (smoothed)" in labels
+    assert labels.count("maintenance") == 1 and any(lb.startswith("fit: ") for lb in labels)  # the trend drawn
 
 
 def test_joints_past_the_alarm_say_so_and_the_page_shows_figures_in_the_ranked_order(tmp_path, capsys):

@@ -579,14 +579,19 @@ class HistoryStore:
                                  f"{(ev.time - now) / 86400.0:.3g} days in the future: record it when it is done")
         if not new_joint:
             try:
-                known = {j for r, j in self.joints(None) if r == ev.robot}
+                every = set(self.joints(None))
             except SQLAlchemyError as exc:
                 raise HistoryError(f"{self.display_url}: cannot read the joints: {_one_line(exc)}") from None
-            known |= set(known_joints or ())
+            known = {j for r, j in every if r == ev.robot} | set(known_joints or ())
+            if not known:
+                robots = sorted({r for r, _ in every})
+                raise InputDataError(f"robot {ev.robot!r} has no estimates in the history; robots there: "
+                                     f"{', '.join(robots) or 'none (import estimates first)'}: check the name "
+                                     "(a new joint: --new-joint)")
             if ev.joint not in known:
                 raise InputDataError(f"joint {ev.joint!r} of robot {ev.robot!r} has no estimates in the history "
-                                     f"(known: {', '.join(sorted(known)) or 'none'}): check the name "
-                                     "(a new joint: --new-joint)")
+                                     f"; its joints: {', '.join(sorted(known))}: "
+                                     "check the name (a new joint: --new-joint)")
         stmt = self._insert(maintenance_t).values(robot=ev.robot, joint=ev.joint, time_ns=ev.time_ns, kind=ev.kind,
                                                   note=ev.note)
         stmt = stmt.on_conflict_do_nothing(index_elements=["robot", "joint", "time_ns", "kind"]).returning(
