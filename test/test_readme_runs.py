@@ -121,8 +121,9 @@ NOT_HERE = (
     ("tcp://", "a running Dask scheduler"),
     ("--publish", "a live ROS graph to play onto (tests/test_replay.py covers it)"),
     ("'archive/", "a plant's bag archive (the other fleet lines run on the demo bags)"),
-    ("from-timeseries log.csv", "the user's own recorded time series (test_timeseries.py converts CSVs; the bag "
-                                "line below runs on the demo bag)"),
+    ("from-timeseries log.csv", "the user's own recorded time series (test_timeseries.py converts CSVs)"),
+    ("from-timeseries BAG", "a bag in which that joint swept at constant speeds; the README's last demo is a "
+                            "one-joint run (test_timeseries.py converts a live demo bag both ways)"),
 )
 
 
