@@ -335,3 +335,29 @@ def test_a_revision_with_a_middle_speed_late_equals_the_on_time_estimate_exactly
     assert full.result is not None
     assert (rev.result.wear, rev.result.wear_std) == (full.result.wear, full.result.wear_std)
     assert rev.result.speeds == full.result.speeds == speeds
+
+
+def test_a_cycle_the_model_cannot_explain_says_so_in_its_status():
+    """At 20 degC with no sensor the default prior pins T at 25: the status names the misfit and the prior's
+    edge, and carries the fit's p value; a cycle at 40 degC carries its p value and no such words."""
+    speeds = (20.0, 40.0, 45.0, 55.0, 65.0, 80.0, 120.0, 160.0)
+
+    def cycle(mon, cid, temp):
+        mon.on_status(9.0, cid, STATE_RUNNING, 0, len(speeds), "joint_1")
+        out = []
+        for i, v in enumerate(speeds):
+            tau = float(MODEL.evaluate(PARAMS, speed=v, load_torque=0.1, temperature=temp, wear=30.0))
+            out += mon.add(FrictionObservationData(
+                stamp=10.0 + i, joint_name="joint_1", cycle_id=cid, speed=v, tau_f=tau, tau_f_std=3e-4,
+                tau_plus=0.1 + tau, tau_minus=0.1 - tau, load_torque=0.1, temperature=math.nan, position=0.0,
+                samples_plus=500, samples_minus=500))
+        [r] = out
+        return r, dict(r.values)
+
+    mon = WearMonitor(MonitorConfig(method="joint", seed=1))  # the nodes' configured method
+    cold, kv = cycle(mon, 1, 20.0)
+    assert "unexplained" in cold.message and "edge of its prior" in cold.message
+    assert float(kv["fit_p"]) < 1e-3 and kv["misfit"] in cold.message
+    assert abs(cold.result.wear - 30.0) <= 3.0 * cold.result.wear_std
+    warm, kv = cycle(mon, 2, 40.0)
+    assert "unexplained" not in warm.message and "misfit" not in kv and float(kv["fit_p"]) > 1e-3

@@ -456,6 +456,11 @@ class WearMonitor:
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
         values += [(k, str(res.info[k])) for k in ("parameter_set", "wear_calibration") if k in res.info]
+        if "fit_p" in res.info:  # how much of the cycle the model leaves unexplained (joint estimator)
+            values.append(("fit_p", f"{float(res.info['fit_p']):.3g}"))
+        if res.info.get("misfit"):
+            msg += f"; {res.info['misfit']}"
+            values.append(("misfit", str(res.info["misfit"])))
         return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values + rev), obs,
                                        cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
 
