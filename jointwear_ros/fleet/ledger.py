@@ -53,11 +53,13 @@ def done_fingerprints(store: Any, analysis_version: str) -> set[str]:
 def mark_done(store: Any, analysis_version: str, outcomes: Iterable[Any]) -> int:
     """Record bags as done (idempotent); return how many rows were new."""
     now = time.time_ns()
-    stmt = store.insert(fleet_bags_t).on_conflict_do_nothing(index_elements=["analysis_version", "fingerprint"])
+    stmt = store.insert(fleet_bags_t).on_conflict_do_nothing(
+        index_elements=["analysis_version", "fingerprint"]).returning(fleet_bags_t.c.id)
     n = 0
     with store.engine.begin() as conn:
         for o in outcomes:
-            n += int(conn.execute(stmt.values(
+            # the rows RETURNING gives back are the new ones, on every backend (a rowcount is -1 on psycopg)
+            n += len(conn.execute(stmt.values(
                 analysis_version=analysis_version, fingerprint=o.fingerprint, bag=o.bag,
-                estimates=len(o.records), seconds=float(o.seconds), done_ns=now)).rowcount or 0)
+                estimates=len(o.records), seconds=float(o.seconds), done_ns=now)).all())
     return n
