@@ -41,7 +41,7 @@ Tables
     in order, each in its own transaction.
 
 Inserts are idempotent and safe under concurrent writers: ``INSERT ... ON
-CONFLICT DO NOTHING`` through the dialect's own ``insert`` (SQLite and
+CONFLICT DO NOTHING`` through the backend's ``insert`` (SQLite and
 PostgreSQL both have it), so two processes writing the same estimate leave
 one row and neither fails. Each call of :meth:`HistoryStore.add_estimates`
 is one transaction: after it returns, its rows are durable (SQLite
