@@ -141,7 +141,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     Mutation(
         "cli_method_unchecked", "replay and demo start without checking --method",
         "jointwear_ros/cli/common.py",
-        "    if method is not None and str(method).strip().lower() not in ESTIMATOR_METHODS:",
+        "    if method is not None and str(method).strip().lower() not in ESTIMATORS:",
         "    if False:",
         ("test/test_cli_faults.py",),
         fast=True, select="method",

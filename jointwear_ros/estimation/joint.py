@@ -56,7 +56,7 @@ from scipy.special import logsumexp
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import WEAR_RANGE, Rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
+from ._common import WEAR_RANGE, Capabilities, Rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
 from .crb import DEFAULT_CRB_PRIOR, temperature_nodes
 from .priors import TemperaturePrior, parse_temperature_prior
 
@@ -149,6 +149,10 @@ class JointEstimator:
     """
 
     name = "joint"
+    capabilities = Capabilities(
+        summary="all speeds of a cycle at once: the joint posterior of w and the cycle's one unknown T",
+        cycle=True, temperature_assumption="prior", gives_posterior=True, search="posterior grid",
+        points=(("mean", "mean"), ("map", "map"), ("mode", "map")))
 
     def __init__(
         self,

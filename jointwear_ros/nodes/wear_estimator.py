@@ -53,6 +53,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..contract import observation_from_msg
 from ..errors import InputDataError, JointwearError, ParameterError
+from ..estimation import ESTIMATORS
 from ..monitor import ERROR, OK, WARN, CycleResult, MonitorConfig, WearMonitor
 from .diagnostics import NodeDiagnostics, diagnostic_status
 from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
@@ -65,7 +66,7 @@ _D = MonitorConfig()
 PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("joint_name", _D.joint_name, "joint whose wear is estimated when joints is empty", read_only=True),
     ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the joint name)", read_only=True),
-    ParamDecl("method", _D.method, "estimator: paper, paper-grid, bayes, joint"),
+    ParamDecl("method", _D.method, f"estimator: {', '.join(ESTIMATORS)}"),
     ParamDecl("params", _D.params, "friction-model parameter set: a name or a YAML path (a commissioned set)"),
     ParamDecl("seed", _D.seed, "base seed; each cycle's seed derives from it and the cycle id"),
     ParamDecl("estimator_options", "", "JSON object of extra estimator options, e.g. {\"n_samples\": 200}"),

@@ -72,7 +72,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from .. import __version__
 from ..contract import stamp_to_seconds
 from ..errors import JointwearError
-from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, normalize_url, screened_history
+from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, backend_for, screened_history
 from ..history.screen import REASONS, Refusal, ScreenConfig, screen_record
 from ..trend import ERROR, OK, WARN, TrendConfig, TrendResult, analyze_joint
 from .diagnostics import diagnostic_status
@@ -137,10 +137,9 @@ def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: flo
 
 
 def _default_spool(db_url: str, robot: str) -> Path:
-    url = normalize_url(db_url)
-    if url.startswith("sqlite:///") and url[len("sqlite:///"):] not in ("", ":memory:"):
-        return Path(url[len("sqlite:///"):]).expanduser().with_name(
-            Path(url[len("sqlite:///"):]).name + f".{robot}.pending.jsonl")
+    db_file = backend_for(db_url).file
+    if db_file is not None:  # beside the store's file
+        return db_file.with_name(db_file.name + f".{robot}.pending.jsonl")
     return Path(os.environ.get("ROS_HOME", "~/.ros")).expanduser() / f"wear_trend_{robot}.pending.jsonl"
 
 
