@@ -37,8 +37,8 @@ import numpy as np
 
 from jointwear_ros.cli.common import format_table
 from jointwear_ros.trend import DAY, TrendConfig, analyze_joint, fleet_prior
-from jointwear_ros.trend.backtest import backtest_joint, score_calibration
-from jointwear_ros.trend.families import EPOCH0, FAMILIES, make_family
+from jointwear_ros.trend.backtest import backtest_joint, score_calibration, score_trial
+from jointwear_ros.trend.families import EPOCH0, FAMILIES, make_family, make_trial_set
 
 BEFORE = TrendConfig(accel_noise=(1e-5, 1e-4, 1e-3), jerk_noise=(1e-8,), efold_days=(), prior_line=0.0,
                      prior_accelerated=0.0, evidence_temperature=1.0, step_rate_per_day=0.0)
@@ -107,13 +107,45 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
     return out
 
 
+def trial_rows(cfgs: dict[str, TrendConfig]) -> list[list[str]]:
+    """The issue's own trial (30 joints per seed, seeds 100-102: linear, accelerating, flat; each seen once at
+    the last of estimates 100-159), per bank: coverage, unbounded, median width / true, and where the weight
+    sits (median over the growing joints) next to the straight-line limit's width / true."""
+    joints = make_trial_set()
+    sib = [((j.times[100:160] - j.times[100]) / DAY, j.wear[100:160], j.wear_std[100:160])
+           for j in make_family("linear", 20, days=160, seed=200)]
+    out = []
+    runs = [(name, cfg, None) for name, cfg in cfgs.items()]
+    runs.append(("after, fleet prior of 20 linear siblings (linear joints)", AFTER, fleet_prior(sib, AFTER)))
+    for name, cfg, prior in runs:
+        js = [j for j in joints if j.profile == "linear"] if prior is not None else joints
+        s = score_trial(js, cfg, EPOCH0, prior=prior)
+        grow = [x for x in s["rows"] if x["profile"] != "flat" and 1.0 <= x["true"] <= 365.0]
+        med = {k: float(np.median([x[f"w_{k}"] for x in grow])) for k in ("line", "accelerated", "adaptive")}
+        out.append([name, str(s["growing"]), pct(s["coverage"]), f"{s['no_interval']} / {s['unbounded']}",
+                    num(s["median_width_over_true"]), num(s["median_line_width_over_true"]),
+                    *(num(med[k]) for k in ("line", "accelerated", "adaptive")), str(s["flat_warn"])])
+    return out
+
+
+def print_trial() -> None:
+    print("\nthe issue's trial: 90 joints (seeds 100-102), each at the last of 60 estimates (estimates 100-159)")
+    print(format_table(["bank", "growing", "coverage %", "no interval / unbounded", "width/true", "line width/true",
+                        "weight line", "accelerated", "adaptive", "flat warn"],
+                       trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER})))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-family", type=int, default=20)
     ap.add_argument("--days", type=int, default=180)
     ap.add_argument("--seed", type=int, default=2027)
     ap.add_argument("--quick", action="store_true", help="5 joints per family")
+    ap.add_argument("--trial", action="store_true", help="only the issue's trial")
     a = ap.parse_args()
+    if a.trial:
+        print_trial()
+        return 0
     n = 5 if a.quick else a.per_family
     joints = [j for i, f in enumerate(FAMILIES) for j in make_family(f, n, days=a.days, seed=a.seed, first=i * n)]
     nights = sum(len(j.times) for j in joints)
@@ -127,6 +159,7 @@ def main() -> int:
             print(f"\n{name}; nights with >= {m} estimates in the segment:")
             print(table(s))
         print(f"{nights / dt:.0f} trend updates (joint-nights) per CPU second")
+    print_trial()
     print("\nfleet prior: young joints (8-20 estimates) at their last night, 30 siblings of the same type")
     print(format_table(["trend", "joints", "coverage %", "median width/true"], fleet_experiment(a.seed)))
     return 0

@@ -38,7 +38,8 @@ from numpy.typing import NDArray
 
 from .core import DAY, ERROR, WARN, RatePrior, TrendConfig, trend_states
 
-__all__ = ["NightlyBacktest", "backtest_joint", "line_limit", "score_at_lead", "score_calibration", "score_fleet"]
+__all__ = ["NightlyBacktest", "backtest_joint", "line_limit", "score_at_lead", "score_calibration", "score_fleet",
+           "score_trial"]
 
 Array = NDArray[np.float64]
 
@@ -313,3 +314,48 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             "joints_crossing": a["crossing_joints"], "joints_missed": a["missed"],
         }
     return out
+
+
+def score_trial(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, *, first: int = 100, count: int = 60,
+                prior: RatePrior | None = None, max_true_days: float = 365.0) -> dict[str, Any]:
+    """The issue's planner trial: each joint looked at once, at the last of its estimates ``first`` to
+    ``first + count - 1`` (a history of ``count`` nightly estimates that starts ``first`` estimates into the
+    joint's wear). Growing joints (profile not ``flat``) with a true time to alarm of 1 to ``max_true_days``
+    days are scored: coverage of the 90 % interval (no interval: a miss), joints without an interval
+    (no growth detected), intervals without an upper bound,
+    the median width / true time (no interval or unbounded: infinite); flat joints: how many warn. Per joint
+    (``rows``): profile, true days, lo90, median, hi90 (nan without an interval), level, the weights on the
+    line, on the accelerated shapes and on the adaptive members, and the straight-line limit's width."""
+    from .core import bank_members
+
+    members = bank_members(cfg)
+    kinds = {"line": [i for i, m in enumerate(members) if m.name == "line"],
+             "accelerated": [i for i, m in enumerate(members) if m.kind == "steady" and m.name != "line"],
+             "adaptive": [i for i, m in enumerate(members) if m.kind == "adaptive"]}
+    rows: list[dict[str, Any]] = []
+    for j in joints:
+        sl = slice(first, first + count)
+        t, y, r = np.asarray(j.times)[sl], np.asarray(j.wear)[sl], np.asarray(j.wear_std)[sl]
+        td = (t - t[0]) / DAY
+        st = trend_states(td, y, r, cfg, rows=np.array([len(t) - 1]), prior=prior)
+        d = (t[-1] - epoch0) / DAY
+        true = float(j.segment_crossing(float(d), cfg.alarm) - d)
+        has = bool(st.growth[0]) and math.isfinite(float(st.quantiles[0, 0]))
+        lo, med, hi = (float(x) for x in st.quantiles[0]) if has else (math.nan,) * 3
+        lim = line_limit(td, y, r, cfg)[-1]
+        row = {"profile": j.profile, "true": true, "lo90": lo, "median": med, "hi90": hi, "level": int(st.level[0]),
+               "line_width": float(lim[2] - lim[0]) if np.isfinite(lim[[0, 2]]).all() else math.inf}
+        row.update({f"w_{k}": float(st.weights[ix, 0].sum()) for k, ix in kinds.items()})
+        rows.append(row)
+    grow = [x for x in rows if x["profile"] != "flat" and 1.0 <= x["true"] <= max_true_days]
+    inside = [math.isfinite(x["lo90"]) and x["lo90"] <= x["true"] <= x["hi90"] for x in grow]
+    width = [(x["hi90"] - x["lo90"]) / x["true"] if math.isfinite(x["lo90"]) else math.inf for x in grow]
+    line = [x["line_width"] / x["true"] for x in grow]
+    return {"joints": len(rows), "growing": len(grow),
+            "coverage": float(np.mean(inside)) if grow else math.nan,
+            "no_interval": sum(1 for x in grow if math.isnan(x["lo90"])),
+            "unbounded": sum(1 for x in grow if math.isfinite(x["lo90"]) and not math.isfinite(x["hi90"])),
+            "median_width_over_true": float(np.median(width)) if grow else math.nan,
+            "median_line_width_over_true": float(np.median(line)) if grow else math.nan,
+            "flat_warn": sum(1 for x in rows if x["profile"] == "flat" and x["level"] >= WARN),
+            "rows": rows}
