@@ -36,15 +36,39 @@ import time
 import numpy as np
 
 from jointwear_ros.cli.common import format_table
-from jointwear_ros.trend import DAY, RatePrior, TrendConfig, analyze_joint, fleet_prior
+from jointwear_ros.trend import (
+    DAY,
+    RatePrior,
+    TrendConfig,
+    analyze_joint,
+    bank_members,
+    fleet_prior,
+    trend_states,
+    type2_weights,
+)
 from jointwear_ros.trend.backtest import backtest_joint, score_calibration, score_trial, trial_summary
-from jointwear_ros.trend.families import EPOCH0, FAMILIES, CalibrationJoint, make_family, make_trial_set
+from jointwear_ros.trend.families import (
+    EPOCH0,
+    FAMILIES,
+    CalibrationJoint,
+    make_calibration_set,
+    make_family,
+    make_trial_set,
+)
 
 BEFORE = TrendConfig(accel_noise=(1e-5, 1e-4, 1e-3), jerk_noise=(1e-8,), efold_days=(), prior_line=0.0,
                      prior_accelerated=0.0, evidence_temperature=1.0, step_rate_per_day=0.0)
 AFTER = TrendConfig()
-#: the trade-off on the trial: half the accelerated shapes' prior weight, given to the line
-SHARPER = TrendConfig(prior_line=0.8, prior_accelerated=0.15)
+#: what the trial's width is made of: the bank without one of its parts (its prior weight to the line)
+ABLATIONS = {
+    "  without the adaptive members": TrendConfig(prior_line=0.7, accel_noise=(), jerk_noise=()),
+    "  without the unrecorded step": TrendConfig(step_rate_per_day=0.0),
+    "  without the 60 and 45 d shapes": TrendConfig(efold_days=(160.0, 120.0, 90.0)),
+    "  with half the accelerated weight (0.15, line 0.75)": TrendConfig(prior_line=0.75, prior_accelerated=0.15),
+    "  untempered evidence": TrendConfig(evidence_temperature=1.0),
+    "  the type-II ML prior (--derive-prior)": TrendConfig(prior_line=0.645, prior_accelerated=0.277,
+                                                           efold_days=(160.0, 120.0, 90.0), accel_noise=()),
+}
 
 
 def pct(x: float) -> str:
@@ -126,7 +150,7 @@ def trial_rows(cfgs: dict[str, TrendConfig]) -> list[list[str]]:
     sits (median over the growing joints) next to the straight-line limit's width / true."""
     joints = make_trial_set()
     sib = [((j.times[100:160] - j.times[100]) / DAY, j.wear[100:160], j.wear_std[100:160])
-           for j in make_family("linear", 20, days=160, seed=200)]
+           for j in make_family("linear", 20, days=175, seed=200)]
     out = []
     runs: list[tuple[str, TrendConfig | None, RatePrior | None]] = [(name, cfg, None) for name, cfg in cfgs.items()]
     runs.append(("after, fleet prior of 20 linear siblings (linear joints)", AFTER, fleet_prior(sib, AFTER)))
@@ -145,12 +169,32 @@ def trial_rows(cfgs: dict[str, TrendConfig]) -> list[list[str]]:
     return out
 
 
+#: the candidate bank the default prior weights are estimated over: every member issue 23 considered
+CANDIDATES = TrendConfig(efold_days=(160.0, 120.0, 90.0, 60.0, 45.0), accel_noise=(1e-4, 1e-3), jerk_noise=(1e-8,))
+
+
+def derive_prior(seeds: tuple[int, ...] = (0, 5), per_family: int = 10) -> list[list[str]]:
+    """The default prior weights, estimated: type-II maximum likelihood (:func:`type2_weights`) of the candidate
+    members' weights over the reference histories (every family, seeds 0 and 5, never the benchmark's seed),
+    each looked at after 60 and 120 estimates and at its last, with the members' tempered evidence."""
+    members = bank_members(CANDIDATES)
+    flat = RatePrior(weights=tuple([1.0] * len(members)))  # equal prior: the posterior is the normalized evidence
+    post = []
+    for seed in seeds:
+        for j in make_calibration_set(per_family, days=180, seed=seed):
+            t = (j.times - j.times[0]) / DAY
+            looks = sorted({min(59, len(t) - 1), min(119, len(t) - 1), len(t) - 1})
+            st = trend_states(t, j.wear, j.wear_std, CANDIDATES, rows=np.array(looks), prior=flat)
+            post += list(st.weights.T)
+    pi = type2_weights(np.array(post), flat.member_weights(CANDIDATES))
+    return [[m.name, f"{w:.3f}"] for m, w in zip(members, pi)]
+
+
 def print_trial() -> None:
     print("\nthe issue's trial: 90 joints (seeds 100-102), each at the last of 60 estimates (estimates 100-159)")
     print(format_table(["bank", "growing", "coverage %", "no interval / unbounded", "width/true", "line width/true",
                         "weight line", "accelerated", "adaptive", "flat warn"],
-                       trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER,
-                                   "after, accelerated prior 0.15, line 0.80": SHARPER})))
+                       trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER, **ABLATIONS})))
 
 
 def main() -> int:
@@ -160,7 +204,13 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=2027)
     ap.add_argument("--quick", action="store_true", help="5 joints per family")
     ap.add_argument("--trial", action="store_true", help="only the issue's trial")
+    ap.add_argument("--derive-prior", action="store_true",
+                    help="only the estimate of the default prior weights (reference seeds 0 and 5)")
     a = ap.parse_args()
+    if a.derive_prior:
+        print("prior weights, type-II maximum likelihood over the reference histories (seeds 0 and 5):")
+        print(format_table(["member", "weight"], derive_prior()))
+        return 0
     if a.trial:
         print_trial()
         return 0

@@ -347,3 +347,46 @@ def test_trend_plot_shows_the_interval_and_every_models_weight(tmp_path, monkeyp
     assert "alarm time 90 %" in seen["legend"] and "predicted crossing (median)" in seen["legend"]
     assert any(x.startswith("step without a maintenance event") for x in seen["legend"])
     assert any(x.startswith("fit: line after the step") for x in seen["legend"])
+
+
+# --------------------------------------------------------------------------- the issue's trial and the scores' error
+
+
+def test_trial_scores_each_joint_once_at_its_60th_estimate_and_the_line_limit_bounds_it():
+    from jointwear_ros.trend.backtest import score_trial, trial_summary
+    from jointwear_ros.trend.families import make_trial_set
+
+    joints = make_trial_set(seeds=(100,), per_family=4)
+    s = score_trial(joints, TrendConfig(), EPOCH0)
+    assert s["joints"] == 12 and len(s["rows"]) == 12
+    assert [x["profile"] for x in s["rows"]] == ["linear"] * 4 + ["accelerating"] * 4 + ["flat"] * 4
+    j = joints[0]
+    d = (j.times[159] - EPOCH0) / DAY  # the look: the last of estimates 100-159
+    assert s["rows"][0]["true"] == pytest.approx(j.segment_crossing(d) - d)
+    r = analyze_joint(j.times[100:160], j.wear[100:160], j.wear_std[100:160])
+    if r.time_to_alarm is not None:
+        assert s["rows"][0]["lo90"] == pytest.approx(r.time_to_alarm.lo90, rel=1e-9)
+        assert s["rows"][0]["hi90"] == pytest.approx(r.time_to_alarm.hi90, rel=1e-9)
+    assert s["flat_warn"] == 0
+    for x in s["rows"]:
+        assert x["w_line"] + x["w_accelerated"] + x["w_adaptive"] == pytest.approx(1.0)
+    # a bank of the line alone is no wider than its straight-line limit allows (the limit: the flat-prior line)
+    line = TrendConfig(prior_line=1.0, prior_accelerated=0.0, accel_noise=(), jerk_noise=(), step_rate_per_day=0.0)
+    sl = score_trial([x for x in joints if x.profile == "linear"], line, EPOCH0)
+    for x in sl["rows"]:
+        if 1 <= x["true"] <= 365 and math.isfinite(x["lo90"]):
+            assert (x["hi90"] - x["lo90"]) == pytest.approx(x["line_width"], rel=0.1)
+    rows = [dict(x) for x in s["rows"]]
+    rows[0].update(lo90=math.nan, hi90=math.nan, true=10.0)  # no interval: a miss, infinitely wide
+    t = trial_summary(rows)
+    assert t["no_interval"] == 1 + s["no_interval"] - (1 if math.isnan(s["rows"][0]["lo90"]) else 0)
+
+
+def test_coverage_standard_error_counts_joints_not_nights():
+    from jointwear_ros.trend.backtest import _cluster_se
+
+    # two joints, all nights in or all out: pooled 50 %, and the error of two samples, however many nights
+    assert _cluster_se([(1000, 1000), (1000, 0)]) == pytest.approx(0.5, rel=1e-9)
+    assert _cluster_se([(10, 10), (10, 0)]) == pytest.approx(0.5, rel=1e-9)
+    assert _cluster_se([(50, 45)] * 10) == pytest.approx(0.0, abs=1e-12)
+    assert math.isnan(_cluster_se([(50, 45)])) and math.isnan(_cluster_se([(50, 45), (0, 0)]))

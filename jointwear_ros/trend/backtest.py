@@ -350,6 +350,8 @@ def score_trial(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, *, first
              "adaptive": [i for i, m in enumerate(members) if m.kind == "adaptive"]}
     rows: list[dict[str, Any]] = []
     for j in joints:
+        if len(j.times) < first + count:
+            raise ValueError(f"{j.robot}/{j.joint}: {len(j.times)} estimates, the trial needs {first + count}")
         sl = slice(first, first + count)
         t, y, r = np.asarray(j.times)[sl], np.asarray(j.wear)[sl], np.asarray(j.wear_std)[sl]
         td = (t - t[0]) / DAY
