@@ -1,7 +1,7 @@
 """Calibration of the time to alarm on the histories a planner meets, before and after issue 23.
 
 Usage: python bench/run_all.py trend_calibration   (or python bench/bench_trend_calibration.py
-[--per-family N] [--days D] [--seed S] [--quick])
+[--per-family N] [--days D] [--seed S] [--quick] [--trial] [--derive-prior])
 
 Seven families of joints with known true wear (``jointwear_ros.trend.families``: linear,
 accelerating (half the paper's exponential shape, half a power law no model has), flat, a step
@@ -21,6 +21,13 @@ below the alarm; target 0), early warnings (WARN/ERROR while the true time to al
 1,000 joint-nights, the median lead of the first WARN before the true crossing. Scored nights: the true
 time to alarm 1-365 days; once over every such night, once over those with at least 60 estimates in the
 segment (the issue's "history of 60 nightly estimates").
+
+Coverage comes with its standard error, the joint the sampling unit (a joint's nights share one fit and
+one truth). Then the issue's own trial (``--trial`` alone): 90 joints, linear, accelerating and flat, each
+looked at once at the last of 60 nightly estimates, for issue 13's bank, today's, the bank without each of
+its parts (what the width is made of), the fleet prior of linear siblings and the information limit (each
+joint's own law known). ``--derive-prior`` alone: the members' prior weights estimated by type-II maximum
+likelihood over the reference histories (seeds 0 and 5), against which ``TrendConfig()``'s are checked.
 
 Then the fleet prior: young joints (8-20 estimates) whose 30 linear siblings have full histories, at
 their last night, with and without :func:`jointwear_ros.trend.fleet_prior` (leave-one-out).

@@ -411,3 +411,26 @@ def test_crossing_probability_never_falls_with_the_days_ahead(level, rate, q, le
     var = level_sd ** 2 + (rate_sd * tau) ** 2 + q * tau ** 3 / 3
     gauss = 0.5 * (1 + np.vectorize(math.erf)((level + rate * tau - cfg.alarm) / np.sqrt(2 * var)))
     assert F == pytest.approx(np.maximum.accumulate(gauss), abs=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(2, 6), st.integers(1, 12), st.integers(0, 2 ** 31 - 1))
+def test_type2_weights_maximize_the_marginal_likelihood_of_the_histories(m, n, seed):
+    """The empirical-Bayes member weights: a distribution at which no member's share can grow the marginal
+    likelihood sum_j log sum_m pi_m L_jm (the optimum's condition), whatever prior the posteriors were made with."""
+    from jointwear_ros.trend import type2_weights
+
+    rng = np.random.default_rng(seed)
+    lik = np.exp(rng.normal(0, 3, (n, m)))
+    prior = rng.dirichlet(np.ones(m))
+    post = lik * prior
+    post /= post.sum(axis=1, keepdims=True)
+    pi = type2_weights(post, prior)
+    assert pi.sum() == pytest.approx(1.0) and (pi >= 0).all()
+    grad = (lik / (lik @ pi)[:, None]).mean(axis=0)  # d/d pi_m of the mean log-likelihood
+    assert grad.max() <= 1.0 + 1e-2  # = 1 where pi_m > 0, <= 1 where pi_m = 0
+
+    def objective(p):
+        return float(np.log(lik @ p).sum())
+
+    assert objective(pi) >= max(objective(prior), objective(np.full(m, 1.0 / m))) - 1e-9
