@@ -32,6 +32,7 @@ from .core import (
     rts_smooth,
     sibling_fit,
     trend_states,
+    type2_weights,
 )
 
 __all__ = [
@@ -64,4 +65,5 @@ __all__ = [
     "rts_smooth",
     "sibling_fit",
     "trend_states",
+    "type2_weights",
 ]

@@ -121,6 +121,7 @@ __all__ = [
     "sibling_fit",
     "tau_grid",
     "trend_states",
+    "type2_weights",
     "unbounded_reason",
 ]
 
@@ -880,6 +881,30 @@ def sibling_fit(t_days: Array, y: Array, r: Array, cfg: TrendConfig | None = Non
         return None
     st = trend_states(t - t[0], y, r, cfg, rows=np.array([len(t) - 1]))
     return SiblingFit(float(st.rate[0]), float(st.rate_std[0]) ** 2, st.weights[:, 0].copy())
+
+
+def type2_weights(posterior: Array, prior: Array, *, iterations: int = 1000, tol: float = 1e-10) -> Array:
+    """Member weights that maximize the marginal likelihood of a set of histories (type-II maximum likelihood,
+    empirical Bayes): ``pi = argmax sum_j log sum_m pi_m L_jm``, by EM from each history's posterior weights
+    ``posterior`` (J, M) under ``prior`` (M,) (so ``L_jm`` is proportional to ``posterior_jm / prior_m``; the
+    tempered evidence when the weights came from :func:`trend_states`).
+
+    >>> post = np.array([[0.9, 0.1], [0.9, 0.1], [0.2, 0.8]])
+    >>> np.round(type2_weights(post, np.array([0.5, 0.5])), 2).tolist()
+    [0.85, 0.15]
+    """
+    pr = np.asarray(prior, float)
+    lik = np.asarray(posterior, float) / np.where(pr > 0, pr, 1.0)
+    lik = lik / lik.max(axis=1, keepdims=True)
+    pi = np.full(lik.shape[1], 1.0 / lik.shape[1])
+    for _ in range(iterations):
+        r = lik * pi
+        r /= r.sum(axis=1, keepdims=True)
+        new = r.mean(axis=0)
+        if float(np.abs(new - pi).max()) < tol:
+            return np.asarray(new, float)
+        pi = new
+    return np.asarray(pi, float)
 
 
 def pool_prior(fits: Sequence[SiblingFit | None], cfg: TrendConfig | None = None, *, min_joints: int = 5,
