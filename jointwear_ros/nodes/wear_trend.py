@@ -479,7 +479,7 @@ class WearTrendNode(Node):
                       ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
                       ("horizon_days", f"{self.cfg.horizon_days:g}"),
                       ("alarm_threshold", f"{self.cfg.alarm:g}")]
-            level, message = r.level, r.message
+            level, message = DiagnosticLevel(r.level), r.message
         held = self._trend_status.get(joint)
         if held is None:
             held = self._trend_status[joint] = HeldStatus(joint)
