@@ -121,4 +121,4 @@ def test_node_diagnostics_keeps_its_one_status_interface(graph):
     assert _spin_until(ex, lambda: bool(got))
     (s,) = got[-1].status
     assert (s.name, s.hardware_id, s.level, s.message) == ("kit: joint_2", "joint_2", b"\x02", "broken")
-    assert d.level == 2 and d.status.name == "kit: joint_2" and d.published == 1
+    assert d.level == 2 and d.status.name == "kit: joint_2" and d.updater.published == 1

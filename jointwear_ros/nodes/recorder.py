@@ -17,7 +17,6 @@ A write error stops recording; the process exits with status 1.
 
 from __future__ import annotations
 
-import importlib
 import os
 import signal
 import sys
@@ -25,14 +24,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos
 
 from ..io.bags import ensure_msgtype
-from ..io.params import parameter_value
 from ..io.recording import (
     Item,
     Lost,
@@ -49,18 +45,18 @@ from ..io.recording import (
 )
 from ..io.typestore import new_jointwear_typestore
 from .diagnostics import Status, Updater
-from .runtime import ParamDecl, declare_parameters, run_node, subscribe_reporting_loss
+from .runtime import (
+    ParamDecl,
+    ask_node_parameters,
+    declare_parameters,
+    message_class,
+    run_node,
+    signals_held,
+    subscribe_reporting_loss,
+    wait_acked,
+)
 
-__all__ = ["RecorderNode", "main", "message_class"]
-
-
-def message_class(msgtype: str) -> Any:
-    """The rosidl Python class of ``pkg/msg/Type`` (what ``rosidl_runtime_py.get_message`` does)."""
-    parts = msgtype.split("/")
-    if len(parts) != 3:
-        raise ValueError(f"message type {msgtype!r} is not of the form pkg/msg/Type")
-    module = importlib.import_module(f"{parts[0]}.{parts[1]}")
-    return getattr(module, parts[2])
+__all__ = ["PARAMETERS", "RecorderNode", "main"]
 
 
 PARAMETERS: tuple[ParamDecl, ...] = (
@@ -83,6 +79,8 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               "(they are at risk in a crash)"),
     ParamDecl("min_free_disk_mb", 1024.0, "WARN on /diagnostics when the output disk has less free space (MiB)",
               0.0, 1.0e9),
+    ParamDecl("include", [], "regexes; record topics matching any (empty: all)", dynamic=True),
+    ParamDecl("exclude", [], "regexes; never record topics matching any", dynamic=True),
 )
 
 
@@ -99,10 +97,8 @@ class RecorderNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("recorder", **kwargs)
         self.p = declare_parameters(self, self.PARAMS)
-        for name, doc in (("include", "regexes; record topics matching any (empty: all)"),
-                          ("exclude", "regexes; never record topics matching any")):
-            self.declare_parameter(name, [], ParameterDescriptor(description=doc, dynamic_typing=True))
-            self.p[name] = [str(x) for x in (self.get_parameter(name).value or [])]
+        for name in ("include", "exclude"):
+            self.p[name] = [str(x) for x in (self.p[name] or [])]
         log = self.get_logger()
         settings, problems = RecordingSettings.from_params(self.p)
         self.filter = TopicFilter(self.p["include"], self.p["exclude"])
@@ -167,7 +163,7 @@ class RecorderNode(Node):
     def discover(self) -> None:
         """Subscribe to every wanted topic that has publishers and is not yet recorded; ask every new node
         for its parameters (they go into each bag's metadata.yaml)."""
-        self._ask_settings()
+        ask_node_parameters(self, self._asked, lambda node, values: self.writer.put(Params(node, values)))
         for topic, types in self.get_topic_names_and_types():
             if topic in self._subs or topic in self._skipped or not self.wanted(topic):
                 continue
@@ -201,44 +197,6 @@ class RecorderNode(Node):
                 f"recording {topic} ({msgtype}, {'reliable' if reliable else 'best effort'}"
                 f"{', transient local' if latched else ''})"
             )
-
-    def _ask_settings(self) -> None:
-        """Ask each node not asked yet for all its parameters (``~/list_parameters``, then ``~/get_parameters``,
-        asynchronously); the answer is queued to the writer thread. A node whose services are not up yet
-        is asked again at the next discovery (at most 20 times)."""
-        from rcl_interfaces.srv import GetParameters, ListParameters
-
-        me = self.get_fully_qualified_name()
-        for name, ns in self.get_node_names_and_namespaces():
-            fqn = (ns.rstrip("/") + "/" + name) if ns != "/" else "/" + name
-            if fqn == me or name.startswith("_") or self._asked.get(fqn, 0) < 0 or self._asked.get(fqn, 0) >= 20:
-                continue
-            self._asked[fqn] = self._asked.get(fqn, 0) + 1
-            lister = self.create_client(ListParameters, f"{fqn}/list_parameters")
-            if not lister.service_is_ready():
-                self.destroy_client(lister)
-                continue
-            self._asked[fqn] = -1  # asked: not again
-
-            def listed(future: Any, fqn: str = fqn, lister: Any = lister) -> None:
-                self.destroy_client(lister)
-                try:
-                    names = list(future.result().result.names)
-                except Exception:
-                    return
-                getter = self.create_client(GetParameters, f"{fqn}/get_parameters")
-
-                def got(f2: Any) -> None:
-                    self.destroy_client(getter)
-                    try:
-                        values = [parameter_value(v) for v in f2.result().values]
-                    except Exception:
-                        return
-                    self._queue.put(Params(fqn.lstrip("/"), {n: v for n, v in zip(names, values) if v is not None}))
-
-                getter.call_async(GetParameters.Request(names=names)).add_done_callback(got)
-
-            lister.call_async(ListParameters.Request()).add_done_callback(listed)
 
     def _skip(self, topic: str, why: str) -> None:
         self._skipped.add(topic)
@@ -275,10 +233,7 @@ class RecorderNode(Node):
     def _on_fatal(self) -> None:
         """After a write error: report ERROR, then stop the process (``main`` returns 1)."""
         self.publish_diagnostics()
-        try:
-            self.diag_pub.wait_for_all_acked(Duration(seconds=1.0))
-        except Exception:  # pragma: no cover - best effort on the way out
-            pass
+        wait_acked([self.diag_pub], 1.0)
         if self.stop_process_on_fatal:
             os.kill(os.getpid(), signal.SIGTERM)  # run_node's handler: a clean stop, then main returns 1
 
@@ -305,24 +260,14 @@ class RecorderNode(Node):
         if self._stopped:
             return
         self._stopped = True
-        saved: dict[signal.Signals, Any] = {}
-        try:  # a second Ctrl-C must not interrupt closing the bag
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                saved[sig] = signal.signal(sig, signal.SIG_IGN)
-        except ValueError:  # not the main thread
-            pass
-        self._timer.cancel()
-        for sub in self._subs.values():
-            self.destroy_subscription(sub)
-        if not self.writer.stop(30.0):
-            self.get_logger().error("writer thread did not finish within 30 s; the bag may be incomplete")
-        self.publish_diagnostics()  # the final state (ERROR after a write error)
-        try:
-            self.diag_pub.wait_for_all_acked(Duration(seconds=0.5))
-        except Exception:  # pragma: no cover - best effort on the way out
-            pass
-        for sig, handler in saved.items():
-            signal.signal(sig, handler)
+        with signals_held():  # a second Ctrl-C must not interrupt closing the bag
+            self._timer.cancel()
+            for sub in self._subs.values():
+                self.destroy_subscription(sub)
+            if not self.writer.stop(30.0):
+                self.get_logger().error("writer thread did not finish within 30 s; the bag may be incomplete")
+            self.publish_diagnostics()  # the final state (ERROR after a write error)
+            wait_acked([self.diag_pub])
 
 
 def main(args: list[str] | None = None) -> int:

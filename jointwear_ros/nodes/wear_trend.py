@@ -65,7 +65,6 @@ from builtin_interfaces.msg import Time as TimeMsg
 from jointwear_msgs.msg import WearEstimate, WearTrend
 from jointwear_msgs.srv import RecordMaintenance
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -76,7 +75,7 @@ from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, norm
 from ..history.screen import REASONS, Refusal, ScreenConfig, screen_record
 from ..trend import TrendConfig, TrendResult, analyze_joint
 from .diagnostics import HeldStatus, Status, Updater
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, wait_acked
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearTrendNode", "main", "trend_to_msg"]
 
@@ -534,10 +533,7 @@ class WearTrendNode(Node):
                 for rec, _ in self.pending:
                     self._spool_append(rec)
             self.get_logger().error(f"{len(self.pending)} estimate(s) not stored at exit: kept in {self.spool}")
-        try:
-            self.trend_pub.wait_for_all_acked(Duration(seconds=0.5))
-        except Exception:  # pragma: no cover - best effort on the way out
-            pass
+        wait_acked([self.trend_pub])
         if self.store is not None:
             self.store.close()
 
