@@ -241,8 +241,8 @@ class RecorderNode(Node):
     def health(self) -> tuple[int, str, list[tuple[str, str]]]:
         """(level, message, key/values) of the recorder's DiagnosticStatus."""
         return recorder_health(self.recording, rate_hz=self.recording.rate(time.monotonic()),
-                               lost=sum(self.lost.values()), backlog=self.writer.backlog, topics=len(self._subs), free_disk_mb=free_mb(self._out),
-                               min_free_disk_mb=float(self.p["min_free_disk_mb"]),
+                               lost=sum(self.lost.values()), backlog=self.writer.backlog, topics=len(self._subs),
+                               free_disk_mb=free_mb(self._out), min_free_disk_mb=float(self.p["min_free_disk_mb"]),
                                warn_backlog=int(self.p["warn_backlog"]))
 
     def _health_task(self, stat: Status) -> None:
