@@ -152,7 +152,7 @@ class TopicFilter:
 
 @dataclass
 class RecordingSettings:
-    """The recorder parameters the core uses (see ``RecorderNode.PARAMS``)."""
+    """The recorder parameters the core uses (declared in ``nodes/recorder.py`` ``PARAMETERS``)."""
 
     output_dir: Path
     bag_prefix: str = "jointwear"
