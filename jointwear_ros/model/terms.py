@@ -155,6 +155,49 @@ class Term:
     paper_ref: ClassVar[str] = ""
     #: Dimensions of the parameters whose unit does not imply it (see :data:`UNIT_DIMENSIONS`).
     dimensions: ClassVar[Mapping[str, Dimension]] = {}
+    # -- workbench hints (as lmfit's Model carries its param hints and ``guess``) ----------
+    #: Parameters the term is linear in: a fit solves them by linear least squares given the others
+    #: (a candidate starts them at 0).
+    linear: ClassVar[tuple[str, ...]] = ()
+    #: Starting points of the nonlinear parameters to try, in the numbers the defaults are written in
+    #: (the paper's joint); :meth:`guess` moves them to the data's units.
+    starts: ClassVar[tuple[Mapping[str, float], ...]] = ()
+    #: What the term means physically, in a few words (the diagnosis lists it with the candidate).
+    meaning: ClassVar[str] = ""
+    #: The diagnosis offers the term as a candidate effect when the data has its inputs and the model lacks it.
+    candidate: ClassVar[bool] = False
+
+    def start_points(self, x: Inputs) -> list[dict[str, float]]:
+        """Starting points of the nonlinear parameters for inputs ``x``, in the numbers of the term's defaults.
+
+        :attr:`starts` by default; a term whose starts depend on the data (a
+        column's span) overrides this.
+        """
+        return [dict(s) for s in self.starts] or [{}]
+
+    def guess(self, x: Inputs) -> list[dict[str, float]]:
+        """Starting points of the nonlinear parameters for data ``x``, in the data's own units.
+
+        :meth:`start_points` with each parameter moved by the data's speed scale
+        to the power of its :meth:`dimension` (:mod:`jointwear_ros.model.scaling`):
+        joint-side data at a few rad/s get Stribeck speeds inside their own range;
+        data at the paper's scale keep the numbers as written.
+
+        >>> [g["vstm"] for g in LoadStribeck().guess({"speed": np.array([0.01, 2.5])})]
+        [0.04, 0.12, 0.3, 0.8]
+        """
+        from .scaling import DataScales, scale_grid
+
+        grid = self.start_points(x)
+        sc = DataScales.of(speed=x.get("speed"))
+        return grid if sc.speed == 1.0 else scale_grid(self, grid, sc)
+
+    def describe_effect(self) -> str:
+        """What the term means physically: :attr:`meaning`, else the first line of its docstring."""
+        if self.meaning:
+            return self.meaning
+        doc = (type(self).__doc__ or "").strip().splitlines()
+        return doc[0] if doc else self.name
 
     def dimension(self, name: str) -> Dimension:
         """The dimension of parameter ``name``: declared in :attr:`dimensions`, else implied by its unit."""
@@ -244,6 +287,7 @@ class Coulomb(Term):
     params = (ParamSpec("Fc0", "-", 0.04, 0.0, 1.0, "Coulomb friction level"),)
     equation = "Fc0"
     paper_ref = "Eq. (6a)"
+    linear = ("Fc0",)
 
     def value(self, x: Inputs, p: Values) -> Array:
         return p["Fc0"] + _zeros_like_inputs(x)
@@ -270,6 +314,9 @@ class LoadCoulomb(Term):
     dimensions: ClassVar[Mapping[str, Dimension]] = {"Fctm": Dimension(torque=1, load=-1)}
     equation = "Fctm*|tau_m|"
     paper_ref = "Eq. (6a)"
+    linear = ("Fctm",)
+    meaning = "Coulomb friction grows with load torque (Eq. 6a)"
+    candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
         return p["Fctm"] * np.abs(np.asarray(x["load_torque"], dtype=float)) + _zeros_like_inputs(x)
@@ -301,6 +348,10 @@ class LoadStribeck(Term):
     dimensions: ClassVar[Mapping[str, Dimension]] = {"Fstm": Dimension(torque=1, load=-1)}
     equation = "Fstm*|tau_m|*exp(-|v/vstm|^1.3)"
     paper_ref = "Eq. (6a)"
+    linear = ("Fstm",)
+    starts = tuple({"vstm": v} for v in (4.0, 12.0, 30.0, 80.0))
+    meaning = "low-speed friction hump grows with load torque (Eq. 6a)"
+    candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
         s, _ = stribeck_shape(_v(x), p["vstm"])
@@ -343,6 +394,10 @@ class TempStribeck(Term):
     )
     equation = "(Fs0 + FsT*T)*exp(-|v/(vs0 + vsT*T)|^1.3)"
     paper_ref = "Eq. (6b)"
+    linear = ("Fs0", "FsT")
+    starts = tuple({"vs0": v, "vsT": 0.0} for v in (10.0, 30.0, 60.0, 120.0))
+    meaning = "low-speed friction changes with temperature (Eq. 6b)"
+    candidate = True
 
     def _parts(self, x: Inputs, p: Values) -> tuple[Array, Array, Array, Array, Array]:
         T = np.asarray(x["temperature"], dtype=float)
@@ -394,6 +449,10 @@ class TempViscous(Term):
     )
     equation = "(Fv0 + FvT*exp(-T/Tv0))*v"
     paper_ref = "Eq. (6c)"
+    linear = ("Fv0", "FvT")
+    starts = tuple({"Tv0": t} for t in (10.0, 25.0, 60.0))
+    meaning = "viscous slope falls with temperature (Eq. 6c)"
+    candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
         T = np.asarray(x["temperature"], dtype=float)
@@ -435,6 +494,10 @@ class WearStribeck(Term):
     )
     equation = "Fsw*w*exp(-|v/(vsw*w)|^1.3)"
     paper_ref = "Eq. (7)"
+    linear = ("Fsw",)
+    starts = tuple({"vsw": v} for v in (0.5, 2.2, 8.0))
+    meaning = "low-speed friction grows with wear (Eq. 7)"
+    candidate = True
 
     def _parts(self, x: Inputs, p: Values) -> tuple[Array, Array, Array]:
         w = np.asarray(x["wear"], dtype=float)
@@ -474,6 +537,9 @@ class WearViscous(Term):
     params = (ParamSpec("Fvw", "s/rad/w", -5.3e-7, -1e-3, 1e-3, "viscous coefficient per unit wear"),)
     equation = "Fvw*w*v"
     paper_ref = "Eq. (7)"
+    linear = ("Fvw",)
+    meaning = "viscous slope changes with wear (Eq. 7)"
+    candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
         return p["Fvw"] * np.asarray(x["wear"], dtype=float) * _v(x) + _zeros_like_inputs(x)
@@ -504,6 +570,8 @@ class Stribeck(Term):
     )
     equation = "Fs*exp(-|v/vs|^1.3)"
     paper_ref = "standard model"
+    linear = ("Fs",)
+    starts = tuple({"vs": v} for v in (4.0, 12.0, 30.0, 80.0))
 
     def value(self, x: Inputs, p: Values) -> Array:
         s, _ = stribeck_shape(_v(x), p["vs"])
@@ -531,6 +599,7 @@ class Viscous(Term):
     params = (ParamSpec("Fv", "s/rad", 4.0e-4, -0.01, 0.01, "viscous coefficient"),)
     equation = "Fv*v"
     paper_ref = "standard model"
+    linear = ("Fv",)
 
     def value(self, x: Inputs, p: Values) -> Array:
         return p["Fv"] * _v(x) + _zeros_like_inputs(x)

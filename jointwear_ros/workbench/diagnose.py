@@ -53,18 +53,11 @@ from scipy import stats
 from ..errors import ModelError
 from ..model import TERMS, Model, Parameters, Term
 from ..types import ObservationTable
-from .candidates import (
-    Interaction,
-    candidate_library,
-    describe_term,
-    linear_params,
-    parse_spec,
-    start_grid,
-)
+from .candidates import candidate_library, parse_spec
 from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, noise_test, speed_band_edges
 from .dependence import VariableDependence, is_angle, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
-from .shapes import HarmonicRipple, Scale, Spline, Step
+from .shapes import HarmonicRipple, Interaction, Scale, Spline, Step
 
 __all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
            "fit_candidate"]
@@ -365,9 +358,9 @@ def fit_candidate(
     model = Model([*base.model.terms, term])
     params: Parameters = model.make_params(base.params)
     x = model_inputs(model, table)
-    lin = set(linear_params(term))
+    lin = set(term.linear)
     starts = []
-    for g in start_grid(term, x):
+    for g in term.guess(x):
         s = {n: 0.0 for n in term.param_names if n in lin}
         s.update(g)
         starts.append(s)
@@ -604,7 +597,7 @@ def diagnose(
             CandidateResult(
                 term=term.name,
                 variables=[v for v in term.variables if v != "speed"] or ["speed"],
-                description=describe_term(term),
+                description=term.describe_effect(),
                 cv_rmse=fit.cv_rmse,
                 rmse=fit.rmse,
                 delta_bic=fit.bic - base.bic,
