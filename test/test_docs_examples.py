@@ -77,7 +77,7 @@ def workspace(tmp_path_factory):
 
 def test_the_guide_has_the_three_worked_examples():
     files = {b.path for b in GUIDE_BLOCKS if b.path}
-    assert {"my_jointwear/terms.py", "my_jointwear/estimators.py", "my_jointwear/wear_log_core.py",
+    assert {"my_jointwear/terms.py", "my_jointwear/shapes.py", "my_jointwear/estimators.py", "my_jointwear/wear_log_core.py",
             "my_jointwear/wear_log.py", "config/wear_log.yaml", "test/test_wear_log.py"} <= files
     runnable = [b for b in GUIDE_BLOCKS if b.lang in ("python", "sh") and b.path is None]
     assert len(runnable) >= 6
