@@ -55,8 +55,13 @@ GUIDE_BLOCKS = blocks(GUIDE)
 
 
 def _purge_user_modules() -> None:
+    """Forget the guide's package: its modules, and the workbench shapes it registered."""
+    from jointwear_ros.workbench import SHAPES
+
     for name in [n for n in sys.modules if n == "my_jointwear" or n.startswith("my_jointwear.")]:
         del sys.modules[name]
+    for shape in [s for s, cls in SHAPES.items() if cls.__module__.startswith("my_jointwear")]:
+        del SHAPES[shape]
 
 
 @pytest.fixture(scope="module")

@@ -218,6 +218,7 @@ def test_every_term_is_linear_in_the_parameters_it_names_and_only_in_those_it_co
 @pytest.mark.parametrize("name", sorted(TERMS))
 def test_every_terms_starting_points_name_only_its_nonlinear_parameters_and_move_with_the_datas_speed(name):
     term = TERMS[name]()
+    assert set(term.relative) == set(term.param_names)  # and a start and bounds relative to the data's levels
     paper = term.guess(_HINT_X)
     assert paper == term.start_points(_HINT_X)  # data at the paper's scale keep the numbers as written
     for point in paper:

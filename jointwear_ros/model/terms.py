@@ -31,6 +31,15 @@ dimension of a parameter whose unit does not say it (:attr:`Term.dimensions`:
 >>> LoadCoulomb().dimension("Fctm"), TempViscous().dimension("Fv0")
 (Dimension(torque=1, speed=0, load=-1, temperature=0, wear=0), Dimension(torque=1, speed=-1, load=0, temperature=0, wear=0))
 
+A term also carries what the workbench needs to fit it, as an lmfit model carries its
+parameter hints and ``guess()``: the parameters it is linear in (:attr:`Term.linear`),
+starting points of the others (:attr:`Term.starts`, moved to the data's units by
+:meth:`Term.guess`), what it means (:attr:`Term.meaning`) and whether the diagnosis offers it
+as a candidate effect (:attr:`Term.candidate`).
+
+>>> TempStribeck.linear, [g["vs0"] for g in TempStribeck().guess({"speed": np.array([0.5, 2.8])})]
+(('Fs0', 'FsT'), [0.1, 0.3, 0.6, 1.2])
+
 The wear Stribeck term of Eq. (7) at 47 rad/s and w = 35 (Eq. 8 values):
 
 >>> t = term_by_name("wear_stribeck")
@@ -63,6 +72,7 @@ __all__ = [
     "Dimension",
     "LoadCoulomb",
     "LoadStribeck",
+    "Relative",
     "Stribeck",
     "TempStribeck",
     "TempViscous",
@@ -116,6 +126,20 @@ UNIT_DIMENSIONS: dict[str, Dimension] = {
 }
 
 
+class Relative(NamedTuple):
+    """A parameter's start and bounds as multiples of the data's level of its dimension
+    (:meth:`~jointwear_ros.model.scaling.DataScales.level`): how a fit with no parameter set to start
+    from (commissioning) starts in any units.
+
+    ``absolute``: the bounds are in the parameter's own unit (physical limits), not multiples.
+    """
+
+    start: float
+    lo: float
+    hi: float
+    absolute: bool = False
+
+
 def _unit_dimension(unit: str) -> Dimension:
     return UNIT_DIMENSIONS.get(unit.strip(), Dimension())
 
@@ -166,6 +190,10 @@ class Term:
     meaning: ClassVar[str] = ""
     #: The diagnosis offers the term as a candidate effect when the data has its inputs and the model lacks it.
     candidate: ClassVar[bool] = False
+    #: Start and bounds of each parameter relative to the data's level of its dimension (:class:`Relative`),
+    #: for a fit that has no parameter set to start from (commissioning): positive speeds and Coulomb
+    #: levels, wide elsewhere.
+    relative: ClassVar[Mapping[str, Relative]] = {}
 
     def start_points(self, x: Inputs) -> list[dict[str, float]]:
         """Starting points of the nonlinear parameters for inputs ``x``, in the numbers of the term's defaults.
@@ -287,6 +315,7 @@ class Coulomb(Term):
     params = (ParamSpec("Fc0", "-", 0.04, 0.0, 1.0, "Coulomb friction level"),)
     equation = "Fc0"
     paper_ref = "Eq. (6a)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fc0": Relative(0.5, 0.0, 10.0)}
     linear = ("Fc0",)
 
     def value(self, x: Inputs, p: Values) -> Array:
@@ -314,6 +343,7 @@ class LoadCoulomb(Term):
     dimensions: ClassVar[Mapping[str, Dimension]] = {"Fctm": Dimension(torque=1, load=-1)}
     equation = "Fctm*|tau_m|"
     paper_ref = "Eq. (6a)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fctm": Relative(0.05, 0.0, 100.0)}
     linear = ("Fctm",)
     meaning = "Coulomb friction grows with load torque (Eq. 6a)"
     candidate = True
@@ -348,6 +378,7 @@ class LoadStribeck(Term):
     dimensions: ClassVar[Mapping[str, Dimension]] = {"Fstm": Dimension(torque=1, load=-1)}
     equation = "Fstm*|tau_m|*exp(-|v/vstm|^1.3)"
     paper_ref = "Eq. (6a)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fstm": Relative(0.05, 0.0, 100.0), "vstm": Relative(0.05, 1e-3, 20.0)}
     linear = ("Fstm",)
     starts = tuple({"vstm": v} for v in (4.0, 12.0, 30.0, 80.0))
     meaning = "low-speed friction hump grows with load torque (Eq. 6a)"
@@ -394,6 +425,8 @@ class TempStribeck(Term):
     )
     equation = "(Fs0 + FsT*T)*exp(-|v/(vs0 + vsT*T)|^1.3)"
     paper_ref = "Eq. (6b)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fs0": Relative(0.1, -1e3, 1e3), "FsT": Relative(0.0, -1e3, 1e3),
+                                                  "vs0": Relative(0.1, 1e-3, 20.0), "vsT": Relative(0.0, -20.0, 20.0)}
     linear = ("Fs0", "FsT")
     starts = tuple({"vs0": v, "vsT": 0.0} for v in (10.0, 30.0, 60.0, 120.0))
     meaning = "low-speed friction changes with temperature (Eq. 6b)"
@@ -449,6 +482,9 @@ class TempViscous(Term):
     )
     equation = "(Fv0 + FvT*exp(-T/Tv0))*v"
     paper_ref = "Eq. (6c)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fv0": Relative(0.2, -1e3, 1e3), "FvT": Relative(0.2, -1e3, 1e3),
+                                                  # a temperature constant in degC whatever the torque unit
+                                                  "Tv0": Relative(1.0, 1.0, 1000.0, absolute=True)}
     linear = ("Fv0", "FvT")
     starts = tuple({"Tv0": t} for t in (10.0, 25.0, 60.0))
     meaning = "viscous slope falls with temperature (Eq. 6c)"
@@ -494,6 +530,7 @@ class WearStribeck(Term):
     )
     equation = "Fsw*w*exp(-|v/(vsw*w)|^1.3)"
     paper_ref = "Eq. (7)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fsw": Relative(0.01, 0.0, 1e3), "vsw": Relative(0.01, 1e-4, 10.0)}
     linear = ("Fsw",)
     starts = tuple({"vsw": v} for v in (0.5, 2.2, 8.0))
     meaning = "low-speed friction grows with wear (Eq. 7)"
@@ -537,6 +574,7 @@ class WearViscous(Term):
     params = (ParamSpec("Fvw", "s/rad/w", -5.3e-7, -1e-3, 1e-3, "viscous coefficient per unit wear"),)
     equation = "Fvw*w*v"
     paper_ref = "Eq. (7)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fvw": Relative(0.0, -1e3, 1e3)}
     linear = ("Fvw",)
     meaning = "viscous slope changes with wear (Eq. 7)"
     candidate = True
@@ -570,6 +608,7 @@ class Stribeck(Term):
     )
     equation = "Fs*exp(-|v/vs|^1.3)"
     paper_ref = "standard model"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fs": Relative(0.2, -1e3, 1e3), "vs": Relative(0.1, 1e-3, 20.0)}
     linear = ("Fs",)
     starts = tuple({"vs": v} for v in (4.0, 12.0, 30.0, 80.0))
 
@@ -599,6 +638,7 @@ class Viscous(Term):
     params = (ParamSpec("Fv", "s/rad", 4.0e-4, -0.01, 0.01, "viscous coefficient"),)
     equation = "Fv*v"
     paper_ref = "standard model"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fv": Relative(0.3, -1e3, 1e3)}
     linear = ("Fv",)
 
     def value(self, x: Inputs, p: Values) -> Array:
