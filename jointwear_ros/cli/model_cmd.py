@@ -277,12 +277,20 @@ def cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _stderr_progress(i: int, m: int, name: str) -> None:  # pragma: no cover - terminal only
+    """A one-line progress indicator of the candidates on stderr."""
+    import sys
+
+    sys.stderr.write(f"\r  candidate {i + 1}/{m}: {name[:40]:<40}")
+    if i + 1 == m:
+        sys.stderr.write("\r" + " " * 70 + "\r")
+    sys.stderr.flush()
+
+
 def _progress() -> Any:
     import sys
 
-    from ..workbench.diagnose import stderr_progress
-
-    return stderr_progress if sys.stderr.isatty() else None
+    return _stderr_progress if sys.stderr.isatty() else None
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:

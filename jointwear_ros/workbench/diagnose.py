@@ -40,7 +40,6 @@ explain:
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -610,11 +609,3 @@ def _components(fit: FitResult, table: ObservationTable) -> dict[str, Array]:
 
 def _nan_last(x: float) -> float:
     return x if math.isfinite(x) else math.inf
-
-
-def stderr_progress(i: int, m: int, name: str) -> None:  # pragma: no cover - terminal only
-    """A one-line progress indicator on stderr."""
-    sys.stderr.write(f"\r  candidate {i + 1}/{m}: {name[:40]:<40}")
-    if i + 1 == m:
-        sys.stderr.write("\r" + " " * 70 + "\r")
-    sys.stderr.flush()
