@@ -136,7 +136,10 @@ def _register_workbench(msub: argparse._SubParsersAction) -> None:  # type: igno
                         description="Fit every candidate effect on top of the model, rank by CV error and BIC, "
                                     "test against the noise floor.")
     _add_data_args(d)
-    d.add_argument("--json", action="store_true", help="print JSON")
+    out = d.add_mutually_exclusive_group()
+    out.add_argument("--json", action="store_true", help="print JSON")
+    out.add_argument("--markdown", action="store_true",
+                     help="print the report as Markdown (for an issue, a wiki page or a log book)")
     d.add_argument("--candidate", action="append", default=[], metavar="TERM",
                    help="also try this term (e.g. a user term pkg.module:Class); repeatable")
     d.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level (default 0.01)")
@@ -317,9 +320,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.json:
         print_json({**diag.to_dict(), "converged": base.success, "at_bound": [h.to_dict() for h in base.at_bound]})
         return 0
-    from ..workbench.render import diagnosis_text
+    from ..workbench.render import diagnosis_markdown, diagnosis_text
 
-    print(diagnosis_text(diag, table.source, args.top, at_bound=base.at_bound))
+    render = diagnosis_markdown if args.markdown else diagnosis_text
+    print(render(diag, table.source, args.top, at_bound=base.at_bound))
     if args.report:
         print(f"# report written to {Path(args.report) / 'report.html'}")
     return 0

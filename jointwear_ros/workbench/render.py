@@ -5,7 +5,7 @@ this module is the one place that turns it into text: the shape a column's evide
 to (:func:`shape_hint`), the goodness-of-fit line (:func:`goodness_of_fit`), a diagnosis's
 verdict in sentences (:func:`diagnosis_summary`), and the terminal reports of ``jointwear
 model fit|diagnose|compare|add`` (:func:`fit_text`, :func:`diagnosis_text`,
-:func:`compare_text`, :func:`add_text`). The JSON (``to_dict``) and the HTML report
+:func:`compare_text`, :func:`add_text`), and a diagnosis as Markdown (:func:`diagnosis_markdown`). The JSON (``to_dict``) and the HTML report
 (:mod:`.report`) take their sentences from here, so the three say the same.
 
 >>> from jointwear_ros.workbench.dependence import VariableDependence
@@ -40,11 +40,13 @@ __all__ = [
     "add_text",
     "candidate_region_label",
     "compare_text",
+    "diagnosis_markdown",
     "diagnosis_summary",
     "diagnosis_text",
     "fit_text",
     "floor_text",
     "goodness_of_fit",
+    "markdown_table",
     "noise_line",
     "shape_hint",
     "speed_region_label",
@@ -231,32 +233,72 @@ def fit_text(table: ObservationTable, fit: FitResult) -> str:
     return "\n".join(out)
 
 
+def markdown_table(headers: Sequence[str], rows: Sequence[Sequence[Any]], floatfmt: str = ".5f") -> str:
+    """A Markdown (pipe) table, cells as :func:`~jointwear_ros.fmt.format_table` writes them.
+
+    >>> print(markdown_table(["term", "CV RMSE"], [["ripple(position, w0=17.07)", 0.0015], ["a|b", float("nan")]]))
+    | term | CV RMSE |
+    |---:|---:|
+    | ripple(position, w0=17.07) | 0.00150 |
+    | a\\|b | nan |
+    """
+    def cell(v: Any) -> str:
+        return format_table([""], [[v]], floatfmt).splitlines()[-1].strip().replace("|", "\\|")
+
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---:|" * len(headers)]
+    lines += ["| " + " | ".join(cell(v) for v in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+_VARIABLE_HEADERS = ["#", "variable", "explains", "p (adj.)", "signif.", "test", "shape"]
+_CANDIDATE_HEADERS = ["#", "term", "variables", "CV RMSE", "x floor", "dBIC", "p", "signif.", "speed region"]
+_RANKING = "which columns explain the residual (model-free; p adjusted for every column and pair tried)"
+_NO_CANDIDATE = "no candidate term to fit (no column explains the residual; the paper's terms are in the model)"
+
+
+def _diagnosis_rows(d: Diagnosis, top: int) -> tuple[list[list[Any]], list[list[Any]]]:
+    """The rows of the model-free ranking and of the candidates (``top`` each)."""
+    variables = [[i + 1, v.name, f"{100 * v.explained_share:.0f} %", f"{v.p_value:.2g}",
+                  "yes" if v.significant else "no", v.test, v.shape_hint] for i, v in enumerate(d.variables[:max(top, 0)])]
+    nf = d.noise
+    floor = nf.value if np.isfinite(nf.value) and nf.value > 0 else float("nan")
+    candidates = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse, f"{c.cv_rmse / floor:.2f}x", f"{c.delta_bic:.1f}",
+                   f"{c.p_value:.2g}", "yes" if c.significant else "no", c.speed_region_label]
+                  for i, c in enumerate(d.candidates[: max(top, 0)])]
+    return variables, candidates
+
+
+def _bound_lines(at_bound: Sequence[Any]) -> list[str]:
+    return [f"the model's own fit ended on a bound (not converged): {h}; the verdict is about a fit the data may "
+            "not identify" for h in at_bound]
+
+
 def diagnosis_text(d: Diagnosis, source: str, top: int, at_bound: Sequence[Any] = ()) -> str:
     """``jointwear model diagnose``: noise test, model-free ranking, candidates, verdict (``top`` rows each);
     ``at_bound``: the model's own parameters on a bound."""
-    nf = d.noise
+    variables, candidates = _diagnosis_rows(d, top)
     out = [f"# model: {d.model}", f"# data: {source}, n = {d.n}; RMSE {d.rmse:.5f}, CV RMSE {d.cv_rmse:.5f}",
-           "# " + noise_line(nf, d.cv_rmse), "",
-           "# which columns explain the residual (model-free; p adjusted for every column and pair tried)",
-           format_table(["#", "variable", "explains", "p (adj.)", "signif.", "test", "shape"],
-                        [[i + 1, v.name, f"{100 * v.explained_share:.0f} %", f"{v.p_value:.2g}",
-                          "yes" if v.significant else "no", v.test, v.shape_hint]
-                         for i, v in enumerate(d.variables[:max(top, 0)])]),
-           ""]
-    floor = nf.value if np.isfinite(nf.value) and nf.value > 0 else float("nan")
-    rows = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse, f"{c.cv_rmse / floor:.2f}x", f"{c.delta_bic:.1f}",
-             f"{c.p_value:.2g}", "yes" if c.significant else "no", c.speed_region_label]
-            for i, c in enumerate(d.candidates[: max(top, 0)])]
-    if rows:
-        out.append(format_table(["#", "term", "variables", "CV RMSE", "x floor", "dBIC", "p", "signif.",
-                                 "speed region"], rows))
-    else:
-        out.append("# no candidate term to fit (no column explains the residual; the paper's terms are in the model)")
+           "# " + noise_line(d.noise, d.cv_rmse), "", f"# {_RANKING}", format_table(_VARIABLE_HEADERS, variables), "",
+           format_table(_CANDIDATE_HEADERS, candidates) if candidates else f"# {_NO_CANDIDATE}"]
     if d.stability:
         out.append("# chosen in bootstrap resamples by cycle: " + stability_text(d))
     out += ["", f"verdict: {d.verdict}", d.summary()]
-    out += [f"# the model's own fit ended on a bound (not converged): {h}; the verdict is about a fit the "
-            "data may not identify" for h in at_bound]
+    out += [f"# {line}" for line in _bound_lines(at_bound)]
+    return "\n".join(out)
+
+
+def diagnosis_markdown(d: Diagnosis, source: str, top: int, at_bound: Sequence[Any] = ()) -> str:
+    """The same report as :func:`diagnosis_text`, as a Markdown document (for an issue, a wiki page, a log book)."""
+    variables, candidates = _diagnosis_rows(d, top)
+    out = [f"## Diagnosis of `{d.model}`", "",
+           f"Data: `{source}`, n = {d.n}; RMSE {d.rmse:.5f}, CV RMSE {d.cv_rmse:.5f}; {noise_line(d.noise, d.cv_rmse)}.",
+           "", f"**verdict: {d.verdict}**", "", d.summary(), ""]
+    out += [f"*{line}*" for line in _bound_lines(at_bound)] + ([""] if at_bound else [])
+    out += [f"### {_RANKING[0].upper()}{_RANKING[1:]}", "", markdown_table(_VARIABLE_HEADERS, variables), "",
+            "### Candidate terms", "", markdown_table(_CANDIDATE_HEADERS, candidates) if candidates else
+            _NO_CANDIDATE[0].upper() + _NO_CANDIDATE[1:] + "."]
+    if d.stability:
+        out += ["", "Chosen in bootstrap resamples by cycle: " + stability_text(d) + "."]
     return "\n".join(out)
 
 
