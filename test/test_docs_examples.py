@@ -58,8 +58,13 @@ GUIDE_BLOCKS = blocks(GUIDE)
 
 
 def _purge_user_modules() -> None:
+    """Forget the guide's package: its modules, and the workbench shapes it registered."""
+    from jointwear_ros.workbench import SHAPES
+
     for name in [n for n in sys.modules if n == "my_jointwear" or n.startswith("my_jointwear.")]:
         del sys.modules[name]
+    for shape in [s for s, cls in SHAPES.items() if cls.__module__.startswith("my_jointwear")]:
+        del SHAPES[shape]
 
 
 def _install_entry_points(ws: Path) -> dict[str, dict[str, str]]:
@@ -106,7 +111,7 @@ def workspace(tmp_path_factory):
 
 def test_the_guide_has_the_three_worked_examples():
     files = {b.path for b in GUIDE_BLOCKS if b.path}
-    assert {"my_jointwear/terms.py", "my_jointwear/estimators.py", "my_jointwear/wear_log_core.py",
+    assert {"my_jointwear/terms.py", "my_jointwear/shapes.py", "my_jointwear/estimators.py", "my_jointwear/wear_log_core.py",
             "my_jointwear/wear_log.py", "config/wear_log.yaml", "test/test_wear_log.py"} <= files
     assert "my_jointwear/memdb.py" in files  # the history backend of section 6
     runnable = [b for b in GUIDE_BLOCKS if b.lang in ("python", "sh") and b.path is None]
