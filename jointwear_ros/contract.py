@@ -18,6 +18,10 @@ nodes, the bag reader, replay, the recorder and the CLI share them.
 (12, 250000000)
 >>> stamp_to_seconds(type("Stamp", (), {"sec": 12, "nanosec": 250000000})())
 12.25
+>>> st = CycleStatus(cycle_id=3, state=CycleState.DONE, speeds_done=2, speeds_total=2, joint_name="joint_2",
+...                  joints=("joint_1", "joint_2"), joints_done=1)
+>>> st.ended, st.robot_cycle_over, st.in_cycle(3, "joint_2")
+(True, True, True)
 """
 
 from __future__ import annotations
@@ -25,17 +29,20 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Callable
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from functools import cache
 from typing import TYPE_CHECKING, Any, TypeVar
 
 if TYPE_CHECKING:  # imported where used: observer.types itself takes its state constants from here
     from .observer.types import FrictionObservationData
 
+M = TypeVar("M")
+
 __all__ = [
     "ENDED_STATES",
     "CyclePhase",
     "CycleState",
+    "CycleStatus",
     "DiagnosticLevel",
     "RefusalReason",
     "observation_from_msg",
@@ -43,6 +50,8 @@ __all__ = [
     "robot_cycle_over",
     "seconds_to_stamp_fields",
     "stamp_to_seconds",
+    "status_from_msg",
+    "status_to_msg",
 ]
 
 
@@ -100,6 +109,91 @@ class CyclePhase(_Contract):
     FORWARD = 2
     REVERSE = 3
     SETTLE = 4
+
+
+@dataclass(frozen=True)
+class CycleStatus:
+    """One ``TestCycleStatus``: what the test-cycle runners report, the node publishes, and the observer,
+    the estimator, replay, the recorder's readers and the operator read (one type for all of them).
+
+    ``state`` is a :class:`CycleState` (a plain int when a received message carries a value the contract
+    does not define: the consumers then treat it as not RUNNING and not DONE); ``phase`` likewise a
+    :class:`CyclePhase`. ``current_speed`` is the motor-side speed being swept (rad/s), the window joint
+    side (rad). ``stamp`` is the header stamp in seconds (0: none; the consumers use their clock at
+    receipt). ``joints`` lists every joint of a robot cycle in test order (empty: only ``joint_name``),
+    ``joints_done`` how many finished before ``joint_name``. :func:`status_from_msg` and
+    :func:`status_to_msg` convert from and to the message.
+    """
+
+    cycle_id: int = 0
+    state: int = CycleState.IDLE
+    phase: int = CyclePhase.NONE
+    current_speed: float = 0.0
+    speeds_done: int = 0
+    speeds_total: int = 0
+    window_center: float = 0.0
+    window_half_width: float = 0.0
+    message: str = ""
+    joint_name: str = ""
+    joints: tuple[str, ...] = ()
+    joints_done: int = 0
+    stamp: float = 0.0
+
+    @property
+    def ended(self) -> bool:
+        """DONE, ABORTED or FAILED: this joint's test will not sweep again."""
+        return self.state in ENDED_STATES
+
+    @property
+    def robot_cycle_over(self) -> bool:
+        """This status ends its robot cycle (:func:`robot_cycle_over`)."""
+        return robot_cycle_over(self.state, len(self.joints), self.joints_done)
+
+    @property
+    def state_name(self) -> str:
+        """The state's name (the number as text for a value the contract does not define)."""
+        return CycleState.name_of(self.state)
+
+    def in_cycle(self, cycle_id: int, joint: str | None = None) -> bool:
+        """This status is of cycle ``cycle_id`` (and of ``joint``, when given)."""
+        return self.cycle_id == cycle_id and (joint is None or self.joint_name == joint)
+
+
+def _known(enum_type: type[_Contract], value: int) -> int:
+    try:
+        return enum_type(value)
+    except ValueError:
+        return value
+
+
+def status_from_msg(msg: Any) -> CycleStatus:
+    """A ``TestCycleStatus`` message (rclpy or rosbags) -> :class:`CycleStatus`."""
+    return CycleStatus(
+        cycle_id=int(msg.cycle_id), state=_known(CycleState, int(msg.state)), phase=_known(CyclePhase, int(msg.phase)),
+        current_speed=float(msg.current_speed), speeds_done=int(msg.speeds_done), speeds_total=int(msg.speeds_total),
+        window_center=float(msg.window_center), window_half_width=float(msg.window_half_width),
+        message=str(msg.message), joint_name=str(msg.joint_name), joints=tuple(str(j) for j in msg.joints),
+        joints_done=int(msg.joints_done), stamp=stamp_to_seconds(msg.header.stamp),
+    )
+
+
+def status_to_msg(st: CycleStatus, msg_type: Callable[[], M]) -> M:
+    """Fill a new ``msg_type()`` (the generated ``TestCycleStatus`` class) from ``st``."""
+    msg: Any = msg_type()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = seconds_to_stamp_fields(st.stamp)
+    msg.joint_name = st.joint_name
+    msg.cycle_id = int(st.cycle_id)
+    msg.state = int(st.state)
+    msg.phase = int(st.phase)
+    msg.current_speed = float(st.current_speed)
+    msg.speeds_done = int(st.speeds_done)
+    msg.speeds_total = int(st.speeds_total)
+    msg.window_center = float(st.window_center)
+    msg.window_half_width = float(st.window_half_width)
+    msg.message = st.message
+    msg.joints = list(st.joints)
+    msg.joints_done = int(st.joints_done)
+    return msg  # type: ignore[no-any-return]
 
 
 class DiagnosticLevel(_Contract):
@@ -167,7 +261,6 @@ def _obs_fields() -> tuple[str, ...]:
 
 _INT_FIELDS = {"cycle_id", "samples_plus", "samples_minus"}
 
-M = TypeVar("M")
 
 
 def observation_from_msg(msg: Any) -> FrictionObservationData:
