@@ -1,9 +1,9 @@
 """Offline replay: a recorded bag through the live nodes' pure cores, in log-time order.
 
-:func:`replay_bag` reads a rosbag2/MCAP bag (no ROS runtime), feeds its ``/joint_states``,
-``/test_cycle/status`` and temperature messages to one :class:`~jointwear_ros.observer.FrictionObserverCore`
-per joint and the observations to one :class:`~jointwear_ros.monitor.WearMonitor` per joint,
-exactly as the ``friction_observer`` and ``wear_estimator`` nodes do live (docs/robot.md: each
+:func:`replay_bag` reads a rosbag2/MCAP bag once (no ROS runtime), feeds its ``/joint_states``,
+``/test_cycle/status`` and temperature messages to a :class:`~jointwear_ros.observer.RobotObserver`
+and the observations to a :class:`~jointwear_ros.monitor.RobotMonitor`: the same per-joint cores
+and routing the ``friction_observer`` and ``wear_estimator`` nodes run live (docs/robot.md: each
 JointState split by name, each status to its ``joint_name``'s cores, each temperature to its
 ``header.frame_id``'s), and compares what it gets with the observations and estimates the bag
 recorded, per (joint, cycle). ``jointwear replay``, ``jointwear history import --reestimate``
