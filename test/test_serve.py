@@ -33,6 +33,8 @@ sys.path.insert(0, str(ROOT / "tools"))
 from plant_example import ERROR_JOINT, STALE_JOINT, expected_levels, write_plant  # noqa: E402
 from plant_screenshot import start_serve, stop  # noqa: E402
 
+OK, WARN, ERROR = DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR
+
 
 def get(url: str) -> tuple[int, str]:
     try:
@@ -83,25 +85,25 @@ def trend_json(db: str, *extra: str) -> dict[tuple[str, str], dict]:
 # ---------------------------------------------------------------------------- the pure level rule
 
 
-@given(st.sampled_from([DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR]), st.floats(0, 100), st.floats(0.01, 60))
+@given(st.sampled_from([OK, WARN, ERROR]), st.floats(0, 100), st.floats(0.01, 60))
 def test_plant_level_is_the_trend_level_unless_silent_and_never_hides_an_error(trend_level, age_days, stale_days):
     now = 1.8e9
     last = now - age_days * DAY
     lv = plant_level(trend_level, last, now, stale_days)
-    if trend_level == DiagnosticLevel.ERROR:
-        assert lv == DiagnosticLevel.ERROR
+    if trend_level == ERROR:
+        assert lv == ERROR
     elif now - last > stale_days * DAY:
         assert lv == STALE
     else:
         assert lv == trend_level
-    assert plant_level(trend_level, math.nan, now, stale_days) == (DiagnosticLevel.ERROR if trend_level == DiagnosticLevel.ERROR else STALE)
+    assert plant_level(trend_level, math.nan, now, stale_days) == (ERROR if trend_level == ERROR else STALE)
     assert LEVEL_NAMES[lv] in ("OK", "WARN", "ERROR", "STALE")
 
 
 nums = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.none())
 
 
-@given(st.sampled_from([DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR, STALE]), st.floats(allow_nan=True), st.floats(allow_nan=True), nums, nums,
+@given(st.sampled_from([OK, WARN, ERROR, STALE]), st.floats(allow_nan=True), st.floats(allow_nan=True), nums, nums,
        nums, st.text(max_size=5))
 def test_api_rows_are_strict_json_with_nulls_where_unknown(level, wear, t, med, lo, hi, refused):
     from jointwear_ros.serve.core import JointView
@@ -229,7 +231,7 @@ def test_a_new_estimate_appears_on_the_page_and_in_metrics_without_a_restart(tmp
         new = [EstimateRecord("cell_9", "joint_1", cycle_id=k + 1, time=now - (6 - k) * 3600.0, wear=41.0 + 0.1 * k,
                               wear_std=0.85) for k in range(6)]
         t0 = time.monotonic()
-        with HistoryStore(str(db)) as store:  # the writer (wear_trend or history import) adds a joint at DiagnosticLevel.ERROR
+        with HistoryStore(str(db)) as store:  # the writer (wear_trend or history import) adds a joint at ERROR
             assert store.add_estimates(new) == 6
         wait_for(lambda: ("cell_9", "joint_1") in metrics(base).get("jointwear_joint_level", {}), 10, "metrics")
         delay = time.monotonic() - t0
