@@ -166,33 +166,28 @@ def _known(enum_type: type[_Contract], value: int) -> int:
         return value
 
 
+#: the plain fields of ``TestCycleStatus`` and their Python type (``joints``, ``stamp`` and the enums aside)
+_STATUS_FIELDS: dict[str, Callable[[Any], Any]] = {
+    "joint_name": str, "cycle_id": int, "state": int, "phase": int, "current_speed": float, "speeds_done": int,
+    "speeds_total": int, "window_center": float, "window_half_width": float, "message": str, "joints_done": int,
+}
+
+
 def status_from_msg(msg: Any) -> CycleStatus:
     """A ``TestCycleStatus`` message (rclpy or rosbags) -> :class:`CycleStatus`."""
-    return CycleStatus(
-        cycle_id=int(msg.cycle_id), state=_known(CycleState, int(msg.state)), phase=_known(CyclePhase, int(msg.phase)),
-        current_speed=float(msg.current_speed), speeds_done=int(msg.speeds_done), speeds_total=int(msg.speeds_total),
-        window_center=float(msg.window_center), window_half_width=float(msg.window_half_width),
-        message=str(msg.message), joint_name=str(msg.joint_name), joints=tuple(str(j) for j in msg.joints),
-        joints_done=int(msg.joints_done), stamp=stamp_to_seconds(msg.header.stamp),
-    )
+    values = {name: conv(getattr(msg, name)) for name, conv in _STATUS_FIELDS.items()}
+    values["state"] = _known(CycleState, values["state"])
+    values["phase"] = _known(CyclePhase, values["phase"])
+    return CycleStatus(**values, joints=tuple(str(j) for j in msg.joints), stamp=stamp_to_seconds(msg.header.stamp))
 
 
 def status_to_msg(st: CycleStatus, msg_type: Callable[[], M]) -> M:
     """Fill a new ``msg_type()`` (the generated ``TestCycleStatus`` class) from ``st``."""
     msg: Any = msg_type()
     msg.header.stamp.sec, msg.header.stamp.nanosec = seconds_to_stamp_fields(st.stamp)
-    msg.joint_name = st.joint_name
-    msg.cycle_id = int(st.cycle_id)
-    msg.state = int(st.state)
-    msg.phase = int(st.phase)
-    msg.current_speed = float(st.current_speed)
-    msg.speeds_done = int(st.speeds_done)
-    msg.speeds_total = int(st.speeds_total)
-    msg.window_center = float(st.window_center)
-    msg.window_half_width = float(st.window_half_width)
-    msg.message = st.message
+    for name, conv in _STATUS_FIELDS.items():
+        setattr(msg, name, conv(getattr(st, name)))
     msg.joints = list(st.joints)
-    msg.joints_done = int(st.joints_done)
     return msg  # type: ignore[no-any-return]
 
 

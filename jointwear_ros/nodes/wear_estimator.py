@@ -255,6 +255,15 @@ class WearEstimatorNode(Node):
             f"{what} for joint {joint!r} ignored: this estimator serves {self.joints!r} (parameter joints); "
             f"{len(self.unknown_joints)} unknown joint(s) so far", throttle_duration_sec=5.0)
 
+    def _served(self, what: str, joint: str) -> _Joint | None:
+        """The joint a message naming ``joint`` is for (the robot monitor's routing); None, counted and logged,
+        when this node does not serve it."""
+        j = self.robot_monitor.route(joint)
+        if j is None:
+            self._ignore(what, joint)
+            return None
+        return self.channels[j]
+
     def _on_observation(self, msg: FrictionObservation) -> None:
         try:
             obs = observation_from_msg(msg)
@@ -262,11 +271,9 @@ class WearEstimatorNode(Node):
             self.ignored_messages += 1
             self.get_logger().warning(f"FrictionObservation skipped: {exc}")
             return
-        joint = self.robot_monitor.route(obs.joint_name)
-        if joint is None:
-            self._ignore("FrictionObservation", obs.joint_name)
+        ch = self._served("FrictionObservation", obs.joint_name)
+        if ch is None:
             return
-        ch = self.channels[joint]
         monitor = ch.monitor
         before, dropped = monitor.notes_total, monitor.rejected_count
         self._handle(self.robot_monitor.add(obs, self._now()) or [])
@@ -278,12 +285,10 @@ class WearEstimatorNode(Node):
 
     def _on_status(self, msg: TestCycleStatus) -> None:
         st = status_from_msg(msg)
-        joint = self.robot_monitor.route(st.joint_name)
-        if joint is None:
-            self._ignore("TestCycleStatus", st.joint_name)
+        ch = self._served("TestCycleStatus", st.joint_name)
+        if ch is None:
             return
         # timeouts run on this node's clock at receipt, whatever clock stamped the messages
-        ch = self.channels[joint]
         monitor = ch.monitor
         before = monitor.notes_total
         self._handle(self.robot_monitor.on_status(st, self._now()) or [])
