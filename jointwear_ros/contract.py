@@ -67,6 +67,9 @@ class _Contract(enum.IntEnum):
             return str(value)
 
 
+E = TypeVar("E", bound=_Contract)
+
+
 class CycleState(_Contract):
     """``TestCycleStatus.state`` (IDLE, RUNNING, DONE, ABORTED, FAILED)."""
 
@@ -116,9 +119,9 @@ class CycleStatus:
     """One ``TestCycleStatus``: what the test-cycle runners report, the node publishes, and the observer,
     the estimator, replay, the recorder's readers and the operator read (one type for all of them).
 
-    ``state`` is a :class:`CycleState` (a plain int when a received message carries a value the contract
-    does not define: the consumers then treat it as not RUNNING and not DONE); ``phase`` likewise a
-    :class:`CyclePhase`. ``current_speed`` is the motor-side speed being swept (rad/s), the window joint
+    ``state`` is a :class:`CycleState` and ``phase`` a :class:`CyclePhase`; a received message with a value
+    the contract does not define keeps it as a plain int (the consumers compare it, and it is neither
+    RUNNING nor DONE; :attr:`state_name` names it: never take ``state.name`` of a received status). ``current_speed`` is the motor-side speed being swept (rad/s), the window joint
     side (rad). ``stamp`` is the header stamp in seconds (0: none; the consumers use their clock at
     receipt). ``joints`` lists every joint of a robot cycle in test order (empty: only ``joint_name``),
     ``joints_done`` how many finished before ``joint_name``. :func:`status_from_msg` and
@@ -126,8 +129,8 @@ class CycleStatus:
     """
 
     cycle_id: int = 0
-    state: int = CycleState.IDLE
-    phase: int = CyclePhase.NONE
+    state: CycleState = CycleState.IDLE
+    phase: CyclePhase = CyclePhase.NONE
     current_speed: float = 0.0
     speeds_done: int = 0
     speeds_total: int = 0
@@ -159,11 +162,12 @@ class CycleStatus:
         return self.cycle_id == cycle_id and (joint is None or self.joint_name == joint)
 
 
-def _known(enum_type: type[_Contract], value: int) -> int:
+def _known(enum_type: type[E], value: int) -> E:
+    """``enum_type(value)``, or the plain ``value`` when the contract does not define it (see :class:`CycleStatus`)."""
     try:
         return enum_type(value)
     except ValueError:
-        return value
+        return value  # type: ignore[return-value]
 
 
 #: the plain fields of ``TestCycleStatus`` and their Python type (``joints``, ``stamp`` and the enums aside)

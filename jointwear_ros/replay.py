@@ -308,8 +308,8 @@ def replay_bag(
                                          msg.effort, now)
             if js.used:
                 samples += 1
-            for routed in js.outputs:
-                take(routed.output)
+            for fed in js.outputs:
+                take(fed.output)
         elif topic == status_topic and msgtype == STATUS_TYPE:
             n_statuses += 1
             st = status_from_msg(bag.message(i).msg)
@@ -338,8 +338,8 @@ def replay_bag(
             f"{p}: no {JOINT_STATE_TYPE} messages on {joint_states_topic}; "
             "record /joint_states (and /test_cycle/status) to replay the observer"
         )
-    for routed in observer.flush():
-        take(routed.output)
+    for fed in observer.flush():
+        take(fed.output)
     if math.isfinite(now):
         cycles.extend(monitor.finish(now))
     return ReplayResult(
