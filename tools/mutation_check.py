@@ -83,7 +83,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     ),
     Mutation(
         "recorder_drops_every_1000th", "the recorder silently drops every 1000th message",
-        "jointwear_ros/nodes/recorder.py",
+        "jointwear_ros/io/recording.py",
         "        self._writer.write(conn, stamp, item.data)\n        self._last = stamp\n        self.count += 1",
         "        self.count += 1\n        if self.count % 1000 == 0:\n            return\n"
         "        self._writer.write(conn, stamp, item.data)\n        self._last = stamp",

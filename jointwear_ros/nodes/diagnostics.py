@@ -36,9 +36,9 @@ A task's callable may return ``False`` to leave its status out of this update
 may rename the status (``stat.name``) when its name follows the state (the
 recorder's ``recorder: <bag>``).
 
-:class:`NodeDiagnostics` (one held status in its own updater) and
-:func:`diagnostic_status` are the older helpers, kept for the nodes not yet on
-the updater.
+:class:`NodeDiagnostics` (one held status in its own updater), :func:`diagnostic_status`,
+``Report`` and the ``OK``/``WARN`` aliases are the older helpers, kept only for
+``friction_observer`` and ``wear_estimator`` until they move onto the updater.
 """
 
 from __future__ import annotations
@@ -53,9 +53,7 @@ from rclpy.node import Node
 from ..contract import DiagnosticLevel
 
 __all__ = [
-    "ERROR",
     "OK",
-    "STALE",
     "WARN",
     "CompositeTask",
     "DiagnosticTask",
@@ -65,14 +63,11 @@ __all__ = [
     "Status",
     "Updater",
     "diagnostic_status",
-    "merge_level",
 ]
 
 #: ``DiagnosticStatus`` level values (the message stores them as one byte): aliases of the contract's.
 OK = DiagnosticLevel.OK
 WARN = DiagnosticLevel.WARN
-ERROR = DiagnosticLevel.ERROR
-STALE = DiagnosticLevel.STALE
 
 KeyValues = Sequence[tuple[str, str]]
 #: what a ``refresh`` callback of :class:`NodeDiagnostics` returns: (level, message, key/values)
@@ -279,11 +274,6 @@ def diagnostic_status(name: str, hardware_id: str, level: int, message: str, val
     return s
 
 
-def merge_level(*levels: int) -> int:
-    """The level of several checks: the highest (OK < WARN < ERROR < STALE)."""
-    return max((int(x) for x in levels), default=OK)
-
-
 class NodeDiagnostics:
     """One held status of one node in its own :class:`Updater` (the older one-status interface).
 
@@ -322,10 +312,6 @@ class NodeDiagnostics:
     @property
     def message(self) -> str:
         return self.held.message
-
-    @property
-    def published(self) -> int:
-        return self.updater.published
 
     def set(self, level: int, message: str, values: KeyValues = ()) -> None:
         """Change the status without publishing (the next :meth:`publish` or timer tick sends it)."""

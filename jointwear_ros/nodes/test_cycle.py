@@ -65,7 +65,6 @@ from typing import Any
 from jointwear_msgs.msg import TestCycleStatus
 from jointwear_msgs.srv import RunTestCycle
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -85,7 +84,7 @@ from ..cycle import (
 from ..errors import JointwearError, ParameterError
 from .diagnostics import Status, Updater
 from .joints import declare_joints, declare_per_joint, propagate_node_level
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, wait_acked
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "TestCycleNode", "main"]
 
@@ -558,11 +557,7 @@ class TestCycleNode(Node):
         if self.runner.abort("node shutting down"):
             self._publish_status(force=True)
         self._send_zero()
-        for pub in (self.cmd_pub, self.status_pub):
-            try:
-                pub.wait_for_all_acked(Duration(seconds=0.5))
-            except Exception:  # pragma: no cover - best effort on the way out
-                pass
+        wait_acked([self.cmd_pub, self.status_pub])
 
 
 def main(args: Sequence[str] | None = None) -> int:

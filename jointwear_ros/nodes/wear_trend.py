@@ -65,7 +65,6 @@ from builtin_interfaces.msg import Time as TimeMsg
 from jointwear_msgs.msg import WearEstimate, WearTrend
 from jointwear_msgs.srv import RecordMaintenance
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -76,7 +75,7 @@ from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, norm
 from ..history.screen import REASONS, Refusal, ScreenConfig, screen_record
 from ..trend import TrendConfig, TrendResult, analyze_joint
 from .diagnostics import HeldStatus, Status, Updater
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, wait_acked
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearTrendNode", "main", "trend_to_msg"]
 
@@ -479,7 +478,7 @@ class WearTrendNode(Node):
                       ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
                       ("horizon_days", f"{self.cfg.horizon_days:g}"),
                       ("alarm_threshold", f"{self.cfg.alarm:g}")]
-            level, message = r.level, r.message
+            level, message = DiagnosticLevel(r.level), r.message
         held = self._trend_status.get(joint)
         if held is None:
             held = self._trend_status[joint] = HeldStatus(joint)
@@ -534,10 +533,7 @@ class WearTrendNode(Node):
                 for rec, _ in self.pending:
                     self._spool_append(rec)
             self.get_logger().error(f"{len(self.pending)} estimate(s) not stored at exit: kept in {self.spool}")
-        try:
-            self.trend_pub.wait_for_all_acked(Duration(seconds=0.5))
-        except Exception:  # pragma: no cover - best effort on the way out
-            pass
+        wait_acked([self.trend_pub])
         if self.store is not None:
             self.store.close()
 
