@@ -53,10 +53,12 @@ MUTANTS: tuple[Mutant, ...] = (
            "        if wear >= alarm:\n            return cls.ERROR", "        if wear > alarm:\n            return cls.ERROR",
            ("test/test_monitor.py",)),
     Mutant("one logging line picks the severity", "jointwear_ros/nodes/wear_estimator.py",
-           "        if r.level == ERROR:\n            self.get_logger().error(text)\n        elif r.level == WARN:\n"
+           "        if r.level == DiagnosticLevel.ERROR:\n            self.get_logger().error(text)\n"
+           "        elif r.level == DiagnosticLevel.WARN:\n"
            "            self.get_logger().warning(text)\n        else:\n            self.get_logger().info(text)",
            "        log = self.get_logger()\n"
-           "        (log.info if r.level == OK else log.warning if r.level == WARN else log.error)(text)",
+           "        (log.info if r.level == DiagnosticLevel.OK else log.warning if r.level == DiagnosticLevel.WARN "
+           "else log.error)(text)",
            ("test/test_nodes_observer_estimator.py", "-k", "in_sequence")),
     Mutant("observer tau_f_std under-reported by 30 %", "jointwear_ros/observer/segmentation.py",
            "tau_f_std=0.5 * math.hypot(", "tau_f_std=0.7 * 0.5 * math.hypot(",

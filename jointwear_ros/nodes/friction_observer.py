@@ -55,16 +55,15 @@ from typing import Any
 
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 
 from .. import contract
-from ..contract import observation_from_msg, stamp_to_seconds, status_from_msg
+from ..contract import DiagnosticLevel, observation_from_msg, stamp_to_seconds, status_from_msg
 from ..errors import JointwearError
 from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput, RobotObserver
-from .diagnostics import OK, WARN, Status, Updater
+from .diagnostics import Status, Updater
 from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
     ParamDecl,
@@ -74,6 +73,7 @@ from .runtime import (
     run_node,
     seconds_to_stamp,
     subscribe_reporting_loss,
+    wait_acked,
 )
 
 __all__ = [
@@ -300,10 +300,7 @@ class FrictionObserverNode(Node):
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: let reliable subscribers get the last observations."""
-        try:
-            self.pub.wait_for_all_acked(Duration(seconds=0.5))
-        except Exception:  # pragma: no cover - best effort on the way out
-            pass
+        wait_acked([self.pub])
 
     @property
     def observations_published(self) -> int:
@@ -359,10 +356,10 @@ class FrictionObserverNode(Node):
                   ("observation_subscribers", str(self.pub.get_subscription_count()))]
         stat.extend(values)
         if (rej - r0, bad - b0, lost - l0) != (0, 0, 0):
-            stat.summary(WARN, f"cycle {ch.cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} "
+            stat.summary(DiagnosticLevel.WARN, f"cycle {ch.cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} "
                                f"lost message(s); latest: {ch.last_problem}")
         else:
-            stat.summary(OK, f"{ch.observations_published} observation(s), {rej} window(s) rejected in all")
+            stat.summary(DiagnosticLevel.OK, f"{ch.observations_published} observation(s), {rej} window(s) rejected in all")
 
     def health_of(self, joint: str) -> Status:
         """The ``friction_observer: <joint>`` status as of now (not published)."""

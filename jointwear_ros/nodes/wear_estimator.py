@@ -49,16 +49,23 @@ from typing import Any
 
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ..contract import observation_from_msg, status_from_msg
+from ..contract import DiagnosticLevel, observation_from_msg, status_from_msg
 from ..errors import InputDataError, JointwearError, ParameterError
 from ..monitor import CycleResult, MonitorConfig, RobotMonitor, WearMonitor
-from .diagnostics import ERROR, OK, WARN, HeldStatus, Updater, diagnostic_status
+from .diagnostics import HeldStatus, Updater, diagnostic_status
 from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
+from .runtime import (
+    ParamDecl,
+    declare_parameters,
+    on_parameter_change,
+    overridable_qos,
+    run_node,
+    seconds_to_stamp,
+    wait_acked,
+)
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
 
@@ -176,8 +183,8 @@ class WearEstimatorNode(Node):
         self.channels: dict[str, _Joint] = {}
         for j in self.joints:
             monitor = self.robot_monitor.monitors[j]
-            held = HeldStatus(j, str({**p, **values[j]}["hardware_id"]) or j, OK, "no test cycle estimated yet",
-                              self._idle_values(monitor.config))
+            held = HeldStatus(j, str({**p, **values[j]}["hardware_id"]) or j, DiagnosticLevel.OK,
+                              "no test cycle estimated yet", self._idle_values(monitor.config))
             self.health.add(held)
             self.channels[j] = _Joint(j, monitor, held)
         self.create_subscription(FrictionObservation, str(p["observations_topic"]), self._on_observation, reliable,
@@ -240,7 +247,7 @@ class WearEstimatorNode(Node):
         for j in new:
             ch = self.channels[j]
             if not ch.results:
-                ch.held.set(OK, "no test cycle estimated yet", self._idle_values(ch.monitor.config))
+                ch.held.set(DiagnosticLevel.OK, "no test cycle estimated yet", self._idle_values(ch.monitor.config))
         if any(not self.channels[j].results for j in new):
             self.health.update()
         return None
@@ -313,21 +320,16 @@ class WearEstimatorNode(Node):
     def _log_result(self, r: CycleResult) -> None:
         # rclpy keys a logger's severity by call site: one line per severity, never one line that picks it
         text = f"{r.joint_name}: {r.level_name}: {r.message}"
-        if r.level == ERROR:
+        if r.level == DiagnosticLevel.ERROR:
             self.get_logger().error(text)
-        elif r.level == WARN:
+        elif r.level == DiagnosticLevel.WARN:
             self.get_logger().warning(text)
         else:
             self.get_logger().info(text)
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: let reliable subscribers (the recorder) get the last results."""
-        pubs = [self.estimate_pub, self.health.pub]
-        for pub in pubs:
-            try:
-                pub.wait_for_all_acked(Duration(seconds=0.5))
-            except Exception:  # pragma: no cover - best effort on the way out
-                pass
+        wait_acked([self.estimate_pub, self.health.pub])
 
 
 def main(args: list[str] | None = None) -> int:
