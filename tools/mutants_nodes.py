@@ -53,10 +53,12 @@ MUTANTS: tuple[Mutant, ...] = (
            "        if wear >= alarm:\n            return cls.ERROR", "        if wear > alarm:\n            return cls.ERROR",
            ("test/test_monitor.py",)),
     Mutant("one logging line picks the severity", "jointwear_ros/nodes/wear_estimator.py",
-           "        if r.level == ERROR:\n            self.get_logger().error(text)\n        elif r.level == WARN:\n"
+           "        if r.level == DiagnosticLevel.ERROR:\n            self.get_logger().error(text)\n"
+           "        elif r.level == DiagnosticLevel.WARN:\n"
            "            self.get_logger().warning(text)\n        else:\n            self.get_logger().info(text)",
            "        log = self.get_logger()\n"
-           "        (log.info if r.level == OK else log.warning if r.level == WARN else log.error)(text)",
+           "        (log.info if r.level == DiagnosticLevel.OK else log.warning if r.level == DiagnosticLevel.WARN "
+           "else log.error)(text)",
            ("test/test_nodes_observer_estimator.py", "-k", "in_sequence")),
     Mutant("observer tau_f_std under-reported by 30 %", "jointwear_ros/observer/segmentation.py",
            "tau_f_std=0.5 * math.hypot(", "tau_f_std=0.7 * 0.5 * math.hypot(",
@@ -83,8 +85,8 @@ MUTANTS: tuple[Mutant, ...] = (
            "            if wall_age > self.state_timeout_wall:",
            "            if False:",
            ("test/test_nodes_sim_cycle.py", "-k", "simulator_that_died")),
-    Mutant("a joint's status routed to another joint's core", "jointwear_ros/nodes/friction_observer.py",
-           "        return self.channels.get(joint)", "        return next(iter(self.channels.values()))",
+    Mutant("a joint's status routed to another joint's core", "jointwear_ros/observer/robot.py",
+           "        return joint if joint in self.cores else None", "        return self.joints[0]",
            ("test/test_nodes_robot.py", "-k", "robot_cycles")),
     Mutant("crawl speeds accepted", "jointwear_ros/cycle/plan.py",
            "        if v < config.min_speed:", "        if False:",

@@ -71,7 +71,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
-from ..contract import DiagnosticLevel, RefusalReason
+from ..contract import DiagnosticLevel, RefusalReason, status_to_msg
 from ..cycle import (
     DEFAULT_SPEEDS,
     CycleConfig,
@@ -400,20 +400,8 @@ class TestCycleNode(Node):
         now = self._now()
         if not force and key == self._last_status_key and now - self._last_status_time < self.status_period:
             return
-        msg = TestCycleStatus()
+        msg = status_to_msg(st, TestCycleStatus)
         msg.header.stamp = self.get_clock().now().to_msg()
-        msg.joint_name = st.joint_name
-        msg.cycle_id = st.cycle_id
-        msg.state = int(st.state)
-        msg.phase = int(st.phase)
-        msg.current_speed = float(st.current_speed)
-        msg.speeds_done = st.speeds_done
-        msg.speeds_total = st.speeds_total
-        msg.window_center = float(st.window_center)
-        msg.window_half_width = float(st.window_half_width)
-        msg.message = st.message
-        msg.joints = list(st.joints)
-        msg.joints_done = st.joints_done
         self.status_pub.publish(msg)
         self._last_status_key = key
         self._last_status_time = now

@@ -4,10 +4,7 @@ from __future__ import annotations
 
 from .core import (
     DAY,
-    ERROR,
     LEVEL_NAMES,
-    OK,
-    WARN,
     Component,
     FilterOutput,
     Member,
@@ -37,10 +34,7 @@ from .core import (
 
 __all__ = [
     "DAY",
-    "ERROR",
     "LEVEL_NAMES",
-    "OK",
-    "WARN",
     "Component",
     "FilterOutput",
     "Member",

@@ -36,7 +36,8 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from .core import DAY, ERROR, WARN, RatePrior, TrendConfig, trend_states
+from ..contract import DiagnosticLevel
+from .core import DAY, RatePrior, TrendConfig, trend_states
 
 __all__ = ["NightlyBacktest", "backtest_joint", "line_limit", "score_at_lead", "score_calibration", "score_fleet",
            "score_trial", "trial_summary"]
@@ -110,7 +111,7 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
     for j in joints:
         b = backtest_joint(j, cfg, epoch0)
         all_nights += len(b.days)
-        early += int(((b.level >= WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
+        early += int(((b.level >= DiagnosticLevel.WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
         pp = per_profile.setdefault(j.profile, {"covered": 0, "intervals": 0})
         before = (b.true_wear < cfg.alarm) & np.isfinite(b.true_tta)
         nights_pred_possible += int(before.sum())
@@ -127,9 +128,9 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
         grid = np.linspace(0.0, span_days + 2 * cfg.horizon_days, 400)
         if float(np.max(j.true_wear(grid))) < cfg.alarm:
             never_nights += len(b.days)
-            false_nights += int((b.level >= WARN).sum())
+            false_nights += int((b.level >= DiagnosticLevel.WARN).sum())
             if j.profile == "flat":
-                false_flat += int((b.level >= WARN).sum())
+                false_flat += int((b.level >= DiagnosticLevel.WARN).sum())
             continue
         # joints that reach the alarm inside the span: lead of the first WARN, lag of the first ERROR
         reached = np.nonzero(b.true_wear >= cfg.alarm)[0]
@@ -141,12 +142,12 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
         seg_start = max([(m - epoch0) / DAY for m in j.maintenance_times if (m - epoch0) / DAY <= d_cross],
                         default=-math.inf)
         in_seg = b.days >= seg_start
-        warn = np.nonzero(in_seg & (b.level >= WARN))[0]
+        warn = np.nonzero(in_seg & (b.level >= DiagnosticLevel.WARN))[0]
         if len(warn) and b.days[warn[0]] <= d_cross:
             leads.append(d_cross - float(b.days[warn[0]]))
         else:
             missed += 1
-        err = np.nonzero(in_seg & (b.level >= ERROR))[0]
+        err = np.nonzero(in_seg & (b.level >= DiagnosticLevel.ERROR))[0]
         if len(err):
             lags.append(float(b.days[err[0]]) - d_cross)
     return {
@@ -277,7 +278,7 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             line_ratio = ((b.hi90[fin] - b.lo90[fin]) / lw[fin]).tolist()
         grid = np.linspace(0.0, span_days + 2 * cfg.horizon_days, 400)
         never = float(np.max(j.true_wear(grid))) < cfg.alarm
-        false_error = int(((b.level >= ERROR) & (b.true_wear < cfg.alarm - 1.0)).sum())
+        false_error = int(((b.level >= DiagnosticLevel.ERROR) & (b.true_wear < cfg.alarm - 1.0)).sum())
         lead: float | None = None
         crossing = False
         reached = np.nonzero(b.true_wear >= cfg.alarm)[0]
@@ -287,7 +288,7 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             d_cross = float(b.days[k - 1] + b.true_tta[k - 1]) if k > 0 else float(b.days[k])
             seg0 = getattr(j, "step_day", math.nan)
             seg0 = seg0 if math.isfinite(seg0) and seg0 <= d_cross else -math.inf
-            warn = np.nonzero((b.days >= seg0) & (b.level >= WARN))[0]
+            warn = np.nonzero((b.days >= seg0) & (b.level >= DiagnosticLevel.WARN))[0]
             if len(warn) and b.days[warn[0]] <= d_cross:
                 lead = d_cross - float(b.days[warn[0]])
         for key in (j.profile, "all"):
@@ -300,12 +301,12 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             a["rel"] += rel.tolist()
             a["line"] += line_ratio
             a["false_error_nights"] += false_error
-            a["early"] += int(((b.level >= WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
+            a["early"] += int(((b.level >= DiagnosticLevel.WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
             if j.profile == "flat":
-                a["flat_warn"] += int((b.level >= WARN).sum())
+                a["flat_warn"] += int((b.level >= DiagnosticLevel.WARN).sum())
             if never:
                 a["never_nights"] += len(b.days)
-                a["false_nights"] += int((b.level >= WARN).sum())
+                a["false_nights"] += int((b.level >= DiagnosticLevel.WARN).sum())
             if crossing:
                 a["crossing_joints"] += 1
                 if lead is None:

@@ -92,10 +92,7 @@ from ..errors import InputDataError
 
 __all__ = [
     "DAY",
-    "ERROR",
     "LEVEL_NAMES",
-    "OK",
-    "WARN",
     "Component",
     "FilterOutput",
     "Member",
@@ -127,8 +124,7 @@ __all__ = [
 
 DAY = 86400.0
 #: the trend's levels are ``DiagnosticStatus`` levels: aliases of :class:`jointwear_ros.contract.DiagnosticLevel`.
-OK, WARN, ERROR = DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR
-LEVEL_NAMES = {int(lv): lv.name for lv in (OK, WARN, ERROR)}
+LEVEL_NAMES = {int(lv): lv.name for lv in (DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR)}
 
 Array = NDArray[np.float64]
 
@@ -685,9 +681,9 @@ def trend_states(t_days: Array, y: Array, r: Array, cfg: TrendConfig, rows: Arra
         if keep:
             mixtures.append(comps)
     growth = (out["pg"] >= cfg.growth_probability) & (idx + 1 >= cfg.min_estimates)
-    level = np.full(N, OK)
-    level[growth & (qs[:, 0] <= cfg.horizon_days)] = WARN
-    level[out["wear"] >= cfg.alarm] = ERROR
+    level = np.full(N, DiagnosticLevel.OK)
+    level[growth & (qs[:, 0] <= cfg.horizon_days)] = DiagnosticLevel.WARN
+    level[out["wear"] >= cfg.alarm] = DiagnosticLevel.ERROR
     return TrendStates(out["wear"], np.sqrt(out["wvar"]), out["rate"], np.sqrt(out["rvar"]), out["pg"], growth, qs,
                        level, W, out["step"], reach, out["pgs"], mixtures)
 
@@ -797,7 +793,7 @@ def analyze_joint(
                                              f"{robot}/{joint}")
     n = len(t)
     if n == 0:
-        return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, OK,
+        return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, DiagnosticLevel.OK,
                            "no estimates since the last maintenance event", False, math.nan, seg_start, segs,
                            prior=prior)
     members = bank_members(cfg)
@@ -839,7 +835,7 @@ def analyze_joint(
                f"wear {wear_now:.1f} ± {wear_sd:.1f}, rate {rate:+.3f} /day")
         if reason:
             msg += f"; no upper bound: {reason}"
-        if level == WARN:
+        if level == DiagnosticLevel.WARN:
             msg = f"alarm possible within {cfg.horizon_days:g} days: " + msg
     if step_p >= 0.5:
         from datetime import UTC, datetime
