@@ -344,7 +344,7 @@ def test_a_cycle_the_model_cannot_explain_says_so_in_its_status():
     speeds = (20.0, 40.0, 45.0, 55.0, 65.0, 80.0, 120.0, 160.0)
 
     def cycle(mon, cid, temp):
-        mon.on_status(9.0, cid, STATE_RUNNING, 0, len(speeds), "joint_1")
+        mon.on_status(9.0, cid, CycleState.RUNNING, 0, len(speeds), "joint_1")
         out = []
         for i, v in enumerate(speeds):
             tau = float(MODEL.evaluate(PARAMS, speed=v, load_torque=0.1, temperature=temp, wear=30.0))

@@ -54,14 +54,9 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..contract import DiagnosticLevel, observation_from_msg, status_from_msg
 from ..errors import InputDataError, JointwearError, ParameterError
-<<<<<<< HEAD
 from ..estimation import ESTIMATORS
-from ..monitor import ERROR, OK, WARN, CycleResult, MonitorConfig, WearMonitor
-from .diagnostics import NodeDiagnostics, diagnostic_status
-=======
 from ..monitor import CycleResult, MonitorConfig, RobotMonitor, WearMonitor
 from .diagnostics import HeldStatus, Updater, diagnostic_status
->>>>>>> h-core
 from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
     ParamDecl,

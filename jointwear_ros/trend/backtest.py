@@ -381,5 +381,5 @@ def trial_summary(rows: Sequence[dict[str, Any]], max_true_days: float = 365.0) 
             "unbounded": sum(1 for x in grow if math.isfinite(x["lo90"]) and not math.isfinite(x["hi90"])),
             "median_width_over_true": float(np.median(width)) if grow else math.nan,
             "median_line_width_over_true": float(np.median(line)) if grow else math.nan,
-            "flat_warn": sum(1 for x in rows if x["profile"] == "flat" and x["level"] >= WARN),
+            "flat_warn": sum(1 for x in rows if x["profile"] == "flat" and x["level"] >= DiagnosticLevel.WARN),
             "rows": rows}
