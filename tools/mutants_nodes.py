@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Mutation check of the node suite: plant each known bug, run the tests that must catch it.
 
-Each mutant is one text replacement in one source file (the bugs planted in issue 10 and
+Each mutant is one text replacement in one source file (the bugs planted in a fault review and
 their relatives), made in a temporary copy of the package (the working tree is never
 touched). A mutant the tests do not catch is a hole in the suite: the script exits 1 and
 names it.

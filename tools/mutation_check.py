@@ -55,7 +55,7 @@ class Mutation:
 
 
 MUTATIONS: tuple[Mutation, ...] = (
-    # -- issue 10, point 8: the planted bugs the suite let through --------------------------
+    # -- the planted bugs an earlier suite let through --------------------------
     Mutation(
         "alarm_forced_true", "WearEstimate.alarm is always true",
         "jointwear_ros/nodes/wear_estimator.py",

@@ -341,7 +341,7 @@ class TrendResult:
         return LEVEL_NAMES[self.level]
 
     def as_dict(self) -> dict[str, Any]:
-        """The issue's JSON contract (plus a few extra keys)."""
+        """The ``trend --json`` contract (plus a few extra keys)."""
         return {
             "robot": self.robot, "joint": self.joint, "estimates": self.estimates,
             "wear": self.wear, "wear_std": self.wear_std, "rate_per_day": self.rate_per_day,
