@@ -493,7 +493,7 @@ def test_estimator_levels_settings_and_restarts_are_per_joint(ctx):
 def test_estimator_declares_every_joints_settings_live_where_the_node_level_one_is(ctx):
     from rclpy.parameter import Parameter
 
-    from jointwear_ros.nodes.wear_estimator import PER_JOINT, LIVE_PARAMETERS
+    from jointwear_ros.nodes.wear_estimator import LIVE_PARAMETERS, PER_JOINT
 
     node = _estimator(ctx, "/jw_robot_est_decl", Parameter("alarm_threshold", value=33.0))
     try:
