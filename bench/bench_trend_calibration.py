@@ -50,6 +50,8 @@ from jointwear_ros.trend import (
     analyze_joint,
     bank_members,
     fleet_prior,
+    pool_prior,
+    sibling_fit,
     trend_states,
     type2_weights,
 )
@@ -176,6 +178,52 @@ def trial_rows(cfgs: dict[str, TrendConfig]) -> list[list[str]]:
     return out
 
 
+def _trial_rows(rows: list[dict]) -> list[list[str]]:
+    out = []
+    for fam in ("linear", "accelerating", "all"):
+        s = trial_summary([x for x in rows if fam in ("all", x["profile"])])
+        out.append([fam, str(s["growing"]), pct(s["coverage"]), f"{s['no_interval']} / {s['unbounded']}",
+                    num(s["median_width_over_true"]), str(s["flat_warn"]) if fam == "all" else ""])
+    return out
+
+
+#: the priors the trial's fleet is measured with: none, ``--fleet-prior``'s, empirical Bayes over the weights
+FLEET_WAYS = {"default prior (no fleet)": None, "fleet, pooled weights (--fleet-prior)": {"weights": "mean"},
+              "fleet, type-II ML weights, floor 0.2": {"weights": "type2", "floor": 0.2},
+              "fleet, type-II ML weights, floor 0.5": {"weights": "type2", "floor": 0.5}}
+
+
+def trial_fleet_rows() -> list[list[str]]:
+    """The trial as the fleet it is: each seed's 30 joints (10 linear, 10 accelerating, 10 flat) are one plant's
+    joints of one type; each joint's prior comes from its 29 siblings' 60 estimates (leave-one-out: never its own),
+    at the same look (the 60th estimate). Per family: coverage, no interval / unbounded, median width / true."""
+    rows: dict[str, list[dict]] = {k: [] for k in FLEET_WAYS}
+    for seed in (100, 101, 102):
+        plant = make_trial_set(seeds=(seed,))
+        fits = [sibling_fit((j.times[100:160] - j.times[100]) / DAY, j.wear[100:160], j.wear_std[100:160], AFTER)
+                for j in plant]
+        for i, j in enumerate(plant):
+            sibs = fits[:i] + fits[i + 1:]
+            for name, way in FLEET_WAYS.items():
+                pr = None if way is None else pool_prior(sibs, AFTER, source=name, **way)
+                rows[name] += score_trial([j], AFTER, EPOCH0, prior=pr)["rows"]
+    return [[name, *r] for name, rr in rows.items() for r in _trial_rows(rr)]
+
+
+def unusual_joint_rows() -> list[list[str]]:
+    """A joint unlike its siblings: the trial's accelerating joints, each with the prior of 20 linear siblings."""
+    fits = [sibling_fit((j.times[100:160] - j.times[100]) / DAY, j.wear[100:160], j.wear_std[100:160], AFTER)
+            for j in make_family("linear", 20, days=175, seed=200)]
+    acc = [j for j in make_trial_set() if j.profile == "accelerating"]
+    out = []
+    for name, way in FLEET_WAYS.items():
+        pr = None if way is None else pool_prior(fits, AFTER, **way)
+        s = score_trial(acc, AFTER, EPOCH0, prior=pr)
+        out.append([name, str(s["growing"]), pct(s["coverage"]), f"{s['no_interval']} / {s['unbounded']}",
+                    num(s["median_width_over_true"]), ""])
+    return out
+
+
 #: the candidate bank the default prior weights are estimated over: every member issue 23 considered
 CANDIDATES = TrendConfig(efold_days=(160.0, 120.0, 90.0, 60.0, 45.0), accel_noise=(1e-4, 1e-3), jerk_noise=(1e-8,))
 
@@ -202,6 +250,12 @@ def print_trial() -> None:
     print(format_table(["bank", "growing", "coverage %", "no interval / unbounded", "width/true", "line width/true",
                         "weight line", "accelerated", "adaptive", "flat warn"],
                        trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER, **ABLATIONS})))
+    head = ["family", "growing", "coverage %", "no interval / unbounded", "width/true", "flat warn"]
+    print("\nthe trial as a fleet: each joint's prior from its 29 siblings of the same seed (leave-one-out), "
+          "at the 60th estimate")
+    print(format_table(["prior", *head], trial_fleet_rows()))
+    print("\na joint unlike its siblings: the trial's accelerating joints, each with the prior of 20 linear siblings")
+    print(format_table(["prior", *head[1:]], unusual_joint_rows()))
 
 
 def main() -> int:
