@@ -39,6 +39,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -116,7 +117,8 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
     pr = fleet_prior(sibs, AFTER)
     t_prior = time.perf_counter() - t0
     assert pr is not None
-    for use in (False, True):
+    robust = replace(pr, unlike=0.4)
+    for use in (False, True, "unlike"):
         hits = n = 0
         widths: list[float] = []
         for k, j in enumerate(fam[siblings:]):
@@ -125,7 +127,7 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
             last = int(np.searchsorted(j.times, j.times[0] + (100 + 3 * k) * DAY))
             idx = slice(max(last - m, 0), last)
             t, w, s = j.times[idx], j.wear[idx], j.wear_std[idx]
-            r = analyze_joint(t, w, s, cfg=AFTER, prior=pr if use else None)
+            r = analyze_joint(t, w, s, cfg=AFTER, prior=robust if use == "unlike" else pr if use else None)
             d_last = (t[-1] - EPOCH0) / DAY
             true = j.segment_crossing(d_last) - d_last
             if not 1.0 <= true <= 365.0:
@@ -135,7 +137,8 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
             if tta is not None and tta.lo90 <= true <= tta.hi90:
                 hits += 1
             widths.append((tta.hi90 - tta.lo90) / true if tta is not None else math.inf)
-        out.append(["with fleet prior" if use else "own estimates only", str(n), pct(hits / n),
+        name = {False: "own estimates only", True: "with fleet prior", "unlike": "fleet prior, P(unlike) 0.4"}[use]
+        out.append([name, str(n), pct(hits / n),
                     num(float(np.median(widths)))])
     out.append([f"fleet prior: rate N({pr.mean:.3f}, {pr.std:.3f}²) from {pr.joints} siblings in "
                 f"{1000 * t_prior:.0f} ms", "", "", ""])
@@ -190,7 +193,9 @@ def _trial_rows(rows: list[dict]) -> list[list[str]]:
 #: the priors the trial's fleet is measured with: none, ``--fleet-prior``'s, empirical Bayes over the weights
 FLEET_WAYS = {"default prior (no fleet)": None, "fleet, pooled weights (--fleet-prior)": {"weights": "mean"},
               "fleet, type-II ML weights, floor 0.2": {"weights": "type2", "floor": 0.2},
-              "fleet, type-II ML weights, floor 0.5": {"weights": "type2", "floor": 0.5}}
+              "fleet, type-II ML weights, floor 0.5": {"weights": "type2", "floor": 0.5},
+              "fleet, pooled, P(unlike siblings) 0.2": {"unlike": 0.2},
+              "fleet, pooled, P(unlike siblings) 0.4": {"unlike": 0.4}}
 
 
 def trial_fleet_rows() -> list[list[str]]:
