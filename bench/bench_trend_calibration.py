@@ -29,6 +29,10 @@ its parts (what the width is made of), the fleet prior of linear siblings and th
 joint's own law known). ``--derive-prior`` alone: the members' prior weights estimated by type-II maximum
 likelihood over the reference histories (seeds 0 and 5), against which ``TrendConfig()``'s are checked.
 
+``--trial`` also measures the fleet prior on the trial itself (each joint's prior from its 29 siblings of the
+same seed, leave-one-out, pooled as ``--fleet-prior`` does, with type-II weights, or contaminated with
+P(unlike siblings)), and on joints unlike their siblings (accelerating among linear).
+
 Then the fleet prior: young joints (8-20 estimates) whose 30 linear siblings have full histories, at
 their last night, with and without :func:`jointwear_ros.trend.fleet_prior` (leave-one-out).
 Benchmarks measure; they do not pass or fail.
@@ -229,6 +233,37 @@ def unusual_joint_rows() -> list[list[str]]:
     return out
 
 
+def unusual_young_rows() -> list[list[str]]:
+    """A joint unlike its siblings early in its wear: 20 accelerating joints (the paper's shape, rate 0.06-0.15
+    wear/day e-folding in 45-120 days, 60 nightly estimates from w = 5, std 0.85), each with the prior of 20
+    linear siblings (0.12-0.18 wear/day, 120 estimates; the tests' siblings); missed: too late / too early."""
+    rng = np.random.default_rng(0)
+    sib = []
+    for _ in range(20):
+        rate = rng.uniform(0.12, 0.18)
+        sib.append((np.arange(120.0), 5.0 + rate * np.arange(120.0) + rng.normal(0, 0.85, 120), np.full(120, 0.85)))
+    fits = [sibling_fit(*x, AFTER) for x in sib]
+    out = []
+    for name, way in FLEET_WAYS.items():
+        pr = None if way is None else pool_prior(fits, AFTER, **way)
+        hit, late, early, widths = 0, 0, 0, []
+        for rate, tau in ((0.1, 60.0), (0.08, 45.0), (0.12, 90.0), (0.06, 60.0), (0.15, 120.0)):
+            for seed in range(4):
+                d = np.arange(60.0)
+                y = 5 + rate * tau * np.expm1(d / tau) + np.random.default_rng(seed).normal(0, 0.85, 60)
+                true = tau * math.log1p(30 / (rate * tau)) - 59.0
+                tta = analyze_joint(EPOCH0 + d * DAY, y, np.full(60, 0.85), cfg=AFTER, prior=pr).time_to_alarm
+                if tta is None or tta.lo90 > true:
+                    late += 1
+                elif tta.hi90 < true:
+                    early += 1
+                else:
+                    hit += 1
+                widths.append((tta.hi90 - tta.lo90) / true if tta is not None else math.inf)
+        out.append([name, "20", f"{hit} / {late} / {early}", num(float(np.median(widths)))])
+    return out
+
+
 #: the candidate bank the default prior weights are estimated over: every member issue 23 considered
 CANDIDATES = TrendConfig(efold_days=(160.0, 120.0, 90.0, 60.0, 45.0), accel_noise=(1e-4, 1e-3), jerk_noise=(1e-8,))
 
@@ -261,6 +296,9 @@ def print_trial() -> None:
     print(format_table(["prior", *head], trial_fleet_rows()))
     print("\na joint unlike its siblings: the trial's accelerating joints, each with the prior of 20 linear siblings")
     print(format_table(["prior", *head[1:]], unusual_joint_rows()))
+    print("\na joint unlike its siblings early in its wear: 20 accelerating joints, 60 estimates from w = 5, each with "
+          "the prior of 20 linear siblings")
+    print(format_table(["prior", "joints", "covered / too late / too early", "width/true"], unusual_young_rows()))
 
 
 def main() -> int:
