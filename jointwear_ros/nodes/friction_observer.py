@@ -64,10 +64,9 @@ from ..contract import DiagnosticLevel, observation_from_msg, stamp_to_seconds, 
 from ..errors import JointwearError
 from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput, RobotObserver
 from .diagnostics import Status, Updater
-from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
+from .joints import declare_robot, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
     ParamDecl,
-    declare_parameters,
     on_parameter_change,
     overridable_qos,
     run_node,
@@ -167,10 +166,8 @@ class FrictionObserverNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("friction_observer", **kwargs)
-        p = declare_parameters(self, PARAMETERS)
+        p, self.joints, values = declare_robot(self, PARAMETERS, PER_JOINT)
         self.params = p
-        self.joints = declare_joints(self, str(p["joint_name"]))
-        values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in PER_JOINT])
         #: one core per joint and the routing of the inputs to them (the same as replay's)
         self.observer = RobotObserver({j: ObserverConfig.from_mapping({**p, **values[j], "joint_name": j})
                                        for j in self.joints})

@@ -64,8 +64,8 @@ from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
 from ..sim import JointSimConfig, RobotSim
 from .diagnostics import Status, Updater
-from .joints import declare_joints, declare_per_joint, propagate_node_level
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
+from .joints import declare_robot, propagate_node_level
+from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "JointSimNode", "main"]
 
@@ -152,12 +152,10 @@ class JointSimNode(Node):
 
     def __init__(self, **kwargs: object) -> None:
         super().__init__("joint_sim", **kwargs)  # type: ignore[arg-type]
-        p = declare_parameters(self, [d for d in PARAMETERS if d.name != "joints"])
+        p, self.joints, self.values = declare_robot(
+            self, PARAMETERS, PER_JOINT, lambda p, joints: {"seed": [int(p["seed"]) + i for i in range(len(joints))]})
         self.p = p
-        self.joints = declare_joints(self, str(p["joint_name"]), _DECLS["joints"].description)
         self.joint_name = self.joints[0]
-        seeds = [int(p["seed"]) + i for i in range(len(self.joints))]
-        self.values = declare_per_joint(self, self.joints, [_DECLS[n] for n in PER_JOINT], {"seed": seeds})
         configs = [joint_config(self.values[j]) for j in self.joints]
         for j, c in zip(self.joints, configs, strict=True):
             try:

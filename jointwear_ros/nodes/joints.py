@@ -32,7 +32,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from ..errors import ParameterError
-from .runtime import ParamDecl, declare_accepting_integers
+from .runtime import ParamDecl, declare_accepting_integers, declare_parameters
 
 __all__ = ["JOINTS", "declare_joints", "declare_per_joint", "propagate_node_level", "replaced_own_values", "split_per_joint"]
 
@@ -158,3 +158,20 @@ def _warn_stray(node: Node, joints: Sequence[str], names: Sequence[str]) -> None
     if stray:
         node.get_logger().warning(f"per-joint settings {', '.join(stray)} name a joint that is not in joints "
                                   f"{list(joints)!r}: not used (add the joint or fix the name)")
+
+
+def declare_robot(node: Node, decls: Sequence[ParamDecl], per_joint: Sequence[str],
+                  defaults: Callable[[dict[str, Any], list[str]], Mapping[str, Sequence[Any]]] | None = None
+                  ) -> tuple[dict[str, Any], list[str], dict[str, dict[str, Any]]]:
+    """A robot node's parameters in one call: the node-level ``decls`` (``joints`` among them is declared
+    read-only by :func:`declare_joints`, with its description), the joints served, and every joint's own
+    ``per_joint`` settings (:func:`declare_per_joint`; ``defaults(params, joints)`` gives per-joint
+    defaults, e.g. a seed per joint). Returns (node-level values, joints, joint -> setting -> value)."""
+    by_name = {d.name: d for d in decls}
+    params = declare_parameters(node, [d for d in decls if d.name != "joints"])
+    joints_decl = by_name.get("joints")
+    joints = declare_joints(node, str(params["joint_name"]),
+                            joints_decl.description if joints_decl is not None else _JOINTS_DESCRIPTION)
+    values = declare_per_joint(node, joints, [by_name[n] for n in per_joint],
+                               defaults(params, joints) if defaults is not None else None)
+    return params, joints, values

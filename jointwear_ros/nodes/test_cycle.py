@@ -83,8 +83,8 @@ from ..cycle import (
 )
 from ..errors import JointwearError, ParameterError
 from .diagnostics import Status, Updater
-from .joints import declare_joints, declare_per_joint, propagate_node_level
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, wait_acked
+from .joints import declare_robot, propagate_node_level
+from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, wait_acked
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "TestCycleNode", "main"]
 
@@ -178,11 +178,9 @@ class TestCycleNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("test_cycle", **kwargs)
-        p = declare_parameters(self, [d for d in PARAMETERS if d.name != "joints"])
-        self.joints = declare_joints(self, str(p["joint_name"]), _DECLS["joints"].description)
+        p, self.joints, self._values = declare_robot(self, PARAMETERS, PER_JOINT)
         self.joint_name = self.joints[0]
         live = [n for n in PER_JOINT if not _DECLS[n].read_only]
-        self._values = declare_per_joint(self, self.joints, [_DECLS[n] for n in PER_JOINT])
         self.node_values = {name: _cycle_value(name, p[name]) for name in ("max_speeds", "max_duration", "state_timeout")}
         self.node_values["control_period"] = 1.0 / float(p["command_rate"])  # the runner's update interval
         self.configs = self._build_configs(self._values, self.node_values)

@@ -57,10 +57,9 @@ from ..errors import InputDataError, JointwearError, ParameterError
 from ..estimation import ESTIMATORS
 from ..monitor import CycleResult, MonitorConfig, RobotMonitor, WearMonitor
 from .diagnostics import HeldStatus, Updater, diagnostic_status
-from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
+from .joints import declare_robot, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
     ParamDecl,
-    declare_parameters,
     on_parameter_change,
     overridable_qos,
     run_node,
@@ -154,10 +153,8 @@ class WearEstimatorNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("wear_estimator", **kwargs)
-        p = declare_parameters(self, PARAMETERS)
+        p, self.joints, values = declare_robot(self, PARAMETERS, PER_JOINT)
         self.params = p
-        self.joints = declare_joints(self, str(p["joint_name"]))
-        values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in PER_JOINT])
         configs: dict[str, MonitorConfig] = {}
         for j in self.joints:
             try:
