@@ -133,7 +133,7 @@ def ros_domain_of_the_module(request):
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def spin_until(executor: Any, predicate: Callable[[], object], timeout: float = 20.0, what: str | None = None,
+def spin_until(executor: Any, predicate: Callable[[], object], timeout: float = 30.0, what: str | None = None,
                children: Iterable[NodeProcess] = (), period: float = 0.02) -> bool:
     """Spin ``executor`` until ``predicate()`` holds or ``timeout`` seconds passed; return ``bool(predicate())``.
 
