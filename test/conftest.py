@@ -291,9 +291,6 @@ class GraphClient:
             clients[name] = self.node.create_client(srv_type, name)
         return clients[name]
 
-    def diag_named(self, name: str) -> list:
-        return self.diag.get(name, [])
-
     def close(self) -> None:
         self.executor.shutdown()
         self.node.destroy_node()
