@@ -262,11 +262,6 @@ class GraphClient:
         """:func:`spin_until` on this client's executor, watching its children."""
         return spin_until(self.executor, predicate, timeout, what, self.children)
 
-    def pause(self, seconds: float) -> None:
-        """Keep spinning for ``seconds`` (between retries; never a wait for a result)."""
-        end = time.monotonic() + seconds
-        self.spin_until(lambda: time.monotonic() > end, seconds + 5.0)
-
     def call(self, client: Any, request: Any, timeout: float = 15.0, what: str | None = None) -> Any:
         """Wait for the service, call it, wait for the answer (a test failure naming the service otherwise)."""
         assert self.spin_until(client.service_is_ready, timeout), f"service {client.srv_name} not available"
