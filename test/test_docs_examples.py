@@ -95,6 +95,7 @@ def _expected_output(i: int) -> list[str]:
     return []
 
 
+@pytest.mark.slow
 def test_every_python_and_sh_block_of_the_guide_runs_in_order(workspace, monkeypatch):
     monkeypatch.chdir(workspace)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(workspace), os.environ.get("PYTHONPATH", "")]),
