@@ -1,7 +1,7 @@
 """The test harness, in one place: markers, a ROS domain per module, node processes, graph clients, a database.
 
 - Markers (declared here only): ``ros`` for the process and graph tests (real rclpy/DDS on loopback;
-  ``make test-fast`` leaves them out), ``slow`` for tests that take more than ~10 s without a graph.
+  ``make test-fast`` leaves them out), ``slow`` for tests without a graph that take 20 s or more here.
   A test that uses ``ros_context``, ``ros_context_per_test``, ``node_process`` or ``graph_client``
   is marked ``ros`` here, whether or not its module says so.
 - Every module runs on a ROS domain of its own and may leave no process running.
@@ -41,7 +41,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 #: The markers of the suite, declared once (``--strict-markers`` refuses any other).
 MARKERS = {
     "ros": "a process or graph test: real rclpy/DDS on loopback (left out by make test-fast; run serially)",
-    "slow": "takes more than ~10 s on a loaded 2-core machine without a ROS graph (left out by make test-fast)",
+    "slow": "no ROS graph, but 20 s or more on the shared 2-core machine (a costly fixture counts; left out by make test-fast)",
 }
 #: Fixtures that put a test on a ROS graph: a test using one is a ``ros`` test.
 ROS_FIXTURES = frozenset({"ros_context", "ros_context_per_test", "node_process", "graph_client"})
