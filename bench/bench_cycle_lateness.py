@@ -82,31 +82,32 @@ def core() -> None:
 
 
 def from_bag(path: str) -> None:
-    from jointwear_ros.io.bags import find_bags, read_messages, status_fields
+    from jointwear_ros.contract import status_from_msg
+    from jointwear_ros.io.bags import find_bags, read_messages
 
     cfg = CycleConfig()
     for bag in find_bags(path) or [Path(path)]:
         status, states = [], []
         for m in read_messages(bag, topics=["/test_cycle/status", "/joint_states"]):
             (status if m.topic == "/test_cycle/status" else states).append(m.msg)
-        st = sorted((status_fields(s) for s in status), key=lambda s: s["stamp"])
-        stamps = [s["stamp"] for s in st]
+        st = sorted((status_from_msg(s) for s in status), key=lambda s: s.stamp)
+        stamps = [s.stamp for s in st]
         worst: dict[float, dict[str, float]] = defaultdict(dict)
         for msg in states:
             t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
             i = bisect.bisect_right(stamps, t) - 1
-            if i < 0 or st[i]["state"] != CycleState.RUNNING or st[i]["current_speed_motor"] <= 0.0:
+            if i < 0 or st[i].state != CycleState.RUNNING or st[i].current_speed <= 0.0:
                 continue
             s = st[i]
             names = list(msg.name)
-            if s["joint_name"] not in names:
+            if s.joint_name not in names:
                 continue
-            p = msg.position[names.index(s["joint_name"])]
-            reach = s["window_half_width"] + run_up(s["current_speed_motor"] / cfg.gear_ratio, cfg)
-            o = max(p - (s["window_center"] + reach), (s["window_center"] - reach) - p)
-            v = s["current_speed_motor"]
-            worst[v][s["joint_name"]] = max(worst[v].get(s["joint_name"], -1.0), o)
-        print(f"{bag}: travel past the sweep ends, mrad, worst joint (last status: {st[-1]['state'] if st else '-'})")
+            p = msg.position[names.index(s.joint_name)]
+            reach = s.window_half_width + run_up(s.current_speed / cfg.gear_ratio, cfg)
+            o = max(p - (s.window_center + reach), (s.window_center - reach) - p)
+            v = s.current_speed
+            worst[v][s.joint_name] = max(worst[v].get(s.joint_name, -1.0), o)
+        print(f"{bag}: travel past the sweep ends, mrad, worst joint (last status: {st[-1].state if st else '-'})")
         for v in sorted(worst):
             j, o = max(worst[v].items(), key=lambda kv: kv[1])
             print(f"  {v:6g} rad/s: {1000 * o:6.1f} ({j}; allowance {1000 * stop_allowance(v / cfg.gear_ratio, cfg):.0f})")

@@ -1,7 +1,7 @@
 """Calibration of the time to alarm on the histories a planner meets, before and after issue 23.
 
 Usage: python bench/run_all.py trend_calibration   (or python bench/bench_trend_calibration.py
-[--per-family N] [--days D] [--seed S] [--quick])
+[--per-family N] [--days D] [--seed S] [--quick] [--trial] [--derive-prior])
 
 Seven families of joints with known true wear (``jointwear_ros.trend.families``: linear,
 accelerating (half the paper's exponential shape, half a power law no model has), flat, a step
@@ -22,6 +22,13 @@ below the alarm; target 0), early warnings (WARN/ERROR while the true time to al
 time to alarm 1-365 days; once over every such night, once over those with at least 60 estimates in the
 segment (the issue's "history of 60 nightly estimates").
 
+Coverage comes with its standard error, the joint the sampling unit (a joint's nights share one fit and
+one truth). Then the issue's own trial (``--trial`` alone): 90 joints, linear, accelerating and flat, each
+looked at once at the last of 60 nightly estimates, for issue 13's bank, today's, the bank without each of
+its parts (what the width is made of), the fleet prior of linear siblings and the information limit (each
+joint's own law known). ``--derive-prior`` alone: the members' prior weights estimated by type-II maximum
+likelihood over the reference histories (seeds 0 and 5), against which ``TrendConfig()``'s are checked.
+
 Then the fleet prior: young joints (8-20 estimates) whose 30 linear siblings have full histories, at
 their last night, with and without :func:`jointwear_ros.trend.fleet_prior` (leave-one-out).
 Benchmarks measure; they do not pass or fail.
@@ -36,13 +43,39 @@ import time
 import numpy as np
 
 from jointwear_ros.cli.common import format_table
-from jointwear_ros.trend import DAY, TrendConfig, analyze_joint, fleet_prior
-from jointwear_ros.trend.backtest import backtest_joint, score_calibration
-from jointwear_ros.trend.families import EPOCH0, FAMILIES, make_family
+from jointwear_ros.trend import (
+    DAY,
+    RatePrior,
+    TrendConfig,
+    analyze_joint,
+    bank_members,
+    fleet_prior,
+    trend_states,
+    type2_weights,
+)
+from jointwear_ros.trend.backtest import backtest_joint, score_calibration, score_trial, trial_summary
+from jointwear_ros.trend.families import (
+    EPOCH0,
+    FAMILIES,
+    CalibrationJoint,
+    make_calibration_set,
+    make_family,
+    make_trial_set,
+)
 
 BEFORE = TrendConfig(accel_noise=(1e-5, 1e-4, 1e-3), jerk_noise=(1e-8,), efold_days=(), prior_line=0.0,
                      prior_accelerated=0.0, evidence_temperature=1.0, step_rate_per_day=0.0)
 AFTER = TrendConfig()
+#: what the trial's width is made of: the bank without one of its parts (its prior weight to the line)
+ABLATIONS = {
+    "  without the adaptive members": TrendConfig(prior_line=0.7, accel_noise=(), jerk_noise=()),
+    "  without the unrecorded step": TrendConfig(step_rate_per_day=0.0),
+    "  without the 60 and 45 d shapes": TrendConfig(efold_days=(160.0, 120.0, 90.0)),
+    "  with half the accelerated weight (0.15, line 0.75)": TrendConfig(prior_line=0.75, prior_accelerated=0.15),
+    "  untempered evidence": TrendConfig(evidence_temperature=1.0),
+    "  the type-II ML prior (--derive-prior)": TrendConfig(prior_line=0.645, prior_accelerated=0.277,
+                                                           efold_days=(160.0, 120.0, 90.0), accel_noise=()),
+}
 
 
 def pct(x: float) -> str:
@@ -57,12 +90,12 @@ def table(score: dict[str, dict[str, float]]) -> str:
     rows = []
     for f in (*FAMILIES, "all"):
         v = score[f]
-        rows.append([f, v["joints"], v["scored_nights"], pct(v["coverage"]), pct(v["interval_fraction"]),
+        rows.append([f, v["joints"], v["scored_nights"], f"{pct(v['coverage'])} ± {pct(v['coverage_se'])}", pct(v["interval_fraction"]),
                      pct(v["unbounded_fraction"]), num(v["median_width_over_true"]),
                      num(v["median_width_over_line"]), v["flat_warn_nights"], v["false_error_nights"],
                      num(v["early_warn_per_1000"]), num(v["median_lead_days"], ".1f"),
                      f"{v['joints_crossing'] - v['joints_missed']}/{v['joints_crossing']}"])
-    return format_table(["family", "joints", "nights", "coverage %", "with interval %", "unbounded %",
+    return format_table(["family", "joints", "nights", "coverage % ± se", "with interval %", "unbounded %",
                          "width/true", "width/line", "flat warn", "false ERROR", "early /1000", "lead d",
                          "warned"], rows)
 
@@ -107,13 +140,87 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
     return out
 
 
+def own_law(j: CalibrationJoint) -> TrendConfig:
+    """A bank of the joint's true law alone (no step): the line, or its exact accelerated shape; the power law,
+    which no member has, gets the whole bank. What the trend could say if it knew which law the joint follows."""
+    if j.shape == "linear":
+        return TrendConfig(prior_line=1.0, prior_accelerated=0.0, accel_noise=(), jerk_noise=(), step_rate_per_day=0.0)
+    if j.shape == "exp":
+        return TrendConfig(efold_days=(j.tau,), prior_line=0.0, prior_accelerated=1.0, accel_noise=(), jerk_noise=(),
+                           step_rate_per_day=0.0)
+    return AFTER
+
+
+def trial_rows(cfgs: dict[str, TrendConfig]) -> list[list[str]]:
+    """The issue's own trial (30 joints per seed, seeds 100-102: linear, accelerating, flat; each seen once at
+    the last of estimates 100-159), per bank: coverage, unbounded, median width / true, and where the weight
+    sits (median over the growing joints) next to the straight-line limit's width / true."""
+    joints = make_trial_set()
+    sib = [((j.times[100:160] - j.times[100]) / DAY, j.wear[100:160], j.wear_std[100:160])
+           for j in make_family("linear", 20, days=175, seed=200)]
+    out = []
+    runs: list[tuple[str, TrendConfig | None, RatePrior | None]] = [(name, cfg, None) for name, cfg in cfgs.items()]
+    runs.append(("after, fleet prior of 20 linear siblings (linear joints)", AFTER, fleet_prior(sib, AFTER)))
+    runs.append(("information limit: each joint's own law known", None, None))
+    for name, cfg, prior in runs:
+        js = [j for j in joints if j.profile == "linear"] if prior is not None else joints
+        if cfg is None:  # the line for a linear joint, its exact accelerated shape for an exponential one
+            s = trial_summary([x for j in js for x in score_trial([j], own_law(j), EPOCH0)["rows"]])
+        else:
+            s = score_trial(js, cfg, EPOCH0, prior=prior)
+        grow = [x for x in s["rows"] if x["profile"] != "flat" and 1.0 <= x["true"] <= 365.0]
+        med = {k: float(np.median([x[f"w_{k}"] for x in grow])) for k in ("line", "accelerated", "adaptive")}
+        out.append([name, str(s["growing"]), pct(s["coverage"]), f"{s['no_interval']} / {s['unbounded']}",
+                    num(s["median_width_over_true"]), num(s["median_line_width_over_true"]),
+                    *(num(med[k]) for k in ("line", "accelerated", "adaptive")), str(s["flat_warn"])])
+    return out
+
+
+#: the candidate bank the default prior weights are estimated over: every member issue 23 considered
+CANDIDATES = TrendConfig(efold_days=(160.0, 120.0, 90.0, 60.0, 45.0), accel_noise=(1e-4, 1e-3), jerk_noise=(1e-8,))
+
+
+def derive_prior(seeds: tuple[int, ...] = (0, 5), per_family: int = 10) -> list[list[str]]:
+    """The default prior weights, estimated: type-II maximum likelihood (:func:`type2_weights`) of the candidate
+    members' weights over the reference histories (every family, seeds 0 and 5, never the benchmark's seed),
+    each looked at after 60 and 120 estimates and at its last, with the members' tempered evidence."""
+    members = bank_members(CANDIDATES)
+    flat = RatePrior(weights=tuple([1.0] * len(members)))  # equal prior: the posterior is the normalized evidence
+    post = []
+    for seed in seeds:
+        for j in make_calibration_set(per_family, days=180, seed=seed):
+            t = (j.times - j.times[0]) / DAY
+            looks = sorted({min(59, len(t) - 1), min(119, len(t) - 1), len(t) - 1})
+            st = trend_states(t, j.wear, j.wear_std, CANDIDATES, rows=np.array(looks), prior=flat)
+            post += list(st.weights.T)
+    pi = type2_weights(np.array(post), flat.member_weights(CANDIDATES))
+    return [[m.name, f"{w:.3f}"] for m, w in zip(members, pi)]
+
+
+def print_trial() -> None:
+    print("\nthe issue's trial: 90 joints (seeds 100-102), each at the last of 60 estimates (estimates 100-159)")
+    print(format_table(["bank", "growing", "coverage %", "no interval / unbounded", "width/true", "line width/true",
+                        "weight line", "accelerated", "adaptive", "flat warn"],
+                       trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER, **ABLATIONS})))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-family", type=int, default=20)
     ap.add_argument("--days", type=int, default=180)
     ap.add_argument("--seed", type=int, default=2027)
     ap.add_argument("--quick", action="store_true", help="5 joints per family")
+    ap.add_argument("--trial", action="store_true", help="only the issue's trial")
+    ap.add_argument("--derive-prior", action="store_true",
+                    help="only the estimate of the default prior weights (reference seeds 0 and 5)")
     a = ap.parse_args()
+    if a.derive_prior:
+        print("prior weights, type-II maximum likelihood over the reference histories (seeds 0 and 5):")
+        print(format_table(["member", "weight"], derive_prior()))
+        return 0
+    if a.trial:
+        print_trial()
+        return 0
     n = 5 if a.quick else a.per_family
     joints = [j for i, f in enumerate(FAMILIES) for j in make_family(f, n, days=a.days, seed=a.seed, first=i * n)]
     nights = sum(len(j.times) for j in joints)
@@ -127,6 +234,7 @@ def main() -> int:
             print(f"\n{name}; nights with >= {m} estimates in the segment:")
             print(table(s))
         print(f"{nights / dt:.0f} trend updates (joint-nights) per CPU second")
+    print_trial()
     print("\nfleet prior: young joints (8-20 estimates) at their last night, 30 siblings of the same type")
     print(format_table(["trend", "joints", "coverage %", "median width/true"], fleet_experiment(a.seed)))
     return 0

@@ -18,6 +18,10 @@ nodes, the bag reader, replay, the recorder and the CLI share them.
 (12, 250000000)
 >>> stamp_to_seconds(type("Stamp", (), {"sec": 12, "nanosec": 250000000})())
 12.25
+>>> st = CycleStatus(cycle_id=3, state=CycleState.DONE, speeds_done=2, speeds_total=2, joint_name="joint_2",
+...                  joints=("joint_1", "joint_2"), joints_done=1)
+>>> st.ended, st.robot_cycle_over, st.in_cycle(3, "joint_2")
+(True, True, True)
 """
 
 from __future__ import annotations
@@ -25,17 +29,20 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Callable
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from functools import cache
 from typing import TYPE_CHECKING, Any, TypeVar
 
 if TYPE_CHECKING:  # imported where used: observer.types itself takes its state constants from here
     from .observer.types import FrictionObservationData
 
+M = TypeVar("M")
+
 __all__ = [
     "ENDED_STATES",
     "CyclePhase",
     "CycleState",
+    "CycleStatus",
     "DiagnosticLevel",
     "RefusalReason",
     "observation_from_msg",
@@ -43,6 +50,8 @@ __all__ = [
     "robot_cycle_over",
     "seconds_to_stamp_fields",
     "stamp_to_seconds",
+    "status_from_msg",
+    "status_to_msg",
 ]
 
 
@@ -56,6 +65,9 @@ class _Contract(enum.IntEnum):
             return cls(value).name
         except ValueError:
             return str(value)
+
+
+E = TypeVar("E", bound=_Contract)
 
 
 class CycleState(_Contract):
@@ -100,6 +112,87 @@ class CyclePhase(_Contract):
     FORWARD = 2
     REVERSE = 3
     SETTLE = 4
+
+
+@dataclass(frozen=True)
+class CycleStatus:
+    """One ``TestCycleStatus``: what the test-cycle runners report, the node publishes, and the observer,
+    the estimator, replay, the recorder's readers and the operator read (one type for all of them).
+
+    ``state`` is a :class:`CycleState` and ``phase`` a :class:`CyclePhase`; a received message with a value
+    the contract does not define keeps it as a plain int (the consumers compare it, and it is neither
+    RUNNING nor DONE; :attr:`state_name` names it: never take ``state.name`` of a received status). ``current_speed`` is the motor-side speed being swept (rad/s), the window joint
+    side (rad). ``stamp`` is the header stamp in seconds (0: none; the consumers use their clock at
+    receipt). ``joints`` lists every joint of a robot cycle in test order (empty: only ``joint_name``),
+    ``joints_done`` how many finished before ``joint_name``. :func:`status_from_msg` and
+    :func:`status_to_msg` convert from and to the message.
+    """
+
+    cycle_id: int = 0
+    state: CycleState = CycleState.IDLE
+    phase: CyclePhase = CyclePhase.NONE
+    current_speed: float = 0.0
+    speeds_done: int = 0
+    speeds_total: int = 0
+    window_center: float = 0.0
+    window_half_width: float = 0.0
+    message: str = ""
+    joint_name: str = ""
+    joints: tuple[str, ...] = ()
+    joints_done: int = 0
+    stamp: float = 0.0
+
+    @property
+    def ended(self) -> bool:
+        """DONE, ABORTED or FAILED: this joint's test will not sweep again."""
+        return self.state in ENDED_STATES
+
+    @property
+    def robot_cycle_over(self) -> bool:
+        """This status ends its robot cycle (:func:`robot_cycle_over`)."""
+        return robot_cycle_over(self.state, len(self.joints), self.joints_done)
+
+    @property
+    def state_name(self) -> str:
+        """The state's name (the number as text for a value the contract does not define)."""
+        return CycleState.name_of(self.state)
+
+    def in_cycle(self, cycle_id: int, joint: str | None = None) -> bool:
+        """This status is of cycle ``cycle_id`` (and of ``joint``, when given)."""
+        return self.cycle_id == cycle_id and (joint is None or self.joint_name == joint)
+
+
+def _known(enum_type: type[E], value: int) -> E:
+    """``enum_type(value)``, or the plain ``value`` when the contract does not define it (see :class:`CycleStatus`)."""
+    try:
+        return enum_type(value)
+    except ValueError:
+        return value  # type: ignore[return-value]
+
+
+#: the plain fields of ``TestCycleStatus`` and their Python type (``joints``, ``stamp`` and the enums aside)
+_STATUS_FIELDS: dict[str, Callable[[Any], Any]] = {
+    "joint_name": str, "cycle_id": int, "state": int, "phase": int, "current_speed": float, "speeds_done": int,
+    "speeds_total": int, "window_center": float, "window_half_width": float, "message": str, "joints_done": int,
+}
+
+
+def status_from_msg(msg: Any) -> CycleStatus:
+    """A ``TestCycleStatus`` message (rclpy or rosbags) -> :class:`CycleStatus`."""
+    values = {name: conv(getattr(msg, name)) for name, conv in _STATUS_FIELDS.items()}
+    values["state"] = _known(CycleState, values["state"])
+    values["phase"] = _known(CyclePhase, values["phase"])
+    return CycleStatus(**values, joints=tuple(str(j) for j in msg.joints), stamp=stamp_to_seconds(msg.header.stamp))
+
+
+def status_to_msg(st: CycleStatus, msg_type: Callable[[], M]) -> M:
+    """Fill a new ``msg_type()`` (the generated ``TestCycleStatus`` class) from ``st``."""
+    msg: Any = msg_type()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = seconds_to_stamp_fields(st.stamp)
+    for name, conv in _STATUS_FIELDS.items():
+        setattr(msg, name, conv(getattr(st, name)))
+    msg.joints = list(st.joints)
+    return msg  # type: ignore[no-any-return]
 
 
 class DiagnosticLevel(_Contract):
@@ -167,7 +260,6 @@ def _obs_fields() -> tuple[str, ...]:
 
 _INT_FIELDS = {"cycle_id", "samples_plus", "samples_minus"}
 
-M = TypeVar("M")
 
 
 def observation_from_msg(msg: Any) -> FrictionObservationData:

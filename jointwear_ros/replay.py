@@ -1,9 +1,9 @@
 """Offline replay: a recorded bag through the live nodes' pure cores, in log-time order.
 
-:func:`replay_bag` reads a rosbag2/MCAP bag (no ROS runtime), feeds its ``/joint_states``,
-``/test_cycle/status`` and temperature messages to one :class:`~jointwear_ros.observer.FrictionObserverCore`
-per joint and the observations to one :class:`~jointwear_ros.monitor.WearMonitor` per joint,
-exactly as the ``friction_observer`` and ``wear_estimator`` nodes do live (docs/robot.md: each
+:func:`replay_bag` reads a rosbag2/MCAP bag once (no ROS runtime), feeds its ``/joint_states``,
+``/test_cycle/status`` and temperature messages to a :class:`~jointwear_ros.observer.RobotObserver`
+and the observations to a :class:`~jointwear_ros.monitor.RobotMonitor`: the same per-joint cores
+and routing the ``friction_observer`` and ``wear_estimator`` nodes run live (docs/robot.md: each
 JointState split by name, each status to its ``joint_name``'s cores, each temperature to its
 ``header.frame_id``'s), and compares what it gets with the observations and estimates the bag
 recorded, per (joint, cycle). ``jointwear replay``, ``jointwear history import --reestimate``
@@ -25,7 +25,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .contract import observation_from_msg, stamp_to_seconds
+from .contract import observation_from_msg, stamp_to_seconds, status_from_msg
 from .errors import InputDataError
 from .io.bags import (
     ESTIMATE_TYPE,
@@ -33,18 +33,15 @@ from .io.bags import (
     OBSERVATION_TYPE,
     STATUS_TYPE,
     TEMPERATURE_TYPE,
-    bag_messages_lost,
     check_bag_path,
     estimate_fields,
-    read_messages,
-    recorded_settings,
-    status_fields,
+    read_bag_once,
     temperature_value,
 )
 from .io.params import nest
 from .io.recover import check_bag
-from .monitor import MonitorConfig, WearMonitor
-from .observer import FrictionObservationData, FrictionObserverCore, ObserverConfig
+from .monitor import MonitorConfig, RobotMonitor
+from .observer import FrictionObservationData, ObserverConfig, ObserverOutput, RobotObserver
 
 __all__ = ["MATCH_TOLERANCE", "ReplayResult", "replay_bag"]
 
@@ -177,14 +174,13 @@ def _estimator_options(tree: dict[str, Any]) -> dict[str, Any]:
     return tree
 
 
-def _status_joints(path: Path, topic: str) -> list[str]:
+def _status_joints(statuses: list[Any]) -> list[str]:
     """The joints the bag's test-cycle statuses name, in order of appearance."""
     out: list[str] = []
-    for m in read_messages(path, topics=[topic]):
-        if m.msgtype == STATUS_TYPE:
-            name = str(m.msg.joint_name)
-            if name and name not in out:
-                out.append(name)
+    for st in statuses:
+        name = str(st.joint_name)
+        if name and name not in out:
+            out.append(name)
     return out
 
 
@@ -232,12 +228,14 @@ def replay_bag(
     """
     p = check_bag_path(Path(path))
     check_bag(p)  # a damaged bag is refused with its offset, never replayed as if whole
+    # one pass over the bag: the settings, the joints and the messages all come from it
+    bag = read_bag_once(p, (JOINT_STATE_TYPE, STATUS_TYPE, TEMPERATURE_TYPE, OBSERVATION_TYPE, ESTIMATE_TYPE))
     obs_params = dict(observer_params)
     mon_params = dict(monitor_params)
     rec_obs: dict[str, Any] = {}
     rec_mon: dict[str, Any] = {}
     if use_recorded_params:
-        recorded = recorded_settings(p)
+        recorded = bag.settings()
         rec_obs = recorded.get(observer_node.lstrip("/"), {})
         rec_mon = recorded.get(monitor_node.lstrip("/"), {})
         obs_params.update(rec_obs)
@@ -252,7 +250,7 @@ def replay_bag(
     if use_recorded_params and settings["method_from"] == "config":
         # no recorded settings, but the live estimates name their method: use it, never another one
         topic = str(mon_params.get("estimate_topic", "/jointwear/wear_estimate"))
-        methods = [str(m.msg.method) for m in read_messages(p, topics=[topic]) if m.msgtype == ESTIMATE_TYPE]
+        methods = [str(m.msg.method) for m in bag.messages(ESTIMATE_TYPE, [topic], keep=True)]
         if methods and methods[-1]:
             overrides["method"] = methods[-1]
             settings["method_from"] = "recorded estimates"
@@ -268,110 +266,85 @@ def replay_bag(
     observations_topic = observations_topic or str(obs_params.get("observations_topic",
                                                                   "/jointwear/friction_observations"))
     estimate_topic = estimate_topic or str(mon_params.get("estimate_topic", "/jointwear/wear_estimate"))
-    joints = _served_joints(rec_obs, obs_params, [] if rec_obs else _status_joints(p, status_topic))
+    named = [] if rec_obs else _status_joints([m.msg for m in bag.messages(STATUS_TYPE, [status_topic], keep=True)])
+    joints = _served_joints(rec_obs, obs_params, named)
     obs_tree, mon_tree = nest(obs_params), nest(mon_params)
-    cores: dict[str, FrictionObserverCore] = {}
-    monitors: dict[str, WearMonitor] = {}
     try:
+        observer = RobotObserver({j: ObserverConfig.from_mapping({**_joint_tree(obs_tree, j), "joint_name": j})
+                                  for j in joints})
+        mon_configs = {}
         for j in joints:
-            cores[j] = FrictionObserverCore(ObserverConfig.from_mapping({**_joint_tree(obs_tree, j), "joint_name": j}))
             mt = _estimator_options({**_joint_tree(mon_tree, j), "joint_name": j})
             if overrides:
                 mt.update(overrides)
-            monitors[j] = WearMonitor(MonitorConfig.from_mapping(mt))
+            mon_configs[j] = MonitorConfig.from_mapping(mt)
+        monitor = RobotMonitor(mon_configs)
     except (TypeError, ValueError) as exc:
         raise InputDataError(f"{p}: observer/estimator parameters are malformed ({exc})") from None
-    single = joints[0] if len(joints) == 1 else None
     observations: list[FrictionObservationData] = []
     rejections: list[Any] = []
     cycles: list[Any] = []
     recorded_obs: list[dict[str, Any]] = []
     recorded_est: list[dict[str, Any]] = []
-    samples = statuses = 0
+    samples = n_statuses = 0
     now = -math.inf
 
-    def take(joint: str, out: Any) -> None:
+    def take(out: ObserverOutput) -> None:
+        # the observations go to the estimator as they are published live (the same routing)
         observations.extend(out.observations)
         rejections.extend(out.rejections)
         for o in out.observations:
-            cycles.extend(monitors[joint].add(o, now=now))
+            cycles.extend(monitor.add(o, now) or [])
 
-    def stamp_or_now(t: float) -> float:  # the live observer stamps header-less messages on receipt
-        return t if t > 0 else now
-
-    index_cache: dict[tuple[str, ...], list[tuple[str, int]]] = {}
-
-    def split(msg: Any) -> list[tuple[str, int]]:
-        """(joint, index) of the served joints in a JointState, [] when it is unusable (as live)."""
-        names = tuple(msg.name)
-        present = index_cache.get(names)
-        if present is None:
-            at: dict[str, int] = {}
-            for i, name in enumerate(names):
-                at.setdefault(name, i)  # a name given twice: its first entry, as the live node
-            present = [(j, at[j]) for j in joints if j in at]
-            index_cache[names] = present
-        n = len(names)
-        if not present or len(msg.effort) == 0 or len(msg.position) != n or len(msg.velocity) != n \
-                or len(msg.effort) != n:
-            return []
-        return present
-
-    topics = [joint_states_topic, status_topic, observations_topic, estimate_topic]
-    if temperature_topic:
-        topics.append(temperature_topic)
     seen_js = False
-    for m in read_messages(p, topics=topics):
-        now = max(now, m.log_time * 1e-9)
-        if m.topic == joint_states_topic and m.msgtype == JOINT_STATE_TYPE:
+    for i, (topic, msgtype, log_time, _raw) in enumerate(bag.records):
+        if topic not in (joint_states_topic, status_topic, temperature_topic, observations_topic, estimate_topic):
+            continue
+        now = max(now, log_time * 1e-9)
+        if topic == joint_states_topic and msgtype == JOINT_STATE_TYPE:
             seen_js = True
-            present = split(m.msg)
-            if present:
+            msg = bag.message(i).msg
+            js = observer.on_joint_state(stamp_to_seconds(msg.header), msg.name, msg.position, msg.velocity,
+                                         msg.effort, now)
+            if js.used:
                 samples += 1
-                t = stamp_or_now(stamp_to_seconds(m.msg.header))
-                pos, vel, eff = m.msg.position, m.msg.velocity, m.msg.effort
-                for j, i in present:
-                    take(j, cores[j].on_joint_state(t, float(pos[i]), float(vel[i]), float(eff[i])))
-        elif m.topic == status_topic and m.msgtype == STATUS_TYPE:
-            statuses += 1
-            f = status_fields(m.msg)
-            named = f["joint_name"] or single
-            if named is None or named not in cores:
+            for fed in js.outputs:
+                take(fed.output)
+        elif topic == status_topic and msgtype == STATUS_TYPE:
+            n_statuses += 1
+            st = status_from_msg(bag.message(i).msg)
+            routed = observer.on_status(st, now)
+            if routed is None:
                 continue  # a joint the live node did not serve: ignored there too
-            j = named
-            f["stamp"] = stamp_or_now(f["stamp"])
-            f["joint_name"] = j
-            take(j, cores[j].on_status(**f))
-            cycles.extend(monitors[j].on_status(now, f["cycle_id"], f["state"], f["speeds_done"],
-                                                f["speeds_total"], j))
-        elif m.topic == temperature_topic and m.msgtype == TEMPERATURE_TYPE:
-            frame = str(m.msg.header.frame_id) or single
-            if frame is not None and frame in cores:
-                t, c = temperature_value(m.msg)
-                take(frame, cores[frame].on_temperature(stamp_or_now(t), c))
-        elif m.topic == observations_topic and m.msgtype == OBSERVATION_TYPE:
-            recorded_obs.append(asdict(observation_from_msg(m.msg)))
-        elif m.topic == estimate_topic and m.msgtype == ESTIMATE_TYPE:
-            d = estimate_fields(m.msg)
-            d["stamp"] = stamp_to_seconds(m.msg.header)
+            take(routed.output)
+            cycles.extend(monitor.on_status(st, now) or [])
+        elif temperature_topic and topic == temperature_topic and msgtype == TEMPERATURE_TYPE:
+            msg = bag.message(i).msg
+            t, c = temperature_value(msg)
+            routed = observer.on_temperature(t, str(msg.header.frame_id), c, now)
+            if routed is not None:
+                take(routed.output)
+        elif topic == observations_topic and msgtype == OBSERVATION_TYPE:
+            recorded_obs.append(asdict(observation_from_msg(bag.message(i).msg)))
+        elif topic == estimate_topic and msgtype == ESTIMATE_TYPE:
+            msg = bag.message(i).msg
+            d = estimate_fields(msg)
+            d["stamp"] = stamp_to_seconds(msg.header)
             recorded_est.append(d)
-        if now > -math.inf and m.topic != joint_states_topic:
-            for mon in monitors.values():
-                cycles.extend(mon.poll(now))
+        if now > -math.inf and topic != joint_states_topic:
+            cycles.extend(monitor.poll(now))
     if not seen_js:
         raise InputDataError(
             f"{p}: no {JOINT_STATE_TYPE} messages on {joint_states_topic}; "
             "record /joint_states (and /test_cycle/status) to replay the observer"
         )
-    for j in joints:
-        take(j, cores[j].flush())
+    for fed in observer.flush():
+        take(fed.output)
     if math.isfinite(now):
-        for mon in monitors.values():
-            cfg = mon.config
-            cycles.extend(mon.poll(now + cfg.done_timeout + cfg.idle_timeout + 1.0))
+        cycles.extend(monitor.finish(now))
     return ReplayResult(
         bag=str(p), observations=observations, rejections=rejections, cycles=cycles,
         recorded_observations=recorded_obs, recorded_estimates=recorded_est, samples=samples,
-        statuses=statuses, observer_params=obs_params, monitor_params=mon_params,
-        messages_lost=bag_messages_lost(p), joints=joints, settings=settings,
+        statuses=n_statuses, observer_params=obs_params, monitor_params=mon_params,
+        messages_lost=bag.messages_lost(), joints=joints, settings=settings,
     )

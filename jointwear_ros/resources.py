@@ -11,6 +11,9 @@ One lookup for every resource, in this order:
 3. every ``AMENT_PREFIX_PATH`` entry's ``share/<package>`` and the running
    interpreter's ``sys.prefix/share/<package>`` (a venv is an ament prefix).
 
+:func:`node_config` reads a node's parameters from ``config/<node>.yaml`` (or a
+params file the user gives): the one reader of node configuration.
+
 Nothing here imports rclpy.
 
 >>> p = find_resource("jointwear_ros", "config/params/ref-2011r.yaml")
@@ -25,8 +28,11 @@ from __future__ import annotations
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
-__all__ = ["config_path", "find_resource", "resource_dirs", "source_tree"]
+from .errors import InputDataError
+
+__all__ = ["config_path", "find_resource", "flatten", "node_config", "resource_dirs", "source_tree"]
 
 # source-tree location of each package's share files, relative to the checkout root
 _SOURCE_SHARE = {
@@ -89,3 +95,48 @@ def config_path(name: str) -> Path:
     """``config/<name>`` of jointwear_ros (a node's parameter file); the first candidate when none exists."""
     found = find_resource("jointwear_ros", Path("config") / name)
     return found if found is not None else resource_dirs("jointwear_ros")[0] / "config" / name
+
+
+def flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": 1}}`` -> ``{"a.b": 1}`` (nested params YAML to ROS's dotted parameter names)."""
+    out: dict[str, Any] = {}
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(flatten(value, name + "."))
+        else:
+            out[name] = value
+    return out
+
+
+def node_config(node: str, path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """The ``ros__parameters`` of ``node`` in a ROS 2 params file, flattened to dotted names.
+
+    ``path`` None: the package's ``config/<node>.yaml`` (``{}`` when the package has none).
+    Accepts the sections ``node``, ``/node`` and the ``/**`` wildcard. A file that is missing,
+    not YAML or not a params file: :class:`~jointwear_ros.errors.InputDataError`.
+
+    >>> node_config("wear_trend")["robot"]
+    'robot_1'
+    """
+    import yaml
+
+    if path is None:
+        path = config_path(f"{node}.yaml")
+        if not path.is_file():
+            return {}
+    p = Path(path)
+    try:
+        doc = yaml.safe_load(p.read_text())
+    except FileNotFoundError:
+        raise InputDataError(f"{p}: no such parameter file") from None
+    except yaml.YAMLError as exc:
+        raise InputDataError(f"{p}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(doc, dict):
+        raise InputDataError(f"{p}: not a ROS 2 parameter file (expected '<node>: ros__parameters: ...')")
+    out: dict[str, Any] = {}
+    for key in ("/**", node, f"/{node}"):
+        section = doc.get(key)
+        if isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict):
+            out.update(flatten(section["ros__parameters"]))
+    return out

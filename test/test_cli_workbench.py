@@ -167,6 +167,20 @@ def test_diagnose_prints_json_and_html_say_the_same(ripple_csv, diagnosis, tmp_p
         assert v["shape_hint"] in out and v["shape_hint"] in page
 
 
+def test_diagnose_markdown_says_what_the_json_says_in_markdown(ripple_csv, diagnosis, capsys):
+    rc, out, err = run_main(capsys, "model", "diagnose", str(ripple_csv), "--model", "paper", "--markdown", "--top", "5")
+    assert rc == 0, err
+    lines = out.splitlines()
+    assert lines[0] == f"## Diagnosis of `{diagnosis['model']}`"
+    assert f"**verdict: {diagnosis['verdict']}**" in lines and diagnosis["summary"] in lines
+    assert "| # | variable | explains | p (adj.) | signif. | test | shape |" in lines
+    rows = [line for line in lines if line.startswith("| 1 | ")]
+    assert len(rows) == 2 and diagnosis["variables"][0]["shape_hint"] in rows[0]
+    assert rows[1].startswith(f"| 1 | {diagnosis['candidates'][0]['term']} | ")
+    rc, _, err = run_main(capsys, "model", "diagnose", str(ripple_csv), "--model", "paper", "--markdown", "--json")
+    assert rc == 2 and "not allowed with argument" in err
+
+
 def test_report_command_with_diagnosis_and_history(ripple_csv, tmp_path, capsys):
     hist = tmp_path / "h.json"
     rc, _, err = run_main(capsys, "model", "add", str(ripple_csv), "--model", "paper", "--term", "ripple(position)",

@@ -6,8 +6,10 @@ line); the others run there in document order, python blocks in this process (tr
 into docs/extending.md), sh blocks with ``bash -e``, the scratch directory on PYTHONPATH and
 the environment's ``bin`` on PATH. The node example's own test module is imported and its
 tests called; the node is also started as a process with its config file and must log a
-published estimate and stop cleanly on SIGINT. The estimator registration diff is checked
-against ``jointwear_ros/estimation/__init__.py`` and applied in-process.
+published estimate and stop cleanly on SIGINT. The guide's ``[project.entry-points...]`` toml
+blocks are installed into the scratch directory as ``pip install`` would (a ``.dist-info`` with
+``entry_points.txt``), so the estimator it names is found by name, in this process and in the
+``jointwear`` commands; the estimator registry and the history backends are restored afterwards.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -55,30 +58,62 @@ GUIDE_BLOCKS = blocks(GUIDE)
 
 
 def _purge_user_modules() -> None:
+    """Forget the guide's package: its modules, and the workbench shapes it registered."""
+    from jointwear_ros.workbench import SHAPES
+
     for name in [n for n in sys.modules if n == "my_jointwear" or n.startswith("my_jointwear.")]:
         del sys.modules[name]
+    for shape in [s for s, cls in SHAPES.items() if cls.__module__.startswith("my_jointwear")]:
+        del SHAPES[shape]
+
+
+def _install_entry_points(ws: Path) -> dict[str, dict[str, str]]:
+    """The guide's entry point tables written as an installed distribution's metadata in ``ws`` (what pip does)."""
+    groups: dict[str, dict[str, str]] = {}
+    for b in GUIDE_BLOCKS:
+        if b.lang == "toml":
+            for group, eps in tomllib.loads(b.code).get("project", {}).get("entry-points", {}).items():
+                groups.setdefault(group, {}).update(eps)
+    dist = ws / "my_jointwear-0.1.dist-info"
+    dist.mkdir(exist_ok=True)
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: my_jointwear\nVersion: 0.1\n", encoding="utf-8")
+    (dist / "entry_points.txt").write_text("".join(
+        f"[{g}]\n" + "".join(f"{k} = {v}\n" for k, v in eps.items()) + "\n" for g, eps in groups.items()),
+        encoding="utf-8")
+    return groups
 
 
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory):
-    """The guide's files written into a scratch directory, put first on sys.path."""
+    """The guide's files written into a scratch directory, put first on sys.path; the estimator registry and the
+    history backends as they were before the guide registered its own."""
+    from jointwear_ros.estimation import ESTIMATORS
+    from jointwear_ros.history import BACKENDS
+
     ws = tmp_path_factory.mktemp("extending")
     for b in GUIDE_BLOCKS:
         if b.path is not None:
             target = ws / b.path
             target.parent.mkdir(parents=True, exist_ok=True)
             target.write_text(b.code, encoding="utf-8")
+    _install_entry_points(ws)
+    estimators, backends = dict(ESTIMATORS._classes), dict(BACKENDS)
     sys.path.insert(0, str(ws))
     _purge_user_modules()
     yield ws
     sys.path.remove(str(ws))
     _purge_user_modules()
+    ESTIMATORS._classes.clear()
+    ESTIMATORS._classes.update(estimators)
+    BACKENDS.clear()
+    BACKENDS.update(backends)
 
 
 def test_the_guide_has_the_three_worked_examples():
     files = {b.path for b in GUIDE_BLOCKS if b.path}
-    assert {"my_jointwear/terms.py", "my_jointwear/estimators.py", "my_jointwear/wear_log_core.py",
+    assert {"my_jointwear/terms.py", "my_jointwear/shapes.py", "my_jointwear/estimators.py", "my_jointwear/wear_log_core.py",
             "my_jointwear/wear_log.py", "config/wear_log.yaml", "test/test_wear_log.py"} <= files
+    assert "my_jointwear/memdb.py" in files  # the history backend of section 6
     runnable = [b for b in GUIDE_BLOCKS if b.lang in ("python", "sh") and b.path is None]
     assert len(runnable) >= 6
     # only these languages appear; a ```bash or ```py block would silently not run
@@ -197,38 +232,24 @@ def test_the_guides_node_runs_as_a_process_with_its_config_and_logs_an_estimate(
     assert "cycle 7: wear 37.25 ± 1.50 logged" in out
 
 
-def _diff_lines(block: Block) -> tuple[list[str], list[str]]:
-    """(lines the diff keeps or removes, lines it adds), without the diff markers."""
-    old, new = [], []
-    for line in block.code.splitlines():
-        if line.startswith("@@"):
-            continue
-        if line.startswith("+"):
-            new.append(line[1:])
-        elif line.startswith("-"):
-            old.append(line[1:])
-        else:
-            old.append(line[1:])
-    return old, new
-
-
-def test_the_guides_registration_diff_matches_the_estimator_table_and_works(workspace, monkeypatch):
-    (diff,) = [b for b in GUIDE_BLOCKS if b.lang == "diff"]
-    table_source = (ROOT / "jointwear_ros" / "estimation" / "__init__.py").read_text()
-    old, new = _diff_lines(diff)
-    for line in old:
-        assert line in table_source.splitlines(), f"docs/extending.md:{diff.line}: {line!r} is no longer in the table"
-
+def test_the_guides_estimator_is_found_by_name_through_its_entry_point_and_works(workspace, monkeypatch):
     from my_jointwear.estimators import NominalTemperatureEstimator
 
     import jointwear_ros.estimation as estimation
     from jointwear_ros.monitor import MonitorConfig, WearMonitor
     from jointwear_ros.observer import FrictionObservationData
 
-    # what the diff does, applied in this process
-    assert '    "nominal-lsq": NominalTemperatureEstimator,' in new
-    monkeypatch.setitem(estimation._ESTIMATOR_CLASSES, "nominal-lsq", NominalTemperatureEstimator)
-    monkeypatch.setattr(estimation, "ESTIMATOR_METHODS", (*estimation.ESTIMATOR_METHODS, "nominal-lsq"))
+    groups = _install_entry_points(workspace)
+    assert groups["jointwear.estimators"] == {"nominal-lsq": "my_jointwear.estimators:NominalTemperatureEstimator"}
+    # a registry that has never seen it finds it by name, as a node or the CLI does
+    fresh = estimation.EstimatorRegistry(estimation.PaperEstimator)
+    assert fresh.get_class("nominal-lsq") is NominalTemperatureEstimator and list(fresh) == ["paper", "nominal-lsq"]
+    assert fresh.capabilities("nominal-lsq").cycle and not fresh.capabilities("paper").cycle
+    with pytest.raises(estimation.InputDataError, match="is taken by"):
+        fresh.register(type("Impostor", (NominalTemperatureEstimator,), {}))
+
+    monkeypatch.setattr(estimation.ESTIMATORS, "_classes", dict(estimation.ESTIMATORS._classes))
+    estimation.ESTIMATORS._classes.pop("nominal-lsq", None)  # the process-wide registry: through the entry point too
     est = estimation.make_estimator("nominal-lsq", seed=3, temperature=45.0)
     assert est.name == "nominal-lsq" and est.temperature == 45.0
     with pytest.raises(estimation.InputDataError, match="takes no option bogus"):

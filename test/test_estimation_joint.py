@@ -124,3 +124,35 @@ def test_joint_estimator_rejects_bad_observations():
         est.estimate(ObservationTable.from_arrays(speed=[40.0], tau_f=[0.1]))
     with pytest.raises(InputDataError, match="columns"):
         est.estimate_arrays(SPEEDS, 0.1, np.zeros((3, 2)))
+
+
+CELL_SPEEDS = np.array([20.0, 40.0, 45.0, 55.0, 65.0, 80.0, 120.0, 160.0])
+
+
+@pytest.mark.parametrize("true_t", [20.0, 62.0])
+def test_a_joint_outside_the_temperature_prior_is_called_unexplained_not_a_confident_wrong_wear(true_t):
+    """A cell at 20 degC (below the default prior U(25, 55)) pins T at the prior's edge and biases w: the
+    fit says so and widens the std by the Birge ratio, so the truth lies within 3 std again."""
+    rng = np.random.default_rng(7)
+    tau = friction(CELL_SPEEDS, 30.0, true_t) + rng.normal(0.0, 0.0015, CELL_SPEEDS.size)
+    res = JointEstimator(noise_std=0.0015).estimate(table(CELL_SPEEDS, tau))
+    assert res.info["fit_p"] < 1e-3
+    assert res.info["temperature_at_prior_edge"] is True
+    assert "unexplained" in res.info["misfit"] and "edge of its prior" in res.info["misfit"]
+    assert abs(res.wear - 30.0) <= 3.0 * res.wear_std, (res.wear, res.wear_std)
+    assert res.wear_low <= 30.0 <= res.wear_high
+    # the same cycle with the temperature measured: T is no longer assumed, the model explains it
+    known = JointEstimator(noise_std=0.0015).estimate(table(CELL_SPEEDS, tau, temperature=true_t))
+    assert known.info["fit_p"] > 1e-3 and "misfit" not in known.info
+    assert abs(known.wear - 30.0) <= 3.0 * known.wear_std
+
+
+def test_a_cycle_the_model_explains_keeps_its_std_and_says_nothing():
+    rng = np.random.default_rng(3)
+    tau = friction(CELL_SPEEDS, 30.0, 40.0) + rng.normal(0.0, 0.0015, CELL_SPEEDS.size)
+    est = JointEstimator(noise_std=0.0015)
+    res = est.estimate(table(CELL_SPEEDS, tau))
+    assert res.info["fit_dof"] == CELL_SPEEDS.size - 2 and res.info["fit_p"] > 1e-3
+    assert "misfit" not in res.info and "temperature_at_prior_edge" not in res.info
+    post = est.posterior(CELL_SPEEDS, 0.1, tau, 0.0015)
+    assert res.wear_std == pytest.approx(max(post.wear_std, 1.0 / 32.0 / np.sqrt(12.0)))

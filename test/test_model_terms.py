@@ -190,3 +190,43 @@ def test_parameter_sets_are_listed_and_unknown_ones_name_the_known():
         load_parameter_set("nope")
     info = load_parameter_set_info("ref-2011r")
     assert info.valid["temperature"] == (20.0, 60.0)
+
+
+# -- the workbench hints each term carries (linear parameters, starting points, meaning) -------------------
+_HINT_X = {
+    "speed": np.linspace(0.5, 250.0, 40),
+    "load_torque": np.linspace(0.02, 0.5, 40),
+    "temperature": np.linspace(20.0, 60.0, 40),
+    "wear": np.linspace(1.0, 60.0, 40),
+}
+
+
+@pytest.mark.parametrize("name", sorted(TERMS))
+def test_every_term_is_linear_in_the_parameters_it_names_and_only_in_those_it_could(name):
+    term = TERMS[name]()
+    p = {ps.name: ps.default for ps in term.params}
+    assert all(v != 0 for v in p.values())  # an amplitude at 0 would hide its shape parameters' nonlinearity
+    assert set(term.linear) <= set(term.param_names)
+    g0 = term.param_gradient(_HINT_X, p)
+    for k in term.param_names:
+        moved = term.param_gradient(_HINT_X, {**p, k: p[k] * 1.7 + 0.01})
+        # a linear parameter's Jacobian column does not move with it; a nonlinear one's does
+        same = np.allclose(moved[k], g0[k], rtol=1e-9, atol=1e-14)
+        assert same == (k in term.linear), f"{name}: {k} linear is {k in term.linear}, the gradient says {same}"
+
+
+@pytest.mark.parametrize("name", sorted(TERMS))
+def test_every_terms_starting_points_name_only_its_nonlinear_parameters_and_move_with_the_datas_speed(name):
+    term = TERMS[name]()
+    assert set(term.relative) == set(term.param_names)  # and a start and bounds relative to the data's levels
+    paper = term.guess(_HINT_X)
+    assert paper == term.start_points(_HINT_X)  # data at the paper's scale keep the numbers as written
+    for point in paper:
+        assert set(point) <= set(term.param_names) - set(term.linear)
+    joint_side = term.guess({**_HINT_X, "speed": _HINT_X["speed"] / 100.0})
+    for a, b in zip(paper, joint_side, strict=True):
+        for k, v in a.items():
+            assert b[k] == pytest.approx(v * 0.01 ** term.dimension(k).speed)
+    if term.candidate:  # the diagnosis lists it with its meaning, and it has something to fit
+        assert term.meaning and term.describe_effect() == term.meaning
+        assert term.linear

@@ -7,10 +7,11 @@ from dataclasses import replace
 
 import pytest
 
+from jointwear_ros.contract import CycleState, DiagnosticLevel
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.model import load_parameter_set, paper_wear_model
-from jointwear_ros.monitor import ERROR, OK, WARN, MonitorConfig, WearMonitor, diagnostic_level
-from jointwear_ros.observer import STATE_ABORTED, STATE_DONE, STATE_RUNNING, FrictionObservationData
+from jointwear_ros.monitor import MonitorConfig, WearMonitor, diagnostic_level
+from jointwear_ros.observer import FrictionObservationData
 from jointwear_ros.types import WearResult
 
 SPEEDS = (30.0, 40.0, 50.0)
@@ -29,7 +30,7 @@ def _obs(cycle_id: int, wear: float, temperature: float = math.nan, speeds=SPEED
 
 
 def _run(monitor, cycle_id, wear, **kw):
-    monitor.on_status(9.0, cycle_id, STATE_RUNNING, 0, len(SPEEDS), "joint_1")
+    monitor.on_status(9.0, cycle_id, CycleState.RUNNING, 0, len(SPEEDS), "joint_1")
     results = []
     for o in _obs(cycle_id, wear, **kw):
         results += monitor.add(o)
@@ -37,13 +38,13 @@ def _run(monitor, cycle_id, wear, **kw):
 
 
 def test_levels_at_the_thresholds():
-    assert diagnostic_level(29.999, 30, 35) == OK
-    assert diagnostic_level(30.0, 30, 35) == WARN
-    assert diagnostic_level(34.999, 30, 35) == WARN
-    assert diagnostic_level(35.0, 30, 35) == ERROR
+    assert diagnostic_level(29.999, 30, 35) == DiagnosticLevel.OK
+    assert diagnostic_level(30.0, 30, 35) == DiagnosticLevel.WARN
+    assert diagnostic_level(34.999, 30, 35) == DiagnosticLevel.WARN
+    assert diagnostic_level(35.0, 30, 35) == DiagnosticLevel.ERROR
 
 
-@pytest.mark.parametrize(("wear", "level"), [(5.0, OK), (32.5, WARN), (45.0, ERROR)])
+@pytest.mark.parametrize(("wear", "level"), [(5.0, DiagnosticLevel.OK), (32.5, DiagnosticLevel.WARN), (45.0, DiagnosticLevel.ERROR)])
 def test_monitor_estimates_a_complete_cycle_with_its_level(wear, level):
     mon = WearMonitor(MonitorConfig(seed=1))
     results = _run(mon, 7, wear, temperature=40.0)
@@ -56,13 +57,13 @@ def test_monitor_estimates_a_complete_cycle_with_its_level(wear, level):
     for k in ("wear", "wear_std", "method", "cycle_id", "temperature_estimate", "n_observations"):
         assert k in keys
     assert keys["method"] == mon.config.method and keys["cycle_id"] == "7" and keys["n_observations"] == "3"
-    assert r.alarm == (level == ERROR)
+    assert r.alarm == (level == DiagnosticLevel.ERROR)
     assert mon.last is r
 
 
 def test_monitor_thresholds_are_configurable():
     mon = WearMonitor(MonitorConfig(warn_threshold=10.0, alarm_threshold=20.0))
-    assert _run(mon, 1, 15.0, temperature=40.0)[0].level == WARN
+    assert _run(mon, 1, 15.0, temperature=40.0)[0].level == DiagnosticLevel.WARN
 
 
 def test_unknown_temperature_uses_the_uncertain_temperature_estimator():
@@ -78,13 +79,13 @@ def test_unknown_temperature_uses_the_uncertain_temperature_estimator():
 
 def test_cycle_is_estimated_after_timeout_following_done():
     mon = WearMonitor(MonitorConfig(done_timeout=2.0))
-    mon.on_status(9.0, 4, STATE_RUNNING, 0, 5, "joint_1")
+    mon.on_status(9.0, 4, CycleState.RUNNING, 0, 5, "joint_1")
     for o in _obs(4, 20.0, temperature=40.0):
         assert mon.add(o) == []
-    assert mon.on_status(20.0, 4, STATE_DONE, 5, 5, "joint_1") == []
+    assert mon.on_status(20.0, 4, CycleState.DONE, 5, 5, "joint_1") == []
     assert mon.poll(21.9) == []
     results = mon.poll(22.0)
-    assert len(results) == 1 and results[0].level == OK
+    assert len(results) == 1 and results[0].level == DiagnosticLevel.OK
     assert "3 of 5 speeds observed" in results[0].message
     assert mon.poll(30.0) == []  # once only
     assert mon.add(_obs(4, 20.0)[0]) == [] and "received twice" in mon.ignored[-1]
@@ -94,10 +95,10 @@ def test_a_late_observation_revises_the_cycle_estimate():
     mon = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5))
     speeds = (20.0, 30.0, 40.0, 50.0)
     obs = _obs(4, 36.0, temperature=40.0, speeds=speeds)
-    mon.on_status(9.0, 4, STATE_RUNNING, 0, 4, "joint_1")
+    mon.on_status(9.0, 4, CycleState.RUNNING, 0, 4, "joint_1")
     for o in obs[:3]:
         assert mon.add(o) == []
-    mon.on_status(20.0, 4, STATE_DONE, 4, 4, "joint_1")
+    mon.on_status(20.0, 4, CycleState.DONE, 4, 4, "joint_1")
     (first,) = mon.poll(22.0)
     assert first.revision == 0 and "3 of 4 speeds observed" in first.message
     assert "revision" not in dict(first.values)
@@ -109,7 +110,7 @@ def test_a_late_observation_revises_the_cycle_estimate():
     assert rev.result is not None and rev.result.speeds == speeds
     # the revision equals what an on-time cycle with all four speeds gives
     on_time = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5))
-    on_time.on_status(9.0, 4, STATE_RUNNING, 0, 4, "joint_1")
+    on_time.on_status(9.0, 4, CycleState.RUNNING, 0, 4, "joint_1")
     (full,) = [r for o in obs for r in on_time.add(o)]
     assert full.result is not None and rev.result.wear == full.result.wear
     # a repeat, and an observation beyond the cycle's speeds, are ignored with the reason
@@ -133,10 +134,10 @@ def test_a_revision_of_an_older_cycle_does_not_replace_the_newest_status():
     mon = WearMonitor(MonitorConfig(done_timeout=1.0, seed=6))
     speeds = (20.0, 30.0, 40.0, 50.0)
     late = _obs(2, 20.0, temperature=40.0, speeds=speeds)
-    mon.on_status(1.0, 2, STATE_RUNNING, 0, 4, "joint_1")
+    mon.on_status(1.0, 2, CycleState.RUNNING, 0, 4, "joint_1")
     for o in late[:3]:
         mon.add(o)
-    mon.on_status(5.0, 2, STATE_DONE, 4, 4, "joint_1")
+    mon.on_status(5.0, 2, CycleState.DONE, 4, 4, "joint_1")
     (first,) = mon.poll(7.0)
     assert mon.last is first and "3 of 4 speeds observed" in first.message
     (newer,) = _run(mon, 3, 40.0, temperature=40.0)
@@ -156,10 +157,10 @@ def test_finished_cycles_are_remembered_up_to_a_bound():
 
 def test_aborted_cycle_without_observations_is_reported_as_warning():
     mon = WearMonitor(MonitorConfig(done_timeout=1.0))
-    mon.on_status(1.0, 9, STATE_RUNNING, 0, 8, "joint_1")
-    mon.on_status(2.0, 9, STATE_ABORTED, 0, 8, "joint_1")
+    mon.on_status(1.0, 9, CycleState.RUNNING, 0, 8, "joint_1")
+    mon.on_status(2.0, 9, CycleState.ABORTED, 0, 8, "joint_1")
     (r,) = mon.poll(3.5)
-    assert r.result is None and r.level == WARN
+    assert r.result is None and r.level == DiagnosticLevel.WARN
     assert "ABORTED" in r.message and "0 friction observations" in r.message
 
 
@@ -169,14 +170,14 @@ def test_cycle_without_status_is_estimated_after_idle_timeout():
         assert mon.add(o) == []
     assert mon.poll(16.0) == []
     (r,) = mon.poll(17.0)
-    assert r.result is not None and r.level == OK
+    assert r.result is not None and r.level == DiagnosticLevel.OK
 
 
 def test_estimate_is_deterministic_and_independent_of_arrival_order():
     a = WearMonitor(MonitorConfig(seed=11))
     b = WearMonitor(MonitorConfig(seed=11))
     ra = _run(a, 5, 33.0)[0]
-    b.on_status(9.0, 5, STATE_RUNNING, 0, len(SPEEDS), "joint_1")
+    b.on_status(9.0, 5, CycleState.RUNNING, 0, len(SPEEDS), "joint_1")
     rb = next(r for o in reversed(_obs(5, 33.0)) for r in b.add(o))
     assert ra.result is not None and rb.result is not None
     assert ra.result.wear == rb.result.wear and ra.result.wear_std == rb.result.wear_std
@@ -204,7 +205,7 @@ def test_estimator_failure_is_reported_not_raised():
 
     mon = WearMonitor(MonitorConfig(), estimator_factory=broken)
     (r,) = _run(mon, 1, 10.0)
-    assert r.result is None and r.level == WARN and "no good" in r.message
+    assert r.result is None and r.level == DiagnosticLevel.WARN and "no good" in r.message
 
 
 def test_config_rejects_inverted_thresholds():
@@ -233,7 +234,7 @@ def test_estimator_gets_the_window_std_plus_the_sweep_to_sweep_scatter():
 
     mon = WearMonitor(MonitorConfig(observation_noise_std=0.0015), estimator_factory=spy)
     (r,) = _run(mon, 1, 10.0)
-    assert r.level == OK and seen[0] == pytest.approx([math.hypot(3e-4, 0.0015)] * 3)
+    assert r.level == DiagnosticLevel.OK and seen[0] == pytest.approx([math.hypot(3e-4, 0.0015)] * 3)
 
 
 def _fixed(wear):
@@ -251,7 +252,7 @@ def _fixed(wear):
 
 
 @pytest.mark.parametrize(("wear", "level", "alarm"), [
-    (29.999, OK, False), (30.0, WARN, False), (34.999, WARN, False), (35.0, ERROR, True), (35.001, ERROR, True)])
+    (29.999, DiagnosticLevel.OK, False), (30.0, DiagnosticLevel.WARN, False), (34.999, DiagnosticLevel.WARN, False), (35.0, DiagnosticLevel.ERROR, True), (35.001, DiagnosticLevel.ERROR, True)])
 def test_level_and_alarm_at_exactly_the_thresholds(wear, level, alarm):
     (r,) = _run(WearMonitor(MonitorConfig(), estimator_factory=_fixed(wear)), 1, 10.0)
     assert r.level == level and r.alarm is alarm
@@ -262,11 +263,11 @@ def test_level_and_alarm_at_exactly_the_thresholds(wear, level, alarm):
 @pytest.mark.parametrize("temperature", [-300.0, 1000.0, math.inf, -math.inf, 70.0, 5.0])
 def test_one_impossible_temperature_does_not_hide_the_alarm(temperature):
     mon = WearMonitor(MonitorConfig(seed=1, use_measured_temperature=True))
-    mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
+    mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
     obs = _obs(1, 40.0, temperature=40.0)
     obs[1] = replace(obs[1], temperature=temperature)
     (r,) = [x for o in obs for x in mon.add(o)]
-    assert r.level == ERROR and r.alarm
+    assert r.level == DiagnosticLevel.ERROR and r.alarm
     assert r.result is not None and r.result.wear == pytest.approx(40.0, abs=1.5)
     assert 0.5 < r.result.wear_std < 5.0  # an honest spread, not the std near 0 of the bug
     assert r.result.info["known_temperature"] == [True, False, True]
@@ -284,12 +285,12 @@ def test_one_impossible_temperature_does_not_hide_the_alarm(temperature):
     ("load_torque", 3.0, "|load_torque| 3")])
 def test_a_non_physical_observation_is_dropped_and_the_rest_estimated(field, value, why):
     mon = WearMonitor(MonitorConfig(seed=1))
-    mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
+    mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
     obs = _obs(1, 40.0, temperature=40.0)
     obs[1] = replace(obs[1], **{field: value})
     results = [x for o in obs for x in mon.add(o)]
     (r,) = results  # the dropped one still counts: the cycle completes at its third observation
-    assert r.level == ERROR and r.alarm and r.result is not None
+    assert r.level == DiagnosticLevel.ERROR and r.alarm and r.result is not None
     assert r.result.speeds == (30.0, 50.0)
     assert r.result.wear == pytest.approx(40.0, abs=1.5)
     assert len(r.rejected) == 1 and why in r.rejected[0] and "dropped" in r.rejected[0]
@@ -300,17 +301,17 @@ def test_a_non_physical_observation_is_dropped_and_the_rest_estimated(field, val
 
 def test_a_cycle_whose_observations_are_all_dropped_is_a_warning_with_the_reasons():
     mon = WearMonitor(MonitorConfig(seed=1))
-    mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
+    mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
     (r,) = [x for o in _obs(1, 40.0) for x in mon.add(replace(o, tau_f=math.nan))]
-    assert r.result is None and r.level == WARN and not r.alarm
+    assert r.result is None and r.level == DiagnosticLevel.WARN and not r.alarm
     assert "0 friction observations" in r.message and "3 observation(s) rejected" in r.message
 
 
 def test_nan_tau_f_std_means_not_given_and_is_kept():
     mon = WearMonitor(MonitorConfig(seed=1))
-    mon.on_status(9.0, 1, STATE_RUNNING, 0, 3, "joint_1")
+    mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
     (r,) = [x for o in _obs(1, 40.0, temperature=40.0) for x in mon.add(replace(o, tau_f_std=math.nan))]
-    assert r.rejected == () and r.result is not None and r.level == ERROR
+    assert r.rejected == () and r.result is not None and r.level == DiagnosticLevel.ERROR
 
 
 @pytest.mark.parametrize("method", ["paper", "joint", "bayes"])
@@ -321,17 +322,43 @@ def test_a_revision_with_a_middle_speed_late_equals_the_on_time_estimate_exactly
     speeds = (20.0, 30.0, 40.0, 50.0, 60.0)
     obs = _obs(7, 33.0, temperature=40.0, speeds=speeds)
     late = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5, method=method))
-    late.on_status(9.0, 7, STATE_RUNNING, 0, 5, "joint_1")
+    late.on_status(9.0, 7, CycleState.RUNNING, 0, 5, "joint_1")
     for o in (obs[0], obs[2], obs[3], obs[4]):
         assert late.add(o) == []
-    late.on_status(20.0, 7, STATE_DONE, 5, 5, "joint_1")
+    late.on_status(20.0, 7, CycleState.DONE, 5, 5, "joint_1")
     (partial,) = late.poll(22.5)
     assert partial.revision == 0 and "4 of 5 speeds observed" in partial.message
     (rev,) = late.add(obs[1], now=23.0)
     assert rev.revision == 1 and rev.result is not None
     on_time = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5, method=method))
-    on_time.on_status(9.0, 7, STATE_RUNNING, 0, 5, "joint_1")
+    on_time.on_status(9.0, 7, CycleState.RUNNING, 0, 5, "joint_1")
     (full,) = [r for o in obs for r in on_time.add(o)]
     assert full.result is not None
     assert (rev.result.wear, rev.result.wear_std) == (full.result.wear, full.result.wear_std)
     assert rev.result.speeds == full.result.speeds == speeds
+
+
+def test_a_cycle_the_model_cannot_explain_says_so_in_its_status():
+    """At 20 degC with no sensor the default prior pins T at 25: the status names the misfit and the prior's
+    edge, and carries the fit's p value; a cycle at 40 degC carries its p value and no such words."""
+    speeds = (20.0, 40.0, 45.0, 55.0, 65.0, 80.0, 120.0, 160.0)
+
+    def cycle(mon, cid, temp):
+        mon.on_status(9.0, cid, CycleState.RUNNING, 0, len(speeds), "joint_1")
+        out = []
+        for i, v in enumerate(speeds):
+            tau = float(MODEL.evaluate(PARAMS, speed=v, load_torque=0.1, temperature=temp, wear=30.0))
+            out += mon.add(FrictionObservationData(
+                stamp=10.0 + i, joint_name="joint_1", cycle_id=cid, speed=v, tau_f=tau, tau_f_std=3e-4,
+                tau_plus=0.1 + tau, tau_minus=0.1 - tau, load_torque=0.1, temperature=math.nan, position=0.0,
+                samples_plus=500, samples_minus=500))
+        [r] = out
+        return r, dict(r.values)
+
+    mon = WearMonitor(MonitorConfig(method="joint", seed=1))  # the nodes' configured method
+    cold, kv = cycle(mon, 1, 20.0)
+    assert "unexplained" in cold.message and "edge of its prior" in cold.message
+    assert float(kv["fit_p"]) < 1e-3 and kv["misfit"] in cold.message
+    assert abs(cold.result.wear - 30.0) <= 3.0 * cold.result.wear_std
+    warm, kv = cycle(mon, 2, 40.0)
+    assert "unexplained" not in warm.message and "misfit" not in kv and float(kv["fit_p"]) > 1e-3

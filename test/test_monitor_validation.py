@@ -8,8 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from jointwear_ros.contract import CycleState
 from jointwear_ros.monitor import PLAUSIBLE_TEMPERATURE, MonitorConfig, WearMonitor, screen_observation
-from jointwear_ros.observer import STATE_DONE, STATE_RUNNING, FrictionObservationData
+from jointwear_ros.observer import FrictionObservationData
 
 VALID = {"speed": (0.0, 280.0), "load_torque": (0.0, 1.0), "temperature": (20.0, 60.0)}
 anything = st.floats(allow_nan=True, allow_infinity=True)
@@ -41,11 +42,11 @@ def test_screening_never_passes_a_non_physical_value(speed, tau_f, std, load, te
 @given(st.lists(st.tuples(anything, anything, anything, anything, anything), min_size=1, max_size=4))
 def test_the_monitor_gives_a_result_for_any_cycle_and_never_raises(rows):
     mon = WearMonitor(MonitorConfig(seed=0, done_timeout=1.0, estimator_options={"n_samples": 20}))
-    mon.on_status(0.0, 1, STATE_RUNNING, 0, len(rows), "joint_1")
+    mon.on_status(0.0, 1, CycleState.RUNNING, 0, len(rows), "joint_1")
     results = []
     for i, r in enumerate(rows):
         results += mon.add(_obs(*r, stamp=1.0 + i))
-    results += mon.on_status(10.0, 1, STATE_DONE, len(rows), len(rows), "joint_1")
+    results += mon.on_status(10.0, 1, CycleState.DONE, len(rows), len(rows), "joint_1")
     results += mon.poll(20.0)
     (res,) = results
     assert len(res.observations) + len(res.rejected) == len(rows)
@@ -82,7 +83,7 @@ def test_a_flood_of_bad_observations_keeps_memory_bounded():
     assert mon.rejected_count == 5000 and mon.notes_total == 5000
     assert len(mon.ignored) == mon.max_notes == 1000
     assert mon.notes_since(4998) == mon.ignored[-2:] and mon.notes_since(5000) == []
-    (r,) = mon.on_status(6000.0, 1, STATE_DONE, 0, 3, "joint_1")  # 5000 heard >= 3 speeds: estimated now
+    (r,) = mon.on_status(6000.0, 1, CycleState.DONE, 0, 3, "joint_1")  # 5000 heard >= 3 speeds: estimated now
     assert r.result is None and dict(r.values)["observations_rejected"] == "5000"
     assert len(r.rejected) == 5 and "and 4995 more" in r.message
 

@@ -137,9 +137,9 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ros_context):
                                             [0.0, cyc.velocity[i]], [1.0, cyc.effort[i]]))
                 sent += 1
                 if sent % 200 == 0:  # let the observer keep up (KEEP_LAST 1000)
-                    assert spin_until(ex, lambda n=sent: obs_node.core.samples_seen >= n)
+                    assert spin_until(ex, lambda n=sent: obs_node.observer.cores["joint_1"].samples_seen >= n)
         assert spin_until(ex, lambda: len(got_obs) == 3 and len(got_est) == 1
-                           and obs_node.core.samples_seen == cyc.stamps.size)
+                           and obs_node.observer.cores["joint_1"].samples_seen == cyc.stamps.size)
         assert obs_node.rejections == []
 
         offline = observe_arrays(ObserverConfig(), cyc.stamps, cyc.position, cyc.velocity, cyc.effort,
@@ -293,9 +293,10 @@ def test_estimator_node_logs_every_level_in_sequence_and_keeps_running(ros_conte
     try:
         for cid, (wear, level) in enumerate([(10.0, 0), (45.0, 2), (32.0, 1), (10.0, 0), (45.0, 2)], start=1):
             r = _cycle_result(wear, level, cid)
-            node.monitor.last = r
+            node.channels["joint_1"].monitor.last = r
             node._handle([r])
-            assert node.diag.level == level and node.diag.status.message == f"level {level}"
+            st = node.health.status("joint_1")
+            assert st.level == level and st.message == f"level {level}"
     finally:
         node.destroy_node()
 
@@ -335,34 +336,34 @@ def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ros_
         assert not res.successful and "not a JSON object" in res.reason
         res = node.set_parameters_atomically([Parameter("estimator_options", value='{"n_samples": 50}')])
         assert res.successful, res.reason
-        assert dict(node.monitor.config.estimator_options) == {"n_samples": 50}
+        assert dict(node.channels["joint_1"].monitor.config.estimator_options) == {"n_samples": 50}
         res = node.set_parameters_atomically([Parameter("estimator_options", value='{"no_such_option": 1}')])
         assert not res.successful and "no_such_option" in res.reason
-        assert dict(node.monitor.config.estimator_options) == {"n_samples": 50}
+        assert dict(node.channels["joint_1"].monitor.config.estimator_options) == {"n_samples": 50}
         res = node.set_parameters_atomically([Parameter("estimator_options", value="")])
-        assert res.successful and dict(node.monitor.config.estimator_options) == {}
+        assert res.successful and dict(node.channels["joint_1"].monitor.config.estimator_options) == {}
         res = node.set_parameters_atomically([Parameter("observations_topic", value="/x")])
         assert not res.successful and "read-only" in res.reason
-        assert node.monitor.config.warn_threshold == 30.0 and node.monitor.config.method == "paper"
+        assert node.channels["joint_1"].monitor.config.warn_threshold == 30.0 and node.channels["joint_1"].monitor.config.method == "paper"
 
         # a valid change applies from the next estimate: wear 25 is OK at 30/35, ERROR at 15/20
         res = node.set_parameters_atomically([Parameter("warn_threshold", value=15.0),
                                               Parameter("alarm_threshold", value=20.0)])
         assert res.successful, res.reason
-        assert (node.monitor.config.warn_threshold, node.monitor.config.alarm_threshold) == (15.0, 20.0)
-        node.monitor.on_status(0.0, 7, 1, 0, 3, "joint_1")
+        assert (node.channels["joint_1"].monitor.config.warn_threshold, node.channels["joint_1"].monitor.config.alarm_threshold) == (15.0, 20.0)
+        node.channels["joint_1"].monitor.on_status(0.0, 7, 1, 0, 3, "joint_1")
         for i, v in enumerate((30.0, 40.0, 50.0)):
             pub.publish(observation_to_msg(_model_observation(7, v, 25.0, stamp=100.0 + i)))
         assert spin_until(ex, lambda: len(got) == 1, timeout=10.0)
-        assert got[0].alarm and got[0].alarm_threshold == 20.0 and node.diag.level == 2
+        assert got[0].alarm and got[0].alarm_threshold == 20.0 and node.health.status("joint_1").level == 2
         res = node.set_parameters_atomically([Parameter("warn_threshold", value=30.0),
                                               Parameter("alarm_threshold", value=35.0)])
         assert res.successful
-        node.monitor.on_status(0.0, 8, 1, 0, 3, "joint_1")
+        node.channels["joint_1"].monitor.on_status(0.0, 8, 1, 0, 3, "joint_1")
         for i, v in enumerate((30.0, 40.0, 50.0)):
             pub.publish(observation_to_msg(_model_observation(8, v, 25.0, stamp=200.0 + i)))
         assert spin_until(ex, lambda: len(got) == 2, timeout=10.0)
-        assert not got[1].alarm and got[1].alarm_threshold == 35.0 and node.diag.level == 0
+        assert not got[1].alarm and got[1].alarm_threshold == 35.0 and node.health.status("joint_1").level == 0
     finally:
         ex.shutdown()
         for n in (node, io):
@@ -375,9 +376,10 @@ def test_observer_node_reports_its_health_and_refuses_changes_during_a_speed(ros
     node = FrictionObserverNode(context=ros_context, parameter_overrides=[Parameter(k, value=v) for k, v in topics.items()]
                                 + [Parameter("diagnostics_period", value=0.2)])
     try:
-        assert node.diag.level == 0 and node.diag.status.name == "friction_observer: joint_1"
+        st = node.health.status("joint_1")
+        assert st.level == 0 and st.name == "friction_observer: joint_1"
         res = node.set_parameters_atomically([Parameter("min_samples", value=50)])
-        assert res.successful and node.core.config.min_samples == 50
+        assert res.successful and node.observer.cores["joint_1"].config.min_samples == 50
         res = node.set_parameters_atomically([Parameter("min_samples", value=1)])
         assert not res.successful and "min_samples = 1 must be at least 2" in res.reason
         res = node.set_parameters_atomically([Parameter("joint_name", value="joint_2")])
@@ -386,17 +388,17 @@ def test_observer_node_reports_its_health_and_refuses_changes_during_a_speed(ros
         node._on_status(_status((10.0, 3, 1, 2, 40.0, 0, 2, 0.0, 0.1, "joint_1")))
         res = node.set_parameters_atomically([Parameter("min_samples", value=20)])
         assert not res.successful and "cycle 3 speed #1 is being observed" in res.reason
-        assert node.core.config.min_samples == 50
+        assert node.observer.cores["joint_1"].config.min_samples == 50
         # a bad JointState during cycle 3: WARN with the reason, the counts in the key/values
         node._on_joint_state(_joint_state(10.5, ["joint_1"], [math.nan], [0.0], [0.0]))
-        node.core.on_temperature(10.6, -300.0)
-        node.diag.set(*node._report())
-        kv = {v.key: v.value for v in node.diag.status.values}
-        assert node.diag.level == 1 and "cycle 3" in node.diag.message and "non-finite value" in node.diag.message
+        node.observer.cores["joint_1"].on_temperature(10.6, -300.0)
+        st = node.health.update()[0]
+        kv = dict(st.values)
+        assert st.level == 1 and "cycle 3" in st.message and "non-finite value" in st.message
         assert kv["bad_messages"] == "2" and kv["temperatures_skipped"] == "1" and kv["cycle_id"] == "3"
         # the next cycle starts clean
         node._on_status(_status((20.0, 4, 1, 2, 40.0, 0, 2, 0.0, 0.1, "joint_1")))
-        node.diag.set(*node._report())
-        assert node.diag.level == 0
+        st = node.health.update()[0]
+        assert st.level == 0
     finally:
         node.destroy_node()

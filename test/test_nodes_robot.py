@@ -377,13 +377,13 @@ def test_estimator_levels_settings_and_restarts_are_per_joint(ctx):
     try:
         j1, j2 = node.channels["joint_1"], node.channels["joint_2"]
         assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (35.0, 40.0)
-        assert (j1.diag.hardware_id, j2.diag.hardware_id) == ("joint_1", "cell7/j2")
-        assert (j1.diag.name, j2.diag.name) == ("wear_estimator: joint_1", "wear_estimator: joint_2")
+        assert (node.health.status("joint_1").hardware_id, node.health.status("joint_2").hardware_id) == ("joint_1", "cell7/j2")
+        assert (node.health.status("joint_1").name, node.health.status("joint_2").name) == ("wear_estimator: joint_1", "wear_estimator: joint_2")
         # the same wear 37: joint_1 alarms at 35, joint_2 (its own threshold 40) only warns
         _feed_cycle(node, helper.status, "joint_1", 1, 37.0, 10.0)
         _feed_cycle(node, helper.status, "joint_2", 1, 37.0, 20.0)
         assert [(r.joint_name, r.cycle_id) for r in node.results] == [("joint_1", 1), ("joint_2", 1)]
-        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, WARN)
+        assert (_level(node.health.status("joint_1")), _level(node.health.status("joint_2"))) == (ERROR, WARN)
         # a node-level change sets every joint's, joint_2's own threshold 40 included (docs/robot.md)
         res = node.set_parameters_atomically([Parameter("alarm_threshold", value=38.0)])
         assert res.successful, res.reason
@@ -401,7 +401,7 @@ def test_estimator_levels_settings_and_restarts_are_per_joint(ctx):
         # test_cycle restarted: joint_1's cycle 1 again is a new cycle; joint_2 keeps its level
         _feed_cycle(node, helper.status, "joint_1", 1, 10.0, 30.0)
         assert [(r.joint_name, r.cycle_id) for r in node.results][-1] == ("joint_1", 1)
-        assert (_level(j1.diag.status), _level(j2.diag.status)) == (OK, WARN)
+        assert (_level(node.health.status("joint_1")), _level(node.health.status("joint_2"))) == (OK, WARN)
         # a joint not served, and an observation without a joint with two joints: ignored, counted
         before = node.ignored_messages
         node._on_status(helper.status((40.0, 1, CycleState.RUNNING, 2, 30.0, 0, 3, 0.0, 0.1, "joint_9"), 0))
@@ -446,7 +446,7 @@ def test_estimator_per_joint_threshold_at_run_time_changes_that_joints_level_onl
         j1, j2 = node.channels["joint_1"], node.channels["joint_2"]
         _feed_cycle(node, helper.status, "joint_1", 1, 37.0, 10.0)
         _feed_cycle(node, helper.status, "joint_2", 1, 37.0, 20.0)
-        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, ERROR)
+        assert (_level(node.health.status("joint_1")), _level(node.health.status("joint_2"))) == (ERROR, ERROR)
         # `ros2 param set /wear_estimator joint_2.alarm_threshold 40.0`
         res = node.set_parameters_atomically([Parameter("joint_2.alarm_threshold", value=40.0)])
         assert res.successful, res.reason
@@ -454,12 +454,12 @@ def test_estimator_per_joint_threshold_at_run_time_changes_that_joints_level_onl
         assert (node.get_parameter("alarm_threshold").value, node.get_parameter("joint_1.alarm_threshold").value,
                 node.get_parameter("joint_2.alarm_threshold").value) == (35.0, 35.0, 40.0)
         # the level already reported stays until the next estimate
-        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, ERROR)
+        assert (_level(node.health.status("joint_1")), _level(node.health.status("joint_2"))) == (ERROR, ERROR)
         _feed_cycle(node, helper.status, "joint_1", 2, 37.0, 30.0)
         _feed_cycle(node, helper.status, "joint_2", 2, 37.0, 40.0)
         assert [(r.joint_name, r.cycle_id, r.alarm_threshold) for r in node.results[-2:]] == [
             ("joint_1", 2, 35.0), ("joint_2", 2, 40.0)]
-        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, WARN)
+        assert (_level(node.health.status("joint_1")), _level(node.health.status("joint_2"))) == (ERROR, WARN)
 
         def unchanged() -> None:
             assert [(c.monitor.config.warn_threshold, c.monitor.config.alarm_threshold, c.monitor.config.method)
@@ -500,7 +500,7 @@ def test_estimator_per_joint_threshold_at_run_time_changes_that_joints_level_onl
         assert (j1.monitor.config.alarm_threshold, j2.monitor.config.alarm_threshold) == (36.0, 36.0)
         _feed_cycle(node, helper.status, "joint_1", 3, 37.0, 50.0)
         _feed_cycle(node, helper.status, "joint_2", 3, 37.0, 60.0)
-        assert (_level(j1.diag.status), _level(j2.diag.status)) == (ERROR, ERROR)
+        assert (_level(node.health.status("joint_1")), _level(node.health.status("joint_2"))) == (ERROR, ERROR)
         assert [(r.joint_name, r.cycle_id, r.alarm_threshold) for r in node.results[-2:]] == [
             ("joint_1", 3, 36.0), ("joint_2", 3, 36.0)]
     finally:

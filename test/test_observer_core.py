@@ -8,10 +8,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from jointwear_ros.contract import CycleState
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.observer import (
-    STATE_ABORTED,
-    STATE_RUNNING,
     FrictionObservationData,
     FrictionObserverCore,
     ObserverConfig,
@@ -180,7 +179,7 @@ def test_observer_rejects_speed_cut_by_abort(cycle):
     t_cut = cycle.statuses[len(cycle.statuses) // 3][0]
     statuses = [s for s in cycle.statuses if s[0] < t_cut]
     last = statuses[-1]
-    statuses.append((t_cut, last[1], STATE_ABORTED, 0, 0.0, last[5], last[6], last[7], last[8], last[9]))
+    statuses.append((t_cut, last[1], CycleState.ABORTED, 0, 0.0, last[5], last[6], last[7], last[8], last[9]))
     out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
     assert any(r.reason == "cycle ABORTED before this speed finished" for r in out.rejections)
     assert len(out.observations) == last[5]  # the speeds finished before the abort
@@ -277,7 +276,7 @@ def test_edge_trim_uses_fewer_samples(cycle):
 
 def test_status_running_after_last_speed_does_not_open_a_speed():
     core = FrictionObserverCore(CFG)
-    core.on_status(0.0, 1, STATE_RUNNING, 0, 10.0, 2, 2, 0.0, 0.1, "joint_1")
+    core.on_status(0.0, 1, CycleState.RUNNING, 0, 10.0, 2, 2, 0.0, 0.1, "joint_1")
     assert core.active_segment is None
 
 
@@ -346,7 +345,7 @@ def test_memory_stays_bounded_when_a_speed_never_ends():
     """A RUNNING status and then silence on the status topic: at most max_buffer_seconds are kept."""
     cfg = replace(CFG, max_buffer_seconds=20.0)
     core = FrictionObserverCore(cfg)
-    core.on_status(100.0, 1, STATE_RUNNING, 2, 40.0, 0, 1, 0.0, 0.1, "joint_1")
+    core.on_status(100.0, 1, CycleState.RUNNING, 2, 40.0, 0, 1, 0.0, 0.1, "joint_1")
     rate = 500.0
     t = np.arange(60_000) / rate + 100.0  # 120 s
     peak = 0

@@ -13,9 +13,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from jointwear_ros.errors import JointwearError
-from jointwear_ros.estimation import ESTIMATOR_METHODS, make_estimator
+from jointwear_ros.estimation import ESTIMATORS, make_estimator
 from jointwear_ros.model import load_parameter_set, paper_wear_model
 from jointwear_ros.types import ObservationTable
+
+ESTIMATOR_METHODS = ESTIMATORS.names()
 
 SETTINGS = settings(max_examples=40, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])

@@ -97,7 +97,7 @@ def test_the_docs_have_commands_to_check():
 @pytest.mark.parametrize(("md", "line", "cmd"), ALL, ids=[f"{md.name}:{line}" for md, line, _ in ALL])
 def test_every_documented_command_parses_with_the_real_cli(md, line, cmd):
     from jointwear_ros.cli import build_parser
-    from jointwear_ros.estimation import ESTIMATOR_METHODS
+    from jointwear_ros.estimation import ESTIMATORS as ESTIMATOR_METHODS
     from jointwear_ros.model import load_parameter_set_info
 
     words = _words(cmd)

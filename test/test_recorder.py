@@ -196,8 +196,9 @@ def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
 
 def test_messages_received_before_the_sim_clock_starts_are_logged_at_its_first_time(tmp_path):
     # use_sim_time without /clock yet: ROS time reads 0; those messages must not stretch the bag to 1970
+    from jointwear_ros.io.recording import Item as _Item
+    from jointwear_ros.io.recording import RecordingBag as _Bag
     from jointwear_ros.io.typestore import jointwear_typestore
-    from jointwear_ros.nodes.recorder import _Bag, _Item
 
     store = jointwear_typestore()
     data = bytes(store.serialize_cdr(store.types["std_msgs/msg/String"](data="x"), "std_msgs/msg/String"))

@@ -238,3 +238,23 @@ def test_replay_of_a_bag_without_joint_states_is_a_one_line_error(tmp_path, caps
         w.write(c, 1, store.serialize_cdr(store.types["std_msgs/msg/String"](data="hi"), "std_msgs/msg/String"))
     err = _one_line_error(["replay", str(path)], capsys)
     assert "no sensor_msgs/msg/JointState messages on /joint_states" in err
+
+
+def test_replay_reads_the_bag_once(synthetic_bag, monkeypatch):
+    """The settings, the joints the statuses name, the method the estimates name and the messages: one pass."""
+    from rosbags.highlevel import AnyReader
+
+    path, observations, _ = synthetic_bag
+    opened: list[object] = []
+    enter = AnyReader.__enter__
+
+    def counting_enter(self):
+        opened.append(self)
+        return enter(self)
+
+    monkeypatch.setattr(AnyReader, "__enter__", counting_enter)
+    rep = replay_bag(path, node_params_from_yaml(config_path("friction_observer.yaml"), "friction_observer"),
+                     node_params_from_yaml(config_path("wear_estimator.yaml"), "wear_estimator"))
+    assert len(opened) == 1
+    assert rep.joints == ["joint_1"] and rep.settings["method_from"] == "recorded estimates"
+    assert [o.to_dict() for o in rep.observations] == [o.to_dict() for o in observations]

@@ -22,15 +22,18 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from jointwear_ros.contract import DiagnosticLevel
 from jointwear_ros.history import SCHEMA_VERSION, EstimateRecord, HistoryStore
 from jointwear_ros.serve.core import LEVEL_NAMES, STALE, plant_level, rank_views
-from jointwear_ros.trend import DAY, ERROR, OK, WARN
+from jointwear_ros.trend import DAY
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
 
 from plant_example import ERROR_JOINT, STALE_JOINT, expected_levels, write_plant  # noqa: E402
 from plant_screenshot import start_serve, stop  # noqa: E402
+
+OK, WARN, ERROR = DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR
 
 
 def get(url: str) -> tuple[int, str]:

@@ -347,3 +347,90 @@ def test_trend_plot_shows_the_interval_and_every_models_weight(tmp_path, monkeyp
     assert "alarm time 90 %" in seen["legend"] and "predicted crossing (median)" in seen["legend"]
     assert any(x.startswith("step without a maintenance event") for x in seen["legend"])
     assert any(x.startswith("fit: line after the step") for x in seen["legend"])
+
+
+# --------------------------------------------------------------------------- the issue's trial and the scores' error
+
+
+def test_trial_scores_each_joint_once_at_its_60th_estimate_and_the_line_limit_bounds_it():
+    from jointwear_ros.trend.backtest import score_trial, trial_summary
+    from jointwear_ros.trend.families import make_trial_set
+
+    joints = make_trial_set(seeds=(100,), per_family=4)
+    s = score_trial(joints, TrendConfig(), EPOCH0)
+    assert s["joints"] == 12 and len(s["rows"]) == 12
+    assert [x["profile"] for x in s["rows"]] == ["linear"] * 4 + ["accelerating"] * 4 + ["flat"] * 4
+    j = joints[0]
+    d = (j.times[159] - EPOCH0) / DAY  # the look: the last of estimates 100-159
+    assert s["rows"][0]["true"] == pytest.approx(j.segment_crossing(d) - d)
+    compared = 0
+    for x, jj in zip(s["rows"], joints):  # the interval is the one the trend gives on those 60 estimates
+        q = analyze_joint(jj.times[100:160], jj.wear[100:160], jj.wear_std[100:160]).time_to_alarm
+        if q is not None and q.median > 0:
+            assert (x["lo90"], x["median"]) == pytest.approx((q.lo90, q.median), rel=1e-9)
+            assert x["hi90"] == q.hi90 or x["hi90"] == pytest.approx(q.hi90, rel=1e-9)
+            compared += 1
+    assert compared >= 4
+    assert s["flat_warn"] == 0
+    for x in s["rows"]:
+        assert x["w_line"] + x["w_accelerated"] + x["w_adaptive"] == pytest.approx(1.0)
+    # a bank of the line alone is no wider than its straight-line limit allows (the limit: the flat-prior line)
+    line = TrendConfig(prior_line=1.0, prior_accelerated=0.0, accel_noise=(), jerk_noise=(), step_rate_per_day=0.0)
+    sl = score_trial([x for x in joints if x.profile == "linear"], line, EPOCH0)
+    for x in sl["rows"]:
+        if 1 <= x["true"] <= 365 and math.isfinite(x["lo90"]):
+            assert (x["hi90"] - x["lo90"]) == pytest.approx(x["line_width"], rel=0.1)
+    rows = [dict(x) for x in s["rows"]]
+    rows[0].update(lo90=math.nan, hi90=math.nan, true=10.0)  # no interval: a miss, infinitely wide
+    t = trial_summary(rows)
+    assert t["no_interval"] == 1 + s["no_interval"] - (1 if math.isnan(s["rows"][0]["lo90"]) else 0)
+
+
+def test_coverage_standard_error_counts_joints_not_nights():
+    from jointwear_ros.trend.backtest import _cluster_se
+
+    # two joints, all nights in or all out: pooled 50 %, and the error of two samples, however many nights
+    assert _cluster_se([(1000, 1000), (1000, 0)]) == pytest.approx(0.5, rel=1e-9)
+    assert _cluster_se([(10, 10), (10, 0)]) == pytest.approx(0.5, rel=1e-9)
+    assert _cluster_se([(50, 45)] * 10) == pytest.approx(0.0, abs=1e-12)
+    assert math.isnan(_cluster_se([(50, 45)])) and math.isnan(_cluster_se([(50, 45), (0, 0)]))
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(0.0, 34.0), st.floats(-0.2, 0.5), st.floats(1e-5, 1e-2), st.floats(0.01, 2.0), st.floats(0.001, 0.1))
+def test_crossing_probability_never_falls_with_the_days_ahead(level, rate, q, level_sd, rate_sd):
+    """Wear does not come back down: once the alarm is likely by tau it stays so later, although the random-walk
+    member's Gaussian P(wear(tau) >= alarm) falls back towards 1/2 far ahead (its variance grows as tau^3)."""
+    from jointwear_ros.trend import crossing_cdf
+    from jointwear_ros.trend.core import tau_grid
+
+    cfg = TrendConfig()
+    tau = tau_grid(cfg.max_horizon_days)
+    F = crossing_cdf(np.array([[level, rate]]), np.diag([level_sd ** 2, rate_sd ** 2])[None], q, cfg, tau)[0]
+    assert np.all(np.diff(F) >= 0.0)
+    var = level_sd ** 2 + (rate_sd * tau) ** 2 + q * tau ** 3 / 3
+    gauss = 0.5 * (1 + np.vectorize(math.erf)((level + rate * tau - cfg.alarm) / np.sqrt(2 * var)))
+    assert F == pytest.approx(np.maximum.accumulate(gauss), abs=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(2, 6), st.integers(1, 12), st.integers(0, 2 ** 31 - 1))
+def test_type2_weights_maximize_the_marginal_likelihood_of_the_histories(m, n, seed):
+    """The empirical-Bayes member weights: a distribution at which no member's share can grow the marginal
+    likelihood sum_j log sum_m pi_m L_jm (the optimum's condition), whatever prior the posteriors were made with."""
+    from jointwear_ros.trend import type2_weights
+
+    rng = np.random.default_rng(seed)
+    lik = np.exp(rng.normal(0, 3, (n, m)))
+    prior = rng.dirichlet(np.ones(m))
+    post = lik * prior
+    post /= post.sum(axis=1, keepdims=True)
+    pi = type2_weights(post, prior)
+    assert pi.sum() == pytest.approx(1.0) and (pi >= 0).all()
+    grad = (lik / (lik @ pi)[:, None]).mean(axis=0)  # d/d pi_m of the mean log-likelihood
+    assert grad.max() <= 1.0 + 1e-2  # = 1 where pi_m > 0, <= 1 where pi_m = 0
+
+    def objective(p):
+        return float(np.log(lik @ p).sum())
+
+    assert objective(pi) >= max(objective(prior), objective(np.full(m, 1.0 / m))) - 1e-9

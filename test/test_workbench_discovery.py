@@ -28,7 +28,7 @@ from jointwear_ros.workbench import (
     residual_dependence,
 )
 from jointwear_ros.workbench.compare import METHOD_CYCLE_DIFF, METHOD_REPLICATES, METHOD_STD
-from jointwear_ros.workbench.dependence import holm
+from jointwear_ros.workbench.significance import holm
 
 WITHIN_FLOOR = 1.3
 

@@ -185,3 +185,88 @@ def test_hostile_spec_strings_never_crash_with_anything_but_a_model_error():
             parse_spec(text)
         except JointwearError:
             pass
+
+
+# -- one registry ----------------------------------------------------------------------------------------------
+def test_one_registry_holds_every_shape_and_one_ripple():
+    from jointwear_ros.workbench import SHAPES
+    from jointwear_ros.workbench.shapes import CandidateTerm
+
+    assert list(SHAPES) == ["lin", "x_stribeck", "x_viscous", "exp_viscous", "inter", "ripple", "step", "spline",
+                            "scale"]
+    assert SHAPES["ripple"] is HarmonicRipple
+    assert [c for c in SHAPES.values() if "ripple" in c.__name__.lower()] == [HarmonicRipple]
+    assert all(issubclass(c, CandidateTerm) and c.shape == s for s, c in SHAPES.items())
+    # the fixed library's choice is on the shape: the ripple only for angle-like columns, options-only shapes never
+    assert [s for s, c in SHAPES.items() if c.offered_for("hours_running")] == ["lin", "x_stribeck", "x_viscous",
+                                                                                  "exp_viscous"]
+    assert [s for s, c in SHAPES.items() if c.offered_for("position")] == ["lin", "x_stribeck", "x_viscous",
+                                                                             "exp_viscous", "ripple"]
+
+
+@pytest.mark.parametrize("spec", [*SPECS, "lin(x)", "x_stribeck(x)", "x_viscous(x)", "exp_viscous(x)", "inter(x,y)",
+                                  "ripple(position)"])
+def test_every_shapes_hints_name_its_own_parameters(spec):
+    term = resolve_term(spec)
+    x = {**INPUTS, "x": RNG.uniform(0.0, 5.0, N), "y": RNG.uniform(1.0, 2.0, N)}
+    assert term.linear and set(term.linear) <= set(term.param_names)
+    for point in term.guess(x):
+        assert set(point) <= set(term.param_names) - set(term.linear)
+    assert term.describe_effect() and "{" not in term.describe_effect()
+
+
+def test_register_shape_adds_a_shape_to_the_grammar_and_refuses_a_taken_name():
+    from jointwear_ros.workbench import SHAPES, register_shape
+    from jointwear_ros.workbench.shapes import Lin
+
+    class Doubled(Lin):
+        """``2*a*x`` (a test shape)."""
+
+        shape = "jw_test_doubled"
+
+        def value(self, x, p):
+            return 2.0 * super().value(x, p)
+
+        def param_gradient(self, x, p):
+            return {k: 2.0 * v for k, v in super().param_gradient(x, p).items()}
+
+    try:
+        assert register_shape(Doubled) is Doubled and SHAPES["jw_test_doubled"] is Doubled
+        model = parse_spec("coulomb + jw_test_doubled(temperature)")
+        assert model.term_names[-1] == "jw_test_doubled(temperature)" and model.terms[-1].linear == (
+            "jw_test_doubled_temperature_a",)
+        assert register_shape(Doubled) is Doubled  # the same class again: no error
+
+        class Other(Lin):
+            shape = "jw_test_doubled"
+
+        with pytest.raises(ModelError, match="'jw_test_doubled' is taken by"):
+            register_shape(Other)
+        with pytest.raises(ModelError, match="not a CandidateTerm subclass"):
+            register_shape(int)
+    finally:
+        SHAPES.pop("jw_test_doubled", None)
+    with pytest.raises(ModelError, match="unknown term shape 'jw_test_doubled'"):
+        parse_spec("coulomb + jw_test_doubled(temperature)")
+
+
+def test_an_installed_package_offers_a_shape_through_the_entry_point_group(tmp_path, monkeypatch):
+    from jointwear_ros.workbench import SHAPES
+
+    (tmp_path / "jw_test_shapes.py").write_text(
+        "from jointwear_ros.workbench.shapes import Lin\n\n"
+        "class Tripled(Lin):\n"
+        "    shape = 'jw_test_tripled'\n\n"
+        "    def value(self, x, p):\n"
+        "        return 3.0 * super().value(x, p)\n", encoding="utf-8")
+    dist = tmp_path / "jw_test_shapes-1.0.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: jw-test-shapes\nVersion: 1.0\n", encoding="utf-8")
+    (dist / "entry_points.txt").write_text("[jointwear.shapes]\njw_test_tripled = jw_test_shapes:Tripled\n",
+                                           encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        model = parse_spec("coulomb + jw_test_tripled(temperature)")
+        assert type(model.terms[-1]).__name__ == "Tripled" and "jw_test_tripled" in SHAPES
+    finally:
+        SHAPES.pop("jw_test_tripled", None)

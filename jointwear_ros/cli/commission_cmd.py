@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..estimation import ESTIMATORS
 from . import UsageError
 from .common import check_output_dir, check_output_file, print_json
 
@@ -51,7 +52,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                                    "or bags with a parameter set (a commissioned one, or a named set).")
     e.add_argument("data", nargs="+", metavar="DATA", help="bag directories and/or observation CSV tables")
     e.add_argument("--params", required=True, metavar="SET", help="parameter set name or YAML path")
-    e.add_argument("--method", default="joint", help="estimator: joint (default), bayes, paper, paper-grid")
+    e.add_argument("--method", default="joint",
+                   help=f"estimator: {', '.join(ESTIMATORS)} (default joint, the cycle's shared temperature)")
     e.add_argument("--joint", default=None, help="only this joint (tables without a joint column: the set's joint)")
     e.add_argument("--joint-side", action="store_true",
                    help="tables are joint side (rad/s, N·m), as the set's units; default: the suite's units "

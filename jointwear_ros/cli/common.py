@@ -250,20 +250,18 @@ def check_text_file(path: str, flag: str) -> None:
 
 def check_method(method: str | None, flag: str) -> None:
     """An estimator method name the estimators know (None: the configured one)."""
-    from ..estimation import ESTIMATOR_METHODS
+    from ..estimation import ESTIMATORS
 
-    if method is not None and str(method).strip().lower() not in ESTIMATOR_METHODS:
-        raise UsageError(f"{flag}: unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
+    if method is not None and str(method).strip().lower() not in ESTIMATORS:
+        raise UsageError(f"{flag}: unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATORS)}")
 
 
 def open_history(url: str, *, must_exist: bool) -> Any:
-    """The history store at ``url`` (a URL or an SQLite path); ``must_exist``: an SQLite file that is not
+    """The history store at ``url`` (a URL or an SQLite path); ``must_exist``: a store file that is not
     there is a one-line error (nothing created)."""
-    from ..history import HistoryStore, normalize_url
+    from ..history import HistoryStore, backend_for
 
-    u = normalize_url(url)
-    if must_exist and u.startswith("sqlite:///"):
-        path = Path(u.split(":///", 1)[1]).expanduser()
-        if not path.is_file():
-            raise UsageError(f"--db {url}: no such history file")
-    return HistoryStore(u)
+    backend = backend_for(url)
+    if must_exist and not backend.exists():
+        raise UsageError(f"--db {url}: no such history file")
+    return HistoryStore(backend.url)

@@ -30,9 +30,9 @@ from typing import Any
 
 import yaml
 
-from ..contract import CycleState, DiagnosticLevel
+from ..contract import CycleState
 from ..errors import JointwearError
-from ..nodes.cell import CellError, Child, Operator, ready_conditions, start_child, stop_children
+from ..nodes.cell import CellError, Child, JointReport, Operator, ready_conditions, start_child, stop_children
 from ..resources import config_path
 from . import UsageError
 from .common import check_method, check_output_dir, format_table, parse_float, parse_float_list, print_json
@@ -91,40 +91,17 @@ def _progress(text: str) -> None:
     print(f"[demo] {text}", file=sys.stderr, flush=True)
 
 
-# --------------------------------------------------------------------------- children
-
-
-# --------------------------------------------------------------------------- the operator
-
-
-@dataclass
-class JointResult:
-    """One joint of the demo: its estimate, its diagnostic status, its true wear."""
-
-    joint: str
-    true_wear: float
-    estimate: dict[str, Any]
-    diagnostic_level: str
-    diagnostic_message: str
-    final_state: str
-    cell_seconds: float = math.nan
-
-    def wear_dict(self) -> dict[str, Any]:
-        e = self.estimate
-        return {"estimate": e.get("wear"), "std": e.get("wear_std"), "method": e.get("method"),
-                "low": e.get("wear_low"), "high": e.get("wear_high"), "temperature": e.get("temperature_estimate")}
-
-
 @dataclass
 class DemoResult:
-    """What the operator saw: cycle id, observations, the estimate and diagnostic level of each joint, bag.
+    """What the operator saw: cycle id, observations, each joint's :class:`~jointwear_ros.nodes.cell.JointReport`
+    (its estimate, diagnostic level and true wear), the bag.
 
     ``robot`` is true for ``--joints N``: :meth:`as_dict` then gives ``wear`` and ``true_wear`` as lists
-    (one entry per joint); otherwise the one-joint shape of earlier versions."""
+    (one entry per joint); a one-joint cell gives them as one object and one number."""
 
     cycle_id: int
     observations: list[dict[str, Any]]
-    joints: list[JointResult]
+    joints: list[JointReport]
     final_state: str
     bag: str | None = None
     wall_seconds: float = 0.0
@@ -132,15 +109,6 @@ class DemoResult:
     logs: str = ""
     robot: bool = False
     rejections: list[str] = field(default_factory=list)
-
-    # the one-joint view (the first joint), as in earlier versions
-    @property
-    def estimate(self) -> dict[str, Any]:
-        return self.joints[0].estimate
-
-    @property
-    def true_wear(self) -> float:
-        return self.joints[0].true_wear
 
     @property
     def diagnostic_level(self) -> str:
@@ -161,7 +129,7 @@ class DemoResult:
             out["true_wear"] = [{"joint": j.joint, "wear": j.true_wear} for j in self.joints]
         else:
             out["wear"] = self.joints[0].wear_dict()
-            out["true_wear"] = self.true_wear
+            out["true_wear"] = self.joints[0].true_wear
         out.update({
             "diagnostic_level": self.diagnostic_level,
             "diagnostic_message": self.diagnostic_message,
@@ -189,12 +157,6 @@ def _worst_level(levels: Sequence[str]) -> str:
         if _LEVEL_ORDER.index(lv) > _LEVEL_ORDER.index(worst):
             worst = lv
     return worst
-
-
-def _msg_dict(msg: Any, names: Sequence[str]) -> dict[str, Any]:
-    from ..io.bags import message_fields
-
-    return message_fields(msg, names)
 
 
 def _config_value(node: str, name: str, default: Any) -> Any:
@@ -235,15 +197,6 @@ def robot_joint_names(n: int) -> list[str]:
     return names[:n]
 
 
-_FINAL_STATES = (CycleState.DONE, CycleState.ABORTED, CycleState.FAILED)
-
-
-def _stamp(msg: Any) -> float:
-    from ..contract import stamp_to_seconds
-
-    return stamp_to_seconds(msg.header.stamp)
-
-
 def run_demo(
     wear: float | Sequence[float],
     speeds: Sequence[float] | None,
@@ -261,7 +214,7 @@ def run_demo(
     ``joints=None``: the configured single joint (``wear`` and ``temperature`` are numbers). ``joints=N``:
     a robot cycle over the first N configured joints; ``wear`` (and ``temperature``) may then be one value
     per joint, and the result's :meth:`DemoResult.as_dict` gives lists."""
-    from ..io.bags import OBSERVATION_FIELDS, find_bags
+    from ..io.bags import OBSERVATION_FIELDS, find_bags, message_fields
     from ..nodes.runtime import loopback_env
 
     t_start = time.monotonic()
@@ -318,7 +271,7 @@ def run_demo(
             params[node].update(values)
     children: list[Child] = []
     op: Operator | None = None
-    per_joint: list[JointResult] = []
+    per_joint: list[JointReport] = []
     observations: list[dict[str, Any]] = []
     cycle_id = 0
     final_state = "?"
@@ -345,79 +298,28 @@ def run_demo(
             key = (st.joint_name, st.state, st.speeds_done)
             if key != shown[0]:
                 shown[0] = key
-                state = CycleState.name_of(st.state)
+                state = st.state_name
                 extra = f": {st.message}" if st.state in (CycleState.ABORTED, CycleState.FAILED) and st.message else ""
                 where = (f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else "")
                 _progress(f"cycle {cycle_id} {where}{state}, speeds done {st.speeds_done}/{st.speeds_total}{extra}")
 
-        def estimates_of(joint: str) -> list[Any]:
-            return [e for e in op.estimates if e.cycle_id == cycle_id and e.joint_name == joint]  # type: ignore[union-attr]
-
-        def diags_of(joint: str, after: int = 0) -> list[Any]:
-            """The operator's ``wear_estimator: <joint>`` statuses of this cycle (its ``cycle_id`` key) heard
-            after arrival number ``after``."""
-            name = f"wear_estimator: {joint}"
-            return [d for n, d in op.diagnostics  # type: ignore[union-attr]
-                    if n > after and d.name == name
-                    and ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
-
-        def joint_finished(joint: str) -> bool:
-            # an estimate, or the estimator's verdict that there is none (no "wear" key)
-            return bool(estimates_of(joint)) or any("wear" not in {kv.key for kv in d.values} for d in diags_of(joint))
-
-        def finished() -> bool:
-            if len(names) == 1:
-                return joint_finished(names[0])
-            # a robot cycle: it has ended, and every joint it started has its estimate (or verdict)
-            return op.robot_cycle_over(cycle_id) and all(  # type: ignore[union-attr]
-                joint_finished(j) for j in op.joints_started(cycle_id))  # type: ignore[union-attr]
-
-        op.spin_until(finished, timeout, children, f"the WearEstimate of cycle {cycle_id}", tick)
-
-        def complete() -> bool:
-            # The estimator estimates a joint when all its speeds are in, or done_timeout after DONE
-            # (a rejected window sends nothing): on a loaded machine the observer can be later than that,
-            # and the estimator then revises the estimate with the late observation. So wait until the
-            # observer has finished every speed of each joint (its status counts observations and
-            # rejected windows per cycle) and the newest estimate covers every observation.
-            for j in op.joints_started(cycle_id):  # type: ignore[union-attr]
-                if not op.observer_done(cycle_id, j):  # type: ignore[union-attr]
-                    return False
-                seen = {round(o.speed, 9) for o in op.observations  # type: ignore[union-attr]
-                        if o.cycle_id == cycle_id and o.joint_name == j}
-                ests = estimates_of(j)
-                if ests and not seen <= {round(v, 9) for v in ests[-1].speeds}:
-                    return False
-            return True
-
+        op.spin_until(lambda: op.estimated(cycle_id), timeout, children,  # type: ignore[union-attr]
+                      f"the WearEstimate of cycle {cycle_id}", tick)
         try:
-            op.spin_until(complete, 60.0, children, f"every observation of cycle {cycle_id} in its joint's estimate")
+            op.spin_until(lambda: op.complete(cycle_id), 60.0, children,  # type: ignore[union-attr]
+                          f"every observation of cycle {cycle_id} in its joint's estimate")
         except DemoError as exc:
             _progress(f"{exc}; reporting the newest estimate, which may lack an observation")
         for joint, true_wear in zip(names, wears):
-            per_joint.append(_joint_result(op, children, cycle_id, joint, true_wear, estimates_of, diags_of))
-        observations = [_msg_dict(o, OBSERVATION_FIELDS) for o in op.observations if o.cycle_id == cycle_id]
+            report = op.joint_report(cycle_id, joint, children)
+            report.true_wear = float(true_wear)
+            per_joint.append(report)
+        observations = [message_fields(o, OBSERVATION_FIELDS) for o in op.observations if o.cycle_id == cycle_id]
         order = {j: i for i, j in enumerate(names)}
         observations.sort(key=lambda o: (order.get(o["joint_name"], len(order)), o["speed"]))
         final = op.status
-        final_state = CycleState.name_of(final.state) if final is not None and final.cycle_id == cycle_id else "?"
-        # cell time: from a joint's first status of the cycle to its first final one (the node
-        # republishes the final status while idle: later copies are not cell time)
-        mine = [st for st in op.statuses if st.cycle_id == cycle_id]
-        ends: list[Any] = []
-        for jr in per_joint:
-            js = [st for st in mine if st.joint_name == jr.joint]
-            end = next((st for st in js if st.state in _FINAL_STATES), None)
-            if js:
-                last = end if end is not None else js[-1]
-                jr.final_state = CycleState.name_of(last.state)
-                jr.cell_seconds = _stamp(last) - _stamp(js[0]) if end is not None else math.nan
-            else:
-                jr.final_state = "NOT_TESTED"
-            if end is not None:
-                ends.append(end)
-        if mine and ends and op.robot_cycle_over(cycle_id):
-            cell_seconds = max(_stamp(e) for e in ends) - _stamp(mine[0])
+        final_state = final.state_name if final is not None and final.cycle_id == cycle_id else "?"
+        cell_seconds = op.cell_seconds(cycle_id)
         time.sleep(0.5)  # the recorder gets the estimate and diagnostics too
     finally:
         if op is not None:
@@ -448,32 +350,6 @@ def _per_joint(value: float | Sequence[float], names: Sequence[str], what: str) 
     if len(values) != len(names):
         raise CellError(f"{len(values)} {what} values for {len(names)} joints ({', '.join(names)})")
     return values
-
-
-def _joint_result(op: Operator, children: Sequence[Child], cycle_id: int, joint: str, true_wear: float,
-                  estimates_of: Any, diags_of: Any) -> JointResult:
-    """The newest estimate of ``joint`` in the cycle and the diagnostic status heard after it."""
-    from ..io.bags import ESTIMATE_FIELDS
-
-    ests = estimates_of(joint)
-    est = ests[-1] if ests else None
-    # the estimator publishes an estimate, then its status (and republishes the status every
-    # diagnostics_period): the status of the newest estimate is one heard after it
-    heard_est = 0
-    if est is not None:
-        i_est = max(i for i, e in enumerate(op.estimates) if e is est)
-        heard_est = op.estimate_arrivals[i_est]
-    try:
-        op.spin_until(lambda: bool(diags_of(joint, heard_est)), 15.0, children,
-                      f"the /diagnostics status of {joint} in cycle {cycle_id}")
-        diag = diags_of(joint, heard_est)[-1]
-        raw = diag.level
-        level = DiagnosticLevel.name_of(raw[0] if isinstance(raw, bytes) else int(raw))
-        dmsg = str(diag.message)
-    except DemoError as exc:
-        level, dmsg = "UNKNOWN", str(exc)
-    estimate = _msg_dict(est, ESTIMATE_FIELDS) if est is not None else {}
-    return JointResult(joint, float(true_wear), estimate, level, dmsg, "?")
 
 
 def _param_value(text: str) -> Any:
@@ -640,16 +516,17 @@ def cmd_demo(args: argparse.Namespace) -> int:
              o["samples_minus"]] for o in res.observations]
     print(f"friction observations of cycle {res.cycle_id} ({res.final_state}):")
     print(format_table(["speed", "tau_f", "tau_f_std", "load", "temp", "n+", "n-"], rows) if rows else "  none")
-    e = res.estimate
+    joint = res.joints[0]
+    e = joint.estimate
     if e:
-        z = (e["wear"] - res.true_wear) / e["wear_std"] if e["wear_std"] > 0 else math.nan
-        print(f"wear estimate: {e['wear']:.2f} ± {e['wear_std']:.2f} ({e['method']}); true wear {res.true_wear:g} "
+        z = (e["wear"] - joint.true_wear) / e["wear_std"] if e["wear_std"] > 0 else math.nan
+        print(f"wear estimate: {e['wear']:.2f} ± {e['wear_std']:.2f} ({e['method']}); true wear {joint.true_wear:g} "
               f"({z:+.1f} std)")
         t = e.get("temperature_estimate")
         if t is not None and math.isfinite(t):
             print(f"joint temperature estimate: {t:.1f} degC (from the friction curve; no sensor used)")
     else:
-        print(f"wear estimate: none (cycle {res.final_state}); true wear {res.true_wear:g}")
+        print(f"wear estimate: none (cycle {res.final_state}); true wear {joint.true_wear:g}")
     print(f"diagnostic level: {res.diagnostic_level} ({res.diagnostic_message})")
     print(f"bag: {res.bag}")
     print(f"logs: {res.logs}; {res.wall_seconds:.1f} s wall")

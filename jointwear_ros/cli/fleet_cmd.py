@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..estimation import ESTIMATORS
 from . import UsageError
 from .common import format_table, open_history, parse_float, print_json
 
@@ -39,7 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     r.add_argument("--params", default=None, metavar="SET",
                    help="friction-model parameter set (name or YAML path); default: each bag's recorded one "
                         "(a bag without recorded settings is refused unless --params and --method are given)")
-    r.add_argument("--method", default=None, help="estimator (paper, paper-grid, bayes, joint); default: recorded")
+    r.add_argument("--method", default=None, help=f"estimator ({', '.join(ESTIMATORS)}); default: recorded")
     r.add_argument("--robot", default=None,
                    help="robot of every bag's estimates (as `history import --robot`); default: the robot the "
                         "cell recorded (wear_trend's `robot`, the estimator's `robot` or `hardware_id`), else the "
@@ -97,10 +98,8 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
 
     workers = _workers(args.workers)
     if args.method is not None:
-        from ..estimation import ESTIMATOR_METHODS
-
-        if args.method.strip().lower() not in ESTIMATOR_METHODS:
-            raise UsageError(f"--method: unknown method {args.method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
+        if args.method.strip().lower() not in ESTIMATORS:
+            raise UsageError(f"--method: unknown method {args.method!r}; choose one of {', '.join(ESTIMATORS)}")
         args.method = args.method.strip().lower()
     analysis_version(args.params, args.method, label=args.label)  # a bad set or label: exit 2 before any work
     if args.robot is not None and not args.robot.strip():

@@ -193,13 +193,13 @@ def cmd_import(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from ..history import HistoryStore, normalize_url
+    from ..history import HistoryStore, backend_for
     from ..history.importers import write_csv
 
-    url = normalize_url(args.db)
-    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
+    backend = backend_for(args.db)
+    if not backend.exists():
         raise UsageError(f"--db {args.db}: no such history file")
-    with HistoryStore(url, read_only=True) as store:
+    with HistoryStore(backend.url, read_only=True) as store:
         recs = store.estimates(robot=args.robot, joint=args.joint, analysis_version=args.analysis_version)
     n = write_csv(recs, args.out)
     print(f"{n} estimates written to {args.out}")

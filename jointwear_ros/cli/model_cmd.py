@@ -136,7 +136,10 @@ def _register_workbench(msub: argparse._SubParsersAction) -> None:  # type: igno
                         description="Fit every candidate effect on top of the model, rank by CV error and BIC, "
                                     "test against the noise floor.")
     _add_data_args(d)
-    d.add_argument("--json", action="store_true", help="print JSON")
+    out = d.add_mutually_exclusive_group()
+    out.add_argument("--json", action="store_true", help="print JSON")
+    out.add_argument("--markdown", action="store_true",
+                     help="print the report as Markdown (for an issue, a wiki page or a log book)")
     d.add_argument("--candidate", action="append", default=[], metavar="TERM",
                    help="also try this term (e.g. a user term pkg.module:Class); repeatable")
     d.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level (default 0.01)")
@@ -247,45 +250,6 @@ def _bands_dict(table: Any, fit: Any) -> list[dict[str, Any]]:
             for b in band_rmse(table.speed, fit.residuals)]
 
 
-def _gof_line(table: Any, fit: Any) -> str:
-    from ..workbench import noise_test
-
-    g = noise_test(table, fit.residuals, fit.n_free)
-    if not np.isfinite(g.value):
-        return "# goodness of fit: noise floor unknown (no tau_f_std, replicates or repeated speeds across cycles)"
-    return (f"# goodness of fit: {g.method}, p = {g.p_value:.2g}: the residual is "
-            f"{'consistent' if g.consistent else 'NOT consistent'} with the noise "
-            f"(CV RMSE {fit.cv_rmse / g.value:.2f}x the floor)")
-
-
-def _print_fit(table: Any, fit: Any) -> None:
-    from ..workbench import band_rmse, noise_floor
-
-    nf, src = noise_floor(table)
-    print(f"# model: {fit.spec}")
-    print(f"# {fit.model.equation()}")
-    print(f"# data: {table.source}, n = {fit.n}; noise floor {nf:.5f} ({src})")
-    print(_gof_line(table, fit))
-    print(format_table(["RMSE", "CV RMSE", "AIC", "BIC", "free", "converged"],
-                       [[fit.rmse, fit.cv_rmse, f"{fit.aic:.1f}", f"{fit.bic:.1f}", fit.n_free, fit.success]]))
-    if not fit.success:
-        print(f"# solver: {fit.message}")
-    for h in fit.at_bound:
-        print(f"# on a bound (not converged): {h}; its stderr means nothing, the data may not identify it")
-    print()
-    hits = {h.name: h for h in fit.at_bound}
-    rows = [[n, f"{p.value:.6g}", "fixed" if not p.vary else f"{p.stderr:.3g}" if p.stderr is not None else "-", p.unit,
-             f"{hits[n].side} {hits[n].bound:.6g}" if n in hits else ""]
-            for n, p in fit.params.items()]
-    print(format_table(["parameter", "value", "stderr", "unit", "on bound"], rows))
-    strong = [(a, b, fit.correlation(a, b)) for i, a in enumerate(fit.free) for b in fit.free[i + 1:]]
-    strong = [s for s in strong if np.isfinite(s[2]) and abs(s[2]) > 0.95]
-    if strong:
-        print("# strongly correlated: " + ", ".join(f"{a}~{b} ({r:+.3f})" for a, b, r in strong[:6]))
-    print()
-    print(format_table(["speed band", "n", "RMSE"], [[b.label, b.n, b.rmse] for b in band_rmse(table.speed, fit.residuals)]))
-
-
 def cmd_fit(args: argparse.Namespace) -> int:
     from ..workbench import noise_floor, noise_test
     from ..workbench.history import History
@@ -308,18 +272,28 @@ def cmd_fit(args: argparse.Namespace) -> int:
                     "goodness_of_fit": noise_test(table, fit.residuals, fit.n_free).to_dict(),
                     "bands": _bands_dict(table, fit)})
     else:
-        _print_fit(table, fit)
+        from ..workbench.render import fit_text
+
+        print(fit_text(table, fit))
         if args.report:
             print(f"# report written to {Path(args.report) / 'report.html'}")
     return 0
 
 
+def _stderr_progress(i: int, m: int, name: str) -> None:  # pragma: no cover - terminal only
+    """A one-line progress indicator of the candidates on stderr."""
+    import sys
+
+    sys.stderr.write(f"\r  candidate {i + 1}/{m}: {name[:40]:<40}")
+    if i + 1 == m:
+        sys.stderr.write("\r" + " " * 70 + "\r")
+    sys.stderr.flush()
+
+
 def _progress() -> Any:
     import sys
 
-    from ..workbench.diagnose import stderr_progress
-
-    return stderr_progress if sys.stderr.isatty() else None
+    return _stderr_progress if sys.stderr.isatty() else None
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
@@ -346,51 +320,17 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.json:
         print_json({**diag.to_dict(), "converged": base.success, "at_bound": [h.to_dict() for h in base.at_bound]})
         return 0
-    print_diagnosis(diag, table.source, args.top)
-    for h in base.at_bound:
-        print(f"# the model's own fit ended on a bound (not converged): {h}; the verdict is about a fit the "
-              "data may not identify")
+    from ..workbench.render import diagnosis_markdown, diagnosis_text
+
+    render = diagnosis_markdown if args.markdown else diagnosis_text
+    print(render(diag, table.source, args.top, at_bound=base.at_bound))
     if args.report:
         print(f"# report written to {Path(args.report) / 'report.html'}")
     return 0
 
 
-def print_diagnosis(diag: Any, source: str, top: int) -> None:
-    """The diagnosis as a terminal report: noise test, model-free ranking, candidates, verdict."""
-    nf = diag.noise
-    print(f"# model: {diag.model}")
-    print(f"# data: {source}, n = {diag.n}; RMSE {diag.rmse:.5f}, CV RMSE {diag.cv_rmse:.5f}")
-    if np.isfinite(nf.value):
-        print(f"# noise floor {nf.value:.5f} ({nf.method}): CV RMSE = {diag.cv_rmse / nf.value:.2f}x the floor; "
-              f"p = {nf.p_value:.2g}, {'consistent' if nf.consistent else 'NOT consistent'} with the noise")
-    else:
-        print("# noise floor unknown (no tau_f_std, replicates or repeated speeds across cycles)")
-    print()
-    print("# which columns explain the residual (model-free; p adjusted for every column and pair tried)")
-    print(format_table(["#", "variable", "explains", "p (adj.)", "signif.", "test", "shape"],
-                       [[i + 1, v.name, f"{100 * v.explained_share:.0f} %", f"{v.p_value:.2g}",
-                         "yes" if v.significant else "no", v.test, v.shape_hint]
-                        for i, v in enumerate(diag.variables[:max(top, 0)])]))
-    print()
-    floor = nf.value if np.isfinite(nf.value) and nf.value > 0 else float("nan")
-    rows = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse, f"{c.cv_rmse / floor:.2f}x", f"{c.delta_bic:.1f}",
-             f"{c.p_value:.2g}", "yes" if c.significant else "no", c.speed_region_label]
-            for i, c in enumerate(diag.candidates[: max(top, 0)])]
-    if rows:
-        print(format_table(["#", "term", "variables", "CV RMSE", "x floor", "dBIC", "p", "signif.", "speed region"],
-                           rows))
-    else:
-        print("# no candidate term to fit (no column explains the residual; the paper's terms are in the model)")
-    if diag.stability:
-        print("# chosen in bootstrap resamples by cycle: "
-              + ", ".join(f"{t} {100 * f:.0f} %" for t, f in sorted(diag.stability.items(), key=lambda kv: -kv[1])))
-    print()
-    print(f"verdict: {diag.verdict}")
-    print(diag.summary())
-
-
 def cmd_compare(args: argparse.Namespace) -> int:
-    from ..workbench import band_rmse, noise_floor, residual_structure
+    from ..workbench import noise_floor, residual_structure
 
     _check_out_dir(args.plot, "--plot")
     prepared = [_prepare(args, spec) for spec in args.model]
@@ -411,26 +351,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
                                                for s in residual_structure(table, f.residuals)]} for f in fits],
         })
         return 0
-    print(f"# data: {table.source}, n = {len(table)}; noise floor {nf:.5f} ({src})")
-    print(format_table(["#", "model", "RMSE", "CV RMSE", "AIC", "BIC", "free"],
-                       [[i + 1, f.spec, f.rmse, f.cv_rmse, f"{f.aic:.1f}", f"{f.bic:.1f}", f.n_free]
-                        for i, f in enumerate(fits)]))
-    print()
-    bands = [band_rmse(table.speed, f.residuals) for f in fits]
-    print(format_table(["speed band", "n", *[f"RMSE #{i + 1}" for i in range(len(fits))]],
-                       [[b.label, b.n, *[bb[j].rmse for bb in bands]] for j, b in enumerate(bands[0])]))
-    for i, f in enumerate(fits):
-        print()
-        print(f"# residual structure of model #{i + 1} (share of residual variance explained by each column)")
-        print(format_table(["column", "binned R2", "corr"],
-                           [[s.column, s.r2_binned, s.corr] for s in residual_structure(table, f.residuals)]))
+    from ..workbench.render import compare_text
+
+    print(compare_text(table, fits))
     if args.plot:
         print(f"# plots written to {args.plot}")
     return 0
 
 
 def cmd_add(args: argparse.Namespace) -> int:
-    from ..workbench import band_rmse, noise_floor, noise_test
+    from ..workbench import noise_floor, noise_test
     from ..workbench.history import History
 
     _check_out_dir(args.plot, "--plot")
@@ -460,9 +390,7 @@ def cmd_add(args: argparse.Namespace) -> int:
             plot_error_fall(Path(args.plot) / "error_fall.png", history)
     if history is not None:
         history.save()
-    nf, src = noise_floor(table)
-    b0 = band_rmse(table.speed, before.residuals)
-    b1 = band_rmse(table.speed, after.residuals)
+    nf, _ = noise_floor(table)
     if args.json:
         print_json({
             "data": table.source, "noise_floor": nf, "term": args.term,
@@ -473,20 +401,9 @@ def cmd_add(args: argparse.Namespace) -> int:
                                 "after": noise_test(table, after.residuals, after.n_free).to_dict()},
         })
         return 0
-    print(f"# before: {before.spec}")
-    print(f"# after:  {after.spec}")
-    print(f"# data: {table.source}, n = {len(table)}; noise floor {nf:.5f} ({src})")
-    print(format_table(["", "RMSE", "CV RMSE", "BIC"],
-                       [["before", before.rmse, before.cv_rmse, f"{before.bic:.1f}"],
-                        ["after", after.rmse, after.cv_rmse, f"{after.bic:.1f}"]]))
-    print()
-    print(format_table(["speed band", "n", "RMSE before", "RMSE after", "ratio"],
-                       [[x.label, x.n, x.rmse, y.rmse, f"{x.rmse / y.rmse:.2f}x" if y.rmse > 0 else "-"]
-                        for x, y in zip(b0, b1)]))
-    if after.cv_rmse > 0:
-        print(f"# CV RMSE fell {before.cv_rmse / after.cv_rmse:.2f}x"
-              + (f"; now {after.cv_rmse / nf:.2f}x the noise floor" if np.isfinite(nf) and nf > 0 else ""))
-    print(_gof_line(table, after))
+    from ..workbench.render import add_text
+
+    print(add_text(table, before, after))
     if args.history:
         print(f"# history: {args.history} ({len(history.versions) if history else 0} versions)")
     if args.plot:

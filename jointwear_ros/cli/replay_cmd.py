@@ -250,7 +250,7 @@ def _publish(args: argparse.Namespace) -> int:
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from rosgraph_msgs.msg import Clock
 
-        from ..nodes.recorder import message_class
+        from ..nodes.runtime import message_class
     except ImportError as exc:
         raise InputDataError(f"--publish needs rclpy (the ROS 2 wheels): {exc}") from None
     skip = {"/clock", "/rosout", "/parameter_events"}

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..estimation import ESTIMATOR_METHODS, make_estimator, resolve_model
+from ..estimation import ESTIMATORS, make_estimator, resolve_model
 from ..estimation.priors import TemperaturePrior, parse_temperature_prior
 from ..model import load_parameter_set_info
 from . import UsageError
@@ -58,8 +58,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         ),
     )
     p.add_argument("action", nargs="?", default="run", choices=ACTIONS, help="run (default), robustness or case")
-    p.add_argument("--method", default="paper", choices=ESTIMATOR_METHODS,
-                   help="estimator of the study (default paper)")
+    p.add_argument("--method", default="paper", type=_method_name,
+                   help=f"estimator of the study: {', '.join(ESTIMATORS)} (default paper)")
     p.add_argument("--methods", default=None,
                    help="robustness/case: comma list of estimators (default paper,bayes,joint / paper,bayes)")
     p.add_argument("--runs", default=None, help="runs per speed (default 10000; robustness 2000)")
@@ -90,6 +90,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 # -- argument helpers -------------------------------------------------------------
+def _method_name(text: str) -> str:
+    """An estimator name of the registry (argparse ``type``: an unknown one is a usage error, exit 2)."""
+    key = text.strip().lower()
+    if key not in ESTIMATORS:
+        raise argparse.ArgumentTypeError(f"unknown method {text!r}; choose one of {', '.join(ESTIMATORS)}")
+    return key
+
+
 class _Bar:
     """A progress bar on stderr."""
 
@@ -166,16 +174,17 @@ def _available_memory() -> float:
 
 
 def _check_memory(runs: int, n_speeds: int, n_samples: int, method: str) -> None:
-    """Refuse a study whose arrays would not fit: runs x speeds observations, plus the paper
-    estimator's runs x N temperature samples at one speed."""
+    """Refuse a study whose arrays would not fit: runs x speeds observations, plus a sampling
+    estimator's (the paper's) runs x N temperature samples at one speed."""
     need = 8.0 * runs * n_speeds * 8  # observations, estimates and their sorted copies, float64
-    if method in ("paper", "paper-grid"):
+    sampling = ESTIMATORS.capabilities(method).temperature_samples
+    if sampling:
         need += 8.0 * runs * n_samples * 3
     avail = _available_memory()
     if need > MEMORY_SHARE * avail:
         raise UsageError(
             f"--runs {runs:,} x {n_speeds} speeds"
-            + (f" x --n-samples {n_samples:,}" if method in ("paper", "paper-grid") else "")
+            + (f" x --n-samples {n_samples:,}" if sampling else "")
             + f" needs about {need / 1e9:.3g} GB of memory, {avail / 1e9:.3g} GB are available; "
             "lower --runs, --n-samples or the number of speeds"
         )
@@ -187,23 +196,20 @@ def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, 
     opts: dict[str, Any] = {"noise_std": parse_float(args.noise_std, "--noise-std")}
     assumed_text = args.assumed_temperature or default_assumed
     info = load_parameter_set_info(args.params)
-    if method in ("paper", "paper-grid"):
+    caps = ESTIMATORS.capabilities(method)
+    if caps.temperature_samples:
         opts["n_samples"] = _int(args.n_samples, "--n-samples", 1, MAX_N_SAMPLES)
+    if caps.temperature_assumption == "range":
         if assumed_text is not None:
             pr = _prior(assumed_text, "--assumed-temperature", info)
             if pr.kind != "uniform":
                 raise UsageError(f"--assumed-temperature {assumed_text!r}: the paper's estimator assumes a "
                                  "uniform range; give LO:HI")
             opts["temperature_range"] = pr.args
-    else:
+    elif caps.temperature_assumption == "prior":
         opts["prior"] = _prior(assumed_text, "--assumed-temperature", info) if assumed_text else true_t
-        if args.point is not None:
-            point = args.point
-            if method == "bayes" and point == "map":
-                point = "mode"
-            if method == "joint" and point == "mode":
-                point = "map"
-            opts["point"] = point
+    if args.point is not None and caps.point(args.point) is not None:
+        opts["point"] = caps.point(args.point)
     model, _ = resolve_model(None, info)  # the set's own model (its core terms)
     return make_estimator(method, model, params, **opts)
 
@@ -233,9 +239,9 @@ def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, 
 
 def _methods(text: str | None, default: str) -> list[str]:
     names = [m.strip().lower() for m in (text or default).split(",") if m.strip()]
-    bad = [m for m in names if m not in ESTIMATOR_METHODS]
+    bad = [m for m in names if m not in ESTIMATORS]
     if bad or not names:
-        raise UsageError(f"--methods: {', '.join(bad) or 'empty'} not known; choose from {', '.join(ESTIMATOR_METHODS)}")
+        raise UsageError(f"--methods: {', '.join(bad) or 'empty'} not known; choose from {', '.join(ESTIMATORS)}")
     return names
 
 
@@ -258,8 +264,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     _check_memory(runs, len(speeds), int(getattr(est, "n_samples", 1)), args.method)
     setup = StudySetup(speeds=speeds, runs=runs, true_wear=wear, load=load, noise_std=noise,
                        true_temperature=true_t, seed=seed)
-    unit = "cycles" if args.method == "joint" else "speeds"
-    if args.hcr and args.method == "joint":
+    cycle = ESTIMATORS.capabilities(args.method).cycle
+    unit = "cycles" if cycle else "speeds"
+    if args.hcr and cycle:
         raise UsageError("--hcr: the HCR bound is per speed; a joint study has one multi-speed bound (crb)")
     res = run_study(est, setup, model=resolve_model(None, info)[0], params=params, hcr=bool(args.hcr),
                     progress=_Bar(f"study {args.method} ({unit})", args.quiet))
@@ -299,7 +306,8 @@ def _cmd_robustness(args: argparse.Namespace) -> int:
     if tol <= 0:
         raise UsageError(f"--tolerance: {tol:g} must be positive")
     methods = _methods(args.methods, "paper,bayes,joint")
-    ests = {m: _estimator(m, args, true_t, params, "uniform:25:55" if m in ("bayes", "joint") else None)
+    ests = {m: _estimator(m, args, true_t, params,
+                          "uniform:25:55" if ESTIMATORS.capabilities(m).temperature_assumption == "prior" else None)
             for m in methods}
     for m, e in ests.items():
         _check_memory(runs, len(speeds), int(getattr(e, "n_samples", 1)), m)

@@ -66,13 +66,13 @@ def cmd_trend(args: argparse.Namespace) -> int:
     if horizon < 0 or not 0 < alarm <= 100:
         raise UsageError(f"--horizon {horizon:g} must be >= 0 days and --alarm {alarm:g} in (0, 100]")
     cfg = TrendConfig(alarm=alarm, horizon_days=horizon)
-    from ..history import normalize_url
+    from ..history import backend_for
 
-    url = normalize_url(args.db)
-    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
+    backend = backend_for(args.db)
+    if not backend.exists():
         raise UsageError(f"--db {args.db}: no such history file (fill it with jointwear history import or wear_trend)")
     priors = {}
-    with HistoryStore(url, read_only=True) as store:
+    with HistoryStore(backend.url, read_only=True) as store:
         hist, refused = screened_history(store, args.analysis_version, robot=args.robot, joint=args.joint)
         if args.fleet_prior:
             from ..history.trends import fleet_priors

@@ -248,14 +248,13 @@ def commission(
     scales = DataScales.from_table(table)
     given = m.make_params()
     p0 = data_parameters(m.param_names, scales, given)
-    from ..workbench.candidates import start_grid
 
     starts: list[dict[str, float]] = speed_starts(m.param_names, scales)
     for term in m.terms:
         if term.name in ("coulomb", "load_coulomb", "load_stribeck", "temp_stribeck", "temp_viscous", "stribeck",
                          "viscous"):
             continue
-        grid = start_grid(term, dict(table.model_inputs()))
+        grid = term.guess(dict(table.model_inputs()))
         starts = [dict(s, **g) for s in starts for g in grid][:24]
     fit = fit_model(m, table, p0, starts=starts, cv_folds=cv_folds)
     bound = fit.at_bound

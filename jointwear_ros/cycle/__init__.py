@@ -21,8 +21,8 @@ from .plan import (
     run_up,
     stop_allowance,
 )
-from .robot import JointResult, RobotCycleRunner, RobotPlan, RobotStatusView, plan_robot_cycle
-from .runner import CycleRunner, CycleState, CycleStatusView, JointReading, Phase
+from .robot import JointOutcome, RobotCycleRunner, RobotPlan, plan_robot_cycle
+from .runner import CycleRunner, CycleState, JointReading, Phase
 
 __all__ = [
     "DEFAULT_SPEEDS",
@@ -31,13 +31,11 @@ __all__ = [
     "CycleRequestError",
     "CycleRunner",
     "CycleState",
-    "CycleStatusView",
+    "JointOutcome",
     "JointReading",
-    "JointResult",
     "Phase",
     "RobotCycleRunner",
     "RobotPlan",
-    "RobotStatusView",
     "SpeedPlan",
     "move_duration",
     "plan_cycle",

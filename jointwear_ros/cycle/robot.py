@@ -35,13 +35,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from ..contract import RefusalReason
+from ..contract import CycleStatus, RefusalReason
 from .plan import CycleConfig, CyclePlan, CycleRequestError, plan_cycle
-from .runner import CycleRunner, CycleState, JointReading, Phase
+from .runner import CycleRunner, CycleState, JointReading
 
-__all__ = ["JointResult", "RobotCycleRunner", "RobotPlan", "RobotStatusView", "plan_robot_cycle"]
+__all__ = ["JointOutcome", "RobotCycleRunner", "RobotPlan", "plan_robot_cycle"]
 
 
 @dataclass(frozen=True)
@@ -131,25 +131,7 @@ def plan_robot_cycle(
 
 
 @dataclass(frozen=True)
-class RobotStatusView:
-    """What the status topic reports: ``TestCycleStatus`` without the header."""
-
-    joint_name: str
-    joints: tuple[str, ...]
-    joints_done: int
-    cycle_id: int
-    state: CycleState
-    phase: Phase
-    current_speed: float
-    speeds_done: int
-    speeds_total: int
-    window_center: float
-    window_half_width: float
-    message: str
-
-
-@dataclass(frozen=True)
-class JointResult:
+class JointOutcome:
     """How one joint fared in the last robot cycle that included it (for its diagnostics)."""
 
     cycle_id: int
@@ -186,7 +168,7 @@ class RobotCycleRunner:
         self.index = 0  # the joint under test: plan.joints[index]
         self.message = "idle"
         self.runner: CycleRunner | None = None
-        self.results: dict[str, JointResult] = {}
+        self.results: dict[str, JointOutcome] = {}
         self.fault_joint = ""  # the joint whose reading tripped the last watchdog stop
         self._between = False  # a joint just finished (its DONE is the status); the next starts on the next update
         self._hold: dict[str, float] = {}
@@ -227,7 +209,7 @@ class RobotCycleRunner:
         self._hold = {j: float(p) for j, p in (positions or {}).items() if math.isfinite(p)}
         self._t_start = now
         for j in plan.joints:
-            self.results[j] = JointResult(self.cycle_id, CycleState.IDLE, f"waiting in cycle {cycle_id}", 0,
+            self.results[j] = JointOutcome(self.cycle_id, CycleState.IDLE, f"waiting in cycle {cycle_id}", 0,
                                           len(plan.plan_of(j).speeds))
         self._start_joint(now)
 
@@ -238,7 +220,7 @@ class RobotCycleRunner:
         self.runner.start(self.plan.plans[self.index], self.cycle_id, now)
         self.message = self.runner.message
         self._hold.pop(j, None)  # moving now; its reference is set again where its test leaves it
-        self.results[j] = JointResult(self.cycle_id, CycleState.RUNNING, self.runner.message, 0,
+        self.results[j] = JointOutcome(self.cycle_id, CycleState.RUNNING, self.runner.message, 0,
                                       len(self.plan.plans[self.index].speeds))
 
     def abort(self, reason: str = "aborted by operator") -> bool:
@@ -273,13 +255,13 @@ class RobotCycleRunner:
         self.state = state
         self.message = message
         done = 0 if self.runner is None else self.runner.speeds_done
-        self.results[j] = JointResult(self.cycle_id, state, message, done, len(self.plan.plans[self.index].speeds))
+        self.results[j] = JointOutcome(self.cycle_id, state, message, done, len(self.plan.plans[self.index].speeds))
         for k in rest:
-            self.results[k] = JointResult(self.cycle_id, CycleState.IDLE,
+            self.results[k] = JointOutcome(self.cycle_id, CycleState.IDLE,
                                           f"not tested: cycle {self.cycle_id} stopped at {j}", 0,
                                           len(self.plan.plan_of(k).speeds))
         if self.fault_joint and self.fault_joint != j:
-            self.results[self.fault_joint] = JointResult(self.cycle_id, CycleState.FAILED, message)
+            self.results[self.fault_joint] = JointOutcome(self.cycle_id, CycleState.FAILED, message)
 
     # -- status --------------------------------------------------------------
     @property
@@ -290,21 +272,24 @@ class RobotCycleRunner:
             out[self.joint_name] = self.runner.command
         return out
 
-    def status(self) -> RobotStatusView:
+    def status(self) -> CycleStatus:
+        """The robot cycle's :class:`~jointwear_ros.contract.CycleStatus`: the joint under test, its progress."""
         plan = self.plan
         if plan is None:
             cfg = self.configs[self.names[0]]
-            return RobotStatusView(self.names[0], (), 0, self.cycle_id, self.state, Phase.NONE, 0.0, 0, 0,
-                                   cfg.position, cfg.window_half_width, self.message)
+            return CycleStatus(joint_name=self.names[0], cycle_id=self.cycle_id, state=self.state,
+                               window_center=cfg.position, window_half_width=cfg.window_half_width,
+                               message=self.message)
         i = min(self.index, len(plan.joints) - 1)
         p = plan.plans[i]
         if self.runner is None:  # stopped before this joint started
-            return RobotStatusView(plan.joints[i], plan.joints, i, self.cycle_id, self.state, Phase.NONE, 0.0, 0,
-                                   len(p.speeds), p.center, p.half_width, self.message)
+            return CycleStatus(joint_name=plan.joints[i], joints=plan.joints, joints_done=i, cycle_id=self.cycle_id,
+                               state=self.state, speeds_total=len(p.speeds), window_center=p.center,
+                               window_half_width=p.half_width, message=self.message)
         st = self.runner.status()
-        state, message = (st.state, st.message) if self.running else (self.state, self.message)
-        return RobotStatusView(plan.joints[i], plan.joints, i, self.cycle_id, state, st.phase, st.current_speed,
-                               st.speeds_done, st.speeds_total, st.window_center, st.window_half_width, message)
+        if not self.running:
+            st = replace(st, state=self.state, message=self.message)
+        return replace(st, joint_name=plan.joints[i], joints=plan.joints, joints_done=i, cycle_id=self.cycle_id)
 
     # -- the machine ---------------------------------------------------------
     def update(self, now: float, readings: Mapping[str, JointReading | None],
@@ -340,7 +325,7 @@ class RobotCycleRunner:
             return self.commands
         n = len(self.plan.plans[self.index].speeds)
         if runner.state == CycleState.DONE:
-            self.results[j] = JointResult(self.cycle_id, CycleState.DONE, runner.message, runner.speeds_done, n)
+            self.results[j] = JointOutcome(self.cycle_id, CycleState.DONE, runner.message, runner.speeds_done, n)
             if r is not None and math.isfinite(r.position):
                 self._hold[j] = r.position
             if self.index + 1 < len(self.plan.joints):

@@ -40,10 +40,10 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
-from ..contract import CyclePhase, CycleState
+from ..contract import CyclePhase, CycleState, CycleStatus
 from .plan import CycleConfig, CyclePlan, move_duration
 
-__all__ = ["CycleRunner", "CycleState", "CycleStatusView", "JointReading", "Phase"]
+__all__ = ["CycleRunner", "CycleState", "JointReading", "Phase"]
 
 
 #: Phases of a running cycle: the contract's ``TestCycleStatus.PHASE_*``.
@@ -58,21 +58,6 @@ class JointReading:
     position: float
     velocity: float
     effort: float
-
-
-@dataclass(frozen=True)
-class CycleStatusView:
-    """What the status topic reports (fields of ``TestCycleStatus`` without header/joint name)."""
-
-    cycle_id: int
-    state: CycleState
-    phase: Phase
-    current_speed: float
-    speeds_done: int
-    speeds_total: int
-    window_center: float
-    window_half_width: float
-    message: str
 
 
 @dataclass
@@ -171,9 +156,11 @@ class CycleRunner:
             return 0.0
         return self.plan.speeds[min(self.speeds_done, len(self.plan.speeds) - 1)].speed
 
-    def status(self) -> CycleStatusView:
+    def status(self) -> CycleStatus:
+        """The cycle's :class:`~jointwear_ros.contract.CycleStatus` (no stamp: the node stamps it on publishing)."""
         plan = self.plan
-        return CycleStatusView(
+        return CycleStatus(
+            joint_name=self.config.joint_name,
             cycle_id=self.cycle_id,
             state=self.state,
             phase=self.phase,

@@ -1,8 +1,9 @@
 """Wear estimators, the Cramér-Rao bound, test-cycle design and the Section 5.1 study.
 
 Every estimator follows :class:`~jointwear_ros.types.WearEstimator`: a ``name``
-and ``estimate(ObservationTable) -> WearResult``. Build one by name with
-:func:`make_estimator`.
+and ``estimate(ObservationTable) -> WearResult``, and declares what it can do in
+``capabilities`` (:class:`Capabilities`). :data:`ESTIMATORS` is the one registry of
+them by name; build one by name with :func:`make_estimator`.
 
 Pure numpy/scipy; no ROS import.
 """
@@ -10,13 +11,14 @@ Pure numpy/scipy; no ROS import.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from dataclasses import fields
 from typing import Any
 
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet, load_parameter_set_info
 from ..types import WearEstimator
-from ._common import check_estimator_options, resolve_model, set_frame_table
+from ._common import Capabilities, capabilities_of, check_estimator_options, resolve_model, set_frame_table
 from .bayes import BayesEstimator
 from .crb import (
     CRB_METHODS,
@@ -34,12 +36,15 @@ from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uni
 
 __all__ = [
     "CRB_METHODS",
-    "ESTIMATOR_METHODS",
+    "ENTRY_POINT_GROUP",
+    "ESTIMATORS",
     "PAPER_N_SAMPLES",
     "PAPER_SECONDS_PER_SPEED",
     "PAPER_TEMPERATURE_RANGE",
     "BayesEstimator",
+    "Capabilities",
     "CycleDesign",
+    "EstimatorRegistry",
     "FisherResult",
     "JointEstimator",
     "JointPosterior",
@@ -48,6 +53,7 @@ __all__ = [
     "TemperaturePrior",
     "TemperatureTable",
     "WearInverse",
+    "capabilities_of",
     "crb_known_temperature",
     "crb_multi_speed",
     "crb_per_speed",
@@ -56,18 +62,121 @@ __all__ = [
     "make_estimator",
     "normal_prior",
     "parse_temperature_prior",
+    "register_estimator",
     "resolve_model",
     "set_frame_table",
     "uniform_prior",
 ]
 
 
-_ESTIMATOR_CLASSES: dict[str, type] = {
-    "paper": PaperEstimator,
-    "paper-grid": PaperGridEstimator,
-    "bayes": BayesEstimator,
-    "joint": JointEstimator,
-}
+class EstimatorRegistry(Mapping[str, type]):
+    """The wear estimators by name: the one list every part of jointwear asks.
+
+    ``name -> class``, in registration order. Each class has a ``name`` and may declare
+    ``capabilities`` (:class:`Capabilities`); :meth:`options` are the keyword options its
+    constructor takes. :meth:`register` adds a class (usable as a decorator); a name not
+    registered is looked up once in the entry point group ``jointwear.estimators`` (an installed
+    package's estimators, without an import), as the workbench's terms are in ``jointwear.terms``.
+
+    >>> list(ESTIMATORS)
+    ['paper', 'paper-grid', 'bayes', 'joint']
+    >>> ESTIMATORS.capabilities("joint").cycle, ESTIMATORS.capabilities("paper").temperature_assumption
+    (True, 'range')
+    """
+
+    def __init__(self, *classes: type) -> None:
+        self._classes: dict[str, type] = {}
+        for cls in classes:
+            self.register(cls)
+
+    def register(self, cls: type, *, replace: bool = False) -> type:
+        """Add ``cls`` under its ``name`` (lowercase); a name already taken by another class is an error."""
+        name = str(getattr(cls, "name", "") or "").strip().lower()
+        if not name or not callable(getattr(cls, "estimate", None)):
+            raise InputDataError(f"estimator class {cls.__qualname__}: needs a 'name' and an estimate() method "
+                                 "(jointwear_ros.types.WearEstimator)")
+        old = self._classes.get(name)
+        if old is not None and old is not cls and not replace:
+            raise InputDataError(f"estimator name {name!r} is taken by {old.__module__}.{old.__qualname__}; "
+                                 "choose another name")
+        self._classes[name] = cls
+        return cls
+
+    def __getitem__(self, name: str) -> type:
+        key = str(name).strip().lower()
+        cls = self._classes.get(key)
+        if cls is None:
+            cls = _entry_point_estimator(key)
+            if cls is None:
+                raise KeyError(name)
+            self.register(cls)
+        return cls
+
+    def __contains__(self, name: object) -> bool:
+        try:
+            self[str(name)]
+        except (KeyError, InputDataError):
+            return False
+        return True
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(list(self._classes))
+
+    def __len__(self) -> int:
+        return len(self._classes)
+
+    def names(self) -> tuple[str, ...]:
+        """The registered names, in order (entry points count once they are used)."""
+        return tuple(self._classes)
+
+    def get_class(self, method: str) -> type:
+        """The class of ``method`` (case and spaces ignored), else :class:`InputDataError` listing the names."""
+        try:
+            return self[method]
+        except KeyError:
+            raise InputDataError(f"unknown wear estimation method {method!r}; choose one of "
+                                 f"{', '.join(self)}") from None
+
+    def capabilities(self, method: str) -> Capabilities:
+        """What ``method`` declares it can do (:class:`Capabilities`)."""
+        return capabilities_of(self.get_class(method))
+
+    def options(self, method: str) -> set[str]:
+        """The keyword options ``method``'s constructor takes (besides model and params)."""
+        return _accepted_options(self.get_class(method))
+
+    def table(self) -> list[dict[str, Any]]:
+        """One row per estimator: name, summary, capability flags and options (for docs and ``--json``)."""
+        rows = []
+        for name, cls in self._classes.items():
+            caps = capabilities_of(cls)
+            rows.append({"name": name, **{f.name: getattr(caps, f.name) for f in fields(caps)},
+                         "options": sorted(_accepted_options(cls))})
+        return rows
+
+
+#: Entry point group of installed packages' estimators (``name = "pkg.module:Class"``).
+ENTRY_POINT_GROUP = "jointwear.estimators"
+
+
+def _entry_point_estimator(name: str) -> type | None:
+    from importlib import metadata
+
+    try:
+        eps = [ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name.strip().lower() == name]
+    except Exception:
+        return None
+    if not eps:
+        return None
+    try:
+        cls = eps[0].load()
+    except Exception as exc:
+        raise InputDataError(f"estimator {name!r} (entry point {eps[0].value!r} of {ENTRY_POINT_GROUP}) "
+                             f"cannot be loaded: {exc}") from None
+    if not isinstance(cls, type) or str(getattr(cls, "name", "")).strip().lower() != name:
+        raise InputDataError(f"entry point {name!r} of {ENTRY_POINT_GROUP} ({eps[0].value!r}) is not an estimator "
+                             f"class named {name!r}")
+    return cls
 
 
 def _accepted_options(cls: type) -> set[str]:
@@ -85,8 +194,10 @@ def _accepted_options(cls: type) -> set[str]:
     return names
 
 
-#: Method names accepted by :func:`make_estimator`.
-ESTIMATOR_METHODS: tuple[str, ...] = ("paper", "paper-grid", "bayes", "joint")
+#: The estimators by name; :func:`make_estimator`, the nodes' ``method``, the CLI and the studies ask it.
+ESTIMATORS = EstimatorRegistry(PaperEstimator, PaperGridEstimator, BayesEstimator, JointEstimator)
+#: Add an estimator class under its ``name`` (a decorator too): ``ESTIMATORS.register``.
+register_estimator = ESTIMATORS.register
 
 
 def make_estimator(
@@ -95,7 +206,8 @@ def make_estimator(
     params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
     **options: Any,
 ) -> WearEstimator:
-    """An estimator by name: ``paper``, ``paper-grid``, ``bayes`` or ``joint``.
+    """An estimator by name: one of :data:`ESTIMATORS` (``paper``, ``paper-grid``, ``bayes``, ``joint``, and
+    any registered one).
 
     ``model`` defaults to Eq. (9), ``params`` to ``ref-2011r`` (a name loads a
     set); ``options`` go to the estimator's constructor (``seed=``, ``rng=``,
@@ -105,16 +217,15 @@ def make_estimator(
     >>> est.name
     'paper'
     """
-    key = str(method).strip().lower()
-    if key not in _ESTIMATOR_CLASSES:
-        raise InputDataError(f"unknown wear estimation method {method!r}; choose one of {', '.join(ESTIMATOR_METHODS)}")
-    cls = _ESTIMATOR_CLASSES[key]
+    cls = ESTIMATORS.get_class(method)
+    key = str(cls.name).strip().lower()
     # an option the estimator does not take is the caller's mistake (exit 2); any other TypeError is a bug
     # inside the estimator and keeps its traceback
-    unknown = sorted(set(options) - _accepted_options(cls))
+    accepted = _accepted_options(cls)
+    unknown = sorted(set(options) - accepted)
     if unknown:
         raise InputDataError(f"estimator {key!r} takes no option {', '.join(unknown)}; "
-                             f"it takes {', '.join(sorted(_accepted_options(cls)))}")
+                             f"it takes {', '.join(sorted(accepted))}")
     if isinstance(params, str):
         params = load_parameter_set_info(params)  # a missing set fails here, with its reason
     factor = params.units.torque_factor if isinstance(params, ParameterSet) else 1.0

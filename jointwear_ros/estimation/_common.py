@@ -22,8 +22,10 @@ __all__ = [
     "DEFAULT_NOISE_STD",
     "DEFAULT_PARAMS",
     "WEAR_RANGE",
+    "Capabilities",
     "Rows",
     "SetModel",
+    "capabilities_of",
     "check_estimator_options",
     "check_observation_values",
     "combine_rows",
@@ -58,6 +60,61 @@ MAX_TORQUE = 10.0
 MIN_TAU_F_STD = 1e-6
 #: Temperatures an observation may have, degC: above absolute zero, below where any joint survives.
 TEMPERATURE_LIMITS = (-273.15, 1000.0)
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What an estimator can do, declared on its class (``capabilities = Capabilities(...)``).
+
+    Whoever must treat estimators differently (the study, the case study, the CLI's options, the
+    memory check) asks these flags, never the estimator's name; :data:`~jointwear_ros.estimation.ESTIMATORS`
+    lists them per name (``jointwear_ros.estimation.ESTIMATORS.table()``). An estimator without the
+    attribute gets the defaults: a per-observation estimator that assumes nothing about T.
+
+    Attributes
+    ----------
+    summary : one line for the method list.
+    cycle : estimates w from all speeds of a cycle at once, at one shared unknown temperature (one
+        estimate per cycle); else each observation on its own and the rows combined.
+    temperature_assumption : how an unknown temperature enters: ``"range"`` a uniform range
+        (option ``temperature_range``), ``"prior"`` a stated distribution (option ``prior``),
+        ``"fixed"`` a value of its own, ``"none"`` not said.
+    uses_temperature : a measured temperature (finite ``temperature`` column) replaces the assumption.
+    needs_seed : draws random numbers: ``seed``/``rng`` make it reproducible (else deterministic; it
+        still accepts ``seed`` as every estimator does).
+    temperature_samples : draws ``n_samples`` temperatures per observation (memory grows with rows x samples).
+    gives_posterior : ``wear_std`` and the interval are a posterior's (std, credible interval).
+    search : how w is found: ``"table"`` (a tabulated inverse), ``"grid"`` (a scan), ``"posterior grid"``,
+        ``"optimizer"``.
+    points : the point estimates it reports, as ``(name, its point= value)`` pairs; a name given for
+        another estimator's point (``map`` for ``mode``) maps to the nearest one here.
+    joint_frame : takes a joint-side parameter set (speeds and torques in the set's units).
+    """
+
+    summary: str = ""
+    cycle: bool = False
+    temperature_assumption: str = "none"
+    uses_temperature: bool = True
+    needs_seed: bool = False
+    temperature_samples: bool = False
+    gives_posterior: bool = False
+    search: str = ""
+    points: tuple[tuple[str, str], ...] = ()
+    joint_frame: bool = True
+
+    def point(self, name: str) -> str | None:
+        """This estimator's ``point=`` value for a point name (``mode``, ``mean``, ``map``); None: no such option.
+
+        >>> Capabilities(points=(("mode", "mode"), ("map", "mode"), ("mean", "mean"))).point("map")
+        'mode'
+        """
+        return dict(self.points).get(name)
+
+
+def capabilities_of(estimator: Any) -> Capabilities:
+    """The capabilities an estimator (a class or an instance) declares; the defaults when it declares none."""
+    caps = getattr(estimator, "capabilities", None)
+    return caps if isinstance(caps, Capabilities) else Capabilities()
 
 
 def check_estimator_options(options: Mapping[str, Any], torque_factor: float = 1.0) -> None:

@@ -56,7 +56,15 @@ from scipy.special import logsumexp
 from ..errors import InputDataError, ModelError
 from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import WEAR_RANGE, combine_rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
+from ._common import (
+    WEAR_RANGE,
+    Capabilities,
+    combine_rows,
+    prepare_rows,
+    set_temperature_prior,
+    setup_model,
+    with_set_info,
+)
 from .inverse import base_friction
 from .priors import TemperaturePrior, parse_temperature_prior, uniform_prior
 
@@ -316,6 +324,10 @@ class BayesEstimator:
     """
 
     name = "bayes"
+    capabilities = Capabilities(
+        summary="per observation, the posterior of w with T marginalised under a stated prior",
+        temperature_assumption="prior", gives_posterior=True, search="posterior grid",
+        points=(("mode", "mode"), ("map", "mode"), ("mean", "mean")))
 
     def __init__(
         self,

@@ -59,7 +59,7 @@ from ..errors import InputDataError
 from ..fmt import format_table
 from ..model import Model, Parameters
 from ..types import ObservationTable
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, make_rng, resolve_model
+from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, capabilities_of, make_rng, resolve_model
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior
 
 __all__ = [
@@ -325,7 +325,7 @@ def run_case_study(
     estimators
         name -> per-speed estimator (``paper``, ``paper-grid``, ``bayes``, or
         any :class:`~jointwear_ros.types.WearEstimator` used one observation at a time).
-        The joint (cycle) estimator is not a per-speed estimator and is refused.
+        A cycle estimator (``capabilities.cycle``: ``joint``) is not a per-speed estimator and is refused.
     setup
         The experiment (default :class:`CaseSetup`).
     model, params
@@ -336,12 +336,15 @@ def run_case_study(
     """
     import time
 
+    from . import ESTIMATORS
+
     s = (setup or CaseSetup()).checked()
     m, p = resolve_model(model, params)
     for name, est in estimators.items():
-        if getattr(est, "name", "") == "joint":
-            raise InputDataError(f"case study: estimator {name!r} is the joint (cycle) estimator; the case study "
-                                 "estimates at every speed separately (paper, paper-grid, bayes)")
+        if capabilities_of(est).cycle:
+            raise InputDataError(f"case study: estimator {name!r} is a cycle estimator (one estimate from all "
+                                 "speeds of a cycle); the case study estimates at every speed separately "
+                                 f"({', '.join(n for n, c in ESTIMATORS.items() if not capabilities_of(c).cycle)})")
     if not estimators:
         raise InputDataError("case study: give at least one estimator")
     t0 = time.perf_counter()

@@ -56,7 +56,7 @@ from scipy.special import logsumexp
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import WEAR_RANGE, Rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
+from ._common import WEAR_RANGE, Capabilities, Rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
 from .crb import DEFAULT_CRB_PRIOR, temperature_nodes
 from .priors import TemperaturePrior, parse_temperature_prior
 
@@ -65,6 +65,11 @@ __all__ = ["JointEstimator", "JointPosterior"]
 Array = npt.NDArray[np.float64]
 Index = npt.NDArray[np.intp]
 
+#: Below this chi-square tail probability of the fit at the estimate, the cycle is called unexplained and
+#: the std is widened by the Birge ratio (see :meth:`JointEstimator._fit_check`).
+MISFIT_P = 1e-3
+#: A temperature estimated at the edge of its prior is named when the fit is also poor (p below this).
+EDGE_P = 0.05
 #: Fine w steps per coarse step.
 _REFINE = 16
 #: Coarse cells whose marginal log posterior is within this of the maximum are refined.
@@ -144,6 +149,10 @@ class JointEstimator:
     """
 
     name = "joint"
+    capabilities = Capabilities(
+        summary="all speeds of a cycle at once: the joint posterior of w and the cycle's one unknown T",
+        cycle=True, temperature_assumption="prior", gives_posterior=True, search="posterior grid",
+        points=(("mean", "mean"), ("map", "map"), ("mode", "map")))
 
     def __init__(
         self,
@@ -363,11 +372,18 @@ class JointEstimator:
         # a posterior on one grid point has std 0 on the grid; the grid cannot resolve better than
         # its step (uniform quantization, step / sqrt(12)): never report a certainty it does not have
         resolution = float(self.w_grid[1] - self.w_grid[0]) / math.sqrt(12.0) if self.w_grid.size > 1 else 0.0
+        fit = self._fit_check(rows, est, t_rows, unknown_temperature=not known.any())
+        scale = fit.pop("std_scale")
+        wear_std = max(post.wear_std, resolution) * scale
+        low, high = post.wear_low, post.wear_high
+        if scale > 1.0:  # the interval widens with the std, about the estimate, within the wear range
+            low = max(self.wear_range[0], est - (est - low) * scale)
+            high = min(self.wear_range[1], est + (high - est) * scale)
         return with_set_info(WearResult(
             wear=est,
-            wear_std=max(post.wear_std, resolution),
-            wear_low=post.wear_low,
-            wear_high=post.wear_high,
+            wear_std=wear_std,
+            wear_low=low,
+            wear_high=high,
             method=self.name,
             temperature=t_est,
             temperature_std=post.temperature_std,
@@ -383,8 +399,49 @@ class JointEstimator:
                 "interval": "central 95% credible interval of the marginal posterior of w",
                 "known_temperature": [bool(k) for k in known],
                 "per_speed_wear": "each row's least-squares w at the estimated temperature",
+                **fit,
             },
         ), self.param_set)
+
+    def _fit_check(self, rows: Rows, wear: float, temps: Array, unknown_temperature: bool) -> dict:
+        """How well the model at the estimate explains the rows, and what the estimate may not assume.
+
+        ``fit_chi2`` is the sum of squared normalized residuals at (wear, T) on ``fit_dof`` = rows minus
+        the fitted unknowns (w, and T when it was not measured), ``fit_p`` its chi-square tail
+        probability. Below :data:`MISFIT_P` the model does not explain the cycle within its stated
+        noise (a temperature outside the prior, an effect the model lacks, a noise std set too low):
+        the std and the interval are scaled by the Birge ratio sqrt(chi2 / dof), the usual inflation
+        when residuals exceed the stated errors, and ``misfit`` says so in words. An unmeasured
+        temperature estimated at the edge of its prior's support while the fit is poor (p below :data:`EDGE_P`) is
+        named too (``temperature_at_prior_edge``):
+        the joint may be colder or hotter than the prior allows, and the wear then absorbs the difference.
+        """
+        from scipy.stats import chi2 as chi2_dist
+
+        f = self.model.evaluate(self.params, speed=rows.speed, load_torque=rows.load, temperature=temps, wear=wear)
+        r = (rows.tau_f - np.asarray(f, dtype=float)) / rows.noise_std
+        chi2 = float(np.sum(r * r))
+        dof = len(rows) - (2 if unknown_temperature else 1)
+        out: dict = {"fit_chi2": chi2, "fit_dof": int(dof), "std_scale": 1.0}
+        notes = []
+        p = float(chi2_dist.sf(chi2, dof)) if dof >= 1 and math.isfinite(chi2) else math.nan
+        if unknown_temperature and p < EDGE_P:
+            t_lo, t_hi = self.prior.support(1.0 - 1e-9)
+            t = float(temps[0])
+            edge = 0.02 * (t_hi - t_lo)
+            if (math.isfinite(t_lo) and t - t_lo <= edge) or (math.isfinite(t_hi) and t_hi - t <= edge):
+                out["temperature_at_prior_edge"] = True
+                notes.append(f"the temperature estimate {t:.1f} degC is at the edge of its prior {self.prior.label}: "
+                             "the joint may be outside it (measure the temperature or widen temperature_prior)")
+        if math.isfinite(p):
+            out["fit_p"] = p
+            if p < MISFIT_P:
+                out["std_scale"] = math.sqrt(chi2 / dof)
+                notes.insert(0, f"the model leaves the cycle unexplained (chi2 {chi2:.1f} on {dof} dof, p {p:.1e}): "
+                                f"std and interval widened x{out['std_scale']:.1f}")
+        if notes:
+            out["misfit"] = "; ".join(notes)
+        return out
 
     def _per_row(self, rows: Rows, temps: Array) -> Array:
         f = self.model.evaluate(self.params, speed=rows.speed[:, None], load_torque=rows.load[:, None],

@@ -31,7 +31,7 @@ import numpy.typing as npt
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import WEAR_RANGE, Rows, combine_rows, make_rng, prepare_rows, setup_model, with_set_info
+from ._common import WEAR_RANGE, Capabilities, Rows, combine_rows, make_rng, prepare_rows, setup_model, with_set_info
 from .inverse import TemperatureTable, WearInverse, base_friction
 from .priors import parse_temperature_prior
 
@@ -199,6 +199,9 @@ class PaperEstimator(_PaperBase):
     """
 
     name = "paper"
+    capabilities = Capabilities(
+        summary="the paper's Eq. (11): per observation, T sampled from a uniform range, a tabulated inverse",
+        temperature_assumption="range", needs_seed=True, temperature_samples=True, search="table")
 
     def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
                  *, n_table: int = 16384, **options: object) -> None:
@@ -247,6 +250,9 @@ class PaperGridEstimator(_PaperBase):
     """
 
     name = "paper-grid"
+    capabilities = Capabilities(
+        summary="Eq. (11) exactly as written: a grid scan of w per temperature sample (slow; a cross-check)",
+        temperature_assumption="range", needs_seed=True, temperature_samples=True, search="grid")
 
     def __init__(self, model: Model | None = None, params: Parameters | Mapping[str, float] | str | ParameterSet | None = None,
                  *, grid_step: float = 0.1, **options: object) -> None:

@@ -9,9 +9,9 @@ by default. Each run draws ONE temperature shared by all speeds (a test cycle)
 and an independent noise per speed. A per-speed estimator (``paper``,
 ``paper-grid``, ``bayes``) estimates w from each (run, speed) observation on
 its own, exactly as the paper's study does; the marginal statistics per speed
-do not depend on the temperature being shared. The ``joint`` estimator
-estimates w from all speeds of a run at once (one cycle, one shared T): its
-study has one row, the cycle.
+do not depend on the temperature being shared. A cycle estimator
+(``capabilities.cycle``: ``joint``) estimates w from all speeds of a run at once
+(one cycle, one shared T): its study has one row, the cycle.
 
 Per speed (or per cycle): bias, variance and mean-squared error of the
 estimates, the Cramér-Rao bound under the TRUE temperature distribution
@@ -40,7 +40,7 @@ import numpy.typing as npt
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import ObservationTable
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, make_rng, resolve_model
+from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, capabilities_of, make_rng, resolve_model
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior
 
 __all__ = [
@@ -259,8 +259,8 @@ def run_study(
     Parameters
     ----------
     estimator
-        A per-speed estimator (``estimate_rows`` used when present) or the
-        joint estimator (``name == "joint"``: one estimate per cycle).
+        A per-speed estimator (``estimate_rows`` used when present) or a cycle
+        estimator (``capabilities.cycle``, as ``joint``: one estimate per cycle).
     setup
         Speeds, runs, true wear, load, noise and the TRUE temperature distribution.
     model, params
@@ -281,7 +281,7 @@ def run_study(
     gen = make_rng(rng, setup.seed)
     t0 = time.perf_counter()
     tau, temps = simulate_cycles(m, p, setup, gen)
-    cycle = getattr(estimator, "name", "") == "joint"
+    cycle = capabilities_of(estimator).cycle
     extra: dict[str, Any] = {}
     if cycle:
         est, t_hat = _per_cycle(estimator, setup, tau, progress)

@@ -151,18 +151,9 @@ def bag_fingerprint(path: str | os.PathLike[str]) -> str:
 
 def default_node_params() -> tuple[dict[str, Any], dict[str, Any]]:
     """The friction_observer and wear_estimator parameters of the config files (as ``jointwear replay``)."""
-    import sys
+    from ..resources import node_config
 
-    from ..io.params import node_params_from_yaml
-
-    out = []
-    for name in ("friction_observer", "wear_estimator"):
-        # the source tree's config/, else the installed share directory (as `jointwear replay`)
-        candidates = [Path(__file__).resolve().parents[2] / "config" / f"{name}.yaml",
-                      Path(sys.prefix) / "share" / "jointwear_ros" / "config" / f"{name}.yaml"]
-        f = next((c for c in candidates if c.is_file()), None)
-        out.append(node_params_from_yaml(f, name) if f is not None else {})
-    return out[0], out[1]
+    return node_config("friction_observer"), node_config("wear_estimator")
 
 
 def bag_identity(monitor_params: dict[str, Any], bag: str | os.PathLike[str],

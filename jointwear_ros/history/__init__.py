@@ -1,7 +1,9 @@
-"""The wear history store (SQLAlchemy Core: SQLite by default, PostgreSQL for a fleet) and its trend queries."""
+"""The wear history store (SQLAlchemy Core over a backend: SQLite by default, PostgreSQL for a fleet) and its trend
+queries."""
 
 from __future__ import annotations
 
+from .backends import BACKENDS, HistoryBackend, PostgresBackend, SqliteBackend, backend_for, register_backend
 from .screen import REASONS, Refusal, ScreenConfig
 from .store import (
     LIVE,
@@ -17,18 +19,24 @@ from .store import (
 from .trends import screened_history, trends_from_store
 
 __all__ = [
+    "BACKENDS",
     "LIVE",
     "MIGRATIONS",
     "REASONS",
     "SCHEMA_VERSION",
     "EstimateRecord",
+    "HistoryBackend",
     "HistoryError",
     "HistoryStore",
     "MaintenanceEvent",
+    "PostgresBackend",
     "Refusal",
     "ScreenConfig",
+    "SqliteBackend",
     "WriteResult",
+    "backend_for",
     "normalize_url",
+    "register_backend",
     "screened_history",
     "trends_from_store",
 ]

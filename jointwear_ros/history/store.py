@@ -4,7 +4,9 @@ One schema and one code path (SQLAlchemy Core) for the embedded default, an
 SQLite file (``sqlite:///path``; WAL journal, a busy timeout, so a reader and
 the ``wear_trend`` node can share it), and PostgreSQL for a fleet
 (``postgresql+psycopg://user@host/db``; a plain ``postgresql://`` URL is given
-the psycopg 3 driver). A bare path is taken as an SQLite file.
+the psycopg 3 driver). A bare path is taken as an SQLite file. What differs
+between the two is a backend (:mod:`jointwear_ros.history.backends`), chosen
+once from the URL; nothing here asks which one it is.
 
 Tables
 ------
@@ -30,13 +32,16 @@ Tables
     value), kept with its values as text (exactly as given, NaN and 1e300 included), the reason code
     and a one-line explanation; never read by the trend. ``UNIQUE (robot, joint, analysis_version,
     cycle_id, time, wear, wear_std)``: the same bad row imported twice is one entry.
+``fleet_bags``
+    the fleet ledger: one row per analysis version and bag fingerprint a re-analysis has done
+    (:mod:`jointwear_ros.fleet.ledger` reads and writes it; schema version 4 creates it).
 ``schema_version``
     one row per applied migration (version, applied_ns). :data:`MIGRATIONS`
     are forward only; :meth:`HistoryStore.migrate` applies the missing ones
     in order, each in its own transaction.
 
 Inserts are idempotent and safe under concurrent writers: ``INSERT ... ON
-CONFLICT DO NOTHING`` through the dialect's own ``insert`` (SQLite and
+CONFLICT DO NOTHING`` through the backend's ``insert`` (SQLite and
 PostgreSQL both have it), so two processes writing the same estimate leave
 one row and neither fails. Each call of :meth:`HistoryStore.add_estimates`
 is one transaction: after it returns, its rows are durable (SQLite
@@ -50,7 +55,7 @@ relies on when it is killed.
 >>> [r.wear for r in s.estimates(robot="robot_1", joint="joint_1")]
 [10.0]
 >>> s.schema_version()
-3
+4
 >>> r = s.write_estimates([EstimateRecord("robot_1", "joint_1", cycle_id=2, time=1.7e9, wear=1e300, wear_std=0.8)])
 >>> r.added, [f.reason for f in r.refused], [x["wear"] for x in s.refused()]
 (0, ['wear_out_of_range'], ['1e+300'])
@@ -76,8 +81,6 @@ from sqlalchemy import (
     Table,
     Text,
     UniqueConstraint,
-    create_engine,
-    event,
     inspect,
     select,
     text,
@@ -86,7 +89,8 @@ from sqlalchemy.engine import Connection, Engine
 from sqlalchemy.exc import ArgumentError, OperationalError, SQLAlchemyError
 
 from .. import __version__
-from ..errors import InputDataError, JointwearError
+from ..errors import InputDataError
+from .backends import HistoryBackend, HistoryError, backend_for, normalize_url
 from .screen import Refusal, ScreenConfig, screen_record
 
 __all__ = [
@@ -98,15 +102,12 @@ __all__ = [
     "HistoryStore",
     "MaintenanceEvent",
     "WriteResult",
+    "fleet_bags_t",
     "normalize_url",
 ]
 
 #: analysis_version of the estimates the cell made (live node, recorded bags, CSV tables)
 LIVE = "live"
-
-
-class HistoryError(JointwearError):
-    """The history store cannot be opened, migrated or written."""
 
 
 @dataclass(frozen=True)
@@ -241,6 +242,19 @@ refused_t = Table(
 )
 
 
+fleet_bags_t = Table(
+    "fleet_bags", metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("analysis_version", String(200), nullable=False),
+    Column("fingerprint", String(100), nullable=False),
+    Column("bag", Text, nullable=False),
+    Column("estimates", Integer, nullable=False),
+    Column("seconds", Float, nullable=False),
+    Column("done_ns", BigInteger, nullable=False),
+    UniqueConstraint("analysis_version", "fingerprint", name="uq_fleet_bag"),
+)
+
+
 def _m1(conn: Connection) -> None:
     """Version 1: the three tables."""
     metadata.create_all(conn, tables=[estimates_t, maintenance_t, schema_version_t])
@@ -277,67 +291,15 @@ def _m3(conn: Connection) -> None:
         conn.execute(text(f"DELETE FROM estimates WHERE {cond}"))
 
 
+def _m4(conn: Connection) -> None:
+    """Version 4: the fleet ledger ``fleet_bags`` (:mod:`jointwear_ros.fleet.ledger`: which bags a re-analysis has
+    done). A store where an earlier ``jointwear fleet reprocess`` created it already keeps its rows."""
+    metadata.create_all(conn, tables=[fleet_bags_t], checkfirst=True)
+
+
 #: forward migrations, version -> function; applied in order, each in its own transaction
-MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2, 3: _m3}
+MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2, 3: _m3, 4: _m4}
 SCHEMA_VERSION = max(MIGRATIONS)
-
-
-def normalize_url(url: str | Path) -> str:
-    """``path`` -> ``sqlite:///path``; ``postgresql://`` -> ``postgresql+psycopg://``; others as given.
-
-    >>> normalize_url("h.db"), normalize_url("postgresql://u@/d?host=/tmp")
-    ('sqlite:///h.db', 'postgresql+psycopg://u@/d?host=/tmp')
-    """
-    u = str(url).strip()
-    if not u:
-        raise InputDataError("database URL is empty: give a path (SQLite file) or sqlite:///path or postgresql://...")
-    if "://" not in u:
-        return f"sqlite:///{u}"
-    if u.startswith(("postgresql://", "postgres://")):
-        return "postgresql+psycopg://" + u.split("://", 1)[1]
-    scheme = u.split("://", 1)[0].lower()
-    if scheme not in ("sqlite", "sqlite+pysqlite", "postgresql+psycopg"):
-        raise InputDataError(f"database URL scheme {scheme + '://'!r} is not supported: use a file path, "
-                             "sqlite:///path or postgresql://user@host/db")
-    return u
-
-
-def _sqlite_read_only_engine(path: Path) -> Engine:
-    """An engine that never writes and never creates a file: a reader who may only read the history (another
-    user, a read-only filesystem) must not leave ``-wal``/``-shm`` files that block the owner's writes.
-
-    While a writer has the database open (its ``-wal`` exists) the reader joins it read-only (``mode=ro``);
-    otherwise nobody is writing and the file is opened ``immutable`` (no locks, no side files).
-    """
-    import sqlite3
-    from urllib.parse import quote
-
-    if not path.is_file():
-        raise HistoryError(f"{path}: no such history file")
-    uri = "file:" + quote(str(path.resolve()))
-    uri += "?mode=ro" if Path(str(path) + "-wal").exists() else "?immutable=1"
-
-    def connect() -> sqlite3.Connection:
-        conn = sqlite3.connect(uri, uri=True, timeout=30.0, check_same_thread=False)
-        conn.execute("PRAGMA query_only=1")
-        return conn
-
-    return create_engine("sqlite://", creator=connect)
-
-
-def _pg_read_only(dbapi_conn: Any, _record: Any) -> None:
-    cur = dbapi_conn.cursor()
-    cur.execute("SET SESSION CHARACTERISTICS AS TRANSACTION READ ONLY")
-    cur.close()
-    dbapi_conn.commit()
-
-
-def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
-    cur = dbapi_conn.cursor()
-    cur.execute("PRAGMA journal_mode=WAL")
-    cur.execute("PRAGMA synchronous=FULL")
-    cur.execute("PRAGMA busy_timeout=30000")
-    cur.close()
 
 
 class HistoryStore:
@@ -353,27 +315,14 @@ class HistoryStore:
 
     def __init__(self, url: str | Path, *, create: bool = True, migrate_to: int | None = None,
                  read_only: bool = False) -> None:
-        self.url = normalize_url(url)
-        self._display = ""
+        self.backend: HistoryBackend = backend_for(url)
+        self.url = self.backend.url
+        self.dialect = self.backend.name
         self.read_only = bool(read_only)
         if self.read_only:
             create = False
         try:
-            if self.url.startswith("sqlite"):
-                path = self.url.split(":///", 1)[1] if ":///" in self.url else ""
-                if self.read_only and path and path != ":memory:":
-                    self._display = f"sqlite:///{path}"
-                    self.engine: Engine = _sqlite_read_only_engine(Path(path).expanduser())
-                else:
-                    if path and path != ":memory:":
-                        Path(path).expanduser().parent.mkdir(parents=True, exist_ok=True)
-                    self.engine = create_engine(self.url, connect_args={"timeout": 30.0})
-                    event.listen(self.engine, "connect", _sqlite_pragmas)
-            else:
-                self.engine = create_engine(self.url, pool_pre_ping=True)
-                if self.read_only:
-                    event.listen(self.engine, "connect", _pg_read_only)
-            self.dialect = self.engine.dialect.name
+            self.engine: Engine = self.backend.engine(read_only=self.read_only)
             found = self.schema_version()
             if found > SCHEMA_VERSION:
                 raise HistoryError(f"{self.display_url}: schema version {found} was written by a newer jointwear "
@@ -406,15 +355,20 @@ class HistoryStore:
                     "sqlite3 DB .recover") if "malformed" in str(exc) or "not a database" in str(exc) else ""
             raise HistoryError(f"{self.display_url}: cannot read {what}: {_one_line(exc)}{hint}") from None
 
+    @classmethod
+    def watching(cls, url: str | Path, *, timeout_s: float = 5.0) -> HistoryStore:
+        """The store's queries over its backend's watch engine (:meth:`HistoryBackend.watch_engine`: read-only,
+        short timeouts), for a long-running reader; nothing is opened for writing, created or migrated."""
+        store = cls.__new__(cls)
+        store.backend = backend_for(url)
+        store.url, store.dialect, store.read_only = store.backend.url, store.backend.name, True
+        store.engine = store.backend.watch_engine(timeout_s)
+        return store
+
     @property
     def display_url(self) -> str:
         """The URL without a password."""
-        if getattr(self, "_display", None):
-            return str(self._display)
-        try:
-            return self.engine.url.render_as_string(hide_password=True)
-        except AttributeError:
-            return self.url
+        return self.backend.display_url
 
     # ------------------------------------------------------------------ schema
     def schema_version(self) -> int:
@@ -439,7 +393,7 @@ class HistoryStore:
             try:
                 with self.engine.begin() as conn:
                     MIGRATIONS[version](conn)
-                    ins = self._insert(schema_version_t).values(version=version, applied_ns=_time.time_ns())
+                    ins = self.insert(schema_version_t).values(version=version, applied_ns=_time.time_ns())
                     res = conn.execute(ins.on_conflict_do_nothing(index_elements=["version"])
                                        .returning(schema_version_t.c.version))
                     if not res.fetchall():  # another process applied it meanwhile
@@ -458,14 +412,9 @@ class HistoryStore:
             applied.append(version)
         return applied
 
-    def _insert(self, table: Table) -> Any:
-        if self.dialect == "postgresql":
-            from sqlalchemy.dialects.postgresql import insert as pg_insert
-            return pg_insert(table)
-        if self.dialect == "sqlite":
-            from sqlalchemy.dialects.sqlite import insert as sqlite_insert
-            return sqlite_insert(table)
-        raise HistoryError(f"{self.display_url}: dialect {self.dialect!r} is not supported (SQLite or PostgreSQL)")
+    def insert(self, table: Table) -> Any:
+        """``INSERT`` into ``table`` that can skip existing rows (``on_conflict_do_nothing``), from the backend."""
+        return self.backend.insert(table)
 
     # ------------------------------------------------------------------ writing
     def add_estimates(self, records: Iterable[EstimateRecord], *, now: float | None = None,
@@ -514,9 +463,9 @@ class HistoryStore:
         res = WriteResult(added=0, duplicates=0, refused=refused)
         if not rows and not bad_rows:
             return res
-        stmt = self._insert(estimates_t).on_conflict_do_nothing(
+        stmt = self.insert(estimates_t).on_conflict_do_nothing(
             index_elements=["robot", "joint", "analysis_version", "cycle_id", "time_ns"]).returning(estimates_t.c.id)
-        bad_stmt = self._insert(refused_t).on_conflict_do_nothing(
+        bad_stmt = self.insert(refused_t).on_conflict_do_nothing(
             index_elements=["robot", "joint", "analysis_version", "cycle_id", "time", "wear", "wear_std"]
         ).returning(refused_t.c.id)
         # one lock order for every writer: concurrent transactions inserting overlapping keys in different
@@ -592,7 +541,7 @@ class HistoryStore:
                 raise InputDataError(f"joint {ev.joint!r} of robot {ev.robot!r} has no estimates in the history "
                                      f"; its joints: {', '.join(sorted(known))}: "
                                      "check the name (a new joint: --new-joint)")
-        stmt = self._insert(maintenance_t).values(robot=ev.robot, joint=ev.joint, time_ns=ev.time_ns, kind=ev.kind,
+        stmt = self.insert(maintenance_t).values(robot=ev.robot, joint=ev.joint, time_ns=ev.time_ns, kind=ev.kind,
                                                   note=ev.note)
         stmt = stmt.on_conflict_do_nothing(index_elements=["robot", "joint", "time_ns", "kind"]).returning(
             maintenance_t.c.id)
@@ -730,8 +679,3 @@ def _retryable(exc: BaseException) -> bool:
 def _one_line(exc: BaseException) -> str:
     text_ = str(getattr(exc, "orig", None) or exc).strip().splitlines()
     return text_[0] if text_ else type(exc).__name__
-
-
-def records_sorted(records: Sequence[EstimateRecord]) -> list[EstimateRecord]:
-    return sorted(records, key=lambda r: (r.robot, r.joint, r.time, r.cycle_id))
-

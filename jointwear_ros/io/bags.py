@@ -39,10 +39,12 @@ __all__ = [
     "LOST_KEY",
     "NODE_PARAMS_KEY",
     "OBSERVATION_TYPE",
+    "PARAMETER_EVENT_TYPE",
     "STATUS_TYPE",
     "TEMPERATURE_TYPE",
     "BagInfo",
     "BagMessage",
+    "BagPass",
     "BagSelection",
     "bag_custom_data",
     "bag_info",
@@ -55,10 +57,10 @@ __all__ = [
     "message_fields",
     "messages_lost",
     "msg_search_dirs",
+    "read_bag_once",
     "read_messages",
     "recorded_settings",
     "stamp_seconds",
-    "status_fields",
     "temperature_value",
 ]
 
@@ -67,6 +69,7 @@ STATUS_TYPE = "jointwear_msgs/msg/TestCycleStatus"
 TEMPERATURE_TYPE = "sensor_msgs/msg/Temperature"
 OBSERVATION_TYPE = "jointwear_msgs/msg/FrictionObservation"
 ESTIMATE_TYPE = "jointwear_msgs/msg/WearEstimate"
+PARAMETER_EVENT_TYPE = "rcl_interfaces/msg/ParameterEvent"
 
 
 # --------------------------------------------------------------------------- types
@@ -183,6 +186,43 @@ class BagMessage:
     msg: Any
 
 
+def _raw_messages(p: Path, want_topics: set[str] | None, want_types: set[str] | None,
+                  store: Typestore) -> Iterator[tuple[Any, int, bytes, Callable[[bytes, str], Any]]]:
+    """(connection, log time, raw CDR bytes, decode) of the wanted messages, in log-time order; every reader
+    failure is an :class:`InputDataError` naming the message it was reading."""
+    from rosbags.highlevel import AnyReader
+
+    current = "opening"
+    try:
+        with AnyReader([p], default_typestore=store) as reader:
+            conns = [
+                c for c in reader.connections
+                if (want_topics is None or c.topic in want_topics) and (want_types is None or c.msgtype in want_types)
+            ]
+            if not conns:
+                return
+            # the bag's own typestore (the reader empties its reference when it closes)
+            ts = reader.typestore
+            decode = ts.deserialize_cdr if reader.is2 else ts.deserialize_ros1
+            for conn, t, raw in reader.messages(connections=conns):
+                current = f"a {conn.msgtype} message on {conn.topic} at log time {t} ns"
+                yield conn, int(t), raw, decode
+    except InputDataError:
+        raise
+    except GeneratorExit:
+        raise
+    except Exception as exc:  # any reader failure is a bad-input message
+        raise _unreadable(p, current, exc) from None
+
+
+def _unreadable(p: Path, current: str, exc: Exception) -> InputDataError:
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return InputDataError(
+        f"{p}: cannot read the bag ({current}: {type(exc).__name__}: {text}); "
+        "is it complete (closed by the recorder) and a rosbag2 MCAP/SQLite bag?"
+    )
+
+
 def read_messages(
     path: str | os.PathLike[str],
     topics: Iterable[str] | None = None,
@@ -195,34 +235,73 @@ def read_messages(
     Raises :class:`InputDataError` for a missing path, a directory that is not a
     bag, a truncated or corrupt file, or a message that cannot be decoded.
     """
-    from rosbags.highlevel import AnyReader
-
     p = check_bag_path(Path(path))
     want_topics = None if topics is None else set(topics)
     want_types = None if msgtypes is None else set(msgtypes)
     ts = store if store is not None else jointwear_typestore()
-    current = "opening"
-    try:
-        with AnyReader([p], default_typestore=ts) as reader:
-            conns = [
-                c for c in reader.connections
-                if (want_topics is None or c.topic in want_topics) and (want_types is None or c.msgtype in want_types)
-            ]
-            if not conns:
-                return
-            for conn, t, raw in reader.messages(connections=conns):
-                current = f"a {conn.msgtype} message on {conn.topic} at log time {t} ns"
-                yield BagMessage(conn.topic, conn.msgtype, int(t), reader.deserialize(raw, conn.msgtype))
-    except InputDataError:
-        raise
-    except GeneratorExit:
-        raise
-    except Exception as exc:  # any reader failure is a bad-input message
-        text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputDataError(
-            f"{p}: cannot read the bag ({current}: {type(exc).__name__}: {text}); "
-            "is it complete (closed by the recorder) and a rosbag2 MCAP/SQLite bag?"
-        ) from None
+    for conn, t, raw, decode in _raw_messages(p, want_topics, want_types, ts):
+        try:
+            msg = decode(raw, conn.msgtype)
+        except Exception as exc:  # a message that cannot be decoded is a bad-input message
+            raise _unreadable(p, f"a {conn.msgtype} message on {conn.topic} at log time {t} ns", exc) from None
+        yield BagMessage(conn.topic, conn.msgtype, t, msg)
+
+
+@dataclass
+class BagPass:
+    """A bag read in one pass (:func:`read_bag_once`): its metadata ``custom_data`` and the messages of the
+    wanted types in log-time order, kept as raw CDR bytes; :meth:`message` decodes one (each is decoded
+    when it is used, and once). What needs the whole bag first (the recorded settings, which joints the
+    statuses name) reads the few small messages it needs; the stream is not read again."""
+
+    path: Path
+    custom_data: dict[str, Any]
+    #: (topic, msgtype, log time ns, raw CDR bytes), in log-time order
+    records: list[tuple[str, str, int, bytes]]
+    decode: Callable[[bytes, str], Any]
+    _decoded: dict[int, BagMessage] = field(default_factory=dict, repr=False)
+
+    def message(self, i: int, keep: bool = False) -> BagMessage:
+        """Record ``i`` decoded (an :class:`InputDataError` naming it when it cannot be); ``keep`` keeps the
+        decoded message for the next call (for the few messages read before the stream)."""
+        hit = self._decoded.get(i)
+        if hit is not None:
+            return hit
+        topic, msgtype, t, raw = self.records[i]
+        try:
+            out = BagMessage(topic, msgtype, t, self.decode(raw, msgtype))
+        except Exception as exc:
+            raise _unreadable(self.path, f"a {msgtype} message on {topic} at log time {t} ns", exc) from None
+        if keep:
+            self._decoded[i] = out
+        return out
+
+    def messages(self, msgtype: str, topics: Iterable[str] | None = None, keep: bool = False) -> Iterator[BagMessage]:
+        """The decoded messages of ``msgtype`` (on ``topics``, when given), in log-time order."""
+        want = None if topics is None else set(topics)
+        for i, rec in enumerate(self.records):
+            if rec[1] == msgtype and (want is None or rec[0] in want):
+                yield self.message(i, keep)
+
+    def settings(self) -> dict[str, dict[str, Any]]:
+        """Every node's recorded parameters (:func:`recorded_settings`), from this pass."""
+        return _settings(self.path, self.custom_data, [m.msg for m in self.messages(PARAMETER_EVENT_TYPE, ["/parameter_events"])])
+
+    def messages_lost(self) -> dict[str, int]:
+        """Per topic, messages the recorder was told were lost while recording (:func:`messages_lost`)."""
+        return messages_lost(self.custom_data)
+
+
+def read_bag_once(path: str | os.PathLike[str], msgtypes: Iterable[str], store: Typestore | None = None) -> BagPass:
+    """Read the bag's messages of ``msgtypes`` (and its ``/parameter_events``) once, undecoded; see :class:`BagPass`."""
+    p = check_bag_path(Path(path))
+    ts = store if store is not None else jointwear_typestore()
+    records: list[tuple[str, str, int, bytes]] = []
+    decode: Callable[[bytes, str], Any] = ts.deserialize_cdr
+    for conn, t, raw, dec in _raw_messages(p, None, {*msgtypes, PARAMETER_EVENT_TYPE}, ts):
+        records.append((conn.topic, conn.msgtype, t, bytes(raw)))
+        decode = dec
+    return BagPass(p, bag_custom_data(p), records, decode)
 
 
 @dataclass(frozen=True)
@@ -344,11 +423,16 @@ def recorded_settings(path: str | os.PathLike[str]) -> dict[str, dict[str, Any]]
     nodes, carries its settings too; the bag's ``/parameter_events`` (declarations and run-time
     changes seen while recording) apply over it. A node absent from both is absent here.
     """
+    p = check_bag_path(Path(path))
+    return _settings(p, bag_custom_data(p), [m.msg for m in read_messages(p, topics=["/parameter_events"])])
+
+
+def _settings(p: Path, custom_data: dict[str, Any], events: list[Any]) -> dict[str, dict[str, Any]]:
+    """The recorder's snapshot in ``custom_data`` with the bag's parameter events applied over it."""
     from .params import recorded_node_params
 
-    p = check_bag_path(Path(path))
     out: dict[str, dict[str, Any]] = {}
-    text = bag_custom_data(p).get(NODE_PARAMS_KEY)
+    text = custom_data.get(NODE_PARAMS_KEY)
     if text:
         try:
             snap = json.loads(text)
@@ -356,7 +440,6 @@ def recorded_settings(path: str | os.PathLike[str]) -> dict[str, dict[str, Any]]
             raise InputDataError(f"{p}: metadata.yaml custom_data {NODE_PARAMS_KEY} is not JSON") from None
         if isinstance(snap, dict):
             out = {str(n).lstrip("/"): dict(v) for n, v in snap.items() if isinstance(v, dict)}
-    events = [m.msg for m in read_messages(p, topics=["/parameter_events"])]
     for node in {str(ev.node).lstrip("/") for ev in events}:
         out.setdefault(node, {}).update(recorded_node_params(events, node))
     return out
@@ -494,22 +577,6 @@ def joint_sample(msg: Any, joint_name: str) -> tuple[float, float, float, float]
     if len(eff) == 0 or len(pos) != n or len(vel) != n or len(eff) != n:
         return None
     return stamp_seconds(msg.header), float(pos[i]), float(vel[i]), float(eff[i])
-
-
-def status_fields(msg: Any) -> dict[str, Any]:
-    """Keyword arguments of ``FrictionObserverCore.on_status`` / ``WearMonitor.on_status``."""
-    return {
-        "stamp": stamp_seconds(msg.header),
-        "cycle_id": int(msg.cycle_id),
-        "state": int(msg.state),
-        "phase": int(msg.phase),
-        "current_speed_motor": float(msg.current_speed),
-        "speeds_done": int(msg.speeds_done),
-        "speeds_total": int(msg.speeds_total),
-        "window_center": float(msg.window_center),
-        "window_half_width": float(msg.window_half_width),
-        "joint_name": str(msg.joint_name),
-    }
 
 
 def temperature_value(msg: Any) -> tuple[float, float]:

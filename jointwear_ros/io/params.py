@@ -1,8 +1,15 @@
-"""ROS 2 node parameters outside a running graph: params files and recorded ``/parameter_events``.
+"""ROS 2 node parameters outside a running graph: declarations, params files and recorded ``/parameter_events``.
 
-The offline replay, the CLI and the fleet re-analysis configure the pure cores with the same
-parameters the live nodes had: from a node's params YAML (``<node>: ros__parameters: ...``) and
+Every node declares its parameters once, as a tuple of :class:`ParamDecl` (name, default,
+description, range, read-only); the node declares them to ROS from it
+(``nodes.runtime.declare_parameters``) and the CLI checks a ``--set node.name=value`` against
+it (:meth:`ParamDecl.check`). The offline replay, the CLI and the fleet re-analysis configure
+the pure cores with the same parameters the live nodes had: from a node's params YAML
+(``<node>: ros__parameters: ...``, read by :func:`jointwear_ros.resources.node_config`) and
 from the ``ParameterEvent`` messages a bag recorded. Names are flattened to ROS's dotted form.
+
+>>> ParamDecl("warn_threshold", 30.0, "wear of WARN", 0.0, 100.0).check(31)
+31.0
 
 >>> flatten({"estimator_options": {"n_samples": 200}, "method": "joint"})
 {'estimator_options.n_samples': 200, 'method': 'joint'}
@@ -12,14 +19,52 @@ from the ``ParameterEvent`` messages a bag recorded. Names are flattened to ROS'
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Iterable
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
-from ..errors import InputDataError
+from ..errors import ParameterError
+from ..resources import flatten, node_config
 
-__all__ = ["flatten", "nest", "node_params_from_yaml", "parameter_value", "recorded_node_params"]
+__all__ = ["ParamDecl", "flatten", "nest", "node_params_from_yaml", "parameter_value", "recorded_node_params"]
+
+
+@dataclass(frozen=True)
+class ParamDecl:
+    """A node parameter: default (its type is the parameter's), description, optional numeric range.
+
+    ``dynamic``: any type (a list of regexes, say); the default only says what "unset" is.
+    """
+
+    name: str
+    default: Any
+    description: str
+    min: float | None = None
+    max: float | None = None
+    #: read at start-up only: a run-time change is refused by rclpy with "parameter is read-only"
+    read_only: bool = False
+    dynamic: bool = False
+
+    def check(self, value: Any) -> Any:
+        """``value`` as this parameter takes it (an integer for a double becomes that double), or a
+        :class:`~jointwear_ros.errors.ParameterError` saying why not (a number expected, not finite,
+        outside the declared range)."""
+        numeric = isinstance(self.default, (int, float)) and not isinstance(self.default, bool)
+        if self.dynamic or not numeric:
+            return value
+        if isinstance(self.default, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)  # 30 where 30.0 is declared: what everyone types
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+                isinstance(self.default, float) != isinstance(value, float)):
+            kind = "a number" if isinstance(self.default, float) else "an integer"
+            raise ParameterError(f"{self.name} is {kind} (default {self.default:g}), not {value!r}")
+        if not math.isfinite(float(value)):
+            raise ParameterError(f"{self.name}={value:g}: not a finite number")
+        if (self.min is not None and value < self.min) or (self.max is not None and value > self.max):
+            raise ParameterError(f"{self.name}={value:g}: outside the declared range [{self.min}, {self.max}]")
+        return value
 
 
 def nest(flat: dict[str, Any]) -> dict[str, Any]:
@@ -38,39 +83,10 @@ def nest(flat: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for key, value in tree.items():
-        name = f"{prefix}{key}"
-        if isinstance(value, dict):
-            out.update(flatten(value, name + "."))
-        else:
-            out[name] = value
-    return out
-
-
 def node_params_from_yaml(path: str | os.PathLike[str], node_name: str) -> dict[str, Any]:
-    """The ``ros__parameters`` of ``node_name`` in a ROS 2 params file, flattened to dotted names.
-
-    Accepts ``node_name``, ``/node_name`` and the ``/**`` wildcard section.
-    """
-    import yaml
-
-    p = Path(path)
-    try:
-        doc = yaml.safe_load(p.read_text())
-    except FileNotFoundError:
-        raise InputDataError(f"{p}: no such parameter file") from None
-    except yaml.YAMLError as exc:
-        raise InputDataError(f"{p}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if not isinstance(doc, dict):
-        raise InputDataError(f"{p}: not a ROS 2 parameter file (expected '<node>: ros__parameters: ...')")
-    out: dict[str, Any] = {}
-    for key in ("/**", node_name, f"/{node_name}"):
-        section = doc.get(key)
-        if isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict):
-            out.update(flatten(section["ros__parameters"]))
-    return out
+    """The ``ros__parameters`` of ``node_name`` in a ROS 2 params file, flattened to dotted names
+    (:func:`jointwear_ros.resources.node_config` with a file)."""
+    return node_config(node_name, path)
 
 
 _PARAM_VALUE_FIELDS = {

@@ -10,8 +10,9 @@ coefficient is a torque per speed, ``Fctm`` a torque per load torque, ``Tv0`` a 
 Two ways to a fit's starts and bounds use it:
 
 - :func:`data_parameters` (commissioning, which has no parameter set to start from): each
-  built-in parameter's start and bounds are multiples (:data:`RELATIVE`, the one table of
-  them) of the data's level of its dimension (:meth:`DataScales.level`).
+  built-in parameter's start and bounds are multiples (declared on its term,
+  :attr:`~jointwear_ros.model.terms.Term.relative`, gathered in :data:`RELATIVE`) of the
+  data's level of its dimension (:meth:`DataScales.level`).
 - :func:`scale_parameters` (the workbench, which starts from given values or the terms'
   own numbers, written for the paper's joint): those numbers times the data's scale in
   powers of ten of the paper's (:meth:`DataScales.factor`); data within half a decade of the
@@ -38,13 +39,13 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from .parameters import Parameter, Parameters
-from .terms import Dimension, Term, param_dimension
+from .terms import TERMS, Dimension, Relative, Term, param_dimension
 
 if TYPE_CHECKING:
     from .model import Model
@@ -69,40 +70,9 @@ REFERENCE_SPEED = 100.0
 REFERENCE_TORQUE = 0.1
 
 
-class Relative(NamedTuple):
-    """A parameter's start and bounds as multiples of the data's level of its dimension.
-
-    ``absolute``: the bounds are in the parameter's own unit (physical limits), not multiples.
-    """
-
-    start: float
-    lo: float
-    hi: float
-    absolute: bool = False
-
-
-#: Start and bounds of each built-in parameter, in units of the data's level of its dimension:
-#: positive speeds and Coulomb levels, wide elsewhere. ``Tv0`` is a temperature constant in
-#: degC whatever the torque unit: its bounds are physical limits.
-RELATIVE: dict[str, Relative] = {
-    "Fc0": Relative(0.5, 0.0, 10.0),
-    "Fctm": Relative(0.05, 0.0, 100.0),
-    "Fstm": Relative(0.05, 0.0, 100.0),
-    "vstm": Relative(0.05, 1e-3, 20.0),
-    "Fs0": Relative(0.1, -1e3, 1e3),
-    "FsT": Relative(0.0, -1e3, 1e3),
-    "vs0": Relative(0.1, 1e-3, 20.0),
-    "vsT": Relative(0.0, -20.0, 20.0),
-    "Fv0": Relative(0.2, -1e3, 1e3),
-    "FvT": Relative(0.2, -1e3, 1e3),
-    "Tv0": Relative(1.0, 1.0, 1000.0, absolute=True),
-    "Fsw": Relative(0.01, 0.0, 1e3),
-    "vsw": Relative(0.01, 1e-4, 10.0),
-    "Fvw": Relative(0.0, -1e3, 1e3),
-    "Fs": Relative(0.2, -1e3, 1e3),
-    "vs": Relative(0.1, 1e-3, 20.0),
-    "Fv": Relative(0.3, -1e3, 1e3),
-}
+#: Start and bounds of each built-in parameter, in units of the data's level of its dimension, gathered
+#: from the terms (:attr:`~jointwear_ros.model.terms.Term.relative`, where each term declares them).
+RELATIVE: dict[str, Relative] = {n: r for cls in TERMS.values() for n, r in cls.relative.items()}
 
 _SPEED = Dimension(speed=1)
 

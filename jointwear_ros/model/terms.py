@@ -31,6 +31,15 @@ dimension of a parameter whose unit does not say it (:attr:`Term.dimensions`:
 >>> LoadCoulomb().dimension("Fctm"), TempViscous().dimension("Fv0")
 (Dimension(torque=1, speed=0, load=-1, temperature=0, wear=0), Dimension(torque=1, speed=-1, load=0, temperature=0, wear=0))
 
+A term also carries what the workbench needs to fit it, as an lmfit model carries its
+parameter hints and ``guess()``: the parameters it is linear in (:attr:`Term.linear`),
+starting points of the others (:attr:`Term.starts`, moved to the data's units by
+:meth:`Term.guess`), what it means (:attr:`Term.meaning`) and whether the diagnosis offers it
+as a candidate effect (:attr:`Term.candidate`).
+
+>>> TempStribeck.linear, [g["vs0"] for g in TempStribeck().guess({"speed": np.array([0.5, 2.8])})]
+(('Fs0', 'FsT'), [0.1, 0.3, 0.6, 1.2])
+
 The wear Stribeck term of Eq. (7) at 47 rad/s and w = 35 (Eq. 8 values):
 
 >>> t = term_by_name("wear_stribeck")
@@ -63,6 +72,7 @@ __all__ = [
     "Dimension",
     "LoadCoulomb",
     "LoadStribeck",
+    "Relative",
     "Stribeck",
     "TempStribeck",
     "TempViscous",
@@ -116,6 +126,20 @@ UNIT_DIMENSIONS: dict[str, Dimension] = {
 }
 
 
+class Relative(NamedTuple):
+    """A parameter's start and bounds as multiples of the data's level of its dimension
+    (:meth:`~jointwear_ros.model.scaling.DataScales.level`): how a fit with no parameter set to start
+    from (commissioning) starts in any units.
+
+    ``absolute``: the bounds are in the parameter's own unit (physical limits), not multiples.
+    """
+
+    start: float
+    lo: float
+    hi: float
+    absolute: bool = False
+
+
 def _unit_dimension(unit: str) -> Dimension:
     return UNIT_DIMENSIONS.get(unit.strip(), Dimension())
 
@@ -155,6 +179,53 @@ class Term:
     paper_ref: ClassVar[str] = ""
     #: Dimensions of the parameters whose unit does not imply it (see :data:`UNIT_DIMENSIONS`).
     dimensions: ClassVar[Mapping[str, Dimension]] = {}
+    # -- workbench hints (as lmfit's Model carries its param hints and ``guess``) ----------
+    #: Parameters the term is linear in: a fit solves them by linear least squares given the others
+    #: (a candidate starts them at 0).
+    linear: ClassVar[tuple[str, ...]] = ()
+    #: Starting points of the nonlinear parameters to try, in the numbers the defaults are written in
+    #: (the paper's joint); :meth:`guess` moves them to the data's units.
+    starts: ClassVar[tuple[Mapping[str, float], ...]] = ()
+    #: What the term means physically, in a few words (the diagnosis lists it with the candidate).
+    meaning: ClassVar[str] = ""
+    #: The diagnosis offers the term as a candidate effect when the data has its inputs and the model lacks it.
+    candidate: ClassVar[bool] = False
+    #: Start and bounds of each parameter relative to the data's level of its dimension (:class:`Relative`),
+    #: for a fit that has no parameter set to start from (commissioning): positive speeds and Coulomb
+    #: levels, wide elsewhere.
+    relative: ClassVar[Mapping[str, Relative]] = {}
+
+    def start_points(self, x: Inputs) -> list[dict[str, float]]:
+        """Starting points of the nonlinear parameters for inputs ``x``, in the numbers of the term's defaults.
+
+        :attr:`starts` by default; a term whose starts depend on the data (a
+        column's span) overrides this.
+        """
+        return [dict(s) for s in self.starts] or [{}]
+
+    def guess(self, x: Inputs) -> list[dict[str, float]]:
+        """Starting points of the nonlinear parameters for data ``x``, in the data's own units.
+
+        :meth:`start_points` with each parameter moved by the data's speed scale
+        to the power of its :meth:`dimension` (:mod:`jointwear_ros.model.scaling`):
+        joint-side data at a few rad/s get Stribeck speeds inside their own range;
+        data at the paper's scale keep the numbers as written.
+
+        >>> [g["vstm"] for g in LoadStribeck().guess({"speed": np.array([0.01, 2.5])})]
+        [0.04, 0.12, 0.3, 0.8]
+        """
+        from .scaling import DataScales, scale_grid
+
+        grid = self.start_points(x)
+        sc = DataScales.of(speed=x.get("speed"))
+        return grid if sc.speed == 1.0 else scale_grid(self, grid, sc)
+
+    def describe_effect(self) -> str:
+        """What the term means physically: :attr:`meaning`, else the first line of its docstring."""
+        if self.meaning:
+            return self.meaning
+        doc = (type(self).__doc__ or "").strip().splitlines()
+        return doc[0] if doc else self.name
 
     def dimension(self, name: str) -> Dimension:
         """The dimension of parameter ``name``: declared in :attr:`dimensions`, else implied by its unit."""
@@ -244,6 +315,8 @@ class Coulomb(Term):
     params = (ParamSpec("Fc0", "-", 0.04, 0.0, 1.0, "Coulomb friction level"),)
     equation = "Fc0"
     paper_ref = "Eq. (6a)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fc0": Relative(0.5, 0.0, 10.0)}
+    linear = ("Fc0",)
 
     def value(self, x: Inputs, p: Values) -> Array:
         return p["Fc0"] + _zeros_like_inputs(x)
@@ -270,6 +343,10 @@ class LoadCoulomb(Term):
     dimensions: ClassVar[Mapping[str, Dimension]] = {"Fctm": Dimension(torque=1, load=-1)}
     equation = "Fctm*|tau_m|"
     paper_ref = "Eq. (6a)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fctm": Relative(0.05, 0.0, 100.0)}
+    linear = ("Fctm",)
+    meaning = "Coulomb friction grows with load torque (Eq. 6a)"
+    candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
         return p["Fctm"] * np.abs(np.asarray(x["load_torque"], dtype=float)) + _zeros_like_inputs(x)
@@ -301,6 +378,11 @@ class LoadStribeck(Term):
     dimensions: ClassVar[Mapping[str, Dimension]] = {"Fstm": Dimension(torque=1, load=-1)}
     equation = "Fstm*|tau_m|*exp(-|v/vstm|^1.3)"
     paper_ref = "Eq. (6a)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fstm": Relative(0.05, 0.0, 100.0), "vstm": Relative(0.05, 1e-3, 20.0)}
+    linear = ("Fstm",)
+    starts = tuple({"vstm": v} for v in (4.0, 12.0, 30.0, 80.0))
+    meaning = "low-speed friction hump grows with load torque (Eq. 6a)"
+    candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
         s, _ = stribeck_shape(_v(x), p["vstm"])
@@ -343,6 +425,12 @@ class TempStribeck(Term):
     )
     equation = "(Fs0 + FsT*T)*exp(-|v/(vs0 + vsT*T)|^1.3)"
     paper_ref = "Eq. (6b)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fs0": Relative(0.1, -1e3, 1e3), "FsT": Relative(0.0, -1e3, 1e3),
+                                                  "vs0": Relative(0.1, 1e-3, 20.0), "vsT": Relative(0.0, -20.0, 20.0)}
+    linear = ("Fs0", "FsT")
+    starts = tuple({"vs0": v, "vsT": 0.0} for v in (10.0, 30.0, 60.0, 120.0))
+    meaning = "low-speed friction changes with temperature (Eq. 6b)"
+    candidate = True
 
     def _parts(self, x: Inputs, p: Values) -> tuple[Array, Array, Array, Array, Array]:
         T = np.asarray(x["temperature"], dtype=float)
@@ -394,6 +482,13 @@ class TempViscous(Term):
     )
     equation = "(Fv0 + FvT*exp(-T/Tv0))*v"
     paper_ref = "Eq. (6c)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fv0": Relative(0.2, -1e3, 1e3), "FvT": Relative(0.2, -1e3, 1e3),
+                                                  # a temperature constant in degC whatever the torque unit
+                                                  "Tv0": Relative(1.0, 1.0, 1000.0, absolute=True)}
+    linear = ("Fv0", "FvT")
+    starts = tuple({"Tv0": t} for t in (10.0, 25.0, 60.0))
+    meaning = "viscous slope falls with temperature (Eq. 6c)"
+    candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
         T = np.asarray(x["temperature"], dtype=float)
@@ -435,6 +530,11 @@ class WearStribeck(Term):
     )
     equation = "Fsw*w*exp(-|v/(vsw*w)|^1.3)"
     paper_ref = "Eq. (7)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fsw": Relative(0.01, 0.0, 1e3), "vsw": Relative(0.01, 1e-4, 10.0)}
+    linear = ("Fsw",)
+    starts = tuple({"vsw": v} for v in (0.5, 2.2, 8.0))
+    meaning = "low-speed friction grows with wear (Eq. 7)"
+    candidate = True
 
     def _parts(self, x: Inputs, p: Values) -> tuple[Array, Array, Array]:
         w = np.asarray(x["wear"], dtype=float)
@@ -474,6 +574,10 @@ class WearViscous(Term):
     params = (ParamSpec("Fvw", "s/rad/w", -5.3e-7, -1e-3, 1e-3, "viscous coefficient per unit wear"),)
     equation = "Fvw*w*v"
     paper_ref = "Eq. (7)"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fvw": Relative(0.0, -1e3, 1e3)}
+    linear = ("Fvw",)
+    meaning = "viscous slope changes with wear (Eq. 7)"
+    candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
         return p["Fvw"] * np.asarray(x["wear"], dtype=float) * _v(x) + _zeros_like_inputs(x)
@@ -504,6 +608,9 @@ class Stribeck(Term):
     )
     equation = "Fs*exp(-|v/vs|^1.3)"
     paper_ref = "standard model"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fs": Relative(0.2, -1e3, 1e3), "vs": Relative(0.1, 1e-3, 20.0)}
+    linear = ("Fs",)
+    starts = tuple({"vs": v} for v in (4.0, 12.0, 30.0, 80.0))
 
     def value(self, x: Inputs, p: Values) -> Array:
         s, _ = stribeck_shape(_v(x), p["vs"])
@@ -531,6 +638,8 @@ class Viscous(Term):
     params = (ParamSpec("Fv", "s/rad", 4.0e-4, -0.01, 0.01, "viscous coefficient"),)
     equation = "Fv*v"
     paper_ref = "standard model"
+    relative: ClassVar[Mapping[str, Relative]] = {"Fv": Relative(0.3, -1e3, 1e3)}
+    linear = ("Fv",)
 
     def value(self, x: Inputs, p: Values) -> Array:
         return p["Fv"] * _v(x) + _zeros_like_inputs(x)

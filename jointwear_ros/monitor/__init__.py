@@ -1,32 +1,31 @@
 """The wear monitor: a test cycle's friction observations → wear estimate → diagnostic level.
 
-Pure; no ROS import. The wear_estimator node and the offline replay share it.
+Pure; no ROS import. :class:`RobotMonitor` holds one :class:`WearMonitor` per joint and routes the
+observations and statuses to them; the wear_estimator node and the offline replay share it.
 """
 
 from __future__ import annotations
 
 from .core import (
-    ERROR,
     LEVEL_NAMES,
-    OK,
-    WARN,
     CycleResult,
+    EstimatorFactory,
     MonitorConfig,
     WearMonitor,
     cycle_seed,
     diagnostic_level,
     observations_table,
 )
+from .robot import RobotMonitor
 from .validation import PLAUSIBLE_TEMPERATURE, screen_observation
 
 __all__ = [
-    "ERROR",
     "LEVEL_NAMES",
-    "OK",
     "PLAUSIBLE_TEMPERATURE",
-    "WARN",
     "CycleResult",
+    "EstimatorFactory",
     "MonitorConfig",
+    "RobotMonitor",
     "WearMonitor",
     "cycle_seed",
     "diagnostic_level",

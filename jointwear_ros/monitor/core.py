@@ -59,14 +59,11 @@ from ..observer.types import FrictionObservationData
 from ..types import ObservationTable, WearEstimator, WearResult
 from .validation import screen_observation
 
-__all__ = ["ERROR", "LEVEL_NAMES", "OK", "WARN", "CycleResult", "MonitorConfig", "WearMonitor",
+__all__ = ["LEVEL_NAMES", "CycleResult", "EstimatorFactory", "MonitorConfig", "WearMonitor",
            "cycle_seed", "diagnostic_level", "observations_table"]
 
-#: ``diagnostic_msgs/DiagnosticStatus`` level byte values: aliases of :class:`jointwear_ros.contract.DiagnosticLevel`.
-OK = DiagnosticLevel.OK
-WARN = DiagnosticLevel.WARN
-ERROR = DiagnosticLevel.ERROR
-LEVEL_NAMES = {int(lv): lv.name for lv in (OK, WARN, ERROR)}
+#: level byte -> name of the levels a cycle result takes
+LEVEL_NAMES = {int(lv): lv.name for lv in (DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR)}
 
 
 
@@ -163,7 +160,7 @@ class CycleResult:
 
     @property
     def alarm(self) -> bool:
-        return self.level == ERROR and self.result is not None
+        return self.level == DiagnosticLevel.ERROR and self.result is not None
 
 
 def diagnostic_level(wear: float, warn_threshold: float, alarm_threshold: float) -> DiagnosticLevel:
@@ -432,7 +429,8 @@ class WearMonitor:
         if len(obs) < cfg.min_observations:
             msg = (f"cycle {cid}{ended}: no wear estimate, {len(obs)} friction observations "
                    f"(need {cfg.min_observations}); see the friction_observer log for rejected windows{partial}")
-            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base + rev), obs,
+            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, DiagnosticLevel.WARN, msg,
+                                           tuple(base + rev), obs,
                                            cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
         # order by speed so the estimate does not depend on the arrival order of observations
         obs = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
@@ -443,11 +441,13 @@ class WearMonitor:
             res = est.estimate(table)
         except JointwearError as exc:
             msg = f"cycle {cid}{ended}: wear estimation failed: {exc}{partial}"
-            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, WARN, msg, tuple(base + rev), obs,
+            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, DiagnosticLevel.WARN, msg,
+                                           tuple(base + rev), obs,
                                            cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
         level = diagnostic_level(res.wear, cfg.warn_threshold, cfg.alarm_threshold)
-        what = {OK: "wear below the warning band", WARN: f"wear in the warning band [{cfg.warn_threshold:g}, "
-                f"{cfg.alarm_threshold:g})", ERROR: f"wear at or above the alarm threshold {cfg.alarm_threshold:g}"}
+        what = {DiagnosticLevel.OK: "wear below the warning band",
+                DiagnosticLevel.WARN: f"wear in the warning band [{cfg.warn_threshold:g}, {cfg.alarm_threshold:g})",
+                DiagnosticLevel.ERROR: f"wear at or above the alarm threshold {cfg.alarm_threshold:g}"}
         msg = f"{what[level]}: {res.wear:.1f} ± {res.wear_std:.1f} (cycle {cid}{ended}{partial})"
         values = [("wear", f"{res.wear:.3f}"), ("wear_std", f"{res.wear_std:.3f}"),
                   ("wear_low", f"{res.wear_low:.3f}"), ("wear_high", f"{res.wear_high:.3f}"),
@@ -456,6 +456,11 @@ class WearMonitor:
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
         values += [(k, str(res.info[k])) for k in ("parameter_set", "wear_calibration") if k in res.info]
+        if "fit_p" in res.info:  # how much of the cycle the model leaves unexplained (joint estimator)
+            values.append(("fit_p", f"{float(res.info['fit_p']):.3g}"))
+        if res.info.get("misfit"):
+            msg += f"; {res.info['misfit']}"
+            values.append(("misfit", str(res.info["misfit"])))
         return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values + rev), obs,
                                        cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
 

@@ -8,8 +8,13 @@ What ``jointwear demo`` does, reusable by scripts and tests:
   output in ``logdir/<node>.log``; :func:`stop_children` stops them (SIGINT, then SIGTERM, SIGKILL).
 - :class:`Operator` is an rclpy node in its own context, on the cell's domain: it waits for the
   graph (:func:`ready_conditions`), calls ``/test_cycle/run`` (:meth:`Operator.start_cycle` retries a
-  refusal whose :class:`~jointwear_ros.contract.RefusalReason` is ``retryable``), and collects the
-  cycle's status, observations, estimates and its ``wear_estimator: <joint>`` diagnostics.
+  refusal whose :class:`~jointwear_ros.contract.RefusalReason` is ``retryable``), collects the
+  cycle's statuses (as :class:`~jointwear_ros.contract.CycleStatus`), observations, estimates and its
+  ``wear_estimator: <joint>`` diagnostics, and knows when a cycle is over: :meth:`Operator.estimated`
+  (every joint tested has its estimate, or the estimator's verdict that there is none),
+  :meth:`Operator.complete` (the observer has finished every speed and the newest estimate covers
+  every observation) and :meth:`Operator.joint_report` (a joint's newest estimate and the
+  diagnostic status heard after it, as a :class:`JointReport`).
 
 The cell's environment is passed to the children as a dict; the operator takes the domain id as an
 argument (``rclpy.init(domain_id=...)``). Loopback-only discovery is read by the RMW from
@@ -19,6 +24,7 @@ call only and restores the environment after.
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import signal
@@ -27,16 +33,16 @@ import sys
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-from ..contract import CycleState, RefusalReason, robot_cycle_over
+from ..contract import CycleState, CycleStatus, DiagnosticLevel, RefusalReason, status_from_msg
 from ..errors import JointwearError
 from ..resources import config_path
 
-__all__ = ["CellError", "Child", "Operator", "after", "die_with_parent", "ready_conditions", "start_child",
-           "stop_children"]
+__all__ = ["CellError", "Child", "JointReport", "Operator", "after", "die_with_parent", "ready_conditions",
+           "start_child", "stop_children"]
 
 
 class CellError(JointwearError):
@@ -65,6 +71,27 @@ class Child:
         except OSError:
             return ""
         return " | ".join(text[-lines:])
+
+
+@dataclass
+class JointReport:
+    """How one joint fared in a cycle, as the operator saw it: its newest estimate (the ``WearEstimate``
+    fields; empty: none), the ``wear_estimator: <joint>`` diagnostic status heard after it, the joint's
+    final cycle state and its cell time (sim s, from its first status of the cycle to its first final one).
+    ``true_wear``: the simulated joint's wear, when the cell is a simulation (NaN: unknown)."""
+
+    joint: str
+    estimate: dict[str, Any] = field(default_factory=dict)
+    diagnostic_level: str = "UNKNOWN"
+    diagnostic_message: str = ""
+    final_state: str = "?"
+    cell_seconds: float = math.nan
+    true_wear: float = math.nan
+
+    def wear_dict(self) -> dict[str, Any]:
+        e = self.estimate
+        return {"estimate": e.get("wear"), "std": e.get("wear_std"), "method": e.get("method"),
+                "low": e.get("wear_low"), "high": e.get("wear_high"), "temperature": e.get("temperature_estimate")}
 
 
 def _executable(name: str) -> str:
@@ -215,7 +242,6 @@ class Operator:
         self.joints: list[str] = [joint_name] if isinstance(joint_name, str) else [str(j) for j in joint_name]
         if not self.joints or len(set(self.joints)) != len(self.joints):
             raise CellError(f"the operator needs distinct joint names, got {self.joints}")
-        self.joint_name = self.joints[0]
         self._diag_names = {f"wear_estimator: {j}": j for j in self.joints}
         #: the newest ``friction_observer: <joint>`` status of each joint (its per-cycle counts)
         self.observer_status: dict[str, Any] = {}
@@ -227,9 +253,10 @@ class Operator:
         self.diagnostics: list[tuple[int, Any]] = []
         self.estimate_arrivals: list[int] = []
         self._heard = 0
-        self.status: Any = None
-        #: every TestCycleStatus heard, in order (a robot cycle's progress, joint by joint)
-        self.statuses: list[Any] = []
+        #: the newest cycle status heard (None before the first)
+        self.status: CycleStatus | None = None
+        #: every cycle status heard, in order (a robot cycle's progress, joint by joint)
+        self.statuses: list[CycleStatus] = []
         self.node.create_subscription(FrictionObservation, "/jointwear/friction_observations",
                                       self.observations.append, qos)
         self.node.create_subscription(WearEstimate, "/jointwear/wear_estimate", self._on_estimate, qos)
@@ -252,24 +279,20 @@ class Operator:
                 self.observer_status[self._observer_names[st.name]] = st
 
     def _on_status(self, msg: Any) -> None:
-        self.status = msg
-        self.statuses.append(msg)
+        st = status_from_msg(msg)
+        self.status = st
+        self.statuses.append(st)
 
     def robot_cycle_over(self, cycle_id: int) -> bool:
         """True once the robot cycle ``cycle_id`` has ended: its last joint DONE, or any joint ABORTED or
         FAILED (the cycle stops there), per the status contract of ``docs/robot.md``."""
-        for st in self.statuses:
-            if st.cycle_id != cycle_id:
-                continue
-            if robot_cycle_over(st.state, len(st.joints), st.joints_done):
-                return True
-        return False
+        return any(st.robot_cycle_over for st in self.statuses if st.cycle_id == cycle_id)
 
     def observer_done(self, cycle_id: int, joint: str) -> bool:
         """The observer has finished every speed ``joint`` ran in cycle ``cycle_id`` (an observation or a
         rejected window each, per its ``friction_observer: <joint>`` status) and this operator has
         heard each of those observations. A joint whose test ended early counts the speeds it began."""
-        mine = [st for st in self.statuses if st.cycle_id == cycle_id and st.joint_name == joint]
+        mine = [st for st in self.statuses if st.in_cycle(cycle_id, joint)]
         if not mine:
             return False
         if any(st.state == CycleState.DONE for st in mine):
@@ -297,8 +320,100 @@ class Operator:
         out: list[str] = []
         for st in self.statuses:
             if st.cycle_id == cycle_id and st.state != CycleState.IDLE and st.joint_name not in out:
-                out.append(str(st.joint_name))
+                out.append(st.joint_name)
         return out
+
+    # -- the cycle's results ---------------------------------------------------------------
+    def estimates_of(self, cycle_id: int, joint: str) -> list[Any]:
+        """The ``WearEstimate`` messages of ``joint`` in cycle ``cycle_id``, in arrival order."""
+        return [e for e in self.estimates if e.cycle_id == cycle_id and e.joint_name == joint]
+
+    def diagnostics_of(self, cycle_id: int, joint: str, after: int = 0) -> list[Any]:
+        """The ``wear_estimator: <joint>`` statuses of cycle ``cycle_id`` (their ``cycle_id`` key) heard after
+        arrival number ``after``."""
+        name = f"wear_estimator: {joint}"
+        return [d for n, d in self.diagnostics
+                if n > after and d.name == name
+                and ("cycle_id", str(cycle_id)) in {(kv.key, kv.value) for kv in d.values}]
+
+    def joint_estimated(self, cycle_id: int, joint: str) -> bool:
+        """``joint`` has an estimate in cycle ``cycle_id``, or the estimator's verdict that there is none (a status
+        of that cycle without a "wear" key)."""
+        return bool(self.estimates_of(cycle_id, joint)) or any(
+            "wear" not in {kv.key for kv in d.values} for d in self.diagnostics_of(cycle_id, joint))
+
+    def estimated(self, cycle_id: int) -> bool:
+        """One joint: it is estimated (:meth:`joint_estimated`). A robot cycle: it has ended and every joint it
+        started is estimated."""
+        if len(self.joints) == 1:
+            return self.joint_estimated(cycle_id, self.joints[0])
+        return self.robot_cycle_over(cycle_id) and all(
+            self.joint_estimated(cycle_id, j) for j in self.joints_started(cycle_id))
+
+    def complete(self, cycle_id: int) -> bool:
+        """Every observation of cycle ``cycle_id`` is in its joint's newest estimate.
+
+        The estimator estimates a joint when all its speeds are in, or done_timeout after DONE (a rejected
+        window sends nothing): on a loaded machine the observer can be later than that, and the estimator
+        then revises the estimate with the late observation. So this waits until the observer has finished
+        every speed of each joint (:meth:`observer_done`) and the newest estimate covers every observation.
+        """
+        for j in self.joints_started(cycle_id):
+            if not self.observer_done(cycle_id, j):
+                return False
+            seen = {round(o.speed, 9) for o in self.observations if o.cycle_id == cycle_id and o.joint_name == j}
+            ests = self.estimates_of(cycle_id, j)
+            if ests and not seen <= {round(v, 9) for v in ests[-1].speeds}:
+                return False
+        return True
+
+    def joint_report(self, cycle_id: int, joint: str, children: Sequence[Child], wait: float = 15.0) -> JointReport:
+        """The newest estimate of ``joint`` in cycle ``cycle_id`` and the diagnostic status heard after it (waiting
+        up to ``wait`` s for that status; UNKNOWN with the reason when none comes), its final state and cell time."""
+        from ..io.bags import ESTIMATE_FIELDS, message_fields
+
+        ests = self.estimates_of(cycle_id, joint)
+        est = ests[-1] if ests else None
+        # the estimator publishes an estimate, then its status (and republishes the status every
+        # diagnostics_period): the status of the newest estimate is one heard after it
+        heard_est = 0
+        if est is not None:
+            i_est = max(i for i, e in enumerate(self.estimates) if e is est)
+            heard_est = self.estimate_arrivals[i_est]
+        try:
+            self.spin_until(lambda: bool(self.diagnostics_of(cycle_id, joint, heard_est)), wait, children,
+                            f"the /diagnostics status of {joint} in cycle {cycle_id}")
+            diag = self.diagnostics_of(cycle_id, joint, heard_est)[-1]
+            raw = diag.level
+            level = DiagnosticLevel.name_of(raw[0] if isinstance(raw, bytes) else int(raw))
+            dmsg = str(diag.message)
+        except CellError as exc:
+            level, dmsg = "UNKNOWN", str(exc)
+        report = JointReport(joint, message_fields(est, ESTIMATE_FIELDS) if est is not None else {}, level, dmsg)
+        # cell time: from the joint's first status of the cycle to its first final one (the node
+        # republishes the final status while idle: later copies are not cell time)
+        js = [st for st in self.statuses if st.in_cycle(cycle_id, joint)]
+        end = self.joint_end(cycle_id, joint)
+        if js:
+            last = end if end is not None else js[-1]
+            report.final_state = last.state_name
+            report.cell_seconds = last.stamp - js[0].stamp if end is not None else math.nan
+        else:
+            report.final_state = "NOT_TESTED"
+        return report
+
+    def joint_end(self, cycle_id: int, joint: str) -> CycleStatus | None:
+        """The first final (DONE, ABORTED, FAILED) status of ``joint`` in cycle ``cycle_id``, if any."""
+        return next((st for st in self.statuses if st.in_cycle(cycle_id, joint) and st.ended), None)
+
+    def cell_seconds(self, cycle_id: int) -> float:
+        """Cell time of the robot cycle (sim s): from its first status to its joints' last first-final one; NaN
+        while it has not ended."""
+        mine = [st for st in self.statuses if st.cycle_id == cycle_id]
+        ends = [e for e in (self.joint_end(cycle_id, j) for j in self.joints) if e is not None]
+        if mine and ends and self.robot_cycle_over(cycle_id):
+            return max(e.stamp for e in ends) - mine[0].stamp
+        return math.nan
 
     def spin_until(self, predicate: Callable[[], bool], timeout: float, children: Sequence[Child],
                    what: str, tick: Callable[[], None] | None = None) -> None:

@@ -1,13 +1,14 @@
 """friction_observer: /joint_states + test-cycle status → one FrictionObservation per speed, per joint.
 
-A thin rclpy adapter over :class:`~jointwear_ros.observer.FrictionObserverCore`
-(the same core the offline replay runs), one core per joint it serves
-(``joints``; empty = the single joint ``joint_name``, see docs/robot.md). Each
-``sensor_msgs/JointState`` is split by name into the cores (the name -> index
-lookup is cached while the names stay the same), each ``TestCycleStatus`` goes
-to the core of its ``joint_name`` (a robot cycle tests its joints one after
-another under one cycle id) and each ``sensor_msgs/Temperature`` to the core of
-its ``header.frame_id`` (empty = the joint of a one-joint setup). Finished
+A thin rclpy adapter over :class:`~jointwear_ros.observer.RobotObserver` (the
+same per-joint cores and routing the offline replay runs), one core per joint
+it serves (``joints``; empty = the single joint ``joint_name``, see
+docs/robot.md). Each ``sensor_msgs/JointState`` is split by name into the cores
+(the name -> index lookup is cached while the names stay the same), each
+``TestCycleStatus`` goes to the core of its ``joint_name`` (a robot cycle tests
+its joints one after another under one cycle id) and each
+``sensor_msgs/Temperature`` to the core of its ``header.frame_id`` (empty = the
+joint of a one-joint setup). Finished
 observations (they carry ``joint_name``) are published on
 ``/jointwear/friction_observations``; every rejected window is logged with its
 reason. A bad JointState (none of the joints in it, array lengths that do not
@@ -21,7 +22,9 @@ node was stalled) are logged and counted per topic (``lost_messages``): the
 observations of that stretch rest on fewer samples.
 
 Diagnostics: one ``friction_observer: <joint>`` status per joint on
-``/diagnostics`` with the counts (observations, rejected windows, bad and lost
+``/diagnostics`` (a task each of one :class:`~jointwear_ros.nodes.diagnostics.Updater`:
+all joints in one ``DiagnosticArray``, on every change and every
+``diagnostics_period``) with the counts (observations, rejected windows, bad and lost
 messages, samples): WARN while that joint's current cycle has had a rejected
 window, a lost or a bad message, with the latest reason as the message; OK
 otherwise. The counts of "the current cycle" restart when a new cycle id of
@@ -45,23 +48,22 @@ Parameters: see ``config/friction_observer.yaml`` and ``docs/nodes-observer-esti
 
 from __future__ import annotations
 
-import math
 import time
 from collections import Counter
+from functools import partial
 from typing import Any
 
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 
 from .. import contract
-from ..contract import observation_from_msg, stamp_to_seconds
+from ..contract import DiagnosticLevel, observation_from_msg, stamp_to_seconds, status_from_msg
 from ..errors import JointwearError
-from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput
-from .diagnostics import OK, WARN, NodeDiagnostics, Report
+from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput, RobotObserver
+from .diagnostics import Status, Updater
 from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
     ParamDecl,
@@ -71,6 +73,7 @@ from .runtime import (
     run_node,
     seconds_to_stamp,
     subscribe_reporting_loss,
+    wait_acked,
 )
 
 __all__ = [
@@ -132,7 +135,8 @@ def high_rate_qos() -> QoSProfile:
 
 
 class _Joint:
-    """One observed joint: its core, its counts and its ``friction_observer: <joint>`` status."""
+    """One observed joint: its core (in the robot observer) and the counts of its ``friction_observer: <joint>``
+    status."""
 
     def __init__(self, name: str, core: FrictionObserverCore) -> None:
         self.name = name
@@ -148,7 +152,6 @@ class _Joint:
         self.last_problem = ""
         self.temperatures_missing_seen = 0
         self.observations_mark = 0  # observations published before the current cycle
-        self.diag: NodeDiagnostics | None = None
 
     def busy_reason(self) -> str | None:
         """Why the settings cannot change now (a speed being observed), else None."""
@@ -168,14 +171,10 @@ class FrictionObserverNode(Node):
         self.params = p
         self.joints = declare_joints(self, str(p["joint_name"]))
         values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS])
-        self.channels: dict[str, _Joint] = {}
-        for j in self.joints:
-            cfg = ObserverConfig.from_mapping({**p, **values[j], "joint_name": j})
-            self.channels[j] = _Joint(j, FrictionObserverCore(cfg))
-        first = self.channels[self.joints[0]]
-        #: the first joint's core (the only one of a one-joint setup)
-        self.core = first.core
-        self.joint_name: str = first.name
+        #: one core per joint and the routing of the inputs to them (the same as replay's)
+        self.observer = RobotObserver({j: ObserverConfig.from_mapping({**p, **values[j], "joint_name": j})
+                                       for j in self.joints})
+        self.channels: dict[str, _Joint] = {j: _Joint(j, self.observer.cores[j]) for j in self.joints}
         self.bad_messages: Counter[str] = Counter()
         #: per topic, messages DDS reported lost before they reached this node
         self.lost_messages: Counter[str] = Counter()
@@ -185,7 +184,6 @@ class FrictionObserverNode(Node):
         #: the last 1000 rejected windows (reasons), every joint; ``rejections_total`` counts them all
         self.rejections: list[str] = []
         self.rejections_total = 0
-        self._index_cache: dict[tuple[str, ...], tuple[list[tuple[_Joint, int]], list[_Joint]]] = {}
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
         self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos,
@@ -198,13 +196,11 @@ class FrictionObserverNode(Node):
                                          qos_overriding_options=overridable_qos())
         # wall-clock timer: it must fire even when /clock (use_sim_time) stops
         self.create_timer(float(p["poll_period"]), self._on_poll, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        for ch in self.channels.values():
-            ch.diag = NodeDiagnostics(self, f"friction_observer: {ch.name}", ch.name,
-                                      period=float(p["diagnostics_period"]),
-                                      refresh=lambda ch=ch: self._report(ch))  # type: ignore[misc]
-            ch.diag.update(*self._report(ch))
-        #: the first joint's status (the only one of a one-joint setup)
-        self.diag: NodeDiagnostics = first.diag  # type: ignore[assignment]
+        # health: one task per joint, all in one updater (republished every diagnostics_period, wall time)
+        self.health = Updater(self, "friction_observer", period=float(p["diagnostics_period"]))
+        for j in self.joints:
+            self.health.add(j, partial(self._joint_health, j), hardware_id=j)
+        self.health.update()
         self.add_pre_set_parameters_callback(propagate_node_level(JOINT_SETTINGS, self.joints))
         on_parameter_change(self, self._on_parameters,
                             LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in JOINT_SETTINGS))
@@ -234,12 +230,6 @@ class FrictionObserverNode(Node):
 
         return cb
 
-    def _stamp(self, header_stamp: Any) -> float:
-        t = stamp_to_seconds(header_stamp)
-        if t > 0:
-            return t
-        return self.get_clock().now().nanoseconds * 1e-9
-
     def _bad(self, reason: str, joints: Any = None) -> None:
         """A bad JointState: counted once, and for each joint it concerns (default: every joint)."""
         self.bad_messages[reason.split(":")[0]] += 1
@@ -256,107 +246,61 @@ class FrictionObserverNode(Node):
             f"{what} for joint {joint!r} ignored: this observer serves {self.joints!r} (parameter joints); "
             f"{self.ignored_messages} such message(s) so far", throttle_duration_sec=5.0)
 
-    def _route(self, joint: str) -> _Joint | None:
-        """The joint a status or temperature is for (empty name: the joint of a one-joint setup)."""
-        if not joint:
-            return self.channels[self.joint_name] if len(self.channels) == 1 else None
-        return self.channels.get(joint)
-
-    def _lookup(self, names: list[str]) -> tuple[list[tuple[_Joint, int]], list[_Joint]]:
-        """(joint, index) of the served joints in ``names`` and the joints missing, cached per name list."""
-        key = tuple(names)
-        hit = self._index_cache.get(key)
-        if hit is not None:
-            return hit
-        index: dict[str, int] = {}
-        for i, n in enumerate(names):
-            index.setdefault(n, i)  # a name given twice: its first entry, as list.index
-        present = [(ch, index[ch.name]) for ch in self.channels.values() if ch.name in index]
-        missing = [ch for ch in self.channels.values() if ch.name not in index]
-        if len(self._index_cache) >= 64:  # bounded: a publisher that changes its names every time
-            self._index_cache.clear()
-        self._index_cache[key] = (present, missing)
-        if present and missing:  # once per name list, not per message (2 kHz)
-            self.get_logger().warning(
-                f"JointState names {list(names)!r} lack joint(s) {[ch.name for ch in missing]!r}: their samples "
-                "are missing from these messages (counted as joint_missing; a fault while such a joint is tested)")
-        return present, missing
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
 
     def _on_joint_state(self, msg: JointState) -> None:
-        names = msg.name
-        present, missing = self._lookup(names)
-        if not present:
-            if len(self.channels) == 1:
-                self._bad(f"joint {self.joint_name!r} not in name {list(names)!r}; set joint_name")
-            else:
-                self._bad(f"none of the joints {self.joints!r} in name {list(names)!r}; set joints")
+        stamp = stamp_to_seconds(msg.header.stamp)  # the clock is read only for a message without a stamp (2 kHz)
+        js = self.observer.on_joint_state(stamp, msg.name, msg.position, msg.velocity, msg.effort,
+                                          stamp if stamp > 0 else self._now())
+        if js.new_names and 0 < len(js.missing) < len(self.joints):  # once per name list, not per message
+            self.get_logger().warning(
+                f"JointState names {list(msg.name)!r} lack joint(s) {list(js.missing)!r}: their samples "
+                "are missing from these messages (counted as joint_missing; a fault while such a joint is tested)")
+        if not js.used:
+            self._bad(js.unusable)
             return
-        n = len(names)
-        pos, vel, eff = msg.position, msg.velocity, msg.effort
-        if len(eff) == 0:
-            self._bad("no effort: the observer needs the applied torque in JointState.effort")
-            return
-        if len(pos) != n or len(vel) != n or len(eff) != n:
-            self._bad(f"array lengths: name {n}, position {len(pos)}, velocity {len(vel)}, effort {len(eff)}; "
-                      "each must match name")
-            return
-        for ch in missing:
-            ch.missing += 1
-            if ch.core.active_segment is not None:  # the joint under test is not in the message: a fault
-                self._bad(f"joint {ch.name!r} not in name {list(names)!r} while it is being tested", (ch,))
+        for j in js.missing:
+            self.channels[j].missing += 1
+        for j, reason in js.skipped:
+            self._bad(reason, (self.channels[j],))
         self._last_rx = time.monotonic()
-        stamp = self._stamp(msg.header.stamp)
-        for ch, i in present:
-            p, v, e = float(pos[i]), float(vel[i]), float(eff[i])
-            if not (math.isfinite(p) and math.isfinite(v) and math.isfinite(e)):
-                self._bad(f"non-finite value for {ch.name}: position {p}, velocity {v}, effort {e}", (ch,))
-                continue
-            out = ch.core.on_joint_state(stamp, p, v, e)
-            if out.observations or out.rejections:
-                self._emit(ch, out)
+        for routed in js.outputs:
+            self._emit(self.channels[routed.joint], routed.output)
 
     def _on_status(self, msg: TestCycleStatus) -> None:
         self._last_rx = time.monotonic()
-        joint = str(msg.joint_name)
-        ch = self._route(joint)
-        if ch is None:
-            self._ignore("TestCycleStatus", joint)
+        st = status_from_msg(msg)
+        routed = self.observer.on_status(st, self._now())
+        if routed is None:
+            self._ignore("TestCycleStatus", st.joint_name)
             return
-        cid = int(msg.cycle_id)
-        if cid != ch.cycle_id and cid > 0:
-            ch.cycle_id = cid
+        ch = self.channels[routed.joint]
+        if st.cycle_id != ch.cycle_id and st.cycle_id > 0:
+            ch.cycle_id = st.cycle_id
             ch.cycle_marks = self._counts(ch)
             ch.observations_mark = ch.observations_published
             ch.last_problem = ""
-        out = ch.core.on_status(
-            self._stamp(msg.header.stamp), cid, int(msg.state), int(msg.phase),
-            float(msg.current_speed), int(msg.speeds_done), int(msg.speeds_total), float(msg.window_center),
-            float(msg.window_half_width), ch.name,
-        )
-        self._emit(ch, out)
+        self._emit(ch, routed.output)
 
     def _on_temperature(self, msg: Temperature) -> None:
         joint = str(msg.header.frame_id)
-        ch = self._route(joint)
-        if ch is None:
+        routed = self.observer.on_temperature(stamp_to_seconds(msg.header.stamp), joint, float(msg.temperature),
+                                              self._now())
+        if routed is None:
             self._ignore("Temperature (header.frame_id names the joint)", joint)
             return
-        self._emit(ch, ch.core.on_temperature(self._stamp(msg.header.stamp), float(msg.temperature)))
+        self._emit(self.channels[routed.joint], routed.output)
 
     def _on_poll(self) -> None:
         # Finished speeds are processed when a later-stamped message arrives; when the inputs fall
         # silent (end of a recording, a stopped driver) nothing will, so process them after poll_grace.
-        silent = time.monotonic() - self._last_rx
-        for ch in self.channels.values():
-            if ch.core.pending_segments and silent > ch.core.config.poll_grace:
-                self._emit(ch, ch.core.process_pending())
+        for routed in self.observer.process_pending(time.monotonic() - self._last_rx):
+            self._emit(self.channels[routed.joint], routed.output)
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: let reliable subscribers get the last observations."""
-        try:
-            self.pub.wait_for_all_acked(Duration(seconds=0.5))
-        except Exception:  # pragma: no cover - best effort on the way out
-            pass
+        wait_acked([self.pub])
 
     @property
     def observations_published(self) -> int:
@@ -385,17 +329,17 @@ class FrictionObserverNode(Node):
                                f"({ch.core.config.temperature_wait:g} s) after a speed's end: the sensor stopped "
                                "or is late; that observation's temperature is unknown")
             self.get_logger().warning(f"{ch.name}: {ch.last_problem}", throttle_duration_sec=5.0)
-        if (out.observations or out.rejections) and ch.diag is not None:
-            ch.diag.update(*self._report(ch))
+        if out.observations or out.rejections:
+            self.health.update()
 
     # -- health and run-time parameters -----------------------------------------------
     def _counts(self, ch: _Joint) -> tuple[int, int, int]:
         return (ch.rejections_total, ch.bad + ch.core.temperatures_skipped + ch.core.temperatures_missing,
                 sum(self.lost_messages.values()))
 
-    def _report(self, ch: _Joint | None = None) -> Report:
-        """The ``friction_observer: <joint>`` status of ``ch`` (default: the first joint)."""
-        ch = ch if ch is not None else self.channels[self.joint_name]
+    def _joint_health(self, joint: str, stat: Status) -> None:
+        """The ``friction_observer: <joint>`` status (a task of the updater, run at every update)."""
+        ch = self.channels[joint]
         core = ch.core
         rej, bad, lost = self._counts(ch)
         r0, b0, l0 = ch.cycle_marks
@@ -410,11 +354,18 @@ class FrictionObserverNode(Node):
                   ("gear_ratio", f"{core.config.gear_ratio:g}"), ("torque_scale", f"{core.config.torque_scale:g}"),
                   ("ignored_messages", str(self.ignored_messages)),
                   ("observation_subscribers", str(self.pub.get_subscription_count()))]
+        stat.extend(values)
         if (rej - r0, bad - b0, lost - l0) != (0, 0, 0):
-            text = (f"cycle {ch.cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} lost "
-                    f"message(s); latest: {ch.last_problem}")
-            return WARN, text, values
-        return OK, f"{ch.observations_published} observation(s), {rej} window(s) rejected in all", values
+            stat.summary(DiagnosticLevel.WARN, f"cycle {ch.cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} "
+                               f"lost message(s); latest: {ch.last_problem}")
+        else:
+            stat.summary(DiagnosticLevel.OK, f"{ch.observations_published} observation(s), {rej} window(s) rejected in all")
+
+    def health_of(self, joint: str) -> Status:
+        """The ``friction_observer: <joint>`` status as of now (not published)."""
+        stat = Status(f"{self.health.prefix}: {joint}", joint)
+        self._joint_health(joint, stat)
+        return stat
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
         # a node-level change arrives with every joint's <joint>.<setting> (propagate_node_level);

@@ -59,10 +59,11 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray
 
+from ..contract import DiagnosticLevel
 from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
 from ..sim import JointSimConfig, RobotSim
-from .diagnostics import OK, WARN, NodeDiagnostics, Report
+from .diagnostics import Status, Updater
 from .joints import declare_joints, declare_per_joint, propagate_node_level
 from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
@@ -200,13 +201,11 @@ class JointSimNode(Node):
                 )
             self.epoch = self.get_clock().now().nanoseconds * 1e-9
             self.create_timer(float(p["tick_period"]), self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        period = float(p["diagnostics_period"])
-        self.diags = {
-            j: NodeDiagnostics(self, f"joint_sim: {j}", j, period=period, refresh=partial(self._report, j))
-            for j in self.joints
-        }
-        for j, d in self.diags.items():
-            d.update(*self._report(j))
+        # health: one task per simulated joint, read at every update
+        self.health = Updater(self, "joint_sim", period=float(p["diagnostics_period"]))
+        for j in self.joints:
+            self.health.add(j, partial(self._joint_health, j), hardware_id=j)
+        self.health.update()
         live = [n for n in PER_JOINT if not _DECLS[n].read_only]
         self.add_pre_set_parameters_callback(propagate_node_level(live, self.joints))
         on_parameter_change(self, self._on_parameters,
@@ -223,15 +222,17 @@ class JointSimNode(Node):
         )
 
     # -- health and run-time parameters ----------------------------------------
-    def _report(self, joint: str) -> Report:
+    def _joint_health(self, joint: str, stat: Status) -> None:
         cfg = self.sim[joint].config
         new_bad = self.bad_commands - self._bad_reported[joint]
         self._bad_reported[joint] = self.bad_commands
-        values = [("wear", f"{cfg.wear:g}"), ("temperature", f"{cfg.temperature:g}"), ("sim_time", f"{self.sim.time:.3f}"),
-                  ("samples_published", str(self.samples_published)), ("bad_commands", str(self.bad_commands))]
         if new_bad:
-            return WARN, f"{new_bad} bad velocity command(s) ignored since the last report", values
-        return OK, f"simulating {joint} at wear {cfg.wear:g}, {cfg.temperature:g} degC", values
+            stat.summary(DiagnosticLevel.WARN, f"{new_bad} bad velocity command(s) ignored since the last report")
+        else:
+            stat.summary(DiagnosticLevel.OK, f"simulating {joint} at wear {cfg.wear:g}, {cfg.temperature:g} degC")
+        stat.extend([("wear", f"{cfg.wear:g}"), ("temperature", f"{cfg.temperature:g}"),
+                     ("sim_time", f"{self.sim.time:.3f}"), ("samples_published", str(self.samples_published)),
+                     ("bad_commands", str(self.bad_commands))])
 
     def _on_parameters(self, changes: dict[str, object]) -> str | None:
         per_joint: dict[str, dict[str, Any]] = {}
@@ -269,8 +270,8 @@ class JointSimNode(Node):
             if self.publish_clock:  # keep sim time continuous: sim.time = (now - wall0) * rtf
                 self._wall0 = time.monotonic() - self.sim.time / rtf
             self.rtf = rtf
-        for j in per_joint:
-            self.diags[j].update(*self._report(j))
+        if per_joint:
+            self.health.update()
         return None
 
     # -- inputs --------------------------------------------------------------

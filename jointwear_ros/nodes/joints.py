@@ -34,10 +34,14 @@ from rclpy.parameter import Parameter
 from ..errors import ParameterError
 from .runtime import ParamDecl, declare_accepting_integers
 
-__all__ = ["declare_joints", "declare_per_joint", "propagate_node_level", "replaced_own_values", "split_per_joint"]
+__all__ = ["JOINTS", "declare_joints", "declare_per_joint", "propagate_node_level", "replaced_own_values", "split_per_joint"]
 
 _JOINTS_DESCRIPTION = ("joints served, in order (empty = the single joint joint_name); per-joint settings nest "
                        "under each name")
+
+
+#: the ``joints`` parameter of a node that serves a robot (declared by :func:`declare_joints`)
+JOINTS = ParamDecl("joints", [], _JOINTS_DESCRIPTION, read_only=True)
 
 
 def declare_joints(node: Node, joint_name: str, description: str = _JOINTS_DESCRIPTION) -> list[str]:

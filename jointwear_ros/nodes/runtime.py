@@ -10,12 +10,12 @@ would shut the context down before a zero command could be published.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 import traceback
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
 import rclpy
@@ -29,18 +29,26 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 
 from ..contract import seconds_to_stamp_fields
+from ..io.params import ParamDecl
 
 __all__ = [
+    "NODES",
     "ParamDecl",
     "accept_integers_for_doubles",
+    "ask_node_parameters",
     "declare_accepting_integers",
     "declare_parameters",
     "loopback_env",
+    "message_class",
+    "node_parameter",
+    "node_parameters",
     "on_parameter_change",
     "overridable_qos",
     "run_node",
     "seconds_to_stamp",
+    "signals_held",
     "subscribe_reporting_loss",
+    "wait_acked",
 ]
 
 
@@ -64,19 +72,6 @@ def loopback_env(domain_id: int | None = None, base: Mapping[str, str] | None = 
     if domain_id is not None:
         env["ROS_DOMAIN_ID"] = str(domain_id)
     return env
-
-
-@dataclass(frozen=True)
-class ParamDecl:
-    """A ROS parameter with its default, description and optional numeric range."""
-
-    name: str
-    default: Any
-    description: str
-    min: float | None = None
-    max: float | None = None
-    #: read at start-up only: a run-time change is refused by rclpy with "parameter is read-only"
-    read_only: bool = False
 
 
 def _as_double(p: Parameter, declared: int) -> Parameter:
@@ -136,12 +131,59 @@ def declare_parameters(node: Node, decls: Sequence[ParamDecl]) -> dict[str, Any]
     out: dict[str, Any] = {}
     for d in decls:
         text = d.description + (" (read at start-up: restart the node to change it)" if d.read_only else "")
-        desc = ParameterDescriptor(description=text, read_only=d.read_only)
+        desc = ParameterDescriptor(description=text, read_only=d.read_only, dynamic_typing=d.dynamic)
+        if d.dynamic:  # any type (e.g. a list of strings, or none given): declared without type checks
+            node.declare_parameter(d.name, d.default, desc)
+            out[d.name] = node.get_parameter(d.name).value
+            continue
         if d.min is not None and d.max is not None and isinstance(d.default, float):
             desc.floating_point_range = [FloatingPointRange(from_value=float(d.min), to_value=float(d.max))]
         declare_accepting_integers(node, d.name, d.default, desc)
         out[d.name] = node.get_parameter(d.name).value
     return out
+
+
+#: the jointwear nodes (each ``jointwear_ros.nodes.<name>`` declares its parameters once, in ``PARAMETERS``)
+NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator", "wear_trend", "recorder")
+#: the nodes that serve a robot: a ``joints`` parameter and per-joint settings ``<joint>.<name>`` (nodes/joints.py)
+ROBOT_NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator")
+_USE_SIM_TIME = ParamDecl("use_sim_time", False, "rclpy's own: follow /clock")
+
+
+def _node_module(node: str) -> Any:
+    if node not in NODES:
+        raise ValueError(f"unknown node {node!r}; nodes: {', '.join(NODES)}")
+    import importlib
+
+    return importlib.import_module(f"jointwear_ros.nodes.{node}")
+
+
+def node_parameters(node: str) -> dict[str, ParamDecl]:
+    """Every node-level parameter ``node`` declares, by name: its ``PARAMETERS``, ``joints`` for a node that
+    serves a robot, and rclpy's ``use_sim_time``."""
+    decls = {d.name: d for d in _node_module(node).PARAMETERS}
+    if node in ROBOT_NODES:
+        from .joints import JOINTS
+
+        decls.setdefault("joints", JOINTS)
+    decls.setdefault("use_sim_time", _USE_SIM_TIME)
+    return decls
+
+
+def node_parameter(node: str, name: str) -> ParamDecl | None:
+    """The declaration of ``node``'s parameter ``name`` (a joint's own ``<joint>.<setting>`` has its setting's),
+    or None when the node has no such parameter."""
+    from dataclasses import replace
+
+    decls = node_parameters(node)
+    if name in decls:
+        return decls[name]
+    joint, _, setting = name.rpartition(".")
+    module = _node_module(node)
+    per_joint: tuple[str, ...] = tuple(getattr(module, "PER_JOINT", ()) or getattr(module, "JOINT_SETTINGS", ()))
+    if node in ROBOT_NODES and joint and setting in per_joint and setting in decls:
+        return replace(decls[setting], name=name)
+    return None
 
 
 ParameterHandler = Callable[[dict[str, Any]], "str | None"]
@@ -200,6 +242,89 @@ def subscribe_reporting_loss(node: Node, msg_type: Any, topic: str, callback: Ca
             f"this RMW does not report lost messages; losses on {topic} cannot be detected", once=True
         )
         return node.create_subscription(msg_type, topic, callback, qos, **kwargs)
+
+
+def ask_node_parameters(node: Node, asked: dict[str, int], answer: Callable[[str, dict[str, Any]], None],
+                        tries: int = 20) -> None:
+    """Ask every other node on the graph not asked yet for all its parameters (``~/list_parameters``, then
+    ``~/get_parameters``, asynchronously); ``answer(node_name, {name: value})`` gets each answer (the name
+    without its leading ``/``). A node whose services are not up yet is asked again at the next call (at most
+    ``tries`` times); ``asked`` keeps count between calls (``-1``: asked)."""
+    from rcl_interfaces.srv import GetParameters, ListParameters
+
+    from ..io.params import parameter_value
+
+    me = node.get_fully_qualified_name()
+    for name, ns in node.get_node_names_and_namespaces():
+        fqn = (ns.rstrip("/") + "/" + name) if ns != "/" else "/" + name
+        if fqn == me or name.startswith("_") or asked.get(fqn, 0) < 0 or asked.get(fqn, 0) >= tries:
+            continue
+        asked[fqn] = asked.get(fqn, 0) + 1
+        lister = node.create_client(ListParameters, f"{fqn}/list_parameters")
+        if not lister.service_is_ready():
+            node.destroy_client(lister)
+            continue
+        asked[fqn] = -1  # asked: not again
+
+        def listed(future: Any, fqn: str = fqn, lister: Any = lister) -> None:
+            node.destroy_client(lister)
+            try:
+                names = list(future.result().result.names)
+            except Exception:
+                return
+            getter = node.create_client(GetParameters, f"{fqn}/get_parameters")
+
+            def got(f2: Any) -> None:
+                node.destroy_client(getter)
+                try:
+                    values = [parameter_value(v) for v in f2.result().values]
+                except Exception:
+                    return
+                answer(fqn.lstrip("/"), {n: v for n, v in zip(names, values, strict=False) if v is not None})
+
+            getter.call_async(GetParameters.Request(names=names)).add_done_callback(got)
+
+        lister.call_async(ListParameters.Request()).add_done_callback(listed)
+
+
+def message_class(msgtype: str) -> Any:
+    """The rosidl Python class of ``pkg/msg/Type`` (what ``rosidl_runtime_py.get_message`` does)."""
+    import importlib
+
+    parts = msgtype.split("/")
+    if len(parts) != 3:
+        raise ValueError(f"message type {msgtype!r} is not of the form pkg/msg/Type")
+    module = importlib.import_module(f"{parts[0]}.{parts[1]}")
+    return getattr(module, parts[2])
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM ignored inside (a second Ctrl-C must not interrupt closing a file); outside the main
+    thread, nothing changes."""
+    saved: dict[signal.Signals, Any] = {}
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            saved[sig] = signal.signal(sig, signal.SIG_IGN)
+    except ValueError:  # not the main thread
+        pass
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
+
+
+def wait_acked(publishers: Sequence[Any], seconds: float = 0.5) -> None:
+    """On the way out: give reliable subscribers up to ``seconds`` (each publisher) to acknowledge the last
+    messages (best effort: a context already shutting down is not an error)."""
+    from rclpy.duration import Duration
+
+    for pub in publishers:
+        try:
+            pub.wait_for_all_acked(Duration(seconds=seconds))
+        except Exception:  # pragma: no cover - best effort on the way out
+            pass
 
 
 def context_ok(executor: SingleThreadedExecutor | MultiThreadedExecutor) -> bool:

@@ -59,19 +59,19 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping, Sequence
+from functools import partial
 from typing import Any
 
 from jointwear_msgs.msg import TestCycleStatus
 from jointwear_msgs.srv import RunTestCycle
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
-from ..contract import RefusalReason
+from ..contract import DiagnosticLevel, RefusalReason, status_to_msg
 from ..cycle import (
     DEFAULT_SPEEDS,
     CycleConfig,
@@ -82,9 +82,9 @@ from ..cycle import (
     plan_robot_cycle,
 )
 from ..errors import JointwearError, ParameterError
-from .diagnostics import ERROR, OK, WARN, NodeDiagnostics
+from .diagnostics import Status, Updater
 from .joints import declare_joints, declare_per_joint, propagate_node_level
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, wait_acked
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "TestCycleNode", "main"]
 
@@ -168,7 +168,7 @@ def _cycle_value(name: str, value: Any) -> Any:
 _RELIABLE_1 = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_100 = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
-_LEVEL = {CycleState.ABORTED: WARN, CycleState.FAILED: ERROR}
+_LEVEL = {CycleState.ABORTED: DiagnosticLevel.WARN, CycleState.FAILED: DiagnosticLevel.ERROR}
 
 
 class TestCycleNode(Node):
@@ -217,10 +217,11 @@ class TestCycleNode(Node):
         self.create_timer(1.0 / float(p["command_rate"]), self._tick)
         self._wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(0.05, self._wall_watchdog, clock=self._wall)
-        period = float(p["diagnostics_period"])
-        self.diags = {j: NodeDiagnostics(self, f"test_cycle: {j}", j, period=period, message="idle")
-                      for j in self.joints}
-        self.robot_diag = NodeDiagnostics(self, "test_cycle: robot", "robot", period=period, message="idle")
+        # health: the robot's cycle and each driven joint's, one task each (read at every update)
+        self.health = Updater(self, "test_cycle", period=float(p["diagnostics_period"]))
+        self.health.add("robot", self._robot_health, hardware_id="robot")
+        for j in self.joints:
+            self.health.add(j, partial(self._joint_health, j), hardware_id=j)
         self.add_pre_set_parameters_callback(propagate_node_level(live, self.joints))
         on_parameter_change(self, self._on_parameters,
                             LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in live))
@@ -399,23 +400,9 @@ class TestCycleNode(Node):
         now = self._now()
         if not force and key == self._last_status_key and now - self._last_status_time < self.status_period:
             return
-        msg = TestCycleStatus()
+        msg = status_to_msg(st, TestCycleStatus)
         msg.header.stamp = self.get_clock().now().to_msg()
-        msg.joint_name = st.joint_name
-        msg.cycle_id = st.cycle_id
-        msg.state = int(st.state)
-        msg.phase = int(st.phase)
-        msg.current_speed = float(st.current_speed)
-        msg.speeds_done = st.speeds_done
-        msg.speeds_total = st.speeds_total
-        msg.window_center = float(st.window_center)
-        msg.window_half_width = float(st.window_half_width)
-        msg.message = st.message
-        msg.joints = list(st.joints)
-        msg.joints_done = st.joints_done
         self.status_pub.publish(msg)
-        if key != self._last_status_key and hasattr(self, "robot_diag"):
-            self._update_diagnostics(publish=False)  # the periodic republication shows the progress
         self._last_status_key = key
         self._last_status_time = now
 
@@ -455,8 +442,14 @@ class TestCycleNode(Node):
                     self.last_faults[j] = f"cycle {res.cycle_id} {res.state.name}: {res.message}"
         self._update_diagnostics()
 
-    def _update_diagnostics(self, publish: bool = True) -> None:
-        counters = [("refused_requests", str(self.refused_requests)), ("commands_sent", str(self.commands_sent))]
+    def _update_diagnostics(self) -> None:
+        """Publish the health now (on a cycle's start, end and refusals; the periodic update shows progress)."""
+        self.health.update()
+
+    def _counters(self) -> list[tuple[str, str]]:
+        return [("refused_requests", str(self.refused_requests)), ("commands_sent", str(self.commands_sent))]
+
+    def _robot_health(self, stat: Status) -> None:
         st = self.runner.status()
         if self.runner.running:
             message = f"cycle {st.cycle_id} running: {st.joint_name} ({st.joints_done + 1} of {len(st.joints)})"
@@ -465,35 +458,32 @@ class TestCycleNode(Node):
         else:
             message = f"cycle {st.cycle_id} {st.state.name}: {st.message}"
         robot_state = CycleState.RUNNING if self.runner.running else st.state
-        values = [("state", robot_state.name), ("cycle_id", str(st.cycle_id)), ("joints", ",".join(st.joints)),
-                  ("joints_done", str(st.joints_done)), ("last_fault", self.last_fault or "none"), *counters]
-        reports = [(self.robot_diag, _LEVEL.get(robot_state, OK), message, values)]
-        for j, diag in self.diags.items():
-            res = self.runner.results.get(j)
-            if res is None:
-                level, message, values = OK, "idle", [("state", "IDLE"), ("cycle_id", "0"), ("speeds_done", "0"),
-                                                      ("speeds_total", "0")]
+        stat.summary(_LEVEL.get(robot_state, DiagnosticLevel.OK), message)
+        stat.extend([("state", robot_state.name), ("cycle_id", str(st.cycle_id)), ("joints", ",".join(st.joints)),
+                     ("joints_done", str(st.joints_done)), ("last_fault", self.last_fault or "none"),
+                     *self._counters()])
+
+    def _joint_health(self, j: str, stat: Status) -> None:
+        res = self.runner.results.get(j)
+        if res is None:
+            stat.summary(DiagnosticLevel.OK, "idle")
+            stat.extend([("state", "IDLE"), ("cycle_id", "0"), ("speeds_done", "0"), ("speeds_total", "0")])
+        else:
+            st = self.runner.status()
+            state = res.state
+            speeds_done = res.speeds_done
+            if state == CycleState.RUNNING and j == st.joint_name and self.runner.running:
+                state, speeds_done = st.state, st.speeds_done
+            if state == CycleState.RUNNING:
+                message = f"cycle {res.cycle_id} running: speed {speeds_done + 1} of {res.speeds_total}"
+            elif state == CycleState.IDLE:
+                message = res.message
             else:
-                state = res.state
-                speeds_done = res.speeds_done
-                if state == CycleState.RUNNING and j == st.joint_name and self.runner.running:
-                    state, speeds_done = st.state, st.speeds_done
-                if state == CycleState.RUNNING:
-                    message = f"cycle {res.cycle_id} running: speed {speeds_done + 1} of {res.speeds_total}"
-                elif state == CycleState.IDLE:
-                    message = res.message
-                else:
-                    message = f"cycle {res.cycle_id} {state.name}: {res.message}"
-                level = _LEVEL.get(state, OK)
-                values = [("state", state.name), ("cycle_id", str(res.cycle_id)), ("speeds_done", str(speeds_done)),
-                          ("speeds_total", str(res.speeds_total))]
-            values = [*values, ("last_fault", self.last_faults.get(j, "none")), *counters]
-            reports.append((diag, level, message, values))
-        for diag, level, message, values in reports:
-            if publish:
-                diag.update(level, message, values)
-            else:
-                diag.set(level, message, values)
+                message = f"cycle {res.cycle_id} {state.name}: {res.message}"
+            stat.summary(_LEVEL.get(state, DiagnosticLevel.OK), message)
+            stat.extend([("state", state.name), ("cycle_id", str(res.cycle_id)), ("speeds_done", str(speeds_done)),
+                         ("speeds_total", str(res.speeds_total))])
+        stat.extend([("last_fault", self.last_faults.get(j, "none")), *self._counters()])
 
     # -- run-time parameters -------------------------------------------------
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
@@ -567,11 +557,7 @@ class TestCycleNode(Node):
         if self.runner.abort("node shutting down"):
             self._publish_status(force=True)
         self._send_zero()
-        for pub in (self.cmd_pub, self.status_pub):
-            try:
-                pub.wait_for_all_acked(Duration(seconds=0.5))
-            except Exception:  # pragma: no cover - best effort on the way out
-                pass
+        wait_acked([self.cmd_pub, self.status_pub])
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -1,7 +1,8 @@
 """wear_estimator: FrictionObservation per cycle → WearEstimate and /diagnostics, per joint.
 
-A thin rclpy adapter over :class:`~jointwear_ros.monitor.WearMonitor` (the
-same core the offline replay runs), one monitor per joint it serves
+A thin rclpy adapter over :class:`~jointwear_ros.monitor.RobotMonitor` (the
+same per-joint monitors and routing the offline replay runs), one
+:class:`~jointwear_ros.monitor.WearMonitor` per joint it serves
 (``joints``; empty = the single joint ``joint_name``, see docs/robot.md), each
 with its own settings (``<joint>.params``, ``<joint>.hardware_id``,
 ``<joint>.warn_threshold``, ...: declared for every joint, by default the
@@ -13,7 +14,8 @@ cycle id and estimates a cycle's wear when all its speeds are in or
 ``done_timeout`` after its DONE status; the node publishes one
 ``jointwear_msgs/WearEstimate`` per joint and cycle and keeps one
 ``diagnostic_msgs/DiagnosticStatus`` per joint named ``wear_estimator: <joint>``
-(each in its own ``DiagnosticArray``): level OK below ``warn_threshold``, WARN
+(a held status each in one :class:`~jointwear_ros.nodes.diagnostics.Updater`:
+all joints in one ``DiagnosticArray``): level OK below ``warn_threshold``, WARN
 in ``[warn_threshold, alarm_threshold)``, ERROR at ``w_hat >= alarm_threshold``
 -- one joint's level never changes another's; key/values wear, wear_std,
 method, cycle_id, temperature_estimate, n_observations (and
@@ -47,16 +49,24 @@ from typing import Any
 
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ..contract import observation_from_msg
+from ..contract import DiagnosticLevel, observation_from_msg, status_from_msg
 from ..errors import InputDataError, JointwearError, ParameterError
-from ..monitor import ERROR, OK, WARN, CycleResult, MonitorConfig, WearMonitor
-from .diagnostics import NodeDiagnostics, diagnostic_status
+from ..estimation import ESTIMATORS
+from ..monitor import CycleResult, MonitorConfig, RobotMonitor, WearMonitor
+from .diagnostics import HeldStatus, Updater, diagnostic_status
 from .joints import declare_joints, declare_per_joint, propagate_node_level, replaced_own_values, split_per_joint
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
+from .runtime import (
+    ParamDecl,
+    declare_parameters,
+    on_parameter_change,
+    overridable_qos,
+    run_node,
+    seconds_to_stamp,
+    wait_acked,
+)
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
 
@@ -65,7 +75,7 @@ _D = MonitorConfig()
 PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("joint_name", _D.joint_name, "joint whose wear is estimated when joints is empty", read_only=True),
     ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the joint name)", read_only=True),
-    ParamDecl("method", _D.method, "estimator: paper, paper-grid, bayes, joint"),
+    ParamDecl("method", _D.method, f"estimator: {', '.join(ESTIMATORS)}"),
     ParamDecl("params", _D.params, "friction-model parameter set: a name or a YAML path (a commissioned set)"),
     ParamDecl("seed", _D.seed, "base seed; each cycle's seed derives from it and the cycle id"),
     ParamDecl("estimator_options", "", "JSON object of extra estimator options, e.g. {\"n_samples\": 200}"),
@@ -125,14 +135,13 @@ def estimate_to_msg(r: CycleResult) -> WearEstimate:
 
 
 class _Joint:
-    """One joint's monitor, settings and ``wear_estimator: <joint>`` status."""
+    """One joint's monitor (in the robot monitor), its results and its ``wear_estimator: <joint>`` status."""
 
-    def __init__(self, name: str, monitor: WearMonitor, hardware_id: str) -> None:
+    def __init__(self, name: str, monitor: WearMonitor, held: HeldStatus) -> None:
         self.name = name
         self.monitor = monitor
-        self.hardware_id = hardware_id
+        self.held = held
         self.results: list[CycleResult] = []
-        self.diag: NodeDiagnostics | None = None
 
 
 def _monitor_config(values: dict[str, Any], joint: str) -> MonitorConfig:
@@ -149,20 +158,18 @@ class WearEstimatorNode(Node):
         self.params = p
         self.joints = declare_joints(self, str(p["joint_name"]))
         values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS])
-        self.channels: dict[str, _Joint] = {}
+        configs: dict[str, MonitorConfig] = {}
         for j in self.joints:
-            settings = {**p, **values[j]}
             try:
-                monitor = WearMonitor(_monitor_config(settings, j))
+                configs[j] = _monitor_config({**p, **values[j]}, j)
             except (JointwearError, ValueError, TypeError) as exc:
                 raise ParameterError(f"wear_estimator: {j}: {exc}") from None
-            self.channels[j] = _Joint(j, monitor, str(settings["hardware_id"]) or j)
-        first = self.channels[self.joints[0]]
-        #: the first joint's monitor (the only one of a one-joint setup)
-        self.monitor = first.monitor
-        self.joint_name = first.name
-        self.status_name = f"wear_estimator: {self.joint_name}"
-        self.hardware_id = first.hardware_id
+        try:
+            #: one monitor per joint and the routing of observations and statuses to them (the same as replay's)
+            self.robot_monitor = RobotMonitor(configs)
+        except (JointwearError, ValueError, TypeError) as exc:
+            raise ParameterError(f"wear_estimator: {exc}") from None
+        #: every joint's cycle results, in the order they came
         self.results: list[CycleResult] = []
         #: observations and statuses not used: a joint not served, a repeat, screened out, ...
         self.ignored_messages = 0
@@ -170,14 +177,17 @@ class WearEstimatorNode(Node):
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
         self.estimate_pub = self.create_publisher(WearEstimate, str(p["estimate_topic"]), 10,
                                                   qos_overriding_options=overridable_qos())
-        # republished on a wall-clock timer: diagnostics keep coming (not stale) even when /clock stops
-        for ch in self.channels.values():
-            ch.diag = NodeDiagnostics(self, f"wear_estimator: {ch.name}", ch.hardware_id,
-                                      topic=str(p["diagnostics_topic"]), period=float(p["diagnostics_period"]),
-                                      message="no test cycle estimated yet", values=self._idle_values(ch.monitor.config))
-        #: the first joint's status (the only one of a one-joint setup)
-        self.diag: NodeDiagnostics = first.diag  # type: ignore[assignment]
-        self.diag_pub = self.diag.pub
+        # health: one held status per joint in one updater, republished on a wall-clock timer (diagnostics keep
+        # coming, not stale, even when /clock stops)
+        self.health = Updater(self, "wear_estimator", topic=str(p["diagnostics_topic"]),
+                              period=float(p["diagnostics_period"]))
+        self.channels: dict[str, _Joint] = {}
+        for j in self.joints:
+            monitor = self.robot_monitor.monitors[j]
+            held = HeldStatus(j, str({**p, **values[j]}["hardware_id"]) or j, DiagnosticLevel.OK,
+                              "no test cycle estimated yet", self._idle_values(monitor.config))
+            self.health.add(held)
+            self.channels[j] = _Joint(j, monitor, held)
         self.create_subscription(FrictionObservation, str(p["observations_topic"]), self._on_observation, reliable,
                                  qos_overriding_options=overridable_qos())
         self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, reliable,
@@ -193,18 +203,12 @@ class WearEstimatorNode(Node):
                 f"WARN at {cfg.warn_threshold:g}, ERROR at {cfg.alarm_threshold:g}; "
                 f"measured temperature {'used' if cfg.use_measured_temperature else 'ignored'}"
             )
-            assert ch.diag is not None
-            ch.diag.publish()
+        self.health.update()
 
     @staticmethod
     def _idle_values(cfg: MonitorConfig) -> list[tuple[str, str]]:
         return [("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
                 ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
-
-    @property
-    def _status(self) -> Any:
-        """The DiagnosticStatus now reported (the first joint's)."""
-        return self.diag.status
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
         # a node-level change arrives with every joint's <joint>.<setting> (propagate_node_level);
@@ -243,18 +247,14 @@ class WearEstimatorNode(Node):
             self.get_logger().info(f"node-level change replaced joints' own values: {', '.join(replaced)}")
         for j in new:
             ch = self.channels[j]
-            if not ch.results and ch.diag is not None:
-                ch.diag.update(OK, "no test cycle estimated yet", self._idle_values(ch.monitor.config))
+            if not ch.results:
+                ch.held.set(DiagnosticLevel.OK, "no test cycle estimated yet", self._idle_values(ch.monitor.config))
+        if any(not self.channels[j].results for j in new):
+            self.health.update()
         return None
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
-
-    def _route(self, joint: str) -> _Joint | None:
-        """The joint an observation or status is for (empty name: the joint of a one-joint setup)."""
-        if not joint:
-            return self.channels[self.joint_name] if len(self.channels) == 1 else None
-        return self.channels.get(joint)
 
     def _ignore(self, what: str, joint: str) -> None:
         self.ignored_messages += 1
@@ -263,6 +263,15 @@ class WearEstimatorNode(Node):
             f"{what} for joint {joint!r} ignored: this estimator serves {self.joints!r} (parameter joints); "
             f"{len(self.unknown_joints)} unknown joint(s) so far", throttle_duration_sec=5.0)
 
+    def _served(self, what: str, joint: str) -> _Joint | None:
+        """The joint a message naming ``joint`` is for (the robot monitor's routing); None, counted and logged,
+        when this node does not serve it."""
+        j = self.robot_monitor.route(joint)
+        if j is None:
+            self._ignore(what, joint)
+            return None
+        return self.channels[j]
+
     def _on_observation(self, msg: FrictionObservation) -> None:
         try:
             obs = observation_from_msg(msg)
@@ -270,13 +279,12 @@ class WearEstimatorNode(Node):
             self.ignored_messages += 1
             self.get_logger().warning(f"FrictionObservation skipped: {exc}")
             return
-        ch = self._route(obs.joint_name)
+        ch = self._served("FrictionObservation", obs.joint_name)
         if ch is None:
-            self._ignore("FrictionObservation", obs.joint_name)
             return
         monitor = ch.monitor
         before, dropped = monitor.notes_total, monitor.rejected_count
-        self._handle(monitor.add(obs, now=self._now()))
+        self._handle(self.robot_monitor.add(obs, self._now()) or [])
         notes = monitor.notes_since(before)
         for note in notes:
             self.get_logger().warning(f"{ch.name}: {note}")
@@ -284,61 +292,45 @@ class WearEstimatorNode(Node):
             self.ignored_messages += 1  # dropped (screening), a repeat, or beyond the cycle's speeds
 
     def _on_status(self, msg: TestCycleStatus) -> None:
-        joint = str(msg.joint_name)
-        ch = self._route(joint)
+        st = status_from_msg(msg)
+        ch = self._served("TestCycleStatus", st.joint_name)
         if ch is None:
-            self._ignore("TestCycleStatus", joint)
             return
         # timeouts run on this node's clock at receipt, whatever clock stamped the messages
         monitor = ch.monitor
         before = monitor.notes_total
-        self._handle(monitor.on_status(self._now(), int(msg.cycle_id), int(msg.state), int(msg.speeds_done),
-                                       int(msg.speeds_total), ch.name))
+        self._handle(self.robot_monitor.on_status(st, self._now()) or [])
         for note in monitor.notes_since(before):
             self.get_logger().warning(f"{ch.name}: {note}")
 
     def _on_timer(self) -> None:
-        now = self._now()
-        for ch in self.channels.values():
-            self._handle(ch.monitor.poll(now))
+        self._handle(self.robot_monitor.poll(self._now()))
 
     def _handle(self, results: list[CycleResult]) -> None:
         for r in results:
-            ch = self.channels.get(r.joint_name) or self.channels[self.joint_name]
+            ch = self.channels[r.joint_name]  # a monitor's results carry its joint's name
             self.results.append(r)
             ch.results.append(r)
             if r.result is not None:
                 self.estimate_pub.publish(estimate_to_msg(r))
-            diag = ch.diag
-            assert diag is not None
             if r is ch.monitor.last:  # a revision of an older cycle does not replace a newer cycle's status
-                diag.set(r.level, r.message, r.values)
+                ch.held.set(r.level, r.message, r.values)
             self._log_result(r)
-            diag.publish()
+            self.health.update()
 
     def _log_result(self, r: CycleResult) -> None:
         # rclpy keys a logger's severity by call site: one line per severity, never one line that picks it
         text = f"{r.joint_name}: {r.level_name}: {r.message}"
-        if r.level == ERROR:
+        if r.level == DiagnosticLevel.ERROR:
             self.get_logger().error(text)
-        elif r.level == WARN:
+        elif r.level == DiagnosticLevel.WARN:
             self.get_logger().warning(text)
         else:
             self.get_logger().info(text)
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: let reliable subscribers (the recorder) get the last results."""
-        pubs = [self.estimate_pub] + [ch.diag.pub for ch in self.channels.values() if ch.diag is not None]
-        for pub in pubs:
-            try:
-                pub.wait_for_all_acked(Duration(seconds=0.5))
-            except Exception:  # pragma: no cover - best effort on the way out
-                pass
-
-    def _publish_diagnostics(self) -> None:
-        for ch in self.channels.values():
-            if ch.diag is not None:
-                ch.diag.publish()
+        wait_acked([self.estimate_pub, self.health.pub])
 
 
 def main(args: list[str] | None = None) -> int:

@@ -57,26 +57,25 @@ import math
 import os
 from collections import deque
 from dataclasses import asdict, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from builtin_interfaces.msg import Time as TimeMsg
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from jointwear_msgs.msg import WearEstimate, WearTrend
 from jointwear_msgs.srv import RecordMaintenance
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .. import __version__
-from ..contract import stamp_to_seconds
+from ..contract import DiagnosticLevel, stamp_to_seconds
 from ..errors import JointwearError
-from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, normalize_url, screened_history
+from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, backend_for, screened_history
 from ..history.screen import REASONS, Refusal, ScreenConfig, screen_record
-from ..trend import ERROR, OK, WARN, TrendConfig, TrendResult, analyze_joint
-from .diagnostics import diagnostic_status
-from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node
+from ..trend import TrendConfig, TrendResult, analyze_joint
+from .diagnostics import HeldStatus, Status, Updater
+from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, wait_acked
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearTrendNode", "main", "trend_to_msg"]
 
@@ -137,10 +136,9 @@ def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: flo
 
 
 def _default_spool(db_url: str, robot: str) -> Path:
-    url = normalize_url(db_url)
-    if url.startswith("sqlite:///") and url[len("sqlite:///"):] not in ("", ":memory:"):
-        return Path(url[len("sqlite:///"):]).expanduser().with_name(
-            Path(url[len("sqlite:///"):]).name + f".{robot}.pending.jsonl")
+    db_file = backend_for(db_url).file
+    if db_file is not None:  # beside the store's file
+        return db_file.with_name(db_file.name + f".{robot}.pending.jsonl")
     return Path(os.environ.get("ROS_HOME", "~/.ros")).expanduser() / f"wear_trend_{robot}.pending.jsonl"
 
 
@@ -164,7 +162,8 @@ class WearTrendNode(Node):
         self.store_error: str | None = None
         self.store_failures = 0
         self.trends: dict[str, TrendResult] = {}
-        self._statuses: dict[str, DiagnosticStatus] = {}
+        #: joint -> its trend's status (set at each analysis; the node's counters are added at each update)
+        self._trend_status: dict[str, HeldStatus] = {}
         #: joint -> (records, events) of the last successful read (used while reads fail)
         self._cache: dict[str, tuple[list[EstimateRecord], list[MaintenanceEvent]]] = {}
         #: estimates (and refusals) waiting for the store, oldest first
@@ -180,7 +179,10 @@ class WearTrendNode(Node):
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.trend_pub = self.create_publisher(WearTrend, str(p["trend_topic"]), latched,
                                                qos_overriding_options=overridable_qos())
-        self.diag_pub = self.create_publisher(DiagnosticArray, str(p["diagnostics_topic"]), 10)
+        # health: one task per joint (added as joints appear) and the store's, republished on a wall-clock timer
+        self.health = Updater(self, "wear_trend", period=float(p["diagnostics_period"]),
+                              topic=str(p["diagnostics_topic"]))
+        self.health.add("history", self._history_health, hardware_id=str(p["hardware_id"]) or self.robot)
         self.store: HistoryStore | None = None
         self._open_store()
         self._load_spool()
@@ -188,7 +190,6 @@ class WearTrendNode(Node):
                                  qos_overriding_options=overridable_qos())
         self.create_service(RecordMaintenance, "~/record_maintenance", self._on_maintenance)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(float(p["diagnostics_period"]), self._publish_diagnostics, clock=steady)
         self.create_timer(float(p["retry_period"]), self._retry, clock=steady)
         on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
         if self.pending:
@@ -202,7 +203,7 @@ class WearTrendNode(Node):
             f"{len(joints)} joint(s) reloaded; WARN when the alarm {self.cfg.alarm:g} may come within "
             f"{self.cfg.horizon_days:g} days, ERROR at it"
         )
-        self._publish_diagnostics()
+        self.health.update()
 
     # ------------------------------------------------------------------ store plumbing
     def _count(self) -> str:
@@ -320,7 +321,7 @@ class WearTrendNode(Node):
         if self._flush() and was is not None:
             for joint in self._known_joints():
                 self._update(joint)
-            self._publish_diagnostics()
+            self.health.update()
 
     # ------------------------------------------------------------------ callbacks
     def _on_estimate(self, msg: WearEstimate) -> None:
@@ -454,19 +455,18 @@ class WearTrendNode(Node):
         if previous is None or previous.level != r.level:
             log = self.get_logger()
             text = f"{self.robot}/{joint}: {r.level_name}: {r.message}"
-            if r.level == ERROR:
+            if r.level == DiagnosticLevel.ERROR:
                 log.error(text)
-            elif r.level == WARN:
+            elif r.level == DiagnosticLevel.WARN:
                 log.warning(text)
             else:
                 log.info(text)
-        self._publish_diagnostics()
+        self.health.update()
 
     def _set_status(self, joint: str, r: TrendResult | None) -> None:
-        hw = str(self.params["hardware_id"]) or f"{self.robot}/{joint}"
         if r is None:
             values = [("robot", self.robot)]
-            level, message = int(OK), "no usable wear estimate stored yet"
+            level, message = DiagnosticLevel.OK, "no usable wear estimate stored yet"
         else:
             tta = r.time_to_alarm
             values = [("robot", self.robot), ("wear", f"{r.wear:.3f}"), ("wear_std", f"{r.wear_std:.3f}"),
@@ -477,40 +477,50 @@ class WearTrendNode(Node):
                       ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
                       ("horizon_days", f"{self.cfg.horizon_days:g}"),
                       ("alarm_threshold", f"{self.cfg.alarm:g}")]
-            level, message = int(r.level), r.message
-        self._statuses[joint] = diagnostic_status(f"wear_trend: {joint}", hw, level, message, values)
+            level, message = DiagnosticLevel(r.level), r.message
+        held = self._trend_status.get(joint)
+        if held is None:
+            held = self._trend_status[joint] = HeldStatus(joint)
+            self.health.add(joint, partial(self._joint_health, joint),
+                            hardware_id=str(self.params["hardware_id"]) or f"{self.robot}/{joint}")
+        held.set(level, message, values)
 
-    def _publish_diagnostics(self) -> None:
-        arr = DiagnosticArray()
-        arr.header.stamp = self.get_clock().now().to_msg()
+    def _counters(self) -> list[tuple[str, str]]:
+        """The node's counters as of now (on every joint's status and the store's)."""
         counters = [("stored", str(self.stored)), ("duplicates", str(self.duplicates)),
                     ("rejected", str(self.rejected)), ("buffered", str(len(self.pending))),
                     ("dropped", str(self.dropped))]
-        counters += [(f"refused_{k}", str(self.refused_by_reason[k])) for k in REASONS if k in self.refused_by_reason]
+        return counters + [(f"refused_{k}", str(self.refused_by_reason[k])) for k in REASONS
+                           if k in self.refused_by_reason]
+
+    def _joint_health(self, joint: str, stat: Status) -> None:
+        """A joint's trend, with its newest refusal and the store's failure said first."""
+        held = self._trend_status[joint]
+        level, message = held.level, held.message
+        last = self._last_refusal.get(joint)
+        if last is not None:  # the joint's newest estimate is unusable: say so (the level stays the trend's)
+            message = f"newest estimate refused ({last.reason}: {last.detail}); {message}"
         failing = self.store_error
-        statuses = []
-        for j in sorted(self._statuses):  # the node's counters as of now, on every joint's status
-            s = self._statuses[j]
-            level, message = s.level[0], s.message
-            last = self._last_refusal.get(j)
-            if last is not None:  # the joint's newest estimate is unusable: say so (the level stays the trend's)
-                message = f"newest estimate refused ({last.reason}: {last.detail}); {message}"
-            if failing is not None:
-                level = ERROR
-                waiting = sum(1 for r, f in self.pending if r.joint == j)
-                message = f"history store failing ({failing}); {waiting} estimate(s) of {j} buffered; {message}"
-            statuses.append(diagnostic_status(s.name, s.hardware_id, level, message,
-                                              [(kv.key, kv.value) for kv in s.values] + counters))
-        if failing is not None or not statuses:
-            statuses.append(diagnostic_status(
-                "wear_trend: history", str(self.params["hardware_id"]) or self.robot,
-                ERROR if failing is not None else OK,
-                (f"history store {self._url()} failing: {failing}; {len(self.pending)} estimate(s) buffered, "
-                 f"retried every {float(self.params['retry_period']):g} s") if failing is not None
-                else "no wear estimates stored yet",
-                [("robot", self.robot), ("db_url", self._url()), *counters]))
-        arr.status = statuses
-        self.diag_pub.publish(arr)
+        if failing is not None:
+            level = DiagnosticLevel.ERROR
+            waiting = sum(1 for r, f in self.pending if r.joint == joint)
+            message = f"history store failing ({failing}); {waiting} estimate(s) of {joint} buffered; {message}"
+        stat.summary(level, message)
+        stat.extend([*held.values, *self._counters()])
+
+    def _history_health(self, stat: Status) -> bool | None:
+        """The store's own status: while it fails, or before any joint has one."""
+        failing = self.store_error
+        if failing is None and self._trend_status:
+            return False
+        if failing is not None:
+            stat.summary(DiagnosticLevel.ERROR,
+                         f"history store {self._url()} failing: {failing}; {len(self.pending)} estimate(s) "
+                         f"buffered, retried every {float(self.params['retry_period']):g} s")
+        else:
+            stat.summary(DiagnosticLevel.OK, "no wear estimates stored yet")
+        stat.extend([("robot", self.robot), ("db_url", self._url()), *self._counters()])
+        return None
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: a last attempt at the buffer (kept in its spool file otherwise); let
@@ -522,10 +532,7 @@ class WearTrendNode(Node):
                 for rec, _ in self.pending:
                     self._spool_append(rec)
             self.get_logger().error(f"{len(self.pending)} estimate(s) not stored at exit: kept in {self.spool}")
-        try:
-            self.trend_pub.wait_for_all_acked(Duration(seconds=0.5))
-        except Exception:  # pragma: no cover - best effort on the way out
-            pass
+        wait_acked([self.trend_pub])
         if self.store is not None:
             self.store.close()
 

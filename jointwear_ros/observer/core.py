@@ -37,13 +37,11 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from ..contract import CycleState
 from ..errors import InputDataError
 from .segmentation import measure_segment
 from .types import (
-    CYCLE_STATES,
     PLAUSIBLE_TEMPERATURE,
-    STATE_DONE,
-    STATE_RUNNING,
     FrictionObservationData,
     ObserverConfig,
     ObserverOutput,
@@ -187,12 +185,12 @@ class FrictionObserverCore:
         if joint_name and joint_name != self.config.joint_name:
             return ObserverOutput([], [])
         act = self._active
-        if state == STATE_RUNNING:
+        if state == CycleState.RUNNING:
             if act is not None and act.cycle_id == cycle_id and act.speed_index == speeds_done:
                 return self._advance(stamp)
             if act is not None:
                 self._close(stamp, completed=act.cycle_id == cycle_id and speeds_done > act.speed_index,
-                            end_state=STATE_RUNNING)
+                            end_state=CycleState.RUNNING)
             if 0 < speeds_total <= speeds_done:  # every speed done; DONE follows
                 return self._advance(stamp)
             self._active = SpeedSegment(
@@ -201,7 +199,7 @@ class FrictionObserverCore:
                 t_start=stamp, speeds_total=int(speeds_total),
             )
         elif act is not None:
-            completed = act.cycle_id == cycle_id and (state == STATE_DONE or speeds_done > act.speed_index)
+            completed = act.cycle_id == cycle_id and (state == CycleState.DONE or speeds_done > act.speed_index)
             self._close(stamp, completed=completed, end_state=int(state))
         return self._advance(stamp)
 
@@ -367,8 +365,8 @@ class FrictionObserverCore:
                 keep.append(seg)
                 continue
             if not seg.completed:
-                how = CYCLE_STATES.get(seg.end_state, str(seg.end_state))
-                reason = (f"cycle {how} before this speed finished" if seg.end_state != STATE_RUNNING
+                how = CycleState.name_of(seg.end_state)
+                reason = (f"cycle {how} before this speed finished" if seg.end_state != CycleState.RUNNING
                           else "a new cycle started before this speed finished")
                 rej.append(Rejection(stamp=seg.t_end, joint_name=self.config.joint_name, cycle_id=seg.cycle_id,
                                      speed_index=seg.speed_index, speed=seg.speed, reason=reason))

@@ -25,9 +25,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.signal import lfilter
 
-from ..contract import CyclePhase
+from ..contract import CyclePhase, CycleState
 from ..model import Model, Parameters, load_parameter_set, paper_wear_model
-from .types import STATE_DONE, STATE_RUNNING
 
 __all__ = [
     "PHASE_APPROACH",
@@ -196,7 +195,7 @@ def synthetic_cycle(
 
     # status stream: every change of (speeds_done, phase), plus periodic repeats
     for ts, k, phase, v_m in phase_marks:
-        statuses.append((ts, cycle_id, STATE_RUNNING, phase, v_m, k, n_total, window_center, window_half_width,
+        statuses.append((ts, cycle_id, CycleState.RUNNING, phase, v_m, k, n_total, window_center, window_half_width,
                          joint_name))
     periodic = np.arange(t0, t_done, 1.0 / status_rate)
     mark_t = np.array([pm[0] for pm in phase_marks])
@@ -205,10 +204,10 @@ def synthetic_cycle(
         if j < 0:
             continue
         _, k, phase, v_m = phase_marks[j]
-        statuses.append((float(ts), cycle_id, STATE_RUNNING, phase, v_m, k, n_total, window_center,
+        statuses.append((float(ts), cycle_id, CycleState.RUNNING, phase, v_m, k, n_total, window_center,
                          window_half_width, joint_name))
     for ts in (t_done, *np.arange(t_done + 1.0 / status_rate, stamps[-1], 1.0 / status_rate)):
-        statuses.append((float(ts), cycle_id, STATE_DONE, PHASE_NONE, 0.0, n_total, n_total, window_center,
+        statuses.append((float(ts), cycle_id, CycleState.DONE, PHASE_NONE, 0.0, n_total, n_total, window_center,
                          window_half_width, joint_name))
     statuses.sort(key=lambda s: s[0])
 

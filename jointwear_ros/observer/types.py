@@ -16,13 +16,7 @@ from ..contract import CycleState
 from ..errors import InputDataError
 
 __all__ = [
-    "CYCLE_STATES",
     "PLAUSIBLE_TEMPERATURE",
-    "STATE_ABORTED",
-    "STATE_DONE",
-    "STATE_FAILED",
-    "STATE_IDLE",
-    "STATE_RUNNING",
     "FrictionObservationData",
     "ObserverConfig",
     "ObserverOutput",
@@ -30,16 +24,8 @@ __all__ = [
     "SpeedSegment",
 ]
 
-#: ``TestCycleStatus`` state constants: aliases of :class:`jointwear_ros.contract.CycleState`.
-STATE_IDLE = CycleState.IDLE
-STATE_RUNNING = CycleState.RUNNING
-STATE_DONE = CycleState.DONE
-STATE_ABORTED = CycleState.ABORTED
-STATE_FAILED = CycleState.FAILED
 #: Temperatures a robot joint can have, degC; a reading outside is a sensor fault (not used).
 PLAUSIBLE_TEMPERATURE = (-50.0, 200.0)
-#: state value -> name, from the contract.
-CYCLE_STATES = {s.value: s.name for s in CycleState}
 
 
 @dataclass(frozen=True)
@@ -192,4 +178,4 @@ class SpeedSegment:
     t_end: float = math.inf
     speeds_total: int = 0
     completed: bool = True
-    end_state: int = STATE_RUNNING
+    end_state: int = CycleState.RUNNING

@@ -10,9 +10,9 @@ and the trend's level is not ERROR: an alarm is never hidden by age, but a joint
 silent is not shown as fine either. A joint whose history the trend refuses (:class:`InputDataError`)
 is STALE too, with the reason: there is no current estimate anyone should trust.
 
->>> plant_level(OK, last_time=0.0, now=8 * DAY, stale_days=7), plant_level(ERROR, 0.0, 8 * DAY, 7)
+>>> plant_level(DiagnosticLevel.OK, last_time=0.0, now=8 * DAY, stale_days=7), plant_level(DiagnosticLevel.ERROR, 0.0, 8 * DAY, 7)
 (3, 2)
->>> LEVEL_NAMES[plant_level(WARN, last_time=0.0, now=6 * DAY, stale_days=7)]
+>>> LEVEL_NAMES[plant_level(DiagnosticLevel.WARN, last_time=0.0, now=6 * DAY, stale_days=7)]
 'WARN'
 """
 
@@ -25,7 +25,7 @@ from typing import Any
 
 from ..contract import DiagnosticLevel
 from ..errors import InputDataError
-from ..trend import DAY, ERROR, OK, WARN, TrendConfig, TrendResult, analyze_joint
+from ..trend import DAY, TrendConfig, TrendResult, analyze_joint
 
 __all__ = [
     "LEVEL_NAMES",
@@ -42,14 +42,14 @@ __all__ = [
 
 STALE = DiagnosticLevel.STALE
 #: every level the plant view shows, by byte value
-LEVEL_NAMES = {int(lv): lv.name for lv in (OK, WARN, ERROR, STALE)}
+LEVEL_NAMES = {int(lv): lv.name for lv in (DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR, STALE)}
 
 
 def plant_level(trend_level: int, last_time: float, now: float, stale_days: float) -> int:
     """The trend's level, or STALE when the newest estimate (``last_time``, s) is older than ``stale_days``
     at ``now`` (s) and the trend's level is not ERROR. A ``last_time`` that is not finite is STALE."""
-    if int(trend_level) == ERROR:
-        return int(ERROR)
+    if int(trend_level) == DiagnosticLevel.ERROR:
+        return int(DiagnosticLevel.ERROR)
     if not math.isfinite(last_time) or now - last_time > stale_days * DAY:
         return int(STALE)
     return int(trend_level)
@@ -156,7 +156,7 @@ def analyze_plant(histories: Iterable[JointHistory], cfg: TrendConfig, now: floa
 
 def rank_views(views: Iterable[JointView]) -> list[JointView]:
     """ERROR first, then WARN, STALE, OK; within a level the soonest time to alarm, then by name."""
-    order = {int(ERROR): 0, int(WARN): 1, int(STALE): 2, int(OK): 3}
+    order = {int(DiagnosticLevel.ERROR): 0, int(DiagnosticLevel.WARN): 1, int(STALE): 2, int(DiagnosticLevel.OK): 3}
 
     def key(v: JointView) -> tuple[int, float, str, str]:
         t = v.days_to_alarm

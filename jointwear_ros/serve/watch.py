@@ -9,9 +9,10 @@ re-derived every poll (a joint turns STALE with time, without any new row).
 
 **Read-only.** :class:`~jointwear_ros.history.HistoryStore` opens a store for writing (it creates a
 missing SQLite file and its directory, switches the journal to WAL, migrates). ``serve`` must never
-write, so :func:`open_readonly` builds the connection itself and runs the store's own queries over
-it: SQLite through ``file:...?mode=ro`` (a missing file is an error, never created; a short busy
-timeout), PostgreSQL with ``default_transaction_read_only=on``, a connect and a statement timeout.
+write, so :func:`open_readonly` runs the store's own queries over its backend's watch engine
+(:meth:`~jointwear_ros.history.backends.HistoryBackend.watch_engine`): SQLite through
+``file:...?mode=ro`` (a missing file is an error, never created; a short busy timeout), PostgreSQL
+with ``default_transaction_read_only=on``, a connect and a statement timeout.
 
 **Failures** (a missing, locked, migrating or unreachable store; a schema this software does not
 read) never end the service: the snapshot keeps the last good rows, marked with the time they were
@@ -27,16 +28,13 @@ import threading
 import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from typing import Any
-from urllib.parse import quote
 
-from sqlalchemy import create_engine, func, select
+from sqlalchemy import func, select
 from sqlalchemy.exc import SQLAlchemyError
-from sqlalchemy.pool import NullPool
 
 from ..errors import JointwearError
-from ..history import LIVE, SCHEMA_VERSION, EstimateRecord, HistoryError, HistoryStore, normalize_url
+from ..history import LIVE, SCHEMA_VERSION, EstimateRecord, HistoryError, HistoryStore
 from ..history.store import estimates_t, maintenance_t
 from ..history.trends import screened_history
 from ..trend import TrendConfig, TrendResult
@@ -48,31 +46,7 @@ __all__ = ["Snapshot", "StoreWatcher", "open_readonly"]
 def open_readonly(url: str, *, timeout_s: float = 5.0) -> HistoryStore:
     """A :class:`HistoryStore` whose connections cannot write (see the module doc). Raises
     :class:`HistoryError` when the store is not there or not readable by this software."""
-    u = normalize_url(url)
-    if u.startswith("sqlite"):
-        path = u.split(":///", 1)[1] if ":///" in u else ""
-        if not path or path.startswith(":memory:"):
-            raise HistoryError(f"{url}: an in-memory SQLite store has no history to serve; give a file path")
-        p = Path(path).expanduser().resolve()
-        if not p.is_file():
-            raise HistoryError(f"{p}: no such history file (fill it with jointwear history import or wear_trend)")
-        uri = f"file:{quote(str(p))}?mode=ro"
-
-        def connect() -> sqlite3.Connection:
-            return sqlite3.connect(uri, uri=True, timeout=timeout_s, check_same_thread=False)
-
-        engine = create_engine("sqlite://", creator=connect, poolclass=NullPool)
-    elif u.startswith("postgresql"):
-        opts = f"-c default_transaction_read_only=on -c statement_timeout={int(timeout_s * 4000)}"
-        engine = create_engine(u, pool_pre_ping=True, pool_size=1, max_overflow=1,
-                               connect_args={"connect_timeout": max(1, int(timeout_s)), "options": opts})
-    else:
-        raise HistoryError(f"{url}: not a history store URL (a file path, sqlite:///path or postgresql://...)")
-    # the store's queries over our read-only engine (HistoryStore.__init__ would open it for writing)
-    store = HistoryStore.__new__(HistoryStore)
-    store.url, store.engine, store.dialect = u, engine, engine.dialect.name
-    store.read_only, store._display = True, u
-    return store
+    return HistoryStore.watching(url, timeout_s=timeout_s)
 
 
 def _fingerprint(store: HistoryStore, analysis_version: str) -> dict[tuple[str, str], tuple[Any, ...]]:

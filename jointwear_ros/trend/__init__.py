@@ -4,10 +4,7 @@ from __future__ import annotations
 
 from .core import (
     DAY,
-    ERROR,
     LEVEL_NAMES,
-    OK,
-    WARN,
     Component,
     FilterOutput,
     Member,
@@ -32,14 +29,12 @@ from .core import (
     rts_smooth,
     sibling_fit,
     trend_states,
+    type2_weights,
 )
 
 __all__ = [
     "DAY",
-    "ERROR",
     "LEVEL_NAMES",
-    "OK",
-    "WARN",
     "Component",
     "FilterOutput",
     "Member",
@@ -64,4 +59,5 @@ __all__ = [
     "rts_smooth",
     "sibling_fit",
     "trend_states",
+    "type2_weights",
 ]

@@ -36,9 +36,11 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from .core import DAY, ERROR, WARN, RatePrior, TrendConfig, trend_states
+from ..contract import DiagnosticLevel
+from .core import DAY, RatePrior, TrendConfig, trend_states
 
-__all__ = ["NightlyBacktest", "backtest_joint", "line_limit", "score_at_lead", "score_calibration", "score_fleet"]
+__all__ = ["NightlyBacktest", "backtest_joint", "line_limit", "score_at_lead", "score_calibration", "score_fleet",
+           "score_trial", "trial_summary"]
 
 Array = NDArray[np.float64]
 
@@ -109,7 +111,7 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
     for j in joints:
         b = backtest_joint(j, cfg, epoch0)
         all_nights += len(b.days)
-        early += int(((b.level >= WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
+        early += int(((b.level >= DiagnosticLevel.WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
         pp = per_profile.setdefault(j.profile, {"covered": 0, "intervals": 0})
         before = (b.true_wear < cfg.alarm) & np.isfinite(b.true_tta)
         nights_pred_possible += int(before.sum())
@@ -126,9 +128,9 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
         grid = np.linspace(0.0, span_days + 2 * cfg.horizon_days, 400)
         if float(np.max(j.true_wear(grid))) < cfg.alarm:
             never_nights += len(b.days)
-            false_nights += int((b.level >= WARN).sum())
+            false_nights += int((b.level >= DiagnosticLevel.WARN).sum())
             if j.profile == "flat":
-                false_flat += int((b.level >= WARN).sum())
+                false_flat += int((b.level >= DiagnosticLevel.WARN).sum())
             continue
         # joints that reach the alarm inside the span: lead of the first WARN, lag of the first ERROR
         reached = np.nonzero(b.true_wear >= cfg.alarm)[0]
@@ -140,12 +142,12 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
         seg_start = max([(m - epoch0) / DAY for m in j.maintenance_times if (m - epoch0) / DAY <= d_cross],
                         default=-math.inf)
         in_seg = b.days >= seg_start
-        warn = np.nonzero(in_seg & (b.level >= WARN))[0]
+        warn = np.nonzero(in_seg & (b.level >= DiagnosticLevel.WARN))[0]
         if len(warn) and b.days[warn[0]] <= d_cross:
             leads.append(d_cross - float(b.days[warn[0]]))
         else:
             missed += 1
-        err = np.nonzero(in_seg & (b.level >= ERROR))[0]
+        err = np.nonzero(in_seg & (b.level >= DiagnosticLevel.ERROR))[0]
         if len(err):
             lags.append(float(b.days[err[0]]) - d_cross)
     return {
@@ -221,6 +223,19 @@ def line_limit(t_days: Array, y: Array, r: Array, cfg: TrendConfig) -> Array:
     return out
 
 
+def _cluster_se(per_joint: Sequence[tuple[int, int]]) -> float:
+    """Standard error of a coverage pooled over joints (``(nights, covered)`` per joint), the joint the cluster:
+    a joint's nights are not independent (one fit, one truth), so a family of 20 joints is 20 samples, not
+    thousands of nights (the ratio estimator's linearized variance)."""
+    n = np.array([x[0] for x in per_joint], float)
+    c = np.array([x[1] for x in per_joint], float)
+    k = int((n > 0).sum())
+    if k < 2:
+        return math.nan
+    p = c.sum() / n.sum()
+    return float(math.sqrt(k / (k - 1) * float(((c - p * n) ** 2).sum())) / n.sum())
+
+
 def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, span_days: float,
                       max_true_days: float = 365.0, min_estimates: int = 0,
                       prior: RatePrior | None = None,
@@ -229,7 +244,8 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
 
     Scored nights: before the true crossing, with a true time to alarm of 1 to ``max_true_days`` days and at
     least ``min_estimates`` estimates in the segment so far (60: the issue's "history of 60 nightly estimates").
-    ``coverage`` over scored nights with an interval; ``median_width_over_true`` with an unbounded
+    ``coverage`` over scored nights with an interval (``coverage_se``: its standard error with the joint as
+    the sampling unit); ``median_width_over_true`` with an unbounded
     interval counted as infinitely wide; ``width_over_line`` (linear family) the width relative to the
     straight-line limit (:func:`line_limit`); false warnings on joints that never reach the alarm within
     the span plus twice the horizon, and ``early_warn_nights``: WARN or ERROR while the true time to alarm of
@@ -245,7 +261,7 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             a = acc.setdefault(key, {"joints": 0, "nights": 0, "scored": 0, "intervals": 0, "covered": 0,
                                      "unbounded": 0, "rel": [], "line": [], "never_nights": 0, "false_nights": 0,
                                      "false_error_nights": 0, "leads": [], "missed": 0, "crossing_joints": 0,
-                                     "early": 0, "flat_warn": 0})
+                                     "early": 0, "flat_warn": 0, "per_joint": []})
             a["joints"] += 1
             a["nights"] += len(b.days)
         ok = ((b.true_wear < cfg.alarm) & (b.true_tta >= 1.0) & (b.true_tta <= max_true_days)
@@ -262,7 +278,7 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             line_ratio = ((b.hi90[fin] - b.lo90[fin]) / lw[fin]).tolist()
         grid = np.linspace(0.0, span_days + 2 * cfg.horizon_days, 400)
         never = float(np.max(j.true_wear(grid))) < cfg.alarm
-        false_error = int(((b.level >= ERROR) & (b.true_wear < cfg.alarm - 1.0)).sum())
+        false_error = int(((b.level >= DiagnosticLevel.ERROR) & (b.true_wear < cfg.alarm - 1.0)).sum())
         lead: float | None = None
         crossing = False
         reached = np.nonzero(b.true_wear >= cfg.alarm)[0]
@@ -272,7 +288,7 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             d_cross = float(b.days[k - 1] + b.true_tta[k - 1]) if k > 0 else float(b.days[k])
             seg0 = getattr(j, "step_day", math.nan)
             seg0 = seg0 if math.isfinite(seg0) and seg0 <= d_cross else -math.inf
-            warn = np.nonzero((b.days >= seg0) & (b.level >= WARN))[0]
+            warn = np.nonzero((b.days >= seg0) & (b.level >= DiagnosticLevel.WARN))[0]
             if len(warn) and b.days[warn[0]] <= d_cross:
                 lead = d_cross - float(b.days[warn[0]])
         for key in (j.profile, "all"):
@@ -280,16 +296,17 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             a["scored"] += int(ok.sum())
             a["intervals"] += int(has.sum())
             a["covered"] += int(inside.sum())
+            a["per_joint"].append((int(has.sum()), int(inside.sum())))
             a["unbounded"] += int((has & ~np.isfinite(b.hi90)).sum())
             a["rel"] += rel.tolist()
             a["line"] += line_ratio
             a["false_error_nights"] += false_error
-            a["early"] += int(((b.level >= WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
+            a["early"] += int(((b.level >= DiagnosticLevel.WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
             if j.profile == "flat":
-                a["flat_warn"] += int((b.level >= WARN).sum())
+                a["flat_warn"] += int((b.level >= DiagnosticLevel.WARN).sum())
             if never:
                 a["never_nights"] += len(b.days)
-                a["false_nights"] += int((b.level >= WARN).sum())
+                a["false_nights"] += int((b.level >= DiagnosticLevel.WARN).sum())
             if crossing:
                 a["crossing_joints"] += 1
                 if lead is None:
@@ -302,6 +319,7 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             "joints": a["joints"], "nights": a["nights"], "scored_nights": a["scored"],
             "interval_fraction": a["intervals"] / a["scored"] if a["scored"] else math.nan,
             "coverage": a["covered"] / a["intervals"] if a["intervals"] else math.nan,
+            "coverage_se": _cluster_se(a["per_joint"]),
             "unbounded_fraction": a["unbounded"] / a["intervals"] if a["intervals"] else math.nan,
             "median_width_over_true": float(np.median(a["rel"])) if a["rel"] else math.nan,
             "median_width_over_line": float(np.median(a["line"])) if a["line"] else math.nan,
@@ -313,3 +331,55 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
             "joints_crossing": a["crossing_joints"], "joints_missed": a["missed"],
         }
     return out
+
+
+def score_trial(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, *, first: int = 100, count: int = 60,
+                prior: RatePrior | None = None, max_true_days: float = 365.0) -> dict[str, Any]:
+    """The issue's planner trial: each joint looked at once, at the last of its estimates ``first`` to
+    ``first + count - 1`` (a history of ``count`` nightly estimates that starts ``first`` estimates into the
+    joint's wear). Growing joints (profile not ``flat``) with a true time to alarm of 1 to ``max_true_days``
+    days are scored: coverage of the 90 % interval (no interval: a miss), joints without an interval
+    (no growth detected), intervals without an upper bound,
+    the median width / true time (no interval or unbounded: infinite); flat joints: how many warn. Per joint
+    (``rows``): profile, true days, lo90, median, hi90 (nan without an interval), level, the weights on the
+    line, on the accelerated shapes and on the adaptive members, and the straight-line limit's width."""
+    from .core import bank_members
+
+    members = bank_members(cfg)
+    kinds = {"line": [i for i, m in enumerate(members) if m.name == "line"],
+             "accelerated": [i for i, m in enumerate(members) if m.kind == "steady" and m.name != "line"],
+             "adaptive": [i for i, m in enumerate(members) if m.kind == "adaptive"]}
+    rows: list[dict[str, Any]] = []
+    for j in joints:
+        if len(j.times) < first + count:
+            raise ValueError(f"{j.robot}/{j.joint}: {len(j.times)} estimates, the trial needs {first + count}")
+        sl = slice(first, first + count)
+        t, y, r = np.asarray(j.times)[sl], np.asarray(j.wear)[sl], np.asarray(j.wear_std)[sl]
+        td = (t - t[0]) / DAY
+        st = trend_states(td, y, r, cfg, rows=np.array([len(t) - 1]), prior=prior)
+        d = (t[-1] - epoch0) / DAY
+        true = float(j.segment_crossing(float(d), cfg.alarm) - d)
+        has = bool(st.growth[0]) and math.isfinite(float(st.quantiles[0, 0]))
+        lo, med, hi = (float(x) for x in st.quantiles[0]) if has else (math.nan,) * 3
+        lim = line_limit(td, y, r, cfg)[-1]
+        row = {"profile": j.profile, "true": true, "lo90": lo, "median": med, "hi90": hi, "level": int(st.level[0]),
+               "line_width": float(lim[2] - lim[0]) if np.isfinite(lim[[0, 2]]).all() else math.inf}
+        row.update({f"w_{k}": float(st.weights[ix, 0].sum()) for k, ix in kinds.items()})
+        rows.append(row)
+    return trial_summary(rows, max_true_days)
+
+
+def trial_summary(rows: Sequence[dict[str, Any]], max_true_days: float = 365.0) -> dict[str, Any]:
+    """The figures of :func:`score_trial` from its per-joint ``rows`` (rows of several runs may be joined)."""
+    grow = [x for x in rows if x["profile"] != "flat" and 1.0 <= x["true"] <= max_true_days]
+    inside = [math.isfinite(x["lo90"]) and x["lo90"] <= x["true"] <= x["hi90"] for x in grow]
+    width = [(x["hi90"] - x["lo90"]) / x["true"] if math.isfinite(x["lo90"]) else math.inf for x in grow]
+    line = [x["line_width"] / x["true"] for x in grow]
+    return {"joints": len(rows), "growing": len(grow),
+            "coverage": float(np.mean(inside)) if grow else math.nan,
+            "no_interval": sum(1 for x in grow if math.isnan(x["lo90"])),
+            "unbounded": sum(1 for x in grow if math.isfinite(x["lo90"]) and not math.isfinite(x["hi90"])),
+            "median_width_over_true": float(np.median(width)) if grow else math.nan,
+            "median_line_width_over_true": float(np.median(line)) if grow else math.nan,
+            "flat_warn": sum(1 for x in rows if x["profile"] == "flat" and x["level"] >= DiagnosticLevel.WARN),
+            "rows": rows}

@@ -92,10 +92,7 @@ from ..errors import InputDataError
 
 __all__ = [
     "DAY",
-    "ERROR",
     "LEVEL_NAMES",
-    "OK",
-    "WARN",
     "Component",
     "FilterOutput",
     "Member",
@@ -121,13 +118,13 @@ __all__ = [
     "sibling_fit",
     "tau_grid",
     "trend_states",
+    "type2_weights",
     "unbounded_reason",
 ]
 
 DAY = 86400.0
 #: the trend's levels are ``DiagnosticStatus`` levels: aliases of :class:`jointwear_ros.contract.DiagnosticLevel`.
-OK, WARN, ERROR = DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR
-LEVEL_NAMES = {int(lv): lv.name for lv in (OK, WARN, ERROR)}
+LEVEL_NAMES = {int(lv): lv.name for lv in (DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR)}
 
 Array = NDArray[np.float64]
 
@@ -684,9 +681,9 @@ def trend_states(t_days: Array, y: Array, r: Array, cfg: TrendConfig, rows: Arra
         if keep:
             mixtures.append(comps)
     growth = (out["pg"] >= cfg.growth_probability) & (idx + 1 >= cfg.min_estimates)
-    level = np.full(N, OK)
-    level[growth & (qs[:, 0] <= cfg.horizon_days)] = WARN
-    level[out["wear"] >= cfg.alarm] = ERROR
+    level = np.full(N, DiagnosticLevel.OK)
+    level[growth & (qs[:, 0] <= cfg.horizon_days)] = DiagnosticLevel.WARN
+    level[out["wear"] >= cfg.alarm] = DiagnosticLevel.ERROR
     return TrendStates(out["wear"], np.sqrt(out["wvar"]), out["rate"], np.sqrt(out["rvar"]), out["pg"], growth, qs,
                        level, W, out["step"], reach, out["pgs"], mixtures)
 
@@ -796,7 +793,7 @@ def analyze_joint(
                                              f"{robot}/{joint}")
     n = len(t)
     if n == 0:
-        return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, OK,
+        return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, DiagnosticLevel.OK,
                            "no estimates since the last maintenance event", False, math.nan, seg_start, segs,
                            prior=prior)
     members = bank_members(cfg)
@@ -838,7 +835,7 @@ def analyze_joint(
                f"wear {wear_now:.1f} ± {wear_sd:.1f}, rate {rate:+.3f} /day")
         if reason:
             msg += f"; no upper bound: {reason}"
-        if level == WARN:
+        if level == DiagnosticLevel.WARN:
             msg = f"alarm possible within {cfg.horizon_days:g} days: " + msg
     if step_p >= 0.5:
         from datetime import UTC, datetime
@@ -880,6 +877,30 @@ def sibling_fit(t_days: Array, y: Array, r: Array, cfg: TrendConfig | None = Non
         return None
     st = trend_states(t - t[0], y, r, cfg, rows=np.array([len(t) - 1]))
     return SiblingFit(float(st.rate[0]), float(st.rate_std[0]) ** 2, st.weights[:, 0].copy())
+
+
+def type2_weights(posterior: Array, prior: Array, *, iterations: int = 1000, tol: float = 1e-10) -> Array:
+    """Member weights that maximize the marginal likelihood of a set of histories (type-II maximum likelihood,
+    empirical Bayes): ``pi = argmax sum_j log sum_m pi_m L_jm``, by EM from each history's posterior weights
+    ``posterior`` (J, M) under ``prior`` (M,) (so ``L_jm`` is proportional to ``posterior_jm / prior_m``; the
+    tempered evidence when the weights came from :func:`trend_states`).
+
+    >>> post = np.array([[0.9, 0.1], [0.9, 0.1], [0.2, 0.8]])
+    >>> np.round(type2_weights(post, np.array([0.5, 0.5])), 2).tolist()
+    [0.85, 0.15]
+    """
+    pr = np.asarray(prior, float)
+    lik = np.asarray(posterior, float) / np.where(pr > 0, pr, 1.0)
+    lik = lik / lik.max(axis=1, keepdims=True)
+    pi = np.full(lik.shape[1], 1.0 / lik.shape[1])
+    for _ in range(iterations):
+        r = lik * pi
+        r /= r.sum(axis=1, keepdims=True)
+        new = r.mean(axis=0)
+        if float(np.abs(new - pi).max()) < tol:
+            return np.asarray(new, float)
+        pi = new
+    return np.asarray(pi, float)
 
 
 def pool_prior(fits: Sequence[SiblingFit | None], cfg: TrendConfig | None = None, *, min_joints: int = 5,

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["EPOCH0", "FAMILIES", "CalibrationJoint", "make_calibration_set", "make_family"]
+__all__ = ["EPOCH0", "FAMILIES", "CalibrationJoint", "make_calibration_set", "make_family", "make_trial_set"]
 
 Array = NDArray[np.float64]
 DAY = 86400.0
@@ -162,3 +162,12 @@ def make_calibration_set(per_family: int = 20, *, days: int = 180, seed: int = 0
     for f in FAMILIES:
         out += make_family(f, per_family, days=days, seed=seed, first=len(out))
     return out
+
+
+def make_trial_set(seeds: tuple[int, ...] = (100, 101, 102), per_family: int = 10, *,
+                   days: int = 175) -> list[CalibrationJoint]:
+    """The issue's planner trial: per seed, ``per_family`` linear, accelerating and flat joints over ``days``
+    days (the trial looks at estimates 100-159 of each, 60 nightly estimates about 105 days into the joint's
+    wear: :func:`jointwear_ros.trend.backtest.score_trial`; 175 days hold at least 160 estimates)."""
+    return [j for s in seeds for f in ("linear", "accelerating", "flat") for j in make_family(f, per_family, days=days,
+                                                                                               seed=s)]

@@ -6,20 +6,12 @@ Pure numpy/scipy (plus matplotlib for plots in :mod:`.report`); no ROS import.
 from __future__ import annotations
 
 from ..model.scaling import BoundHit, DataScales, on_bound, scale_parameters
-from .candidates import (
-    ENTRY_POINT_GROUP,
-    SHAPES,
-    CandidateTerm,
-    candidate_library,
-    candidate_variables,
-    parse_spec,
-    resolve_term,
-)
+from .candidates import ENTRY_POINT_GROUP, candidate_library, candidate_variables, parse_spec, resolve_term
 from .compare import SPEED_BAND_EDGES, BandError, NoiseFloor, band_rmse, noise_floor, noise_test, residual_structure
 from .dependence import VariableDependence, residual_dependence
 from .diagnose import VERDICTS, CandidateResult, Diagnosis, diagnose
 from .fit import FitResult, fit_model, group_folds
-from .shapes import HarmonicRipple, Scale, Spline, Step
+from .shapes import SHAPES, CandidateTerm, HarmonicRipple, Scale, Spline, Step, register_shape
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -49,6 +41,7 @@ __all__ = [
     "noise_test",
     "on_bound",
     "parse_spec",
+    "register_shape",
     "residual_dependence",
     "residual_structure",
     "resolve_term",

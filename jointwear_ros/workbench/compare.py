@@ -35,6 +35,7 @@ __all__ = [
     "noise_test",
     "residual_structure",
     "speed_band_edges",
+    "speed_region",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -69,6 +70,35 @@ def speed_band_edges(speed: Array) -> tuple[float, ...]:
     """
     f = DataScales.of(speed=speed).speed
     return SPEED_BAND_EDGES if f == 1.0 else tuple(e * f for e in SPEED_BAND_EDGES)
+
+
+def speed_region(speed: Array, gain: Array, edges: Sequence[float] | None = None) -> tuple[float, float]:
+    """The speed bands where ``gain`` (per row: an explained part squared, a fall of the squared residual)
+    is largest: from the lowest to the highest band whose mean gain is at least 15 % of the largest band's.
+
+    ``edges`` default: :func:`speed_band_edges` of the data. All speeds (the first edge to the last) when
+    the region covers every band with data, or nothing gains.
+
+    >>> v = np.array([2.0, 5.0, 20.0, 40.0, 120.0, 250.0])
+    >>> speed_region(v, np.array([1.0, 1.0, 0.5, 0.0, 0.0, 0.0]))
+    (0.0, 30.0)
+    >>> speed_region(v, np.ones(6))
+    (0.0, inf)
+    """
+    v = np.abs(np.asarray(speed, dtype=float))
+    g_row = np.asarray(gain, dtype=float)
+    edges = speed_band_edges(v) if edges is None else tuple(edges)
+    g = np.array([float(np.mean(g_row[m])) if (m := (v >= lo) & (v < hi)).any() else math.nan
+                  for lo, hi in itertools.pairwise(edges)])
+    present = np.isfinite(g)
+    if not present.any() or not np.nanmax(g) > 0:
+        return float(edges[0]), float(edges[-1])
+    on = np.flatnonzero(present & (g >= 0.15 * np.nanmax(g)))
+    pres = np.flatnonzero(present)
+    lo_i, hi_i = int(on.min()), int(on.max())
+    if lo_i == pres.min() and hi_i == pres.max():  # every band with data: all speeds
+        return float(edges[0]), float(edges[-1])
+    return float(edges[lo_i]), float(edges[hi_i + 1])
 
 
 def band_rmse(speed: Array, residuals: Array, edges: Sequence[float] | None = None) -> list[BandError]:

@@ -36,6 +36,14 @@ on all rows; only a column's own coefficients are fitted per fold.
   model input (the best one tested as a pair with it, its p-value times the
   number screened).
 
+Each test is one named object (:class:`SmootherTest`, :class:`ModulationTest`,
+:class:`PeriodogramTest`, :class:`ChangepointTest`, :class:`PairTest`,
+:class:`ScreenTest`: its statistic, its p-value and its assumptions in its
+docstring) on one :class:`ResidualSpace`, which holds what they share (the
+residual, the folds, the nuisance space, the cycles, the permutations). The
+nested chi-square / F test, the permutation p-value, the guard and Holm's
+method are :mod:`.significance`'s.
+
 Each statistic gets a **permutation p-value**: the column is permuted (by whole
 cycles when it is constant within cycles, so the test respects the data's
 grouping), the statistic recomputed; beyond the permutations' range the tail
@@ -61,7 +69,7 @@ import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ParamSpec, TypeVar
+from typing import Any, NamedTuple, ParamSpec, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -72,10 +80,25 @@ from threadpoolctl import threadpool_limits
 
 from ..types import ObservationTable
 from .candidates import candidate_variables
-from .compare import SPEED_BAND_EDGES, band_label
+from .compare import speed_region
 from .fit import group_folds
+from .shapes import is_angle
+from .significance import guarded, holm, nested_test, permutation_p
 
-__all__ = ["W_MAX", "VariableDependence", "holm", "is_angle", "is_time", "residual_dependence"]
+__all__ = [
+    "W_MAX",
+    "ChangepointTest",
+    "ModulationTest",
+    "Outcome",
+    "PairTest",
+    "PeriodogramTest",
+    "ResidualSpace",
+    "ScreenTest",
+    "SmootherTest",
+    "VariableDependence",
+    "is_time",
+    "residual_dependence",
+]
 
 Array = npt.NDArray[np.float64]
 
@@ -87,8 +110,6 @@ N_BASIS = 6
 N_PERM = 199
 #: Permutations of the periodogram (each costs a full periodogram).
 N_PERM_PERIODOGRAM = 39
-#: The parametric test counts only when the permutation test agrees at least this far.
-PERM_GUARD = 0.05
 #: Columns always tried in pairs (with the strongest singles): the model's own inputs.
 PHYSICAL_INPUTS = ("load_torque", "temperature")
 #: Columns of the strongest singles tried in pairs.
@@ -97,15 +118,24 @@ PAIR_TOP = 3
 
 @dataclass
 class VariableDependence:
-    """How much of the residual one column (or pair ``"a,b"``) explains, with a multiplicity-adjusted p-value."""
+    """How much of the residual one column (or pair ``"a,b"``) explains, with a multiplicity-adjusted p-value.
+
+    The shape the evidence points to is data: ``shape`` (``smooth``, ``scales``, ``periodic``,
+    ``step``; a pair: ``interaction`` or ``adds``) with ``monotone`` (a smooth column's
+    ``increasing``, ``decreasing`` or ``non-monotone``), ``scaled_term`` (the model's term a
+    column scales), ``peak_frequency``, ``changepoint`` and the speed region; :attr:`shape_hint`
+    is its sentence (:func:`~jointwear_ros.workbench.render.shape_hint`).
+    """
 
     name: str
     p_value: float
     p_raw: float
     explained_share: float
-    shape_hint: str
     test: str
     significant: bool
+    shape: str = "smooth"
+    monotone: str = ""
+    scaled_term: str = ""
     speed_region: tuple[float, float] = (0.0, math.inf)
     peak_frequency: float | None = None
     changepoint: float | None = None
@@ -118,11 +148,16 @@ class VariableDependence:
         return self.name.split(",")
 
     @property
+    def shape_hint(self) -> str:
+        from .render import shape_hint
+
+        return shape_hint(self)
+
+    @property
     def speed_region_label(self) -> str:
-        lo, hi = self.speed_region
-        if lo <= SPEED_BAND_EDGES[0] and not math.isfinite(hi):
-            return "all speeds"
-        return f"{band_label(lo, hi)} rad/s"
+        from .render import speed_region_label
+
+        return speed_region_label(self.speed_region)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -130,6 +165,7 @@ class VariableDependence:
             "p_value": self.p_value,
             "explained_share": self.explained_share,
             "shape_hint": self.shape_hint,
+            "shape": self.shape,
             "test": self.test,
             "significant": self.significant,
             "p_raw": self.p_raw,
@@ -156,48 +192,30 @@ def one_blas_thread(fn: Callable[_P, _R]) -> Callable[_P, _R]:
     return wrapper
 
 
-def is_angle(name: str) -> bool:
-    """Columns the periodogram is run on: joint angles."""
-    return name == "position" or "angle" in name or name.startswith("position")
-
-
 def is_time(name: str) -> bool:
     """Columns the changepoint test is run on: times."""
     return name in ("time", "stamp", "date") or name.endswith("_time") or name.startswith("time")
 
 
-def holm(p: Sequence[float]) -> list[float]:
-    """Holm's step-down adjusted p-values (family-wise error control for any dependence).
+class Outcome(NamedTuple):
+    """What one test says about one column: its statistic, its p-value and the share of the residual it explains
+    (cross-validated; 0 when the test does not measure one)."""
 
-    >>> [round(x, 3) for x in holm([0.01, 0.04, 0.03, 0.5])]
-    [0.04, 0.09, 0.09, 0.5]
+    name: str
+    statistic: float
+    p_value: float
+    share: float = 0.0
+
+
+class ResidualSpace:
+    """What every test of one residual vector shares: the residual, folds, speed shapes, nuisance space, cycles.
+
+    The nuisance space holds an intercept, two speed shapes (low speeds ``exp(-|v/15|^1.3)``, high
+    speeds ``v/v_max``) and, given the fitted model's Jacobian (``tangent``), the model's own tangent
+    space: testing a column on top of it is the score (Lagrange multiplier) test of an omitted effect
+    in nonlinear least squares, the first-order gain of refitting the model with the effect added.
+    Permutations come from one seeded generator, so a ranking is deterministic.
     """
-    m = len(p)
-    order = np.argsort(p, kind="stable")
-    adj = np.empty(m)
-    run = 0.0
-    for i, j in enumerate(order):
-        run = max(run, min(1.0, (m - i) * float(p[j])))
-        adj[j] = run
-    return [float(a) for a in adj]
-
-
-def _tail_p(obs: float, null: Array) -> float:
-    """Permutation p-value; beyond the permutations' range, a Gumbel tail fitted to them."""
-    r = null.size
-    ge = int(np.sum(null >= obs))
-    if ge > 0:
-        return (1 + ge) / (r + 1)
-    sd = float(np.std(null, ddof=1))
-    if not sd > 0:
-        return 1.0 / (r + 1)
-    scale = sd * math.sqrt(6.0) / math.pi
-    loc = float(np.mean(null)) - 0.5772156649 * scale
-    return float(min(1.0 / (r + 1), stats.gumbel_r.sf(obs, loc, scale)))
-
-
-class _Context:
-    """What every test of one residual vector shares: folds, speed shapes, cycles, permutation source."""
 
     def __init__(self, table: ObservationTable, residuals: Array, folds: Array | None, seed: int,
                  tangent: Array | None = None) -> None:
@@ -215,9 +233,6 @@ class _Context:
         self.high = v / vmax
         z = np.column_stack([np.ones(n), self.low, self.high])
         if tangent is not None and tangent.size:
-            # the model's own tangent space (its Jacobian at the fit): what a refit of the model could absorb.
-            # Testing a column on top of it is the score (Lagrange multiplier) test of an omitted effect in
-            # nonlinear least squares: the first-order gain of refitting the model with the effect added
             tg = np.asarray(tangent, dtype=float).reshape(n, -1)
             tg = tg[:, np.all(np.isfinite(tg), axis=0)]  # a parameter at a singular point gives no direction
             sd = np.std(tg, axis=0)
@@ -232,11 +247,12 @@ class _Context:
         self.ucyc, self.cinv = np.unique(self.cycle, return_inverse=True)
         self.cinv = self.cinv.reshape(-1)
         self.rng = np.random.default_rng(seed)
-        self.sse0 = float(self._cv_sse(self.z0[None, :, :])[0])
-        self.sse0_in = float(self._in_sse(self.z0[None, :, :])[0])
+        self.sse0 = float(self.cv_sse(self.z0[None, :, :])[0])
+        self.sse0_in = float(self.in_sse(self.z0[None, :, :])[0])
 
     # -- permutations ------------------------------------------------------------------
     def cycle_level(self, x: Array) -> bool:
+        """Is ``x`` constant within cycles (a per-cycle column)?"""
         if self.ucyc.size == self.n or self.ucyc.size < 2:
             return False
         means = np.bincount(self.cinv, weights=x) / np.bincount(self.cinv)
@@ -259,7 +275,7 @@ class _Context:
                 out[i] = x[self.rng.permutation(self.n)]
         return out
 
-    # -- smoother ----------------------------------------------------------------------
+    # -- least squares on the nuisance space --------------------------------------------
     @staticmethod
     def rank_basis(xs: Array, nb: int = N_BASIS) -> Array:
         """Cubic B-splines of the rank of each row of ``xs`` (shape (R, n) -> (R, n, nb - 1))."""
@@ -269,7 +285,7 @@ class _Context:
         dm = BSpline.design_matrix(np.clip(u.ravel(), 0.0, 1.0), knots, 3).toarray()
         return dm.reshape(rr, n, nb)[:, :, 1:]  # type: ignore[no-any-return]
 
-    def _cv_sse(self, d: Array, return_pred: bool = False) -> Array:
+    def cv_sse(self, d: Array, return_pred: bool = False) -> Array:
         """Cross-validated SSE of the residual on each design ``d[k]`` (shape (R, n, p), ``z0`` first).
 
         The nuisance part (the first ``q`` columns: the speed shapes and the
@@ -305,7 +321,7 @@ class _Context:
                 pred[:, te] = pr
         return (sse, pred) if return_pred else sse  # type: ignore[return-value]
 
-    def _in_sse(self, d: Array) -> Array:
+    def in_sse(self, d: Array) -> Array:
         """In-sample SSE of the residual on each design ``d[k]`` (shape (R, n, p))."""
         p = d.shape[2]
         dt = d.transpose(0, 2, 1)
@@ -314,7 +330,24 @@ class _Context:
         pr = np.matmul(d, coef[..., None])[..., 0]
         return np.sum((self.r - pr) ** 2, axis=1)  # type: ignore[no-any-return]
 
+    def cv_share(self, d: Array) -> float:
+        """Cross-validated share of the residual design ``d`` (one design, z0 first) explains beyond the nuisance."""
+        return float((self.sse0 - self.cv_sse(d)[0]) / self.total)
+
+    def nested(self, d_small: Array, d_large: Array, noise: float | None) -> float:
+        """p-value of the nested test (:func:`~.significance.nested_test`) of design ``d_large[0]`` on ``d_small``."""
+        sse_small = float(self.in_sse(d_small[:1])[0])
+        sse = float(self.in_sse(d_large[:1])[0])
+        k = d_large.shape[2] - d_small.shape[2]
+        return nested_test(sse_small - sse, sse, k, self.n - d_large.shape[2], noise).p_value
+
+    def nested_on_nuisance(self, d: Array, noise: float | None) -> float:
+        """p-value of the nested test of design ``d[0]`` against the nuisance space alone."""
+        sse = float(self.in_sse(d[:1])[0])
+        return nested_test(self.sse0_in - sse, sse, d.shape[2] - self.q, self.n - d.shape[2], noise).p_value
+
     def designs(self, b: Array) -> tuple[Array, Array]:
+        """The nuisance space plus basis ``b`` (level), and plus ``b`` times the speed shapes too (speed)."""
         rr = b.shape[0]
         z0 = np.broadcast_to(self.z0, (rr, self.n, self.q))
         lvl = np.concatenate([z0, b], axis=2)
@@ -326,136 +359,16 @@ class _Context:
         distinct = np.unique(x).size
         return int(np.clip(distinct // 4 + 1, 4, N_BASIS))  # a cubic B-spline basis needs 4 or more
 
-    def f_test(self, d: Array, noise: float | None) -> float:
-        """Nested F (or chi-square, with a noise floor) test of design ``d[0]`` against the speed shapes alone."""
-        sse = float(self._in_sse(d[:1])[0])
-        k = d.shape[2] - self.q
-        dof = max(self.n - d.shape[2], 1)
-        gain = max(self.sse0_in - sse, 0.0)
-        s2 = sse / dof
-        if noise is not None and math.isfinite(noise) and noise > 0:
-            return float(stats.chi2.sf(gain / max(noise**2, s2), k))
-        return float(stats.f.sf(gain / k / max(s2, 1e-300), k, dof))
-
-    def smoother(self, xs: Array) -> tuple[Array, float, float]:
-        """Test statistic of each permuted column (row 0: the data), and the data's CV shares (level, speed).
-
-        The statistic is the larger of the in-sample shares of the two designs
-        (level; level times speed shapes) beyond the speed shapes alone, each
-        standardised by its permutation distribution; the reported share is
-        cross-validated.
-        """
-        lvl, spd = self.designs(self.rank_basis(xs, self.basis_size(xs[0])))
-        self.last = (lvl[:1], spd[:1])
-        zs = []
-        for d in (lvl, spd):
-            share = (self.sse0_in - self._in_sse(d)) / self.total
-            null = share[1:]
-            sd = float(np.std(null, ddof=1)) if null.size > 1 else 1.0
-            zs.append((share - float(np.mean(null)) if null.size else share) / (sd if sd > 0 else 1.0))
-        stat = np.maximum(zs[0], zs[1])
-        cv_lvl = float((self.sse0 - self._cv_sse(lvl[:1])[0]) / self.total)
-        cv_spd = float((self.sse0 - self._cv_sse(spd[:1])[0]) / self.total)
-        return stat, cv_lvl, cv_spd
-
+    # -- effect sizes --------------------------------------------------------------------
     def prediction(self, x: Array, with_speed: bool) -> Array:
+        """The cross-validated part of the residual a smooth function of ``x`` explains (times the speed shapes)."""
         b = self.rank_basis(x[None, :])
         d = np.concatenate([self.z0[None], b], axis=2)
         if with_speed:
             d = np.concatenate([d, b * self.low[None, :, None], b * self.high[None, :, None]], axis=2)
-        _, pred = self._cv_sse(d, return_pred=True)  # type: ignore[misc]
-        base = self._cv_sse(self.z0[None], return_pred=True)[1]  # type: ignore[index]
+        _, pred = self.cv_sse(d, return_pred=True)  # type: ignore[misc]
+        base = self.cv_sse(self.z0[None], return_pred=True)[1]  # type: ignore[index]
         return pred[0] - base[0]  # type: ignore[no-any-return]
-
-    # -- modulation of the model's terms -----------------------------------------------
-    def set_components(self, components: dict[str, Array] | None) -> None:
-        """The model's terms (name -> contribution per row) a column may scale; constant ones are kept."""
-        self.comp_names: list[str] = []
-        self.comp_varies: list[bool] = []
-        cols = []
-        for name, v in (components or {}).items():
-            v = np.asarray(v, dtype=float).reshape(-1)
-            rms = float(np.sqrt(np.mean(v**2)))
-            if v.size == self.n and rms > 0 and np.all(np.isfinite(v)):
-                self.comp_names.append(name)
-                self.comp_varies.append(bool(np.std(v) > 1e-9 * rms))
-                cols.append(v / rms)
-        self.comp = np.column_stack(cols) if cols else np.zeros((self.n, 0))
-
-    def modulation(self, xs: Array, noise: float | None) -> tuple[float, float, str]:
-        """Does the column scale the model's own terms? (p-value, CV share, the term it scales most).
-
-        The term is "" when it is a constant one: the Coulomb level scaled by x
-        is a level that changes with x, what the smoother already says.
-
-        The design is ``x * term_k`` for every term ``k`` of the model (x centred and
-        standardised), on the nuisance space (speed shapes and the model's tangent
-        space): the score test of ``x`` as a factor of each term. An effect that
-        reshapes a term of the model with a column (the Stribeck amplitude with the
-        temperature, every term with the motor's temperature) is one direction of it.
-        """
-        k = self.comp.shape[1]
-        if k == 0:
-            return 1.0, 0.0, ""
-        sd = float(np.std(xs[0]))
-        if not sd > 0:
-            return 1.0, 0.0, ""
-        z = (xs - xs.mean(axis=1, keepdims=True)) / sd
-        rr = xs.shape[0]
-        d = np.concatenate([np.broadcast_to(self.z0, (rr, self.n, self.q)), z[:, :, None] * self.comp[None]], axis=2)
-        share_in = (self.sse0_in - self._in_sse(d)) / self.total
-        p_perm = _tail_p(float(share_in[0]), share_in[1:])
-        p_f = self.f_test(d[:1], noise)
-        p = max(p_f, p_perm) if p_perm > PERM_GUARD else p_f
-        share = float((self.sse0 - self._cv_sse(d[:1])[0]) / self.total)
-        # the term it scales: the one whose product alone explains most (coefficients of collinear terms
-        # do not say it)
-        one = np.stack([np.concatenate([self.z0, (z[0] * self.comp[:, j])[:, None]], axis=1) for j in range(k)])
-        j = int(np.argmin(self._in_sse(one)))
-        return p, share, self.comp_names[j] if self.comp_varies[j] else ""
-
-    # -- periodogram ------------------------------------------------------------------
-    def periodogram(self, x: Array) -> tuple[float, float, float]:
-        """Peak angular frequency, its normalised power, and its p-value (permutations + effective M)."""
-        span = float(np.ptp(x))
-        w_lo = max(math.pi / span, 1e-3)
-        step = 2.0 * math.pi / span / 3.0
-        w = np.arange(w_lo, W_MAX, step)
-        if w.size < 2:
-            return math.nan, 0.0, 1.0
-
-        def peak(y: Array) -> tuple[float, float]:
-            pw = lombscargle(x, y, w, normalize=True, floating_mean=True)
-            i = int(np.argmax(pw))
-            return float(w[i]), float(pw[i])
-
-        w_best, z = peak(self.r)
-        null = np.array([peak(self.r[self.rng.permutation(self.n)])[1] for _ in range(N_PERM_PERIODOGRAM)])
-        # single frequency: P(power > z) = (1 - z)^((n - 3)/2); max over M_eff frequencies, M_eff fitted
-        # to the median of the permutation maxima
-        e = (self.n - 3) / 2.0
-
-        def single(zz: float) -> float:
-            return float((1.0 - min(max(zz, 0.0), 1.0)) ** e)
-
-        med = float(np.median(null))
-        q = single(med)
-        m_eff = math.log(0.5) / math.log1p(-q) if 0 < q < 1 else float(w.size)
-        fap = -math.expm1(m_eff * math.log1p(-single(z))) if single(z) < 1 else 1.0
-        ge = int(np.sum(null >= z))
-        p = (1 + ge) / (null.size + 1) if ge > 0 else min(1.0 / (null.size + 1), fap)
-        return w_best, z, float(p)
-
-    def step_beats_trend(self, x: Array, at: float) -> bool:
-        """Does a single step at ``at`` explain the residual better than a straight trend in x?"""
-        if not math.isfinite(at):
-            return False
-        step = (x > at).astype(float)
-        a = np.column_stack([np.ones(self.n), step])
-        b = np.column_stack([np.ones(self.n), x - x.mean()])
-        fs = a @ np.linalg.lstsq(a, self.r, rcond=None)[0]
-        ft = b @ np.linalg.lstsq(b, self.r, rcond=None)[0]
-        return _r2(self.r, fs) > _r2(self.r, ft)
 
     def linear_share(self, x: Array) -> float:
         """Cross-validated share explained by x linearly (and times the speed shapes), on the speed shapes.
@@ -469,56 +382,282 @@ class _Context:
             return 0.0
         xs = (x - x.mean()) / sd
         d = np.concatenate([self.z0, np.column_stack([xs, xs * self.low, xs * self.high])], axis=1)[None]
-        return float(min(1.0, (self.sse0 - self._cv_sse(d)[0]) / self.total))
+        return float(min(1.0, self.cv_share(d)))
 
     def step_share(self, x: Array, at: float) -> float:
         """Cross-validated share of the residual explained by one level step at ``at`` (on the speed shapes)."""
         if not math.isfinite(at):
             return 0.0
         d = np.concatenate([self.z0, (x > at).astype(float)[:, None]], axis=1)[None]
-        return float(min(1.0, (self.sse0 - self._cv_sse(d)[0]) / self.total))
+        return float(min(1.0, self.cv_share(d)))
 
-    def partial_p(self, a: Array, x: Array, noise: float | None) -> float:
-        """Screen: does ``x`` (linear, and times the speed shapes) add to a smooth function of ``a``?"""
-        da = np.concatenate([self.z0, self.rank_basis(a[None, :], 4)[0]], axis=1)
-        xs = (x - x.mean()) / (float(np.std(x)) or 1.0)
-        dx = np.concatenate([da, np.column_stack([xs, xs * self.low, xs * self.high])], axis=1)
-        sse_a = float(self._in_sse(da[None])[0])
-        sse_x = float(self._in_sse(dx[None])[0])
-        k, dof = 3, max(self.n - dx.shape[1], 1)
-        gain, s2 = max(sse_a - sse_x, 0.0), sse_x / dof
-        if noise is not None and math.isfinite(noise) and noise > 0:
-            return float(stats.chi2.sf(gain / max(noise**2, s2), k))
-        return float(stats.f.sf(gain / k / max(s2, 1e-300), k, dof))
+    def step_beats_trend(self, x: Array, at: float) -> bool:
+        """Does a single step at ``at`` explain the residual better than a straight trend in x?"""
+        if not math.isfinite(at):
+            return False
+        step = (x > at).astype(float)
+        a = np.column_stack([np.ones(self.n), step])
+        b = np.column_stack([np.ones(self.n), x - x.mean()])
+        fs = a @ np.linalg.lstsq(a, self.r, rcond=None)[0]
+        ft = b @ np.linalg.lstsq(b, self.r, rcond=None)[0]
+        return _r2(self.r, fs) > _r2(self.r, ft)
 
-    # -- changepoint ------------------------------------------------------------------
-    def changepoint(self, x: Array, r: int) -> tuple[float, float, float, float]:
-        """Standardised CUSUM of the per-group mean residual ordered by x: (statistic, p, at, width)."""
-        if self.cycle_level(x):
-            cnt = np.bincount(self.cinv)
-            gx = np.bincount(self.cinv, weights=x) / cnt
-            gr = np.bincount(self.cinv, weights=self.r) / cnt
+
+class SmootherTest:
+    """Does a smooth function of the column explain the residual? (``smoother``)
+
+    Design: cubic B-splines of the column's rank (fewer basis functions for a column with
+    few distinct values), alone (level) and also times the two speed shapes (speed), on the
+    nuisance space. Statistic: the larger of the two designs' in-sample shares, each
+    standardised by its permutation distribution. p-value: the nested test of the better
+    design (the smaller p counted twice), guarded by the permutation p-value of the statistic.
+    Shares: cross-validated, level and speed. Assumptions: the nested test's (independent
+    errors of equal variance, or the noise floor's); rows (or, for a per-cycle column,
+    whole cycles) exchangeable under the null.
+    """
+
+    name = "smoother"
+
+    def __init__(self, space: ResidualSpace) -> None:
+        self.s = space
+
+    def run(self, xs: Array, noise: float | None) -> tuple[Outcome, float, float]:
+        """The outcome (share: the larger CV share), and the CV shares of the level and speed designs."""
+        s = self.s
+        lvl, spd = s.designs(s.rank_basis(xs, s.basis_size(xs[0])))
+        zs = []
+        for d in (lvl, spd):
+            share = (s.sse0_in - s.in_sse(d)) / s.total
+            null = share[1:]
+            sd = float(np.std(null, ddof=1)) if null.size > 1 else 1.0
+            zs.append((share - float(np.mean(null)) if null.size else share) / (sd if sd > 0 else 1.0))
+        stat = np.maximum(zs[0], zs[1])
+        cv_lvl = s.cv_share(lvl[:1])
+        cv_spd = s.cv_share(spd[:1])
+        p_perm = permutation_p(float(stat[0]), stat[1:])
+        p_f = min(1.0, 2.0 * min(s.nested_on_nuisance(lvl[:1], noise), s.nested_on_nuisance(spd[:1], noise)))
+        return Outcome(self.name, float(stat[0]), guarded(p_f, p_perm), max(cv_lvl, cv_spd)), cv_lvl, cv_spd
+
+
+class ModulationTest:
+    """Does the column scale the model's own terms? (``modulation``)
+
+    Design: ``x * term_k`` for every term ``k`` of the fitted model (x centred and standardised,
+    each term by its RMS), on the nuisance space: the score test of ``x`` as a factor of each
+    term. An effect that reshapes a term of the model with a column (the Stribeck amplitude
+    with the temperature, every term with the motor's temperature) is one direction of it.
+    Statistic: the in-sample share. p-value: the nested test, guarded by permutations.
+    Also names the term the column scales most (the one whose product alone explains most;
+    "" for a constant term: the Coulomb level scaled by x is what the smoother already says).
+    Assumptions: the smoother's.
+    """
+
+    name = "modulation"
+
+    def __init__(self, space: ResidualSpace, components: Mapping[str, Array] | None) -> None:
+        self.s = space
+        self.names: list[str] = []
+        self.varies: list[bool] = []
+        cols = []
+        for name, v in (components or {}).items():
+            v = np.asarray(v, dtype=float).reshape(-1)
+            rms = float(np.sqrt(np.mean(v**2)))
+            if v.size == space.n and rms > 0 and np.all(np.isfinite(v)):
+                self.names.append(name)
+                self.varies.append(bool(np.std(v) > 1e-9 * rms))
+                cols.append(v / rms)
+        self.comp = np.column_stack(cols) if cols else np.zeros((space.n, 0))
+
+    @property
+    def applicable(self) -> bool:
+        return bool(self.comp.shape[1])
+
+    def run(self, xs: Array, noise: float | None) -> tuple[Outcome, str]:
+        """The outcome (share cross-validated) and the model's term the column scales most."""
+        s = self.s
+        k = self.comp.shape[1]
+        sd = float(np.std(xs[0]))
+        if k == 0 or not sd > 0:
+            return Outcome(self.name, 0.0, 1.0, 0.0), ""
+        z = (xs - xs.mean(axis=1, keepdims=True)) / sd
+        rr = xs.shape[0]
+        d = np.concatenate([np.broadcast_to(s.z0, (rr, s.n, s.q)), z[:, :, None] * self.comp[None]], axis=2)
+        share_in = (s.sse0_in - s.in_sse(d)) / s.total
+        p_perm = permutation_p(float(share_in[0]), share_in[1:])
+        p = guarded(s.nested_on_nuisance(d[:1], noise), p_perm)
+        share = s.cv_share(d[:1])
+        # the term it scales: the one whose product alone explains most (coefficients of collinear terms
+        # do not say it)
+        one = np.stack([np.concatenate([s.z0, (z[0] * self.comp[:, j])[:, None]], axis=1) for j in range(k)])
+        j = int(np.argmin(s.in_sse(one)))
+        return Outcome(self.name, float(share_in[0]), p, share), self.names[j] if self.varies[j] else ""
+
+
+class PeriodogramTest:
+    """Is the residual periodic in an angle-like column? (``periodogram``)
+
+    Statistic: the peak of the normalised Lomb-Scargle periodogram
+    (:func:`scipy.signal.lombscargle`, floating mean) of the residual over angular frequencies
+    from half a period over the column's span up to :data:`W_MAX` per unit. p-value: from
+    :data:`N_PERM_PERIODOGRAM` permutations of the residual; beyond their range the false-alarm
+    probability ``1 - (1 - (1 - z)^((n - 3)/2))^M`` with the effective number of independent
+    frequencies ``M`` fitted to the median of the permutation maxima. The share is the peak's
+    normalised power. Assumptions: rows exchangeable under the null; one sinusoid.
+    """
+
+    name = "periodogram"
+
+    def __init__(self, space: ResidualSpace) -> None:
+        self.s = space
+
+    def run(self, x: Array) -> tuple[Outcome, float]:
+        """The outcome (share: the peak's power) and the peak's angular frequency (nan: no frequency to try)."""
+        s = self.s
+        span = float(np.ptp(x))
+        w_lo = max(math.pi / span, 1e-3)
+        step = 2.0 * math.pi / span / 3.0
+        w = np.arange(w_lo, W_MAX, step)
+        if w.size < 2:
+            return Outcome(self.name, 0.0, 1.0, 0.0), math.nan
+
+        def peak(y: Array) -> tuple[float, float]:
+            pw = lombscargle(x, y, w, normalize=True, floating_mean=True)
+            i = int(np.argmax(pw))
+            return float(w[i]), float(pw[i])
+
+        w_best, z = peak(s.r)
+        null = np.array([peak(s.r[s.rng.permutation(s.n)])[1] for _ in range(N_PERM_PERIODOGRAM)])
+        e = (s.n - 3) / 2.0
+
+        def single(zz: float) -> float:
+            return float((1.0 - min(max(zz, 0.0), 1.0)) ** e)
+
+        med = float(np.median(null))
+        q = single(med)
+        m_eff = math.log(0.5) / math.log1p(-q) if 0 < q < 1 else float(w.size)
+        fap = -math.expm1(m_eff * math.log1p(-single(z))) if single(z) < 1 else 1.0
+        ge = int(np.sum(null >= z))
+        p = (1 + ge) / (null.size + 1) if ge > 0 else min(1.0 / (null.size + 1), fap)
+        return Outcome(self.name, z, float(p), z), w_best
+
+
+class ChangepointTest:
+    """Does the residual step once along the column? (``changepoint``)
+
+    Statistic: the standardised CUSUM (the likelihood-ratio form of a single mean shift) of the
+    per-cycle mean residual (per row for a column that varies within cycles) ordered by the
+    column, over its standard deviation. p-value: from ``r`` permutations of the order
+    (:func:`~.significance.permutation_p`; 1 without permutations). Also the change's place
+    (between two groups) and a width (an eighth of the gap there). Assumptions: groups
+    exchangeable under the null; one shift of the mean.
+    """
+
+    name = "changepoint"
+
+    def __init__(self, space: ResidualSpace) -> None:
+        self.s = space
+
+    def run(self, x: Array, r: int) -> tuple[Outcome, float, float]:
+        """The outcome (no share), the change's place and its width (nan when there are too few groups)."""
+        s = self.s
+        if s.cycle_level(x):
+            cnt = np.bincount(s.cinv)
+            gx = np.bincount(s.cinv, weights=x) / cnt
+            gr = np.bincount(s.cinv, weights=s.r) / cnt
         else:
-            gx, gr = x, self.r
+            gx, gr = x, s.r
         order = np.argsort(gx, kind="stable")
         gx, gr = gx[order], gr[order]
         g = gr.size
         if g < 4 or not np.std(gr) > 0:
-            return 0.0, 1.0, math.nan, math.nan
+            return Outcome(self.name, 0.0, 1.0), math.nan, math.nan
 
         def cusum(m: Array) -> tuple[Array, Array]:
             c = np.cumsum(m - m.mean(axis=-1, keepdims=True), axis=-1)[..., :-1]
             k = np.arange(1, g)
-            s = c / np.sqrt(k * (g - k) / g)  # the standardised (likelihood-ratio) form of a mean shift
-            return np.max(np.abs(s), axis=-1) / m.std(axis=-1), np.argmax(np.abs(s), axis=-1)
+            st = c / np.sqrt(k * (g - k) / g)  # the standardised (likelihood-ratio) form of a mean shift
+            return np.max(np.abs(st), axis=-1) / m.std(axis=-1), np.argmax(np.abs(st), axis=-1)
 
-        perm = np.stack([gr] + [gr[self.rng.permutation(g)] for _ in range(r)])
+        perm = np.stack([gr] + [gr[s.rng.permutation(g)] for _ in range(r)])
         stat, arg = cusum(perm)
-        p = _tail_p(float(stat[0]), stat[1:]) if r > 0 else 1.0
+        p = permutation_p(float(stat[0]), stat[1:]) if r > 0 else 1.0
         k = int(arg[0])
         at = 0.5 * (gx[k] + gx[k + 1])
         width = max(float(gx[k + 1] - gx[k]) / 8.0, 1e-9 * max(abs(at), 1.0))
-        return float(stat[0]), p, float(at), width
+        return Outcome(self.name, float(stat[0]), p), float(at), width
+
+
+class PairTest:
+    """Does a second column add to a smooth function of the first? (``smoother (pair)``)
+
+    Two designs on the first column's splines (nested on them), the smaller p-value counted
+    twice: a tensor product of cubic splines of both (any smooth interaction, also times the
+    speed shapes) and the bilinear one (b and a*b, each also times the speed shapes: few
+    parameters, so it keeps its power with few cycles). A *screened* second column (chosen by
+    :class:`ScreenTest` among ``screened`` columns) enters as the screen had it (linear and
+    times the speed shapes), its p-value multiplied by ``screened``. Each p-value: the nested
+    test guarded by permutations of the second column (by whole cycles when it is per cycle).
+    Assumptions: the smoother's.
+    """
+
+    name = "smoother (pair)"
+
+    def __init__(self, space: ResidualSpace) -> None:
+        self.s = space
+
+    def _one(self, d_pair: Array, d_a: Array, noise: float | None) -> tuple[float, float]:
+        """(p-value, CV share) of the designs ``d_pair`` (row 0 the data, then permutations) nested on ``d_a``."""
+        s = self.s
+        in_pair = (s.sse0_in - s.in_sse(d_pair)) / s.total
+        p_perm = permutation_p(float(in_pair[0]), in_pair[1:])
+        return guarded(s.nested(d_a, d_pair[:1], noise), p_perm), s.cv_share(d_pair[:1])
+
+    def run(self, xa: Array, xb: Array, screened: int, n_perm: int, noise: float | None) -> Outcome:
+        s = self.s
+        xbp = s.permuted(xb, n_perm)
+        ba = s.rank_basis(xa[None, :], 4)
+        bb = s.rank_basis(xbp, 4)
+        rr = bb.shape[0]
+        z0 = np.broadcast_to(s.z0, (rr, s.n, s.q))
+        d_a = np.concatenate([s.z0[None], ba], axis=2)
+        xs = (xbp - xbp.mean(axis=1, keepdims=True)) / (float(np.std(xbp[0])) or 1.0)
+        if screened > 1:  # the screened column enters as the screen had it: linear, times the speed shapes
+            lin = np.stack([xs, xs * s.low[None, :], xs * s.high[None, :]], axis=2)
+            p, share = self._one(np.concatenate([z0, np.broadcast_to(ba, (rr, s.n, ba.shape[2])), lin], axis=2),
+                                 d_a, noise)
+            return Outcome(self.name, math.nan, min(1.0, p * screened), share)
+        inter = (np.broadcast_to(ba, bb.shape)[:, :, :, None] * bb[:, :, None, :]).reshape(rr, s.n, -1)
+        d_full = np.concatenate([z0, np.broadcast_to(ba, bb.shape), bb,
+                                 inter, inter * s.low[None, :, None], inter * s.high[None, :, None]], axis=2)
+        sa = (xa - xa.mean()) / (float(np.std(xa)) or 1.0)
+        lean = np.stack([xs, xs * sa[None, :]], axis=2)
+        d_lean = np.concatenate([z0, np.broadcast_to(ba, bb.shape), lean, lean * s.low[None, :, None],
+                                 lean * s.high[None, :, None]], axis=2)
+        p_full, share_full = self._one(d_full, d_a, noise)
+        p_lean, share_lean = self._one(d_lean, d_a, noise)
+        return Outcome(self.name, math.nan, min(1.0, 2.0 * min(p_full, p_lean)), max(share_full, share_lean))
+
+
+class ScreenTest:
+    """Screen: does column ``x`` (linear, and times the speed shapes) add to a smooth function of ``a``?
+
+    A cheap nested test (no permutations) on four cubic B-splines of ``a``'s rank: which column
+    a model input hides. The one with the smallest p-value is then tested as a pair
+    (:class:`PairTest`), its p-value multiplied by the number screened. Assumptions: the nested
+    test's.
+    """
+
+    name = "screen"
+
+    def __init__(self, space: ResidualSpace) -> None:
+        self.s = space
+
+    def run(self, a: Array, x: Array, noise: float | None) -> Outcome:
+        s = self.s
+        da = np.concatenate([s.z0, s.rank_basis(a[None, :], 4)[0]], axis=1)
+        xs = (x - x.mean()) / (float(np.std(x)) or 1.0)
+        dx = np.concatenate([da, np.column_stack([xs, xs * s.low, xs * s.high])], axis=1)
+        return Outcome(self.name, math.nan, s.nested(da[None], dx[None], noise))
 
 
 def _r2(y: Array, yhat: Array) -> float:
@@ -526,26 +665,8 @@ def _r2(y: Array, yhat: Array) -> float:
     return 1.0 - float(np.sum((y - yhat) ** 2)) / tot if tot > 0 else 0.0
 
 
-def _speed_region(speed: Array, contribution: Array) -> tuple[float, float]:
-    """Speed bands where the explained part is largest (>= 15 % of the largest band's mean square)."""
-    edges = SPEED_BAND_EDGES
-    ms = []
-    for lo, hi in itertools.pairwise(edges):
-        m = (speed >= lo) & (speed < hi)
-        ms.append(float(np.mean(contribution[m] ** 2)) if m.any() else math.nan)
-    g = np.asarray(ms)
-    present = np.isfinite(g)
-    if not present.any() or not np.nanmax(g) > 0:
-        return float(edges[0]), float(edges[-1])
-    on = np.flatnonzero(present & (g >= 0.15 * np.nanmax(g)))
-    pres = np.flatnonzero(present)
-    lo_i, hi_i = int(on.min()), int(on.max())
-    if lo_i == pres.min() and hi_i == pres.max():
-        return float(edges[0]), float(edges[-1])
-    return float(edges[lo_i]), float(edges[hi_i + 1])
-
-
-def _monotone_hint(x: Array, contribution: Array) -> str:
+def _monotone(x: Array, contribution: Array) -> str:
+    """``increasing``, ``decreasing`` or ``non-monotone``: the explained part's course along x (6 quantile bins)."""
     order = np.argsort(x)
     xs, cs = x[order], contribution[order]
     q = np.quantile(xs, np.linspace(0, 1, 7))
@@ -610,59 +731,54 @@ def residual_dependence(
         Significant ones first, then by explained share.
     """
     cols = list(columns) if columns is not None else candidate_variables(table)
-    ctx = _Context(table, residuals, folds, seed, tangent)
-    ctx.set_components(dict(components) if components is not None else None)
-    if ctx.total <= 0 or not cols:
+    space = ResidualSpace(table, residuals, folds, seed, tangent)
+    smoother, modulation = SmootherTest(space), ModulationTest(space, components)
+    periodogram, changepoint = PeriodogramTest(space), ChangepointTest(space)
+    if space.total <= 0 or not cols:
         return []
     out: list[VariableDependence] = []
     for c in cols:
         x = np.asarray(table[c], dtype=float)
-        xs = ctx.permuted(x, n_perm)
-        stat, s_lvl, s_spd = ctx.smoother(xs)
-        p_perm = _tail_p(float(stat[0]), stat[1:])
+        xs = space.permuted(x, n_perm)
         # the parametric test uses the noise level (powerful with few cycles); the permutation test
         # guards it against structure the F test would misread (residuals correlated within cycles)
-        p_f = min(1.0, 2.0 * min(ctx.f_test(ctx.last[0], noise), ctx.f_test(ctx.last[1], noise)))
-        tests = {"smoother": max(p_f, p_perm) if p_perm > PERM_GUARD else p_f}
-        share = max(s_lvl, s_spd, ctx.linear_share(x), 0.0)
+        sm, s_lvl, s_spd = smoother.run(xs, noise)
+        tests = {sm.name: sm.p_value}
+        share = max(s_lvl, s_spd, space.linear_share(x), 0.0)
         speed_dep = bool(s_spd > s_lvl + 0.02)
-        contrib = ctx.prediction(x, speed_dep)
-        hint = f"smooth in {c}, {_monotone_hint(x, contrib)}"
-        if ctx.comp.shape[1]:
-            p_mod, s_mod, scaled = ctx.modulation(xs, noise)
-            tests["modulation"] = p_mod
-            share = max(share, s_mod)
-            if p_mod < tests["smoother"] and scaled:
-                hint = f"scales the model's {scaled} with {c}"
-        peak = None
+        contrib = space.prediction(x, speed_dep)
+        d = VariableDependence(name=c, p_value=math.nan, p_raw=math.nan, explained_share=0.0, test=sm.name,
+                               significant=False, shape="smooth", monotone=_monotone(x, contrib))
+        if modulation.applicable:
+            mod, scaled = modulation.run(xs, noise)
+            tests[mod.name] = mod.p_value
+            share = max(share, mod.share)
+            if mod.p_value < tests[sm.name] and scaled:
+                d.shape, d.scaled_term = "scales", scaled
         if is_angle(c):
-            w, power, p_ls = ctx.periodogram(x)
-            tests["periodogram"] = p_ls
-            if p_ls < tests["smoother"]:
-                peak = w
-                share = max(share, power)
-                hint = f"periodic in {c}, w = {w:.4g} per unit (period {2 * math.pi / w:.4g})"
+            per, w = periodogram.run(x)
+            tests[per.name] = per.p_value
+            if per.p_value < tests[sm.name]:
+                d.shape, d.peak_frequency = "periodic", w
+                share = max(share, per.share)
                 speed_dep = False
-        _, p_cp, at, width = ctx.changepoint(x, n_perm if is_time(c) else 0)
+        cp, at, width = changepoint.run(x, n_perm if is_time(c) else 0)
         if is_time(c):
-            tests["changepoint"] = p_cp
-            if min(p_cp, tests["smoother"]) < alpha and ctx.step_beats_trend(x, at):
-                hint = f"step in {c} at {at:.6g}"
+            tests[cp.name] = cp.p_value
+            if min(cp.p_value, tests[sm.name]) < alpha and space.step_beats_trend(x, at):
+                d.shape = "step"
                 # a spline of a column that grows with the cycle is extrapolated into every held-out
                 # cycle (folds are whole cycles), so its cross-validated share understates a step
-                share = max(share, ctx.step_share(x, at))
+                share = max(share, space.step_share(x, at))
                 speed_dep = False
-        best_test = min(tests, key=lambda k: tests[k])
-        p_raw = min(1.0, tests[best_test] * len(tests))
-        region = _speed_region(ctx.speed, contrib) if speed_dep else (0.0, math.inf)
-        if speed_dep:
-            hint += f", mostly at {band_label(*region)} rad/s"
-        d = VariableDependence(
-            name=c, p_value=math.nan, p_raw=p_raw, explained_share=share, shape_hint=hint, test=best_test,
-            significant=False, speed_region=region, peak_frequency=peak,
-            changepoint=at if math.isfinite(at) else None, changepoint_width=width if math.isfinite(width) else None,
-            speed_dependent=speed_dep, tests=tests,
-        )
+        d.test = min(tests, key=lambda k: tests[k])
+        d.p_raw = min(1.0, tests[d.test] * len(tests))
+        d.explained_share = share
+        d.speed_dependent = speed_dep
+        d.speed_region = speed_region(space.speed, contrib**2) if speed_dep else (0.0, math.inf)
+        d.changepoint = at if math.isfinite(at) else None
+        d.changepoint_width = width if math.isfinite(width) else None
+        d.tests = tests
         out.append(d)
     # pairs of the strongest singles: does the second column add to the first (with an interaction)?
     singles = [d.name for d in sorted(out, key=lambda d: d.p_raw)[: max(pairs, 0)]]
@@ -674,70 +790,27 @@ def residual_dependence(
         # on its own: the refitted model has absorbed its shared part through that input. Screen every
         # column for what it adds to each input (a cheap nested test) and test the best one as a pair;
         # its p-value is multiplied by the number of columns screened (the choice is made on this data)
+        screen = ScreenTest(space)
         done = {frozenset(t[:2]) for t in todo}
         for a in PHYSICAL_INPUTS:
             others = [c for c in cols if c != a]
             if a not in cols or not others:
                 continue
             xa = np.asarray(table[a], dtype=float)
-            best = min(others, key=lambda c: ctx.partial_p(xa, np.asarray(table[c], dtype=float), noise))
+            best = min(others, key=lambda c: screen.run(xa, np.asarray(table[c], dtype=float), noise).p_value)
             if frozenset((a, best)) not in done:
                 todo.append((a, best, len(others)))
                 done.add(frozenset((a, best)))
+    pair_test = PairTest(space)
     pair_out: list[VariableDependence] = []
-
-    def pair_test(d_pair: Array, d_a: Array) -> tuple[float, float]:
-        """(p-value, CV share) of the designs ``d_pair`` (row 0 the data, then permutations) nested on ``d_a``."""
-        in_pair = (ctx.sse0_in - ctx._in_sse(d_pair)) / ctx.total
-        p_perm = _tail_p(float(in_pair[0]), in_pair[1:])
-        # nested test: does b (with the interaction) add to a alone?
-        sse_a = float(ctx._in_sse(d_a)[0])
-        sse_p = float(ctx._in_sse(d_pair[:1])[0])
-        k = d_pair.shape[2] - d_a.shape[2]
-        dof = max(ctx.n - d_pair.shape[2], 1)
-        s2 = sse_p / dof
-        gain = max(sse_a - sse_p, 0.0)
-        if noise is not None and math.isfinite(noise) and noise > 0:
-            p_f = float(stats.chi2.sf(gain / max(noise**2, s2), k))
-        else:
-            p_f = float(stats.f.sf(gain / k / max(s2, 1e-300), k, dof))
-        share = float((ctx.sse0 - ctx._cv_sse(d_pair[:1])[0]) / ctx.total)
-        return (max(p_f, p_perm) if p_perm > PERM_GUARD else p_f), share
-
     for a, b, screened in todo:
-        xa = np.asarray(table[a], dtype=float)
-        xb = ctx.permuted(np.asarray(table[b], dtype=float), n_perm)
-        ba = ctx.rank_basis(xa[None, :], 4)
-        bb = ctx.rank_basis(xb, 4)
-        rr = bb.shape[0]
-        z0 = np.broadcast_to(ctx.z0, (rr, ctx.n, ctx.q))
-        d_a = np.concatenate([ctx.z0[None], ba], axis=2)
-        xs = (xb - xb.mean(axis=1, keepdims=True)) / (float(np.std(xb[0])) or 1.0)
-        if screened > 1:  # the screened column enters as the screen had it: linear, times the speed shapes
-            lin = np.stack([xs, xs * ctx.low[None, :], xs * ctx.high[None, :]], axis=2)
-            p, share = pair_test(np.concatenate([z0, np.broadcast_to(ba, (rr, ctx.n, ba.shape[2])), lin], axis=2),
-                                 d_a)
-            p = min(1.0, p * screened)
-        else:
-            # two designs, the smaller p-value counted twice (Bonferroni): a tensor product of cubic splines
-            # (any smooth interaction, many parameters), and the bilinear one (b and a*b, each times the speed
-            # shapes: the first-order interaction, few parameters, so it keeps its power with few cycles)
-            inter = (np.broadcast_to(ba, bb.shape)[:, :, :, None] * bb[:, :, None, :]).reshape(rr, ctx.n, -1)
-            d_full = np.concatenate([z0, np.broadcast_to(ba, bb.shape), bb,
-                                     inter, inter * ctx.low[None, :, None], inter * ctx.high[None, :, None]], axis=2)
-            sa = (xa - xa.mean()) / (float(np.std(xa)) or 1.0)
-            lean = np.stack([xs, xs * sa[None, :]], axis=2)
-            d_lean = np.concatenate([z0, np.broadcast_to(ba, bb.shape), lean, lean * ctx.low[None, :, None],
-                                     lean * ctx.high[None, :, None]], axis=2)
-            p_full, share_full = pair_test(d_full, d_a)
-            p_lean, share_lean = pair_test(d_lean, d_a)
-            p, share = min(1.0, 2.0 * min(p_full, p_lean)), max(share_full, share_lean)
+        res = pair_test.run(np.asarray(table[a], dtype=float), np.asarray(table[b], dtype=float), screened,
+                            n_perm, noise)
         best_single = max(d.explained_share for d in out if d.name in (a, b))
         pair_out.append(VariableDependence(
-            name=f"{a},{b}", p_value=math.nan, p_raw=p, explained_share=max(share, 0.0),
-            shape_hint=f"interaction of {a} and {b}" if share > best_single + 0.05
-            else f"{b} adds to {a}", test="smoother (pair)", significant=False,
-            tests={"smoother (pair)": p},
+            name=f"{a},{b}", p_value=math.nan, p_raw=res.p_value, explained_share=max(res.share, 0.0),
+            shape="interaction" if res.share > best_single + 0.05 else "adds", test=res.name, significant=False,
+            tests={res.name: res.p_value},
         ))
     allv = out + pair_out
     adj = holm([d.p_raw for d in allv])

@@ -39,9 +39,7 @@ explain:
 
 from __future__ import annotations
 
-import itertools
 import math
-import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -53,18 +51,12 @@ from scipy import stats
 from ..errors import ModelError
 from ..model import TERMS, Model, Parameters, Term
 from ..types import ObservationTable
-from .candidates import (
-    Interaction,
-    candidate_library,
-    describe_term,
-    linear_params,
-    parse_spec,
-    start_grid,
-)
-from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, noise_test, speed_band_edges
-from .dependence import VariableDependence, is_angle, one_blas_thread, residual_dependence
+from .candidates import candidate_library, parse_spec
+from .compare import NoiseFloor, noise_test, speed_region
+from .dependence import VariableDependence, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
-from .shapes import HarmonicRipple, Scale, Spline, Step
+from .shapes import HarmonicRipple, Interaction, Scale, Spline, Step, is_angle
+from .significance import nested_test
 
 __all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
            "fit_candidate"]
@@ -105,11 +97,9 @@ class CandidateResult:
 
     @property
     def speed_region_label(self) -> str:
-        lo, hi = self.speed_region
-        if lo <= SPEED_BAND_EDGES[0] and not math.isfinite(hi):
-            return "all speeds"
-        where = "low speeds" if hi <= 60 else "high speeds" if lo >= 100 else "mid speeds" if lo >= 10 and hi <= 150 else "speeds"
-        return f"{where} {band_label(lo, hi)} rad/s"
+        from .render import candidate_region_label
+
+        return candidate_region_label(self.speed_region)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -175,78 +165,11 @@ class Diagnosis:
     def best(self) -> CandidateResult | None:
         return self.candidates[0] if self.candidates and self.candidates[0].significant else None
 
-    def _ratio(self, rmse: float) -> str:
-        r = self.noise.ratio(rmse)
-        return f"{r:.2f}x the noise floor" if math.isfinite(r) else "noise floor unknown"
-
-    def _floor_text(self) -> str:
-        nf = self.noise
-        if not math.isfinite(nf.value):
-            return "noise floor unknown (no tau_f_std, replicates or repeated speeds across cycles)"
-        return (f"noise floor {nf.value:.5f} ({nf.method}: p = {nf.p_value:.2g}, "
-                f"{'consistent' if nf.consistent else 'NOT consistent'} with the noise)")
-
-    def _outlier_text(self) -> str:
-        if not self.outliers:
-            return ""
-        rows = ", ".join(f"row {o.row} (cycle {o.cycle:g}, speed {o.speed:g}, {o.z:+.1f} std)" for o in self.outliers[:5])
-        more = f" and {len(self.outliers) - 5} more" if len(self.outliers) > 5 else ""
-        iso = (f" The best shape, {self.suggestion}, owes most of its gain to them: it isolates them, it is not a "
-               "missing effect." if self.isolates_outliers else "")
-        return (f" {len(self.outliers)} outlying observation(s): {rows}{more}; check them (a bad sample, a "
-                f"disturbed cycle) before trusting any shape.{iso}")
-
     def summary(self) -> str:
-        """The verdict in a few sentences: what is missing, or that nothing is, or what stays unexplained."""
-        return self._summary() + self._outlier_text()
+        """The verdict in a few sentences (:func:`~jointwear_ros.workbench.render.diagnosis_summary`)."""
+        from .render import diagnosis_summary
 
-    def _summary(self) -> str:
-        b = self.best
-        if self.verdict == "nothing_missing":
-            top = self.variables[0] if self.variables else None
-            dep = (f"; no column explains its residual (strongest: {top.name}, adjusted p = {top.p_value:.2g})"
-                   if top else "; no column to test")
-            cand = (f"; the best candidate, {self.candidates[0].term}, is not significant "
-                    f"(p = {self.candidates[0].p_value:.2g})") if self.candidates else ""
-            return (f"Nothing missing: model {self.model!r} has CV RMSE {self.cv_rmse:.5f} "
-                    f"({self._ratio(self.cv_rmse)}); {self._floor_text()}{dep}{cand}.")
-        if self.verdict == "found" and b is not None:
-            stab = self.stability.get(b.term)
-            stab_txt = (f" It is chosen in {100 * stab:.0f} % of bootstrap resamples by cycle (terms of "
-                        f"{', '.join(b.key)}: {100 * self.support:.0f} %)." if stab is not None else "")
-            return (f"Missing effect found: {b.term} — {b.description}, structured at {b.speed_region_label}. "
-                    f"Adding it brings the CV RMSE from {self.cv_rmse:.5f} to {b.cv_rmse:.5f} "
-                    f"({self._ratio(b.cv_rmse)}) and leaves no significant dependence on any column.{stab_txt} "
-                    f"Try: --model \"{self.model} + {b.term}\"")
-        # unexplained
-        sig = [v for v in self.variables if v.significant]
-        parts = [f"Unexplained structure remains: model {self.model!r} has CV RMSE {self.cv_rmse:.5f} "
-                 f"({self._ratio(self.cv_rmse)}; {self._floor_text()})."]
-        if sig:
-            parts.append("The residual depends on " + "; ".join(
-                f"{v.name} ({v.shape_hint}; explains {100 * v.explained_share:.0f} %, adjusted p = {v.p_value:.2g})"
-                for v in sig[:3]) + ".")
-        else:
-            parts.append("No column of the table explains it (a variable that is not recorded, or a noise "
-                         "estimate that is too optimistic).")
-        tried = self.candidates[:3]
-        if tried:
-            parts.append("Best shapes tried: " + ", ".join(
-                f"{c.term} ({self._ratio(c.cv_rmse)}{'' if c.significant else ', not significant'})"
-                for c in tried) + ".")
-        if b is not None:
-            rest = [v.name for v in self.after_variables if v.significant]
-            left = f"; the residual still depends on {', '.join(rest)}" if rest else ""
-            odd = ("" if self.agrees else
-                   "; its variables are not among those the model-free ranking found, so it can only be a "
-                   "partial fit")
-            if self.support < STABLE_SUPPORT and self.alternatives:
-                odd += (f"; the data does not tell it from {', '.join(self.alternatives[:3])} (terms of its "
-                        f"column(s) win only {100 * self.support:.0f} % of bootstrap resamples by cycle)")
-            parts.append(f"The best, {b.term}, leaves the CV RMSE at {self._ratio(b.cv_rmse)} "
-                         f"(at {b.speed_region_label}){left}{odd}. "
-                         f"Try next: --model \"{self.model} + {b.term}\", then diagnose again.")
-        return " ".join(parts)
+        return diagnosis_summary(self)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -365,9 +288,9 @@ def fit_candidate(
     model = Model([*base.model.terms, term])
     params: Parameters = model.make_params(base.params)
     x = model_inputs(model, table)
-    lin = set(linear_params(term))
+    lin = set(term.linear)
     starts = []
-    for g in start_grid(term, x):
+    for g in term.guess(x):
         s = {n: 0.0 for n in term.param_names if n in lin}
         s.update(g)
         starts.append(s)
@@ -377,27 +300,6 @@ def fit_candidate(
         if own:
             starts.insert(0, {**{n: 0.0 for n in term.param_names if n in lin}, **own})
     return fit_model(model, table, params, starts=starts, folds=folds, cv_folds=cv_folds, max_nfev=max_nfev)
-
-
-def _speed_region(speed: Array, r0: Array, r1: Array) -> tuple[float, float]:
-    v = np.abs(speed)
-    edges = speed_band_edges(v)
-    gains = []
-    for lo, hi in itertools.pairwise(edges):
-        m = (v >= lo) & (v < hi)
-        gains.append(float(np.sum(r0[m] ** 2 - r1[m] ** 2)) / max(int(m.sum()), 1) if m.any() else math.nan)
-    g = np.asarray(gains)
-    present = np.isfinite(g)
-    if not present.any() or np.nanmax(g) <= 0:
-        return float(edges[0]), float(edges[-1])
-    on = present & (g >= 0.15 * np.nanmax(g))
-    idx = np.flatnonzero(on)
-    lo_i, hi_i = int(idx.min()), int(idx.max())
-    # bands with data outside the region: if none, it is every speed present
-    pres = np.flatnonzero(present)
-    if lo_i == pres.min() and hi_i == pres.max():
-        return float(edges[0]), float(edges[-1])
-    return float(edges[lo_i]), float(edges[hi_i + 1])
 
 
 def adaptive_candidates(
@@ -460,18 +362,11 @@ def adaptive_candidates(
 
 
 def _significance(base: FitResult, fit: FitResult, nf: float, n: int, alpha: float, m: int) -> tuple[float, int, float, bool]:
+    """The candidate's likelihood-ratio (chi-square with the noise floor, else F) test on top of the base fit,
+    at ``alpha / m``, and whether it also lowers the CV RMSE and the BIC."""
     dof = max(fit.n_free - base.n_free, 1)
-    ssr_gain = max(base.ssr - fit.ssr, 0.0)
-    resid_var = fit.ssr / max(n - fit.n_free, 1)
-    if math.isfinite(nf) and nf > 0:
-        s2 = max(nf**2, resid_var)
-        stat = ssr_gain / s2
-        p = float(stats.chi2.sf(stat, dof))
-    else:
-        stat = ssr_gain / dof / max(resid_var, 1e-300)
-        p = float(stats.f.sf(stat, dof, max(n - fit.n_free, 1)))
-    dbic = fit.bic - base.bic
-    sig = bool(p < alpha / m and fit.cv_rmse < base.cv_rmse and dbic < 0)
+    stat, p, _ = nested_test(base.ssr - fit.ssr, fit.ssr, dof, n - fit.n_free, nf)
+    sig = bool(p < alpha / m and fit.cv_rmse < base.cv_rmse and fit.bic - base.bic < 0)
     return stat, dof, p, sig
 
 
@@ -604,7 +499,7 @@ def diagnose(
             CandidateResult(
                 term=term.name,
                 variables=[v for v in term.variables if v != "speed"] or ["speed"],
-                description=describe_term(term),
+                description=term.describe_effect(),
                 cv_rmse=fit.cv_rmse,
                 rmse=fit.rmse,
                 delta_bic=fit.bic - base.bic,
@@ -613,7 +508,7 @@ def diagnose(
                 dof=dof,
                 p_value=p,
                 significant=sig,
-                speed_region=_speed_region(table.speed, base.residuals, fit.residuals),
+                speed_region=speed_region(table.speed, base.residuals**2 - fit.residuals**2),
                 fit=fit,
                 key=_key(term),
                 factors=_factors(term),
@@ -714,11 +609,3 @@ def _components(fit: FitResult, table: ObservationTable) -> dict[str, Array]:
 
 def _nan_last(x: float) -> float:
     return x if math.isfinite(x) else math.inf
-
-
-def stderr_progress(i: int, m: int, name: str) -> None:  # pragma: no cover - terminal only
-    """A one-line progress indicator on stderr."""
-    sys.stderr.write(f"\r  candidate {i + 1}/{m}: {name[:40]:<40}")
-    if i + 1 == m:
-        sys.stderr.write("\r" + " " * 70 + "\r")
-    sys.stderr.flush()

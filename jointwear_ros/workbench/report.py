@@ -32,6 +32,7 @@ from .compare import band_rmse, noise_floor, noise_test, residual_structure
 from .diagnose import Diagnosis
 from .fit import FitResult
 from .history import History
+from .render import goodness_of_fit, noise_line, stability_text
 
 __all__ = ["plot_band_errors", "plot_dependence", "plot_error_fall", "plot_fit", "plot_residuals", "residual_columns",
            "write_report"]
@@ -291,11 +292,7 @@ def write_report(
         if history is not None and history.versions:
             files["error_fall.png"] = plot_error_fall(tmp / "error_fall.png", history)
         nf, src = noise_floor(table)
-        gof = noise_test(table, fit.residuals, fit.n_free)
-        gof_txt = ("noise floor unknown" if not math.isfinite(gof.value) else
-                   f"goodness of fit: {gof.method}, p = {gof.p_value:.2g}: the residual is "
-                   f"{'consistent' if gof.consistent else 'NOT consistent'} with the noise "
-                   f"(CV RMSE {fit.cv_rmse / gof.value:.2f}x the floor)")
+        gof_txt = goodness_of_fit(noise_test(table, fit.residuals, fit.n_free), fit.cv_rmse)
         parts = [f"<h1>{html.escape(title)}</h1>",
                  f"<p>data: <code>{html.escape(table.source)}</code>, {len(table)} observations; "
                  f"noise floor {nf:.5f} ({html.escape(src)})</p>",
@@ -323,8 +320,7 @@ def write_report(
             parts.append("<h2>Diagnosis: which effect is missing?</h2>")
             parts.append(f"<p><b>verdict: {html.escape(diagnosis.verdict)}</b></p>")
             parts.append(f"<p>{html.escape(diagnosis.summary())}</p>")
-            parts.append(f"<p>noise floor {nft.value:.5f} ({html.escape(nft.method)}): p = {nft.p_value:.2g}, "
-                         f"{'consistent' if nft.consistent else 'NOT consistent'} with the noise</p>")
+            parts.append(f"<p>{html.escape(noise_line(nft))}</p>")
             parts.append("<h3>Which columns explain the residual (model-free)</h3>")
             parts.append(_table_html(
                 ["variable", "explains", "p (adjusted)", "significant", "test", "shape"],
@@ -343,9 +339,8 @@ def write_report(
                       c.delta_bic, c.p_value, "yes" if c.significant else "no", c.speed_region_label]
                      for c in diagnosis.candidates[:15]]))
             if diagnosis.stability:
-                parts.append("<p>chosen in bootstrap resamples by cycle: " + html.escape(", ".join(
-                    f"{t} {100 * f:.0f} %" for t, f in sorted(diagnosis.stability.items(), key=lambda kv: -kv[1])))
-                    + "</p>")
+                parts.append("<p>chosen in bootstrap resamples by cycle: " + html.escape(stability_text(diagnosis))
+                             + "</p>")
         if "error_fall.png" in files and history is not None:
             parts.append("<h2>Model versions</h2>")
             parts.append(_table_html(["version", "model", "RMSE", "CV RMSE", "BIC", "noise floor"],

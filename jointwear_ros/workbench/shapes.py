@@ -1,10 +1,32 @@
-"""Candidate shapes fitted to the data, beyond the fixed library: any frequency, steps, splines, scaled terms.
+"""Workbench shapes: generic candidate terms of the data's columns, and the one registry of them.
 
-Each shape is a :class:`~jointwear_ros.workbench.candidates.CandidateTerm`
-written in a spec as ``shape(arguments, option=value, ...)``: positional
-arguments are column names (``scale`` takes a built-in term name first), the
-options are numbers that fix the shape's structure or its starting point, so
-that a spec string reproduces the fit (``--model "paper + ripple(position, w0=17.2)"``).
+A shape is a :class:`CandidateTerm` written in a model spec as
+``shape(column, ..., option=value, ...)``: positional arguments are column
+names (``scale`` takes a built-in term name first), the options are numbers
+that fix the shape's structure or its starting point, so that a spec string
+reproduces the fit (``--model "paper + ripple(position, w0=17.2)"``). Every
+shape is in :data:`SHAPES`, by its spec name; :func:`register_shape` adds one
+(a decorator), and an installed package can offer shapes in the entry point
+group ``jointwear.shapes`` (``name = pkg.module:Class``).
+
+The fixed library (``v = |speed|``, ``S(v; vs) = exp(-|v/vs|^1.3)``), offered
+for every column the diagnosis finds (:attr:`CandidateTerm.library`; the ripple
+only for angle-like columns):
+
+============================  =======================================  ==========================
+spec                          equation                                 physical reading
+============================  =======================================  ==========================
+``lin(x)``                    ``a*x``                                  Coulomb level shifts with x
+``x_stribeck(x)``             ``a*x*S(v; vs)``                         low-speed friction with x
+``x_viscous(x)``              ``a*x*v``                                viscous slope changes with x
+``exp_viscous(x)``            ``a*exp(-x/c)*v``                        viscosity, exponential in x
+``ripple(x)``                 ``a*sin(w*x) + b*cos(w*x)``              periodic in joint angle x
+``inter(x,y)``                ``a*x*y``                                interaction of x and y
+============================  =======================================  ==========================
+
+The fitted shapes, which the diagnosis starts from what the model-free ranking
+found (the periodogram's peak, the changepoint, the column's range, the
+model's own terms):
 
 =========================================  =================================================  ===========================
 spec                                       equation                                           fitted parameters
@@ -17,14 +39,15 @@ spec                                       equation                             
 =========================================  =================================================  ===========================
 
 ``w0``, ``at``, ``width`` are starting values (the fit moves them); ``k``,
-``lo``, ``hi``, ``n`` fix the structure. The workbench's diagnosis writes
-these options from the data (the periodogram's peak, the changepoint, the
-column's range and the knot count chosen by cross-validation).
+``lo``, ``hi``, ``n`` fix the structure. A new shape: docs/extending.md,
+"A workbench shape".
 
 >>> from jointwear_ros.workbench import parse_spec
 >>> m = parse_spec("paper + ripple(position, w0=17.2, k=2) + step(time, at=1.5e6, width=3e4)")
 >>> m.term_names[-2:]
 ['ripple(position, w0=17.2, k=2)', 'step(time, at=1500000, width=30000)']
+>>> list(SHAPES)[:9]  # the built-in ones, in the order the fixed library tries them
+['lin', 'x_stribeck', 'x_viscous', 'exp_viscous', 'inter', 'ripple', 'step', 'spline', 'scale']
 """
 
 from __future__ import annotations
@@ -32,28 +55,289 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from typing import Any, ClassVar
+from importlib import metadata
+from typing import ClassVar, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 from scipy.interpolate import BSpline
 
 from ..errors import ModelError
-from ..model import TERMS, ParamSpec, Term
-from .candidates import CandidateTerm, Inputs, Values, broadcast_shape, column_values
+from ..model import STRIBECK_EXPONENT, TERMS, ParamSpec, Term, stribeck_shape
 
-__all__ = ["LINEAR_OF_TERM", "HarmonicRipple", "Scale", "Spline", "Step", "format_option"]
+__all__ = [
+    "SHAPES",
+    "SHAPE_ENTRY_POINT_GROUP",
+    "CandidateTerm",
+    "ExpViscous",
+    "HarmonicRipple",
+    "Interaction",
+    "Lin",
+    "LinearShape",
+    "Scale",
+    "Spline",
+    "Step",
+    "XStribeck",
+    "XViscous",
+    "format_option",
+    "is_angle",
+    "register_shape",
+    "shape_class",
+]
 
 Array = npt.NDArray[np.float64]
+Inputs = Mapping[str, Array]
+Values = Mapping[str, float]
 
-#: Parameters each built-in term is linear in (the amplitudes ``scale`` starts at zero).
-LINEAR_OF_TERM: dict[str, tuple[str, ...]] = {
-    "coulomb": ("Fc0",), "stribeck": ("Fs",), "viscous": ("Fv",), "load_coulomb": ("Fctm",),
-    "load_stribeck": ("Fstm",), "temp_stribeck": ("Fs0", "FsT"), "temp_viscous": ("Fv0", "FvT"),
-    "wear_stribeck": ("Fsw",), "wear_viscous": ("Fvw",),
-}
+#: Entry point group of shapes from installed packages (``name = pkg.module:Class``).
+SHAPE_ENTRY_POINT_GROUP = "jointwear.shapes"
+
+IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
+def is_angle(name: str) -> bool:
+    """Columns a periodic shape (the ripple, the periodogram) is tried on: joint angles."""
+    return name == "position" or "angle" in name or name.startswith("position")
+
+
+def broadcast_shape(x: Inputs) -> tuple[int, ...]:
+    return np.broadcast(*[np.asarray(a) for a in x.values()]).shape
+
+
+def column_values(x: Inputs, name: str) -> Array:
+    return np.asarray(x[name], dtype=float)
+
+
+class CandidateTerm(Term):
+    """A generic term parametrised by column name(s): ``shape(x)`` or ``shape(x,y)``.
+
+    Subclasses set ``shape`` (the spec name), ``arity``, ``param_suffixes``
+    (suffix, unit, default, min, max), ``linear_suffixes`` (the parameters the
+    term is linear in), ``formula`` and ``meaning`` (with ``{x}``/``{y}`` and
+    ``{p_<suffix>}`` placeholders) and ``library`` (offered by the fixed
+    library for a column, :meth:`offered_for`), implement :meth:`value` and
+    :meth:`param_gradient`, and may override :meth:`start_points` (starts of
+    the nonlinear parameters) and ``from_call`` (a shape with options). The
+    term's workbench hints (:attr:`~jointwear_ros.model.Term.linear`,
+    :meth:`~jointwear_ros.model.Term.guess`, ``meaning``) follow from these.
+    Register the class with :func:`register_shape`.
+    """
+
+    shape: ClassVar[str] = ""
+    arity: ClassVar[int] = 1
+    param_suffixes: ClassVar[tuple[tuple[str, str, float, float, float], ...]] = ()
+    linear_suffixes: ClassVar[tuple[str, ...]] = ()
+    formula: ClassVar[str] = ""
+    #: Offered by the fixed library for a column the diagnosis finds (see :meth:`offered_for`).
+    library: ClassVar[bool] = False
+
+    def __init__(self, *columns: str) -> None:
+        if len(columns) != self.arity:
+            raise ModelError(f"term {self.shape}(...) takes {self.arity} column name(s), got {len(columns)}")
+        for c in columns:
+            if not IDENT.match(c):
+                raise ModelError(f"term {self.shape}({','.join(columns)}): {c!r} is not a column name")
+            if c in ("tau_f", "tau_plus", "tau_minus", "tau_f_std"):
+                raise ModelError(f"term {self.shape}({c}): {c!r} is the measured friction, not an input")
+        self.columns = tuple(columns)
+        tag = f"{self.shape}_{'_'.join(columns)}"
+        self.prefix = tag
+        self.name = f"{self.shape}({','.join(columns)})"  # type: ignore[misc]
+        self.variables = tuple(dict.fromkeys(("speed", *columns)))  # type: ignore[misc]
+        self.params = tuple(  # type: ignore[misc]
+            ParamSpec(f"{tag}_{s}", unit, default, lo, hi, f"{s} of {self.name}")
+            for s, unit, default, lo, hi in self.param_suffixes
+        )
+        fmt = {"x": columns[0], "y": columns[-1], **{f"p_{s[0]}": f"{tag}_{s[0]}" for s in self.param_suffixes}}
+        self.equation = self.formula.format(**fmt)  # type: ignore[misc]
+        self.meaning = self.meaning.format(x=columns[0], y=columns[-1])  # type: ignore[misc]
+        self.linear = tuple(self.pn(s) for s in self.linear_suffixes)  # type: ignore[misc]
+
+    @classmethod
+    def offered_for(cls, column: str) -> bool:
+        """Does the fixed library try this shape on ``column``? (:attr:`library`, one column.)"""
+        return cls.library and cls.arity == 1
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({', '.join(repr(c) for c in self.columns)})"
+
+    def p(self, p: Values, suffix: str) -> float:
+        return float(p[f"{self.prefix}_{suffix}"])
+
+    def pn(self, suffix: str) -> str:
+        return f"{self.prefix}_{suffix}"
+
+    def input_gradient(self, x: Inputs, p: Values, var: str) -> Array:
+        if var not in self.variables:
+            return np.zeros(broadcast_shape(x))
+        return super().input_gradient(x, p, var)
+
+
+#: Every shape by its spec name, in the order the fixed library tries them: the built-in ones and those
+#: added with :func:`register_shape` (or found in the entry point group :data:`SHAPE_ENTRY_POINT_GROUP`).
+SHAPES: dict[str, type[CandidateTerm]] = {}
+
+_S = TypeVar("_S", bound=type[CandidateTerm])
+
+
+def register_shape(cls: _S) -> _S:
+    """Add a :class:`CandidateTerm` subclass to :data:`SHAPES` under its ``shape`` name (a class decorator).
+
+    The spec grammar then knows it (``parse_spec("paper + NAME(column, ...)")``); with
+    ``library = True`` the fixed library of the diagnosis tries it on every column it finds.
+    A name taken by another class is an error (the same class registered again is not).
+    """
+    name = getattr(cls, "shape", "")
+    if not (isinstance(cls, type) and issubclass(cls, CandidateTerm)):
+        raise ModelError(f"register_shape: {cls!r} is not a CandidateTerm subclass")
+    if not IDENT.match(name):
+        raise ModelError(f"register_shape: {cls.__qualname__}.shape = {name!r} is not an identifier")
+    old = SHAPES.get(name)
+    if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
+        raise ModelError(f"register_shape: shape {name!r} is taken by {old.__module__}.{old.__qualname__}")
+    SHAPES[name] = cls
+    return cls
+
+
+def shape_class(name: str) -> type[CandidateTerm] | None:
+    """The shape registered as ``name``, else the one an installed package offers under that name (None: none)."""
+    if name in SHAPES:
+        return SHAPES[name]
+    try:
+        eps = [ep for ep in metadata.entry_points(group=SHAPE_ENTRY_POINT_GROUP) if ep.name == name]
+    except Exception:
+        return None
+    for ep in eps:
+        try:
+            cls = ep.load()
+        except Exception as exc:
+            raise ModelError(f"shape {name!r} (entry point {ep.value}): cannot load it ({exc})") from None
+        register_shape(cls)
+        return SHAPES.get(name)
+    return None
+
+
+# -- the fixed library ----------------------------------------------------------
+class LinearShape(CandidateTerm):
+    """A shape ``a * feature(x)`` with one amplitude ``a``: subclasses give :meth:`feature`."""
+
+    linear_suffixes = ("a",)
+
+    def feature(self, x: Inputs) -> Array:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def value(self, x: Inputs, p: Values) -> Array:
+        return np.broadcast_to(self.p(p, "a") * self.feature(x), broadcast_shape(x))
+
+    def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
+        return {self.pn("a"): np.broadcast_to(self.feature(x), broadcast_shape(x)).copy()}
+
+
+@register_shape
+class Lin(LinearShape):
+    """``a*x``: the Coulomb level shifts linearly with column x (dimensionless a per unit x)."""
+
+    shape = "lin"
+    library = True
+    param_suffixes = (("a", "-/x", 0.0, -np.inf, np.inf),)
+    formula = "{p_a}*{x}"
+    meaning = "friction level (all speeds) changes with {x}"
+
+    def feature(self, x: Inputs) -> Array:
+        return column_values(x, self.columns[0])
+
+
+@register_shape
+class XStribeck(CandidateTerm):
+    """``a*x*exp(-|v/vs|^1.3)``: low-speed (Stribeck) friction scaled by column x; vs in rad/s."""
+
+    shape = "x_stribeck"
+    library = True
+    param_suffixes = (("a", "-/x", 0.0, -np.inf, np.inf), ("vs", "rad/s", 20.0, 0.3, 1000.0))
+    linear_suffixes = ("a",)
+    formula = "{p_a}*{x}*exp(-|v/{p_vs}|^1.3)"
+    meaning = "low-speed (Stribeck) friction changes with {x}"
+
+    def start_points(self, x: Inputs) -> list[dict[str, float]]:
+        return [{self.pn("vs"): vs} for vs in (3.0, 8.0, 20.0, 50.0, 120.0)]
+
+    def value(self, x: Inputs, p: Values) -> Array:
+        s, _ = stribeck_shape(np.abs(column_values(x, "speed")), self.p(p, "vs"))
+        return np.broadcast_to(self.p(p, "a") * column_values(x, self.columns[0]) * s, broadcast_shape(x))
+
+    def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
+        vs = self.p(p, "vs")
+        s, ra = stribeck_shape(np.abs(column_values(x, "speed")), vs)
+        xs = column_values(x, self.columns[0]) * s
+        sh = broadcast_shape(x)
+        return {
+            self.pn("a"): np.broadcast_to(xs, sh).copy(),
+            self.pn("vs"): np.broadcast_to(self.p(p, "a") * xs * STRIBECK_EXPONENT * ra / vs, sh).copy(),
+        }
+
+
+@register_shape
+class XViscous(LinearShape):
+    """``a*x*v``: the viscous slope changes linearly with column x; a in s/rad per unit x."""
+
+    shape = "x_viscous"
+    library = True
+    param_suffixes = (("a", "s/rad/x", 0.0, -np.inf, np.inf),)
+    formula = "{p_a}*{x}*v"
+    meaning = "viscous slope (high speed) changes with {x}"
+
+    def feature(self, x: Inputs) -> Array:
+        return column_values(x, self.columns[0]) * np.abs(column_values(x, "speed"))  # type: ignore[no-any-return]
+
+
+@register_shape
+class ExpViscous(CandidateTerm):
+    """``a*exp(-x/c)*v``: viscosity falling exponentially with column x (c in units of x)."""
+
+    shape = "exp_viscous"
+    library = True
+    param_suffixes = (("a", "s/rad", 0.0, -np.inf, np.inf), ("c", "x", 25.0, 1e-6, 1e12))
+    linear_suffixes = ("a",)
+    formula = "{p_a}*exp(-{x}/{p_c})*v"
+    meaning = "viscous slope (high speed) changes exponentially with {x}"
+
+    def start_points(self, x: Inputs) -> list[dict[str, float]]:
+        col = column_values(x, self.columns[0])
+        span = float(np.ptp(col)) if col.size else 1.0
+        scale = max(span, float(np.max(np.abs(col))) if col.size else 1.0, 1e-6)
+        return [{self.pn("c"): f * scale} for f in (0.1, 0.3, 1.0, 3.0)]
+
+    def _e(self, x: Inputs, p: Values) -> Array:
+        with np.errstate(over="ignore", under="ignore"):
+            return np.exp(np.clip(-column_values(x, self.columns[0]) / self.p(p, "c"), -700.0, 700.0))
+
+    def value(self, x: Inputs, p: Values) -> Array:
+        return np.broadcast_to(self.p(p, "a") * self._e(x, p) * np.abs(column_values(x, "speed")), broadcast_shape(x))
+
+    def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
+        c = self.p(p, "c")
+        ev = self._e(x, p) * np.abs(column_values(x, "speed"))
+        sh = broadcast_shape(x)
+        return {
+            self.pn("a"): np.broadcast_to(ev, sh).copy(),
+            self.pn("c"): np.broadcast_to(self.p(p, "a") * ev * column_values(x, self.columns[0]) / c**2, sh).copy(),
+        }
+
+
+@register_shape
+class Interaction(LinearShape):
+    """``a*x*y``: the friction level changes with the product of columns x and y."""
+
+    shape = "inter"
+    arity = 2
+    param_suffixes = (("a", "-/(x*y)", 0.0, -np.inf, np.inf),)
+    formula = "{p_a}*{x}*{y}"
+    meaning = "friction level changes with {x} times {y}"
+
+    def feature(self, x: Inputs) -> Array:
+        return column_values(x, self.columns[0]) * column_values(x, self.columns[1])
+
+# -- fitted shapes ---------------------------------------------------------------
 def format_option(value: float) -> str:
     """A number as a spec option: 6 significant digits, no trailing zeros (``17.2``, ``1500000``)."""
     if float(value).is_integer() and abs(value) < 1e15:
@@ -78,6 +362,7 @@ def _check_options(name: str, options: Mapping[str, float], allowed: tuple[str, 
             raise ModelError(f"{name}: option {k}={v} is not a finite number")
 
 
+@register_shape
 class HarmonicRipple(CandidateTerm):
     """Friction periodic in column x at any frequency, with harmonics.
 
@@ -97,6 +382,7 @@ class HarmonicRipple(CandidateTerm):
     """
 
     shape = "ripple"
+    library = True
     formula = "{p_a}*sin({p_w}*{x}) + {p_b}*cos({p_w}*{x})"
     meaning = "friction periodic in {x}"
     #: Largest angular frequency, 1/(unit of x).
@@ -142,10 +428,15 @@ class HarmonicRipple(CandidateTerm):
     def __repr__(self) -> str:
         return f"HarmonicRipple({self.columns[0]!r}, w0={self.w0!r}, k={self.k})"
 
+    @classmethod
+    def offered_for(cls, column: str) -> bool:
+        """Only angle-like columns (:func:`is_angle`)."""
+        return is_angle(column)
+
     #: Angular frequencies tried as starts without ``w0`` (harmonics up to 12 per unit of x).
     W_GRID: ClassVar[tuple[float, ...]] = tuple(float(w) for w in np.arange(0.25, 12.01, 0.25))
 
-    def grid(self, x: Inputs) -> list[dict[str, float]]:
+    def start_points(self, x: Inputs) -> list[dict[str, float]]:
         if self.w0 is not None:
             return [{self.pn("w"): self.w0}]
         return [{self.pn("w"): w} for w in self.W_GRID]
@@ -179,6 +470,7 @@ class HarmonicRipple(CandidateTerm):
         return {n: out[n] for n in self.param_names}
 
 
+@register_shape
 class Step(CandidateTerm):
     """A smooth step in column x: a maintenance event (regreasing) in time, a threshold in any column.
 
@@ -250,6 +542,7 @@ class Step(CandidateTerm):
         }
 
 
+@register_shape
 class Spline(CandidateTerm):
     """A smooth function of column x: cubic B-splines (:class:`scipy.interpolate.BSpline`).
 
@@ -321,6 +614,7 @@ class Spline(CandidateTerm):
                 for j, s in enumerate(self.param_suffixes)}
 
 
+@register_shape
 class Scale(CandidateTerm):
     """An existing term of the model, scaled by a column (or a product of two): an interaction.
 
@@ -355,7 +649,7 @@ class Scale(CandidateTerm):
         self.inner: Term = TERMS[term]()
         self.term_name = term
         self.arity = len(columns)  # type: ignore[misc]
-        lin = LINEAR_OF_TERM.get(term, ())
+        lin = self.inner.linear
         self._rename = {}
         suffixes = []
         for ps in self.inner.params:
@@ -372,6 +666,7 @@ class Scale(CandidateTerm):
             for s, unit, d, lo, hi in suffixes
         )
         self._rename = {ps.name: f"{tag}_{ps.name}" for ps in self.inner.params}
+        self.linear = tuple(self._rename[n] for n in lin)  # type: ignore[misc]
         self.name = f"scale({term}, {', '.join(columns)})"  # type: ignore[misc]
         self.meaning = f"the {term} term changes with {'*'.join(columns)}"  # type: ignore[misc]
         self.variables = tuple(dict.fromkeys(("speed", *self.inner.variables, *columns)))  # type: ignore[misc]
@@ -412,16 +707,6 @@ class Scale(CandidateTerm):
         sh = broadcast_shape(x)
         return {new: np.broadcast_to(f * g[old], sh).copy() for old, new in self._rename.items()}
 
-    def grid(self, x: Inputs) -> list[dict[str, float]]:
-        from .candidates import PAPER_CANDIDATES
-
-        if self.term_name in PAPER_CANDIDATES:
-            return [{self._rename[k]: v for k, v in g.items() if k in self._rename}
-                    for g in PAPER_CANDIDATES[self.term_name][1]]
-        if self.term_name == "stribeck":
-            return [{self._rename["vs"]: v} for v in (4.0, 12.0, 30.0, 80.0)]
-        return [{}]
-
-
-#: The shapes of this module by spec name (``ripple`` replaces the single-harmonic grid-only ripple).
-NEW_SHAPES: dict[str, Any] = {"ripple": HarmonicRipple, "step": Step, "spline": Spline, "scale": Scale}
+    def start_points(self, x: Inputs) -> list[dict[str, float]]:
+        """The wrapped term's own starting points, under this term's names."""
+        return [{self._rename[k]: v for k, v in g.items() if k in self._rename} for g in self.inner.start_points(x)]
