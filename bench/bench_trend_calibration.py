@@ -29,6 +29,10 @@ its parts (what the width is made of), the fleet prior of linear siblings and th
 joint's own law known). ``--derive-prior`` alone: the members' prior weights estimated by type-II maximum
 likelihood over the reference histories (seeds 0 and 5), against which ``TrendConfig()``'s are checked.
 
+``--trial`` also measures the fleet prior on the trial itself (each joint's prior from its 29 siblings of the
+same seed, leave-one-out, pooled as ``--fleet-prior`` does, with type-II weights, or contaminated with
+P(unlike siblings)), and on joints unlike their siblings (accelerating among linear).
+
 Then the fleet prior: young joints (8-20 estimates) whose 30 linear siblings have full histories, at
 their last night, with and without :func:`jointwear_ros.trend.fleet_prior` (leave-one-out).
 Benchmarks measure; they do not pass or fail.
@@ -39,6 +43,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -50,6 +55,8 @@ from jointwear_ros.trend import (
     analyze_joint,
     bank_members,
     fleet_prior,
+    pool_prior,
+    sibling_fit,
     trend_states,
     type2_weights,
 )
@@ -114,7 +121,8 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
     pr = fleet_prior(sibs, AFTER)
     t_prior = time.perf_counter() - t0
     assert pr is not None
-    for use in (False, True):
+    robust = replace(pr, unlike=0.4)
+    for use in (False, True, "unlike"):
         hits = n = 0
         widths: list[float] = []
         for k, j in enumerate(fam[siblings:]):
@@ -123,7 +131,7 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
             last = int(np.searchsorted(j.times, j.times[0] + (100 + 3 * k) * DAY))
             idx = slice(max(last - m, 0), last)
             t, w, s = j.times[idx], j.wear[idx], j.wear_std[idx]
-            r = analyze_joint(t, w, s, cfg=AFTER, prior=pr if use else None)
+            r = analyze_joint(t, w, s, cfg=AFTER, prior=robust if use == "unlike" else pr if use else None)
             d_last = (t[-1] - EPOCH0) / DAY
             true = j.segment_crossing(d_last) - d_last
             if not 1.0 <= true <= 365.0:
@@ -133,7 +141,8 @@ def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[lis
             if tta is not None and tta.lo90 <= true <= tta.hi90:
                 hits += 1
             widths.append((tta.hi90 - tta.lo90) / true if tta is not None else math.inf)
-        out.append(["with fleet prior" if use else "own estimates only", str(n), pct(hits / n),
+        name = {False: "own estimates only", True: "with fleet prior", "unlike": "fleet prior, P(unlike) 0.4"}[use]
+        out.append([name, str(n), pct(hits / n),
                     num(float(np.median(widths)))])
     out.append([f"fleet prior: rate N({pr.mean:.3f}, {pr.std:.3f}²) from {pr.joints} siblings in "
                 f"{1000 * t_prior:.0f} ms", "", "", ""])
@@ -176,6 +185,85 @@ def trial_rows(cfgs: dict[str, TrendConfig]) -> list[list[str]]:
     return out
 
 
+def _trial_rows(rows: list[dict]) -> list[list[str]]:
+    out = []
+    for fam in ("linear", "accelerating", "all"):
+        s = trial_summary([x for x in rows if fam in ("all", x["profile"])])
+        out.append([fam, str(s["growing"]), pct(s["coverage"]), f"{s['no_interval']} / {s['unbounded']}",
+                    num(s["median_width_over_true"]), str(s["flat_warn"]) if fam == "all" else ""])
+    return out
+
+
+#: the priors the trial's fleet is measured with: none, ``--fleet-prior``'s, empirical Bayes over the weights
+FLEET_WAYS = {"default prior (no fleet)": None, "fleet, pooled weights (--fleet-prior)": {"weights": "mean"},
+              "fleet, type-II ML weights, floor 0.2": {"weights": "type2", "floor": 0.2},
+              "fleet, type-II ML weights, floor 0.5": {"weights": "type2", "floor": 0.5},
+              "fleet, pooled, P(unlike siblings) 0.2": {"unlike": 0.2},
+              "fleet, pooled, P(unlike siblings) 0.4": {"unlike": 0.4}}
+
+
+def trial_fleet_rows() -> list[list[str]]:
+    """The trial as the fleet it is: each seed's 30 joints (10 linear, 10 accelerating, 10 flat) are one plant's
+    joints of one type; each joint's prior comes from its 29 siblings' 60 estimates (leave-one-out: never its own),
+    at the same look (the 60th estimate). Per family: coverage, no interval / unbounded, median width / true."""
+    rows: dict[str, list[dict]] = {k: [] for k in FLEET_WAYS}
+    for seed in (100, 101, 102):
+        plant = make_trial_set(seeds=(seed,))
+        fits = [sibling_fit((j.times[100:160] - j.times[100]) / DAY, j.wear[100:160], j.wear_std[100:160], AFTER)
+                for j in plant]
+        for i, j in enumerate(plant):
+            sibs = fits[:i] + fits[i + 1:]
+            for name, way in FLEET_WAYS.items():
+                pr = None if way is None else pool_prior(sibs, AFTER, source=name, **way)
+                rows[name] += score_trial([j], AFTER, EPOCH0, prior=pr)["rows"]
+    return [[name, *r] for name, rr in rows.items() for r in _trial_rows(rr)]
+
+
+def unusual_joint_rows() -> list[list[str]]:
+    """A joint unlike its siblings: the trial's accelerating joints, each with the prior of 20 linear siblings."""
+    fits = [sibling_fit((j.times[100:160] - j.times[100]) / DAY, j.wear[100:160], j.wear_std[100:160], AFTER)
+            for j in make_family("linear", 20, days=175, seed=200)]
+    acc = [j for j in make_trial_set() if j.profile == "accelerating"]
+    out = []
+    for name, way in FLEET_WAYS.items():
+        pr = None if way is None else pool_prior(fits, AFTER, **way)
+        s = score_trial(acc, AFTER, EPOCH0, prior=pr)
+        out.append([name, str(s["growing"]), pct(s["coverage"]), f"{s['no_interval']} / {s['unbounded']}",
+                    num(s["median_width_over_true"]), ""])
+    return out
+
+
+def unusual_young_rows() -> list[list[str]]:
+    """A joint unlike its siblings early in its wear: 20 accelerating joints (the paper's shape, rate 0.06-0.15
+    wear/day e-folding in 45-120 days, 60 nightly estimates from w = 5, std 0.85), each with the prior of 20
+    linear siblings (0.12-0.18 wear/day, 120 estimates; the tests' siblings); missed: too late / too early."""
+    rng = np.random.default_rng(0)
+    sib = []
+    for _ in range(20):
+        rate = rng.uniform(0.12, 0.18)
+        sib.append((np.arange(120.0), 5.0 + rate * np.arange(120.0) + rng.normal(0, 0.85, 120), np.full(120, 0.85)))
+    fits = [sibling_fit(*x, AFTER) for x in sib]
+    out = []
+    for name, way in FLEET_WAYS.items():
+        pr = None if way is None else pool_prior(fits, AFTER, **way)
+        hit, late, early, widths = 0, 0, 0, []
+        for rate, tau in ((0.1, 60.0), (0.08, 45.0), (0.12, 90.0), (0.06, 60.0), (0.15, 120.0)):
+            for seed in range(4):
+                d = np.arange(60.0)
+                y = 5 + rate * tau * np.expm1(d / tau) + np.random.default_rng(seed).normal(0, 0.85, 60)
+                true = tau * math.log1p(30 / (rate * tau)) - 59.0
+                tta = analyze_joint(EPOCH0 + d * DAY, y, np.full(60, 0.85), cfg=AFTER, prior=pr).time_to_alarm
+                if tta is None or tta.lo90 > true:
+                    late += 1
+                elif tta.hi90 < true:
+                    early += 1
+                else:
+                    hit += 1
+                widths.append((tta.hi90 - tta.lo90) / true if tta is not None else math.inf)
+        out.append([name, "20", f"{hit} / {late} / {early}", num(float(np.median(widths)))])
+    return out
+
+
 #: the candidate bank the default prior weights are estimated over: every member issue 23 considered
 CANDIDATES = TrendConfig(efold_days=(160.0, 120.0, 90.0, 60.0, 45.0), accel_noise=(1e-4, 1e-3), jerk_noise=(1e-8,))
 
@@ -202,6 +290,15 @@ def print_trial() -> None:
     print(format_table(["bank", "growing", "coverage %", "no interval / unbounded", "width/true", "line width/true",
                         "weight line", "accelerated", "adaptive", "flat warn"],
                        trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER, **ABLATIONS})))
+    head = ["family", "growing", "coverage %", "no interval / unbounded", "width/true", "flat warn"]
+    print("\nthe trial as a fleet: each joint's prior from its 29 siblings of the same seed (leave-one-out), "
+          "at the 60th estimate")
+    print(format_table(["prior", *head], trial_fleet_rows()))
+    print("\na joint unlike its siblings: the trial's accelerating joints, each with the prior of 20 linear siblings")
+    print(format_table(["prior", *head[1:]], unusual_joint_rows()))
+    print("\na joint unlike its siblings early in its wear: 20 accelerating joints, 60 estimates from w = 5, each with "
+          "the prior of 20 linear siblings")
+    print(format_table(["prior", "joints", "covered / too late / too early", "width/true"], unusual_young_rows()))
 
 
 def main() -> int:

@@ -418,12 +418,12 @@ def test_estimator_levels_settings_and_restarts_are_per_joint(ctx):
 def test_estimator_declares_every_joints_settings_live_where_the_node_level_one_is(ctx):
     from rclpy.parameter import Parameter
 
-    from jointwear_ros.nodes.wear_estimator import JOINT_SETTINGS, LIVE_PARAMETERS
+    from jointwear_ros.nodes.wear_estimator import LIVE_PARAMETERS, PER_JOINT
 
     node = _estimator(ctx, "/jw_robot_est_decl", Parameter("alarm_threshold", value=33.0))
     try:
         for j in ("joint_1", "joint_2"):
-            for name in JOINT_SETTINGS:
+            for name in PER_JOINT:
                 assert node.has_parameter(f"{j}.{name}"), (j, name)
                 # the node-level value is the default of a joint not given its own
                 assert node.get_parameter(f"{j}.{name}").value == node.get_parameter(name).value, (j, name)

@@ -244,6 +244,71 @@ def test_a_young_joint_gets_a_useful_interval_from_its_siblings():
     assert helped.as_dict()["fleet_prior"]["joints"] == 12 and alone.as_dict()["fleet_prior"] is None
 
 
+def _unlike_its_siblings(seed):
+    """A joint that accelerates (the paper's shape, rate 0.1 wear/day e-folding in 60 days, 60 nightly estimates from
+    w = 5) where its siblings wear linearly; its true time to alarm is 48.5 days after the last estimate."""
+    rng = np.random.default_rng(seed)
+    d = np.arange(60.0)
+    y = 5.0 + 6.0 * np.expm1(d / 60.0) + rng.normal(0, 0.85, 60)
+    return T0 + d * DAY, y, np.full(60, 0.85), 60.0 * math.log1p(30.0 / 6.0) - 59.0
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_joint_unlike_its_siblings_is_covered_again_by_the_contaminated_fleet_prior(seed):
+    fits = [sibling_fit(*x) for x in _siblings(20)]
+    t, y, s, true = _unlike_its_siblings(seed)
+    own = analyze_joint(t, y, s).time_to_alarm
+    trusting = analyze_joint(t, y, s, prior=pool_prior(fits)).time_to_alarm
+    robust_prior = pool_prior(fits, unlike=0.4)
+    robust = analyze_joint(t, y, s, prior=robust_prior)
+    assert own.lo90 <= true <= own.hi90
+    # the fleet alone says "linear, 0.15 wear/day": the accelerating joint's alarm is predicted too late
+    assert trusting.lo90 > true
+    # P(unlike its siblings) = 0.4: every member is also weighed under the default prior, and the evidence of
+    # the acceleration brings the earliest time back
+    tta = robust.time_to_alarm
+    assert tta is not None and tta.lo90 <= true <= tta.hi90 and tta.lo90 < trusting.lo90
+    assert sum(robust.model_weights.values()) == pytest.approx(1.0, abs=1e-3)
+    assert robust.as_dict()["fleet_prior"]["unlike"] == 0.4
+
+
+def test_contaminated_prior_of_a_joint_like_its_siblings_keeps_the_fleets_sharpness():
+    fits = [sibling_fit(*x) for x in _siblings(20)]
+    t, w, s = _series(60, 0.15, w0=5.0, seed=4)  # like its siblings (0.12-0.18 wear/day)
+    true = 30.0 / 0.15 - 59.0
+    trusting = analyze_joint(t, w, s, prior=pool_prior(fits)).time_to_alarm
+    robust = analyze_joint(t, w, s, prior=pool_prior(fits, unlike=0.4)).time_to_alarm
+    own = analyze_joint(t, w, s).time_to_alarm
+    for x in (trusting, robust):
+        assert x.lo90 <= true <= x.hi90
+    assert robust.hi90 - robust.lo90 <= 1.1 * (trusting.hi90 - trusting.lo90) < own.hi90 - own.lo90
+
+
+def test_type2_member_weights_follow_the_siblings_above_a_floor():
+    fits = [sibling_fit(*x) for x in _siblings(20)]
+    mean, t2 = pool_prior(fits), pool_prior(fits, weights="type2", floor=0.2)
+    d = np.asarray(RatePrior().member_weights(TrendConfig()))
+    assert t2.weights[0] > mean.weights[0] > d[0]  # linear siblings: the line, more so by the marginal likelihood
+    assert (np.asarray(t2.weights) >= 0.2 * d / 1.2 - 1e-12).all()  # the floor: no member ruled out
+    assert (t2.mean, t2.std) == (mean.mean, mean.std)
+    for bad in ({"weights": "median"}, {"floor": 0.0}, {"floor": 1.5}, {"unlike": 1.0}, {"unlike": -0.1}):
+        with pytest.raises(InputDataError):
+            pool_prior(fits, **bad)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.lists(st.floats(1e-6, 1.0), min_size=9, max_size=9), min_size=2, max_size=12),
+       st.floats(0.01, 1.0))
+def test_type2_pooled_weights_are_a_distribution_with_every_member_above_its_floor(rows, floor):
+    from jointwear_ros.trend import SiblingFit
+
+    cfg = TrendConfig()
+    d = np.asarray(RatePrior().member_weights(cfg))
+    fits = [SiblingFit(0.1, 1e-4, np.asarray(r) / sum(r)) for r in rows]
+    w = np.asarray(pool_prior(fits, cfg, min_joints=2, weights="type2", floor=floor).weights)
+    assert w.sum() == pytest.approx(1.0) and (w >= floor * d / (1.0 + floor) - 1e-12).all()
+
+
 def test_default_rate_prior_reproduces_no_prior():
     t, w, s = _issue_linear()
     a = analyze_joint(t, w, s)

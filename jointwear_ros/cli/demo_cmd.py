@@ -28,12 +28,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from ..contract import CycleState
 from ..errors import JointwearError
 from ..nodes.cell import CellError, Child, JointReport, Operator, ready_conditions, start_child, stop_children
-from ..resources import config_path
+from ..resources import node_config
 from . import UsageError
 from .common import check_method, check_output_dir, format_table, parse_float, parse_float_list, print_json
 
@@ -160,11 +158,10 @@ def _worst_level(levels: Sequence[str]) -> str:
 
 
 def _config_value(node: str, name: str, default: Any) -> Any:
-    """Parameter ``name`` of ``config/<node>.yaml`` (``default`` if it cannot be read)."""
+    """Parameter ``name`` of ``config/<node>.yaml`` (``default`` if the file or the name is not there)."""
     try:
-        values = yaml.safe_load(config_path(f"{node}.yaml").read_text())
-        return values[node]["ros__parameters"][name]
-    except Exception:
+        return node_config(node).get(name, default)
+    except JointwearError:
         return default
 
 
@@ -379,47 +376,35 @@ def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, Any]]:
     return out
 
 
-def _node_parameters(node: str) -> dict[str, Any]:
-    """Parameter name -> declaration (or None) a demo node takes: its config file and its declarations."""
-    known: dict[str, Any] = {"use_sim_time": None}
-    try:
-        values = yaml.safe_load(config_path(f"{node}.yaml").read_text())
-        known.update(dict.fromkeys(values[node]["ros__parameters"]))
-    except Exception:  # no config file: the declarations alone
-        pass
-    try:
-        import importlib
-
-        decls = importlib.import_module(f"jointwear_ros.nodes.{node}").PARAMETERS
-        known.update({d.name: d for d in decls})
-    except (ImportError, AttributeError):
-        pass
-    return known
-
-
 def check_overrides(overrides: dict[str, dict[str, Any]]) -> None:
-    """Every ``--set NODE.PARAM=VALUE`` names a parameter the node takes, within its declared range."""
+    """Every ``--set NODE.PARAM=VALUE`` names a parameter the node takes (its declarations, a joint's own
+    ``<joint>.<setting>``, or its config file), of the declared type and within the declared range; an
+    integer where a double is declared becomes that double (what everyone types)."""
+    from ..errors import ParameterError
+    from ..nodes.runtime import node_parameter, node_parameters
+
     for node, values in overrides.items():
-        known = _node_parameters(node)
         for name, value in values.items():
-            if name not in known:
+            decl = node_parameter(node, name)
+            if decl is None:
+                known = set(node_parameters(node)) | set(_config_value_names(node))
+                if name in known:
+                    continue
                 raise UsageError(f"--set {node}.{name}: {node} has no parameter {name!r}; "
                                  f"it has {', '.join(sorted(known))}")
-            decl = known[name]
-            if decl is not None and isinstance(decl.default, float) and not isinstance(decl.default, bool):
-                if isinstance(value, int) and not isinstance(value, bool):
-                    value = values[name] = float(value)  # 30 where 30.0 is declared: what everyone types
-                elif not isinstance(value, float):
-                    raise UsageError(f"--set {node}.{name}={value!r}: {node}.{name} is a number "
-                                     f"(default {decl.default:g})")
-            if decl is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
-                if not math.isfinite(float(value)):
-                    raise UsageError(f"--set {node}.{name}={value:g}: not a finite number")
-                if (decl.min is not None and value < decl.min) or (decl.max is not None and value > decl.max):
-                    raise UsageError(f"--set {node}.{name}={value:g}: outside the declared range "
-                                     f"[{decl.min}, {decl.max}]")
+            try:
+                values[name] = decl.check(value)
+            except ParameterError as exc:
+                raise UsageError(f"--set {node}.{exc}") from None
         if node == "wear_estimator" and "method" in values:
             check_method(str(values["method"]), "--set wear_estimator.method")
+
+
+def _config_value_names(node: str) -> list[str]:
+    try:
+        return list(node_config(node))
+    except JointwearError:
+        return []
 
 
 #: Most speeds of a demo cycle (each takes seconds of simulated motion).
@@ -430,11 +415,7 @@ def _sim_parameter_set(overrides: dict[str, dict[str, Any]]) -> str:
     """The parameter set joint_sim will simulate with (its config, or --set joint_sim.params)."""
     if "params" in overrides.get("joint_sim", {}):
         return str(overrides["joint_sim"]["params"])
-    try:
-        values = yaml.safe_load(config_path("joint_sim.yaml").read_text())
-        return str(values["joint_sim"]["ros__parameters"]["params"])
-    except Exception:
-        return "ref-2011r"
+    return str(_config_value("joint_sim", "params", "ref-2011r"))
 
 
 def _values_per_joint(text: str | None, flag: str, n: int | None, default: Sequence[float]) -> list[float]:

@@ -18,7 +18,7 @@ effects are what the model workbench should find:
     a slow drift of the friction level with time (column ``time``, s):
     ``k * time`` (k = 0.012 per 40 days).
 
-Issue 11 adds effects that the workbench's fixed candidate library cannot
+The generator also offers effects that the workbench's fixed candidate library cannot
 express, as a geared robot joint shows them:
 
 ``ripple_fast``
@@ -87,7 +87,7 @@ class HiddenEffect:
     variables: tuple[str, ...]
 
 
-#: Every hidden-effect family the generator offers (issue 3's four and issue 11's six).
+#: Every hidden-effect family the generator offers (the four of the paper's neighbourhood and six the fixed library cannot express).
 EFFECT_FAMILIES: dict[str, HiddenEffect] = {
     e.name: e
     for e in (
@@ -110,7 +110,7 @@ EFFECT_FAMILIES: dict[str, HiddenEffect] = {
 }
 
 
-#: The effects the simulated joint (:mod:`jointwear_ros.sim.friction`) reproduces too: issue 3's four.
+#: The effects the simulated joint (:mod:`jointwear_ros.sim.friction`) reproduces too: the first four.
 HIDDEN_EFFECTS: dict[str, HiddenEffect] = {
     k: EFFECT_FAMILIES[k] for k in ("load_viscous", "ripple", "lubrication", "time_drift")
 }
@@ -203,7 +203,7 @@ def synth_observations(
         ``tau_plus``, ``tau_minus``, ``load_torque``, ``temperature``,
         ``position``, ``lube_hours``, ``hours_running``, ``motor_temperature`` (and ``wear`` for
         ``paper+wear``, ``aux_NN`` for irrelevant columns). The columns of
-        issue 3 are drawn exactly as before: a seed gives the same values.
+        the first four effects are drawn exactly as before: a seed gives the same values.
     """
     effects = list(effects)
     for e in effects:
@@ -256,7 +256,7 @@ def synth_observations(
         cols["wear"] = np.full(n, float(wear))
         inputs["wear"] = cols["wear"]
     tau = m.evaluate(p, **inputs) / tf
-    # columns added after issue 3 come from a separate stream, so the older columns keep their values
+    # columns added after the first four effects come from a separate stream, so the older columns keep their values
     extra = np.random.Generator(cast(Any, gen.bit_generator).jumped())  # PCG64 (default_rng) jumps
     cols["hours_running"] = np.repeat(extra.uniform(0.0, 8.0, n_cycles), ns)
     cols["motor_temperature"] = T + np.repeat(extra.uniform(0.0, 25.0, n_cycles), ns)

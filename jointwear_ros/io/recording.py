@@ -61,7 +61,7 @@ from typing import Any, Protocol
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.typesys.store import Typestore
 
-from ..contract import ENDED_STATES, CycleState, DiagnosticLevel, robot_cycle_over
+from ..contract import ENDED_STATES, CycleState, DiagnosticLevel, status_from_msg
 from .bags import LOST_KEY, NODE_PARAMS_KEY, STATUS_TYPE
 from .mcap_bag import COMPRESSIONS, McapBagWriter, qos_profiles_v9
 from .params import parameter_value
@@ -427,9 +427,8 @@ class Recording:
         """(cycle id, state) of a status message; the state of a joint's DONE that does not end its robot
         cycle is -1 (one bag per robot cycle, not per joint)."""
         try:
-            msg: Any = self._store.deserialize_cdr(item.data, STATUS_TYPE)
-            over = robot_cycle_over(int(msg.state), len(msg.joints), int(msg.joints_done))
-            return int(msg.cycle_id), int(msg.state) if over or int(msg.state) not in ENDED_STATES else -1
+            st = status_from_msg(self._store.deserialize_cdr(item.data, STATUS_TYPE))
+            return st.cycle_id, int(st.state) if st.robot_cycle_over or st.state not in ENDED_STATES else -1
         except Exception as exc:
             self.log.warning(f"undecodable status message on {item.topic}: {exc}", throttle_duration_sec=5.0)
             return None

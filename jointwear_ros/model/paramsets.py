@@ -4,7 +4,7 @@ A parameter set file holds ``name``, ``description``, ``valid`` (input ranges in
 which the set is meaningful) and ``parameters`` (name -> value). Units and
 bounds come from the terms' :class:`~jointwear_ros.model.parameters.ParamSpec`.
 
-A set may also carry its own model (issue 18): ``model`` (a spec string, default
+A set may also carry its own model (commissioning, docs/commissioning.md): ``model`` (a spec string, default
 ``paper+wear``, Eq. 9; candidate terms such as ``ripple(position)`` resolve
 through the workbench's library), ``units`` (``frame: motor_normalized``, the
 paper's motor side and normalized torque, the default; or ``frame: joint``,

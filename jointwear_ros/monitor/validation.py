@@ -20,7 +20,7 @@ and the reason for any change:
   observation is kept and the estimator treats its temperature as unknown
   (Eq. 11), which widens the reported std instead of biasing the estimate.
   Dropping it instead would lose a good measurement; using it gave, in the
-  issue's example, an estimate near 7 with std near 0 for a joint at wear
+  reported example, an estimate near 7 with std near 0 for a joint at wear
   40 (one -300 °C reading hid the alarm).
 
 Pure Python; no ROS import.

@@ -121,7 +121,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 #: Parameters that can change at run time (between cycles)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 #: Settings each joint has of its own (``<joint>.<setting>``, default: the node-level value; live)
-JOINT_SETTINGS = LIVE_PARAMETERS
+PER_JOINT = LIVE_PARAMETERS
 
 
 def observation_to_msg(o: FrictionObservationData) -> FrictionObservation:
@@ -170,7 +170,7 @@ class FrictionObserverNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.params = p
         self.joints = declare_joints(self, str(p["joint_name"]))
-        values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS])
+        values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in PER_JOINT])
         #: one core per joint and the routing of the inputs to them (the same as replay's)
         self.observer = RobotObserver({j: ObserverConfig.from_mapping({**p, **values[j], "joint_name": j})
                                        for j in self.joints})
@@ -201,9 +201,9 @@ class FrictionObserverNode(Node):
         for j in self.joints:
             self.health.add(j, partial(self._joint_health, j), hardware_id=j)
         self.health.update()
-        self.add_pre_set_parameters_callback(propagate_node_level(JOINT_SETTINGS, self.joints))
+        self.add_pre_set_parameters_callback(propagate_node_level(PER_JOINT, self.joints))
         on_parameter_change(self, self._on_parameters,
-                            LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in JOINT_SETTINGS))
+                            LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in PER_JOINT))
         for ch in self.channels.values():
             cfg = ch.core.config
             self.get_logger().info(

@@ -180,7 +180,7 @@ def node_parameter(node: str, name: str) -> ParamDecl | None:
         return decls[name]
     joint, _, setting = name.rpartition(".")
     module = _node_module(node)
-    per_joint: tuple[str, ...] = tuple(getattr(module, "PER_JOINT", ()) or getattr(module, "JOINT_SETTINGS", ()))
+    per_joint: tuple[str, ...] = tuple(getattr(module, "PER_JOINT", ()))
     if node in ROBOT_NODES and joint and setting in per_joint and setting in decls:
         return replace(decls[setting], name=name)
     return None

@@ -303,7 +303,7 @@ class TestCycleNode(Node):
         """The joints and window centres a request asks for (see the module docstring)."""
         if len(req.joints):
             return [str(j) for j in req.joints], [float(x) for x in req.positions] if len(req.positions) else None
-        if req.joint_name or len(self.joints) == 1:  # an older client: joint_name and position
+        if req.joint_name or len(self.joints) == 1:  # the one-joint form of the request (joint_name, position)
             return [req.joint_name or self.joint_name], [float(req.position)]
         return [], [float(x) for x in req.positions] if len(req.positions) else None
 

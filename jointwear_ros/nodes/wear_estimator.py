@@ -97,7 +97,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
 #: Parameters that apply at run time (from the next estimate)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 #: Settings each joint has of its own (``<joint>.<setting>``, default: the node-level value; live ones live)
-JOINT_SETTINGS = (*LIVE_PARAMETERS, "hardware_id")
+PER_JOINT = (*LIVE_PARAMETERS, "hardware_id")
 
 
 def _options(text: str) -> dict[str, Any]:
@@ -157,7 +157,7 @@ class WearEstimatorNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.params = p
         self.joints = declare_joints(self, str(p["joint_name"]))
-        values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in JOINT_SETTINGS])
+        values = declare_per_joint(self, self.joints, [d for d in PARAMETERS if d.name in PER_JOINT])
         configs: dict[str, MonitorConfig] = {}
         for j in self.joints:
             try:

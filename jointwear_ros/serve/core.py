@@ -97,7 +97,7 @@ class JointView:
         return LEVEL_NAMES[self.level]
 
     def as_api(self) -> dict[str, Any]:
-        """``/api/joints`` row: the issue's keys first (level as its name, nulls where unknown), then extras."""
+        """``/api/joints`` row: the documented keys first (docs/plant.md) (level as its name, nulls where unknown), then extras."""
 
         def num(x: float | None) -> float | None:
             return None if x is None or not math.isfinite(x) else float(x)

@@ -95,7 +95,7 @@ class FrictionTable:
                 f"unknown hidden effect(s) {', '.join(unknown)}; known: {', '.join(HIDDEN_EFFECTS)}"
             )
         self.model = parse_model_spec(model)
-        # a joint-frame set (N·m, joint side: issue 18) is evaluated in its own units through its gear ratio
+        # a joint-frame set (N·m, joint side: a commissioned set) is evaluated in its own units through its gear ratio
         # and torque scale, so the simulator's friction stays normalized motor side
         self._sf, self._tf = 1.0, 1.0
         if isinstance(params, str):

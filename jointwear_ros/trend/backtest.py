@@ -240,10 +240,10 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
                       max_true_days: float = 365.0, min_estimates: int = 0,
                       prior: RatePrior | None = None,
                       backtests: Sequence[NightlyBacktest] | None = None) -> dict[str, dict[str, Any]]:
-    """Per family (``j.profile``) and ``"all"``: the calibration figures of issue 23.
+    """Per family (``j.profile``) and ``"all"``: the calibration figures of docs/history-trend.md.
 
     Scored nights: before the true crossing, with a true time to alarm of 1 to ``max_true_days`` days and at
-    least ``min_estimates`` estimates in the segment so far (60: the issue's "history of 60 nightly estimates").
+    least ``min_estimates`` estimates in the segment so far (60: a planner's "history of 60 nightly estimates").
     ``coverage`` over scored nights with an interval (``coverage_se``: its standard error with the joint as
     the sampling unit); ``median_width_over_true`` with an unbounded
     interval counted as infinitely wide; ``width_over_line`` (linear family) the width relative to the
@@ -335,7 +335,7 @@ def score_calibration(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, sp
 
 def score_trial(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, *, first: int = 100, count: int = 60,
                 prior: RatePrior | None = None, max_true_days: float = 365.0) -> dict[str, Any]:
-    """The issue's planner trial: each joint looked at once, at the last of its estimates ``first`` to
+    """The planner trial (docs/history-trend.md): each joint looked at once, at the last of its estimates ``first`` to
     ``first + count - 1`` (a history of ``count`` nightly estimates that starts ``first`` estimates into the
     joint's wear). Growing joints (profile not ``flat``) with a true time to alarm of 1 to ``max_true_days``
     days are scored: coverage of the 90 % interval (no interval: a miss), joints without an interval

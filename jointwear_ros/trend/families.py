@@ -22,7 +22,7 @@ Seven families (:data:`FAMILIES`), each a joint with estimates over ``days`` day
     linear or accelerating, the estimate's std varies by night (log-uniform 0.4-2.5), reported
     exactly (each estimate is drawn with its own reported std).
 
-The estimate noise is Gaussian with the reported std (0.85 unless ``varying_std``), the issue's
+The estimate noise is Gaussian with the reported std (0.85 unless ``varying_std``), the planner trial's
 setting. :meth:`CalibrationJoint.segment_crossing` is the true day of the alarm under the wear law
 of the segment holding the night (a trend cannot foresee a replacement to come).
 
@@ -166,7 +166,7 @@ def make_calibration_set(per_family: int = 20, *, days: int = 180, seed: int = 0
 
 def make_trial_set(seeds: tuple[int, ...] = (100, 101, 102), per_family: int = 10, *,
                    days: int = 175) -> list[CalibrationJoint]:
-    """The issue's planner trial: per seed, ``per_family`` linear, accelerating and flat joints over ``days``
+    """The planner trial (docs/history-trend.md): per seed, ``per_family`` linear, accelerating and flat joints over ``days``
     days (the trial looks at estimates 100-159 of each, 60 nightly estimates about 105 days into the joint's
     wear: :func:`jointwear_ros.trend.backtest.score_trial`; 175 days hold at least 160 estimates)."""
     return [j for s in seeds for f in ("linear", "accelerating", "flat") for j in make_family(f, per_family, days=days,

@@ -15,7 +15,7 @@ BIC. A candidate is *significant* when
 * it lowers the cross-validated RMSE; and
 * it lowers the BIC.
 
-Around that ranking (issue 11), the diagnosis is honest about what it cannot
+Around that ranking, the diagnosis is honest about what it cannot
 explain:
 
 1. the current model's residual is tested against the noise floor
