@@ -60,8 +60,8 @@ def pytest_collection_modifyitems(config, items):
 
 # --------------------------------------------------------------------------- a domain per test module
 
-#: Domains handed to the test modules: 10-149 (Fast DDS refuses ids above 232; test_nodes_robot_cycle
-#: keeps 150-170 for itself). Each module gets the next one after the run's own start value, so no
+#: Domains handed to the test modules: 10-149 (Fast DDS refuses ids above 232; 150-232 stay free for
+#: a developer's own runs). Each module gets the next one after the run's own start value, so no
 #: two modules of a run share a domain (a node an earlier module left would answer a later one's
 #: messages) and two runs on one machine start far apart.
 _DOMAINS = itertools.cycle(range(10, 150))
