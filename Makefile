@@ -18,7 +18,7 @@ export MPLBACKEND ?= Agg
 
 MSG_SRCS := $(wildcard msg_defs/msg/*.msg msg_defs/srv/*.srv) msg_defs/CMakeLists.txt msg_defs/package.xml
 
-.PHONY: all env demo test test-repeat bench lint mutation clean distclean
+.PHONY: all env demo test test-fast test-repeat bench lint mutation clean distclean
 
 all: env
 
@@ -53,9 +53,22 @@ $(VENV)/.stamp-pkg: $(VENV)/.stamp-msgs setup.py setup.cfg
 demo: env
 	$(VENV)/bin/jointwear demo --joints 6 --out out/demo
 
+# Every test, in two tiers (what CI runs): the tests without a ROS graph on both cores
+# (pytest-xdist, each test file in one worker), then the process and graph tests (marker ros)
+# one at a time, as they must. Both tiers always run; the target fails if either failed.
 test: env
 	bash tools/install_system_deps.sh
-	$(PY) -m pytest -q test
+	@rc=0; \
+	echo "== tests without a ROS graph (2 workers)"; \
+	$(PY) -m pytest -q -m "not ros" -n 2 --dist loadfile test || rc=1; \
+	echo "== process and graph tests (marker ros), one at a time"; \
+	$(PY) -m pytest -q -m ros test || rc=1; \
+	exit $$rc
+
+# The quick tier while you work: everything but the process and graph tests (marker ros) and
+# the few slow ones (marker slow); make test before you stop.
+test-fast: env
+	$(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
 
 # The process and graph tests (marker ros: real nodes over DDS) N times in a row, each run on
 # fresh domains; run it before you stop after touching a node, the cell library or those tests.
@@ -71,11 +84,9 @@ bench: env
 	$(PY) bench/run_all.py
 
 # Plant each known bug in a copy of the package and check that the tests catch it
-# (tools/mutation_check.py: CLI, readers, estimators, recorder; tools/mutants_nodes.py: the
-# nodes and their cores; minutes: the node and recorder tests run once per bug).
+# (tools/mutation.py; minutes: the node and recorder tests run once per bug).
 mutation: env
-	$(PY) tools/mutation_check.py
-	$(PY) tools/mutants_nodes.py
+	$(PY) tools/mutation.py
 
 lint: env
 	$(VENV)/bin/ruff check jointwear_ros test tools bench launch

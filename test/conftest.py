@@ -1,4 +1,15 @@
-"""Test set-up: every ROS test stays on loopback, on a domain of its own, and leaves nothing running."""
+"""The test harness, in one place: markers, a ROS domain per module, node processes, graph clients, a database.
+
+- Markers (declared here only): ``ros`` for the process and graph tests (real rclpy/DDS on loopback;
+  ``make test-fast`` leaves them out), ``slow`` for tests without a graph that take 20 s or more here.
+  A test that uses ``ros_context``, ``ros_context_per_test``, ``node_process`` or ``graph_client``
+  is marked ``ros`` here, whether or not its module says so.
+- Every module runs on a ROS domain of its own and may leave no process running.
+- :func:`spin_until` waits for a condition (never for a time); :class:`NodeProcess` is a node in its
+  own process; :class:`GraphClient` is the test's own node (executor, service calls, parameters,
+  diagnostics). Test modules import these (``from conftest import ...``) or use the fixtures.
+- ``postgres_url`` / ``db_url``: a real PostgreSQL server for the session.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +18,14 @@ import os
 import random
 import shutil
 import signal
+import subprocess
+import sys
 import tempfile
 import time
 import uuid
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -21,10 +36,32 @@ os.environ.setdefault("ROS_DOMAIN_ID", str(random.Random(os.getpid()).randint(10
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
+# --------------------------------------------------------------------------- markers
+
+#: The markers of the suite, declared once (``--strict-markers`` refuses any other).
+MARKERS = {
+    "ros": "a process or graph test: real rclpy/DDS on loopback (left out by make test-fast; run serially)",
+    "slow": "no ROS graph, but 20 s or more on the shared 2-core machine (a costly fixture counts; left out by make test-fast)",
+}
+#: Fixtures that put a test on a ROS graph: a test using one is a ``ros`` test.
+ROS_FIXTURES = frozenset({"ros_context", "ros_context_per_test", "node_process", "graph_client"})
+
+
+def pytest_configure(config):
+    for name, text in MARKERS.items():
+        config.addinivalue_line("markers", f"{name}: {text}")
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if ROS_FIXTURES & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("ros") is None:
+            item.add_marker(pytest.mark.ros)
+
+
 # --------------------------------------------------------------------------- a domain per test module
 
-#: Domains handed to the test modules: 10-149 (Fast DDS refuses ids above 232; test_nodes_robot_cycle
-#: keeps 150-170 for itself). Each module gets the next one after the run's own start value, so no
+#: Domains handed to the test modules: 10-149 (Fast DDS refuses ids above 232; 150-232 stay free for
+#: a developer's own runs). Each module gets the next one after the run's own start value, so no
 #: two modules of a run share a domain (a node an earlier module left would answer a later one's
 #: messages) and two runs on one machine start far apart.
 _DOMAINS = itertools.cycle(range(10, 150))
@@ -89,6 +126,225 @@ def ros_domain_of_the_module(request):
                 except OSError:
                     pass
             assert not left, f"{request.module.__name__} left processes running (killed now): {left}"
+
+
+# --------------------------------------------------------------------------- a ROS graph: context, processes, clients
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def spin_until(executor: Any, predicate: Callable[[], object], timeout: float = 30.0, what: str | None = None,
+               children: Iterable[NodeProcess] = (), period: float = 0.02) -> bool:
+    """Spin ``executor`` until ``predicate()`` holds or ``timeout`` seconds passed; return ``bool(predicate())``.
+
+    With ``what``, a timeout fails the test naming what was awaited (and the tail of each child's log)
+    instead of returning False. A child in ``children`` that exited fails the test at once, with its log.
+    """
+    children = list(children)
+    end = time.monotonic() + timeout
+    while not predicate():
+        dead = [c for c in children if not c.alive()]
+        assert not dead, f"{[c.name for c in dead]} exited while waiting for {what or 'a condition'}:\n" + "\n".join(
+            c.output()[-3000:] for c in dead)
+        if time.monotonic() >= end:
+            assert what is None, f"timed out waiting for {what}" + "".join(
+                f"\n--- {c.name}:\n{c.output()[-2000:]}" for c in children)
+            break
+        executor.spin_once(timeout_sec=period)
+    return bool(predicate())
+
+
+def _param_text(v: object) -> str:
+    return ("true" if v else "false") if isinstance(v, bool) else str(v)
+
+
+class NodeProcess:
+    """A node in its own process (``python -m jointwear_ros.nodes.<name>``, as ``ros2 run`` starts it).
+
+    Its ``config/<name>.yaml`` (unless ``config=False``), then ``params_files``, then ``params`` as ``-p``
+    overrides, then ``args``; on the module's domain and loopback unless ``env`` says otherwise; its output
+    in a log file; SIGTERM when the test process dies. :meth:`stop` sends SIGINT (then SIGKILL).
+    """
+
+    def __init__(self, name: str, params: Mapping[str, object] | None = None, *, params_files: Sequence[Path] = (),
+                 args: Sequence[str] = (), config: bool = True, env: Mapping[str, str] | None = None,
+                 log: Path | None = None, preexec_fn: Callable[[], None] | None = None):
+        from jointwear_ros.nodes.cell import die_with_parent
+        from jointwear_ros.nodes.runtime import loopback_env
+
+        self.name = name
+        cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args"]
+        if config:
+            cmd += ["--params-file", str(ROOT / "config" / f"{name}.yaml")]
+        for f in params_files:
+            cmd += ["--params-file", str(f)]
+        for k, v in (params or {}).items():
+            cmd += ["-p", f"{k}:={_param_text(v)}"]
+        cmd += list(args)
+        self._own_log = log is None
+        if log is None:
+            fd, name_ = tempfile.mkstemp(prefix=f"{name}-", suffix=".log")
+            os.close(fd)
+            log = Path(name_)
+        self.log = log
+        with log.open("wb") as fh:
+            self.proc = subprocess.Popen(cmd, env=loopback_env() if env is None else dict(env), stdout=fh,
+                                         stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                         preexec_fn=preexec_fn or die_with_parent)
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
+        """Send ``sig`` (SIGINT: as Ctrl-C), wait ``timeout`` s, then SIGKILL; the exit code."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        return int(self.proc.returncode)
+
+    def output(self) -> str:
+        try:
+            return self.log.read_text(errors="replace")
+        except OSError:
+            return ""
+
+    def log_tail(self, lines: int = 20) -> str:
+        return "\n".join(self.output().strip().splitlines()[-lines:])
+
+    def close(self) -> None:
+        """Stop it (if still running) and remove the log it made itself."""
+        self.stop()
+        if self._own_log:
+            self.log.unlink(missing_ok=True)
+
+
+class GraphClient:
+    """The test's own node on the graph, with an executor: waits, service calls, parameters, diagnostics.
+
+    ``children``: the node processes the test started; a wait fails at once when one of them exited.
+    ``diagnostics``: the topics whose ``DiagnosticStatus`` items are collected into :attr:`diag` by name.
+    """
+
+    def __init__(self, context: Any, name: str, children: Sequence[NodeProcess] = (),
+                 diagnostics: Sequence[str] = (), qos: Any = None):
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+
+        self.context = context
+        self.children = list(children)
+        self.node = rclpy.create_node(name, context=context)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.diag: dict[str, list] = {}
+        if diagnostics:
+            from diagnostic_msgs.msg import DiagnosticArray
+
+            for topic in diagnostics:
+                self.node.create_subscription(DiagnosticArray, topic, self._on_diag, 1000 if qos is None else qos)
+
+    @property
+    def ex(self) -> Any:
+        return self.executor
+
+    def _on_diag(self, msg: Any) -> None:
+        for s in msg.status:
+            self.diag.setdefault(s.name, []).append(s)
+
+    def spin_until(self, predicate: Callable[[], object], timeout: float = 20.0, what: str | None = None) -> bool:
+        """:func:`spin_until` on this client's executor, watching its children."""
+        return spin_until(self.executor, predicate, timeout, what, self.children)
+
+    def call(self, client: Any, request: Any, timeout: float = 15.0, what: str | None = None) -> Any:
+        """Wait for the service, call it, wait for the answer (a test failure naming the service otherwise)."""
+        assert self.spin_until(client.service_is_ready, timeout), f"service {client.srv_name} not available"
+        fut = client.call_async(request)
+        assert self.spin_until(fut.done, timeout), f"no answer from {client.srv_name}"
+        return fut.result()
+
+    def set_parameters(self, node: str, timeout: float = 15.0, **values: object) -> list:
+        """``ros2 param set <node> ...``: the node's ``~/set_parameters`` service over DDS; the results."""
+        from rcl_interfaces.srv import SetParameters
+        from rclpy.parameter import Parameter
+
+        client = self._client(SetParameters, f"{node}/set_parameters")
+        req = SetParameters.Request(parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()])
+        return list(self.call(client, req, timeout).results)
+
+    def _client(self, srv_type: Any, name: str) -> Any:
+        if not name.startswith("/"):
+            name = "/" + name
+        clients = self.__dict__.setdefault("_clients", {})
+        if name not in clients:
+            clients[name] = self.node.create_client(srv_type, name)
+        return clients[name]
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+
+
+def _init_context(domain_id: int | None = None) -> Any:
+    import rclpy
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=domain_id)
+    return ctx
+
+
+@pytest.fixture(scope="module")
+def ros_context(ros_domain_of_the_module) -> Iterator[Any]:
+    """An rclpy context on the module's domain, for the whole module."""
+    import rclpy
+
+    ctx = _init_context(ros_domain_of_the_module)
+    yield ctx
+    rclpy.try_shutdown(context=ctx)
+
+
+@pytest.fixture
+def ros_context_per_test(ros_domain_of_the_module) -> Iterator[Any]:
+    """An rclpy context of the test's own (every node made in it goes at the end of the test)."""
+    import rclpy
+
+    ctx = _init_context(ros_domain_of_the_module)
+    yield ctx
+    rclpy.try_shutdown(context=ctx)
+
+
+@pytest.fixture
+def node_process() -> Iterator[Callable[..., NodeProcess]]:
+    """``node_process(name, params, ...)`` starts a :class:`NodeProcess`; each one is stopped after the test."""
+    started: list[NodeProcess] = []
+
+    def start(name: str, params: Mapping[str, object] | None = None, **kw: Any) -> NodeProcess:
+        started.append(NodeProcess(name, params, **kw))
+        return started[-1]
+
+    yield start
+    for p in reversed(started):
+        p.close()
+
+
+@pytest.fixture
+def graph_client(ros_context) -> Iterator[Callable[..., GraphClient]]:
+    """``graph_client(name, children=..., diagnostics=...)``: a :class:`GraphClient`, closed after the test."""
+    made: list[GraphClient] = []
+
+    def make(name: str = "jw_test_client", **kw: Any) -> GraphClient:
+        made.append(GraphClient(ros_context, name, **kw))
+        return made[-1]
+
+    yield make
+    for c in made:
+        c.close()
 
 
 # --------------------------------------------------------------------------- a real PostgreSQL server

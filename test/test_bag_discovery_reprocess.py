@@ -132,6 +132,7 @@ def test_history_import_reports_one_bad_bag_and_imports_the_others(bags, tmp_pat
     assert "unknown wear estimation method" in capsys.readouterr().err and not (tmp_path / "x.db").exists()
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_fleet_reprocess_prints_one_line(tmp_path):
     paths = write_fleet(tmp_path / "bags", fleet_specs(2, 2, 10, rates=(0.0, 1.5), start_wear=15.0, method="joint"))
     p = subprocess.Popen([sys.executable, "-m", "jointwear_ros", "fleet", "reprocess", str(tmp_path / "bags"),

@@ -16,6 +16,8 @@ pytest.importorskip("rclpy")
 from jointwear_ros.nodes.cell import CellError, Operator, start_child, stop_children
 from jointwear_ros.nodes.runtime import loopback_env
 
+pytestmark = pytest.mark.ros  # a real node process
+
 
 def test_the_operator_retries_only_retryable_refusals(tmp_path):
     domain = int(os.environ["ROS_DOMAIN_ID"])

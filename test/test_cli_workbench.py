@@ -60,6 +60,7 @@ def test_fit_json_contract(ripple_csv, capsys):
         assert isinstance(p["value"], float) and isinstance(p["stderr"], float) and p["stderr"] > 0
 
 
+@pytest.mark.slow
 def test_fit_json_states_the_goodness_of_fit_against_the_noise_floor(ripple_csv, diagnosis, capsys):
     rc, out, err = run_main(capsys, "model", "fit", str(ripple_csv), "--model", "paper", "--json")
     assert rc == 0, err
@@ -74,6 +75,7 @@ def test_fit_json_states_the_goodness_of_fit_against_the_noise_floor(ripple_csv,
     assert doc["after"]["cv_rmse"] < 1.3 * 0.0015
 
 
+@pytest.mark.slow
 def test_diagnose_json_contract(diagnosis):
     d = diagnosis
     assert {"model", "n", "rmse", "cv_rmse", "noise_floor", "missing_effect_found", "candidates", "verdict",
@@ -104,6 +106,7 @@ def test_diagnose_json_contract(diagnosis):
     assert cands[0]["term"].startswith("ripple(position, w0=") and cands[0]["variables"] == ["position"]
 
 
+@pytest.mark.slow
 def test_every_candidate_term_appended_to_the_spec_is_accepted_by_fit(diagnosis, ripple_csv, capsys):
     for c in diagnosis["candidates"]:  # every one parses as 'SPEC + TERM'
         assert parse_spec(f"paper + {c['term']}").term_names[-1] == c["term"]
@@ -150,6 +153,7 @@ def test_fit_report_writes_pngs_and_a_self_contained_html(ripple_csv, tmp_path, 
     assert [p.name for p in tmp_path.iterdir()] == ["report"]  # no temporary directory left
 
 
+@pytest.mark.slow
 def test_diagnose_prints_json_and_html_say_the_same(ripple_csv, diagnosis, tmp_path, capsys):
     import html as html_lib
 

@@ -270,6 +270,7 @@ def test_history_import_reestimates_observation_tables_with_a_set(tmp_path, caps
     assert doc["added"] == 3 and doc["analysis_versions"][0].startswith("joint:j1:")
 
 
+@pytest.mark.slow
 def test_the_documented_command_sequence_runs_as_written(tmp_path):
     import os
     import re

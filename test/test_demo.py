@@ -146,7 +146,7 @@ def test_replay_command_on_the_demo_bag_prints_the_demo_fields(demos):
     assert out["comparison"]["estimates"]["max_abs_diff"] == 0.0
 
 
-def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos):
+def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos, ros_context_per_test):
     """`jointwear replay --publish`: every played message arrives, /clock follows the log times."""
     import time
 
@@ -158,8 +158,7 @@ def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos):
 
     res = demos[20.0]
     info = bag_info(res.bag)
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
+    ctx = ros_context_per_test
     node = rclpy.create_node("replay_listener", context=ctx)
     got: dict[str, list] = {"obs": [], "status": [], "clock": []}
     qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
@@ -187,7 +186,6 @@ def test_replay_publish_plays_the_bag_onto_a_live_graph_with_clock(demos):
             proc.kill()
         ex.shutdown()
         node.destroy_node()
-        rclpy.shutdown(context=ctx)
     _out, err = proc.communicate()
     assert proc.returncode == 0, err
     n_obs = info.topics["/jointwear/friction_observations"]["count"]

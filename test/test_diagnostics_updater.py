@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import time
-
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from conftest import spin_until  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
@@ -61,9 +60,8 @@ def test_composite_task_reports_its_parts_as_one_status_and_skips_parts_that_say
 
 
 @pytest.fixture
-def graph():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
+def graph(ros_context_per_test):
+    ctx = ros_context_per_test
     ex = SingleThreadedExecutor(context=ctx)
     node = rclpy.create_node("jw_diag_kit", context=ctx)
     probe = rclpy.create_node("jw_diag_probe", context=ctx)
@@ -75,14 +73,6 @@ def graph():
     ex.shutdown()
     node.destroy_node()
     probe.destroy_node()
-    rclpy.try_shutdown(context=ctx)
-
-
-def _spin_until(ex, predicate, timeout=10.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end and not predicate():
-        ex.spin_once(timeout_sec=0.02)
-    return bool(predicate())
 
 
 def test_updater_publishes_every_task_in_one_array_per_update_and_republishes_on_its_period(graph):
@@ -92,8 +82,8 @@ def test_updater_publishes_every_task_in_one_array_per_update_and_republishes_on
     held = up.add(HeldStatus("robot", hardware_id="robot", message="idle"))
     up.add("joint_1", lambda s: s.summary(DiagnosticLevel.OK, f"n={state['n']}") or s.add("n", state["n"]))
     up.add("history", lambda s: False if state["n"] < 2 else s.summary(DiagnosticLevel.ERROR, "store failing"))
-    assert _spin_until(ex, lambda: up.pub.get_subscription_count() > 0)
-    assert _spin_until(ex, lambda: len(got) >= 2), "no periodic update"
+    assert spin_until(ex, lambda: up.pub.get_subscription_count() > 0)
+    assert spin_until(ex, lambda: len(got) >= 2), "no periodic update"
     first = got[0]
     assert [s.name for s in first.status] == ["kit: robot", "kit: joint_1"]  # one array, every task, in order
     assert [s.hardware_id for s in first.status] == ["robot", "cell_1"]
@@ -102,7 +92,7 @@ def test_updater_publishes_every_task_in_one_array_per_update_and_republishes_on
     state["n"] = 2
     n = len(got)
     up.update()
-    assert _spin_until(ex, lambda: len(got) > n)
+    assert spin_until(ex, lambda: len(got) > n)
     last = got[n]
     by_name = {s.name: s for s in last.status}
     assert set(by_name) == {"kit: robot", "kit: joint_1", "kit: history"}
@@ -116,9 +106,9 @@ def test_updater_publishes_every_task_in_one_array_per_update_and_republishes_on
 def test_node_diagnostics_keeps_its_one_status_interface(graph):
     node, ex, got = graph
     d = NodeDiagnostics(node, "kit: joint_2", "joint_2", topic="/jw_kit/diagnostics", period=0.0, message="idle")
-    assert _spin_until(ex, lambda: d.pub.get_subscription_count() > 0)
+    assert spin_until(ex, lambda: d.pub.get_subscription_count() > 0)
     d.update(DiagnosticLevel.ERROR, "broken", [("k", "v")])
-    assert _spin_until(ex, lambda: bool(got))
+    assert spin_until(ex, lambda: bool(got))
     (s,) = got[-1].status
     assert (s.name, s.hardware_id, s.level, s.message) == ("kit: joint_2", "joint_2", b"\x02", "broken")
     assert d.level == 2 and d.status.name == "kit: joint_2" and d.updater.published == 1

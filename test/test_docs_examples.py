@@ -130,6 +130,7 @@ def _expected_output(i: int) -> list[str]:
     return []
 
 
+@pytest.mark.slow
 def test_every_python_and_sh_block_of_the_guide_runs_in_order(workspace, monkeypatch):
     monkeypatch.chdir(workspace)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(workspace), os.environ.get("PYTHONPATH", "")]),
@@ -182,7 +183,8 @@ def _load(path: Path):
 
 
 @pytest.mark.ros
-def test_the_guides_node_runs_as_a_process_with_its_config_and_logs_an_estimate(workspace, tmp_path):
+def test_the_guides_node_runs_as_a_process_with_its_config_and_logs_an_estimate(workspace, tmp_path,
+                                                                                ros_context_per_test):
     rclpy = pytest.importorskip("rclpy")
     from jointwear_msgs.msg import WearEstimate
     from rclpy.executors import SingleThreadedExecutor
@@ -198,8 +200,7 @@ def test_the_guides_node_runs_as_a_process_with_its_config_and_logs_an_estimate(
          str(workspace / "config" / "wear_log.yaml"), "-p", f"path:={log}", "-p", f"estimate_topic:={topic}"],
         cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
+    ctx = ros_context_per_test
     peer = rclpy.create_node("wear_log_proc_test_io", context=ctx)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(peer)
@@ -224,7 +225,6 @@ def test_the_guides_node_runs_as_a_process_with_its_config_and_logs_an_estimate(
             proc.communicate()
         ex.shutdown()
         peer.destroy_node()
-        rclpy.try_shutdown(context=ctx)
     assert proc.returncode == 0, out
     lines = log.read_text().splitlines()
     assert lines[0].startswith("stamp,joint_name,cycle_id,method,wear,")

@@ -85,11 +85,13 @@ def _check_first_and_second_run(url: str, fleet, scheduler, capsys) -> None:
         assert store.count() == 20
 
 
+@pytest.mark.slow
 def test_reprocess_of_20_bags_gives_20_estimates_once_and_reports_the_broken_bag(fleet, scheduler, db_url, capsys):
     """On an SQLite file and on a real PostgreSQL server (test/conftest.py's ``db_url``)."""
     _check_first_and_second_run(db_url, fleet, scheduler, capsys)
 
 
+@pytest.mark.slow
 def test_an_interrupted_reprocess_resumes_where_it_stopped(fleet, scheduler, tmp_path, capsys):
     root, _, bags, _broken = fleet
     url = f"sqlite:///{tmp_path / 'h.db'}"
@@ -101,6 +103,7 @@ def test_an_interrupted_reprocess_resumes_where_it_stopped(fleet, scheduler, tmp
     assert rest["bags"] == 21 and rest["skipped"] == 7 and rest["estimates"] == 13 and len(rest["failed"]) == 1
 
 
+@pytest.mark.slow
 def test_a_new_parameter_set_is_a_new_analysis_version_and_compare_names_the_changes(fleet, scheduler, tmp_path,
                                                                                      capsys):
     _root, _specs, bags, _ = fleet

@@ -79,10 +79,10 @@ def _msg_fields(type_name: str) -> set[str]:
     raise AssertionError(f"no field list for {type_name}")
 
 
-def test_every_topic_field_and_status_name_referenced_is_published_by_the_running_suite(tmp_path):
+def test_every_topic_field_and_status_name_referenced_is_published_by_the_running_suite(tmp_path,
+                                                                                        ros_context_per_test):
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
-    from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
 
     from jointwear_ros.history import EstimateRecord, HistoryStore
@@ -106,8 +106,7 @@ def test_every_topic_field_and_status_name_referenced_is_published_by_the_runnin
         "wear_trend": {"db_url": str(db), "robot": "robot_1"},
     }
     children = [start_child(name, p, env, tmp_path) for name, p in params.items()]
-    ctx = Context()
-    rclpy.init(context=ctx, domain_id=domain)
+    ctx = ros_context_per_test
     node = rclpy.create_node("jointwear_names_probe", context=ctx)
     seen: set[str] = set()
     node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: seen.update(s.name for s in m.status), 100)
@@ -133,7 +132,6 @@ def test_every_topic_field_and_status_name_referenced_is_published_by_the_runnin
     finally:
         ex.shutdown()
         node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
         stop_children(children)
     assert topics["/diagnostics"] == ["diagnostic_msgs/msg/DiagnosticArray"]
     for topic, field in refs["fields"]:

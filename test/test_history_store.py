@@ -184,6 +184,7 @@ WRITER = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_concurrent_writer_processes_lose_nothing_and_duplicate_nothing(db_url):
     HistoryStore(db_url).close()  # schema first, as a deployment does
     procs = [subprocess.Popen([sys.executable, "-c", WRITER, db_url, str(seed)], stdout=subprocess.PIPE,
@@ -242,6 +243,7 @@ OPENER = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_processes_opening_a_new_store_at_once_agree_on_one_schema(db_url):
     procs = [subprocess.Popen([sys.executable, "-c", OPENER, db_url], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                               text=True) for _ in range(3)]

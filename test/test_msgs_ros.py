@@ -3,31 +3,16 @@
 from __future__ import annotations
 
 import math
-import time
 
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
+from conftest import spin_until  # noqa: E402
 from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 
 pytestmark = pytest.mark.ros
-
-
-@pytest.fixture(scope="module")
-def ros_context():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
-
-
-def _spin_until(executor, predicate, timeout=10.0):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end and not predicate():
-        executor.spin_once(timeout_sec=0.05)
-    return predicate()
 
 
 def _observation() -> FrictionObservation:
@@ -108,9 +93,9 @@ def test_message_round_trips_over_dds(ros_context, msg_type, make):
         sub_node.create_subscription(msg_type, topic, received.append, 10)
         pub = pub_node.create_publisher(msg_type, topic, 10)
         sent = make()
-        assert _spin_until(executor, lambda: pub.get_subscription_count() > 0)
+        assert spin_until(executor, lambda: pub.get_subscription_count() > 0)
         pub.publish(sent)
-        assert _spin_until(executor, lambda: len(received) > 0), f"no {msg_type.__name__} received"
+        assert spin_until(executor, lambda: len(received) > 0), f"no {msg_type.__name__} received"
         assert _same(received[0], sent)
     finally:
         executor.shutdown()
@@ -136,10 +121,10 @@ def test_run_test_cycle_service_round_trips_over_dds(ros_context):
     try:
         server.create_service(RunTestCycle, "/jointwear_test/run", handle)
         client = client_node.create_client(RunTestCycle, "/jointwear_test/run")
-        assert _spin_until(executor, client.service_is_ready)
+        assert spin_until(executor, client.service_is_ready)
         req = RunTestCycle.Request(joint_name="joint2", speeds=[10.0, 47.0], position=0.5, dry_run=False)
         fut = client.call_async(req)
-        assert _spin_until(executor, fut.done)
+        assert spin_until(executor, fut.done)
         resp = fut.result()
         assert resp.accepted and resp.cycle_id == 42 and resp.message == "2 speeds at 0.5 rad"
     finally:

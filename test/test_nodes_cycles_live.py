@@ -24,32 +24,22 @@ Every node must still be running at the end and stop cleanly on SIGINT.
 from __future__ import annotations
 
 import math
-import signal
-import subprocess
-import sys
-import tempfile
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from conftest import GraphClient, NodeProcess  # noqa: E402
 from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
-from rcl_interfaces.srv import SetParameters  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import Temperature  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState  # noqa: E402
-from jointwear_ros.nodes.cell import die_with_parent  # noqa: E402
-from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -60,73 +50,23 @@ SPEEDS = [30.0, 40.0, 50.0]
 OK, WARN, ERROR = 0, 1, 2
 
 
-def _fmt(v: object) -> str:
-    return ("true" if v else "false") if isinstance(v, bool) else str(v)
-
-
-class Child:
-    """A node in its own process, stopped with SIGINT."""
-
-    def __init__(self, name: str, params: dict[str, object]):
-        self.name = name
-        self.log = tempfile.NamedTemporaryFile(prefix=f"{name}-", suffix=".log", delete=False)
-        cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args",
-               "--params-file", str(ROOT / "config" / f"{name}.yaml")]
-        for k, v in params.items():
-            cmd += ["-p", f"{k}:={_fmt(v)}"]
-        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT,
-                                     preexec_fn=die_with_parent)
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self) -> int:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        return int(self.proc.returncode)
-
-    def output(self) -> str:
-        return Path(self.log.name).read_text(errors="replace")
-
-    def close(self) -> None:
-        self.stop()
-        self.log.close()
-        Path(self.log.name).unlink(missing_ok=True)
-
-
-class Operator:
+class Operator(GraphClient):
     """Service clients, parameter clients, listeners, and the observation relay (the fault injector)."""
 
-    def __init__(self, context, children: list[Child]):
-        self.children = children
-        self.node = rclpy.create_node("jw_live_operator", context=context)
-        self.ex = SingleThreadedExecutor(context=context)
-        self.ex.add_node(self.node)
+    def __init__(self, context, children: list[NodeProcess]):
+        super().__init__(context, "jw_live_operator", children, diagnostics=["/diagnostics"], qos=QOS)
         self.status: list[CycleStatus] = []
         self.estimates: list[WearEstimate] = []
-        self.diag: dict[str, list] = {}
         self.relayed: list[FrictionObservation] = []
         self.corrupt_cycle = 0  # the relay sets the temperature of this cycle's first observation to -300
         n = self.node
         n.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
         n.create_subscription(WearEstimate, "/jointwear/wear_estimate", self.estimates.append, QOS)
-        n.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, QOS)
         n.create_subscription(FrictionObservation, RAW, self._relay, QOS)
         self.obs_pub = n.create_publisher(FrictionObservation, "/jointwear/friction_observations", QOS)
         self.temp_pub = n.create_publisher(Temperature, "/joint_temperature", 10)
         self.run_client = n.create_client(RunTestCycle, "/test_cycle/run")
         self.abort_client = n.create_client(Trigger, "/test_cycle/abort")
-        self.param_clients = {name: n.create_client(SetParameters, f"/{name}/set_parameters")
-                              for name in ("joint_sim", "test_cycle", "wear_estimator", "friction_observer")}
-
-    def _on_diag(self, msg: DiagnosticArray) -> None:
-        for s in msg.status:
-            self.diag.setdefault(s.name, []).append(s)
 
     def _relay(self, msg: FrictionObservation) -> None:
         if msg.cycle_id == self.corrupt_cycle and not any(m.cycle_id == msg.cycle_id for m in self.relayed):
@@ -134,24 +74,8 @@ class Operator:
         self.relayed.append(msg)
         self.obs_pub.publish(msg)
 
-    def spin_until(self, predicate: Callable[[], bool], timeout: float, what: str) -> None:
-        end = time.monotonic() + timeout
-        while not predicate():
-            dead = [c.name for c in self.children if not c.alive()]
-            assert not dead, f"{dead} exited while waiting for {what}:\n" + "\n".join(
-                c.output()[-3000:] for c in self.children if not c.alive())
-            assert time.monotonic() < end, f"timed out waiting for {what}"
-            self.ex.spin_once(timeout_sec=0.02)
-
-    def call(self, client, request, timeout: float = 20.0):
-        self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
-        fut = client.call_async(request)
-        self.spin_until(fut.done, timeout, f"answer of {client.srv_name}")
-        return fut.result()
-
     def set_params(self, node: str, **values: object):
-        req = SetParameters.Request(parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()])
-        return self.call(self.param_clients[node], req).results
+        return self.set_parameters(node, 20.0, **values)
 
     def run_cycle(self, **kwargs) -> int:
         """Request a cycle, re-sending while test_cycle has no (fresh) joint state yet."""
@@ -184,23 +108,15 @@ def _level(s) -> int:
     return s.level[0] if isinstance(s.level, bytes) else int(s.level)
 
 
-@pytest.fixture(scope="module")
-def context():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
-
-
-def test_five_cycles_through_one_graph_reach_diagnostics_with_the_right_level(context):
+def test_five_cycles_through_one_graph_reach_diagnostics_with_the_right_level(ros_context):
     sim_time = {"use_sim_time": True}
     children = [
-        Child("joint_sim", {"publish_clock": True, "real_time_factor": 4.0, "wear": 10.0, **sim_time}),
-        Child("test_cycle", {"simulator": True, **sim_time}),
-        Child("friction_observer", {"temperature_topic": "/joint_temperature", "observations_topic": RAW, **sim_time}),
-        Child("wear_estimator", {"use_measured_temperature": True, "diagnostics_period": 0.5, **sim_time}),
+        NodeProcess("joint_sim", {"publish_clock": True, "real_time_factor": 4.0, "wear": 10.0, **sim_time}),
+        NodeProcess("test_cycle", {"simulator": True, **sim_time}),
+        NodeProcess("friction_observer", {"temperature_topic": "/joint_temperature", "observations_topic": RAW, **sim_time}),
+        NodeProcess("wear_estimator", {"use_measured_temperature": True, "diagnostics_period": 0.5, **sim_time}),
     ]
-    op = Operator(context, children)
+    op = Operator(ros_context, children)
     try:
         op.spin_until(lambda: op.obs_pub.get_subscription_count() > 0 and op.run_client.service_is_ready()
                       and op.diag_of("wear_estimator: joint_1") and op.diag_of("friction_observer: joint_1")

@@ -7,12 +7,12 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
+from conftest import spin_until  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
 from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
@@ -43,21 +43,6 @@ TOPICS = {
 }
 
 
-@pytest.fixture(scope="module")
-def ctx():
-    c = rclpy.Context()
-    rclpy.init(context=c)
-    yield c
-    rclpy.try_shutdown(context=c)
-
-
-def _spin_until(executor, predicate, timeout=20.0):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end and not predicate():
-        executor.spin_once(timeout_sec=0.02)
-    return predicate()
-
-
 def _joint_state(t, names, pos, vel, eff):
     m = JointState()
     m.header.stamp = seconds_to_stamp(t)
@@ -86,12 +71,12 @@ def test_observation_message_round_trip():
     assert back == type(o)(**{**o.to_dict(), "stamp": back.stamp})
 
 
-def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
+def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ros_context):
     wear = 45.0
     cyc = synthetic_cycle(speeds=(20, 40, 80), wear=wear, rate=500.0, seed=5, temperature_rate=2.0, cycle_id=3)
-    obs_node = FrictionObserverNode(context=ctx, parameter_overrides=[
+    obs_node = FrictionObserverNode(context=ros_context, parameter_overrides=[
         Parameter(k, value=v) for k, v in TOPICS.items()])
-    est_node = WearEstimatorNode(context=ctx, parameter_overrides=[
+    est_node = WearEstimatorNode(context=ros_context, parameter_overrides=[
         Parameter("observations_topic", value=TOPICS["observations_topic"]),
         Parameter("status_topic", value=TOPICS["status_topic"]),
         Parameter("estimate_topic", value=f"{NS}/wear_estimate"),
@@ -99,8 +84,8 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
         Parameter("hardware_id", value="cell7/robot2"),
         Parameter("diagnostics_period", value=0.2),
     ])
-    io = rclpy.create_node("jw_obs_test_io", context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
+    io = rclpy.create_node("jw_obs_test_io", context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
     for n in (obs_node, est_node, io):
         ex.add_node(n)
     got_obs, got_est, got_diag = [], [], []
@@ -111,11 +96,11 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
         io.create_subscription(FrictionObservation, TOPICS["observations_topic"], got_obs.append, high_rate_qos())
         io.create_subscription(WearEstimate, f"{NS}/wear_estimate", got_est.append, 10)
         io.create_subscription(DiagnosticArray, f"{NS}/diagnostics", got_diag.append, 10)
-        assert _spin_until(ex, lambda: js_pub.get_subscription_count() > 0 and st_pub.get_subscription_count() > 1
+        assert spin_until(ex, lambda: js_pub.get_subscription_count() > 0 and st_pub.get_subscription_count() > 1
                            and tp_pub.get_subscription_count() > 0)
 
         # the idle diagnostics come first: OK, "no test cycle estimated yet"
-        assert _spin_until(ex, lambda: len(got_diag) > 0)
+        assert spin_until(ex, lambda: len(got_diag) > 0)
         first = got_diag[0].status[0]
         assert first.name == "wear_estimator: joint_1" and first.level == DiagnosticStatus.OK
 
@@ -129,7 +114,7 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
         ]
         for m in bad:
             js_pub.publish(m)
-        assert _spin_until(ex, lambda: sum(obs_node.bad_messages.values()) == len(bad))
+        assert spin_until(ex, lambda: sum(obs_node.bad_messages.values()) == len(bad))
         assert set(obs_node.bad_messages) == {"array lengths", "no effort", "non-finite value for joint_1",
                                              "joint 'joint_1' not in name ['joint_9']; set joint_name"}
 
@@ -152,8 +137,8 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
                                             [0.0, cyc.velocity[i]], [1.0, cyc.effort[i]]))
                 sent += 1
                 if sent % 200 == 0:  # let the observer keep up (KEEP_LAST 1000)
-                    assert _spin_until(ex, lambda n=sent: obs_node.observer.cores["joint_1"].samples_seen >= n)
-        assert _spin_until(ex, lambda: len(got_obs) == 3 and len(got_est) == 1
+                    assert spin_until(ex, lambda n=sent: obs_node.observer.cores["joint_1"].samples_seen >= n)
+        assert spin_until(ex, lambda: len(got_obs) == 3 and len(got_est) == 1
                            and obs_node.observer.cores["joint_1"].samples_seen == cyc.stamps.size)
         assert obs_node.rejections == []
 
@@ -176,7 +161,7 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
         def errors():
             return [a.status[0] for a in got_diag if a.status[0].level == DiagnosticStatus.ERROR]
 
-        assert _spin_until(ex, lambda: len(errors()) >= 3, timeout=10.0)
+        assert spin_until(ex, lambda: len(errors()) >= 3, timeout=10.0)
         s = errors()[-1]
         assert s.name == "wear_estimator: joint_1" and s.hardware_id == "cell7/robot2"
         kv = {v.key: v.value for v in s.values}
@@ -190,14 +175,14 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ctx):
             n.destroy_node()
 
 
-def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ctx):
+def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ros_context):
     """The last speed's observation arrives after done_timeout: a first estimate from the speeds in
     hand (WARN-level text says which are missing), then a revised WearEstimate and /diagnostics."""
     ns = "/jw_late_test"
     cyc = synthetic_cycle(speeds=(20, 40, 80), wear=20.0, rate=500.0, seed=8, cycle_id=5)
     obs = observe_arrays(ObserverConfig(), cyc.stamps, cyc.position, cyc.velocity, cyc.effort, cyc.statuses).observations
     assert len(obs) == 3
-    est_node = WearEstimatorNode(context=ctx, parameter_overrides=[
+    est_node = WearEstimatorNode(context=ros_context, parameter_overrides=[
         Parameter("observations_topic", value=f"{ns}/observations"),
         Parameter("status_topic", value=f"{ns}/status"),
         Parameter("estimate_topic", value=f"{ns}/wear_estimate"),
@@ -205,8 +190,8 @@ def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ctx):
         Parameter("diagnostics_period", value=0.1),
         Parameter("done_timeout", value=0.3),
     ])
-    io = rclpy.create_node("jw_late_test_io", context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
+    io = rclpy.create_node("jw_late_test_io", context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
     for n in (est_node, io):
         ex.add_node(n)
     got_est, got_diag = [], []
@@ -215,16 +200,16 @@ def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ctx):
         st_pub = io.create_publisher(CycleStatus, f"{ns}/status", high_rate_qos())
         io.create_subscription(WearEstimate, f"{ns}/wear_estimate", got_est.append, 10)
         io.create_subscription(DiagnosticArray, f"{ns}/diagnostics", got_diag.append, 10)
-        assert _spin_until(ex, lambda: ob_pub.get_subscription_count() > 0 and st_pub.get_subscription_count() > 0)
+        assert spin_until(ex, lambda: ob_pub.get_subscription_count() > 0 and st_pub.get_subscription_count() > 0)
         running, done = cyc.statuses[0], cyc.statuses[-1]
         st_pub.publish(_status(running))
         for o in obs[:2]:
             ob_pub.publish(observation_to_msg(o))
         st_pub.publish(_status(done))
-        assert _spin_until(ex, lambda: len(got_est) == 1, timeout=10.0)
+        assert spin_until(ex, lambda: len(got_est) == 1, timeout=10.0)
         assert list(got_est[0].speeds) == [20.0, 40.0]
         ob_pub.publish(observation_to_msg(obs[2]))  # late
-        assert _spin_until(ex, lambda: len(got_est) == 2, timeout=10.0)
+        assert spin_until(ex, lambda: len(got_est) == 2, timeout=10.0)
         rev = got_est[1]
         assert rev.cycle_id == 5 and list(rev.speeds) == [20.0, 40.0, 80.0]
         assert abs(rev.wear - 20.0) < 3 * rev.wear_std + 1.0
@@ -233,7 +218,7 @@ def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ctx):
         def revised():
             return [a.status[0] for a in got_diag if ("revision", "1") in {(v.key, v.value) for v in a.status[0].values}]
 
-        assert _spin_until(ex, lambda: bool(revised()), timeout=10.0)
+        assert spin_until(ex, lambda: bool(revised()), timeout=10.0)
         d = revised()[-1]
         kv = {v.key: v.value for v in d.values}
         assert kv["n_observations"] == "3" and float(kv["wear"]) == pytest.approx(rev.wear, abs=1e-3)
@@ -245,25 +230,25 @@ def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ctx):
             n.destroy_node()
 
 
-def test_console_scripts_start_with_their_params_files_and_stop_on_sigint(ctx):
+def test_console_scripts_start_with_their_params_files_and_stop_on_sigint(ros_context):
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     bindir = Path(sys.executable).parent
     procs = []
-    probe = rclpy.create_node("jw_obs_probe", context=ctx)
+    probe = rclpy.create_node("jw_obs_probe", context=ros_context)
     try:
         for name in ("friction_observer", "wear_estimator"):
             procs.append(subprocess.Popen(
                 [str(bindir / name), "--ros-args", "--params-file", str(ROOT / "config" / f"{name}.yaml"),
                  "-r", f"__ns:={NS}_cli"],
                 env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
-        ex = SingleThreadedExecutor(context=ctx)
+        ex = SingleThreadedExecutor(context=ros_context)
         ex.add_node(probe)
 
         def up():
             names = set(probe.get_node_names())
             return {"friction_observer", "wear_estimator"} <= names
 
-        ok = _spin_until(ex, up, timeout=30.0)
+        ok = spin_until(ex, up, timeout=30.0)
         ex.shutdown()
         for p in procs:
             assert p.poll() is None, p.communicate()[0]
@@ -301,9 +286,9 @@ def test_wear_estimate_alarm_is_set_at_exactly_the_threshold_and_not_below(wear,
     assert m.alarm is alarm and m.alarm_threshold == 35.0 and m.wear == wear
 
 
-def test_estimator_node_logs_every_level_in_sequence_and_keeps_running(ctx):
+def test_estimator_node_logs_every_level_in_sequence_and_keeps_running(ros_context):
     """rclpy keys severity by call site: one line choosing info/warning/error died at the second level."""
-    node = WearEstimatorNode(context=ctx, parameter_overrides=[
+    node = WearEstimatorNode(context=ros_context, parameter_overrides=[
         Parameter("estimate_topic", value=f"{NS}/seq_estimate"), Parameter("diagnostics_topic", value=f"{NS}/seq_diag")])
     try:
         for cid, (wear, level) in enumerate([(10.0, 0), (45.0, 2), (32.0, 1), (10.0, 0), (45.0, 2)], start=1):
@@ -327,20 +312,20 @@ def _model_observation(cycle_id, speed, wear, temperature=40.0, stamp=1.0):
                                    temperature=temperature, position=0.0, samples_plus=500, samples_minus=500)
 
 
-def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ctx):
+def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ros_context):
     ns = "/jw_param_test"
-    node = WearEstimatorNode(context=ctx, parameter_overrides=[
+    node = WearEstimatorNode(context=ros_context, parameter_overrides=[
         Parameter("observations_topic", value=f"{ns}/observations"), Parameter("status_topic", value=f"{ns}/status"),
         Parameter("estimate_topic", value=f"{ns}/estimate"), Parameter("diagnostics_topic", value=f"{ns}/diag")])
-    io = rclpy.create_node("jw_param_test_io", context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
+    io = rclpy.create_node("jw_param_test_io", context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
     for n in (node, io):
         ex.add_node(n)
     got = []
     try:
         pub = io.create_publisher(FrictionObservation, f"{ns}/observations", high_rate_qos())
         io.create_subscription(WearEstimate, f"{ns}/estimate", got.append, 10)
-        assert _spin_until(ex, lambda: pub.get_subscription_count() > 0 and node.estimate_pub.get_subscription_count() > 0)
+        assert spin_until(ex, lambda: pub.get_subscription_count() > 0 and node.estimate_pub.get_subscription_count() > 0)
 
         # invalid changes: refused with the reason, nothing changes
         res = node.set_parameters_atomically([Parameter("warn_threshold", value=40.0)])
@@ -369,7 +354,7 @@ def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ctx)
         node.channels["joint_1"].monitor.on_status(0.0, 7, 1, 0, 3, "joint_1")
         for i, v in enumerate((30.0, 40.0, 50.0)):
             pub.publish(observation_to_msg(_model_observation(7, v, 25.0, stamp=100.0 + i)))
-        assert _spin_until(ex, lambda: len(got) == 1, timeout=10.0)
+        assert spin_until(ex, lambda: len(got) == 1, timeout=10.0)
         assert got[0].alarm and got[0].alarm_threshold == 20.0 and node.health.status("joint_1").level == 2
         res = node.set_parameters_atomically([Parameter("warn_threshold", value=30.0),
                                               Parameter("alarm_threshold", value=35.0)])
@@ -377,7 +362,7 @@ def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ctx)
         node.channels["joint_1"].monitor.on_status(0.0, 8, 1, 0, 3, "joint_1")
         for i, v in enumerate((30.0, 40.0, 50.0)):
             pub.publish(observation_to_msg(_model_observation(8, v, 25.0, stamp=200.0 + i)))
-        assert _spin_until(ex, lambda: len(got) == 2, timeout=10.0)
+        assert spin_until(ex, lambda: len(got) == 2, timeout=10.0)
         assert not got[1].alarm and got[1].alarm_threshold == 35.0 and node.health.status("joint_1").level == 0
     finally:
         ex.shutdown()
@@ -385,10 +370,10 @@ def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ctx)
             n.destroy_node()
 
 
-def test_observer_node_reports_its_health_and_refuses_changes_during_a_speed(ctx):
+def test_observer_node_reports_its_health_and_refuses_changes_during_a_speed(ros_context):
     ns = "/jw_obs_health"
     topics = {k: v.replace(NS, ns) for k, v in TOPICS.items()}
-    node = FrictionObserverNode(context=ctx, parameter_overrides=[Parameter(k, value=v) for k, v in topics.items()]
+    node = FrictionObserverNode(context=ros_context, parameter_overrides=[Parameter(k, value=v) for k, v in topics.items()]
                                 + [Parameter("diagnostics_period", value=0.2)])
     try:
         st = node.health.status("joint_1")

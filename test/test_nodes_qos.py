@@ -19,34 +19,26 @@ from jointwear_ros.nodes.friction_observer import FrictionObserverNode  # noqa: 
 TOPIC = "/qos_test/joint_states"  # a topic of its own: nothing else on the domain publishes here
 
 
-@pytest.fixture
-def ctx():
-    c = rclpy.Context()
-    rclpy.init(context=c)
-    yield c
-    rclpy.try_shutdown(context=c)
-
-
-def _observer(ctx, tmp_path, override: bool) -> FrictionObserverNode:
+def _observer(ros_context_per_test, tmp_path, override: bool) -> FrictionObserverNode:
     params = {"joint_states_topic": TOPIC, "status_topic": "/qos_test/status", "temperature_topic": "",
               "observations_topic": "/qos_test/observations"}
     if override:
         params[f"qos_overrides.{TOPIC}.subscription.reliability"] = "best_effort"
     f = tmp_path / "friction_observer.yaml"
     f.write_text(yaml.safe_dump({"friction_observer": {"ros__parameters": params}}))
-    return FrictionObserverNode(context=ctx, cli_args=["--ros-args", "--params-file", str(f)])
+    return FrictionObserverNode(context=ros_context_per_test, cli_args=["--ros-args", "--params-file", str(f)])
 
 
-def _received(ctx, node: FrictionObserverNode, expect: bool) -> tuple[int, int, int]:
+def _received(ros_context_per_test, node: FrictionObserverNode, expect: bool) -> tuple[int, int, int]:
     """Publish best effort (JointStates without effort, which the observer counts as bad input, so each one
     it receives is counted) until a best-effort probe beside the observer got 20 (discovery is done and
     samples flow) and, when ``expect``, the observer too; return (matched readers, probe's, observer's)."""
-    driver = rclpy.create_node("best_effort_driver", context=ctx)
+    driver = rclpy.create_node("best_effort_driver", context=ros_context_per_test)
     best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
     pub = driver.create_publisher(JointState, TOPIC, best_effort)
     probe: list[JointState] = []
     driver.create_subscription(JointState, TOPIC, probe.append, best_effort)
-    ex = SingleThreadedExecutor(context=ctx)
+    ex = SingleThreadedExecutor(context=ros_context_per_test)
     ex.add_node(node)
     ex.add_node(driver)
     try:
@@ -63,16 +55,16 @@ def _received(ctx, node: FrictionObserverNode, expect: bool) -> tuple[int, int, 
         node.destroy_node()
 
 
-def test_a_best_effort_driver_reaches_the_observer_with_the_qos_override(ctx, tmp_path):
-    node = _observer(ctx, tmp_path, override=True)
+def test_a_best_effort_driver_reaches_the_observer_with_the_qos_override(ros_context_per_test, tmp_path):
+    node = _observer(ros_context_per_test, tmp_path, override=True)
     assert node.get_parameter(f"qos_overrides.{TOPIC}.subscription.reliability").value == "best_effort"
-    matched, probe, received = _received(ctx, node, expect=True)
+    matched, probe, received = _received(ros_context_per_test, node, expect=True)
     assert matched == 2 and probe >= 20 and received >= 20
 
 
-def test_without_the_override_the_reliable_subscription_does_not_match_a_best_effort_driver(ctx, tmp_path):
-    node = _observer(ctx, tmp_path, override=False)
+def test_without_the_override_the_reliable_subscription_does_not_match_a_best_effort_driver(ros_context_per_test, tmp_path):
+    node = _observer(ros_context_per_test, tmp_path, override=False)
     assert node.get_parameter(f"qos_overrides.{TOPIC}.subscription.reliability").value == "reliable"
-    matched, probe, received = _received(ctx, node, expect=False)
+    matched, probe, received = _received(ros_context_per_test, node, expect=False)
     assert probe >= 20, "the best-effort probe got nothing: the test proves nothing"
     assert matched == 1 and received == 0  # only the probe matched

@@ -23,12 +23,6 @@ joint that is not configured. Both processes must still run at the end and stop 
 from __future__ import annotations
 
 import math
-import signal
-import subprocess
-import sys
-import tempfile
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -36,16 +30,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 rclpy = pytest.importorskip("rclpy")
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from conftest import GraphClient, NodeProcess  # noqa: E402
 from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 
 from jointwear_ros.contract import CycleState  # noqa: E402
-from jointwear_ros.nodes.cell import die_with_parent  # noqa: E402
-from jointwear_ros.nodes.runtime import loopback_env, seconds_to_stamp  # noqa: E402
+from jointwear_ros.nodes.runtime import seconds_to_stamp  # noqa: E402
 from jointwear_ros.observer.synthetic import synthetic_robot_cycle  # noqa: E402
 
 pytestmark = pytest.mark.ros
@@ -86,62 +78,19 @@ wear_estimator:
 """
 
 
-class Child:
-    """A node in its own process, stopped with SIGINT."""
-
-    def __init__(self, name: str, params_file: Path):
-        self.name = name
-        self.log = tempfile.NamedTemporaryFile(prefix=f"{name}-", suffix=".log", delete=False)
-        cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args",
-               "--params-file", str(ROOT / "config" / f"{name}.yaml"), "--params-file", str(params_file)]
-        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT,
-                                     preexec_fn=die_with_parent)
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self) -> int:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        return int(self.proc.returncode)
-
-    def output(self) -> str:
-        return Path(self.log.name).read_text(errors="replace")
-
-    def close(self) -> None:
-        self.stop()
-        self.log.close()
-        Path(self.log.name).unlink(missing_ok=True)
-
-
-class Robot:
+class Robot(GraphClient):
     """The publishers (robot, test cycle, temperature sensors) and the listeners."""
 
-    def __init__(self, context, children: list[Child]):
-        self.children = children
-        self.node = rclpy.create_node("jw_robot_test", context=context)
-        self.ex = SingleThreadedExecutor(context=context)
-        self.ex.add_node(self.node)
+    def __init__(self, context, children: list[NodeProcess]):
+        super().__init__(context, "jw_robot_test", children, diagnostics=("/diagnostics", f"{NS}/diagnostics"), qos=QOS)
         n = self.node
         self.js_pub = n.create_publisher(JointState, f"{NS}/joint_states", QOS)
         self.st_pub = n.create_publisher(CycleStatus, f"{NS}/status", QOS)
         self.tp_pub = n.create_publisher(Temperature, f"{NS}/temperature", QOS)
         self.observations: list[FrictionObservation] = []
         self.estimates: list[WearEstimate] = []
-        self.diag: dict[str, list] = {}
         n.create_subscription(FrictionObservation, f"{NS}/observations", self.observations.append, QOS)
         n.create_subscription(WearEstimate, f"{NS}/wear_estimate", self.estimates.append, QOS)
-        for topic in ("/diagnostics", f"{NS}/diagnostics"):
-            n.create_subscription(DiagnosticArray, topic, self._on_diag, QOS)
-
-    def _on_diag(self, msg: DiagnosticArray) -> None:
-        for s in msg.status:
-            self.diag.setdefault(s.name, []).append(s)
 
     def last(self, name: str):
         got = self.diag.get(name)
@@ -151,31 +100,10 @@ class Robot:
         s = self.last(name)
         return None if s is None else {v.key: v.value for v in s.values}.get(key)
 
-    def spin_until(self, predicate: Callable[[], bool], timeout: float, what: str) -> None:
-        end = time.monotonic() + timeout
-        while not predicate():
-            dead = [c.name for c in self.children if not c.alive()]
-            assert not dead, f"{dead} exited while waiting for {what}:\n" + "\n".join(
-                c.output()[-3000:] for c in self.children if not c.alive())
-            assert time.monotonic() < end, f"timed out waiting for {what}:\n" + "\n".join(
-                c.output()[-2000:] for c in self.children)
-            self.ex.spin_once(timeout_sec=0.02)
-
     def set_parameter(self, node: str, name: str, value: float) -> tuple[bool, str]:
         """``ros2 param set <node> <name> <value>``: the node's ``~/set_parameters`` service, over DDS."""
-        from rcl_interfaces.srv import SetParameters
-        from rclpy.parameter import Parameter
-
-        client = self.node.create_client(SetParameters, f"{node}/set_parameters")
-        try:
-            self.spin_until(client.service_is_ready, 20.0, f"{node}/set_parameters")
-            future = client.call_async(SetParameters.Request(
-                parameters=[Parameter(name, value=value).to_parameter_msg()]))
-            self.spin_until(future.done, 20.0, f"{node}/set_parameters to answer")
-            (result,) = future.result().results
-            return bool(result.successful), str(result.reason)
-        finally:
-            self.node.destroy_client(client)
+        (result,) = self.set_parameters(node, 20.0, **{name: value})
+        return bool(result.successful), str(result.reason)
 
     def samples_seen(self, joint: str) -> int:
         v = self.value(f"friction_observer: {joint}", "samples_seen")
@@ -250,14 +178,11 @@ class Robot:
 
 
 @pytest.fixture(scope="module")
-def ctx():
-    c = rclpy.Context()
-    rclpy.init(context=c)
-    yield c
+def ctx(ros_context):
+    yield ros_context
     for n in _HOSTILE:
         n.destroy_node()
     _HOSTILE.clear()
-    rclpy.try_shutdown(context=c)
 
 
 def _level(status) -> int:
@@ -279,7 +204,7 @@ def _levels(robot: Robot, cycle_id: int) -> dict[str, int]:
 def test_observer_and_estimator_processes_through_robot_cycles_of_three_joints(ctx, tmp_path):
     params = tmp_path / "robot.yaml"
     params.write_text(PARAMS)
-    children = [Child("friction_observer", params), Child("wear_estimator", params)]
+    children = [NodeProcess("friction_observer", params_files=[params]), NodeProcess("wear_estimator", params_files=[params])]
     robot = Robot(ctx, children)
     try:
         robot.spin_until(lambda: robot.js_pub.get_subscription_count() > 0 and robot.st_pub.get_subscription_count() > 1
@@ -367,7 +292,7 @@ def test_observer_and_estimator_processes_through_robot_cycles_of_three_joints(c
         outputs = [c.output() for c in children]
         for c in children:
             c.close()
-        robot.node.destroy_node()
+        robot.close()
     assert codes == [0, 0], "\n".join(o[-3000:] for o in outputs)
     assert "Traceback" not in "".join(outputs)
 

@@ -7,29 +7,23 @@ cycle id, ``joints_done``, every joint DONE, the held joints still in ``/joint_s
 for all at the end), a held joint pushed by gravity and a held joint over its effort limit
 (FAILED, zero for all, the joints not tested named), an abort in the middle of the second
 joint, and the simulator's per-joint run-time parameters.
-
-The domain id is one of 150-170 (derived from the run's), so it meets no other test's graph.
 """
 
 from __future__ import annotations
 
 import bisect
 import math
-import os
-import tempfile
 import time
-from collections.abc import Callable, Iterator
-from pathlib import Path
+from collections.abc import Iterator
 
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from conftest import GraphClient, NodeProcess  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
-from rcl_interfaces.srv import GetParameters, SetParameters  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.parameter import Parameter, parameter_value_to_python  # noqa: E402
+from rcl_interfaces.srv import GetParameters  # noqa: E402
+from rclpy.parameter import parameter_value_to_python  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
@@ -37,12 +31,9 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
-from jointwear_ros.nodes.cell import Child, start_child, stop_children  # noqa: E402
-from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
-DOMAIN = 150 + int(os.environ.get("ROS_DOMAIN_ID", "0")) % 21
 JOINTS = ["joint_1", "joint_2", "joint_3"]
 HOLD = 0.02  # test_cycle's hold_tolerance (config default), rad
 QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
@@ -55,29 +46,25 @@ def _level(s) -> int:
     return s.level[0] if isinstance(s.level, bytes) else int(s.level)
 
 
-class Operator:
+class Operator(GraphClient):
     """The test's node: the services, the parameter clients, and what the cell publishes."""
 
     def __init__(self, context):
-        self.node = n = rclpy.create_node("robot_operator", context=context)
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(n)
+        super().__init__(context, "robot_operator", diagnostics=["/diagnostics"], qos=QOS)
+        n = self.node
         self.status: list[CycleStatus] = []
         self.commands: list[list[float]] = []
         #: (stamp, positions) per /joint_states sample (sim time; the subscriber may lag behind the status)
         self.samples: list[tuple[float, list[float]]] = []
         self.temperatures: dict[str, float] = {}
-        self.diag: dict[str, list] = {}
         n.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
         n.create_subscription(Float64MultiArray, "/velocity_controller/commands",
                               lambda m: self.commands.append(list(m.data)), QOS)
         n.create_subscription(JointState, "/joint_states", self._on_js, QOS)
         n.create_subscription(Temperature, "/joint_temperature",
                               lambda m: self.temperatures.__setitem__(m.header.frame_id, m.temperature), QOS)
-        n.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, QOS)
         self.run_client = n.create_client(RunTestCycle, "/test_cycle/run")
         self.abort_client = n.create_client(Trigger, "/test_cycle/abort")
-        self.set_clients = {k: n.create_client(SetParameters, f"/{k}/set_parameters") for k in ("joint_sim", "test_cycle")}
         self.get_client = n.create_client(GetParameters, "/joint_sim/get_parameters")
 
     def _on_js(self, msg: JointState) -> None:
@@ -97,22 +84,6 @@ class Operator:
                 out.append((marks[i][1], pos))
         return out
 
-    def _on_diag(self, msg: DiagnosticArray) -> None:
-        for s in msg.status:
-            self.diag.setdefault(s.name, []).append(s)
-
-    def spin_until(self, predicate: Callable[[], bool], timeout: float = 20.0) -> bool:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end and not predicate():
-            self.executor.spin_once(timeout_sec=0.02)
-        return predicate()
-
-    def call(self, client, request, timeout: float = 15.0):
-        assert self.spin_until(client.service_is_ready, timeout), f"service {client.srv_name} not available"
-        fut = client.call_async(request)
-        assert self.spin_until(fut.done, timeout), f"no answer from {client.srv_name}"
-        return fut.result()
-
     def run(self, **kwargs) -> RunTestCycle.Response:
         return self.call(self.run_client, RunTestCycle.Request(**kwargs))
 
@@ -127,8 +98,7 @@ class Operator:
             self.spin_until(lambda: False, 0.2)
 
     def set_params(self, node: str, **values) -> list:
-        req = SetParameters.Request(parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()])
-        return list(self.call(self.set_clients[node], req).results)
+        return self.set_parameters(node, **values)
 
     def sim_params(self, *names: str) -> list:
         res = self.call(self.get_client, GetParameters.Request(names=list(names)))
@@ -168,34 +138,22 @@ class Operator:
             assert time.monotonic() < end, "the command stream did not stop"
         assert len(self.commands) > n and self.commands[-1] == [0.0] * len(JOINTS), self.commands[-3:]
 
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-
 
 @pytest.fixture(scope="module")
-def context():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=DOMAIN)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
-
-
-@pytest.fixture(scope="module")
-def cell(context) -> Iterator[tuple[Child, Child]]:
-    logdir = Path(tempfile.mkdtemp(prefix="jw-robot-"))
-    env = loopback_env(DOMAIN)
-    sim = start_child("joint_sim", SIM, env, logdir)
-    cyc = start_child("test_cycle", CYCLE, env, logdir)
+def cell(ros_context) -> Iterator[tuple[NodeProcess, NodeProcess]]:
+    sim = NodeProcess("joint_sim", SIM)
+    cyc = NodeProcess("test_cycle", CYCLE)
     yield sim, cyc
-    stop_children([cyc, sim])
+    codes = (cyc.stop(), sim.stop())
     out = f"{cyc.log_tail(20)}\n{sim.log_tail(20)}"
-    assert (cyc.proc.returncode, sim.proc.returncode) == (0, 0), out
+    cyc.close()
+    sim.close()
+    assert codes == (0, 0), out
 
 
 @pytest.fixture
-def op(context, cell) -> Iterator[Operator]:
-    o = Operator(context)
+def op(ros_context, cell) -> Iterator[Operator]:
+    o = Operator(ros_context)
     assert o.spin_until(lambda: len(o.samples) > 20 and o.run_client.service_is_ready() and o.status, 30.0), (
         "cell did not come up: " + cell[1].log_tail())
     yield o
@@ -367,7 +325,7 @@ class TestRobotCycle:
         assert op.spin_until(lambda: any(c[0] > 0.0 for c in op.commands[n0:]), 10.0), op.commands[-3:]
         n = len(op.commands)
         cyc = cell[1]
-        stop_children([cyc])
+        cyc.stop()
         assert cyc.proc.returncode == 0, cyc.log_tail(20)
         op.zero_after(n)
         final = op.wait_end(cid, 5.0)

@@ -12,23 +12,20 @@ from __future__ import annotations
 import itertools
 import math
 import signal
-import subprocess
-import sys
-import tempfile
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
+from conftest import GraphClient, NodeProcess  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
 from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
 from rcl_interfaces.srv import SetParameters, SetParametersAtomically  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
@@ -37,8 +34,6 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
-from jointwear_ros.nodes.cell import die_with_parent  # noqa: E402
-from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -50,48 +45,11 @@ SIM_PARAMS = {"publish_clock": True, "real_time_factor": 4.0, "use_sim_time": Tr
 CYCLE_PARAMS = {"simulator": True, "use_sim_time": True, **ONE}
 
 
-def _fmt(v: object) -> str:
-    return ("true" if v else "false") if isinstance(v, bool) else str(v)
-
-
-class Child:
-    """A node in its own process (``python -m jointwear_ros.nodes.<name>``), stopped with SIGINT."""
-
-    def __init__(self, name: str, params: dict[str, object]):
-        self.log = tempfile.NamedTemporaryFile(prefix=f"{name}-", suffix=".log", delete=False)
-        cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args",
-               "--params-file", str(ROOT / "config" / f"{name}.yaml")]
-        for k, v in params.items():
-            cmd += ["-p", f"{k}:={_fmt(v)}"]
-        self.proc = subprocess.Popen(cmd, env=loopback_env(), stdout=self.log, stderr=subprocess.STDOUT,
-                                     preexec_fn=die_with_parent)
-
-    def stop(self, sig: int = signal.SIGINT, timeout: float = 10.0) -> int:
-        if self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        return int(self.proc.returncode)
-
-    def output(self) -> str:
-        return Path(self.log.name).read_text(errors="replace")
-
-    def close(self) -> None:
-        self.stop()
-        self.log.close()
-        Path(self.log.name).unlink(missing_ok=True)
-
-
-class Operator:
+class Operator(GraphClient):
     """The test's node: service clients, status and command listeners."""
 
     def __init__(self, context):
-        self.node = rclpy.create_node("operator", context=context)
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
+        super().__init__(context, "operator")
         self.status: list[CycleStatus] = []
         self.commands: list[float] = []
         self.joint_states = 0
@@ -118,12 +76,6 @@ class Operator:
         req = SetParametersAtomically.Request(
             parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()])
         return [self.call(self.atomic_client, req).result]
-
-    def spin_until(self, predicate: Callable[[], bool], timeout: float = 20.0) -> bool:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end and not predicate():
-            self.executor.spin_once(timeout_sec=0.02)
-        return predicate()
 
     def call(self, client, request, timeout: float = 15.0, attempts: int = 1):
         """Call and wait; ``attempts`` > 1 re-sends a request that is safe to repeat: right after
@@ -175,30 +127,18 @@ class Operator:
         )
         return next(m for m in reversed(self.status) if m.cycle_id == cycle_id)
 
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-
-
-@pytest.fixture(scope="module")
-def context():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
-
 
 @pytest.fixture
-def operator(context) -> Iterator[Operator]:
-    op = Operator(context)
+def operator(ros_context) -> Iterator[Operator]:
+    op = Operator(ros_context)
     yield op
     op.close()
 
 
 @pytest.fixture(scope="class")
-def cell(context) -> Iterator[tuple[Child, Child]]:
-    sim = Child("joint_sim", SIM_PARAMS)
-    cyc = Child("test_cycle", CYCLE_PARAMS)
+def cell(ros_context) -> Iterator[tuple[NodeProcess, NodeProcess]]:
+    sim = NodeProcess("joint_sim", SIM_PARAMS)
+    cyc = NodeProcess("test_cycle", CYCLE_PARAMS)
     yield sim, cyc
     codes = (cyc.stop(), sim.stop())
     out = f"{cyc.output()}\n{sim.output()}"
@@ -368,15 +308,15 @@ class TestSimulatedCell:
 
 
 # -- the watchdog and the exit path, each on a cell of its own ----------------------
-def test_watchdog_stops_the_joint_when_joint_states_stop(context, operator):
+def test_watchdog_stops_the_joint_when_joint_states_stop(ros_context, operator):
     # no sim time here: node time is wall time (0.5 s: tolerant of a loaded machine)
-    cyc = Child("test_cycle", {"simulator": True, "state_timeout": 0.5, **ONE})
+    cyc = NodeProcess("test_cycle", {"simulator": True, "state_timeout": 0.5, **ONE})
     sim = None
     try:
         assert operator.spin_until(lambda: operator.run_client.service_is_ready(), 30.0)
         early = operator.run(speeds=[20.0], attempts=3)  # a refusal: safe to re-send
         assert not early.accepted and early.reason == RefusalReason.STATE_MISSING
-        sim = Child("joint_sim", ONE)
+        sim = NodeProcess("joint_sim", ONE)
         assert operator.spin_until(lambda: operator.joint_states > 20, 30.0)
         resp = operator.start(speeds=[10.0])
         operator.wait_phase(resp.cycle_id, Phase.FORWARD)
@@ -393,11 +333,11 @@ def test_watchdog_stops_the_joint_when_joint_states_stop(context, operator):
         assert code == 0, out
 
 
-def test_a_simulator_that_died_is_a_watchdog_error_and_then_a_stale_state_refusal(context, operator):
+def test_a_simulator_that_died_is_a_watchdog_error_and_then_a_stale_state_refusal(ros_context, operator):
     # on sim time the simulator is also the clock: when it dies, node time stops and its last
     # joint state never ages in node time; the refusal must come from wall time
-    sim = Child("joint_sim", SIM_PARAMS)
-    cyc = Child("test_cycle", CYCLE_PARAMS)
+    sim = NodeProcess("joint_sim", SIM_PARAMS)
+    cyc = NodeProcess("test_cycle", CYCLE_PARAMS)
     try:
         _ready(operator)
         resp = operator.start(speeds=[10.0])
@@ -421,9 +361,9 @@ def test_a_simulator_that_died_is_a_watchdog_error_and_then_a_stale_state_refusa
     assert code == 0, out
 
 
-def test_zero_velocity_is_sent_when_test_cycle_exits_mid_cycle(context, operator):
-    sim = Child("joint_sim", SIM_PARAMS)
-    cyc = Child("test_cycle", CYCLE_PARAMS)
+def test_zero_velocity_is_sent_when_test_cycle_exits_mid_cycle(ros_context, operator):
+    sim = NodeProcess("joint_sim", SIM_PARAMS)
+    cyc = NodeProcess("test_cycle", CYCLE_PARAMS)
     try:
         _ready(operator)
         resp = operator.start(speeds=[10.0])
@@ -439,13 +379,13 @@ def test_zero_velocity_is_sent_when_test_cycle_exits_mid_cycle(context, operator
 
 
 # -- joint_sim on its own, in this process ----------------------------------------
-def test_joint_sim_ignores_bad_commands_and_stops_after_the_command_timeout(context, operator):
+def test_joint_sim_ignores_bad_commands_and_stops_after_the_command_timeout(ros_context, operator):
     from rclpy.parameter import Parameter
 
     from jointwear_ros.nodes.joint_sim import JointSimNode
 
     node = JointSimNode(
-        context=context,
+        context=ros_context,
         parameter_overrides=[Parameter("command_timeout", value=0.3), Parameter("wear", value=20.0)],
     )
     operator.executor.add_node(node)

@@ -128,6 +128,7 @@ def workbench(tmp_path_factory):
     return d, figs
 
 
+@pytest.mark.slow
 def test_model_add_twice_adds_no_duplicate_versions_and_error_fall_says_what_each_added(workbench):
     d, figs = workbench
     versions = json.loads((d / "history.json").read_text())["versions"]
@@ -137,6 +138,7 @@ def test_model_add_twice_adds_no_duplicate_versions_and_error_fall_says_what_eac
     assert "temp_viscous" not in texts[0]
 
 
+@pytest.mark.slow
 def test_band_legend_is_below_the_bars(workbench):
     _d, figs = workbench
     fig = figs["bands_before_after.png"]
@@ -150,6 +152,7 @@ def test_band_legend_is_below_the_bars(workbench):
     assert leg.y1 <= axes_box.y0  # entirely below the plotting area
 
 
+@pytest.mark.slow
 def test_residual_axes_have_units_and_fitted_marks_lie_under_the_data(workbench):
     _d, figs = workbench
     xlabels = [a.get_xlabel() for a in figs["residuals.png"].axes if a.get_xlabel()]
@@ -160,6 +163,7 @@ def test_residual_axes_have_units_and_fitted_marks_lie_under_the_data(workbench)
     assert z["observed tau_f"] > z[fitted]
 
 
+@pytest.mark.slow
 def test_nothing_missing_report_names_no_term_has_no_empty_table_and_formats_its_numbers(workbench):
     d, figs = workbench
     html = (d / "report" / "report.html").read_text()
@@ -171,6 +175,7 @@ def test_nothing_missing_report_names_no_term_has_no_empty_table_and_formats_its
     assert not re.search(r"\de-1\d", html)  # no 5.15004e-15
 
 
+@pytest.mark.slow
 def test_case_study_figure_shows_every_curve_whole(saved, tmp_path):
     assert cli_main(["study", "case", "--plot", str(tmp_path)]) == 0
     ax = saved["case_study.png"].axes[1]

@@ -3,11 +3,10 @@ and one bag per cycle, still hold every node's parameters (metadata.yaml), run-t
 
 from __future__ import annotations
 
-import time
-
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
+from conftest import spin_until  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
@@ -19,16 +18,8 @@ from jointwear_ros.nodes.recorder import RecorderNode  # noqa: E402
 pytestmark = pytest.mark.ros
 
 
-def _spin_until(ex, predicate, timeout=30.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end and not predicate():
-        ex.spin_once(timeout_sec=0.02)
-    return bool(predicate())
-
-
-def test_per_cycle_bags_of_a_recorder_started_after_the_nodes_hold_their_settings(tmp_path):
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
+def test_per_cycle_bags_of_a_recorder_started_after_the_nodes_hold_their_settings(ros_context_per_test, tmp_path):
+    ctx = ros_context_per_test
     ex = SingleThreadedExecutor(context=ctx)
     try:
         est = rclpy.create_node("wear_estimator", context=ctx)  # declared before any recorder runs
@@ -44,20 +35,20 @@ def test_per_cycle_bags_of_a_recorder_started_after_the_nodes_hold_their_setting
             Parameter("status_topic", value="/rs_test/status"),
             Parameter("include", value=["^/rs_test/status$", "^/parameter_events$"])])
         ex.add_node(rec)
-        assert _spin_until(ex, lambda: "wear_estimator" in rec._settings and "/rs_test/status" in rec.recorded_topics
+        assert spin_until(ex, lambda: "wear_estimator" in rec._settings and "/rs_test/status" in rec.recorded_topics
                            and status.get_subscription_count() >= 1)
 
         def cycle(cid: int) -> None:
             n = len(rec.bags)
             for state in (CycleState_RUNNING, CycleState_DONE):
                 status.publish(CycleStatus(joint_name="joint_1", cycle_id=cid, state=state, speeds_total=2))
-                assert _spin_until(ex, lambda: rec._queue.empty() and len(rec.bags) == n + 1), (rec.received, rec.bags, rec.recorded_topics, rec.dropped)
-            assert _spin_until(ex, lambda: rec._bag is None)
+                assert spin_until(ex, lambda: rec._queue.empty() and len(rec.bags) == n + 1), (rec.received, rec.bags, rec.recorded_topics, rec.dropped)
+            assert spin_until(ex, lambda: rec._bag is None)
 
         CycleState_RUNNING, CycleState_DONE = CycleStatus.RUNNING, CycleStatus.DONE
         cycle(1)
         est.set_parameters([Parameter("method", value="bayes")])  # between cycles, seen on /parameter_events
-        assert _spin_until(ex, lambda: rec._settings.get("wear_estimator", {}).get("method") == "bayes")
+        assert spin_until(ex, lambda: rec._settings.get("wear_estimator", {}).get("method") == "bayes")
         cycle(2)
         rec.on_shutdown()
         first, second = rec.bags
@@ -68,4 +59,3 @@ def test_per_cycle_bags_of_a_recorder_started_after_the_nodes_hold_their_setting
         est.destroy_node()
     finally:
         ex.shutdown()
-        rclpy.try_shutdown(context=ctx)

@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 rclpy = pytest.importorskip("rclpy")
+from conftest import NodeProcess, spin_until  # noqa: E402
 from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
@@ -27,20 +28,10 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability
 
 
 @pytest.fixture()
-def ros():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
-    yield ctx, ex
+def ros(ros_context_per_test):
+    ex = SingleThreadedExecutor(context=ros_context_per_test)
+    yield ros_context_per_test, ex
     ex.shutdown()
-    rclpy.try_shutdown(context=ctx)
-
-
-def _spin_until(ex, predicate, timeout=20.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end and not predicate():
-        ex.spin_once(timeout_sec=0.02)
-    return bool(predicate())
 
 
 def _recorder(ctx, ex, out: Path, **params) -> RecorderNode:
@@ -89,9 +80,9 @@ def test_recorder_records_every_topic_including_late_ones_into_an_mcap_bag_reada
     ignored = pub_node.create_publisher(String, "/test_rec/ignored", RELIABLE)
 
     rec = _recorder(ctx, ex, tmp_path, exclude=["^/test_rec/ignored$"])
-    assert _spin_until(ex, lambda: {"/joint_states", "/velocity_controller/commands", "/test_rec/latched",
+    assert spin_until(ex, lambda: {"/joint_states", "/velocity_controller/commands", "/test_rec/latched",
                                     "/test_rec/best_effort"} <= set(rec.recorded_topics))
-    assert _spin_until(ex, lambda: js.get_subscription_count() >= 1 and cmd.get_subscription_count() >= 1)
+    assert spin_until(ex, lambda: js.get_subscription_count() >= 1 and cmd.get_subscription_count() >= 1)
     n_js, n_cmd = 300, 30
     for i in range(n_js):
         js.publish(_joint_state(i))
@@ -104,12 +95,12 @@ def test_recorder_records_every_topic_including_late_ones_into_an_mcap_bag_reada
 
     # a topic that appears while the recorder runs, of a jointwear type
     late = pub_node.create_publisher(CycleStatus, "/test_cycle/status", RELIABLE)
-    assert _spin_until(ex, lambda: "/test_cycle/status" in rec.recorded_topics)
-    assert _spin_until(ex, lambda: late.get_subscription_count() >= 1)
+    assert spin_until(ex, lambda: "/test_cycle/status" in rec.recorded_topics)
+    assert spin_until(ex, lambda: late.get_subscription_count() >= 1)
     for k in range(5):
         st = CycleStatus(joint_name="joint_1", cycle_id=3, state=CycleStatus.RUNNING, speeds_done=k, speeds_total=8)
         late.publish(st)
-    assert _spin_until(ex, lambda: rec.received.get("/joint_states", 0) == n_js
+    assert spin_until(ex, lambda: rec.received.get("/joint_states", 0) == n_js
                        and rec.received.get("/velocity_controller/commands", 0) == n_cmd
                        and rec.received.get("/test_cycle/status", 0) == 5), rec.received
     rec.on_shutdown()
@@ -160,8 +151,8 @@ def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
     status = pub_node.create_publisher(CycleStatus, "/test_cycle/status", RELIABLE)
     js = pub_node.create_publisher(JointState, "/joint_states", RELIABLE)
     rec = _recorder(ctx, ex, tmp_path, split="cycle", cycle_tail=0.0, include=["^/test_cycle/status$", "^/joint_states$"])
-    assert _spin_until(ex, lambda: len(rec.recorded_topics) == 2)
-    assert _spin_until(ex, lambda: status.get_subscription_count() >= 1 and js.get_subscription_count() >= 1)
+    assert spin_until(ex, lambda: len(rec.recorded_topics) == 2)
+    assert spin_until(ex, lambda: status.get_subscription_count() >= 1 and js.get_subscription_count() >= 1)
 
     sent = 0
 
@@ -170,22 +161,22 @@ def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
         # status first (received before the samples: subscriptions are served in no fixed order)
         status.publish(CycleStatus(joint_name="joint_1", cycle_id=cycle, state=state, speeds_total=2))
         sent += 1
-        assert _spin_until(ex, lambda: sum(rec.received.values()) == sent)
+        assert spin_until(ex, lambda: sum(rec.received.values()) == sent)
         for i in range(joint_states):
             js.publish(_joint_state(i))
         sent += joint_states
-        assert _spin_until(ex, lambda: sum(rec.received.values()) == sent)
+        assert spin_until(ex, lambda: sum(rec.received.values()) == sent)
 
     send(CycleStatus.IDLE, 0, 5)          # before any cycle: not recorded
     send(CycleStatus.RUNNING, 1, 10)
     send(CycleStatus.DONE, 1, 0)
-    assert _spin_until(ex, lambda: len(rec.bags) == 1 and rec._bag is None)
+    assert spin_until(ex, lambda: len(rec.bags) == 1 and rec._bag is None)
     send(CycleStatus.RUNNING, 2, 7)
     send(CycleStatus.FAILED, 2, 0)
-    assert _spin_until(ex, lambda: len(rec.bags) == 2 and rec._bag is None)
+    assert spin_until(ex, lambda: len(rec.bags) == 2 and rec._bag is None)
     send(CycleStatus.RUNNING, 1, 4)  # test_cycle restarted: it counts from cycle 1 again, a new bag
     send(CycleStatus.DONE, 1, 0)
-    assert _spin_until(ex, lambda: len(rec.bags) == 3 and rec._bag is None)
+    assert spin_until(ex, lambda: len(rec.bags) == 3 and rec._bag is None)
     send(CycleStatus.RUNNING, 1, 3)  # restarted once more: cycle 1 right after a cycle 1
     send(CycleStatus.DONE, 1, 0)
     rec.on_shutdown()
@@ -226,30 +217,22 @@ def test_messages_received_before_the_sim_clock_starts_are_logged_at_its_first_t
     assert [m.log_time for m in read_messages(tmp_path / "c")] == [0]
 
 
-def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_the_bag(tmp_path, capsys):
+def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_the_bag(ros_context_per_test,
+                                                                                    tmp_path, capsys):
     """A recorder process frozen (SIGSTOP) while a reliable publisher with a short history keeps
     publishing: DDS reports the overflowed samples as lost; the recorder logs them and notes them in
     the bag's metadata, and ``bag info`` / ``replay`` show the bag as incomplete."""
     import json
-    import os
     import signal
-    import subprocess
-    import sys
 
     from jointwear_ros.cli import main as cli_main
-    from jointwear_ros.nodes.runtime import loopback_env
 
     topic = "/jw_loss_test/joint_states"
-    env = loopback_env(domain_id=int(os.environ.get("ROS_DOMAIN_ID", "0")))
     log = tmp_path / "recorder.log"
-    with log.open("w") as fh:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "jointwear_ros.nodes.recorder", "--ros-args", "-p", f"output_dir:={tmp_path / 'bags'}",
-             "-p", "discovery_period:=0.1", "-p", f"include:=['^{topic}$']", "-p", "diagnostics_period:=0.2"],
-            env=env, stdout=fh, stderr=subprocess.STDOUT,
-        )
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
+    rec = NodeProcess("recorder", {"output_dir": tmp_path / "bags", "discovery_period": 0.1, "include": f"['^{topic}$']",
+                                   "diagnostics_period": 0.2}, config=False, log=log)
+    proc = rec.proc
+    ctx = ros_context_per_test
     node = rclpy.create_node("jw_loss_pub", context=ctx)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
@@ -259,7 +242,7 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
     node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: diags.extend(m.status), 100)
     try:
         pub = node.create_publisher(JointState, topic, QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE))
-        assert _spin_until(ex, lambda: pub.get_subscription_count() > 0, 30.0), log.read_text()
+        assert spin_until(ex, lambda: pub.get_subscription_count() > 0, 30.0), log.read_text()
         sent = 0
 
         def burst(n: int) -> None:
@@ -272,7 +255,7 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
 
         burst(100)
         assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
-        assert _spin_until(ex, lambda: bool(diags), 20.0)  # healthy before the stall
+        assert spin_until(ex, lambda: bool(diags), 20.0)  # healthy before the stall
         assert [d.level for d in diags] == [b"\x00"] * len(diags)
         proc.send_signal(signal.SIGSTOP)
         try:
@@ -289,13 +272,11 @@ def test_messages_lost_while_the_recorder_is_stalled_are_reported_and_noted_in_t
             last = {kv.key: kv.value for kv in diags[-1].values} if diags else {}
             return diags[-1].level == b"\x01" and int(last["messages_recorded"]) + int(last["messages_lost"]) == sent
 
-        assert _spin_until(ex, accounted, 20.0), [(d.message, d.values) for d in diags[-2:]]
+        assert spin_until(ex, accounted, 20.0), [(d.message, d.values) for d in diags[-2:]]
     finally:
-        proc.send_signal(signal.SIGINT)
-        rc = proc.wait(30)
+        rc = rec.stop(signal.SIGINT, 30.0)
         ex.shutdown()
         node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
     out = log.read_text()
     assert rc == 0, out
     assert "lost before reaching the recorder" in out and "INCOMPLETE" in out, out
@@ -329,21 +310,21 @@ def test_recorder_writes_every_message_of_a_long_stream_exactly_once_in_order_an
     pub_node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: statuses.extend(m.status), 100)
     rec = _recorder(ctx, ex, tmp_path, include=["^/jw_exact/joint_states$"], diagnostics_period=0.2,
                     flush_period=0.2)
-    assert _spin_until(ex, lambda: js.get_subscription_count() >= 1)
+    assert spin_until(ex, lambda: js.get_subscription_count() >= 1)
     n = 3000
     for i in range(n):
         js.publish(_joint_state(i))
         if i % 20 == 0:
             ex.spin_once(timeout_sec=0.0)
     assert js.wait_for_all_acked(rclpy.duration.Duration(seconds=20.0))
-    assert _spin_until(ex, lambda: rec.received.get("/jw_exact/joint_states", 0) == n), rec.received
+    assert spin_until(ex, lambda: rec.received.get("/jw_exact/joint_states", 0) == n), rec.received
     bag = rec.bags[0]
 
     def on_disk() -> list:
         return [s for s in statuses if s.name == f"recorder: {bag.name}"
                 and {kv.key: kv.value for kv in s.values}.get("messages_on_disk") == str(n)]
 
-    assert _spin_until(ex, lambda: bool(on_disk())), [(s.name, s.message, s.values) for s in statuses[-3:]]
+    assert spin_until(ex, lambda: bool(on_disk())), [(s.name, s.message, s.values) for s in statuses[-3:]]
     st = on_disk()[-1]
     values = {kv.key: kv.value for kv in st.values}
     assert st.level == b"\x00" and st.message == "recording" and st.hardware_id == str(tmp_path)
@@ -437,15 +418,15 @@ def test_a_robot_cycle_recorded_with_per_cycle_bags_is_one_bag_and_its_replay_ma
             pubs[topic] = pub_node.create_publisher(msg_types[typ], topic, RELIABLE)
     rec = _recorder(ctx, ex, tmp_path / "bags", split="cycle", cycle_tail=0.0,
                     include=["^" + t + "$" for t in pubs])
-    assert _spin_until(ex, lambda: len(rec.recorded_topics) == len(pubs))
-    assert _spin_until(ex, lambda: all(p.get_subscription_count() >= 1 for p in pubs.values()))
+    assert spin_until(ex, lambda: len(rec.recorded_topics) == len(pubs))
+    assert spin_until(ex, lambda: all(p.get_subscription_count() >= 1 for p in pubs.values()))
     sent = 0
     for topic, typ, data in raw:  # in the live order; each status received before what follows it
         pubs[topic].publish(bytes(data))
         sent += 1
         if typ == "jointwear_msgs/msg/TestCycleStatus" or sent % 50 == 0:
-            assert _spin_until(ex, lambda n=sent: sum(rec.received.values()) == n), (sent, rec.received)
-    assert _spin_until(ex, lambda: sum(rec.received.values()) == len(raw) and rec._bag is None and rec.bags)
+            assert spin_until(ex, lambda n=sent: sum(rec.received.values()) == n), (sent, rec.received)
+    assert spin_until(ex, lambda: sum(rec.received.values()) == len(raw) and rec._bag is None and rec.bags)
     rec.on_shutdown()
     assert len(rec.bags) == 1 and rec.bags[0].name.endswith("_cycle1"), [b.name for b in rec.bags]
     topics = bag_info(rec.bags[0]).topics

@@ -8,26 +8,23 @@ index by index, with what was published and when.
 from __future__ import annotations
 
 import json
-import os
 import random
 import resource
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
+from conftest import GraphClient, NodeProcess  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from jointwear_ros.cli import main as cli_main  # noqa: E402
 from jointwear_ros.io.bags import read_messages  # noqa: E402
-from jointwear_ros.nodes.runtime import loopback_env  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -36,15 +33,10 @@ RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
 def _recorder(tmp_path: Path, topic: str, *extra: str, preexec_fn=None) -> tuple[subprocess.Popen, Path]:
     log = tmp_path / "recorder.log"
-    env = loopback_env(domain_id=int(os.environ.get("ROS_DOMAIN_ID", "0")))
-    with log.open("w") as fh:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "jointwear_ros.nodes.recorder", "--ros-args",
-             "-p", f"output_dir:={tmp_path / 'bags'}", "-p", "discovery_period:=0.1",
-             "-p", f"include:=['^{topic}$', '^/diagnostics$']", "-p", "diagnostics_period:=0.2", *extra],
-            env=env, stdout=fh, stderr=subprocess.STDOUT, preexec_fn=preexec_fn,
-        )
-    return proc, log
+    rec = NodeProcess("recorder", {"output_dir": tmp_path / "bags", "discovery_period": 0.1,
+                                   "include": f"['^{topic}$', '^/diagnostics$']", "diagnostics_period": 0.2},
+                      args=extra, config=False, log=log, preexec_fn=preexec_fn)
+    return rec.proc, log
 
 
 def _state(i: int) -> JointState:
@@ -57,26 +49,16 @@ def _state(i: int) -> JointState:
     return m
 
 
-class _Graph:
+class _Graph(GraphClient):
     """A publisher node (and a /diagnostics listener) on this test's domain."""
 
-    def __init__(self, topic: str) -> None:
-        self.ctx = rclpy.Context()
-        rclpy.init(context=self.ctx)
-        self.node = rclpy.create_node("jw_crash_pub", context=self.ctx)
-        self.ex = SingleThreadedExecutor(context=self.ctx)
-        self.ex.add_node(self.node)
+    def __init__(self, ctx, topic: str) -> None:
+        super().__init__(ctx, "jw_crash_pub")
         self.pub = self.node.create_publisher(JointState, topic, RELIABLE)
         self.diagnostics: list = []
         self.node.create_subscription(DiagnosticArray, "/diagnostics",
                                       lambda m: self.diagnostics.extend(m.status), 100)
         self.sent_at: list[float] = []
-
-    def wait(self, predicate, timeout: float) -> bool:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end and not predicate():
-            self.ex.spin_once(timeout_sec=0.02)
-        return bool(predicate())
 
     def stream(self, rate: float, until) -> None:
         """Publish at ``rate`` (catching up when late, so the count is exact) until ``until()``."""
@@ -88,11 +70,6 @@ class _Graph:
                 self.sent_at.append(time.monotonic())
             self.ex.spin_once(timeout_sec=0.0005)
 
-    def close(self) -> None:
-        self.ex.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.ctx)
-
 
 def _indices(bag: Path, topic: str) -> list[int]:
     out = []
@@ -103,13 +80,14 @@ def _indices(bag: Path, topic: str) -> list[int]:
     return out
 
 
-def test_recorder_killed_with_sigkill_mid_stream_loses_at_most_the_last_second(tmp_path, capsys):
+def test_recorder_killed_with_sigkill_mid_stream_loses_at_most_the_last_second(ros_context_per_test, tmp_path,
+                                                                                capsys):
     topic = "/jw_kill/joint_states"
     kill_after = random.Random(20261123).uniform(2.0, 4.0)  # a "random" moment, reproducible
     proc, log = _recorder(tmp_path, topic)
-    g = _Graph(topic)
+    g = _Graph(ros_context_per_test, topic)
     try:
-        assert g.wait(lambda: g.pub.get_subscription_count() > 0, 30.0), log.read_text()
+        assert g.spin_until(lambda: g.pub.get_subscription_count() > 0, 30.0), log.read_text()
         start = time.monotonic()
         g.stream(1000.0, lambda: time.monotonic() - start >= kill_after)
         proc.send_signal(signal.SIGKILL)
@@ -146,17 +124,17 @@ def _limit_file_size(limit: int):
 
 
 def test_recorder_hitting_a_file_size_limit_reports_error_exits_nonzero_and_recover_restores_what_it_wrote(
-        tmp_path, capsys):
+        ros_context_per_test, tmp_path, capsys):
     topic = "/jw_full/joint_states"
     # uncompressed, 300 kB: about a second of this stream fits
     proc, log = _recorder(tmp_path, topic, "-p", "compression:=none", preexec_fn=_limit_file_size(300_000))
-    g = _Graph(topic)
+    g = _Graph(ros_context_per_test, topic)
     try:
-        assert g.wait(lambda: g.pub.get_subscription_count() > 0, 30.0), log.read_text()
+        assert g.spin_until(lambda: g.pub.get_subscription_count() > 0, 30.0), log.read_text()
         start = time.monotonic()
         g.stream(1000.0, lambda: proc.poll() is not None or time.monotonic() - start > 30.0)
         rc = proc.wait(30)
-        g.wait(lambda: any(s.level == b"\x02" for s in g.diagnostics), 5.0)
+        g.spin_until(lambda: any(s.level == b"\x02" for s in g.diagnostics), 5.0)
     finally:
         if proc.poll() is None:
             proc.kill()

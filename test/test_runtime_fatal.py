@@ -12,6 +12,8 @@ pytest.importorskip("rclpy")
 
 from jointwear_ros.nodes.runtime import loopback_env
 
+pytestmark = pytest.mark.ros  # a real node process
+
 SCRIPT = textwrap.dedent("""
     import sys
     from jointwear_ros.nodes.runtime import run_node

@@ -169,6 +169,7 @@ def test_page_api_metrics_and_trend_json_agree_on_every_joint_of_a_plant(plant_d
     assert m["jointwear_store_up"][""] == 1.0 if "" in m["jointwear_store_up"] else True
 
 
+@pytest.mark.slow
 def test_trend_stale_days_moves_the_silent_joint_and_never_an_error(plant_db):
     tj = trend_json(plant_db, "--stale-days", "30")
     assert tj[STALE_JOINT]["level"] == "OK"
@@ -220,6 +221,7 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+@pytest.mark.slow
 def test_a_new_estimate_appears_on_the_page_and_in_metrics_without_a_restart(tmp_path):
     db = tmp_path / "plant.db"
     write_plant(str(db))

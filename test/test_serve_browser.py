@@ -80,6 +80,7 @@ def test_a_screenshot_of_the_plant_page(plant, tmp_path):
     assert (width, height) == (1280, 900) and len(data) > 50_000  # a page with content, not a blank frame
 
 
+@pytest.mark.slow
 def test_the_open_page_shows_a_new_estimate_without_a_reload(tmp_path):
     """Chromium keeps the plant page open (DevTools protocol over a websocket, tornado's client); a joint at
     ERROR written into the store appears in that same page, no reload, within the stated delay."""

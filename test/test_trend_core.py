@@ -125,6 +125,7 @@ def test_fleet_has_the_estimators_calibrated_noise_and_known_truth(fleet):
     assert {f.profile for f in fleet} == {"linear", "accelerating", "flat", "maintained"}
 
 
+@pytest.mark.slow
 def test_interval_holds_the_true_time_to_alarm_for_most_growing_joints_and_is_narrower_than_it(fleet):
     """Issue 13's acceptance: at the night each growing joint's true time to alarm reaches the horizon."""
     cfg = TrendConfig()
@@ -143,6 +144,7 @@ def test_no_flat_joint_ever_warns(fleet):
         assert (b.level == 0).all(), (j.robot, j.joint, int((b.level > 0).sum()))
 
 
+@pytest.mark.slow
 def test_fleet_scores_are_in_their_targets(fleet):
     s = score_fleet(fleet, TrendConfig(), EPOCH0, 240)
     assert s["coverage"] >= 0.85, s

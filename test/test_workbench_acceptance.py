@@ -31,6 +31,7 @@ def test_synthetic_data_noise_floor_is_the_papers_sigma_e():
     assert nf == pytest.approx(NOISE_STD)
 
 
+@pytest.mark.slow
 def test_standard_model_journey_adds_load_and_temperature_terms_until_the_noise_floor():
     table = synth_observations(n_cycles=40, seed=11)
     nf, _ = noise_floor(table)
@@ -80,6 +81,7 @@ def test_each_hidden_effect_is_found_and_adding_it_reaches_the_noise_floor(effec
     assert fit.cv_rmse == pytest.approx(best.cv_rmse, rel=0.05)
 
 
+@pytest.mark.slow
 def test_clean_data_shows_no_significant_effect_in_at_least_19_of_20_seeds():
     # 20 cycles x 10 speeds = 200 observations per seed (400 for the other
     # acceptance tests) to keep the test suite fast; the whole library is tried.

@@ -142,6 +142,7 @@ def family_results() -> dict[str, tuple[ObservationTable, object]]:
 
 
 @pytest.mark.parametrize("effect", sorted(EFFECT_FAMILIES))
+@pytest.mark.slow
 def test_each_family_is_found_and_the_suggestion_reaches_the_noise_floor(family_results, effect):
     table, diag = family_results[effect]
     assert diag.verdict != "nothing_missing", diag.summary()
@@ -182,6 +183,7 @@ def test_a_residual_above_the_floor_that_no_column_explains_is_unexplained():
     assert diag.suggestion is None
 
 
+@pytest.mark.slow
 def test_a_model_missing_two_effects_is_unexplained_after_its_best_single_term():
     table = synth_observations(n_cycles=40, seed=62, effects=["ripple_fast", "warmup"])
     diag = diagnose(table, "paper", n_bootstrap=0)
@@ -193,6 +195,7 @@ def test_a_model_missing_two_effects_is_unexplained_after_its_best_single_term()
     assert any(v.significant for v in diag.after_variables)
 
 
+@pytest.mark.slow
 def test_diagnosis_json_keeps_the_old_fields_and_adds_the_issue_11_contract(family_results):
     _, diag = family_results["regreasing"]
     d = diag.to_dict()
@@ -215,6 +218,7 @@ def _refit_ratio(table: ObservationTable, diag) -> float:
     return float(fit.cv_rmse / diag.noise_floor)
 
 
+@pytest.mark.slow
 def test_a_regreasing_step_with_few_cycles_ranks_time_first_and_its_refit_reaches_the_floor():
     # was: a per-cycle column (hours_running) ranked above time, because a spline of time is extrapolated
     # into every held-out cycle (its CV share was 0); and the step refitted from its spec widened into the

@@ -46,6 +46,7 @@ def test_small_tables_and_few_valued_columns_give_a_verdict(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("rows", [(37, 151), (150, 151)])
+@pytest.mark.slow
 def test_two_outliers_in_a_clean_table_are_named_and_never_found(rows):
     t = synth_observations(n_cycles=40, seed=3)
     tau = np.array(t["tau_f"], dtype=float)

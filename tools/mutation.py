@@ -1,0 +1,565 @@
+#!/usr/bin/env python3
+"""Mutation check: plant each known bug in a copy of the package and check that the tests catch it.
+
+A mutant names *where* (a module and a function, method or class by its qualified name, such as
+``WearEstimatorNode._log_result``) and *what changes there*, written as code and matched on the
+syntax tree (``ast``), not on the text: an expression or statements replaced, a statement inserted
+before or after another, an early return at the top. So a mutant survives reformatting, comments and
+code moving within its file; if its function is renamed or the matched code is gone or ambiguous it
+is reported ``STALE`` with the reason (update the mutant). In a pattern, ``...`` matches anything.
+
+For every mutant the package, tests and config are copied to a temporary directory (the working
+tree is never touched), the change is made there, and the tests that must catch it run with the copy
+first on ``PYTHONPATH`` (also for the node processes the ROS tests start). A mutant the tests do not
+catch (``SURVIVED``) is a hole in the suite.
+
+    .venv/bin/python tools/mutation.py                  # every mutant, a table (minutes)
+    .venv/bin/python tools/mutation.py --fast           # only those caught without a ROS graph
+    .venv/bin/python tools/mutation.py --only alarm_forced_true --json
+    .venv/bin/python tools/mutation.py --list
+
+Exit code 0 when every mutant run was caught, 1 when one survived, 2 when one is stale or its
+tests could not run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+#: What a copy needs to run the tests.
+COPY = ("jointwear_ros", "config", "test", "launch", "msg_defs", "docs", "resource", "pyproject.toml", "setup.cfg",
+        "setup.py", "package.xml", "README.md", "Makefile", "requirements.txt")
+
+
+class Stale(ValueError):
+    """The mutant's place or pattern is not (exactly once) in the source any more."""
+
+
+# --------------------------------------------------------------------------- changes, matched on the syntax tree
+
+
+@dataclass(frozen=True)
+class Change:
+    """What a mutant changes inside its definition.
+
+    ``kind``: ``expr`` (replace the expression ``old`` by ``new``; with ``inside``, only within the one
+    expression matching that pattern), ``stmts`` (replace the consecutive statements ``old`` by
+    ``new``), ``before`` / ``after`` (insert ``new`` before / after the statement ``old``),
+    ``prepend`` (insert ``new`` at the top of the body, after the docstring).
+    """
+
+    kind: str
+    old: str
+    new: str
+    inside: str = ""
+
+    def describe(self) -> str:
+        if self.kind == "prepend":
+            return f"insert at the top: {self.new!r}"
+        if self.kind in ("before", "after"):
+            return f"insert {self.new!r} {self.kind} {self.old!r}"
+        return f"{self.old!r} -> {self.new!r}" + (f" in {self.inside!r}" if self.inside else "")
+
+
+def expr(old: str, new: str, inside: str = "") -> Change:
+    return Change("expr", old, new, inside)
+
+
+def stmts(old: str, new: str) -> Change:
+    return Change("stmts", old, new)
+
+
+def before(stmt: str, new: str) -> Change:
+    return Change("before", stmt, new)
+
+
+def after(stmt: str, new: str) -> Change:
+    return Change("after", stmt, new)
+
+
+def prepend(new: str) -> Change:
+    return Change("prepend", "", new)
+
+
+def _same(pattern: ast.AST, node: ast.AST) -> bool:
+    """``node`` has the shape of ``pattern`` (positions and contexts aside; ``...`` matches anything)."""
+    if isinstance(pattern, ast.Constant) and pattern.value is Ellipsis:
+        return True
+    if isinstance(pattern, ast.Expr) and isinstance(pattern.value, ast.Constant) and pattern.value.value is Ellipsis:
+        return True
+    if type(pattern) is not type(node):
+        return False
+    for field in pattern._fields:
+        if field in ("ctx", "type_comment", "kind"):
+            continue
+        a, b = getattr(pattern, field, None), getattr(node, field, None)
+        if isinstance(a, list):
+            if not isinstance(b, list) or len(a) != len(b) or not all(_same(x, y) for x, y in zip(a, b, strict=True)):
+                return False
+        elif isinstance(a, ast.AST):
+            if not isinstance(b, ast.AST) or not _same(a, b):
+                return False
+        elif a != b:
+            return False
+    return True
+
+
+def _definition(tree: ast.Module, where: str) -> ast.AST:
+    """The one function, method or class whose qualified name is ``where``."""
+    found: list[ast.AST] = []
+
+    def walk(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                name = f"{prefix}.{child.name}" if prefix else child.name
+                if name == where:
+                    found.append(child)
+                walk(child, name)
+            else:
+                walk(child, prefix)
+
+    walk(tree, "")
+    if len(found) != 1:
+        raise Stale(f"{where!r} is defined {len(found)} times (expected once)")
+    return found[0]
+
+
+def _expr_pattern(src: str) -> ast.expr:
+    return ast.parse(src.strip(), mode="eval").body
+
+
+def _stmt_pattern(src: str) -> list[ast.stmt]:
+    return ast.parse(_dedent(src)).body
+
+
+def _dedent(src: str) -> str:
+    import textwrap
+
+    return textwrap.dedent(src).strip("\n")
+
+
+def _one(matches: list, what: str, where: str) -> object:
+    if len(matches) != 1:
+        raise Stale(f"{what} found {len(matches)} times in {where} (expected once)")
+    return matches[0]
+
+
+def _stmt_lists(node: ast.AST):
+    for n in ast.walk(node):
+        for field in ("body", "orelse", "finalbody"):
+            body = getattr(n, field, None)
+            if isinstance(body, list) and body and isinstance(body[0], ast.stmt):
+                yield body
+        for h in getattr(n, "handlers", []) or []:
+            yield h.body
+
+
+def _runs(node: ast.AST, pattern: list[ast.stmt]) -> list[list[ast.stmt]]:
+    """The runs of consecutive statements in ``node`` matching ``pattern``."""
+    out = []
+    k = len(pattern)
+    for body in _stmt_lists(node):
+        for i in range(len(body) - k + 1):
+            if all(_same(p, s) for p, s in zip(pattern, body[i:i + k], strict=True)):
+                out.append(body[i:i + k])
+    return out
+
+
+class _Source:
+    """The file's bytes with (line, column) positions (ast columns are UTF-8 byte offsets)."""
+
+    def __init__(self, text: str):
+        self.data = text.encode()
+        self.starts = [0]
+        for i, b in enumerate(self.data):
+            if b == 0x0A:
+                self.starts.append(i + 1)
+
+    def offset(self, line: int, col: int) -> int:
+        return self.starts[line - 1] + col
+
+    def splice(self, start: int, end: int, text: str) -> str:
+        return (self.data[:start] + text.encode() + self.data[end:]).decode()
+
+
+def _indented(code: str, indent: int) -> str:
+    lines = _dedent(code).splitlines()
+    return "\n".join((" " * indent + ln) if ln.strip() else ln for ln in lines)
+
+
+def mutate(source: str, where: str, change: Change) -> str:
+    """``source`` with ``change`` made in the definition ``where``; :class:`Stale` when it cannot be placed."""
+    tree = ast.parse(source)
+    node = _definition(tree, where)
+    src = _Source(source)
+    if change.kind == "expr":
+        scope: ast.AST = node
+        if change.inside:
+            pat = _expr_pattern(change.inside)
+            scope = _one([n for n in ast.walk(node) if isinstance(n, ast.expr) and _same(pat, n)],
+                         f"{change.inside!r}", where)
+        pat = _expr_pattern(change.old)
+        hit = _one([n for n in ast.walk(scope) if isinstance(n, ast.expr) and _same(pat, n)], f"{change.old!r}", where)
+        start, end = src.offset(hit.lineno, hit.col_offset), src.offset(hit.end_lineno, hit.end_col_offset)
+        new = change.new.strip()
+        atoms = (ast.Name, ast.Attribute, ast.Call, ast.Constant, ast.Subscript)
+        if not isinstance(_expr_pattern(new), atoms):
+            new = f"({new})"  # keep the precedence of the place it goes
+        out = src.splice(start, end, new)
+    elif change.kind in ("stmts", "before", "after"):
+        run = _one(_runs(node, _stmt_pattern(change.old)), f"{change.old.strip()!r}", where)
+        first, last = run[0], run[-1]
+        indent = first.col_offset
+        if change.kind == "stmts":
+            start = src.offset(first.lineno, first.col_offset)
+            end = src.offset(last.end_lineno, last.end_col_offset)
+            out = src.splice(start, end, _indented(change.new, indent).lstrip())
+        elif change.kind == "before":
+            start = src.offset(first.lineno, 0)
+            out = src.splice(start, start, _indented(change.new, indent) + "\n")
+        else:
+            end = src.offset(last.end_lineno, last.end_col_offset)
+            out = src.splice(end, end, "\n" + _indented(change.new, indent))
+    elif change.kind == "prepend":
+        body = getattr(node, "body", None)
+        if not body:
+            raise Stale(f"{where!r} has no body")
+        doc = isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) and isinstance(
+            body[0].value.value, str)
+        if doc and len(body) > 1:
+            start = src.offset(body[1].lineno, 0)
+            out = src.splice(start, start, _indented(change.new, body[1].col_offset) + "\n")
+        elif doc:
+            end = src.offset(body[0].end_lineno, body[0].end_col_offset)
+            out = src.splice(end, end, "\n" + _indented(change.new, body[0].col_offset))
+        else:
+            start = src.offset(body[0].lineno, 0)
+            out = src.splice(start, start, _indented(change.new, body[0].col_offset) + "\n")
+    else:  # pragma: no cover - a typo in the table below
+        raise ValueError(f"unknown change kind {change.kind!r}")
+    try:
+        ast.parse(out)
+    except SyntaxError as exc:
+        raise Stale(f"the mutated {where!r} does not parse: {exc}") from None
+    if out == source:
+        raise Stale(f"the change leaves {where!r} as it was")
+    return out
+
+
+# --------------------------------------------------------------------------- the planted bugs
+
+
+@dataclass(frozen=True)
+class Mutant:
+    """A planted bug: ``change`` made in the definition ``where`` of ``path``; ``tests`` must catch it."""
+
+    name: str
+    description: str
+    path: str
+    where: str
+    change: Change
+    tests: tuple[str, ...]
+    #: pytest -k expression narrowing ``tests`` to the ones that should catch it
+    select: str = ""
+    #: caught by tests without a ROS graph (seconds each; the suite runs these itself)
+    fast: bool = False
+
+
+MUTANTS: tuple[Mutant, ...] = (
+    # -- the alarm and the diagnostic level ---------------------------------------------------
+    Mutant("alarm_forced_true", "WearEstimate.alarm is always true",
+           "jointwear_ros/nodes/wear_estimator.py", "estimate_to_msg",
+           expr("bool(res.wear >= r.alarm_threshold)", "True"),
+           ("test/test_nodes_observer_estimator.py",), select="exactly_the_threshold"),
+    Mutant("alarm_ge_to_gt_message", "WearEstimate.alarm uses > instead of >= (w_hat = 35 gives no alarm)",
+           "jointwear_ros/nodes/wear_estimator.py", "estimate_to_msg",
+           expr("res.wear >= r.alarm_threshold", "res.wear > r.alarm_threshold"),
+           ("test/test_nodes_observer_estimator.py",), select="exactly_the_threshold"),
+    Mutant("alarm_ge_to_gt_level", "the diagnostic level's ERROR uses > instead of >=",
+           "jointwear_ros/contract.py", "DiagnosticLevel.for_wear",
+           expr("wear >= alarm", "wear > alarm"),
+           ("test/test_monitor.py",), fast=True),
+    Mutant("log_severity_one_line", "one logging line picks the severity (rclpy then logs every level as the first)",
+           "jointwear_ros/nodes/wear_estimator.py", "WearEstimatorNode._log_result",
+           stmts("""
+                 if ...:
+                     self.get_logger().error(text)
+                 elif ...:
+                     self.get_logger().warning(text)
+                 else:
+                     self.get_logger().info(text)
+                 """,
+                 """
+                 log = self.get_logger()
+                 (log.info if r.level == DiagnosticLevel.OK else log.warning if r.level == DiagnosticLevel.WARN
+                  else log.error)(text)
+                 """),
+           ("test/test_nodes_observer_estimator.py",), select="in_sequence"),
+    Mutant("threshold_change_ignored", "a run-time threshold change is not applied",
+           "jointwear_ros/nodes/wear_estimator.py", "WearEstimatorNode._on_parameters",
+           stmts("ch.monitor.reconfigure(new[ch.name])", "MonitorConfig(**{**new[ch.name].__dict__})"),
+           ("test/test_nodes_observer_estimator.py",), select="thresholds_apply"),
+    # -- the observer --------------------------------------------------------------------------
+    Mutant("observer_std_under_reported", "the observer reports tau_f_std 30 % too small",
+           "jointwear_ros/observer/segmentation.py", "measure_segment",
+           expr("0.5 * math.hypot(ses[1], ses[-1])", "0.35 * math.hypot(ses[1], ses[-1])"),
+           ("test/test_observer_core.py",), select="matches_scatter", fast=True),
+    Mutant("observer_memory_trim_disabled", "the observer never trims its joint-state buffer",
+           "jointwear_ros/observer/core.py", "FrictionObserverCore._trim",
+           expr("math.isfinite(latest)", "False"),
+           ("test/test_observer_core.py",), select="bounded", fast=True),
+    Mutant("observer_impossible_temperature", "the observer uses physically impossible temperature readings",
+           "jointwear_ros/observer/core.py", "FrictionObserverCore.on_temperature",
+           expr("math.isfinite(celsius) and lo <= celsius <= hi", "math.isfinite(celsius)"),
+           ("test/test_nodes_observer_estimator.py",), select="health"),
+    Mutant("status_routed_to_another_joint", "a joint's status is routed to another joint's core",
+           "jointwear_ros/observer/robot.py", "RobotObserver.route",
+           expr("joint if joint in self.cores else None", "self.joints[0]"),
+           ("test/test_nodes_robot.py",), select="robot_cycles"),
+    # -- screening of observations -------------------------------------------------------------
+    Mutant("observation_screening_off", "observations are not screened at all",
+           "jointwear_ros/monitor/validation.py", "screen_observation",
+           after("rng = dict(valid or {})", "return o, ''"),
+           ("test/test_monitor.py",), fast=True),
+    Mutant("observation_temperature_bounds_widened", "the parameter set's temperature range is widened by 1 degC",
+           "jointwear_ros/monitor/validation.py", "screen_observation",
+           expr("lo <= t <= hi", "lo - 1.0 <= t <= hi + 1.0"),
+           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True),
+    Mutant("plausible_temperature_bound_widened", "the plausible temperature range is widened by 1 degC below",
+           "jointwear_ros/monitor/validation.py", "screen_observation",
+           expr("plo <= t <= phi", "plo - 1.0 <= t <= phi"),
+           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True),
+    # -- the test cycle ------------------------------------------------------------------------
+    Mutant("motion_enabled_false_ignored", "motion_enabled := false at run time does not stop a running cycle",
+           "jointwear_ros/nodes/test_cycle.py", "TestCycleNode._on_parameters",
+           expr("self.runner.running and ...", "False"),
+           ("test/test_nodes_sim_cycle.py",), select="motion_enabled_false"),
+    Mutant("stale_state_wall_time_accepted", "a joint state stale in wall time is accepted (a dead simulator)",
+           "jointwear_ros/nodes/test_cycle.py", "TestCycleNode._check_states",
+           expr("wall_age > self.state_timeout_wall", "False"),
+           ("test/test_nodes_sim_cycle.py",), select="simulator_that_died"),
+    Mutant("crawl_speeds_accepted", "speeds below min_speed are planned",
+           "jointwear_ros/cycle/plan.py", "plan_cycle",
+           expr("v < config.min_speed", "False"),
+           ("test/test_cycle_core.py",), select="crawl", fast=True),
+    Mutant("held_joints_not_watched", "the joints held while another is tested are not watched",
+           "jointwear_ros/cycle/robot.py", "RobotCycleRunner.update",
+           expr("self._hold_watchdog(j, now, readings.get(j), ages.get(j))", "None"),
+           ("test/test_cycle_robot.py",), select="held", fast=True),
+    Mutant("held_reference_follows_joint", "a held joint's reference follows the joint (a slow drift never trips)",
+           "jointwear_ros/cycle/robot.py", "RobotCycleRunner._hold_watchdog",
+           after("ref = self._hold.setdefault(j, r.position)", "self._hold[j] = r.position"),
+           ("test/test_cycle_robot.py",), select="drifting_slowly", fast=True),
+    Mutant("held_movement_not_checked", "a held joint's movement is not checked",
+           "jointwear_ros/cycle/robot.py", "RobotCycleRunner._hold_watchdog",
+           expr("abs(r.position - ref) > self.hold_tolerance", "False"),
+           ("test/test_cycle_robot.py",), select="held", fast=True),
+    # -- the recorder and the history ----------------------------------------------------------
+    Mutant("recorder_drops_every_1000th", "the recorder silently drops every 1000th message",
+           "jointwear_ros/io/recording.py", "RecordingBag._write",
+           stmts("""
+                 self._writer.write(conn, stamp, item.data)
+                 self._last = stamp
+                 self.count += 1
+                 """,
+                 """
+                 self.count += 1
+                 if self.count % 1000 == 0:
+                     return
+                 self._writer.write(conn, stamp, item.data)
+                 self._last = stamp
+                 """),
+           ("test/test_recorder.py",)),
+    Mutant("history_whole_seconds", "the history stores times in whole seconds",
+           "jointwear_ros/history/store.py", "EstimateRecord.time_ns",
+           expr("round(self.time * 1e6) * 1000", "round(self.time) * 1_000_000_000"),
+           ("test/test_history_store.py",), select="to_the_microsecond and sqlite", fast=True),
+    Mutant("history_screening_off", "estimates go into the history unscreened",
+           "jointwear_ros/history/screen.py", "screen_record",
+           before("cfg = cfg or ScreenConfig()", "return None"),
+           ("test/test_cli_history.py",), select="bad_rows_never_hide", fast=True),
+    # -- readers, estimators and the command line ----------------------------------------------
+    Mutant("csv_nan_optional_column", "the CSV reader accepts NaN in an optional column",
+           "jointwear_ros/io/tables.py", "read_csv",
+           expr("not math.isfinite(v)", "not math.isfinite(v) and (name in _REQUIRED or not math.isnan(v))"),
+           ("test/test_io_tables.py", "test/test_properties_io.py"), select="csv or nan", fast=True),
+    Mutant("csv_accepts_negative_speed", "the table readers accept a negative speed",
+           "jointwear_ros/io/tables.py", "check_physical",
+           expr("v < 0", "v < -1e300", inside='("speed", lambda v: v < 0, ...)'),
+           ("test/test_properties_io.py", "test/test_cli_faults.py"), select="csv_reader_gives or negative_speed",
+           fast=True),
+    Mutant("estimator_checks_off", "the estimators' own value checks (check_observation_values) are skipped",
+           "jointwear_ros/estimation/_common.py", "prepare_rows",
+           stmts("check_observation_values(table, temperature=use_temperature)", "pass"),
+           ("test/test_properties_estimators.py",), select="estimators_give", fast=True),
+    Mutant("model_accepts_non_finite", "the model evaluates NaN/inf inputs silently",
+           "jointwear_ros/model/model.py", "Model._inputs",
+           expr("not np.isfinite(a).all()", "False"),
+           ("test/test_properties_estimators.py",), select="model_evaluates", fast=True),
+    Mutant("bound_quadrature_unguarded", "the bound is computed with an unresolved temperature quadrature",
+           "jointwear_ros/estimation/crb.py", "temperature_nodes",
+           expr("not math.isfinite(spread) or spread / float(noise_std) + _MIN_NODES > _MAX_NODES", "False"),
+           ("test/test_properties_estimators.py",), select="quadrature", fast=True),
+    Mutant("cli_output_dir_unchecked", "output directories are not checked before the work starts",
+           "jointwear_ros/cli/common.py", "check_output_dir",
+           before("p = Path(value)", "return Path(value)"),
+           ("test/test_cli_faults.py",), select="output_path", fast=True),
+    Mutant("cli_method_unchecked", "replay and demo start without checking --method",
+           "jointwear_ros/cli/common.py", "check_method",
+           expr("method is not None and str(method).strip().lower() not in ...", "False"),
+           ("test/test_cli_faults.py",), select="method", fast=True),
+)
+
+
+# --------------------------------------------------------------------------- running them
+
+
+@dataclass
+class Outcome:
+    name: str
+    description: str
+    status: str  # caught, SURVIVED, STALE, ERROR, TIMEOUT
+    caught_by: list[str]
+    seconds: float
+    detail: str = ""
+
+    def to_dict(self) -> dict[str, object]:
+        return {"mutation": self.name, "description": self.description, "status": self.status,
+                "caught_by": self.caught_by, "seconds": round(self.seconds, 1), "detail": self.detail}
+
+
+def copy_tree(dst: Path) -> None:
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".pytest_cache", ".hypothesis")
+    for name in COPY:
+        src = ROOT / name
+        if src.is_dir():
+            shutil.copytree(src, dst / name, ignore=ignore)
+        elif src.is_file():
+            shutil.copy2(src, dst / name)
+
+
+def apply(m: Mutant, tree: Path) -> None:
+    """Plant ``m`` in ``tree`` (a copy); :class:`Stale` when it cannot be placed."""
+    f = tree / m.path
+    if not f.is_file():
+        raise Stale(f"{m.path} does not exist")
+    try:
+        f.write_text(mutate(f.read_text(), m.where, m.change))
+    except Stale as exc:
+        raise Stale(f"{m.path}: {exc}") from None
+
+
+def run_one(m: Mutant, python: str, timeout: float) -> Outcome:
+    t0 = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix=f"mutation-{m.name}-") as tmp:
+        tree = Path(tmp)
+        copy_tree(tree)
+        try:
+            apply(m, tree)
+        except Stale as exc:
+            return Outcome(m.name, m.description, "STALE", [], time.monotonic() - t0, str(exc))
+        env = dict(os.environ)
+        env["PYTHONPATH"] = str(tree) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        env.setdefault("MPLBACKEND", "Agg")
+        sel = ["-k", m.select] if m.select else []
+        cmd = [python, "-m", "pytest", "-q", "-x", "-rf", "-p", "no:cacheprovider", *sel, *m.tests]
+        try:
+            r = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return Outcome(m.name, m.description, "TIMEOUT", [], time.monotonic() - t0,
+                           f"tests still running after {timeout:g} s")
+        out = r.stdout + r.stderr
+        failed = re.findall(r"^FAILED (\S+)", out, flags=re.M)
+        if r.returncode == 0:
+            return Outcome(m.name, m.description, "SURVIVED", [], time.monotonic() - t0)
+        if r.returncode == 1 and failed:
+            return Outcome(m.name, m.description, "caught", failed, time.monotonic() - t0)
+        # 2-5 (collection error, no tests selected, ...) is a broken mutant, not a catch
+        tail = " | ".join(out.strip().splitlines()[-5:])
+        return Outcome(m.name, m.description, "ERROR", failed, time.monotonic() - t0,
+                       f"pytest exit code {r.returncode}: {tail}")
+
+
+def check_copy_is_used(python: str) -> None:
+    """The mutated copy must shadow the installed package (an editable install must not win)."""
+    with tempfile.TemporaryDirectory(prefix="mutation-probe-") as tmp:
+        tree = Path(tmp)
+        shutil.copytree(ROOT / "jointwear_ros", tree / "jointwear_ros",
+                        ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        env = dict(os.environ, PYTHONPATH=str(tree))
+        r = subprocess.run([python, "-c", "import jointwear_ros; print(jointwear_ros.__file__)"], cwd=tree, env=env,
+                           capture_output=True, text=True, timeout=120)
+        if not r.stdout.strip().startswith(str(tree)):
+            raise SystemExit(f"mutation: the copy is not imported (got {r.stdout.strip() or r.stderr.strip()}); "
+                             "cannot check mutants")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", action="store_true", help="print JSON")
+    ap.add_argument("--only", action="append", default=[], metavar="NAME", help="run only this mutant (repeatable)")
+    ap.add_argument("--fast", action="store_true", help="only the mutants caught without a ROS graph")
+    ap.add_argument("--list", action="store_true", help="list the mutants and exit")
+    ap.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default 900)")
+    ap.add_argument("--python", default=sys.executable, help="interpreter with the test dependencies")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="mutants run at once (default 1); mutants with ROS tests always run one at a time")
+    args = ap.parse_args(argv)
+    unknown = set(args.only) - {m.name for m in MUTANTS}
+    if unknown:
+        print(f"mutation: unknown mutant(s) {', '.join(sorted(unknown))}; see --list", file=sys.stderr)
+        return 2
+    chosen = [m for m in MUTANTS if (not args.only or m.name in args.only) and (not args.fast or m.fast)]
+    if args.list:
+        for m in chosen:
+            print(f"{m.name:36s} {'fast' if m.fast else 'ros '}  {m.path}:{m.where}  {m.description}")
+        return 0
+    check_copy_is_used(args.python)
+    results: list[Outcome] = []
+
+    def report(o: Outcome) -> None:
+        results.append(o)
+        if not args.json:
+            what = f"caught by {o.caught_by[0]}" if o.status == "caught" else o.status
+            print(f"{o.status:8s} {o.seconds:5.0f} s  {o.name}: {what}{'; ' + o.detail if o.detail else ''}",
+                  flush=True)
+
+    parallel = [m for m in chosen if m.fast] if args.jobs > 1 else []
+    if parallel:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            for o in pool.map(lambda m: run_one(m, args.python, args.timeout), parallel):
+                report(o)
+    for m in chosen:
+        if m not in parallel:  # the ROS graphs of two at once would meet on a domain
+            report(run_one(m, args.python, args.timeout))
+    caught = sum(o.status == "caught" for o in results)
+    if args.json:
+        print(json.dumps({"mutations": [o.to_dict() for o in results], "caught": caught, "total": len(results)},
+                         indent=2))
+    else:
+        print(f"{caught} of {len(results)} planted bugs caught")
+        bad = [o.name for o in results if o.status != "caught"]
+        if bad:
+            print("not caught: " + ", ".join(bad), file=sys.stderr)
+    if any(o.status in ("STALE", "ERROR", "TIMEOUT") for o in results):
+        return 2
+    return 0 if caught == len(results) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
