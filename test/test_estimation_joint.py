@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.estimation import make_estimator
@@ -156,3 +158,12 @@ def test_a_cycle_the_model_explains_keeps_its_std_and_says_nothing():
     assert "misfit" not in res.info and "temperature_at_prior_edge" not in res.info
     post = est.posterior(CELL_SPEEDS, 0.1, tau, 0.0015)
     assert res.wear_std == pytest.approx(max(post.wear_std, 1.0 / 32.0 / np.sqrt(12.0)))
+
+
+@given(est=st.floats(0.0, 100.0), a=st.floats(0.0, 100.0), b=st.floats(0.0, 100.0), scale=st.floats(0.5, 50.0))
+def test_a_widened_interval_contains_the_old_one_and_stays_in_the_wear_range(est, a, b, scale):
+    from jointwear_ros.estimation.joint import widen_interval
+
+    low, high = min(a, b), max(a, b)
+    lo, hi = widen_interval(est, low, high, scale, (0.0, 100.0))
+    assert 0.0 <= lo <= low <= high <= hi <= 100.0

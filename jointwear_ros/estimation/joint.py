@@ -60,7 +60,7 @@ from ._common import WEAR_RANGE, Capabilities, Rows, prepare_rows, set_temperatu
 from .crb import DEFAULT_CRB_PRIOR, temperature_nodes
 from .priors import TemperaturePrior, parse_temperature_prior
 
-__all__ = ["JointEstimator", "JointPosterior"]
+__all__ = ["JointEstimator", "JointPosterior", "widen_interval"]
 
 Array = npt.NDArray[np.float64]
 Index = npt.NDArray[np.intp]
@@ -376,9 +376,7 @@ class JointEstimator:
         scale = fit.pop("std_scale")
         wear_std = max(post.wear_std, resolution) * scale
         low, high = post.wear_low, post.wear_high
-        if scale > 1.0:  # the interval widens with the std, about the estimate, within the wear range
-            low = max(self.wear_range[0], est - (est - low) * scale)
-            high = min(self.wear_range[1], est + (high - est) * scale)
+        low, high = widen_interval(est, low, high, scale, self.wear_range)
         return with_set_info(WearResult(
             wear=est,
             wear_std=wear_std,
@@ -447,6 +445,23 @@ class JointEstimator:
         f = self.model.evaluate(self.params, speed=rows.speed[:, None], load_torque=rows.load[:, None],
                                 temperature=temps[:, None], wear=self.w_grid[None, :])
         return np.asarray(self.w_grid[np.argmin((rows.tau_f[:, None] - f) ** 2, axis=1)], dtype=float)
+
+
+def widen_interval(est: float, low: float, high: float, scale: float,
+                   bounds: tuple[float, float]) -> tuple[float, float]:
+    """``[low, high]`` widened ``scale`` times about ``est`` (the Birge ratio of an unexplained cycle), within
+    ``bounds``; never narrower than it was, whichever side of the interval ``est`` lies on.
+
+    >>> widen_interval(30.0, 29.0, 32.0, 2.0, (0.0, 100.0))
+    (28.0, 34.0)
+    >>> widen_interval(99.9, 99.95, 100.0, 3.0, (0.0, 100.0))  # est below its interval: it reaches down to est
+    (99.9, 100.0)
+    """
+    if not scale > 1.0:
+        return low, high
+    lo = max(bounds[0], min(low, est - max(est - low, 0.0) * scale))
+    hi = min(bounds[1], max(high, est + max(high - est, 0.0) * scale))
+    return lo, hi
 
 
 def _count_modes(keep: Index) -> int:
