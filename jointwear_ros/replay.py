@@ -128,6 +128,8 @@ class ReplayResult:
                 matched += 1
             else:
                 differ.append(f"{o.joint_name} cycle {o.cycle_id} speed {o.speed:g}")
+        replayed_keys = {(o.joint_name, int(o.cycle_id), round(float(o.speed), 9)) for o in observations}
+        not_replayed = [f"{k[0]} cycle {k[1]} speed {k[2]:g}" for k in rec if k not in replayed_keys]
         est = {(jn(e["joint_name"]), int(e["cycle_id"])): e for e in rec_est}  # the newest per joint and cycle
         newest = {(c.joint_name, int(c.cycle_id)): c for c in cycles if c.result is not None}
         e_paired, e_matched, e_diff, e_differ = 0, 0, 0.0, []
@@ -148,7 +150,7 @@ class ReplayResult:
             "observations": {
                 "recorded": len(rec_obs), "replayed": len(observations), "paired": paired,
                 "matched": matched, "differ": differ, "max_abs_diff": max_diff if paired else None,
-                "not_recorded": missing,
+                "not_recorded": missing, "not_replayed": not_replayed,
             },
             "estimates": {
                 "recorded": len(rec_est), "replayed": sum(c.result is not None for c in cycles),

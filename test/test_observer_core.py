@@ -424,3 +424,35 @@ def test_a_joint_without_a_sensor_does_not_wait(cycle):
     else:
         pytest.fail("no observation")
     assert core.temperatures_missing == 0
+
+
+# ------------------------------------------------------------------ statuses late in a burst
+
+
+def _events_statuses_in_a_burst(cycle, lag):
+    """Joint states and temperatures on time; every status arrives ``lag`` s after the newest status stamped
+    before it: the burst a starved subscriber gets (a recorder under load logged 7.6 s of statuses at once)."""
+    ev = [(float(t[0]), "temp", t) for t in cycle.temperatures]
+    ev += [(float(ts), "js", i) for i, ts in enumerate(cycle.stamps)]
+    stamps = [s[0] for s in cycle.statuses]
+    first = stamps[0]
+    for s in cycle.statuses:  # one burst per `lag` seconds of statuses, each at the end of its burst + lag
+        burst_end = first + lag * (1 + (s[0] - first) // lag)
+        ev.append((float(burst_end + lag), "status", s))
+    ev.sort(key=lambda e: e[0])
+    return ev
+
+
+@pytest.mark.parametrize("lag", [3.0, 7.6])
+def test_statuses_seconds_late_in_a_burst_change_nothing(cycle, lag):
+    """A status that comes seconds after its joint states (a starved node, or a replay at the recorder's
+    log times) still finds its speed's samples: the observations equal on-time delivery."""
+    reference = _run(cycle)
+    core = FrictionObserverCore(CFG)
+    obs, rej = _feed_events(core, _events_statuses_in_a_burst(cycle, lag), cycle)
+    assert obs == reference.observations
+    assert rej == reference.rejections
+    # the mechanism: with only 2 s of idle history (the old default) the first speed's samples are gone
+    short = FrictionObserverCore(replace(CFG, idle_keep_seconds=2.0))
+    obs2, rej2 = _feed_events(short, _events_statuses_in_a_burst(cycle, lag), cycle)
+    assert len(obs2) < len(reference.observations) and len(rej2) > len(reference.rejections)

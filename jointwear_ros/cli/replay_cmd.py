@@ -204,6 +204,8 @@ def _print_replay(result: Any) -> None:
               + (f", {len(e['differ'])} DIFFER" if e["differ"] else "") + f", max |diff| {ed}")
         for d in e["differ"]:
             print(f"DIFFERS: {d}")
+        for d in o.get("not_replayed", []):
+            print(f"NOT REPLAYED: the recorded observation {d} (the replay's rejections say why)")
     else:
         print("the bag holds no recorded FrictionObservation/WearEstimate messages to compare with")
     if len(summary["joints"]) > 1:

@@ -62,7 +62,11 @@ class ObserverConfig:
         been seen; then it is measured with the readings that came (none: temperature unknown, counted
         in ``temperatures_missing``: a sensor that stopped, or delivers later than this).
     max_buffer_seconds : joint-state history kept at most (s) while a speed runs.
-    idle_keep_seconds : joint-state history kept (s) while no speed runs.
+    idle_keep_seconds : joint-state history kept (s) while no speed runs. It is also how late a status
+        may arrive and still find its speed's samples: a process starved of CPU receives the statuses of
+        seconds in one burst (a recorder under load logged them 7.6 s after their stamps, while its joint
+        states came on time), and a replay takes them at the recorder's log time. 15 s of 500 Hz joint
+        states is 7,500 samples per joint.
     """
 
     joint_name: str = "joint_1"
@@ -81,7 +85,7 @@ class ObserverConfig:
     poll_grace: float = 1.0
     temperature_wait: float = 5.0
     max_buffer_seconds: float = 120.0
-    idle_keep_seconds: float = 2.0
+    idle_keep_seconds: float = 15.0
 
     def __post_init__(self) -> None:
         positive = ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "max_buffer_seconds", "pass_gap")
