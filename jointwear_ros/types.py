@@ -59,6 +59,9 @@ class ObservationTable:
 
     columns: Mapping[str, Array]
     source: str = ""
+    #: the units the columns are in (:class:`jointwear_ros.units.TableUnits`): declared by the file, or None
+    #: (assumed: the suite's units unless the command's flags say otherwise)
+    units: Any = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         cols: dict[str, Array] = {}
@@ -120,12 +123,12 @@ class ObservationTable:
     def select(self, mask: npt.ArrayLike) -> ObservationTable:
         """Rows where ``mask`` is true (or an index array)."""
         idx = np.asarray(mask)
-        return ObservationTable({k: v[idx] for k, v in self.columns.items()}, source=self.source)
+        return ObservationTable({k: v[idx] for k, v in self.columns.items()}, source=self.source, units=self.units)
 
     def with_column(self, name: str, values: npt.ArrayLike) -> ObservationTable:
         cols = dict(self.columns)
         cols[name] = np.broadcast_to(np.asarray(values, dtype=float), (len(self),)).copy()
-        return ObservationTable(cols, source=self.source)
+        return ObservationTable(cols, source=self.source, units=self.units)
 
     def groups(self, column: str = "cycle") -> Iterator[tuple[float, ObservationTable]]:
         """Sub-tables by value of ``column`` (all rows in one group if it is absent)."""

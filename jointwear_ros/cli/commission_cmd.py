@@ -19,7 +19,7 @@ import numpy as np
 
 from ..estimation import ESTIMATORS
 from . import UsageError
-from .common import check_output_dir, check_output_file, print_json
+from .common import add_unit_flags, check_output_dir, check_output_file, print_json, units_from_args
 
 __all__ = ["register"]
 
@@ -38,6 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     c.add_argument("--gear-ratio", type=float, default=None,
                    help="DATA is joint side (rad/s, N·m): motor speed = joint speed x this (with --torque-scale)")
     c.add_argument("--torque-scale", type=float, default=None, help="N·m (joint side) per normalized torque unit")
+    add_unit_flags(c, frame_flags=False)
     c.add_argument("--wear-calibration", default="relative",
                    help="paper | relative (default: Eq. 8 scaled to the joint's nominal level) | FILE")
     c.add_argument("--name", default=None, help="name of the set (default: the --out file's stem)")
@@ -55,9 +56,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     e.add_argument("--method", default="joint",
                    help=f"estimator: {', '.join(ESTIMATORS)} (default joint, the cycle's shared temperature)")
     e.add_argument("--joint", default=None, help="only this joint (tables without a joint column: the set's joint)")
-    e.add_argument("--joint-side", action="store_true",
-                   help="tables are joint side (rad/s, N·m), as the set's units; default: the suite's units "
-                        "(motor side, normalized)")
+    add_unit_flags(e)
     e.add_argument("--alarm", type=float, default=35.0, help="alarm level of wear (default 35)")
     e.add_argument("--warn", type=float, default=30.0, help="warning level of wear (default 30)")
     e.add_argument("--seed", type=int, default=0)
@@ -70,47 +69,73 @@ def _positive(value: float | None, flag: str) -> None:
         raise UsageError(f"{flag} {value!r}: must be a positive number")
 
 
-def _read_all(paths: list[str], default_joint: str | None) -> list[tuple[str, str, Any]]:
+def _read_all(paths: list[str], default_joint: str | None,
+              skipped: list[str] | None = None) -> list[tuple[str, str, Any]]:
+    """``(path, joint, table)`` of every input; with ``skipped`` a bag that cannot be read (a failed cycle that
+    recorded no observation, a foreign bag) is skipped with its reason, as long as another input is read."""
+    from ..errors import InputDataError
     from ..io.observations import read_observations
 
     out = []
     for p in paths:
-        for joint, table in read_observations(p, default_joint).items():
+        try:
+            tables = read_observations(p, default_joint)
+        except InputDataError as exc:
+            if skipped is None or not _is_bag(p):
+                raise
+            skipped.append(str(exc))
+            continue
+        for joint, table in tables.items():
             out.append((p, joint, table))
+    if not out and skipped:
+        raise InputDataError(f"no input could be read: {skipped[0]}"
+                             + (f" (and {len(skipped) - 1} more)" if len(skipped) > 1 else ""))
     return out
+
+
+def _is_bag(path: str) -> bool:
+    p = Path(path)
+    return p.is_dir() or p.suffix in (".mcap", ".db3")
 
 
 def cmd_commission(args: argparse.Namespace) -> int:
     from ..commission import commission
     from ..errors import InputDataError
-    from ..model import SetUnits, parameter_set_document
+    from ..model import parameter_set_document
     from ..types import ObservationTable
+    from ..units import SetUnits, TableUnits, prepare_baseline, to_set_frame
 
     _positive(args.gear_ratio, "--gear-ratio")
     _positive(args.torque_scale, "--torque-scale")
     if (args.gear_ratio is None) != (args.torque_scale is None):
         raise UsageError("--gear-ratio and --torque-scale go together (DATA joint side: both say how it maps to "
                          "the motor side and the normalized torque)")
+    assumed, explicit = units_from_args(args, joint_side=args.gear_ratio is not None)
     out = check_output_file(args.out, "--out", ".yaml")
     assert out is not None  # --out is required
     report = check_output_dir(args.report, "--report")
     wc = args.wear_calibration
     if wc not in ("paper", "relative") and not Path(wc).is_file():
         raise UsageError(f"--wear-calibration {wc!r}: use paper, relative or an existing calibration FILE")
-    units = SetUnits("joint", args.gear_ratio, args.torque_scale) if args.gear_ratio else SetUnits()
-    parts = []
-    for path, joint, table in _read_all(args.data, args.joint):
-        if joint not in (args.joint, ""):
-            continue
-        if Path(path).is_dir() or Path(path).suffix in (".mcap", ".db3"):
-            if units.joint_side:  # bags hold the suite's units: to joint side with the given gear and scale
-                from ..estimation import set_frame_table
-                from ..model import ParameterSet
-
-                table = set_frame_table(table, ParameterSet("x", "", {}, units=units))
-        parts.append(table)
-    if not parts:
+    skipped: list[str] = []
+    inputs = [(path, table) for path, joint, table in _read_all(args.data, args.joint, skipped)
+              if joint in (args.joint, "")]
+    if not inputs:
         raise InputDataError(f"no observations of joint {args.joint!r} in {', '.join(args.data)}")
+    units = SetUnits("joint", args.gear_ratio, args.torque_scale) if args.gear_ratio else SetUnits()
+    if not args.gear_ratio:  # tables that declare one joint-side frame give the set's frame
+        declared = {(t.units.gear_ratio, t.units.torque_scale) for _, t in inputs
+                    if isinstance(t.units, TableUnits) and t.units.declared and t.units.joint_side}
+        if len(declared) == 1 and None not in next(iter(declared)):
+            gear, scale = next(iter(declared))
+            units = SetUnits("joint", gear, scale)
+    parts = []
+    for path, table in inputs:
+        # every table to the suite's units (checked: kelvin, rpm, N·m read as normalized, ... are named), then
+        # into the set's frame (bags hold the suite's units: to joint side with the given gear and scale)
+        suite = prepare_baseline(table, assumed, explicit=explicit, where=table.source or path,
+                                 fix_frame="--gear-ratio G --torque-scale S")
+        parts.append(to_set_frame(suite, units))
     cols: dict[str, list[np.ndarray]] = {}
     names = [n for n in parts[0].names if all(n in t for t in parts)]
     for i, t in enumerate(parts):
@@ -133,6 +158,8 @@ def cmd_commission(args: argparse.Namespace) -> int:
     pset = res.parameter_set(args.name or out.stem)
     out.write_text(yaml.safe_dump(parameter_set_document(pset), sort_keys=False, allow_unicode=True), encoding="utf-8")
     doc = res.to_dict(str(out))
+    if skipped:
+        doc["skipped_inputs"] = skipped
     if report is not None:
         _report(report, table, res, doc)
     if args.json:
@@ -155,6 +182,8 @@ def cmd_commission(args: argparse.Namespace) -> int:
     print(f"wear calibration: {res.wear.label}: {res.wear.source}")
     for w in res.warnings:
         print(f"warning: {w}")
+    for why in skipped:
+        print(f"skipped: {why}")
     print(f"wrote {out}")
     return 0
 
@@ -189,31 +218,37 @@ def _report(report: Path, table: Any, res: Any, doc: dict[str, Any]) -> None:
 
 def cmd_estimate(args: argparse.Namespace) -> int:
     from ..commission import estimate_cycles
-    from ..estimation import set_frame_table
-    from ..model import ParameterSet, SetUnits, load_parameter_set_info
+    from ..model import load_parameter_set_info
+    from ..units import prepare_for_set
 
     pset = load_parameter_set_info(args.params)
     set_joint = str(pset.provenance.get("joint", "")) or args.joint or ""
-    inverse = ParameterSet("x", "", {}, units=SetUnits(pset.units.frame, 1.0 / (pset.units.gear_ratio or 1.0),
-                                                       1.0 / (pset.units.torque_scale or 1.0)))
+    assumed, explicit = units_from_args(args)
+    if assumed.joint_side and not pset.units.joint_side and (assumed.gear_ratio is None or
+                                                            assumed.torque_scale is None):
+        raise UsageError(f"--joint-side: parameter set {pset.name!r} is in the paper's normalized motor-side units; "
+                         "add --gear-ratio G --torque-scale S (how the joint maps to it), or give the table in "
+                         "those units")
+    tau_range = pset.friction_range()
     tables = []
     for path, joint, table in _read_all(args.data, set_joint):
         joint = joint or set_joint
         if args.joint and joint != args.joint:
             continue
-        if args.joint_side:
-            if not pset.units.joint_side:
-                raise UsageError(f"--joint-side: parameter set {pset.name!r} is in the paper's normalized motor-side "
-                                 "units; give the table in those units")
-            table = set_frame_table(table, inverse)  # to the suite's units; the estimator maps back
-        tables.append((path, joint, table))
+        # to the suite's units, checked against the set (a unit slip is one line naming the fix); the estimator
+        # maps the suite's units into the set's frame
+        tables.append((path, joint, prepare_for_set(table, pset, assumed, explicit=explicit,
+                                                    where=table.source or path, tau_range=tau_range)))
+    verdict = str(pset.provenance.get("verdict", "") or "")
     rows: list[dict[str, Any]] = []
     for c in estimate_cycles(tables, pset, args.method, args.seed):
         r = c.result
         rows.append({"source": c.source, "joint": c.joint, "cycle": c.cycle, "estimate": r.wear,
                      "std": r.wear_std, "temperature": r.temperature, "level": c.level(args.warn, args.alarm),
                      "method": r.method, "wear_calibration": r.info.get("wear_calibration"),
-                     "parameter_set": pset.name})
+                     "calibrated": bool(r.info.get("calibrated", False)),
+                     "std_without_wear_scale": r.info.get("wear_std_noise", r.wear_std),
+                     "model_verdict": verdict or None, "parameter_set": pset.name})
     if not rows:
         from ..errors import InputDataError
 
@@ -222,8 +257,12 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     if args.json:
         print_json({"estimates": rows})
         return 0
+    calibrated = all(r["calibrated"] for r in rows)
     print(f"parameter set {pset.name} (model {pset.spec}, {pset.units.frame}, wear calibration "
-          f"{pset.wear_calibration}), method {args.method}")
+          f"{pset.wear_calibration}: {'calibrated' if calibrated else 'a prior, its uncertainty is in the std'}), "
+          f"method {args.method}")
+    if verdict in ("found", "unexplained"):
+        print(f"note: the set was commissioned against a workbench verdict '{verdict}': its model may miss an effect")
     print(f"{'joint':<10} {'cycle':>6} {'wear':>7} {'std':>6} {'T':>6} level")
     for row in rows:
         t = "-" if not math.isfinite(row["temperature"]) else f"{row['temperature']:.1f}"

@@ -265,3 +265,53 @@ def open_history(url: str, *, must_exist: bool) -> Any:
     if must_exist and not backend.exists():
         raise UsageError(f"--db {url}: no such history file")
     return HistoryStore(backend.url)
+
+
+def add_unit_flags(parser: Any, *, frame_flags: bool = True) -> None:
+    """The flags that say what units a table is in (a table's own ``# units:`` line takes precedence).
+
+    ``--joint-side`` (with ``--gear-ratio``/``--torque-scale`` where the set does not give them),
+    ``--speed-unit``, ``--torque-unit``, ``--temperature-unit``.
+    """
+    from ..units import SPEED_UNITS, TEMPERATURE_UNITS, TORQUE_UNITS
+
+    if frame_flags:
+        parser.add_argument("--joint-side", action="store_true",
+                            help="tables are joint side (rad/s, N·m); default: the suite's units (motor side, "
+                                 "normalized). A table's own '# units:' line takes precedence")
+        parser.add_argument("--gear-ratio", type=float, default=None,
+                            help="joint-side tables: motor speed = joint speed x this (default: the set's)")
+        parser.add_argument("--torque-scale", type=float, default=None,
+                            help="joint-side tables: N·m per normalized torque unit (default: the set's)")
+    parser.add_argument("--speed-unit", default="rad/s", choices=list(SPEED_UNITS),
+                        help="unit of the tables' speed column (default rad/s)")
+    parser.add_argument("--torque-unit", default=None, choices=list(TORQUE_UNITS),
+                        help="unit of joint-side torque columns (default N·m)")
+    parser.add_argument("--temperature-unit", default="degC", choices=list(TEMPERATURE_UNITS),
+                        help="unit of the tables' temperature column (default degC)")
+
+
+def units_from_args(args: Any, *, joint_side: bool | None = None) -> tuple[Any, bool]:
+    """``(TableUnits, explicit)``: the units the flags assume for tables, and whether any flag said so."""
+    from ..errors import JointwearError
+    from ..units import TableUnits
+
+    side = bool(getattr(args, "joint_side", False)) if joint_side is None else joint_side
+    gear, scale = getattr(args, "gear_ratio", None), getattr(args, "torque_scale", None)
+    for flag, v in (("--gear-ratio", gear), ("--torque-scale", scale)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise UsageError(f"{flag} {v!r}: must be a positive number")
+    torque = getattr(args, "torque_unit", None)
+    if torque is not None and not side:
+        raise UsageError(f"--torque-unit {torque}: torque units are for joint-side tables (add --joint-side, or "
+                         "--gear-ratio and --torque-scale); motor-side tables are normalized")
+    try:
+        units = TableUnits("joint" if side else "motor_normalized", gear, scale,
+                           speed_unit=getattr(args, "speed_unit", "rad/s"),
+                           torque_unit=torque or ("N·m" if side else "normalized"),
+                           temperature_unit=getattr(args, "temperature_unit", "degC"))
+    except JointwearError as exc:
+        raise UsageError(str(exc)) from None
+    explicit = (side or gear is not None or torque is not None or units.speed_unit != "rad/s"
+                or units.temperature_unit != "degC")
+    return units, explicit

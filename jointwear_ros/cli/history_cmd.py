@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from . import UsageError
-from .common import print_json
+from .common import add_unit_flags, print_json, units_from_args
 
 __all__ = ["MAINTENANCE_KINDS", "register"]
 
@@ -47,6 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     i.add_argument("--time-origin", default=None,
                    help="observation tables whose time column counts from the start of the recording (not s since "
                         "the epoch): when time 0 was, ISO 8601 or s since the epoch")
+    add_unit_flags(i)
     i.add_argument("--json", action="store_true", help="print JSON")
     i.set_defaults(func=cmd_import)
 
@@ -79,7 +80,8 @@ def _is_observation_table(path: Path) -> bool:
     import csv
 
     with path.open(newline="", encoding="utf-8", errors="replace") as fh:
-        header = {h.strip() for h in next(csv.reader(fh), [])}
+        body = (line for line in fh if line.strip() and not line.lstrip().startswith("#"))
+        header = {h.strip() for h in next(csv.reader(body), [])}
     return {"speed", "tau_f"} <= header
 
 
@@ -92,12 +94,23 @@ def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], 
     from ..history.store import EstimateRecord
     from ..io.observations import read_observations
     from ..model import load_parameter_set_info
+    from ..units import prepare_for_set
 
     pset = load_parameter_set_info(args.params or "ref-2011r")
     method = args.method or "joint"
     version = args.analysis_version or f"{method}:{pset.name}:{__version__}"
     default_joint = str(pset.provenance.get("joint", "")) or "joint_1"
-    tables = [(str(path), j or default_joint, t) for j, t in read_observations(path, default_joint).items()]
+    assumed, explicit = units_from_args(args)
+    if assumed.joint_side and not pset.units.joint_side and (assumed.gear_ratio is None or
+                                                            assumed.torque_scale is None):
+        raise UsageError(f"--joint-side: parameter set {pset.name!r} is in the paper's normalized motor-side units; "
+                         "add --gear-ratio G --torque-scale S (how the joint maps to it)")
+    tau_range = pset.friction_range()
+    # each table to the suite's units, checked against the set as `jointwear estimate` checks it: a unit slip or a
+    # joint hotter than the set's range is one line, exit 2, and nothing is stored
+    tables = [(str(path), j or default_joint,
+               prepare_for_set(t, pset, assumed, explicit=explicit, where=t.source or str(path), tau_range=tau_range))
+              for j, t in read_observations(path, default_joint).items()]
     origin = 0.0 if args.time_origin is None else parse_time(args.time_origin, "--time-origin")
     cycles = estimate_cycles(tables, pset, method)
     out = []
@@ -127,6 +140,9 @@ def cmd_import(args: argparse.Namespace) -> int:
 
     if not args.reestimate and (args.method or args.params or args.analysis_version or args.time_origin):
         raise UsageError("--method, --params, --analysis-version and --time-origin need --reestimate")
+    if not args.reestimate and units_from_args(args)[1]:
+        raise UsageError("--joint-side, --gear-ratio, --torque-scale and the unit flags are for observation tables: "
+                         "they need --reestimate")
     # every input is checked before any work: the method, the parameter set, every path
     check_method(args.method, "--method")
     if args.params:

@@ -66,6 +66,7 @@ import numpy.typing as npt
 from ..errors import InputDataError
 from ..model import load_parameter_set_info, parse_model_spec, stribeck_shape
 from ..types import ObservationTable
+from ..units import SUITE_UNITS
 
 __all__ = ["DEFAULT_SPEEDS", "EFFECT_FAMILIES", "HIDDEN_EFFECTS", "NOISE_STD", "HiddenEffect", "synth_observations"]
 
@@ -281,4 +282,4 @@ def synth_observations(
              "load_torque", "temperature", "position", "lube_hours", "hours_running", "motor_temperature", "wear"]
     out = {k: cols[k] for k in order if k in cols}
     out.update(aux)
-    return ObservationTable(out, source="synth")
+    return ObservationTable(out, source="synth", units=SUITE_UNITS)

@@ -290,15 +290,11 @@ def split_extra(model: Model) -> tuple[Model, Model | None]:
 
 def set_frame_table(table: ObservationTable, pset: ParameterSet | None) -> ObservationTable:
     """The suite's observations (motor side, normalized) in a joint-frame set's units (identity otherwise)."""
-    if pset is None or not pset.units.joint_side:
+    if pset is None:
         return table
-    sf, tf = pset.units.speed_factor, pset.units.torque_factor
-    cols = dict(table.columns)
-    cols["speed"] = np.asarray(cols["speed"], dtype=float) * sf
-    for name in ("tau_f", "tau_f_std", "load_torque", "tau_plus", "tau_minus"):
-        if name in cols:
-            cols[name] = np.asarray(cols[name], dtype=float) * tf
-    return ObservationTable(cols, source=table.source)
+    from ..units import to_set_frame
+
+    return to_set_frame(table, pset.units)  # type: ignore[no-any-return]
 
 
 def extra_offset(table: ObservationTable, extra: Model | None, params: Parameters) -> Array:

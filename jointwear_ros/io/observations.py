@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import InputDataError
 from ..types import ObservationTable
+from ..units import SUITE_UNITS
 from .bags import read_messages, stamp_seconds
 from .tables import read_csv
 
@@ -31,6 +32,8 @@ __all__ = ["TEMPERATURE_TOPIC", "read_observations"]
 
 #: Where joint_sim publishes the joint temperatures (frame_id = joint).
 TEMPERATURE_TOPIC = "/joint_temperature"
+#: Where the friction observer publishes its observations (its ``observations_topic``).
+OBSERVATIONS_TOPIC = "/jointwear/friction_observations"
 _OBS_TYPE = "jointwear_msgs/msg/FrictionObservation"
 _TEMP_TYPE = "sensor_msgs/msg/Temperature"
 _FIELDS = ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position")
@@ -54,32 +57,35 @@ def read_observations(path: str | os.PathLike[str], default_joint: str | None = 
 def _read_csv(p: Path, default_joint: str | None) -> dict[str, ObservationTable]:
     try:
         with p.open(newline="", encoding="utf-8") as fh:
-            header = next(csv.reader(fh), [])
+            body = [line for line in fh if line.strip() and not line.lstrip().startswith("#")]
     except (OSError, UnicodeDecodeError) as exc:
         raise InputDataError(f"{p}: cannot read the table ({exc})") from None
+    header = next(csv.reader(body[:1]), [])
     if "joint" not in [h.strip() for h in header]:
         return {default_joint or "": read_csv(p)}
-    with p.open(newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
+    rows = list(csv.DictReader(body))
     joints = [str(r.get("joint") or "").strip() for r in rows]
     if any(not j for j in joints):
         i = joints.index("")
         raise InputDataError(f"{p}: row {i + 1}: empty joint; name the joint of every row (or drop the column)")
     import tempfile
 
+    units = read_csv(p).units  # the declared units of the whole file (its comment lines)
     out: dict[str, ObservationTable] = {}
     names = [h for h in header if h.strip() != "joint"]
     for j in dict.fromkeys(joints):
         with tempfile.TemporaryDirectory() as d:
             sub = Path(d) / p.name
             with sub.open("w", newline="", encoding="utf-8") as fh:
+                if units is not None:
+                    fh.write(units.header() + "\n")
                 w = csv.writer(fh)
                 w.writerow(names)
                 for r, jj in zip(rows, joints):
                     if jj == j:
                         w.writerow([r.get(n, "") for n in names])
             t = read_csv(sub)
-        out[j] = ObservationTable(dict(t.columns), source=f"{p} [{j}]")
+        out[j] = ObservationTable(dict(t.columns), source=f"{p} [{j}]", units=t.units)
     return out
 
 
@@ -104,13 +110,13 @@ def _read_bag(p: Path, temperature_topic: str) -> dict[str, ObservationTable]:
             d[f].append(v)
     if not data:
         raise InputDataError(f"{p}: the bag holds no {_OBS_TYPE} messages; record the friction observer's "
-                             "output (/friction_observations)")
+                             f"output ({OBSERVATIONS_TOPIC}, the recorder records it by default)")
     out: dict[str, ObservationTable] = {}
     for j, d in data.items():
         cols = {k: np.asarray(v, dtype=float) for k, v in d.items()}
         _fill_temperature(cols, temps.get(j, []))
         cols = {k: v for k, v in cols.items() if k in ("speed", "tau_f") or not np.all(np.isnan(v))}
-        out[j] = ObservationTable(cols, source=f"{p} [{j}]")
+        out[j] = ObservationTable(cols, source=f"{p} [{j}]", units=SUITE_UNITS)
     return out
 
 

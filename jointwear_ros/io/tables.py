@@ -48,6 +48,7 @@ import numpy.typing as npt
 from ..contract import seconds_to_stamp_fields, stamp_to_seconds
 from ..errors import InputDataError
 from ..types import OBSERVATION_COLUMNS, ObservationTable
+from ..units import SUITE_UNITS, TableUnits, convert_temperature
 from .typestore import jointwear_typestore
 
 __all__ = [
@@ -74,7 +75,7 @@ _REQUIRED = ("speed", "tau_f")
 ABSOLUTE_ZERO = -273.15
 
 
-def check_physical(cols: dict[str, Array], src: str, locate: Any = None) -> None:
+def check_physical(cols: dict[str, Array], src: str, locate: Any = None, units: TableUnits | None = None) -> None:
     """Refuse values no measurement can have; ``locate(i)`` names row ``i`` (0-based) in the source.
 
     A negative ``speed`` (the model and FrictionObservation hold the speed
@@ -96,8 +97,11 @@ def check_physical(cols: dict[str, Array], src: str, locate: Any = None) -> None
     for name, bad_if, what in rules:
         if name not in cols:
             continue
+        values = np.asarray(cols[name], dtype=float)
+        if name == "temperature" and units is not None:
+            values = convert_temperature(values, units.temperature_unit)
         with np.errstate(invalid="ignore"):
-            bad = np.flatnonzero(bad_if(np.asarray(cols[name], dtype=float)))
+            bad = np.flatnonzero(bad_if(values))
         if bad.size:
             i = int(bad[0])
             raise InputDataError(f"{src}: column {name!r}, {where(i)}: {float(cols[name][i]):g} {what}")
@@ -152,11 +156,17 @@ def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
     header: list[str] | None = None
     header_line = 0
     rows: list[tuple[int, list[str]]] = []
+    units = None
     for lineno, fields in enumerate(lines, start=1):
         if not fields or all(not f.strip() for f in fields):
             continue
         if header is None:
             if fields[0].lstrip().startswith("#"):
+                try:
+                    declared = TableUnits.parse_header(",".join(fields))
+                except InputDataError as exc:
+                    raise InputDataError(f"{src}: line {lineno}: {exc}") from None
+                units = declared or units
                 continue
             header = [f.strip() for f in fields]
             header_line = lineno
@@ -197,8 +207,8 @@ def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
                     "fill in the value or leave the column out"
                 )
         cols[name] = np.asarray(values, dtype=float)
-    check_physical(cols, src, lambda i: f"row {i + 1} (line {rows[i][0]})")
-    return ObservationTable(cols, source=src)
+    check_physical(cols, src, lambda i: f"row {i + 1} (line {rows[i][0]})", units=units)
+    return ObservationTable(cols, source=src, units=units)
 
 
 def _bag_dir(p: Path) -> Path:
@@ -256,7 +266,7 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
     # a field that is NaN in every message was not measured: leave the column out
     cols = {k: v for k, v in cols.items() if k in _REQUIRED or not np.all(np.isnan(v))}
     check_physical(cols, src, lambda i: f"row {i + 1} (message {i + 1})")
-    return ObservationTable(cols, source=src)
+    return ObservationTable(cols, source=src, units=SUITE_UNITS)
 
 
 def _fmt(v: float) -> str:
@@ -280,7 +290,9 @@ def write_csv(table: ObservationTable, path: str | os.PathLike[str], *,
     names = table.names
     fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent)
     try:
-        with os.fdopen(fd, "w", newline="") as fh:
+        with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
+            if table.units is not None:
+                fh.write(table.units.header() + "\n")
             w = csv.writer(fh)
             w.writerow(names + list(texts))
             cols = [table[n] for n in names]

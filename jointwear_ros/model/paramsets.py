@@ -48,70 +48,25 @@ import yaml
 
 from ..errors import ParameterSetError
 from ..resources import resource_dirs
+from ..units import FRAMES, SetUnits
 from .parameters import Parameter, Parameters
 from .terms import TERMS
 
 if TYPE_CHECKING:
     from .model import Model
 
-__all__ = ["FRAMES", "ParameterSet", "SetUnits", "available_parameter_sets", "load_parameter_set",
+__all__ = ["FORMAT", "FRAMES", "KEYS", "ParameterSet", "SetUnits", "available_parameter_sets", "load_parameter_set",
            "load_parameter_set_info", "parameter_set_document"]
 
 #: 0 K in degC.
 ABSOLUTE_ZERO = -273.15
 #: The model a set without a ``model`` key has: Eq. (9).
 DEFAULT_SPEC = "paper+wear"
-#: Frames a set's parameters can be in.
-FRAMES = ("motor_normalized", "joint")
-
-
-@dataclass(frozen=True)
-class SetUnits:
-    """The units a set's parameters (and its ``valid`` ranges) are in.
-
-    ``motor_normalized`` (the paper's): speed motor side rad/s, torques normalized;
-    ``joint``: speed joint side rad/s, torques N·m. ``gear_ratio`` (motor speed =
-    joint speed x gear_ratio) and ``torque_scale`` (N·m per normalized unit) map the
-    suite's observations (motor side, normalized) into a joint-frame set.
-
-    >>> u = SetUnits("joint", 120.0, 50.0)
-    >>> u.speed_factor, u.torque_factor, u.torque_unit
-    (0.008333333333333333, 50.0, 'N·m')
-    """
-
-    frame: str = "motor_normalized"
-    gear_ratio: float | None = None
-    torque_scale: float | None = None
-
-    @property
-    def joint_side(self) -> bool:
-        return self.frame == "joint"
-
-    @property
-    def speed_factor(self) -> float:
-        """Set-frame speed per suite (motor side) speed."""
-        return 1.0 / float(self.gear_ratio or 1.0) if self.joint_side else 1.0
-
-    @property
-    def torque_factor(self) -> float:
-        """Set-frame torque per suite (normalized) torque."""
-        return float(self.torque_scale or 1.0) if self.joint_side else 1.0
-
-    @property
-    def torque_unit(self) -> str:
-        return "N·m" if self.joint_side else "normalized"
-
-    @property
-    def speed_unit(self) -> str:
-        return "rad/s joint side" if self.joint_side else "rad/s motor side"
-
-    def to_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"frame": self.frame, "speed": self.speed_unit, "torque": self.torque_unit}
-        if self.gear_ratio is not None:
-            out["gear_ratio"] = float(self.gear_ratio)
-        if self.torque_scale is not None:
-            out["torque_scale"] = float(self.torque_scale)
-        return out
+#: The set file format this version reads and writes (a newer one is refused, never half-read).
+FORMAT = 1
+#: The keys a set file may have (any other key is refused: a typo, or a newer format).
+KEYS = ("format", "name", "description", "model", "units", "valid", "noise_std", "temperature_prior",
+        "parameters", "covariance", "wear", "provenance")
 
 
 @dataclass(frozen=True)
@@ -185,6 +140,31 @@ class ParameterSet:
             out["load_torque"] = (out["load_torque"][0] / tf, out["load_torque"][1] / tf)
         return out
 
+    def friction_range(self) -> tuple[float, float] | None:
+        """The friction (set units) the set's model gives over its valid ranges and wear 0-100, or None.
+
+        What a friction observation of this joint can read: a table far outside it is in other
+        units (:func:`jointwear_ros.units.check_for_set`).
+        """
+        import numpy as np
+
+        try:
+            m = self.model()
+            s_lo, s_hi = self.valid.get("speed", (0.0, 0.0))
+            speeds = np.linspace(max(s_lo, 0.01 * s_hi), s_hi, 12) if s_hi > 0 else np.array([0.0])
+            axes = {"speed": speeds, "load_torque": np.array(self.valid.get("load_torque", (0.0, 0.0))),
+                    "temperature": np.array(self.valid.get("temperature", (40.0, 40.0))),
+                    "wear": np.array([0.0, min(100.0, self.valid.get("wear", (0.0, 100.0))[1])])}
+            names = [v for v in m.variables]
+            grids = np.meshgrid(*[axes.get(v, np.array([0.0])) for v in names], indexing="ij")
+            vals = np.asarray(m.evaluate(self.values, **{v: g.ravel() for v, g in zip(names, grids)}), dtype=float)
+        except Exception:  # a model this check cannot evaluate: no friction range to check against
+            return None
+        vals = np.abs(vals[np.isfinite(vals)])
+        if vals.size == 0 or float(vals.max()) <= 0:
+            return None
+        return float(vals.min()), float(vals.max())
+
     def check_range(self, var: str, value: float) -> None:
         """Raise :class:`ParameterSetError` if ``value`` is outside the set's valid range of ``var``."""
         if var in self.valid:
@@ -237,6 +217,17 @@ def load_parameter_set_info(name: str) -> ParameterSet:
         raise ParameterSetError(f"{path}: cannot read parameter set: {msg}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("parameters"), dict):
         raise ParameterSetError(f"{path}: expected a mapping with a 'parameters' mapping")
+    fmt = doc.get("format", FORMAT)
+    if isinstance(fmt, bool) or not isinstance(fmt, int) or fmt < 1:
+        raise ParameterSetError(f"{path}: format {fmt!r} is not a set format number (this jointwear reads "
+                                f"format {FORMAT})")
+    if fmt > FORMAT:
+        raise ParameterSetError(f"{path}: set format {fmt} was written by a newer jointwear (this one reads format "
+                                f"{FORMAT}); update jointwear to read it")
+    unknown = [str(k) for k in doc if k not in KEYS]
+    if unknown:
+        raise ParameterSetError(f"{path}: unknown key(s) {', '.join(repr(k) for k in unknown)} (a typo, or a newer "
+                                f"set format); a set has {', '.join(KEYS)}")
     specs = {s.name: s for t in TERMS.values() for s in t.params}
     units = _read_units(path, doc.get("units"))
     values: dict[str, float] = {}
@@ -287,7 +278,7 @@ def load_parameter_set_info(name: str) -> ParameterSet:
     prov = doc.get("provenance") or {}
     if not isinstance(wear, dict) or not isinstance(prov, dict):
         raise ParameterSetError(f"{path}: 'wear' and 'provenance' must be mappings")
-    return ParameterSet(
+    pset = ParameterSet(
         name=str(doc.get("name", path.stem)),
         description=str(doc.get("description", "")).strip(),
         values=values,
@@ -302,6 +293,26 @@ def load_parameter_set_info(name: str) -> ParameterSet:
         wear=dict(wear),
         provenance=dict(prov),
     )
+    _check_parameters_match_model(path, pset)
+    return pset
+
+
+def _check_parameters_match_model(path: Path, pset: ParameterSet) -> None:
+    """Every parameter the set's model needs is given, and every given one is the model's (never a default)."""
+    try:
+        names = pset.model().param_names
+    except ParameterSetError:
+        raise
+    except Exception as exc:  # an unknown term or a malformed spec: the model error's own text
+        raise ParameterSetError(f"{path}: model {pset.spec!r}: {' '.join(str(exc).split())}") from None
+    missing = [n for n in names if n not in pset.values]
+    if missing:
+        raise ParameterSetError(f"{path}: parameter(s) {', '.join(missing)} of model {pset.spec!r} missing; a set "
+                                "gives every parameter of its model (none is taken from a default)")
+    extra = [n for n in pset.values if n not in names]
+    if extra:
+        raise ParameterSetError(f"{path}: parameter(s) {', '.join(extra)} are not parameters of model "
+                                f"{pset.spec!r}; remove them or name the model that has them")
 
 
 def _read_units(path: Path, doc: Any) -> SetUnits:
@@ -309,6 +320,13 @@ def _read_units(path: Path, doc: Any) -> SetUnits:
         return SetUnits()
     if not isinstance(doc, dict):
         raise ParameterSetError(f"{path}: 'units' must be a mapping (frame, gear_ratio, torque_scale)")
+    unknown = [str(k) for k in doc if k not in ("frame", "gear_ratio", "torque_scale", "speed", "torque",
+                                                  "temperature")]
+    if unknown:
+        raise ParameterSetError(f"{path}: units key(s) {', '.join(unknown)} unknown (a set's units are frame, "
+                                "gear_ratio, torque_scale; speed, torque and temperature are labels)")
+    if str(doc.get("temperature", "degC")) != "degC":
+        raise ParameterSetError(f"{path}: units temperature {doc.get('temperature')!r}: a set is in degC")
     frame = str(doc.get("frame", "motor_normalized"))
     if frame not in FRAMES:
         raise ParameterSetError(f"{path}: units frame {frame!r} unknown; use one of {', '.join(FRAMES)}")
@@ -356,7 +374,7 @@ def _read_covariance(path: Path, doc: Any, values: dict[str, float]
 
 def parameter_set_document(pset: ParameterSet) -> dict[str, Any]:
     """The YAML document of a set (what :func:`load_parameter_set_info` reads back)."""
-    doc: dict[str, Any] = {"name": pset.name, "description": pset.description, "model": pset.spec,
+    doc: dict[str, Any] = {"format": FORMAT, "name": pset.name, "description": pset.description, "model": pset.spec,
                            "units": pset.units.to_dict()}
     doc["valid"] = {k: [float(lo), float(hi)] for k, (lo, hi) in pset.valid.items()}
     if pset.noise_std is not None:
