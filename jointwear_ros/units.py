@@ -59,8 +59,10 @@ __all__ = [
     "UnitError",
     "check_for_set",
     "check_plausible",
+    "check_temperature",
     "convert_temperature",
     "effective_units",
+    "in_base_units",
     "likely_temperature_slip",
     "prepare_baseline",
     "prepare_for_set",
@@ -82,6 +84,8 @@ TEMPERATURE_UNITS = ("degC", "K", "degF")
 TORQUE_COLUMNS = ("tau_f", "tau_f_std", "load_torque", "tau_plus", "tau_minus")
 #: Temperatures a robot joint reaches in operation (degC): outside, a unit slip is likelier than the reading.
 PLAUSIBLE_OPERATING_TEMPERATURE = (-30.0, 100.0)
+#: How far (degC) beyond a set's temperature range a reading is taken as a warmer or colder joint, not a unit slip.
+PLAUSIBLE_EXCURSION = 15.0
 #: Largest plausible normalized friction torque (a motor's friction above its rated torque is not a reading).
 MAX_NORMALIZED_FRICTION = 1.0
 #: Largest plausible motor speed, rad/s (about 10 000 rpm).
@@ -426,6 +430,10 @@ def _likely_slip(var: str, table: Any, in_set: Any, pset: Any, units: TableUnits
             raw = raw + 273.15
         elif units.temperature_unit == "degF":
             raw = raw * 9.0 / 5.0 + 32.0
+        degc = np.asarray(in_set["temperature"], dtype=float)
+        degc = degc[np.isfinite(degc)]
+        if degc.size and degc.min() >= rng[0] - PLAUSIBLE_EXCURSION and degc.max() <= rng[1] + PLAUSIBLE_EXCURSION:
+            return ""  # a joint warmer or colder than at commissioning is likelier than a unit slip
         s = likely_temperature_slip(raw, rng, tol)
         if s is not None:
             return f"in {s[0]}? add {s[1]}"
@@ -483,22 +491,7 @@ def check_plausible(table: Any, units: TableUnits, *, where: str = "", fix_frame
     src = where or table.source or "observations"
     read_as = units.describe()
     frame_flags = fix_frame or "--gear-ratio G --torque-scale S"
-    if "temperature" in table:
-        col = np.asarray(table["temperature"], dtype=float)
-        col = col[np.isfinite(col)]
-        if col.size:
-            lo, hi = PLAUSIBLE_OPERATING_TEMPERATURE
-            span = (float(col.min()), float(col.max()))
-            if not _fits(span, (lo, hi), 0.0):
-                raw = col
-                if units.temperature_unit == "K":
-                    raw = col + 273.15
-                elif units.temperature_unit == "degF":
-                    raw = col * 9.0 / 5.0 + 32.0
-                s = likely_temperature_slip(raw, (lo, hi))
-                hint = f"in {s[0]}? add {s[1]}" if s else "check the sensor and its unit"
-                raise UnitError(f"{src}: column temperature runs {_fmt_range(span)} degC (read as {read_as}), outside "
-                                f"what a robot joint reaches in operation ({lo:g} to {hi:g} degC); {hint}")
+    check_temperature(table, units, where=src)
     tau = np.asarray(table["tau_f"], dtype=float)
     tau = np.abs(tau[np.isfinite(tau)])
     if tau.size:
@@ -555,6 +548,51 @@ def _speed_slips(bottom: float, top: float, units: TableUnits, valid_speed: tupl
         if MIN_MOTOR_CYCLE_SPEED <= top * f <= hi and bottom * f >= lo:
             out.append(text)
     return "; or ".join(out)
+
+
+def in_base_units(table: Any, units: TableUnits) -> Any:
+    """``table`` with temperatures in degC, speeds in rad/s and joint-side torques in N·m, its frame kept.
+
+    What the workbench needs: it fits in the data's own frame (joint side N·m or the paper's), but
+    a temperature term is in degC and a speed term in rad/s.
+    """
+    cols = {k: np.asarray(v, dtype=float).copy() for k, v in table.columns.items()}
+    if "temperature" in cols:
+        cols["temperature"] = convert_temperature(cols["temperature"], units.temperature_unit)
+    if "speed" in cols:
+        cols["speed"] = cols["speed"] * SPEED_UNITS[units.speed_unit]
+    tf = TORQUE_UNITS.get(units.torque_unit, 1.0) if units.joint_side else 1.0
+    for name in TORQUE_COLUMNS:
+        if name in cols:
+            cols[name] = cols[name] * tf
+    base = replace(units, speed_unit="rad/s", temperature_unit="degC",
+                   torque_unit="N·m" if units.joint_side else "normalized")
+    return _with_columns(table, cols, base)
+
+
+def check_temperature(table: Any, units: TableUnits, *, where: str = "") -> None:
+    """Refuse temperatures (degC, converted from ``units``) no robot joint reaches in operation, naming kelvin or
+    degF when the values fit those (:data:`PLAUSIBLE_OPERATING_TEMPERATURE`)."""
+    if "temperature" not in table:
+        return
+    col = np.asarray(table["temperature"], dtype=float)
+    col = col[np.isfinite(col)]
+    if not col.size:
+        return
+    lo, hi = PLAUSIBLE_OPERATING_TEMPERATURE
+    span = (float(col.min()), float(col.max()))
+    if _fits(span, (lo, hi), 0.0):
+        return
+    raw = col
+    if units.temperature_unit == "K":
+        raw = col + 273.15
+    elif units.temperature_unit == "degF":
+        raw = col * 9.0 / 5.0 + 32.0
+    s = likely_temperature_slip(raw, (lo, hi))
+    hint = f"in {s[0]}? add {s[1]}" if s else "check the sensor and its unit"
+    raise UnitError(f"{where or table.source or 'observations'}: column temperature runs {_fmt_range(span)} degC "
+                    f"(read as {units.describe()}), outside what a robot joint reaches in operation ({lo:g} to "
+                    f"{hi:g} degC); {hint}")
 
 
 def replace_units(units: TableUnits, **changes: Any) -> TableUnits:

@@ -121,6 +121,10 @@ def _add_data_args(p: argparse.ArgumentParser, model_required: bool = True) -> N
     p.add_argument("--fix", action="append", default=[], metavar="NAME[=VALUE]",
                    help="hold a parameter fixed (at VALUE, or its starting value); repeatable")
     p.add_argument("--folds", type=int, default=5, help="cross-validation folds, grouped by cycle (default 5)")
+    p.add_argument("--speed-unit", default="rad/s", choices=["rad/s", "rpm", "deg/s"],
+                   help="unit of the table's speed column (default rad/s; a table's '# units:' line takes precedence)")
+    p.add_argument("--temperature-unit", default="degC", choices=["degC", "K", "degF"],
+                   help="unit of the table's temperature column (default degC)")
 
 
 def _register_workbench(msub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -186,7 +190,7 @@ def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
     if args.folds < 0 or args.folds == 1:
         raise UsageError(f"--folds: {args.folds} must be 0 (no cross-validation) or at least 2")
     model = parse_spec(spec)
-    table = read_table(args.data, topic=args.topic)
+    table = _in_base_units(read_table(args.data, topic=args.topic), args)
     info = load_parameter_set_info(args.params) if args.params else None
     start = info.parameters() if info is not None else None
     if info is not None:
@@ -214,6 +218,26 @@ def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
             f"parameters; give more than {n_free} rows, or hold parameters with --fix"
         )
     return table, model, params
+
+
+def _in_base_units(table: Any, args: argparse.Namespace) -> Any:
+    """The table in degC and rad/s (its frame kept: the workbench fits in the data's own units), its temperatures
+    checked: kelvin or degF named with the flag that converts them."""
+    from ..units import TableUnits, check_temperature, effective_units, in_base_units
+
+    declared = table.units
+    frame = declared.frame if declared is not None else "motor_normalized"
+    try:
+        assumed = TableUnits(frame, speed_unit=args.speed_unit, temperature_unit=args.temperature_unit)
+    except Exception as exc:
+        raise UsageError(str(exc)) from None
+    explicit = args.speed_unit != "rad/s" or args.temperature_unit != "degC"
+    units = effective_units(table, assumed, explicit=explicit)
+    out = in_base_units(table, units)
+    if getattr(args, "params", None):  # the set's range first: its message names the set
+        _check_table_in_range(out, load_parameter_set_info(args.params))
+    check_temperature(out, units)
+    return out
 
 
 def _check_table_in_range(table: Any, info: Any) -> None:
