@@ -55,7 +55,7 @@ from jointwear_ros.model import (
 from jointwear_ros.types import ObservationTable
 
 WEARS = (0.0, 10.0, 20.0, 30.0, 40.0)
-CALIBRATIONS = ("relative", "paper")
+CALIBRATIONS = ("relative", "paper", "midpoint")
 TRUTHS = ("abs", "lvl")
 #: the baseline's conditions (data synth defaults: load uniform 0.02-0.5; --temperature 18:52)
 BASE_T, BASE_LOAD = 35.0, 0.26
@@ -160,9 +160,18 @@ def run_joint(spec: JointSpec, k: int, where: Path, n: int, method: str = "joint
     table = set_frame_table(base, info)  # a joint-side joint is recorded and commissioned joint side
     rows = []
     cycles = {t: test_cycles(paths[t], 50 + 7 * k + (1000 if t == "lvl" else 0), n) for t in TRUTHS}
+    made: dict[str, ParameterSet] = {}
     for cal in CALIBRATIONS:
-        res = commission(table, joint=spec.name, units=units, wear_calibration=cal, diagnose_baseline=False)
-        pset = res.parameter_set(f"{spec.name}-{cal}")
+        if cal == "midpoint":  # half-way (log) between the two: not a commission option (yet)
+            a, b = made["paper"], made["relative"]
+            vals = dict(b.values)
+            for n in ("Fsw", "Fvw"):
+                vals[n] = math.copysign(math.sqrt(a.values[n] * b.values[n]), b.values[n])
+            pset = replace(b, name=f"{spec.name}-midpoint", values=vals, wear={**b.wear, "calibration": "midpoint"})
+        else:
+            res = commission(table, joint=spec.name, units=units, wear_calibration=cal, diagnose_baseline=False)
+            pset = res.parameter_set(f"{spec.name}-{cal}")
+        made[cal] = pset
         est = make_estimator(method, params=pset, seed=0)
         for truth in TRUTHS:
             for w, t in cycles[truth]:
@@ -188,6 +197,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="1 test cycle per wear level (else 2)")
     ap.add_argument("--joints", default="", help="comma-separated joint names (default: all)")
+    ap.add_argument("--worst", type=int, default=0, help="also list the N estimates of largest |z| (after)")
     args = ap.parse_args(argv)
     n = 1 if args.quick else 2
     chosen = [j for j in JOINTS if not args.joints or j.name in args.joints.split(",")]
@@ -214,6 +224,11 @@ def main(argv: list[str] | None = None) -> int:
                 s = summary(sel)
                 print(f"| {cal} | {truth} | {s['n']} | {s['zn']:.2f} | {s['fn']:.0%} | {s['zt']:.2f} | {s['ft']:.0%} "
                       f"| {s['st']:.2f} | {s['miss']} | {s['false']} |")
+    if args.worst:
+        print()
+        for r in sorted(all_rows, key=lambda r: -abs(r.estimate - r.wear) / r.std_total)[: args.worst]:
+            print(f"{r.joint} {r.calibration} {r.truth} w={r.wear:g} est={r.estimate:.2f} std_noise={r.std_noise:.2f} "
+                  f"std={r.std_total:.2f} z={(r.estimate - r.wear) / r.std_total:.2f}")
     return 0
 
 
