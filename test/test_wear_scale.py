@@ -13,7 +13,7 @@ import yaml
 from jointwear_ros.commission import DEFAULT_WEAR_CALIBRATION, commission, paper_wear_values, relative_wear_values
 from jointwear_ros.data import synth_observations
 from jointwear_ros.estimation import WearScaledEstimator, make_estimator, set_frame_table, wear_scale
-from jointwear_ros.estimation.wear_scale import SCALE_FLOOR, WearScale, level_ratio, prior_rel_std
+from jointwear_ros.estimation.wear_scale import SCALE_FLOOR, SCALE_MIN_WEAR, WearScale, level_ratio, prior_rel_std
 from jointwear_ros.model import ParameterSet, SetUnits, load_parameter_set_info, paper_model, parameter_set_document
 from jointwear_ros.monitor import MonitorConfig, WearMonitor
 from jointwear_ros.types import ObservationTable, WearResult
@@ -62,21 +62,27 @@ def test_plain_parameters_are_calibrated_and_estimate_as_before():
     assert res.info["calibrated"] is True
 
 
+@pytest.fixture(scope="module")
+def cobot_relative() -> ParameterSet:
+    return _commissioned("cobot-j3", "relative")
+
+
 @pytest.mark.parametrize("calibration", ["relative", "paper"])
-def test_a_commissioned_prior_widens_std_and_interval_by_the_wear_scale(cobot, calibration):
-    pset = replace(cobot, wear={**cobot.wear, "calibration": calibration})
+def test_a_commissioned_prior_widens_std_and_interval_by_the_wear_scale(cobot, cobot_relative, calibration):
+    pset = cobot_relative if calibration == "relative" else cobot
+    assert pset.wear_calibration == calibration
     s = wear_scale(pset)
     assert not s.calibrated and s.rel_std >= SCALE_FLOOR
     assert s.level_ratio == pytest.approx(1.35, rel=0.08)  # cobot-j3: 35 % more friction than ref-2011r
     for wear in (0.0, 5.0, 30.0, 80.0):
         r = s.apply(_result(wear))
         assert r.wear == wear
-        assert r.wear_std >= 0.6 and r.wear_std == pytest.approx(math.hypot(0.6, s.rel_std * wear))
+        part = s.rel_std * max(wear, SCALE_MIN_WEAR)
+        assert r.wear_std >= 0.6 and r.wear_std == pytest.approx(math.hypot(0.6, part))
         assert r.wear_low <= max(wear - 1.2, 0.0) and r.wear_high >= min(wear + 1.2, 100.0)
         assert 0.0 <= r.wear_low <= r.wear <= r.wear_high <= 100.0
         assert r.info["calibrated"] is False and r.info["wear_std_noise"] == 0.6
-        assert r.info["wear_scale_std"] == pytest.approx(s.rel_std * wear)
-    assert s.apply(_result(0.0)).wear_std == 0.6  # a new joint reads 0 whatever the scale
+        assert r.info["wear_scale_std"] == pytest.approx(part)
 
 
 def test_a_file_calibration_removes_the_wear_scale_part(cobot):

@@ -14,7 +14,7 @@ times its wear with ``paper``, ``r`` its friction level over ``ref-2011r``'s).
 
 :func:`wear_scale` tells which (:class:`WearScale`), and :meth:`WearScale.apply` folds the
 scale's uncertainty into a result: ``wear_std`` becomes the total
-``sqrt(std_noise^2 + (rel_std * w)^2)``, the interval widens by the same part, and ``info``
+``sqrt(std_noise^2 + (rel_std * max(w, 5))^2)``, the interval widens by the same part, and ``info``
 says ``calibrated``, ``wear_std_noise`` (the estimator's std), ``wear_scale_std`` and
 ``wear_scale_rel_std``. The relative spread of a prior is
 ``sqrt(SCALE_FLOOR^2 + (SCALE_PER_LOG_RATIO * ln r)^2)``: it covers both hypotheses (the
@@ -30,8 +30,8 @@ Pure numpy; no ROS import.
 >>> s.calibrated, s.rel_std
 (True, 0.0)
 >>> prior = WearScale(False, "relative", 1.35, 0.18, "a prior")
->>> round(prior.std(40.0), 2), prior.std(0.0)
-(7.2, 0.0)
+>>> round(prior.std(40.0), 2), round(prior.std(0.0), 2)
+(7.2, 0.9)
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ from ..model import Model, Parameters, ParameterSet, SetUnits, load_parameter_se
 from ..types import ObservationTable, WearEstimator, WearResult
 from ._common import WEAR_RANGE, capabilities_of
 
-__all__ = ["PRIOR_LABELS", "REFERENCE_SET", "SCALE_FLOOR", "SCALE_PER_LOG_RATIO", "WearScale",
+__all__ = ["PRIOR_LABELS", "REFERENCE_SET", "SCALE_FLOOR", "SCALE_MIN_WEAR", "SCALE_PER_LOG_RATIO", "WearScale",
            "WearScaledEstimator", "level_ratio", "wear_scale"]
 
 #: The set whose wear parameters are the paper's (Eq. 8) and whose nominal level ``r`` is measured against.
@@ -57,9 +57,12 @@ PRIOR_LABELS = ("paper", "relative")
 #: Relative std of a prior wear scale on a joint at the paper's friction level (``r = 1``, where ``paper``
 #: and ``relative`` agree): the paper's Eq. (8) comes from one robot's accelerated wear tests.
 SCALE_FLOOR = 0.10
-#: Relative std per unit of ``|ln r|``: half the log distance between the two hypotheses as one std, so
-#: 3 std reach 1.5x beyond the other hypothesis (measured: the estimates of the two differ by ~r^0.8).
-SCALE_PER_LOG_RATIO = 0.5
+#: Relative std per unit of ``|ln r|`` (measured: the estimates of the two hypotheses differ by about
+#: ``r^0.8`` at wear 20-40 and more at wear 10, where the Stribeck width ``vsw w`` bends the relation).
+SCALE_PER_LOG_RATIO = 0.6
+#: The scale part is ``rel_std x max(w, SCALE_MIN_WEAR)``: near w = 0 a wrong scale still moves the estimate
+#: by a few units (a low-friction joint at true wear 10 read 2.7 with the other hypothesis).
+SCALE_MIN_WEAR = 5.0
 #: Two-sided 95 % of a normal: the interval's half-width of the scale part.
 _Z95 = 1.959963984540054
 
@@ -80,10 +83,11 @@ class WearScale:
     reason: str
 
     def std(self, wear: float) -> float:
-        """The scale's part of the std at an estimate ``wear`` (``rel_std x wear``, wear clipped to 0-100)."""
+        """The scale's part of the std at an estimate ``wear``: ``rel_std x wear``, the wear clipped to
+        [:data:`SCALE_MIN_WEAR`, 100]."""
         if not math.isfinite(wear):
             return math.nan
-        return float(self.rel_std * min(max(wear, WEAR_RANGE[0]), WEAR_RANGE[1]))
+        return float(self.rel_std * min(max(wear, SCALE_MIN_WEAR), WEAR_RANGE[1]))
 
     def apply(self, result: WearResult) -> WearResult:
         """``result`` with the scale's uncertainty folded into ``wear_std`` and the interval, named in ``info``."""
@@ -159,7 +163,7 @@ def prior_rel_std(ratio: float) -> float:
     :data:`SCALE_PER_LOG_RATIO`).
 
     >>> round(prior_rel_std(1.0), 3), round(prior_rel_std(1.35), 3), round(prior_rel_std(1 / 1.35), 3)
-    (0.1, 0.2, 0.2)
+    (0.1, 0.206, 0.206)
     """
     lr = abs(math.log(ratio)) if math.isfinite(ratio) and ratio > 0 else _FALLBACK_LOG_RATIO
     return math.hypot(SCALE_FLOOR, SCALE_PER_LOG_RATIO * lr)
