@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 from dataclasses import replace
 from pathlib import Path
 
@@ -60,6 +61,7 @@ def test_plain_parameters_are_calibrated_and_estimate_as_before():
     assert (res.wear, res.wear_std, res.wear_low, res.wear_high) == (raw.wear, raw.wear_std, raw.wear_low,
                                                                      raw.wear_high)
     assert res.info["calibrated"] is True
+    assert pickle.loads(pickle.dumps(est)).estimate(t).wear == res.wear  # a copy works as the original
 
 
 @pytest.fixture(scope="module")
@@ -185,3 +187,16 @@ def test_default_calibration_on_robots_unlike_the_reference_is_honest(name, seed
     assert not [r for r in rows if r[1] <= 10 and r[2] >= 35], rows  # no false alarm
     z_noise = np.array([(e - w) / s for _, w, e, _, s in rows])
     assert np.max(np.abs(z_noise)) > 3.0  # without the wear scale's part the std was not honest
+
+
+def test_midpoint_wear_values_lie_half_way_in_log_between_paper_and_relative():
+    from jointwear_ros.commission.wear import midpoint_wear_values
+
+    info = load_parameter_set_info("cobot-j3")
+    pm = paper_model()
+    p = pm.make_params(info.parameters())
+    rel, ratio = relative_wear_values(pm, p, info.units, 35.0, 0.26)
+    mid, ratio2 = midpoint_wear_values(pm, p, info.units, 35.0, 0.26)
+    pap = paper_wear_values(info.units)
+    assert ratio == ratio2 == pytest.approx(1.35, rel=0.05)
+    assert mid["Fsw"] == pytest.approx(math.sqrt(rel["Fsw"] * pap["Fsw"])) and mid["vsw"] == pap["vsw"]

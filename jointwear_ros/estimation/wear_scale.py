@@ -220,7 +220,10 @@ class WearScaledEstimator:
         return self.scale.apply(self.estimator.estimate(observations))
 
     def __getattr__(self, name: str) -> Any:
-        return getattr(self.__dict__["estimator"], name)
+        inner = self.__dict__.get("estimator")
+        if inner is None:  # not yet initialised (a copy or unpickling): no forwarding
+            raise AttributeError(name)
+        return getattr(inner, name)
 
     def __repr__(self) -> str:
         return f"WearScaledEstimator({self.estimator!r}, calibrated={self.scale.calibrated})"
