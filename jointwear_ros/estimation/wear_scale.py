@@ -204,13 +204,12 @@ class WearScaledEstimator:
     Anything else (``name``, ``capabilities``, options, ``posterior``, ...) is the wrapped estimator's.
     """
 
+    name: str
+
     def __init__(self, estimator: WearEstimator, scale: WearScale) -> None:
         self.__dict__["estimator"] = estimator
         self.__dict__["scale"] = scale
-
-    @property
-    def name(self) -> str:
-        return str(self.estimator.name)
+        self.__dict__["name"] = str(estimator.name)
 
     @property
     def capabilities(self) -> Any:
