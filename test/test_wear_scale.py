@@ -168,8 +168,11 @@ def _true_sets(name: str, where: Path) -> dict[str, str]:
     return out
 
 
-@pytest.mark.parametrize(("name", "seed"), [("cobot-j3", 21), ("arm6-base", 22)])
-def test_default_calibration_on_robots_unlike_the_reference_is_honest(name, seed, tmp_path):
+@pytest.mark.parametrize(("name", "seed", "far"), [("cobot-j3", 21, True), ("arm6-base", 22, True),
+                                                   ("arm6-wrist", 23, False)])
+def test_default_calibration_on_robots_unlike_the_reference_is_honest(name, seed, far, tmp_path):
+    """``far``: a level far from the paper's (r = 1.35, 1.42), where the two wear hypotheses differ by more than
+    the noise; arm6-wrist (r = 0.93) is near it."""
     pset = _commissioned(name, seed=seed)
     assert pset.wear_calibration == DEFAULT_WEAR_CALIBRATION
     est = make_estimator("joint", params=pset, seed=0)
@@ -186,7 +189,8 @@ def test_default_calibration_on_robots_unlike_the_reference_is_honest(name, seed
     assert not [r for r in rows if r[1] >= 40 and r[2] < 30], rows  # no missed alarm read OK
     assert not [r for r in rows if r[1] <= 10 and r[2] >= 35], rows  # no false alarm
     z_noise = np.array([(e - w) / s for _, w, e, _, s in rows])
-    assert np.max(np.abs(z_noise)) > 3.0  # without the wear scale's part the std was not honest
+    if far:
+        assert np.max(np.abs(z_noise)) > 3.0  # without the wear scale's part the std was not honest
 
 
 def test_midpoint_wear_values_lie_half_way_in_log_between_paper_and_relative():
