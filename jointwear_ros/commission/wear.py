@@ -4,10 +4,10 @@ The paper's wear parameters (Eq. 8: ``Fsw``, ``vsw``, ``Fvw``) come from acceler
 wear tests on one robot, in its normalized motor-side units. A commissioned joint
 gets one of:
 
-``paper``
+``paper`` (the default)
     Eq. (8) converted to the set's units (speed and torque factors of its frame):
     the same absolute friction increase per unit wear as the paper's joint.
-``relative`` (the default)
+``relative``
     Eq. (8) scaled by the joint's own nominal friction level over the paper
     joint's at the same conditions (v = 0, the baseline's median temperature
     and load): wear w raises the friction by the same *relative* amount as on
@@ -18,6 +18,11 @@ FILE
     ``source``), or an observation table with a ``wear`` column of known wear
     levels (a history across a reducer replacement, a run-to-failure series):
     the three are fitted with the nominal model held fixed.
+
+Without wear data on the joint, ``paper`` and ``relative`` are priors: every estimate with
+such a set carries the wear scale's own uncertainty in its std
+(:mod:`jointwear_ros.estimation.wear_scale`); a FILE calibrates it. The default is chosen by
+measurement (``bench/bench_wear_calibration.py``, docs/commissioning.md): ``paper``.
 
 >>> from jointwear_ros.model import SetUnits
 >>> w = paper_wear_values(SetUnits("joint", 100.0, 200.0))
@@ -38,11 +43,11 @@ from ..errors import InputDataError
 from ..model import Model, Parameters, SetUnits, load_parameter_set_info, paper_model
 from ..types import ObservationTable
 
-__all__ = ["DEFAULT_WEAR_CALIBRATION", "REFERENCE_SET", "WEAR_PARAMS", "WearCalibration", "paper_wear_values",
-           "relative_wear_values", "wear_from_file"]
+__all__ = ["DEFAULT_WEAR_CALIBRATION", "REFERENCE_SET", "WEAR_PARAMS", "WearCalibration", "midpoint_wear_values",
+           "paper_wear_values", "relative_wear_values", "wear_from_file"]
 
-#: The wear calibration a commissioned set gets unless told otherwise.
-DEFAULT_WEAR_CALIBRATION = "relative"
+#: The wear calibration a commissioned set gets unless told otherwise (measured: docs/commissioning.md).
+DEFAULT_WEAR_CALIBRATION = "paper"
 #: The set that holds the paper's wear parameters (Eq. 8) and its joint's nominal model.
 REFERENCE_SET = "ref-2011r"
 #: The wear parameters of Eq. (7).
@@ -86,6 +91,19 @@ def relative_wear_values(model: Model, params: Parameters, units: SetUnits, temp
     ratio = f0 / f0_ref
     base = paper_wear_values(units)
     return {"Fsw": base["Fsw"] * ratio, "vsw": base["vsw"], "Fvw": base["Fvw"] * ratio}, ratio
+
+
+def midpoint_wear_values(model: Model, params: Parameters, units: SetUnits, temperature: float,
+                         load: float) -> tuple[dict[str, float], float]:
+    """Half-way in log between ``paper`` and ``relative``: Eq. (8) scaled by sqrt(ratio); the values and the ratio.
+
+    Measured best of the three on joints unlike the paper's (docs/commissioning.md); not yet a
+    ``commission`` option.
+    """
+    _, ratio = relative_wear_values(model, params, units, temperature, load)
+    k = math.sqrt(ratio)
+    base = paper_wear_values(units)
+    return {"Fsw": base["Fsw"] * k, "vsw": base["vsw"], "Fvw": base["Fvw"] * k}, ratio
 
 
 def wear_from_file(path: str | Path, *, model: Model, params: Parameters, table: ObservationTable | None,

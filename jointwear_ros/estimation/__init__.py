@@ -33,6 +33,7 @@ from .inverse import TemperatureTable, WearInverse
 from .joint import JointEstimator, JointPosterior
 from .paper import PAPER_N_SAMPLES, PAPER_TEMPERATURE_RANGE, PaperEstimator, PaperGridEstimator
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
+from .wear_scale import WearScale, WearScaledEstimator, wear_scale
 
 __all__ = [
     "CRB_METHODS",
@@ -53,6 +54,8 @@ __all__ = [
     "TemperaturePrior",
     "TemperatureTable",
     "WearInverse",
+    "WearScale",
+    "WearScaledEstimator",
     "capabilities_of",
     "crb_known_temperature",
     "crb_multi_speed",
@@ -66,6 +69,7 @@ __all__ = [
     "resolve_model",
     "set_frame_table",
     "uniform_prior",
+    "wear_scale",
 ]
 
 
@@ -230,4 +234,5 @@ def make_estimator(
         params = load_parameter_set_info(params)  # a missing set fails here, with its reason
     factor = params.units.torque_factor if isinstance(params, ParameterSet) else 1.0
     check_estimator_options(options, factor)  # values no estimator can work with
-    return cls(model, params, **options)  # type: ignore[no-any-return]
+    est = cls(model, params, **options)
+    return WearScaledEstimator(est, wear_scale(params if isinstance(params, ParameterSet) else None))

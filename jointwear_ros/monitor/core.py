@@ -159,6 +159,13 @@ class CycleResult:
         return LEVEL_NAMES.get(self.level, str(self.level))
 
     @property
+    def calibrated(self) -> bool | None:
+        """Whether the estimate's wear scale is calibrated (``info['calibrated']``); None without an estimate."""
+        if self.result is None or "calibrated" not in self.result.info:
+            return None
+        return bool(self.result.info["calibrated"])
+
+    @property
     def alarm(self) -> bool:
         return self.level == DiagnosticLevel.ERROR and self.result is not None
 
@@ -456,6 +463,12 @@ class WearMonitor:
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
         values += [(k, str(res.info[k])) for k in ("parameter_set", "wear_calibration") if k in res.info]
+        if "calibrated" in res.info:  # a prior wear scale (no wear data on the joint): its std is in wear_std
+            values += [("calibrated", "true" if res.info["calibrated"] else "false"),
+                       ("wear_std_noise", f"{float(res.info.get('wear_std_noise', res.wear_std)):.3f}"),
+                       ("wear_scale_std", f"{float(res.info.get('wear_scale_std', 0.0)):.3f}")]
+            if not res.info["calibrated"]:
+                msg += f"; wear scale not calibrated ({res.info.get('wear_calibration', 'prior')}: a prior)"
         if "fit_p" in res.info:  # how much of the cycle the model leaves unexplained (joint estimator)
             values.append(("fit_p", f"{float(res.info['fit_p']):.3g}"))
         if res.info.get("misfit"):

@@ -21,7 +21,11 @@ in ``[warn_threshold, alarm_threshold)``, ERROR at ``w_hat >= alarm_threshold``
 method, cycle_id, temperature_estimate, n_observations (and
 observations_rejected / temperatures_unknown when the screening dropped an
 observation or made its temperature unknown, see
-:mod:`jointwear_ros.monitor.validation`). The statuses are republished every
+:mod:`jointwear_ros.monitor.validation`), ``calibrated`` (``true``/``false``: whether the
+joint's wear scale is calibrated; false for a commissioned joint without wear data, whose
+``wear_std`` then includes the wear scale's own uncertainty, ``wear_std_noise`` and
+``wear_scale_std`` its parts, :mod:`jointwear_ros.estimation.wear_scale`) and
+``wear_calibration`` (the set's label), from the start, before the first estimate. The statuses are republished every
 ``diagnostics_period`` so aggregators do not mark them stale. An observation
 or status of a joint not served is ignored, counted (``ignored_messages``) and
 logged (throttled).
@@ -54,7 +58,8 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..contract import DiagnosticLevel, observation_from_msg, status_from_msg
 from ..errors import InputDataError, JointwearError, ParameterError
-from ..estimation import ESTIMATORS
+from ..estimation import ESTIMATORS, wear_scale
+from ..model import load_parameter_set_info
 from ..monitor import CycleResult, MonitorConfig, RobotMonitor, WearMonitor
 from .diagnostics import HeldStatus, Updater, diagnostic_status
 from .joints import declare_robot, propagate_node_level, replaced_own_values, split_per_joint
@@ -109,6 +114,15 @@ def _options(text: str) -> dict[str, Any]:
     if not isinstance(value, dict):
         raise InputDataError(f"parameter estimator_options = {text!r} is not a JSON object")
     return value
+
+
+def _calibration_values(params: str) -> list[tuple[str, str]]:
+    """``calibrated`` and ``wear_calibration`` of a joint's set (before its first estimate); none if it cannot load."""
+    try:
+        scale = wear_scale(load_parameter_set_info(params))
+    except JointwearError:
+        return []
+    return [("calibrated", "true" if scale.calibrated else "false"), ("wear_calibration", scale.label)]
 
 
 def estimate_to_msg(r: CycleResult) -> WearEstimate:
@@ -204,8 +218,9 @@ class WearEstimatorNode(Node):
 
     @staticmethod
     def _idle_values(cfg: MonitorConfig) -> list[tuple[str, str]]:
-        return [("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
-                ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
+        out = [("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
+               ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
+        return out + _calibration_values(cfg.params)
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
         # a node-level change arrives with every joint's <joint>.<setting> (propagate_node_level);
