@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..commission.wear import DEFAULT_WEAR_CALIBRATION, WEAR_CALIBRATIONS
 from ..estimation import ESTIMATORS
 from . import UsageError
 from .common import add_unit_flags, check_output_dir, check_output_file, print_json, units_from_args
@@ -39,8 +40,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="DATA is joint side (rad/s, N·m): motor speed = joint speed x this (with --torque-scale)")
     c.add_argument("--torque-scale", type=float, default=None, help="N·m (joint side) per normalized torque unit")
     add_unit_flags(c, frame_flags=False)
-    c.add_argument("--wear-calibration", default="relative",
-                   help="paper | relative (default: Eq. 8 scaled to the joint's nominal level) | FILE")
+    c.add_argument("--wear-calibration", default=DEFAULT_WEAR_CALIBRATION,
+                   help=f"{' | '.join(WEAR_CALIBRATIONS)} | FILE (default {DEFAULT_WEAR_CALIBRATION}; without wear data "
+                        "on the joint each is a prior whose uncertainty every estimate's std includes, "
+                        "docs/commissioning.md); FILE: known wear levels, calibrated")
     c.add_argument("--name", default=None, help="name of the set (default: the --out file's stem)")
     c.add_argument("--out", required=True, help="parameter set YAML to write")
     c.add_argument("--report", default=None, metavar="DIR", help="write a fit plot and the JSON report here")
@@ -115,8 +118,9 @@ def cmd_commission(args: argparse.Namespace) -> int:
     assert out is not None  # --out is required
     report = check_output_dir(args.report, "--report")
     wc = args.wear_calibration
-    if wc not in ("paper", "relative") and not Path(wc).is_file():
-        raise UsageError(f"--wear-calibration {wc!r}: use paper, relative or an existing calibration FILE")
+    if wc not in WEAR_CALIBRATIONS and not Path(wc).is_file():
+        raise UsageError(f"--wear-calibration {wc!r}: use {', '.join(WEAR_CALIBRATIONS)} or an existing calibration "
+                         "FILE")
     skipped: list[str] = []
     inputs = [(path, table) for path, joint, table in _read_all(args.data, args.joint, skipped)
               if joint in (args.joint, "")]
@@ -146,7 +150,7 @@ def cmd_commission(args: argparse.Namespace) -> int:
             cols.setdefault(n, []).append(x)
     table = ObservationTable({n: np.concatenate(v) for n, v in cols.items()}, source=", ".join(args.data))
     wear_table = None
-    if wc not in ("paper", "relative") and Path(wc).suffix not in (".yaml", ".yml"):
+    if wc not in WEAR_CALIBRATIONS and Path(wc).suffix not in (".yaml", ".yml"):
         from ..io.tables import read_table
 
         wear_table = read_table(wc)
@@ -241,13 +245,16 @@ def cmd_estimate(args: argparse.Namespace) -> int:
                                                     where=table.source or path, tau_range=tau_range)))
     verdict = str(pset.provenance.get("verdict", "") or "")
     rows: list[dict[str, Any]] = []
+    infos: list[Any] = []
     for c in estimate_cycles(tables, pset, args.method, args.seed):
         r = c.result
+        infos.append(r.info)
         rows.append({"source": c.source, "joint": c.joint, "cycle": c.cycle, "estimate": r.wear,
                      "std": r.wear_std, "temperature": r.temperature, "level": c.level(args.warn, args.alarm),
                      "method": r.method, "wear_calibration": r.info.get("wear_calibration"),
-                     "calibrated": bool(r.info.get("calibrated", False)),
-                     "std_without_wear_scale": r.info.get("wear_std_noise", r.wear_std),
+                     "calibrated": bool(r.info.get("calibrated", True)),
+                     "std_noise": r.info.get("wear_std_noise", r.wear_std),
+                     "wear_scale_std": r.info.get("wear_scale_std", 0.0), "low": r.wear_low, "high": r.wear_high,
                      "model_verdict": verdict or None, "parameter_set": pset.name})
     if not rows:
         from ..errors import InputDataError
@@ -257,15 +264,21 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     if args.json:
         print_json({"estimates": rows})
         return 0
-    calibrated = all(r["calibrated"] for r in rows)
     print(f"parameter set {pset.name} (model {pset.spec}, {pset.units.frame}, wear calibration "
-          f"{pset.wear_calibration}: {'calibrated' if calibrated else 'a prior, its uncertainty is in the std'}), "
-          f"method {args.method}")
+          f"{pset.wear_calibration}), method {args.method}")
     if verdict in ("found", "unexplained"):
         print(f"note: the set was commissioned against a workbench verdict '{verdict}': its model may miss an effect")
-    print(f"{'joint':<10} {'cycle':>6} {'wear':>7} {'std':>6} {'T':>6} level")
+    print(f"{'joint':<10} {'cycle':>6} {'wear':>7} {'std':>6} {'T':>6} {'cal':>3} level")
     for row in rows:
         t = "-" if not math.isfinite(row["temperature"]) else f"{row['temperature']:.1f}"
         print(f"{row['joint'] or '-':<10} {row['cycle']:>6} {row['estimate']:>7.2f} {row['std']:>6.2f} {t:>6} "
-              f"{row['level']}")
+              f"{'yes' if row['calibrated'] else 'no':>3} {row['level']}")
+    uncal = [r for r in rows if not r["calibrated"]]
+    if uncal:
+        info = uncal_info[0] if (uncal_info := [i for i in infos if not i.get("calibrated", True)]) else {}
+        rel = float(info.get("wear_scale_rel_std", math.nan))
+        ratio = float(info.get("wear_level_ratio", math.nan))
+        print(f"# wear scale not calibrated ({pset.wear_calibration}: a prior, no wear data on this joint): the std "
+              f"includes {100 * rel:.0f} % of the wear (friction level {ratio:.2f}x ref-2011r's); a FILE calibration "
+              "(commission --wear-calibration FILE) removes it")
     return 0

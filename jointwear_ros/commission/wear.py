@@ -43,11 +43,22 @@ from ..errors import InputDataError
 from ..model import Model, Parameters, SetUnits, load_parameter_set_info, paper_model
 from ..types import ObservationTable
 
-__all__ = ["DEFAULT_WEAR_CALIBRATION", "REFERENCE_SET", "WEAR_PARAMS", "WearCalibration", "midpoint_wear_values",
-           "paper_wear_values", "relative_wear_values", "wear_from_file"]
+__all__ = [
+    "DEFAULT_WEAR_CALIBRATION",
+    "REFERENCE_SET",
+    "WEAR_CALIBRATIONS",
+    "WEAR_PARAMS",
+    "WearCalibration",
+    "midpoint_wear_values",
+    "paper_wear_values",
+    "relative_wear_values",
+    "wear_from_file",
+]
 
 #: The wear calibration a commissioned set gets unless told otherwise (measured: docs/commissioning.md).
 DEFAULT_WEAR_CALIBRATION = "paper"
+#: The wear calibrations by name (the priors); a FILE calibrates.
+WEAR_CALIBRATIONS = ("paper", "relative")
 #: The set that holds the paper's wear parameters (Eq. 8) and its joint's nominal model.
 REFERENCE_SET = "ref-2011r"
 #: The wear parameters of Eq. (7).
