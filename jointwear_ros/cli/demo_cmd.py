@@ -586,6 +586,7 @@ class CycleRecord:
     cell_seconds: float = math.nan
     observations: list[dict[str, Any]] = field(default_factory=list)
     live: dict[str, dict[str, Any]] = field(default_factory=dict)
+    bag: str | None = None
 
     @property
     def usable(self) -> bool:
@@ -593,7 +594,7 @@ class CycleRecord:
 
     def skipped_dict(self) -> dict[str, Any]:
         return {"cycle_id": self.cycle_id, "stage": self.stage, "state": self.state, "joint": self.joint,
-                "reason": self.reason, "node": "test_cycle"}
+                "reason": self.reason, "node": "test_cycle", "bag": self.bag}
 
 
 @dataclass
@@ -665,7 +666,8 @@ class CommissionDemoResult:
             "commissioned": [j.as_dict() for j in self.joints],
             "skipped_cycles": [c.skipped_dict() for c in self.skipped],
             "cycles": [{"cycle_id": c.cycle_id, "stage": c.stage, "state": c.state,
-                        "cell_seconds": _finite_or_none(c.cell_seconds), "observations": len(c.observations)}
+                        "cell_seconds": _finite_or_none(c.cell_seconds), "observations": len(c.observations),
+                        "bag": c.bag}
                        for c in self.cycles],
             "speeds": self.speeds,
             "real_time_factor": self.real_time_factor,
@@ -842,9 +844,34 @@ def run_commission_demo(
     for res in results:
         res.true_wear = test_settings[res.joint].wear
     _estimate_tests(results, [r for r in records if r.usable and r.stage == "test"])
-    bags = [str(b) for b in find_bags(bagdir) if b not in bags_before]
+    bags = [str(b) for b in _sort_bags([b for b in find_bags(bagdir) if b not in bags_before], records, bagdir)]
     return CommissionDemoResult(results, records, time.monotonic() - t_start, float(real_time_factor),
                                 [float(s) for s in speeds or []], str(setdir), bags, str(logdir))
+
+
+def _sort_bags(bags: Sequence[Path], records: Sequence[CycleRecord], bagdir: Path) -> list[Path]:
+    """Move each cycle's bag (the recorder splits by cycle: ``..._cycle<id>``) into ``bagdir/baseline``,
+    ``bagdir/test`` or ``bagdir/skipped`` (a cycle that did not end DONE), so that ``jointwear commission
+    OUT/bags/baseline/*`` takes exactly the baseline; sets each record's ``bag``. Returns the bags' new paths."""
+    by_id = {r.cycle_id: r for r in records}
+    out: list[Path] = []
+    for b in bags:
+        _, sep, tail = b.name.rpartition("_cycle")
+        rec = by_id.get(int(tail)) if sep and tail.isdigit() else None
+        if rec is None:
+            out.append(b)
+            continue
+        kind = "skipped" if not rec.usable else "test" if rec.stage == "test" else "baseline"
+        dest = bagdir / kind / b.name
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            b.rename(dest)
+        except OSError as exc:
+            _progress(f"could not move {b} to {dest}: {exc}")
+            dest = b
+        rec.bag = str(dest)
+        out.append(dest)
+    return out
 
 
 def _window_centre(joint: str) -> float:
@@ -1035,5 +1062,6 @@ def _print_commission(res: CommissionDemoResult) -> None:
         if j.error:
             print(f"{j.joint}: {j.error}")
     cell = f"{res.cell_seconds:.0f} s of cell time (sim), " if math.isfinite(res.cell_seconds) else ""
-    print(f"bags: {len(res.bags)} in {Path(res.bags[0]).parent if res.bags else '-'}; logs: {res.logs}")
+    kinds = sorted({str(Path(b).parent) for b in res.bags})
+    print(f"bags: {len(res.bags)} in {', '.join(kinds) or '-'}; logs: {res.logs}")
     print(f"{len(res.cycles)} cycles, {cell}{res.wall_seconds:.1f} s wall at {res.real_time_factor:g}x real time")
