@@ -1023,6 +1023,12 @@ def cmd_demo_commission(args: argparse.Namespace) -> int:
     check_output_dir(args.out, "--out")
     res = run_commission_demo(n, Path(args.out), speeds, k, test_wear, wc, not args.no_overload, rtf, timeout,
                               args.domain_id, overrides)
+    import json
+
+    from .common import _clean
+
+    summary = Path(args.out) / "commission.json"
+    summary.write_text(json.dumps(_clean(res.as_dict()), indent=2), encoding="utf-8")
     failed = [j for j in res.joints if j.error or j.estimate is None]
     rc = 1 if failed else 0
     for j in failed:
@@ -1064,4 +1070,5 @@ def _print_commission(res: CommissionDemoResult) -> None:
     cell = f"{res.cell_seconds:.0f} s of cell time (sim), " if math.isfinite(res.cell_seconds) else ""
     kinds = sorted({str(Path(b).parent) for b in res.bags})
     print(f"bags: {len(res.bags)} in {', '.join(kinds) or '-'}; logs: {res.logs}")
-    print(f"{len(res.cycles)} cycles, {cell}{res.wall_seconds:.1f} s wall at {res.real_time_factor:g}x real time")
+    print(f"{len(res.cycles)} cycles, {cell}{res.wall_seconds:.1f} s wall at {res.real_time_factor:g}x real time; "
+          f"the --json document: {Path(res.sets_dir).parent / 'commission.json'}")
