@@ -89,11 +89,13 @@ def test_a_cycle_that_tripped_the_effort_limit_is_skipped_and_named(run):
     assert f"{first['stage']} cycle {first['cycle_id']} FAILED at joint_1" in proc.stderr
 
 
-def test_commissioning_demo_arguments_are_checked_before_anything_starts(tmp_path):
+def test_commissioning_demo_arguments_are_checked_before_anything_starts(tmp_path, capsys):
+    from jointwear_ros.cli import main
+
     for args, match in ((["--wear", "10"], "--wear"), (["--baseline-cycles", "3"], "--baseline-cycles"),
                         (["--speeds", "10,20,40"], "at least 5"), (["--test-wear", "120"], "outside 0-100"),
-                        (["--joints", "13"], "--joints")):
-        proc = subprocess.run([sys.executable, "-m", "jointwear_ros", "demo", "--commission", *args, "--out",
-                               str(tmp_path / "o")], capture_output=True, text=True, timeout=60)
-        assert proc.returncode == 2 and match in proc.stderr, (args, proc.stderr)
+                        (["--joints", "13"], "--joints"), (["--wear-calibration", "nope"], "--wear-calibration")):
+        rc = main(["demo", "--commission", *args, "--out", str(tmp_path / "o")])
+        err = capsys.readouterr().err
+        assert rc == 2 and match in err, (args, err)
         assert not (tmp_path / "o").exists()
