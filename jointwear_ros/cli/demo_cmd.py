@@ -1030,12 +1030,14 @@ def cmd_demo_commission(args: argparse.Namespace) -> int:
     check_output_dir(args.out, "--out")
     res = run_commission_demo(n, Path(args.out), speeds, k, test_wear, wc, not args.no_overload, rtf, timeout,
                               args.domain_id, overrides)
-    import json
+    import contextlib
+    import io
 
-    from .common import _clean
-
-    summary = Path(args.out) / "commission.json"
-    summary.write_text(json.dumps(_clean(res.as_dict()), indent=2), encoding="utf-8")
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):  # the same document --json prints
+        print_json(res.as_dict())
+    Path(args.out).mkdir(parents=True, exist_ok=True)
+    (Path(args.out) / "commission.json").write_text(buf.getvalue(), encoding="utf-8")
     failed = [j for j in res.joints if j.error or j.estimate is None]
     rc = 1 if failed else 0
     for j in failed:
