@@ -13,6 +13,12 @@ logs go to ``OUT/logs``. Progress goes to stderr.
 
 Sim time: ``joint_sim`` publishes ``/clock`` running ``--real-time-factor``
 times faster than wall time and every node runs with ``use_sim_time``.
+
+``--commission`` (:func:`run_commission_demo`): the same cell, kept running over a commissioning run
+planned by :mod:`jointwear_ros.commission.demo`: a robot on the shipped non-reference sets, one cycle
+that trips the effort limit (skipped and named), baseline cycles at w = 0 over a warm-up and several
+window loads, every joint commissioned in-process, a test cycle at other wear levels estimated with
+the commissioned sets and with ``ref-2011r`` (docs/nodes-bag-demo.md).
 """
 
 from __future__ import annotations
