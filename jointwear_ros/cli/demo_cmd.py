@@ -13,6 +13,12 @@ logs go to ``OUT/logs``. Progress goes to stderr.
 
 Sim time: ``joint_sim`` publishes ``/clock`` running ``--real-time-factor``
 times faster than wall time and every node runs with ``use_sim_time``.
+
+``--commission`` (:func:`run_commission_demo`): the same cell, kept running over a commissioning run
+planned by :mod:`jointwear_ros.commission.demo`: a robot on the shipped non-reference sets, one cycle
+that trips the effort limit (skipped and named), baseline cycles at w = 0 over a warm-up and several
+window loads, every joint commissioned in-process, a test cycle at other wear levels estimated with
+the commissioned sets and with ``ref-2011r`` (docs/nodes-bag-demo.md).
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..commission.demo import MIN_BASELINE_CYCLES
 from ..contract import CycleState
 from ..errors import JointwearError
 from ..nodes.cell import CellError, Child, JointReport, Operator, ready_conditions, start_child, stop_children
@@ -77,11 +84,31 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="joint temperature of the simulator, degC (default: config); with --joints one value or "
                         "a comma list, one per joint")
     p.add_argument("--method", default=None, help="wear estimator method (default: config/wear_estimator.yaml)")
-    p.add_argument("--timeout", default="180", help="wall seconds to wait for the estimate (default 180)")
+    p.add_argument("--timeout", default=None,
+                   help="wall seconds to wait for the estimate (default 180); with --commission, for each cycle "
+                        "(default 900)")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
                    help="override a node parameter, e.g. joint_sim.temperature=30 (repeatable)")
     p.add_argument("--domain-id", type=int, default=None,
                    help="ROS_DOMAIN_ID of the cell (default: $ROS_DOMAIN_ID, else a random free-ish one)")
+    c = p.add_argument_group(
+        "commissioning (--commission)",
+        "Simulate a robot whose joints use the shipped non-reference sets (arm6-base, cobot-j3, arm6-wrist), record "
+        "baseline cycles at w = 0 while the joints warm up and their windows change load, skip any cycle that "
+        "failed, commission every joint, run a cycle at other wear levels and print each joint's estimate with "
+        "its commissioned set against ref-2011r's (docs/nodes-bag-demo.md).")
+    c.add_argument("--commission", action="store_true",
+                   help="run the commissioning demo (with --joints N: N joints, default 6)")
+    c.add_argument("--baseline-cycles", type=int, default=6, metavar="K",
+                   help=f"baseline cycles at w = 0 over the warm-up (default 6; at least {MIN_BASELINE_CYCLES})")
+    c.add_argument("--test-wear", default="10,30,40",
+                   help="true wear of the test cycle, spread over the joints in turn (default 10,30,40)")
+    c.add_argument("--wear-calibration", default=None,
+                   help="wear calibration of the commissioned sets: paper | relative | FILE (default: "
+                        "commissioning's default)")
+    c.add_argument("--no-overload", action="store_true",
+                   help="leave out the cycle whose first joint carries a load beyond test_cycle's effort limit "
+                        "(by default it runs first, fails, and is skipped by name)")
     p.set_defaults(func=cmd_demo)
 
 
@@ -435,6 +462,8 @@ def _values_per_joint(text: str | None, flag: str, n: int | None, default: Seque
 def cmd_demo(args: argparse.Namespace) -> int:
     from ..model import load_parameter_set_info
 
+    if args.commission:
+        return cmd_demo_commission(args)
     n = args.joints
     if n is not None and not 1 <= n <= MAX_DEMO_JOINTS:
         raise UsageError(f"--joints: {n} is outside 1-{MAX_DEMO_JOINTS}")
@@ -449,7 +478,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
            else ROBOT_REAL_TIME_FACTOR if n is not None else 2.0)
     if not 0.01 <= rtf <= 100.0:
         raise UsageError(f"--real-time-factor: {rtf:g} is outside 0.01-100")
-    timeout = parse_float(args.timeout, "--timeout")
+    timeout = parse_float(args.timeout, "--timeout") if args.timeout is not None else 180.0
     if not 0 < timeout <= 86400:
         raise UsageError(f"--timeout: {timeout:g} must be more than 0 and at most 86400 s")
     temperatures = (_values_per_joint(args.temperature, "--temperature", n, ()) if args.temperature is not None
@@ -540,3 +569,521 @@ def _print_robot(res: DemoResult, rc: int) -> int:
 def _fixed(x: float | None, digits: int) -> str:
     """``x`` with ``digits`` decimals; empty when unknown."""
     return f"{x:.{digits}f}" if x is not None and math.isfinite(x) else ""
+
+
+# --------------------------------------------------------------------------- demo --commission
+
+#: Default real-time factor of the commissioning demo (sim seconds per wall second).
+COMMISSION_REAL_TIME_FACTOR = 3.0
+#: Default wall seconds one cycle of the commissioning demo may take.
+COMMISSION_CYCLE_TIMEOUT = 900.0
+
+
+@dataclass
+class CycleRecord:
+    """One cycle of a commissioning run as the operator saw it: its stage, final state, the joint and reason
+    where it stopped (ABORTED/FAILED), its cell time and observations (FrictionObservation fields + ``time``)."""
+
+    cycle_id: int
+    stage: str
+    state: str
+    joint: str = ""
+    reason: str = ""
+    cell_seconds: float = math.nan
+    observations: list[dict[str, Any]] = field(default_factory=list)
+    live: dict[str, dict[str, Any]] = field(default_factory=dict)
+    bag: str | None = None
+
+    @property
+    def usable(self) -> bool:
+        return self.state == "DONE"
+
+    def skipped_dict(self) -> dict[str, Any]:
+        return {"cycle_id": self.cycle_id, "stage": self.stage, "state": self.state, "joint": self.joint,
+                "reason": self.reason, "node": "test_cycle", "bag": self.bag}
+
+
+@dataclass
+class CommissionedJoint:
+    """One joint's outcome: its commissioned set, and the test cycle's estimate with it and with ref-2011r."""
+
+    joint: str
+    params: str
+    frame: str
+    true_wear: float
+    parameter_set: str | None = None
+    estimate: float | None = None
+    std: float | None = None
+    temperature: float | None = None
+    reference_estimate: float | None = None
+    reference_std: float | None = None
+    live_estimate: float | None = None
+    live_std: float | None = None
+    baseline_cycles: list[int] = field(default_factory=list)
+    commission: dict[str, Any] = field(default_factory=dict)
+    error: str = ""
+
+    @property
+    def z(self) -> float | None:
+        if self.estimate is None or not self.std:
+            return None
+        return (self.estimate - self.true_wear) / self.std
+
+    @property
+    def reference_z(self) -> float | None:
+        if self.reference_estimate is None or not self.reference_std:
+            return None
+        return (self.reference_estimate - self.true_wear) / self.reference_std
+
+    def as_dict(self) -> dict[str, Any]:
+        c = self.commission
+        return {"joint": self.joint, "true_wear": self.true_wear, "estimate": self.estimate, "std": self.std,
+                "z": self.z, "reference_estimate": self.reference_estimate, "reference_std": self.reference_std,
+                "reference_z": self.reference_z, "parameter_set": self.parameter_set, "simulated_set": self.params,
+                "frame": self.frame, "temperature_estimate": self.temperature, "live_estimate": self.live_estimate,
+                "live_std": self.live_std, "baseline_cycles": self.baseline_cycles,
+                "wear_calibration": c.get("wear_calibration"), "verdict": c.get("verdict"),
+                "converged": c.get("converged"), "cv_rmse": c.get("cv_rmse"), "noise_floor": c.get("noise_floor"),
+                "commission_warnings": c.get("warnings", []), "error": self.error or None}
+
+
+@dataclass
+class CommissionDemoResult:
+    joints: list[CommissionedJoint]
+    cycles: list[CycleRecord]
+    wall_seconds: float
+    real_time_factor: float
+    speeds: list[float]
+    sets_dir: str
+    bags: list[str]
+    logs: str
+
+    @property
+    def cell_seconds(self) -> float:
+        cells = [c.cell_seconds for c in self.cycles if math.isfinite(c.cell_seconds)]
+        return float(sum(cells)) if cells else math.nan
+
+    @property
+    def skipped(self) -> list[CycleRecord]:
+        return [c for c in self.cycles if not c.usable]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "commissioned": [j.as_dict() for j in self.joints],
+            "skipped_cycles": [c.skipped_dict() for c in self.skipped],
+            "cycles": [{"cycle_id": c.cycle_id, "stage": c.stage, "state": c.state,
+                        "cell_seconds": _finite_or_none(c.cell_seconds), "observations": len(c.observations),
+                        "bag": c.bag}
+                       for c in self.cycles],
+            "speeds": self.speeds,
+            "real_time_factor": self.real_time_factor,
+            "cell_seconds": _finite_or_none(self.cell_seconds),
+            "wall_seconds": self.wall_seconds,
+            "sets_dir": self.sets_dir,
+            "bags": self.bags,
+            "logs": self.logs,
+        }
+
+
+def _observation_dict(o: Any) -> dict[str, Any]:
+    from ..io.bags import OBSERVATION_FIELDS, message_fields, stamp_seconds
+
+    d = message_fields(o, OBSERVATION_FIELDS)
+    d["time"] = stamp_seconds(o.header)
+    return d
+
+
+def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequence[float], names: Sequence[str],
+               timeout: float) -> CycleRecord:
+    """Start one robot cycle, follow it to its end, wait for its observations; what happened."""
+    cycle_id, _ = op.start_cycle(speeds, children)
+    _progress(f"{stage} cycle {cycle_id} accepted")
+    shown: list[tuple[Any, ...] | None] = [None]
+
+    def tick() -> None:
+        st = op.status
+        if st is None or st.cycle_id != cycle_id:
+            return
+        key = (st.joint_name, st.state, st.speeds_done)
+        if key != shown[0]:
+            shown[0] = key
+            extra = f": {st.message}" if st.state in (CycleState.ABORTED, CycleState.FAILED) and st.message else ""
+            where = f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else ""
+            _progress(f"{stage} cycle {cycle_id} {where}{st.state_name}, speeds done "
+                      f"{st.speeds_done}/{st.speeds_total}{extra}")
+
+    op.spin_until(lambda: op.robot_cycle_over(cycle_id), timeout, children, f"the end of {stage} cycle {cycle_id}",
+                  tick)
+    stopped = next((st for st in op.statuses if st.cycle_id == cycle_id
+                    and st.state in (CycleState.ABORTED, CycleState.FAILED)), None)
+    rec = CycleRecord(cycle_id, stage, "DONE" if stopped is None else stopped.state_name)
+    if stopped is not None:
+        rec.joint, rec.reason = stopped.joint_name, stopped.message or "no reason given"
+    else:
+        try:  # every speed of every joint observed (the observer may trail the cycle's end on a loaded machine)
+            op.spin_until(lambda: all(op.observer_done(cycle_id, j) for j in op.joints_started(cycle_id)), 60.0,
+                          children, f"every observation of cycle {cycle_id}")
+        except CellError as exc:
+            _progress(f"{exc}; going on with the observations heard")
+    rec.cell_seconds = op.cell_seconds(cycle_id)
+    rec.observations = [_observation_dict(o) for o in op.observations if o.cycle_id == cycle_id]
+    return rec
+
+
+def run_commission_demo(
+    joints: int,
+    out: Path,
+    speeds: Sequence[float] | None = None,
+    baseline_cycles: int = 6,
+    test_wear: Sequence[float] = (10.0, 30.0, 40.0),
+    wear_calibration: str | None = None,
+    overload: bool = True,
+    real_time_factor: float = COMMISSION_REAL_TIME_FACTOR,
+    cycle_timeout: float = COMMISSION_CYCLE_TIMEOUT,
+    domain_id: int | None = None,
+    overrides: dict[str, dict[str, Any]] | None = None,
+) -> CommissionDemoResult:
+    """Commission a simulated robot of ``joints`` joints end to end (see ``jointwear demo --help``).
+
+    One cell (the five nodes of the demo) runs every cycle of :func:`~jointwear_ros.commission.demo.
+    plan_commissioning`; between cycles the operator sets joint_sim's per-joint temperature, gravity and wear
+    (``<joint>.temperature`` ...), as a warm-up and other poses would change them. A cycle that did not end DONE
+    is skipped by name and re-run once (the overloaded one is not re-run). Each joint is then commissioned
+    in-process (:func:`~jointwear_ros.commission.commission`, the default wear calibration unless
+    ``wear_calibration``) on its baseline observations, its set written to ``OUT/sets/<joint>.yaml``, and the
+    test cycle (temperature not given) estimated with that set and with ``ref-2011r``
+    (:func:`~jointwear_ros.commission.estimate_cycles`, joint estimator). The live wear_estimator is switched to
+    the commissioned sets before the test cycle; its estimates are reported as ``live_estimate``.
+    """
+    from ..commission.demo import demo_joints, plan_commissioning
+    from ..io.bags import find_bags
+    from ..nodes.runtime import loopback_env
+
+    t_start = time.monotonic()
+    if domain_id is None:
+        env_id = os.environ.get("ROS_DOMAIN_ID", "")
+        domain_id = int(env_id) if env_id.isdigit() else random.Random(os.getpid() ^ int(time.time())).randint(10, 99)
+    env = loopback_env(domain_id)
+    logdir, bagdir, setdir = out / "logs", out / "bags", out / "sets"
+    for d in (logdir, bagdir, setdir):
+        d.mkdir(parents=True, exist_ok=True)
+    bags_before = set(find_bags(bagdir))
+    names = robot_joint_names(joints)
+    setups = demo_joints(names)
+    plan = plan_commissioning(setups, baseline_cycles, test_wear, overload)
+    first = plan[0].settings
+    rtf_grace = max(float(real_time_factor), 1.0)
+    sim: dict[str, Any] = {"use_sim_time": False, "publish_clock": True, "real_time_factor": float(real_time_factor),
+                           "command_timeout": float(_config_value("joint_sim", "command_timeout", 0.5)) * rtf_grace}
+    cyc: dict[str, Any] = {"use_sim_time": True, "simulator": True,
+                           "state_timeout": float(_config_value("test_cycle", "state_timeout", 0.25)) * rtf_grace}
+    obs: dict[str, Any] = {"use_sim_time": True, "temperature_topic": "/joint_temperature"}
+    for j in setups:
+        s = first[j.name]
+        sim.update({f"{j.name}.params": j.params, f"{j.name}.gear_ratio": j.gear_ratio,
+                    f"{j.name}.torque_scale": j.torque_scale, f"{j.name}.temperature": s.temperature,
+                    f"{j.name}.gravity_torque": s.gravity_torque, f"{j.name}.wear": s.wear})
+        cyc.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.effort_limit": j.effort_limit})
+        obs.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.torque_scale": j.torque_scale})
+    params: dict[str, dict[str, Any]] = {
+        "recorder": {"use_sim_time": True, "output_dir": str(bagdir.resolve()), "split": "cycle"},
+        "joint_sim": sim, "test_cycle": cyc, "friction_observer": obs,
+        "wear_estimator": {"use_sim_time": True, "done_timeout": _config_done_timeout() * float(real_time_factor)},
+    }
+    for node in _JOINT_NODES:
+        params[node]["joints"] = list(names)
+    for node, values in (overrides or {}).items():
+        params[node].update(values)
+    children: list[Child] = []
+    op: Operator | None = None
+    records: list[CycleRecord] = []
+    results: list[CommissionedJoint] = []
+    try:
+        _progress(f"ROS_DOMAIN_ID={domain_id}, loopback only; logs in {logdir}; "
+                  + ", ".join(f"{j.name} {j.params}" for j in setups))
+        for name in DEMO_NODES:
+            children.append(start_child(name, params[name], env, logdir))
+            _progress(f"started {name} (pid {children[-1].proc.pid})")
+        op = Operator(names, domain_id, progress=_progress)
+        missing = ready_conditions(op)
+        op.spin_until(lambda: not missing(), 60.0, children, "the nodes to connect")
+        _progress(f"graph connected after {time.monotonic() - t_start:.1f} s")
+        n_plan = len(plan)
+        jog = False
+        for k, pc in enumerate(plan):
+            if pc.stage == "test" and not results:
+                results = _commission_joints(setups, records, setdir, wear_calibration)
+                _switch_estimator(op, children, results)
+            live: dict[str, Any] = {}
+            for jn, st in pc.settings.items():
+                live.update({f"{jn}.temperature": st.temperature, f"{jn}.gravity_torque": st.gravity_torque,
+                             f"{jn}.wear": st.wear})
+            op.set_parameters("joint_sim", live, children)
+            _progress(f"cycle {k + 1} of {n_plan} ({pc.stage}): " + ", ".join(
+                f"{jn} {st.temperature:.1f} degC, load {st.gravity_torque:g}"
+                + (f", wear {st.wear:g}" if st.wear else "") for jn, st in pc.settings.items()))
+            for attempt in (0, 1):
+                if jog:
+                    # as an operator would after a stop, with the next window's load: jog the joints back to
+                    # their windows (test_cycle refuses to start a joint that overran a limit)
+                    try:
+                        op.jog_to({jn: _window_centre(jn) for jn in names}, children)
+                    except CellError as exc:
+                        _progress(f"{exc}; test_cycle will approach the windows itself")
+                    jog = False
+                rec = _run_cycle(op, children, pc.stage, speeds or [], names, cycle_timeout)
+                records.append(rec)
+                if rec.usable:
+                    break
+                _progress(f"{pc.stage} cycle {rec.cycle_id} {rec.state} at {rec.joint}: {rec.reason}; skipped"
+                          + ("" if pc.stage == "overload" or attempt else ", running it again"))
+                jog = True
+                if pc.stage == "overload":
+                    break
+            if pc.stage == "test" and records[-1].usable:
+                _live_estimates(op, children, records[-1], names)
+        time.sleep(0.5)
+    finally:
+        if op is not None:
+            op.close()
+        if children:
+            _progress("stopping the nodes")
+            stop_children([c for c in children if c.name not in ("joint_sim", "recorder")], progress=_progress)
+            stop_children([c for c in children if c.name == "recorder"], progress=_progress)
+            stop_children([c for c in children if c.name == "joint_sim"], progress=_progress)
+    if not results:  # the run ended before its test cycle
+        results = _commission_joints(setups, records, setdir, wear_calibration)
+    test_settings = next(pc for pc in plan if pc.stage == "test").settings
+    for res in results:
+        res.true_wear = test_settings[res.joint].wear
+    _estimate_tests(results, [r for r in records if r.usable and r.stage == "test"])
+    bags = [str(b) for b in _sort_bags([b for b in find_bags(bagdir) if b not in bags_before], records, bagdir)]
+    return CommissionDemoResult(results, records, time.monotonic() - t_start, float(real_time_factor),
+                                [float(s) for s in speeds or []], str(setdir), bags, str(logdir))
+
+
+def _sort_bags(bags: Sequence[Path], records: Sequence[CycleRecord], bagdir: Path) -> list[Path]:
+    """Move each cycle's bag (the recorder splits by cycle: ``..._cycle<id>``) into ``bagdir/baseline``,
+    ``bagdir/test`` or ``bagdir/skipped`` (a cycle that did not end DONE), so that ``jointwear commission
+    OUT/bags/baseline/*`` takes exactly the baseline; sets each record's ``bag``. Returns the bags' new paths."""
+    by_id = {r.cycle_id: r for r in records}
+    out: list[Path] = []
+    for b in bags:
+        _, sep, tail = b.name.rpartition("_cycle")
+        rec = by_id.get(int(tail)) if sep and tail.isdigit() else None
+        if rec is None:
+            out.append(b)
+            continue
+        kind = "skipped" if not rec.usable else "test" if rec.stage == "test" else "baseline"
+        dest = bagdir / kind / b.name
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            b.rename(dest)
+        except OSError as exc:
+            _progress(f"could not move {b} to {dest}: {exc}")
+            dest = b
+        rec.bag = str(dest)
+        out.append(dest)
+    return out
+
+
+def _window_centre(joint: str) -> float:
+    """test_cycle's configured window centre of ``joint`` (its ``position``), rad."""
+    value = _config_value("test_cycle", f"{joint}.position", None)
+    return float(value if value is not None else _config_value("test_cycle", "position", 0.0))
+
+
+def _live_estimates(op: Operator, children: Sequence[Child], rec: CycleRecord, names: Sequence[str]) -> None:
+    """The live wear_estimator's estimate of each joint in the test cycle (none when it does not come)."""
+    try:
+        op.spin_until(lambda: op.estimated(rec.cycle_id), 60.0, children, f"the live estimates of cycle {rec.cycle_id}")
+        for jn in names:
+            rec.live[jn] = op.joint_report(rec.cycle_id, jn, children, wait=5.0).estimate
+    except CellError as exc:
+        _progress(f"{exc}; reporting the in-process estimates only")
+
+
+def _commission_joints(setups: Sequence[Any], records: Sequence[CycleRecord], setdir: Path,
+                       wear_calibration: str | None) -> list[CommissionedJoint]:
+    """Commission every joint on the observations of its baseline cycles that ended DONE; write each set to
+    ``setdir/<joint>.yaml``. A joint that cannot be commissioned gets the reason in ``error``."""
+    import yaml
+
+    from ..commission import commission
+    from ..commission.demo import observation_table
+    from ..estimation import set_frame_table
+    from ..model import ParameterSet, SetUnits, parameter_set_document
+
+    baseline = [r for r in records if r.usable and r.stage in ("baseline", "overload")]
+    out: list[CommissionedJoint] = []
+    for j in setups:
+        res = CommissionedJoint(j.name, j.params, j.frame, math.nan)
+        out.append(res)
+        rows = [o for r in baseline for o in r.observations if o["joint_name"] == j.name]
+        res.baseline_cycles = sorted({int(o["cycle_id"]) for o in rows})
+        units = SetUnits("joint", j.gear_ratio, j.torque_scale) if j.joint_side else SetUnits()
+        _progress(f"commissioning {j.name} ({j.params}, {j.frame}) on {len(rows)} observations of "
+                  f"{len(res.baseline_cycles)} baseline cycles")
+        try:
+            table = observation_table(rows, f"{j.name} baseline")
+            # the suite's units (motor side, normalized) to the set's, as `commission --gear-ratio` does for bags
+            table = set_frame_table(table, ParameterSet("x", "", {}, units=units))
+            kw: dict[str, Any] = {} if wear_calibration is None else {"wear_calibration": wear_calibration}
+            cr = commission(table, joint=j.name, robot="demo", units=units,
+                            sources=[f"cycle {c}" for c in res.baseline_cycles], **kw)
+        except JointwearError as exc:
+            res.error = f"commissioning {j.name} failed: {exc}"
+            _progress(res.error)
+            continue
+        path = setdir / f"{j.name}.yaml"
+        path.write_text(yaml.safe_dump(parameter_set_document(cr.parameter_set(j.name)), sort_keys=False,
+                                       allow_unicode=True), encoding="utf-8")
+        res.parameter_set = str(path)
+        res.commission = cr.to_dict(str(path))
+        _progress(f"{j.name}: wrote {path} (verdict {cr.verdict}, CV RMSE {cr.cv_rmse:.3g}, wear calibration "
+                  f"{cr.wear.label})")
+    return out
+
+
+def _switch_estimator(op: Operator, children: Sequence[Child], joints: Sequence[CommissionedJoint]) -> None:
+    """The live wear_estimator takes each commissioned set (``<joint>.params``, a live parameter) and leaves the
+    observations' temperature aside, as for a joint whose temperature is not known."""
+    values: dict[str, Any] = {f"{j.joint}.params": str(Path(j.parameter_set).resolve()) for j in joints
+                              if j.parameter_set}
+    values["use_measured_temperature"] = False
+    try:
+        op.set_parameters("wear_estimator", values, children)
+    except CellError as exc:
+        _progress(f"the live estimator keeps its sets: {exc}")
+
+
+def _estimate_tests(joints: Sequence[CommissionedJoint], tests: Sequence[CycleRecord]) -> None:
+    """Each joint's test cycle (the last that ended DONE), temperature left out, estimated with its commissioned
+    set and with ref-2011r by the joint estimator."""
+    from ..commission import estimate_cycles
+    from ..commission.demo import observation_table
+    from ..model import load_parameter_set_info
+
+    ref = load_parameter_set_info("ref-2011r")
+    noise = float(_config_value("wear_estimator", "observation_noise_std", 0.0015))
+    test = tests[-1] if tests else None
+    for res in joints:
+        if test is not None:
+            live = test.live.get(res.joint, {})
+            res.live_estimate, res.live_std = live.get("wear"), live.get("wear_std")
+        if res.error or res.parameter_set is None:
+            continue
+        rows = [o for o in (test.observations if test else []) if o["joint_name"] == res.joint]
+        if not rows:
+            res.error = (f"{res.joint}: no observations of test cycle {test.cycle_id}" if test is not None
+                         else f"{res.joint}: every test cycle failed")
+            continue
+        # as the cell's wear_estimator sees them: no temperature, its observation_noise_std added to tau_f_std
+        table = observation_table(rows, f"{res.joint} test cycle {test.cycle_id}",  # type: ignore[union-attr]
+                                  temperature=False, noise_std=noise)
+        try:
+            e = estimate_cycles([("test", res.joint, table)], load_parameter_set_info(res.parameter_set), "joint")
+            r = e[-1].result
+            res.estimate, res.std, res.temperature = float(r.wear), float(r.wear_std), float(r.temperature)
+        except JointwearError as exc:
+            res.error = f"{res.joint}: the commissioned set refused the test cycle: {exc}"
+        try:
+            r = estimate_cycles([("test", res.joint, table)], ref, "joint")[-1].result
+            res.reference_estimate, res.reference_std = float(r.wear), float(r.wear_std)
+        except JointwearError as exc:
+            _progress(f"{res.joint}: ref-2011r refused the test cycle: {exc}")
+
+
+def _int_arg(value: int, flag: str, lo: int, hi: int) -> int:
+    if not lo <= value <= hi:
+        raise UsageError(f"{flag}: {value} is outside {lo}-{hi}")
+    return value
+
+
+def cmd_demo_commission(args: argparse.Namespace) -> int:
+    for flag, value in (("--wear", args.wear), ("--temperature", args.temperature), ("--method", args.method)):
+        if value is not None:
+            raise UsageError(f"{flag}: the commissioning demo sets it per cycle (use --test-wear for the test cycle)")
+    n = _int_arg(args.joints if args.joints is not None else 6, "--joints", 1, MAX_DEMO_JOINTS)
+    k = _int_arg(args.baseline_cycles, "--baseline-cycles", MIN_BASELINE_CYCLES, 40)
+    test_wear = parse_float_list(args.test_wear, "--test-wear") if "," in args.test_wear else [
+        parse_float(args.test_wear, "--test-wear")]
+    for w in test_wear:
+        if not 0.0 <= w <= 100.0:
+            raise UsageError(f"--test-wear: {w:g} is outside 0-100")
+    speeds = parse_float_list(args.speeds, "--speeds") if args.speeds is not None else None
+    if speeds is not None:
+        if any(not s > 0 for s in speeds):
+            raise UsageError(f"--speeds: every speed must be > 0 rad/s (got {args.speeds})")
+        if len(set(speeds)) < 5:
+            raise UsageError(f"--speeds: {len(set(speeds))} distinct speed(s); commissioning needs at least 5")
+    rtf = (parse_float(args.real_time_factor, "--real-time-factor") if args.real_time_factor is not None
+           else COMMISSION_REAL_TIME_FACTOR)
+    if not 0.01 <= rtf <= 100.0:
+        raise UsageError(f"--real-time-factor: {rtf:g} is outside 0.01-100")
+    timeout = parse_float(args.timeout, "--timeout") if args.timeout is not None else COMMISSION_CYCLE_TIMEOUT
+    if not 0 < timeout <= 86400:
+        raise UsageError(f"--timeout: {timeout:g} must be more than 0 and at most 86400 s")
+    wc = args.wear_calibration
+    if wc is not None and wc not in ("paper", "relative") and not Path(wc).is_file():
+        raise UsageError(f"--wear-calibration {wc!r}: use paper, relative or an existing calibration FILE")
+    if args.domain_id is not None and not 0 <= args.domain_id <= 232:
+        raise UsageError(f"--domain-id: {args.domain_id} is outside 0-232")
+    overrides = parse_overrides(args.set)
+    check_overrides(overrides)
+    if any("joints" in overrides.get(node, {}) for node in _JOINT_NODES):
+        raise UsageError("--set NODE.joints: the demo sets the joints of every node from --joints N")
+    check_output_dir(args.out, "--out")
+    res = run_commission_demo(n, Path(args.out), speeds, k, test_wear, wc, not args.no_overload, rtf, timeout,
+                              args.domain_id, overrides)
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):  # the same document --json prints
+        print_json(res.as_dict())
+    Path(args.out).mkdir(parents=True, exist_ok=True)
+    (Path(args.out) / "commission.json").write_text(buf.getvalue(), encoding="utf-8")
+    failed = [j for j in res.joints if j.error or j.estimate is None]
+    rc = 1 if failed else 0
+    for j in failed:
+        skipped = "; ".join(f"cycle {r.cycle_id} {r.state} at {r.joint} (test_cycle: {r.reason})" for r in res.skipped)
+        print(f"error: {j.error or j.joint + ': no estimate'}" + (f" [skipped: {skipped}]" if skipped else ""),
+              file=sys.stderr)
+    if args.json:
+        print_json(res.as_dict())
+        return rc
+    _print_commission(res)
+    return rc
+
+
+def _pm(x: float | None, s: float | None) -> str:
+    return "none" if x is None else f"{x:.2f} ± {s:.2f}" if s is not None else f"{x:.2f}"
+
+
+def _z(z: float | None) -> str:
+    return "" if z is None else f"{z:+.1f}"
+
+
+def _print_commission(res: CommissionDemoResult) -> None:
+    rows = []
+    for j in res.joints:
+        c = j.commission
+        rows.append([j.joint, j.params, f"{j.true_wear:g}", _pm(j.estimate, j.std), _z(j.z),
+                     _pm(j.reference_estimate, j.reference_std), _z(j.reference_z), c.get("verdict", ""),
+                     str(len(j.baseline_cycles))])
+    print(f"commissioned {len(res.joints)} joint(s); test cycle at unknown temperature, joint estimator")
+    print(format_table(["joint", "simulated", "true w", "commissioned", "z", "ref-2011r (before)", "z ref",
+                        "verdict", "cycles"], rows))
+    for r in res.skipped:
+        print(f"skipped {r.stage} cycle {r.cycle_id}: {r.state} at {r.joint} (test_cycle: {r.reason})")
+    for j in res.joints:
+        if j.parameter_set:
+            print(f"{j.joint}: {j.parameter_set} (wear calibration {j.commission.get('wear_calibration')})")
+        if j.error:
+            print(f"{j.joint}: {j.error}")
+    cell = f"{res.cell_seconds:.0f} s of cell time (sim), " if math.isfinite(res.cell_seconds) else ""
+    kinds = sorted({str(Path(b).parent) for b in res.bags})
+    print(f"bags: {len(res.bags)} in {', '.join(kinds) or '-'}; logs: {res.logs}")
+    print(f"{len(res.cycles)} cycles, {cell}{res.wall_seconds:.1f} s wall at {res.real_time_factor:g}x real time; "
+          f"the --json document: {Path(res.sets_dir).parent / 'commission.json'}")

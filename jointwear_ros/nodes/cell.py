@@ -263,6 +263,10 @@ class Operator:
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, qos)
         self.node.create_subscription(TestCycleStatus, "/test_cycle/status", self._on_status, qos)
         self.client = self.node.create_client(RunTestCycle, "/test_cycle/run")
+        self._param_clients: dict[str, Any] = {}
+        self._jog_pub: Any = None
+        #: the newest joint positions heard (joint side, rad), while jogging
+        self.positions: dict[str, float] = {}
         self.Request = RunTestCycle.Request
 
     def _on_estimate(self, msg: Any) -> None:
@@ -476,6 +480,71 @@ class Operator:
         if not accepted:
             raise CellError(f"/test_cycle/run refused the request ({reason.name}): {message}")
         return cycle_id, message
+
+    def set_parameters(self, node: str, values: Mapping[str, Any], children: Sequence[Child],
+                       timeout: float = 15.0) -> None:
+        """Set parameters of a running node as ``ros2 param set`` would (its ``~/set_parameters`` service), e.g.
+        ``set_parameters("joint_sim", {"joint_3.temperature": 35.0})``: a live change of the simulation between
+        cycles. Raises :class:`CellError` with the node's reason for a value it refused."""
+        from rcl_interfaces.srv import SetParameters
+        from rclpy.parameter import Parameter
+
+        if not values:
+            return
+        client = self._param_clients.get(node)
+        if client is None:
+            client = self.node.create_client(SetParameters, f"/{node}/set_parameters")
+            self._param_clients[node] = client
+        self.spin_until(client.service_is_ready, timeout, children, f"/{node}/set_parameters")
+        names = list(values)
+        req = SetParameters.Request(parameters=[Parameter(n, value=values[n]).to_parameter_msg() for n in names])
+        fut = client.call_async(req)
+        self.spin_until(fut.done, timeout, children, f"the answer of /{node}/set_parameters")
+        refused = [f"{n}: {r.reason}" for n, r in zip(names, fut.result().results) if not r.successful]
+        if refused:
+            raise CellError(f"{node} refused parameter(s) {'; '.join(refused)}")
+
+    def jog_to(self, targets: Mapping[str, float], children: Sequence[Child], speed: float = 0.3,
+               tolerance: float = 0.03, timeout: float = 60.0,
+               command_topic: str = "/velocity_controller/commands") -> None:
+        """Move joints to ``targets`` (joint side, rad) with velocity commands, as an operator jogs a joint back
+        after a cycle stopped it near or beyond a limit (test_cycle refuses to start a joint outside its
+        limits). Only while no cycle runs: test_cycle commands the joints then. The command array carries one
+        velocity per joint of this operator, in its order (the order of joint_sim's ``joints``); each joint
+        moves at most ``speed`` rad/s, slowing near its target, until every joint is within ``tolerance``."""
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Float64MultiArray
+
+        if self._jog_pub is None:
+            self._jog_pub = self.node.create_publisher(Float64MultiArray, command_topic, 10)
+            self.node.create_subscription(JointState, "/joint_states", self._on_joint_state, 10)
+        pub = self._jog_pub
+        self.positions.clear()
+        self.spin_until(lambda: all(j in self.positions for j in targets), 15.0, children, "/joint_states")
+
+        def command() -> list[float]:
+            out = []
+            for j in self.joints:
+                err = targets[j] - self.positions[j] if j in targets and j in self.positions else 0.0
+                out.append(0.0 if abs(err) < tolerance else max(-speed, min(speed, 2.0 * err)))
+            return out
+
+        def arrived() -> bool:
+            cmd = command()
+            pub.publish(Float64MultiArray(data=cmd))
+            return not any(cmd)
+
+        end = time.monotonic() + timeout
+        while not arrived():
+            if time.monotonic() > end:
+                raise CellError(f"timed out after {timeout:.0f} s jogging {', '.join(targets)} to "
+                                f"{', '.join(f'{v:g}' for v in targets.values())} rad")
+            self.spin_until(after(time.monotonic() + 0.02), 5.0, children, "a jog step")
+        pub.publish(Float64MultiArray(data=[0.0] * len(self.joints)))
+
+    def _on_joint_state(self, msg: Any) -> None:
+        for name, pos in zip(msg.name, msg.position):
+            self.positions[str(name)] = float(pos)
 
     def close(self) -> None:
         try:
