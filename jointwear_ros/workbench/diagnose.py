@@ -52,7 +52,7 @@ from ..errors import ModelError
 from ..model import TERMS, Model, Parameters, Term
 from ..types import ObservationTable
 from .candidates import candidate_library, parse_spec
-from .compare import NoiseFloor, noise_test, speed_region
+from .compare import NoiseFloor, noise_test, speed_region, sweep_scatter
 from .dependence import VariableDependence, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
 from .shapes import HarmonicRipple, Interaction, Scale, Spline, Step, is_angle
@@ -466,6 +466,11 @@ def diagnose(
     outliers = find_outliers(table, base.residuals, alpha=alpha)  # before any shape is fitted
     variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf,
                                     tangent=_tangent(base, table), components=_components(base, table))
+    if not noise.consistent and not any(v.significant for v in variables):
+        # no column explains the residual: a scatter between sweeps that tau_f_std cannot see is noise
+        between = sweep_scatter(table, base.residuals, base.n_free, noise, alpha=alpha / 2)
+        if between is not None:
+            noise, nf = between, between.value
     if mode not in ("guided", "full"):
         raise ValueError(f"mode must be 'guided' or 'full', got {mode!r}")
     if library is not None:
