@@ -271,7 +271,16 @@ def _identifiable_model(model: Model, table: ObservationTable, where: str
                 raise CommissionError(f"{where}: observations without a load torque; model {model.spec!r} has load "
                                       "terms: give load_torque with every observation")
             ld = np.abs(ld)
-            if ld.max() <= 0 or np.ptp(ld) < MIN_LOAD_SPAN * ld.max():
+            cycles = np.unique(table["cycle"]).size if "cycle" in table else 1
+            if cycles < MIN_CYCLES and ld.max() > 0 and np.ptp(ld) >= MIN_LOAD_SPAN * ld.max():
+                held = {k: v for k, v in _LOAD_SENSITIVITY.items() if any(k in parse_spec(n).param_names
+                                                                          for n in loads)}
+                fixed.update(held)
+                priors.append(f"{cycles} sweep(s): the load torque ({ld.min():.4g}-{ld.max():.4g}) changes only "
+                              f"with the speed, so its terms cannot be told from the speed terms: {', '.join(held)} "
+                              "fixed at 0 (prior: no load dependence); record cycles at windows of different "
+                              "gravity load to identify them")
+            elif ld.max() <= 0 or np.ptp(ld) < MIN_LOAD_SPAN * ld.max():
                 held = {k: v for k, v in _LOAD_SENSITIVITY.items() if any(k in parse_spec(n).param_names
                                                                           for n in loads)}
                 fixed.update(held)
