@@ -34,7 +34,8 @@ explain:
    :data:`STABLE_SUPPORT` of the bootstrap resamples by cycle against every
    other explanation), else ``unexplained`` (what remains, where, how far
    above the floor the best shape stays, and the alternatives the data does
-   not rule out).
+   not rule out); ``undetermined`` when there is no noise estimate to judge the residual by (no
+   ``tau_f_std``, no repeated observations, no cycles to compare at equal speed).
 """
 
 from __future__ import annotations
@@ -64,7 +65,7 @@ __all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diag
 #: A candidate "found" the missing effect when its CV RMSE is within this many noise floors.
 FOUND_RATIO = 1.3
 #: The three answers of a diagnosis.
-VERDICTS = ("nothing_missing", "found", "unexplained")
+VERDICTS = ("nothing_missing", "found", "unexplained", "undetermined")
 #: Bootstrap resamples (by cycle) of the choice among the best candidates.
 N_BOOTSTRAP = 200
 #: "found" needs candidates of the best one's column(s) to win at least this share of the resamples.
@@ -527,6 +528,11 @@ def diagnose(
     )
     sig_vars = [v for v in variables if v.significant]
     best = diag.best
+    if not math.isfinite(nf):
+        # no noise estimate: nothing to compare the residual with; the verdict cannot be given
+        diag.verdict = "undetermined"
+        diag.suggestion = best.term if best is not None else None
+        return diag
     if best is None:
         diag.verdict = "nothing_missing" if noise.consistent and not sig_vars else "unexplained"
         return diag

@@ -339,6 +339,8 @@ def fit_model(
     rescale: bool = True,
     widen: int = 2,
     physical: bool = True,
+    _clipped: bool = False,
+    _check_only: bool = False,
 ) -> FitResult:
     """Fit ``model`` to ``table`` by nonlinear least squares.
 
@@ -370,7 +372,7 @@ def fit_model(
         fit ends on it.
     physical
         Physical signs hold (default): the speed-only Stribeck amplitude ``Fs`` and viscous coefficient
-        ``Fv`` are at least 0, and a fit whose Stribeck or viscous term (:data:`SIGNED_TERMS`) is negative
+        ``Fv`` are at least 0 (a fit that ends below refits with the bound at 0), and a fit whose Stribeck or viscous term (:data:`SIGNED_TERMS`) is negative
         at the data is not called converged (the message names it).
 
     Returns
@@ -385,7 +387,15 @@ def fit_model(
     auto: set[str] = set()
     if sc is not None:
         p0, auto = scale_parameters(model, p0, sc)
-    if physical:
+    if physical and not _clipped:
+        res = fit_model(model, table, params, fixed=fixed, starts=starts, n_starts=n_starts, cv_folds=cv_folds,
+                        folds=folds, cv_max_nfev=cv_max_nfev, max_nfev=max_nfev, scales=scales, rescale=rescale,
+                        widen=widen, physical=True, _clipped=True, _check_only=True)
+        neg = [nm for nm in NONNEGATIVE if nm in res.free and res.params[nm].value < 0]
+        if not neg:
+            return res
+        # a negative Stribeck amplitude or viscous coefficient: refit with it at least 0
+    if _clipped and not _check_only:
         for nm in NONNEGATIVE:
             if nm in p0 and p0[nm].min < 0 and nm not in fixed:
                 p0[nm].min = 0.0

@@ -151,12 +151,21 @@ def diagnosis_summary(d: Diagnosis) -> str:
 
     b = d.best
     nf = d.noise
+    if d.verdict == "undetermined":
+        cv = (f"CV RMSE {d.cv_rmse:.5f}" if math.isfinite(d.cv_rmse) else
+              "no CV RMSE (a single group: nothing to hold out)")
+        sug = f" The best candidate would be {b.term} (p = {b.p_value:.2g})." if b is not None else ""
+        return (f"Undetermined: model {d.model!r} has RMSE {d.rmse:.5f}, {cv}, but there is no noise estimate to "
+                "judge it by (no tau_f_std column, no repeated observations, no cycles to compare at equal speed), "
+                f"so whether an effect is missing cannot be said.{sug} Give tau_f_std or record repeated cycles."
+                + _outlier_text(d))
     if d.verdict == "nothing_missing":
         top = d.variables[0] if d.variables else None
-        dep = (f"; no column explains its residual (strongest: {top.name}, adjusted p = {top.p_value:.2g})"
-               if top else "; no column to test")
+        dep = (f"; no column explains its residual (strongest: {top.name}, adjusted p = {top.p_value:.2g}, "
+               f"significant below {d.alpha / 2:g})" if top else "; no column to test")
         cand = (f"; the best candidate, {d.candidates[0].term}, is not significant "
-                f"(p = {d.candidates[0].p_value:.2g})") if d.candidates else ""
+                f"(p = {d.candidates[0].p_value:.2g}; significant below {d.alpha / max(len(d.candidates), 1):.2g} "
+                "with a lower CV RMSE and BIC)") if d.candidates else ""
         text = (f"Nothing missing: model {d.model!r} has CV RMSE {d.cv_rmse:.5f} "
                 f"({_ratio(nf, d.cv_rmse)}); {floor_text(nf)}{dep}{cand}.")
     elif d.verdict == "found" and b is not None:
