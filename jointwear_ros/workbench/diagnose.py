@@ -467,11 +467,18 @@ def diagnose(
     outliers = find_outliers(table, base.residuals, alpha=alpha)  # before any shape is fitted
     variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf,
                                     tangent=_tangent(base, table), components=_components(base, table))
-    if not noise.consistent and not any(v.significant for v in variables):
-        # no column explains the residual: a scatter between sweeps that tau_f_std cannot see is noise
+    if not noise.consistent:
+        # a scatter between sweeps that tau_f_std cannot see is noise, when no column explains the residual
+        # against that larger floor either (a missing effect of a column stays significant against it)
         between = sweep_scatter(table, base.residuals, base.n_free, noise, alpha=alpha / 2)
         if between is not None:
-            noise, nf = between, between.value
+            again = variables
+            if any(v.significant for v in variables):
+                again = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed,
+                                            noise=between.value, tangent=_tangent(base, table),
+                                            components=_components(base, table))
+            if not any(v.significant for v in again):
+                noise, nf, variables = between, between.value, again
     if mode not in ("guided", "full"):
         raise ValueError(f"mode must be 'guided' or 'full', got {mode!r}")
     if library is not None:
