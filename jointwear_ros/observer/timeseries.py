@@ -433,6 +433,16 @@ def _runs(mask: Array) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
+def _close(mask: npt.NDArray[np.bool_], same: npt.NDArray[np.bool_], gap: int) -> npt.NDArray[np.bool_]:
+    """``mask`` with its gaps of at most ``gap`` samples filled where ``same`` holds throughout (the direction)."""
+    out = mask.copy()
+    runs = _runs(mask)
+    for (_, b), (a2, _) in itertools.pairwise(runs):
+        if a2 - b <= gap and same[b:a2].all():
+            out[b:a2] = True
+    return out
+
+
 def _overlap(a: tuple[float, float], b: tuple[float, float]) -> float:
     return min(a[1], b[1]) - max(a[0], b[0])
 
@@ -473,7 +483,8 @@ def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], c
         at = moving & (np.abs(np.abs(v) - level) <= cfg.speed_tolerance * level)
         plats: list[tuple[int, int, int]] = []  # (start, stop, direction)
         for d in (1, -1):
-            for a, b in _runs(at & (sgn == d)):
+            # a noisy velocity leaves the tolerance for a few samples now and then: short gaps do not end a plateau
+            for a, b in _runs(_close(at & (sgn == d), sgn == d, max(3, cfg.min_samples // 2))):
                 if b - a < cfg.min_samples:
                     continue
                 if t[b - 1] - t[a] + dt < cfg.min_plateau_fraction * motion_len[a]:

@@ -394,7 +394,7 @@ def fit_model(
         neg = [nm for nm in NONNEGATIVE if nm in res.free and res.params[nm].value < 0]
         if not neg:
             return res
-        # a negative Stribeck amplitude or viscous coefficient: refit with it at least 0
+        _clipped = True  # a negative Stribeck amplitude or viscous coefficient: refit with it at least 0
     if _clipped and not _check_only:
         for nm in NONNEGATIVE:
             if nm in p0 and p0[nm].min < 0 and nm not in fixed:
