@@ -94,6 +94,12 @@ def test_a_temperature_span_too_narrow_fixes_the_temperature_terms_saying_what_t
     assert 38.0 <= lo < hi <= 42.0  # valid narrowed to what was measured
 
 
+def test_too_few_speeds_are_refused_saying_what_to_record():
+    t = synth_observations(n_cycles=6, seed=1, speeds=(2.0, 10.0, 50.0, 100.0))
+    with pytest.raises(CommissionError, match=r"4 distinct speed\(s\).*record test cycles over the joint's speed"):
+        commission(t, joint="j", diagnose_baseline=False)
+
+
 def test_a_parameter_on_its_bound_is_reported():
     p = Parameters([Parameter("a", 0.0, 0.0, 1.0), Parameter("b", 0.5, 0.0, 1.0), Parameter("c", 1.0, 0, 1, vary=False)])
     assert on_bound(p) == [("a", 0.0, 0.0)]
