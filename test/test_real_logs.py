@@ -133,3 +133,24 @@ def test_a_published_sweep_at_one_temperature_with_a_noisy_velocity_is_converted
     truth = 0.5 * (panda_friction(0, np.asarray(t.speed)) - panda_friction(0, -np.asarray(t.speed)))
     assert float(np.sqrt(np.mean((np.asarray(t.tau_f) - truth) ** 2))) < 0.01  # the converter measures it
     assert res.parameter_set("panda").provenance["fixed"]["FsT"] == 0.0
+
+
+def test_a_long_recording_with_gaps_is_split_into_cycles_and_validated_on_held_out_cycles(tmp_path, capsys):
+    # four sweeps of the published arm, logged one after the other with a pause in the logging between them
+    sweeps = [_panda_plateau_log([0.05, 0.1, 0.2, 0.35, 0.5], seconds=3.0, temperature=30.0 + i, seed=i)
+              for i in range(4)]
+    t0, cols = 0.0, {k: [] for k in sweeps[0]}
+    for s in sweeps:
+        for k, v in s.items():
+            cols[k].append(v + t0 if k == "t" else v)
+        t0 += float(s["t"][-1]) + 20.0
+    log = tmp_path / "long.csv"
+    _write_log(log, {k: np.concatenate(v) for k, v in cols.items()})
+    out = tmp_path / "long_obs.csv"
+    doc = _convert(capsys, [str(log), "--time", "t", "--position", "q", "--velocity", "v", "--effort", "u",
+                            "--temperature", "temp", "--out", str(out)])
+    assert any("split into 4 parts" in w and "gap" in w for w in doc["warnings"])
+    t = read_table(str(out))
+    assert np.unique(t["cycle"]).size == 4 and len(t) == 20
+    res = commission(t, joint="panda_joint_1", units=JOINT, wear_calibration="paper", diagnose_baseline=False)
+    assert res.validation == "held-out cycles" and res.n_cycles == 4 and math.isfinite(res.cv_rmse)
