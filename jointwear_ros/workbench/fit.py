@@ -395,6 +395,13 @@ def fit_model(
         if not neg:
             return res
         _clipped = True  # a negative Stribeck amplitude or viscous coefficient: refit with it at least 0
+        if starts is None:  # from the free fit with those at 0, and the speed parameters over the data's speeds
+            from ..model.scaling import speed_starts
+
+            at = {nm: (0.0 if nm in neg else float(res.params[nm].value)) for nm in res.free}
+            sc0 = scales if scales is not None else DataScales.from_table(table)
+            grid = speed_starts(res.free, sc0, (0.001, 0.003, 0.01, 0.03, 0.1, 0.3))
+            starts = [at] + [dict(at, **g) for g in grid if g]
     if _clipped and not _check_only:
         for nm in NONNEGATIVE:
             if nm in p0 and p0[nm].min < 0 and nm not in fixed:
