@@ -10,13 +10,22 @@ data's units (normalized motor side, or joint side N·m). It reports
   parameter that ended on a bound (such a fit is not called converged);
 - the cross-validated RMSE (folds by cycle), overall and per speed band;
 - the covered ranges (speed, load, temperature): the set's ``valid``;
-- the noise-floor test and the workbench's verdict on the baseline
-  (``found`` / ``unexplained`` / ``nothing_missing``, with its suggestion);
+- the noise-floor test (``tau_f_std``, or the scatter between sweeps when that is
+  larger: a bag's ``tau_f_std`` is a sweep's own error) and the workbench's verdict
+  on the baseline (``found`` / ``unexplained`` / ``nothing_missing`` /
+  ``undetermined``, with its suggestion);
+- a ``found`` suggestion that lowers the error on held-out cycles, carried into the
+  model by default (``carried``, ``cv_rmse_before``/``cv_rmse_after``,
+  ``verdict_after``), unless the model was given explicitly (``model_explicit``);
 - the wear parameters and the calibration they come from (:mod:`.wear`).
 
-Data that cannot identify the model are refused (:class:`CommissionError`, one
-line saying what to record): too few speeds or cycles, a temperature span too
-narrow for the temperature terms, a load span too narrow for the load terms.
+Real data rarely vary everything. Terms of a variable that was not measured are
+replaced (temperature: ``stribeck + viscous``) or dropped (load); the sensitivities
+to a variable held nearly constant (one temperature, a load that changes only with
+the speed) are fixed at 0, a stated prior (``fixed``, ``priors``), and ``valid`` is
+what was measured. Fewer than :data:`MIN_CYCLES` cycles (one sweep) are validated
+on held-out speeds (``validation``). Fewer than :data:`MIN_SPEEDS` speeds are
+refused (:class:`CommissionError`, one line saying what to record).
 
 >>> from jointwear_ros.data import synth_observations
 >>> t = synth_observations(n_cycles=16, seed=4, params="ref-2011r")
@@ -322,12 +331,6 @@ def _folds(table: ObservationTable, cv_folds: int) -> tuple[np.ndarray | None, s
             "held-out speeds instead, which checks the curve between speeds but not its repeatability; record more "
             "cycles (or split a long recording into cycles: data from-timeseries --split)")
     return group_folds(by_speed, cv_folds), "held-out speeds", [note]
-
-
-def _check_identifiable(model: Model, table: ObservationTable, where: str) -> list[str]:
-    """Refuse data that identify nothing (kept for callers; :func:`commission` fixes what it can)."""
-    _identifiable_model(model, table, where)
-    return []
 
 
 def _bands(speed: np.ndarray, resid: np.ndarray | None, vmax: float) -> list[dict[str, Any]]:
