@@ -323,14 +323,15 @@ def _folds(table: ObservationTable, cv_folds: int) -> tuple[np.ndarray | None, s
     cycles = np.unique(table["cycle"]) if "cycle" in table else np.array([0.0])
     if cycles.size >= MIN_CYCLES:
         return None, "held-out cycles", []
-    from ..workbench import group_folds
-
     v = np.round(np.abs(table.speed), 9)
-    by_speed = ObservationTable({"cycle": v, "speed": table.speed, "tau_f": table.tau_f})
+    _, rank = np.unique(v, return_inverse=True)
+    k = int(min(max(cv_folds, 2), rank.max() + 1))
     note = (f"{cycles.size} test cycle(s) (held-out cycles need at least {MIN_CYCLES}): the model is validated on "
-            "held-out speeds instead, which checks the curve between speeds but not its repeatability; record more "
-            "cycles (or split a long recording into cycles: data from-timeseries --split)")
-    return group_folds(by_speed, cv_folds), "held-out speeds", [note]
+            "held-out speeds instead (neighbouring speeds in different folds; the CV RMSE leaves out the lowest "
+            "and the highest speed, where a held-out fold extrapolates), which checks the curve between speeds but "
+            "not its repeatability; record more cycles (or split a long recording into cycles: data "
+            "from-timeseries --split)")
+    return (rank.reshape(-1) % k).astype(int), "held-out speeds", [note]
 
 
 def _bands(speed: np.ndarray, resid: np.ndarray | None, vmax: float) -> list[dict[str, Any]]:
@@ -340,7 +341,7 @@ def _bands(speed: np.ndarray, resid: np.ndarray | None, vmax: float) -> list[dic
     out = []
     edges = [s * vmax for s in BAND_SHARES]
     for lo, hi in itertools.pairwise(edges):
-        m = (v >= lo) & (v < hi)
+        m = (v >= lo) & (v < hi) & np.isfinite(resid)
         if m.any():
             out.append({"lo": float(lo), "hi": float(hi), "n": int(m.sum()),
                         "cv_rmse": float(np.sqrt(np.mean(resid[m] ** 2)))})
@@ -510,13 +511,23 @@ def commission(
         if not path.is_file():
             raise InputDataError(f"--wear-calibration {wear_calibration!r}: not paper, relative or an existing file")
         wear = wear_from_file(path, model=m, params=fit.params, table=wear_table, units=units)
+    n_cycles = int(np.unique(table["cycle"]).size) if "cycle" in table else 1
+    cv_rmse, cv_res = fit.cv_rmse, fit.cv_residuals
+    if validation == "held-out speeds" and cv_res is not None:
+        # a held-out end speed is an extrapolation, not a validation: the CV RMSE is over the speeds between
+        v = np.abs(np.asarray(table.speed, dtype=float))
+        inner = (v > v.min()) & (v < v.max())
+        if inner.any():
+            cv_rmse = float(np.sqrt(np.mean(cv_res[inner] ** 2)))
+            cv_res = np.where(inner, cv_res, np.nan)
+            if carried:
+                after = cv_rmse
     noise_std = nf.value if math.isfinite(nf.value) and nf.value > 0 else fit.rmse
     if noise_std < fit.rmse and not nf.consistent:
-        noise_std = fit.cv_rmse if math.isfinite(fit.cv_rmse) else fit.rmse  # a model error counts as noise
-    n_cycles = int(np.unique(table["cycle"]).size) if "cycle" in table else 1
+        noise_std = cv_rmse if math.isfinite(cv_rmse) else fit.rmse  # a model error counts as noise
     return CommissionResult(
         joint=joint, robot=robot, spec=m.spec, units=units, params=fit.params, covariance=covariance, valid=valid,
-        rmse=fit.rmse, cv_rmse=fit.cv_rmse, bands=_bands(table.speed, fit.cv_residuals, scales.speed_level),
+        rmse=fit.rmse, cv_rmse=cv_rmse, bands=_bands(table.speed, cv_res, scales.speed_level),
         noise_floor=nf.value, noise_method=nf.method, noise_consistent=bool(nf.consistent), verdict=verdict,
         suggestion=suggestion, summary=summary, wear=wear, on_bound=bound, converged=converged,
         message=fit.message, n=len(table), n_cycles=n_cycles, noise_std=float(noise_std), warnings=warnings,
