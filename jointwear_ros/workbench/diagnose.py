@@ -64,7 +64,7 @@ __all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diag
 
 #: A candidate "found" the missing effect when its CV RMSE is within this many noise floors.
 FOUND_RATIO = 1.3
-#: The three answers of a diagnosis.
+#: The answers of a diagnosis (``undetermined``: no noise estimate to judge the residual by).
 VERDICTS = ("nothing_missing", "found", "unexplained", "undetermined")
 #: Bootstrap resamples (by cycle) of the choice among the best candidates.
 N_BOOTSTRAP = 200
