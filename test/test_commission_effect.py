@@ -73,3 +73,18 @@ def test_a_clean_baseline_with_a_within_sweep_tau_f_std_is_nothing_missing():
     # the same data with an honest tau_f_std keep the chi-square floor
     honest = commission(t, joint="joint_3", wear_calibration="paper")
     assert honest.verdict == "nothing_missing" and honest.noise_method == METHOD_STD
+
+
+def test_an_effect_of_epoch_time_stamps_gets_a_spline_whose_range_survives_the_spec():
+    # a bag's time column is seconds since 1970: printed with 6 digits its range collapsed to one value and the
+    # spline of it was refused ("lo=1795690000.0 must be below hi=1795690000.0"), failing the whole diagnosis
+    from jointwear_ros.workbench import diagnose
+
+    t = synth_observations(n_cycles=16, seed=5, effects=["time_drift"])
+    cols = {n: np.asarray(t[n], dtype=float) for n in t.names}
+    tt = cols["time"]
+    cols["time"] = 1.7956e9 + 1000.0 * (tt - tt.min()) / np.ptp(tt)  # a baseline recorded over 1000 s
+    d = diagnose(ObservationTable(cols, source="epoch"), "paper", n_bootstrap=0)
+    assert "time" in {c for v in d.variables if v.significant for c in v.columns}
+    splines = [c.term for c in d.candidates if c.term.startswith("spline(time")]
+    assert splines and all("lo=1795600000, hi=1795601000" in s for s in splines), splines

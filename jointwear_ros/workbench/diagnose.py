@@ -336,12 +336,16 @@ def adaptive_candidates(
             add(HarmonicRipple(v.name, w0=float(f"{v.peak_frequency:.4g}"), k=2))
         elif is_angle(v.name):
             add(HarmonicRipple(v.name))
-        if v.changepoint is not None and v.changepoint_width is not None:
-            add(Step(v.name, at=float(f"{v.changepoint:.6g}"), width=float(f"{v.changepoint_width:.3g}")))
         lo, hi = float(np.min(col)), float(np.max(col))
-        if hi > lo:
+        # the spec prints the range: enough digits that it stays a range (a time stamp in seconds since 1970
+        # spans a few thousand in 1.8e9)
+        digits = next((d for d in (6, 9, 12, 15) if float(f"{lo:.{d}g}") < float(f"{hi:.{d}g}")), None)
+        if v.changepoint is not None and v.changepoint_width is not None:
+            add(Step(v.name, at=float(f"{v.changepoint:.{max(digits or 6, 6)}g}"),
+                     width=float(f"{v.changepoint_width:.3g}")))
+        if hi > lo and digits is not None:
             for k in spline_sizes if rank == 0 else spline_sizes[1:2]:
-                add(Spline(v.name, lo=float(f"{lo:.6g}"), hi=float(f"{hi:.6g}"), n=k))
+                add(Spline(v.name, lo=float(f"{lo:.{digits}g}"), hi=float(f"{hi:.{digits}g}"), n=k))
         if rank == 0 or v.explained_share >= 0.5 * singles[0].explained_share:
             # each term of the model scaled by the column: for the strongest column and every column the
             # ranking barely separates from it (so that the bootstrap compares them on equal shapes)
