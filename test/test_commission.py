@@ -84,9 +84,19 @@ def test_commissioning_recovers_the_reference_joint_and_validates_on_held_out_cy
     assert r.wear["Fsw"] == pytest.approx(truth["Fsw"], rel=0.02)
 
 
-def test_a_temperature_span_too_narrow_is_refused_saying_what_to_record():
+def test_a_temperature_span_too_narrow_fixes_the_temperature_terms_saying_what_to_record():
     t = synth_observations(n_cycles=10, seed=1, temperature=(38.0, 42.0))
-    with pytest.raises(CommissionError, match=r"too narrow to identify the temperature terms.*warms up from cold"):
+    r = commission(t, joint="j", diagnose_baseline=False)
+    assert r.fixed == {"FsT": 0.0, "vsT": 0.0, "FvT": 0.0, "Tv0": r.params["Tv0"].value}
+    assert not any(r.params[n].vary for n in r.fixed)
+    assert any("fixed at 0" in w and "warm-up from cold" in w for w in r.warnings)
+    lo, hi = r.valid["temperature"]
+    assert 38.0 <= lo < hi <= 42.0  # valid narrowed to what was measured
+
+
+def test_too_few_speeds_are_refused_saying_what_to_record():
+    t = synth_observations(n_cycles=6, seed=1, speeds=(2.0, 10.0, 50.0, 100.0))
+    with pytest.raises(CommissionError, match=r"4 distinct speed\(s\).*record test cycles over the joint's speed"):
         commission(t, joint="j", diagnose_baseline=False)
 
 
@@ -184,12 +194,12 @@ def test_cli_commission_json_has_the_contract_keys_and_estimate_names_the_calibr
 
 
 def test_cli_commission_refuses_unidentifiable_data_in_one_line_and_writes_nothing(tmp_path, capsys):
-    t = synth_observations(n_cycles=6, seed=1, temperature=(40.0, 41.0))
+    t = synth_observations(n_cycles=6, seed=1, speeds=(2.0, 10.0, 50.0, 100.0))
     write_csv(t, tmp_path / "b.csv")
     out = tmp_path / "x.yaml"
     assert main(["commission", str(tmp_path / "b.csv"), "--joint", "j", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "too narrow" in err and not out.exists()
+    assert "\n" not in err and "4 distinct speed(s)" in err and not out.exists()
     assert main(["commission", str(tmp_path / "b.csv"), "--joint", "j", "--out", str(out),
                  "--gear-ratio", "100"]) == 2
     assert "go together" in capsys.readouterr().err and not out.exists()

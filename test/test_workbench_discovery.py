@@ -27,7 +27,7 @@ from jointwear_ros.workbench import (
     parse_spec,
     residual_dependence,
 )
-from jointwear_ros.workbench.compare import METHOD_CYCLE_DIFF, METHOD_REPLICATES, METHOD_STD
+from jointwear_ros.workbench.compare import METHOD_CYCLE_DIFF, METHOD_REPLICATES, METHOD_STD, METHOD_SWEEP
 from jointwear_ros.workbench.significance import holm
 
 WITHIN_FLOOR = 1.3
@@ -175,12 +175,25 @@ def test_a_residual_above_the_floor_that_no_column_explains_is_unexplained():
     table = synth_observations(n_cycles=20, seed=61)
     cols = dict(table.columns)
     cols["tau_f_std"] = cols["tau_f_std"] / 2.0
-    table = ObservationTable(cols, source="halved-std")
+    # without cycles to compare, nothing shows the real scatter
+    table = ObservationTable({k: v for k, v in cols.items() if k != "cycle"}, source="halved-std")
     diag = diagnose(table, "paper")
     assert diag.verdict == "unexplained"
     assert not diag.noise.consistent
     assert "No column of the table explains it" in diag.summary()
     assert diag.suggestion is None
+
+
+def test_a_tau_f_std_below_the_scatter_between_cycles_gives_way_to_that_scatter():
+    # the same halved tau_f_std with its cycles: the residual differences between cycles at equal speed show the
+    # real scatter (as a bag's within-sweep standard error below the simulator's per-sweep noise)
+    table = synth_observations(n_cycles=20, seed=61)
+    cols = dict(table.columns)
+    cols["tau_f_std"] = cols["tau_f_std"] / 2.0
+    diag = diagnose(ObservationTable(cols, source="halved-std"), "paper")
+    assert diag.verdict == "nothing_missing", diag.summary()
+    assert diag.noise.method == METHOD_SWEEP and diag.noise.consistent
+    assert 0.0012 < diag.noise.value < 0.0018
 
 
 @pytest.mark.slow

@@ -103,12 +103,21 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ts.add_argument("--speed-tolerance", default="0.05",
                     help="a sample is at a speed level within this fraction of it (default 0.05)")
     ts.add_argument("--min-samples", type=int, default=20, help="samples needed per direction (default 20)")
-    ts.add_argument("--bins", type=int, default=12, help="speed bins without plateaus (default 12)")
+    ts.add_argument("--bins", type=int, default=None,
+                    help="speed bins without plateaus (default: picked from the data, 12 down to 6, until 5 speeds)")
     ts.add_argument("--max-accel", default=None,
                     help="steady-speed samples: |acceleration| at most this, rad/s^2 (default: the 30 %% quantile)")
     ts.add_argument("--window", default=None, metavar="HALF_WIDTH",
                     help="measure a plateau pair over the centre of its position overlap +- this, rad "
                          "(default: the whole overlap)")
+    ts.add_argument("--min-friction-share", default="0.2",
+                    help="drop the lowest speeds whose friction is under this share of the median (friction not "
+                         "developed; default 0.2, 0 keeps all)")
+    ts.add_argument("--split", default="auto", choices=("auto", "gaps", "reversals", "none"),
+                    help="cut a long recording into cycles: auto (a --cycle column, or a 'cycle' column, else gaps "
+                         "in time), gaps, reversals (every --split-reversals direction reversals), none")
+    ts.add_argument("--split-reversals", type=int, default=4, help="reversals per cycle with --split reversals")
+    ts.add_argument("--cycle", default=None, metavar="COLUMN", help="CSV column numbering the cycles")
     ts.add_argument("--json", action="store_true", help="print a JSON summary")
     ts.set_defaults(func=cmd_from_timeseries)
 
@@ -300,7 +309,7 @@ def cmd_from_timeseries(args: argparse.Namespace) -> int:
         raise UsageError(f"--speed-tolerance: {tol:g} must be between 0 and 1 (a fraction of the speed)")
     if not 4 <= args.min_samples <= 1_000_000:
         raise UsageError(f"--min-samples: {args.min_samples} must be 4 to 1000000")
-    if not 1 <= args.bins <= 1000:
+    if args.bins is not None and not 1 <= args.bins <= 1000:
         raise UsageError(f"--bins: {args.bins} must be 1 to 1000")
     max_accel = None if args.max_accel is None else parse_float(args.max_accel, "--max-accel")
     if max_accel is not None and not max_accel > 0:
@@ -308,9 +317,16 @@ def cmd_from_timeseries(args: argparse.Namespace) -> int:
     window = None if args.window is None else parse_float(args.window, "--window")
     if window is not None and not window > 0:
         raise UsageError(f"--window: {window:g} must be a positive half width, rad")
+    share = parse_float(args.min_friction_share, "--min-friction-share")
+    if not 0 <= share < 1:
+        raise UsageError(f"--min-friction-share: {share:g} must be in [0, 1)")
+    if not 2 <= args.split_reversals <= 10_000:
+        raise UsageError(f"--split-reversals: {args.split_reversals} must be 2 to 10000")
     cfg = TimeseriesConfig(joint_name=args.joint or "", gear_ratio=gear, torque_scale=scale, mode=args.mode,
-                           speed_tolerance=tol, min_samples=args.min_samples, n_bins=args.bins, max_accel=max_accel,
-                           window_half_width=window)
+                           speed_tolerance=tol, min_samples=args.min_samples, n_bins=args.bins or 12,
+                           max_accel=max_accel, window_half_width=window, min_friction_share=share,
+                           split=args.split, split_reversals=args.split_reversals, cycle_column=args.cycle,
+                           auto_bins=args.bins is None)
     series = [read_timeseries(f, time=args.time, position=args.position, effort=args.effort, velocity=args.velocity,
                               temperature=args.temperature, load=args.load, joint=args.joint, topic=args.topic)
               for f in args.files]
@@ -329,9 +345,13 @@ def cmd_from_timeseries(args: argparse.Namespace) -> int:
         rows.extend(res.rows)
         sources.append({"file": s.source, **res.to_dict()})
     if not rows:
-        why = "; ".join(str(w) for src in sources for w in src["rejected"][:2])  # type: ignore[index]
+        why = "; ".join(str(w) for src in sources for w in src["rejected"][:3])  # type: ignore[index]
+        tried = {str(src["method"]) for src in sources}
+        hint = ("--speed-tolerance, --min-samples" if tried == {"plateaus"} else
+                "--max-accel (steadiness), --bins, --min-samples" if args.mode == "bins" else
+                "--speed-tolerance, --min-samples (plateaus); --max-accel, --bins (bins)")
         raise InputDataError(f"{', '.join(args.files)}: no friction observation found ({why or 'no motion'}); "
-                             "check the columns, --speed-tolerance, --min-samples or try --mode bins")
+                             f"the filters that rejected the samples are named above: change {hint}")
     names: list[str] = []
     for r in rows:
         names.extend(k for k in r if k not in names)
@@ -355,6 +375,9 @@ def cmd_from_timeseries(args: argparse.Namespace) -> int:
         print(f"# {src['file']}: {src['observations']} from {src['method']} ({src['samples']} samples)")
     for w in warnings:
         print(f"# warning: {w}")
+    for src in sources:
+        for r in src["rejected"]:  # type: ignore[attr-defined]
+            print(f"# rejected: {src['file']}: {r}")
     show = [c for c in ("cycle", "speed", "tau_f", "tau_f_std", "load_torque", "temperature", "position",
                         "samples_plus", "samples_minus", "position_spread") if c in cols]
     print(format_table(show, [[cols[c][i] for c in show] for i in range(len(table))], floatfmt=".5g"))

@@ -65,11 +65,16 @@ from ..errors import InputDataError
 from .segmentation import batch_means_se, measure_segment
 from .types import FrictionObservationData, ObserverConfig, SpeedSegment
 
-__all__ = ["MODES", "TimeseriesConfig", "TimeseriesResult", "timeseries_observations", "velocity_from_position"]
+__all__ = ["MODES", "SPLITS", "TimeseriesConfig", "TimeseriesResult", "timeseries_observations", "velocity_from_position"]
 
 Array = npt.NDArray[np.float64]
 
 MODES = ("auto", "plateaus", "bins")
+SPLITS = ("auto", "gaps", "reversals", "none")
+#: Accelerations quantiles and bin counts tried, in order, when the steady-speed mode picks its own bins.
+AUTO_BINS = ((0.3, 12), (0.3, 8), (0.5, 8), (0.5, 6), (0.7, 6), (0.9, 6), (0.9, 5))
+#: The steady-speed mode picks its bins until it has this many speeds (commissioning needs 5).
+MIN_BIN_SPEEDS = 5
 
 
 @dataclass(frozen=True)
@@ -99,6 +104,13 @@ class TimeseriesConfig:
     window_half_width : plateau pairs are measured over the centre of their position overlap
         ± this (rad, joint side); None: the whole overlap. A narrower window keeps the load
         (gravity) nearly constant, so the standard error is not inflated by its variation.
+    min_friction_share : observations at the lowest speeds whose friction is under this share of
+        the median friction (friction not developed: pre-sliding, creep, a velocity offset) are
+        dropped and reported (0: keep every one).
+    split : how a long recording is cut into cycles: ``auto`` (a ``cycle_column`` when given or
+        present as ``cycle``, else gaps in time over 10 median intervals and 1 s), ``gaps``,
+        ``reversals`` (every ``split_reversals`` direction reversals), ``none``.
+    cycle_column : the measured variable that numbers the cycles (``split=auto``).
     """
 
     joint_name: str = ""
@@ -118,6 +130,11 @@ class TimeseriesConfig:
     window_half_width: float | None = None
     min_plateau_fraction: float = 0.3
     position_bins: int = 10
+    min_friction_share: float = 0.2
+    split: str = "auto"
+    split_reversals: int = 4
+    cycle_column: str | None = None
+    auto_bins: bool = True
 
     def __post_init__(self) -> None:
         for name in ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "smooth_seconds"):
@@ -143,6 +160,13 @@ class TimeseriesConfig:
         if not 0 <= self.min_plateau_fraction <= 1:
             raise InputDataError(f"time-series setting min_plateau_fraction = {self.min_plateau_fraction!r} must be "
                                  "in [0, 1]")
+        if not 0 <= self.min_friction_share < 1:
+            raise InputDataError(f"time-series setting min_friction_share = {self.min_friction_share!r} must be in "
+                                 "[0, 1)")
+        if self.split not in SPLITS:
+            raise InputDataError(f"time-series setting split = {self.split!r}: give one of {', '.join(SPLITS)}")
+        if int(self.split_reversals) < 2:
+            raise InputDataError(f"time-series setting split_reversals = {self.split_reversals!r} must be at least 2")
         if not 0 <= self.rest_fraction < 1:
             raise InputDataError(f"time-series setting rest_fraction = {self.rest_fraction!r} must be in [0, 1)")
 
@@ -250,27 +274,127 @@ def timeseries_observations(
                              f"({cfg.min_samples} in each direction)")
     if derived:
         v = velocity_from_position(t, q)
-    result: TimeseriesResult | None = None
-    if cfg.mode in ("auto", "plateaus"):
-        result = _plateaus(t, q, v, e, ex, cfg, temperature, load)
-        if not result.rows and cfg.mode == "auto":
-            why = "; ".join(result.rejected[:3]) or "no speed held in both directions"
-            warnings.append(f"no constant-speed plateaus in both directions ({why}); using steady-speed bins")
-            result = None
-    if result is None:
-        result = _bins(t, q, v, e, ex, cfg, temperature, load)
+    parts, how = _split(t, v, ex, cfg)
+    result = TimeseriesResult([], "")
+    methods: list[str] = []
+    cycle0 = 0
+    for a, b in parts:
+        sub = {k: arr[a:b] for k, arr in ex.items()}
+        if b - a < 2 * cfg.min_samples:
+            result.rejected.append(f"part {t[a]:.6g}-{t[b - 1]:.6g} s: {b - a} samples (need {2 * cfg.min_samples})")
+            continue
+        part = _observe(t[a:b], q[a:b], v[a:b], e[a:b], sub, cfg, temperature, load)
+        if len(parts) > 1:
+            for r in part.rows:
+                r["cycle"] = float(cycle0 + 1)
+            if part.rows:
+                cycle0 += 1
+            part.rejected = [f"cycle {cycle0 if part.rows else '-'} ({t[a]:.6g}-{t[b - 1]:.6g} s): {x}"
+                             for x in part.rejected]
+        result.rows.extend(part.rows)
+        result.warnings.extend(w for w in part.warnings if w not in result.warnings)
+        result.rejected.extend(part.rejected)
+        methods.append(part.method)
+    result.method = max(set(methods), key=methods.count) if methods else ("bins" if cfg.mode == "bins" else "plateaus")
+    if len(parts) > 1:
+        warnings.append(f"the recording is split into {len(parts)} parts ({how}); {cycle0} of them gave "
+                        "observations, numbered as cycles")
+    _drop_undeveloped(result, cfg)
     result.warnings[:0] = warnings
     result.samples = n_in
     result.dropped = dropped
     if derived:
         result.warnings.append("velocity derived from position (numpy.gradient over time)")
+    result.rows.sort(key=lambda r: (r["cycle"], r["speed"]))
     return result
+
+
+def _observe(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: TimeseriesConfig,
+             temperature: str | None, load: str | None) -> TimeseriesResult:
+    """Plateaus, else (auto) steady-speed bins, of one part of the recording."""
+    warnings: list[str] = []
+    result: TimeseriesResult | None = None
+    rejected: list[str] = []
+    if cfg.mode in ("auto", "plateaus"):
+        result = _plateaus(t, q, v, e, ex, cfg, temperature, load)
+        if not result.rows and cfg.mode == "auto":
+            why = "; ".join(result.rejected[:3]) or "no speed held in both directions"
+            warnings.append(f"no constant-speed plateaus in both directions ({why}); using steady-speed bins")
+            rejected = [f"plateaus: {x}" for x in result.rejected[:3]]
+            if len(result.rejected) > 3:
+                rejected.append(f"plateaus: {len(result.rejected) - 3} more speed level(s) without a plateau pair")
+            result = None
+    if result is None:
+        result = _bins(t, q, v, e, ex, cfg, temperature, load)
+        result.rejected[:0] = rejected
+    result.warnings[:0] = warnings
+    return result
+
+
+def _split(t: Array, v: Array, ex: Mapping[str, Array], cfg: TimeseriesConfig) -> tuple[list[tuple[int, int]], str]:
+    """[start, stop) of the parts of a long recording (each becomes a cycle), and how they were found."""
+    n = t.size
+    col = cfg.cycle_column if cfg.cycle_column is not None else ("cycle" if "cycle" in ex else None)
+    if cfg.split == "none" or n < 2:
+        return [(0, n)], "not split"
+    if cfg.split == "auto" and col is not None:
+        if col not in ex:
+            raise InputDataError(f"cycle column {col!r} is not among the measured variables ({', '.join(ex) or 'none'})")
+        c = ex[col]
+        cuts = np.flatnonzero(np.diff(c) != 0) + 1
+        bounds = [0, *cuts.tolist(), n]
+        return list(itertools.pairwise(bounds)), f"by the column {col!r}"
+    if cfg.split in ("auto", "gaps"):
+        dt = np.diff(t)
+        gap = max(10.0 * float(np.median(dt)), 1.0)
+        cuts = np.flatnonzero(dt > gap) + 1
+        if cuts.size or cfg.split == "gaps":
+            return list(itertools.pairwise([0, *cuts.tolist(), n])), f"at {cuts.size} gap(s) in time over {gap:.3g} s"
+        return [(0, n)], "not split"
+    # reversals: every split_reversals changes of direction of the moving samples
+    vmax = float(np.max(np.abs(v))) if v.size else 0.0
+    mov = np.flatnonzero(np.abs(v) > max(cfg.rest_fraction, 1e-6) * vmax)
+    sg = np.sign(v[mov])
+    rev = mov[1:][np.diff(sg) != 0]
+    cuts = rev[cfg.split_reversals::cfg.split_reversals]
+    return list(itertools.pairwise([0, *cuts.tolist(), n])), (f"every {cfg.split_reversals} of {rev.size} direction "
+                                                               "reversals")
+
+
+def _drop_undeveloped(result: TimeseriesResult, cfg: TimeseriesConfig) -> None:
+    """Drop the lowest-speed observations whose friction is not developed (under ``min_friction_share`` of the
+    median), each reported with its reason."""
+    if cfg.min_friction_share <= 0 or len(result.rows) < 3:
+        return
+    tau = np.array([r["tau_f"] for r in result.rows])
+    med = float(np.median(tau))
+    if not med > 0:
+        return
+    limit = cfg.min_friction_share * med
+    ok = tau >= limit
+    if ok.all() or not ok.any():
+        return
+    v_dev = min(r["speed"] for r, g in zip(result.rows, ok) if g)
+    keep = []
+    for r, g in zip(result.rows, ok):
+        if not g and r["speed"] < v_dev:
+            result.rejected.append(
+                f"{r['speed']:.4g} rad/s (cycle {r['cycle']:g}): tau_f {r['tau_f']:.4g} is under "
+                f"{100 * cfg.min_friction_share:g} % of the median friction {med:.4g}: friction not developed "
+                "(pre-sliding, creep or a velocity offset); dropped (--min-friction-share 0 keeps it)")
+        else:
+            keep.append(r)
+    n = len(result.rows) - len(keep)
+    if n:
+        result.warnings.append(f"{n} observation(s) below {v_dev:.4g} rad/s dropped: friction not developed there "
+                               f"(tau_f under {100 * cfg.min_friction_share:g} % of the median)")
+    result.rows = keep
 
 
 # --------------------------------------------------------------------------- plateaus
 
 
-def _levels(speed: Array, direction: Array, cfg: TimeseriesConfig) -> list[float]:
+def _levels(speed: Array, direction: Array, cfg: TimeseriesConfig, rejected: list[str] | None = None) -> list[float]:
     """Speed levels held by at least ``min_samples`` samples in each direction, largest count first."""
     tol = cfg.speed_tolerance
     pool = np.ones(speed.size, dtype=bool)
@@ -293,8 +417,13 @@ def _levels(speed: Array, direction: Array, cfg: TimeseriesConfig) -> list[float
         level = float(np.median(speed[near]))
         at = pool & (np.abs(speed - level) <= tol * level)
         pool &= ~(np.abs(speed - level) <= 2 * tol * level)
-        if (at & (direction > 0)).sum() >= cfg.min_samples and (at & (direction < 0)).sum() >= cfg.min_samples:
+        nf, nr = int((at & (direction > 0)).sum()), int((at & (direction < 0)).sum())
+        if nf >= cfg.min_samples and nr >= cfg.min_samples:
             levels.append(level)
+        elif rejected is not None:
+            rejected.append(f"{level * cfg.gear_ratio:.4g} rad/s: {nf} forward and {nr} reverse samples within "
+                            f"{100 * cfg.speed_tolerance:g} % of it; need {cfg.min_samples} each (--speed-tolerance, "
+                            "--min-samples)")
     return sorted(levels)
 
 
@@ -304,12 +433,25 @@ def _runs(mask: Array) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
+def _close(mask: npt.NDArray[np.bool_], same: npt.NDArray[np.bool_], gap: int) -> npt.NDArray[np.bool_]:
+    """``mask`` with its gaps of at most ``gap`` samples filled where ``same`` holds throughout (the direction)."""
+    out = mask.copy()
+    runs = _runs(mask)
+    for (_, b), (a2, _) in itertools.pairwise(runs):
+        if a2 - b <= gap and same[b:a2].all():
+            out[b:a2] = True
+    return out
+
+
 def _overlap(a: tuple[float, float], b: tuple[float, float]) -> float:
     return min(a[1], b[1]) - max(a[0], b[0])
 
 
 def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: TimeseriesConfig,
               temperature: str | None, load: str | None) -> TimeseriesResult:
+    # a noisy velocity column breaks a plateau into runs shorter than min_samples: detect and measure on the
+    # velocity smoothed over smooth_seconds (the samples' own time base)
+    v = _smooth(t, v, cfg.smooth_seconds)
     vmax = float(np.max(np.abs(v))) if v.size else 0.0
     moving = np.abs(v) > cfg.rest_fraction * vmax
     dt = float(np.median(np.diff(t)))
@@ -319,7 +461,7 @@ def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], c
         return out
     speed = np.where(moving, np.abs(v), np.nan)
     sgn = np.sign(v)
-    levels = _levels(speed[moving], sgn[moving], cfg)
+    levels = _levels(speed[moving], sgn[moving], cfg, out.rejected)
     if not levels:
         out.rejected.append(f"no speed held by {cfg.min_samples} samples in each direction "
                             f"(within {100 * cfg.speed_tolerance:g} %)")
@@ -341,7 +483,8 @@ def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], c
         at = moving & (np.abs(np.abs(v) - level) <= cfg.speed_tolerance * level)
         plats: list[tuple[int, int, int]] = []  # (start, stop, direction)
         for d in (1, -1):
-            for a, b in _runs(at & (sgn == d)):
+            # a noisy velocity leaves the tolerance for a few samples now and then: short gaps do not end a plateau
+            for a, b in _runs(_close(at & (sgn == d), sgn == d, max(3, cfg.min_samples // 2))):
                 if b - a < cfg.min_samples:
                     continue
                 if t[b - 1] - t[a] + dt < cfg.min_plateau_fraction * motion_len[a]:
@@ -351,6 +494,7 @@ def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], c
         plats.sort()
         used: set[int] = set()
         k = 0
+        n_rows = len(out.rows)
         for i, (a, b, d) in enumerate(plats):
             if d != 1 or i in used:
                 continue
@@ -390,6 +534,13 @@ def _plateaus(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], c
             out.rows.append(_row(r, ex, sel, cfg, load, extra_fields={
                 "samples_plus": r.samples_plus, "samples_minus": r.samples_minus,
                 "position_spread": float(np.std(q[sel])) if sel.any() else math.nan}))
+        if len(out.rows) == n_rows:
+            dirs = {d for _, _, d in plats}
+            why = ("no run of " + str(cfg.min_samples) + " samples at it in " +
+                   ("either direction" if not dirs else "the " + ("reverse" if 1 in dirs else "forward") + " direction")
+                   if dirs != {1, -1} else "no forward run next to a reverse run over the same positions")
+            out.rejected.append(f"{level * cfg.gear_ratio:.4g} rad/s: no plateau pair ({why}; --speed-tolerance, "
+                                "--min-samples)")
     if short and not out.rows:
         out.rejected.append(f"{short} run(s) at a steady speed too short to be plateaus (under "
                             f"{100 * cfg.min_plateau_fraction:g} % of their motion: speed peaks, not plateaus)")
@@ -473,6 +624,25 @@ def _match_positions(
 
 def _bins(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: TimeseriesConfig,
           temperature: str | None, load: str | None) -> TimeseriesResult:
+    if not cfg.auto_bins or cfg.max_accel is not None:
+        return _bins_at(t, q, v, e, ex, cfg, temperature, load)
+    # bins picked by the data: the strictest steadiness and the finest bins that give MIN_BIN_SPEEDS speeds,
+    # over the speeds from the 5 % quantile (at least 1 % of the top speed) up
+    best: TimeseriesResult | None = None
+    for quant, nb in AUTO_BINS:
+        r = _bins_at(t, q, v, e, ex, replace(cfg, accel_quantile=quant, n_bins=nb), temperature, load)
+        r.warnings.append(f"bins picked from the data: {nb} speed bins, |acceleration| up to its {100 * quant:g} % "
+                          "quantile (--bins, --max-accel choose them)")
+        if best is None or len(r.rows) > len(best.rows):
+            best = r
+        if len(r.rows) >= MIN_BIN_SPEEDS:
+            return r
+    assert best is not None
+    return best
+
+
+def _bins_at(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: TimeseriesConfig,
+             temperature: str | None, load: str | None) -> TimeseriesResult:
     out = TimeseriesResult([], "bins")
     vmax = float(np.max(np.abs(v))) if v.size else 0.0
     moving = np.abs(v) > max(cfg.rest_fraction, 1e-6) * vmax
@@ -488,6 +658,8 @@ def _bins(t: Array, q: Array, v: Array, e: Array, ex: Mapping[str, Array], cfg: 
         out.rejected.append(f"no sample with |acceleration| <= {limit:.3g}")
         return out
     lo, hi = float(speed[steady].min()), float(speed[steady].max())
+    if cfg.auto_bins and cfg.max_accel is None:  # bins picked from the data: from the 5 % quantile of the speeds
+        lo = max(lo, float(np.quantile(speed[steady], 0.05)), 0.01 * hi)
     edges = np.geomspace(lo, hi * (1 + 1e-9), cfg.n_bins + 1) if hi > lo else np.array([lo, hi * (1 + 1e-9) + 1e-12])
     sgn = np.sign(v)
     k = 0

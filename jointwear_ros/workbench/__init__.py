@@ -7,7 +7,16 @@ from __future__ import annotations
 
 from ..model.scaling import BoundHit, DataScales, on_bound, scale_parameters
 from .candidates import ENTRY_POINT_GROUP, candidate_library, candidate_variables, parse_spec, resolve_term
-from .compare import SPEED_BAND_EDGES, BandError, NoiseFloor, band_rmse, noise_floor, noise_test, residual_structure
+from .compare import (
+    SPEED_BAND_EDGES,
+    BandError,
+    NoiseFloor,
+    band_rmse,
+    noise_floor,
+    noise_test,
+    residual_structure,
+    sweep_scatter,
+)
 from .dependence import VariableDependence, residual_dependence
 from .diagnose import VERDICTS, CandidateResult, Diagnosis, diagnose
 from .fit import FitResult, fit_model, group_folds
@@ -46,4 +55,5 @@ __all__ = [
     "residual_structure",
     "resolve_term",
     "scale_parameters",
+    "sweep_scatter",
 ]

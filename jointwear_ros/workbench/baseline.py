@@ -36,8 +36,9 @@ class PlainFit:
 
 
 def plain_standard_fit(speed: npt.ArrayLike, tau_f: npt.ArrayLike,
-                       vs_range: tuple[float, float] | None = None) -> PlainFit:
-    """Least squares of the standard model, best of 13 starts (``vs_range`` default: the data's speeds)."""
+                       vs_range: tuple[float, float] | None = None, nonnegative: bool = False) -> PlainFit:
+    """Least squares of the standard model, best of 13 starts (``vs_range`` default: the data's speeds;
+    ``nonnegative``: Fc, Fs and Fv at least 0, the physical signs)."""
     v = np.abs(np.asarray(speed, dtype=float))
     y = np.asarray(tau_f, dtype=float)
     lo, hi = vs_range if vs_range is not None else (float(v[v > 0].min()), float(v.max()))
@@ -48,8 +49,11 @@ def plain_standard_fit(speed: npt.ArrayLike, tau_f: npt.ArrayLike,
     best: PlainFit | None = None
     first = float(y[int(np.argmin(v))])
     for vs in np.geomspace(lo, hi, 13):
-        s = least_squares(res, [float(y.min()), first - float(y.min()), vs, 0.0],
-                          bounds=([-np.inf, -np.inf, 1e-12, -np.inf], np.inf))
+        low = [0.0 if nonnegative else -np.inf, 0.0 if nonnegative else -np.inf, 1e-12,
+               0.0 if nonnegative else -np.inf]
+        start = [max(float(y.min()), 0.0) if nonnegative else float(y.min()), max(first - float(y.min()), 0.0) if nonnegative else first - float(y.min()), vs,
+                 1e-12 if nonnegative else 0.0]
+        s = least_squares(res, start, bounds=(low, np.inf))
         fit = PlainFit(tuple(float(x) for x in s.x), float(math.sqrt(np.mean(s.fun**2))))  # type: ignore[arg-type]
         if best is None or fit.rmse < best.rmse:
             best = fit

@@ -143,6 +143,8 @@ def noise_floor(table: ObservationTable) -> tuple[float, str]:
 METHOD_STD = "chi-square with tau_f_std"
 METHOD_REPLICATES = "lack-of-fit F test against replicates"
 METHOD_CYCLE_DIFF = "F test against cycle-to-cycle differences at equal speed"
+METHOD_SWEEP = ("F test against the scatter between sweeps (cycle-to-cycle differences at equal speed; "
+                "tau_f_std is the within-sweep error only)")
 
 
 @dataclass(frozen=True)
@@ -202,7 +204,9 @@ def _cycle_differences(table: ObservationTable, residuals: Array) -> tuple[float
     order_key = table["time"] if "time" in table else table["cycle"]
     r = np.asarray(residuals, dtype=float)
     ss, cnt = 0.0, 0
-    v = np.round(table.speed, 9)
+    # equal speed within 0.5 %: a measured speed (a bag's) differs from cycle to cycle in its last digits
+    a = np.abs(np.asarray(table.speed, dtype=float))
+    v = np.where(a > 0, np.round(np.log(np.where(a > 0, a, 1.0)) / 0.01), -1e9)
     for sp in np.unique(v):
         idx = np.flatnonzero(v == sp)
         if idx.size < 2:
@@ -261,6 +265,51 @@ def noise_test(
         p = float(stats.f.sf(f, dof_res, cnt))
         return NoiseFloor(math.sqrt(var), METHOD_CYCLE_DIFF, bool(p >= alpha), p, f, (dof_res, cnt), alpha)
     return NoiseFloor(math.nan, "unknown", False, math.nan, math.nan, (0, 0), alpha)
+
+
+def sweep_scatter(
+    table: ObservationTable, residuals: Array, n_free: int, within: NoiseFloor, *, alpha: float = 0.01
+) -> NoiseFloor | None:
+    """The noise floor from the scatter between sweeps, when it is significantly above ``within``.
+
+    ``tau_f_std`` is a sweep's own standard error (batch means over its samples): it cannot see an error
+    that is constant over one sweep and changes from sweep to sweep (an offset per pass, a drift, a
+    temperature read once per cycle). Half the mean squared difference of the residual between consecutive
+    cycles at equal speed estimates the whole per-sweep variance; when it exceeds ``within.value ** 2``
+    (chi-square on the number of differences, at ``alpha``), it is the floor, and the fit's residual is
+    F-tested against it. ``None`` when there is no such evidence (or no cycles to compare).
+
+    It is an upper bound when a missing effect changes from cycle to cycle: the caller uses it only when no
+    column explains the residual (:func:`~jointwear_ros.workbench.diagnose.diagnose`).
+
+    >>> import numpy as np
+    >>> from jointwear_ros.types import ObservationTable
+    >>> rng = np.random.default_rng(0)
+    >>> cyc = np.repeat(np.arange(12.0), 8); v = np.tile(np.arange(1.0, 9.0), 12)
+    >>> r = rng.normal(0, 0.0015, cyc.size)
+    >>> t = ObservationTable({"cycle": cyc, "speed": v, "tau_f": r, "tau_f_std": np.full(cyc.size, 1.7e-4)})
+    >>> w = noise_test(t, r, 0)
+    >>> w.consistent, round(w.value, 5)
+    (False, 0.00017)
+    >>> s = sweep_scatter(t, r, 0, w)
+    >>> s.consistent, round(s.value / 0.0015, 1)
+    (True, 1.0)
+    """
+    if not (math.isfinite(within.value) and within.value > 0):
+        return None
+    r = np.asarray(residuals, dtype=float)
+    ss_d, cnt = _cycle_differences(table, r)
+    if cnt < 3 or not ss_d > 0:
+        return None
+    var = ss_d / (2.0 * cnt)
+    larger = float(stats.chi2.sf(ss_d / (2.0 * within.value**2), cnt))
+    if larger >= alpha or var <= within.value**2:
+        return None
+    n = r.size
+    dof_res = max(n - int(n_free), 1)
+    f = (float(np.sum(r**2)) / dof_res) / var
+    p = float(stats.f.sf(f, dof_res, cnt))
+    return NoiseFloor(math.sqrt(var), METHOD_SWEEP, bool(p >= alpha), p, f, (dof_res, cnt), alpha)
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,8 @@ explain:
    :data:`STABLE_SUPPORT` of the bootstrap resamples by cycle against every
    other explanation), else ``unexplained`` (what remains, where, how far
    above the floor the best shape stays, and the alternatives the data does
-   not rule out).
+   not rule out); ``undetermined`` when there is no noise estimate to judge the residual by (no
+   ``tau_f_std``, no repeated observations, no cycles to compare at equal speed).
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ from ..errors import ModelError
 from ..model import TERMS, Model, Parameters, Term
 from ..types import ObservationTable
 from .candidates import candidate_library, parse_spec
-from .compare import NoiseFloor, noise_test, speed_region
+from .compare import NoiseFloor, noise_test, speed_region, sweep_scatter
 from .dependence import VariableDependence, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
 from .shapes import HarmonicRipple, Interaction, Scale, Spline, Step, is_angle
@@ -63,8 +64,8 @@ __all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diag
 
 #: A candidate "found" the missing effect when its CV RMSE is within this many noise floors.
 FOUND_RATIO = 1.3
-#: The three answers of a diagnosis.
-VERDICTS = ("nothing_missing", "found", "unexplained")
+#: The answers of a diagnosis (``undetermined``: no noise estimate to judge the residual by).
+VERDICTS = ("nothing_missing", "found", "unexplained", "undetermined")
 #: Bootstrap resamples (by cycle) of the choice among the best candidates.
 N_BOOTSTRAP = 200
 #: "found" needs candidates of the best one's column(s) to win at least this share of the resamples.
@@ -335,12 +336,16 @@ def adaptive_candidates(
             add(HarmonicRipple(v.name, w0=float(f"{v.peak_frequency:.4g}"), k=2))
         elif is_angle(v.name):
             add(HarmonicRipple(v.name))
-        if v.changepoint is not None and v.changepoint_width is not None:
-            add(Step(v.name, at=float(f"{v.changepoint:.6g}"), width=float(f"{v.changepoint_width:.3g}")))
         lo, hi = float(np.min(col)), float(np.max(col))
-        if hi > lo:
+        # the spec prints the range: enough digits that it stays a range (a time stamp in seconds since 1970
+        # spans a few thousand in 1.8e9)
+        digits = next((d for d in (6, 9, 12, 15) if float(f"{lo:.{d}g}") < float(f"{hi:.{d}g}")), None)
+        if v.changepoint is not None and v.changepoint_width is not None:
+            add(Step(v.name, at=float(f"{v.changepoint:.{max(digits or 6, 6)}g}"),
+                     width=float(f"{v.changepoint_width:.3g}")))
+        if hi > lo and digits is not None:
             for k in spline_sizes if rank == 0 else spline_sizes[1:2]:
-                add(Spline(v.name, lo=float(f"{lo:.6g}"), hi=float(f"{hi:.6g}"), n=k))
+                add(Spline(v.name, lo=float(f"{lo:.{digits}g}"), hi=float(f"{hi:.{digits}g}"), n=k))
         if rank == 0 or v.explained_share >= 0.5 * singles[0].explained_share:
             # each term of the model scaled by the column: for the strongest column and every column the
             # ranking barely separates from it (so that the bootstrap compares them on equal shapes)
@@ -466,6 +471,18 @@ def diagnose(
     outliers = find_outliers(table, base.residuals, alpha=alpha)  # before any shape is fitted
     variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf,
                                     tangent=_tangent(base, table), components=_components(base, table))
+    if not noise.consistent:
+        # a scatter between sweeps that tau_f_std cannot see is noise, when no column explains the residual
+        # against that larger floor either (a missing effect of a column stays significant against it)
+        between = sweep_scatter(table, base.residuals, base.n_free, noise, alpha=alpha / 2)
+        if between is not None:
+            again = variables
+            if any(v.significant for v in variables):
+                again = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed,
+                                            noise=between.value, tangent=_tangent(base, table),
+                                            components=_components(base, table))
+            if not any(v.significant for v in again):
+                noise, nf, variables = between, between.value, again
     if mode not in ("guided", "full"):
         raise ValueError(f"mode must be 'guided' or 'full', got {mode!r}")
     if library is not None:
@@ -522,6 +539,11 @@ def diagnose(
     )
     sig_vars = [v for v in variables if v.significant]
     best = diag.best
+    if not math.isfinite(nf):
+        # no noise estimate: nothing to compare the residual with; the verdict cannot be given
+        diag.verdict = "undetermined"
+        diag.suggestion = best.term if best is not None else None
+        return diag
     if best is None:
         diag.verdict = "nothing_missing" if noise.consistent and not sig_vars else "unexplained"
         return diag

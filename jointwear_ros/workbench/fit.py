@@ -146,6 +146,30 @@ class FitResult:
         }
 
 
+#: Parameters that are at least 0 in a physical fit (a Stribeck amplitude, a viscous coefficient).
+NONNEGATIVE = ("Fs", "Fv")
+#: Terms whose contribution is a friction level that cannot be negative where the joint was measured.
+SIGNED_TERMS = ("stribeck", "temp_stribeck", "load_stribeck", "viscous", "temp_viscous")
+
+
+def _negative_terms(model: Model, params: Parameters, x: Mapping[str, Array]) -> list[str]:
+    """The Stribeck and viscous terms whose contribution is negative at the data (beyond rounding)."""
+    names = [t.name for t in model.terms if t.name in SIGNED_TERMS]
+    if not names:
+        return []
+    try:
+        comps = model.components(params, **x)
+    except (KeyError, ValueError, TypeError):
+        return []
+    total = max(float(np.max(np.abs(sum(np.asarray(c, dtype=float) for c in comps.values())))), 1e-300)
+    out = []
+    for nm in names:
+        c = np.asarray(comps.get(nm, 0.0), dtype=float)
+        if c.size and float(np.min(c)) < -1e-3 * total:
+            out.append(f"{nm} is negative at the data (down to {float(np.min(c)):.4g})")
+    return out
+
+
 def information_criteria(ssr: float, n: int, k: int) -> tuple[float, float]:
     """Gaussian AIC and BIC with unknown noise variance: n ln(SSR/n) + 2k, n ln(SSR/n) + k ln n."""
     if n <= 0:
@@ -314,6 +338,9 @@ def fit_model(
     scales: DataScales | None = None,
     rescale: bool = True,
     widen: int = 2,
+    physical: bool = True,
+    _clipped: bool = False,
+    _check_only: bool = False,
 ) -> FitResult:
     """Fit ``model`` to ``table`` by nonlinear least squares.
 
@@ -343,6 +370,10 @@ def fit_model(
     widen
         How many times a bound made by the scaling is widened tenfold when the
         fit ends on it.
+    physical
+        Physical signs hold (default): the speed-only Stribeck amplitude ``Fs`` and viscous coefficient
+        ``Fv`` are at least 0 (a fit that ends below refits with the bound at 0), and a fit whose Stribeck or viscous term (:data:`SIGNED_TERMS`) is negative
+        at the data is not called converged (the message names it).
 
     Returns
     -------
@@ -356,6 +387,26 @@ def fit_model(
     auto: set[str] = set()
     if sc is not None:
         p0, auto = scale_parameters(model, p0, sc)
+    if physical and not _clipped:
+        res = fit_model(model, table, params, fixed=fixed, starts=starts, n_starts=n_starts, cv_folds=cv_folds,
+                        folds=folds, cv_max_nfev=cv_max_nfev, max_nfev=max_nfev, scales=scales, rescale=rescale,
+                        widen=widen, physical=True, _clipped=True, _check_only=True)
+        neg = [nm for nm in NONNEGATIVE if nm in res.free and res.params[nm].value < 0]
+        if not neg:
+            return res
+        _clipped = True  # a negative Stribeck amplitude or viscous coefficient: refit with it at least 0
+        if starts is None:  # from the free fit with those at 0, and the speed parameters over the data's speeds
+            from ..model.scaling import speed_starts
+
+            at = {nm: (0.0 if nm in neg else float(res.params[nm].value)) for nm in res.free}
+            sc0 = scales if scales is not None else DataScales.from_table(table)
+            grid = speed_starts(res.free, sc0, (0.001, 0.003, 0.01, 0.03, 0.1, 0.3))
+            starts = [at] + [dict(at, **g) for g in grid if g]
+    if _clipped and not _check_only:
+        for nm in NONNEGATIVE:
+            if nm in p0 and p0[nm].min < 0 and nm not in fixed:
+                p0[nm].min = 0.0
+                p0[nm].value = max(p0[nm].value, 0.0)
     if fixed:
         p0.set_vary(fixed, False)
     prob = _Problem(model, x, y, p0)
@@ -437,9 +488,15 @@ def fit_model(
         out_params[nm].value = float(theta[i])
         out_params[nm].stderr = float(std[i])
     hits = on_bound(out_params, prob.free) if n else []
+    hits = [h for h in hits if not (physical and h.name in NONNEGATIVE and h.bound == 0.0)]
     if hits:
         success = False
         message = f"{message}; ended on a bound: {'; '.join(str(h) for h in hits)}"
+    if physical and n:
+        bad = _negative_terms(model, out_params, x)
+        if bad:
+            success = False
+            message = f"{message}; not physical: {'; '.join(bad)}"
 
     cv_rmse = math.nan
     cv_res: Array | None = None

@@ -151,13 +151,22 @@ def diagnosis_summary(d: Diagnosis) -> str:
 
     b = d.best
     nf = d.noise
+    if d.verdict == "undetermined":
+        cv = (f"CV RMSE {d.cv_rmse:.5f}" if math.isfinite(d.cv_rmse) else
+              "no CV RMSE (a single group: nothing to hold out)")
+        sug = f" The best candidate would be {b.term} (p = {b.p_value:.2g})." if b is not None else ""
+        return (f"Undetermined: model {d.model!r} has RMSE {d.rmse:.5f}, {cv}, but there is no noise estimate to "
+                "judge it by (no tau_f_std column, no repeated observations, no cycles to compare at equal speed), "
+                f"so whether an effect is missing cannot be said.{sug} Give tau_f_std or record repeated cycles."
+                + _outlier_text(d))
     if d.verdict == "nothing_missing":
         top = d.variables[0] if d.variables else None
-        dep = (f"; no column explains its residual (strongest: {top.name}, adjusted p = {top.p_value:.2g})"
-               if top else "; no column to test")
+        dep = (f"; no column explains its residual (strongest: {top.name}, adjusted p = {top.p_value:.2g}, "
+               f"significant below {d.alpha / 2:g})" if top else "; no column to test")
         cand = (f"; the best candidate, {d.candidates[0].term}, is not significant "
-                f"(p = {d.candidates[0].p_value:.2g})") if d.candidates else ""
-        text = (f"Nothing missing: model {d.model!r} has CV RMSE {d.cv_rmse:.5f} "
+                f"(p = {d.candidates[0].p_value:.2g}; significant below {d.alpha / max(len(d.candidates), 1):.2g} "
+                "with a lower CV RMSE and BIC)") if d.candidates else ""
+        text = (f"Nothing missing: model {d.model!r} has {_cv_text(d.cv_rmse)} "
                 f"({_ratio(nf, d.cv_rmse)}); {floor_text(nf)}{dep}{cand}.")
     elif d.verdict == "found" and b is not None:
         stab = d.stability.get(b.term)
@@ -169,7 +178,7 @@ def diagnosis_summary(d: Diagnosis) -> str:
                 f"Try: --model \"{d.model} + {b.term}\"")
     else:
         sig = [v for v in d.variables if v.significant]
-        parts = [f"Unexplained structure remains: model {d.model!r} has CV RMSE {d.cv_rmse:.5f} "
+        parts = [f"Unexplained structure remains: model {d.model!r} has {_cv_text(d.cv_rmse)} "
                  f"({_ratio(nf, d.cv_rmse)}; {floor_text(nf)})."]
         if sig:
             parts.append("The residual depends on " + "; ".join(
@@ -262,10 +271,37 @@ def _diagnosis_rows(d: Diagnosis, top: int) -> tuple[list[list[Any]], list[list[
                   "yes" if v.significant else "no", v.test, v.shape_hint] for i, v in enumerate(d.variables[:max(top, 0)])]
     nf = d.noise
     floor = nf.value if np.isfinite(nf.value) and nf.value > 0 else float("nan")
-    candidates = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse, f"{c.cv_rmse / floor:.2f}x", f"{c.delta_bic:.1f}",
+    candidates = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse,
+                   f"{c.cv_rmse / floor:.2f}x" if math.isfinite(c.cv_rmse / floor) else "-", f"{c.delta_bic:.1f}",
                    f"{c.p_value:.2g}", "yes" if c.significant else "no", c.speed_region_label]
                   for i, c in enumerate(d.candidates[: max(top, 0)])]
     return variables, candidates
+
+
+def _cv_text(cv_rmse: float) -> str:
+    """``CV RMSE 0.00150``, or why there is none (never ``nan``)."""
+    return (f"CV RMSE {cv_rmse:.5f}" if math.isfinite(cv_rmse) else
+            "CV RMSE not computed (a single cycle and no other groups: nothing to hold out)")
+
+
+def _level_lines(d: Diagnosis) -> list[str]:
+    """What ``signif.`` means in each table (the levels the p-values are compared with), and how the
+    suggestion relates to the model-free ranking, so that the tables and the verdict read alike."""
+    m = max(len(d.candidates), 1)
+    cand = (f"; a candidate when its p is below {d.alpha / m:.2g} (alpha / {m} candidates) and it lowers the CV RMSE "
+            "and the BIC") if d.candidates else ""
+    out = [f"significant: a column when its adjusted p is below {d.alpha / 2:g} (alpha {d.alpha:g}, half of it for "
+           f"the ranking){cand}"]
+    b = d.best
+    if b is not None and d.variables:
+        first = d.variables[0].name
+        cols = set(b.variables)
+        if first not in cols and not (set(d.variables[0].columns) & cols):
+            rank = next((i + 1 for i, v in enumerate(d.variables) if set(v.columns) & cols), None)
+            where = f"rank {rank} in the model-free ranking" if rank else "not in the model-free ranking"
+            out.append(f"the suggestion {b.term} uses {', '.join(b.variables)} ({where}); {first} ranks first but "
+                       "no candidate of it is better on held-out cycles")
+    return out
 
 
 def _bound_lines(at_bound: Sequence[Any]) -> list[str]:
@@ -277,9 +313,11 @@ def diagnosis_text(d: Diagnosis, source: str, top: int, at_bound: Sequence[Any] 
     """``jointwear model diagnose``: noise test, model-free ranking, candidates, verdict (``top`` rows each);
     ``at_bound``: the model's own parameters on a bound."""
     variables, candidates = _diagnosis_rows(d, top)
-    out = [f"# model: {d.model}", f"# data: {source}, n = {d.n}; RMSE {d.rmse:.5f}, CV RMSE {d.cv_rmse:.5f}",
-           "# " + noise_line(d.noise, d.cv_rmse), "", f"# {_RANKING}", format_table(_VARIABLE_HEADERS, variables), "",
+    cv = d.cv_rmse if math.isfinite(d.cv_rmse) else None
+    out = [f"# model: {d.model}", f"# data: {source}, n = {d.n}; RMSE {d.rmse:.5f}, {_cv_text(d.cv_rmse)}",
+           "# " + noise_line(d.noise, cv), "", f"# {_RANKING}", format_table(_VARIABLE_HEADERS, variables), "",
            format_table(_CANDIDATE_HEADERS, candidates) if candidates else f"# {_NO_CANDIDATE}"]
+    out += [f"# {line}" for line in _level_lines(d)]
     if d.stability:
         out.append("# chosen in bootstrap resamples by cycle: " + stability_text(d))
     out += ["", f"verdict: {d.verdict}", d.summary()]
@@ -291,12 +329,14 @@ def diagnosis_markdown(d: Diagnosis, source: str, top: int, at_bound: Sequence[A
     """The same report as :func:`diagnosis_text`, as a Markdown document (for an issue, a wiki page, a log book)."""
     variables, candidates = _diagnosis_rows(d, top)
     out = [f"## Diagnosis of `{d.model}`", "",
-           f"Data: `{source}`, n = {d.n}; RMSE {d.rmse:.5f}, CV RMSE {d.cv_rmse:.5f}; {noise_line(d.noise, d.cv_rmse)}.",
+           f"Data: `{source}`, n = {d.n}; RMSE {d.rmse:.5f}, {_cv_text(d.cv_rmse)}; "
+           f"{noise_line(d.noise, d.cv_rmse if math.isfinite(d.cv_rmse) else None)}.",
            "", f"**verdict: {d.verdict}**", "", d.summary(), ""]
     out += [f"*{line}*" for line in _bound_lines(at_bound)] + ([""] if at_bound else [])
     out += [f"### {_RANKING[0].upper()}{_RANKING[1:]}", "", markdown_table(_VARIABLE_HEADERS, variables), "",
             "### Candidate terms", "", markdown_table(_CANDIDATE_HEADERS, candidates) if candidates else
             _NO_CANDIDATE[0].upper() + _NO_CANDIDATE[1:] + "."]
+    out += [""] + [f"*{line[0].upper()}{line[1:]}.*" for line in _level_lines(d)]
     if d.stability:
         out += ["", "Chosen in bootstrap resamples by cycle: " + stability_text(d) + "."]
     return "\n".join(out)
