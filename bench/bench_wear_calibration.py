@@ -31,7 +31,6 @@ Run: ``python bench/bench_wear_calibration.py [--quick]`` (a few minutes on one 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import tempfile
 from dataclasses import dataclass, replace
@@ -55,7 +54,7 @@ from jointwear_ros.model import (
 from jointwear_ros.types import ObservationTable
 
 WEARS = (0.0, 10.0, 20.0, 30.0, 40.0)
-CALIBRATIONS = ("relative", "paper", "midpoint")
+CALIBRATIONS = ("relative", "paper", "midpoint")  # midpoint: half-way (log) between the two, the default
 TRUTHS = ("abs", "lvl")
 #: the baseline's conditions (data synth defaults: load uniform 0.02-0.5; --temperature 18:52)
 BASE_T, BASE_LOAD = 35.0, 0.26
@@ -162,15 +161,8 @@ def run_joint(spec: JointSpec, k: int, where: Path, n: int, method: str = "joint
     cycles = {t: test_cycles(paths[t], 50 + 7 * k + (1000 if t == "lvl" else 0), n) for t in TRUTHS}
     made: dict[str, ParameterSet] = {}
     for cal in CALIBRATIONS:
-        if cal == "midpoint":  # half-way (log) between the two: not a commission option (yet)
-            a, b = made["paper"], made["relative"]
-            vals = dict(b.values)
-            for n in ("Fsw", "Fvw"):
-                vals[n] = math.copysign(math.sqrt(a.values[n] * b.values[n]), b.values[n])
-            pset = replace(b, name=f"{spec.name}-midpoint", values=vals, wear={**b.wear, "calibration": "midpoint"})
-        else:
-            res = commission(table, joint=spec.name, units=units, wear_calibration=cal, diagnose_baseline=False)
-            pset = res.parameter_set(f"{spec.name}-{cal}")
+        res = commission(table, joint=spec.name, units=units, wear_calibration=cal, diagnose_baseline=False)
+        pset = res.parameter_set(f"{spec.name}-{cal}")
         made[cal] = pset
         est = make_estimator(method, params=pset, seed=0)
         for truth in TRUTHS:

@@ -69,9 +69,10 @@ def cobot_relative() -> ParameterSet:
     return _commissioned("cobot-j3", "relative")
 
 
-@pytest.mark.parametrize("calibration", ["relative", "paper"])
+@pytest.mark.parametrize("calibration", ["relative", "paper", DEFAULT_WEAR_CALIBRATION])
 def test_a_commissioned_prior_widens_std_and_interval_by_the_wear_scale(cobot, cobot_relative, calibration):
-    pset = cobot_relative if calibration == "relative" else cobot
+    pset = {"relative": cobot_relative, DEFAULT_WEAR_CALIBRATION: cobot}.get(calibration) or _commissioned(
+        "cobot-j3", calibration)
     assert pset.wear_calibration == calibration
     s = wear_scale(pset)
     assert not s.calibrated and s.rel_std >= SCALE_FLOOR

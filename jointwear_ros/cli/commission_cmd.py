@@ -35,7 +35,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     c.add_argument("data", nargs="+", metavar="DATA", help="bag directories and/or observation CSV tables")
     c.add_argument("--joint", required=True, help="the joint to commission")
     c.add_argument("--robot", default="", help="robot name (provenance)")
-    c.add_argument("--model", default="paper", help="nominal model spec (default paper; e.g. 'paper + ripple(position)')")
+    c.add_argument("--model", default=None,
+                   help="nominal model spec (default paper, and a missing effect the workbench finds and held-out "
+                        "cycles confirm is carried into it; a model you give is kept as given)")
     c.add_argument("--gear-ratio", type=float, default=None,
                    help="DATA is joint side (rad/s, N·m): motor speed = joint speed x this (with --torque-scale)")
     c.add_argument("--torque-scale", type=float, default=None, help="N·m (joint side) per normalized torque unit")
@@ -154,7 +156,8 @@ def cmd_commission(args: argparse.Namespace) -> int:
         from ..io.tables import read_table
 
         wear_table = read_table(wc)
-    res = commission(table, joint=args.joint, robot=args.robot, model=args.model, units=units,
+    res = commission(table, joint=args.joint, robot=args.robot, model=args.model or "paper",
+                     model_explicit=args.model is not None, units=units,
                      wear_calibration=wc, wear_table=wear_table, diagnose_baseline=not args.no_diagnose,
                      sources=[str(Path(p)) for p in args.data])
     import yaml
@@ -183,6 +186,12 @@ def cmd_commission(args: argparse.Namespace) -> int:
                                                    for b in res.bands))
     print("valid: " + ", ".join(f"{k} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in res.valid.items()))
     print(f"workbench verdict on the baseline: {res.verdict}" + (f" (suggests {res.suggestion})" if res.suggestion else ""))
+    if res.carried:
+        print(f"carried into the model: {res.carried} (CV RMSE {res.cv_rmse_before:.4g} -> {res.cv_rmse_after:.4g} "
+              f"on {res.validation}; verdict after: {res.verdict_after})")
+    print(f"validated on {res.validation}")
+    if res.fixed:
+        print("fixed (the data do not identify them): " + ", ".join(f"{k} = {v:.6g}" for k, v in res.fixed.items()))
     print(f"wear calibration: {res.wear.label}: {res.wear.source}")
     for w in res.warnings:
         print(f"warning: {w}")
@@ -243,7 +252,7 @@ def cmd_estimate(args: argparse.Namespace) -> int:
         # maps the suite's units into the set's frame
         tables.append((path, joint, prepare_for_set(table, pset, assumed, explicit=explicit,
                                                     where=table.source or path, tau_range=tau_range)))
-    verdict = str(pset.provenance.get("verdict", "") or "")
+    verdict = str(pset.provenance.get("verdict_after") or pset.provenance.get("verdict") or "")
     rows: list[dict[str, Any]] = []
     infos: list[Any] = []
     for c in estimate_cycles(tables, pset, args.method, args.seed):

@@ -31,7 +31,7 @@ refused (:class:`CommissionError`, one line saying what to record).
 >>> t = synth_observations(n_cycles=16, seed=4, params="ref-2011r")
 >>> r = commission(t, joint="joint_1", diagnose_baseline=False)
 >>> r.converged, round(r.cv_rmse / 0.0015, 1) < 1.3, r.wear.label
-(True, True, 'relative')
+(True, True, 'midpoint')
 """
 
 from __future__ import annotations
@@ -52,7 +52,14 @@ from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet, SetUnits, split_model_spec
 from ..model.scaling import BoundHit, DataScales, data_parameters, speed_starts
 from ..types import ObservationTable
-from .wear import DEFAULT_WEAR_CALIBRATION, WearCalibration, paper_wear_values, relative_wear_values, wear_from_file
+from .wear import (
+    DEFAULT_WEAR_CALIBRATION,
+    WearCalibration,
+    midpoint_wear_values,
+    paper_wear_values,
+    relative_wear_values,
+    wear_from_file,
+)
 
 __all__ = ["MIN_CYCLES", "MIN_LOAD_SPAN", "MIN_SPEEDS", "MIN_TEMPERATURE_SPAN", "CommissionError", "CommissionResult",
            "commission", "nominal_spec"]
@@ -135,7 +142,8 @@ class CommissionResult:
             values=values, valid=dict(self.valid), spec=self.set_spec, units=self.units,
             stderr={n: float(p.stderr) for n, p in self.params.items() if p.stderr is not None},
             covariance=self.covariance, noise_std=self.noise_std, temperature_prior=prior,
-            wear={"calibration": self.wear.label, "source": self.wear.source, "parameters": list(self.wear)},
+            wear={"calibration": self.wear.label, "source": self.wear.source, "parameters": list(self.wear),
+                  **({"level_ratio": float(self.wear.level_ratio)} if self.wear.level_ratio is not None else {})},
             provenance={"robot": self.robot, "joint": self.joint, "data": list(self.sources),
                         "date": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
                         "software": f"jointwear {__version__}", "observations": self.n, "cycles": self.n_cycles,
@@ -497,19 +505,24 @@ def commission(
     if wear_calibration == "paper":
         wear = WearCalibration(paper_wear_values(units), "paper",
                                "Eq. (8) of Bittencourt et al. (2011) in the set's units")
-    elif wear_calibration == "relative":
+    elif wear_calibration in ("relative", "midpoint"):
         t_med = float(np.nanmedian(table.get("temperature"))) if _finite(table, "temperature") is not None \
             else scales.temperature
         l_med = float(np.nanmedian(np.abs(table.get("load_torque")))) if _finite(table, "load_torque") is not None \
             else 0.0
-        vals, ratio = relative_wear_values(m, fit.params, units, t_med, l_med)
-        wear = WearCalibration(vals, "relative",
-                               f"Eq. (8) scaled by the joint's nominal level at v = 0 over ref-2011r's "
-                               f"(x{ratio:.4g} at T = {t_med:.3g} degC, load {l_med:.4g})")
+        v_lo = float(np.min(np.abs(table.speed)))  # the lowest measured speed: no extrapolation below the data
+        values_of = relative_wear_values if wear_calibration == "relative" else midpoint_wear_values
+        vals, ratio = values_of(m, fit.params, units, t_med, l_med, v_lo)
+        how = "scaled by" if wear_calibration == "relative" else "scaled by the square root of"
+        wear = WearCalibration(vals, wear_calibration,
+                               f"Eq. (8) {how} the joint's nominal level over ref-2011r's "
+                               f"(x{ratio:.4g} at {v_lo:.3g} {units.speed_unit}, T = {t_med:.3g} degC, load "
+                               f"{l_med:.4g})", level_ratio=ratio)
     else:
         path = Path(wear_calibration)
         if not path.is_file():
-            raise InputDataError(f"--wear-calibration {wear_calibration!r}: not paper, relative or an existing file")
+            raise InputDataError(f"--wear-calibration {wear_calibration!r}: not midpoint, paper, relative or an "
+                                 "existing file")
         wear = wear_from_file(path, model=m, params=fit.params, table=wear_table, units=units)
     n_cycles = int(np.unique(table["cycle"]).size) if "cycle" in table else 1
     cv_rmse, cv_res = fit.cv_rmse, fit.cv_residuals

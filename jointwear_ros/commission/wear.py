@@ -35,12 +35,11 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ..errors import InputDataError
-from ..model import Model, Parameters, SetUnits, load_parameter_set_info, paper_model
+from ..model import Model, Parameters, SetUnits, load_parameter_set_info
 from ..types import ObservationTable
 
 __all__ = [
@@ -56,9 +55,9 @@ __all__ = [
 ]
 
 #: The wear calibration a commissioned set gets unless told otherwise (measured: docs/commissioning.md).
-DEFAULT_WEAR_CALIBRATION = "paper"
+DEFAULT_WEAR_CALIBRATION = "midpoint"
 #: The wear calibrations by name (the priors); a FILE calibrates.
-WEAR_CALIBRATIONS = ("paper", "relative")
+WEAR_CALIBRATIONS = ("midpoint", "paper", "relative")
 #: The set that holds the paper's wear parameters (Eq. 8) and its joint's nominal model.
 REFERENCE_SET = "ref-2011r"
 #: The wear parameters of Eq. (7).
@@ -68,10 +67,13 @@ WEAR_PARAMS = ("Fsw", "vsw", "Fvw")
 class WearCalibration(dict):  # type: ignore[type-arg]
     """Wear parameter values (set units) with ``label`` (what every estimate names) and ``source``."""
 
-    def __init__(self, values: Mapping[str, float], label: str, source: str) -> None:
+    def __init__(self, values: Mapping[str, float], label: str, source: str, level_ratio: float | None = None
+                 ) -> None:
         super().__init__(values)
         self.label = label
         self.source = source
+        #: the joint's nominal friction over ref-2011r's (relative, midpoint), recorded in the set
+        self.level_ratio = level_ratio
 
 
 def paper_wear_values(units: SetUnits) -> dict[str, float]:
@@ -82,36 +84,27 @@ def paper_wear_values(units: SetUnits) -> dict[str, float]:
 
 
 def relative_wear_values(model: Model, params: Parameters, units: SetUnits, temperature: float,
-                         load: float) -> tuple[dict[str, float], float]:
-    """Eq. (8) scaled to the joint's nominal level at v = 0; returns the values and the ratio used."""
-    ref = load_parameter_set_info(REFERENCE_SET)
-    pm = paper_model()
-    t_lo, t_hi = ref.valid.get("temperature", (-math.inf, math.inf))
-    t_ref = min(max(temperature, t_lo), t_hi)
-    load_ref = load / units.torque_factor
-    f0_ref = float(pm.evaluate(pm.make_params(ref.parameters()), speed=0.0, load_torque=load_ref,
-                                  temperature=t_ref)) * units.torque_factor
-    inputs: dict[str, Any] = {"speed": 0.0, "load_torque": load, "temperature": temperature, "wear": 0.0}
-    inputs = {k: v for k, v in inputs.items() if k in model.variables}
-    for var in model.variables:  # inputs of other terms: at 0 (a ripple's mean is 0 only on average; a level)
-        inputs.setdefault(var, 0.0)
-    f0 = float(np.mean(model.evaluate(params, **inputs)))
-    if not (math.isfinite(f0) and f0 > 0 and f0_ref > 0):
-        raise InputDataError(f"the joint's nominal friction at v = 0 is {f0:g} {units.torque_unit}; the relative "
-                             "wear calibration needs a positive level: use --wear-calibration paper or FILE")
-    ratio = f0 / f0_ref
+                         load: float, speed: float = 0.0) -> tuple[dict[str, float], float]:
+    """Eq. (8) scaled to the joint's nominal level over ref-2011r's at ``speed`` (set units; the baseline's lowest
+    measured speed, so the ratio is not an extrapolation of the fit below the data); the values and the ratio."""
+    from ..estimation.wear_scale import level_ratio
+
+    ratio = level_ratio(model, params, units, temperature, load, speed=speed)
+    if not (math.isfinite(ratio) and ratio > 0):
+        raise InputDataError(f"the joint's nominal friction at {speed:g} {units.speed_unit} is not positive; the "
+                             "relative and midpoint wear calibrations need a positive level: use --wear-calibration "
+                             "paper or FILE")
     base = paper_wear_values(units)
     return {"Fsw": base["Fsw"] * ratio, "vsw": base["vsw"], "Fvw": base["Fvw"] * ratio}, ratio
 
 
 def midpoint_wear_values(model: Model, params: Parameters, units: SetUnits, temperature: float,
-                         load: float) -> tuple[dict[str, float], float]:
+                         load: float, speed: float = 0.0) -> tuple[dict[str, float], float]:
     """Half-way in log between ``paper`` and ``relative``: Eq. (8) scaled by sqrt(ratio); the values and the ratio.
 
-    Measured best of the three on joints unlike the paper's (docs/commissioning.md); not yet a
-    ``commission`` option.
+    Measured best of the three on joints unlike the paper's (docs/commissioning.md): the default.
     """
-    _, ratio = relative_wear_values(model, params, units, temperature, load)
+    _, ratio = relative_wear_values(model, params, units, temperature, load, speed)
     k = math.sqrt(ratio)
     base = paper_wear_values(units)
     return {"Fsw": base["Fsw"] * k, "vsw": base["vsw"], "Fvw": base["Fvw"] * k}, ratio

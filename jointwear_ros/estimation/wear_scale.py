@@ -53,7 +53,7 @@ __all__ = ["PRIOR_LABELS", "REFERENCE_SET", "SCALE_FLOOR", "SCALE_MIN_WEAR", "SC
 #: The set whose wear parameters are the paper's (Eq. 8) and whose nominal level ``r`` is measured against.
 REFERENCE_SET = "ref-2011r"
 #: Wear calibrations that are priors when the set was commissioned (no wear data on the joint).
-PRIOR_LABELS = ("paper", "relative")
+PRIOR_LABELS = ("midpoint", "paper", "relative")
 #: Relative std of a prior wear scale on a joint at the paper's friction level (``r = 1``, where ``paper``
 #: and ``relative`` agree): the paper's Eq. (8) comes from one robot's accelerated wear tests.
 SCALE_FLOOR = 0.10
@@ -116,18 +116,19 @@ def _commissioned(pset: ParameterSet) -> bool:
 
 
 def level_ratio(model: Model, params: Parameters | Mapping[str, float], units: SetUnits, temperature: float,
-                load: float) -> float:
-    """A joint's nominal friction at v = 0 (set units, wear 0, other inputs at 0) over ``ref-2011r``'s.
+                load: float, speed: float = 0.0) -> float:
+    """A joint's nominal friction at ``speed`` (set units, wear 0, other inputs at 0) over ``ref-2011r``'s there.
 
-    ``temperature`` (degC) and ``load`` (set units) are where both are compared; the reference's
+    ``temperature`` (degC), ``load`` and ``speed`` (set units) are where both are compared; the reference's
     temperature is clipped to its valid range. NaN when either level is not positive.
     """
     ref = load_parameter_set_info(REFERENCE_SET)
     pm = paper_model()
     t_lo, t_hi = ref.valid.get("temperature", (-math.inf, math.inf))
-    f_ref = float(pm.evaluate(pm.make_params(ref.parameters()), speed=0.0, load_torque=load / units.torque_factor,
+    f_ref = float(pm.evaluate(pm.make_params(ref.parameters()), speed=speed / units.speed_factor,
+                              load_torque=load / units.torque_factor,
                               temperature=min(max(temperature, t_lo), t_hi))) * units.torque_factor
-    inputs: dict[str, Any] = {"speed": 0.0, "load_torque": load, "temperature": temperature, "wear": 0.0}
+    inputs: dict[str, Any] = {"speed": speed, "load_torque": load, "temperature": temperature, "wear": 0.0}
     inputs = {k: v for k, v in inputs.items() if k in model.variables}
     for var in model.variables:  # inputs of other terms: at 0 (a ripple's mean is 0 only on average; a level)
         inputs.setdefault(var, 0.0)
@@ -142,8 +143,13 @@ def _set_level_ratio(pset: ParameterSet) -> float:
     """``r`` of a set: exact from a ``relative`` set's Fsw; else its nominal level at the middle of its ranges."""
     ref = load_parameter_set_info(REFERENCE_SET).values
     tf = pset.units.torque_factor
+    recorded = pset.wear.get("level_ratio")
+    if isinstance(recorded, (int, float)) and math.isfinite(recorded) and recorded > 0:
+        return float(recorded)  # what commissioning measured, at the baseline's lowest speed
     if pset.wear_calibration == "relative" and "Fsw" in pset.values and ref.get("Fsw"):
         return float(pset.values["Fsw"] / (ref["Fsw"] * tf))
+    if pset.wear_calibration == "midpoint" and "Fsw" in pset.values and ref.get("Fsw"):
+        return float((pset.values["Fsw"] / (ref["Fsw"] * tf)) ** 2)
     t_lo, t_hi = pset.valid.get("temperature", (40.0, 40.0))
     l_lo, l_hi = pset.valid.get("load_torque", (0.1 * tf, 0.1 * tf))
     try:
