@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import pickle
 from dataclasses import replace
@@ -205,3 +206,29 @@ def test_midpoint_wear_values_lie_half_way_in_log_between_paper_and_relative():
     pap = paper_wear_values(info.units)
     assert ratio == ratio2 == pytest.approx(1.35, rel=0.05)
     assert mid["Fsw"] == pytest.approx(math.sqrt(rel["Fsw"] * pap["Fsw"])) and mid["vsw"] == pap["vsw"]
+
+
+def test_the_plant_view_and_trend_say_whether_each_joints_wear_scale_is_calibrated(cobot, tmp_path, capsys):
+
+
+    from jointwear_ros.cli import main
+    from jointwear_ros.history import EstimateRecord, HistoryStore
+    from jointwear_ros.model import parameter_set_document
+    from jointwear_ros.serve.core import JointHistory, analyze_plant
+    from jointwear_ros.trend import TrendConfig
+
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(parameter_set_document(cobot), sort_keys=False, allow_unicode=True))
+    t = [1.7e9 + 86400.0 * k for k in range(6)]
+    sets = {"joint_1": str(path), "joint_2": "ref-2011r", "joint_3": str(tmp_path / "gone.yaml")}
+    views = analyze_plant([JointHistory("r", j, t, [10.0] * 6, [1.0] * 6, list(range(6)), params=p)
+                           for j, p in sets.items()], TrendConfig(), now=t[-1], stale_days=7)
+    got = {v.joint: v.as_api()["wear_scale_calibrated"] for v, _ in views}
+    assert got == {"joint_1": False, "joint_2": True, "joint_3": None}  # a prior, the paper's joint, unknown here
+    db = tmp_path / "h.db"
+    with HistoryStore(f"sqlite:///{db}") as store:
+        store.add_estimates([EstimateRecord("r", j, cycle_id=k, time=tk, wear=10.0, wear_std=1.0, params=p)
+                             for j, p in sets.items() for k, tk in enumerate(t)])
+    assert main(["trend", "--db", str(db), "--json"]) == 0
+    rows = {r["joint"]: r["wear_scale_calibrated"] for r in json.loads(capsys.readouterr().out)["joints"]}
+    assert rows == got

@@ -54,7 +54,7 @@ def cmd_trend(args: argparse.Namespace) -> int:
     import time
 
     from ..history import HistoryStore, screened_history
-    from ..serve.core import joint_view
+    from ..serve.core import calibrated_of, joint_view
     from ..trend import TrendConfig, analyze_joint
     from ..trend.report import plot_trend, rank_key, write_html
 
@@ -112,9 +112,12 @@ def cmd_trend(args: argparse.Namespace) -> int:
         rows_json = []
         for r in results:
             v = views[(r.robot, r.joint)]
+            newest = max(raw[(r.robot, r.joint)][0], key=lambda x: x.time)
             rows_json.append({**r.as_dict(), "level": v.level_name, "trend_level": r.level_name,
                               "newest_time": v.time, "age_days": v.age_days,
-                              "refused": n_refused.get((r.robot, r.joint), 0)})
+                              "refused": n_refused.get((r.robot, r.joint), 0),
+                              "parameter_set": newest.params or None,
+                              "wear_scale_calibrated": calibrated_of(newest.params)})
         print_json({"joints": rows_json, "refused": refused})
         return 0
     if not results:

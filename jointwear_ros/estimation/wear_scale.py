@@ -36,6 +36,7 @@ Pure numpy; no ROS import.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -48,7 +49,7 @@ from ..types import ObservationTable, WearEstimator, WearResult
 from ._common import WEAR_RANGE, capabilities_of
 
 __all__ = ["PRIOR_LABELS", "REFERENCE_SET", "SCALE_FLOOR", "SCALE_MIN_WEAR", "SCALE_PER_LOG_RATIO", "WearScale",
-           "WearScaledEstimator", "level_ratio", "wear_scale"]
+           "WearScaledEstimator", "level_ratio", "wear_scale", "wear_scale_of"]
 
 #: The set whose wear parameters are the paper's (Eq. 8) and whose nominal level ``r`` is measured against.
 REFERENCE_SET = "ref-2011r"
@@ -173,6 +174,18 @@ def prior_rel_std(ratio: float) -> float:
     """
     lr = abs(math.log(ratio)) if math.isfinite(ratio) and ratio > 0 else _FALLBACK_LOG_RATIO
     return math.hypot(SCALE_FLOOR, SCALE_PER_LOG_RATIO * lr)
+
+
+@functools.lru_cache(maxsize=256)
+def wear_scale_of(params: str) -> WearScale | None:
+    """:func:`wear_scale` of the set an estimate names (its name or path, as the history stores it); None when
+    that set cannot be read here (another machine's path, a set since deleted): unknown, never guessed."""
+    if not params:
+        return None
+    try:
+        return wear_scale(load_parameter_set_info(params))
+    except Exception:  # any set this machine cannot read: the calibration is unknown here
+        return None
 
 
 def wear_scale(pset: ParameterSet | None) -> WearScale:

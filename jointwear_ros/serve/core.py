@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ..contract import DiagnosticLevel
@@ -66,6 +66,8 @@ class JointHistory:
     wear_std: Sequence[float]
     cycle_ids: Sequence[int]
     maintenance_times: Sequence[float] = ()
+    #: the parameter set the newest estimate names (whether its wear scale is calibrated is shown)
+    params: str = ""
 
 
 @dataclass(frozen=True)
@@ -91,6 +93,8 @@ class JointView:
     #: stored estimates of the joint the history's screening refused (impossible values, bad times): never
     #: part of the trend, so one bad row cannot hide an alarm; counted so that someone looks
     rows_refused: int = 0
+    #: whether the newest estimate's wear scale is calibrated (known wear levels), a prior (False), or unknown
+    calibrated: bool | None = None
 
     @property
     def level_name(self) -> str:
@@ -109,7 +113,7 @@ class JointView:
             "trend_level": LEVEL_NAMES[self.trend_level], "age_days": num(self.age_days),
             "rate_per_day": num(self.rate_per_day), "estimates": self.estimates,
             "estimates_total": self.estimates_total, "message": self.message, "refused": self.refused or None,
-            "rows_refused": self.rows_refused,
+            "rows_refused": self.rows_refused, "wear_scale_calibrated": self.calibrated,
         }
 
 
@@ -150,8 +154,17 @@ def analyze_plant(histories: Iterable[JointHistory], cfg: TrendConfig, now: floa
         except InputDataError as exc:
             out.append((refused_view(h.robot, h.joint, str(exc), newest, now, len(h.times)), None))
             continue
-        out.append((joint_view(r, newest, now, stale_days), r))
+        view = joint_view(r, newest, now, stale_days)
+        out.append((replace(view, calibrated=calibrated_of(h.params)), r))
     return out
+
+
+def calibrated_of(params: str) -> bool | None:
+    """Whether the wear scale of the set ``params`` names is calibrated (None: unknown here)."""
+    from ..estimation.wear_scale import wear_scale_of
+
+    scale = wear_scale_of(params)
+    return None if scale is None else bool(scale.calibrated)
 
 
 def rank_views(views: Iterable[JointView]) -> list[JointView]:

@@ -185,7 +185,7 @@ class StoreWatcher:
                 continue
             items.append(JointHistory(rb, jt, [r.time for r in recs], [r.wear for r in recs],
                                       [r.wear_std for r in recs], [r.cycle_id for r in recs],
-                                      [e.time for e in events]))
+                                      [e.time for e in events], params=recs[-1].params if recs else ""))
         out = {}
         for h, (view, r) in zip(items, analyze_plant(items, self.cfg, now, self.stale_days, smooth=False)):
             recs, events = hist[(h.robot, h.joint)]
