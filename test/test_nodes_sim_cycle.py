@@ -242,9 +242,11 @@ class TestSimulatedCell:
 
     def test_motion_enabled_false_stops_a_running_cycle_at_once(self, cell, operator):
         _ready(operator)
-        resp = operator.start(speeds=[10.0])
+        # three speeds (about 25 s): the cycle is still running when a starved operator has caught up with its
+        # first forward commands (with one speed, a burst of late messages once ended in the cycle's DONE)
+        resp = operator.start(speeds=[5.0, 8.0, 10.0])
         operator.wait_phase(resp.cycle_id, Phase.FORWARD)
-        ok = operator.spin_until(lambda: operator.commands and operator.commands[-1] > 0.0, 5.0)
+        ok = operator.spin_until(lambda: any(c > 0.0 for c in operator.commands), 5.0)
         assert ok, (operator.commands[-5:], operator.status[-1])
         (res,) = operator.set_params(motion_enabled=False)
         assert res.successful
