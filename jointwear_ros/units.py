@@ -342,7 +342,6 @@ def _fits(span: tuple[float, float], rng: tuple[float, float], tol: float) -> bo
 
 def likely_temperature_slip(col: Array, rng: tuple[float, float], tol: float = 0.0) -> tuple[str, str] | None:
     """``(what, flag)`` when the temperatures fit ``rng`` (degC) read as kelvin or degF, else None."""
-    span = _span(col) if np.all(np.isfinite(col)) else None
     raw = np.asarray(col, dtype=float)
     raw = raw[np.isfinite(raw)]
     if raw.size == 0:
@@ -455,8 +454,6 @@ def _likely_slip(var: str, table: Any, in_set: Any, pset: Any, units: TableUnits
         if su.joint_side and gear:
             f = gear if speed_like else 1.0 / (scale or 1.0)
             candidates.append((f, "joint side (rad/s, N·m)? add --joint-side"))
-        elif speed_like:
-            candidates.append((math.nan, ""))
     if speed_like:
         for unit, factor in SPEED_UNITS.items():
             if unit != units.speed_unit:
@@ -466,8 +463,6 @@ def _likely_slip(var: str, table: Any, in_set: Any, pset: Any, units: TableUnits
             if unit != units.torque_unit:
                 candidates.append((factor / TORQUE_UNITS.get(units.torque_unit, 1.0), f"in {unit}? add --torque-unit {unit}"))
     for f, text in candidates:
-        if not math.isfinite(f):
-            continue
         if _fits((span[0] * f, span[1] * f), rng, tol):
             return text
     if not units.joint_side and not su.joint_side and speed_like and span[1] < rng[0]:
@@ -593,11 +588,6 @@ def check_temperature(table: Any, units: TableUnits, *, where: str = "") -> None
     raise UnitError(f"{where or table.source or 'observations'}: column temperature runs {_fmt_range(span)} degC "
                     f"(read as {units.describe()}), outside what a robot joint reaches in operation ({lo:g} to "
                     f"{hi:g} degC); {hint}")
-
-
-def replace_units(units: TableUnits, **changes: Any) -> TableUnits:
-    """``units`` with ``changes`` (a flag that overrides an assumption)."""
-    return replace(units, **changes)
 
 
 def effective_units(table: Any, assumed: TableUnits, *, explicit: bool = False, where: str = "") -> TableUnits:

@@ -69,11 +69,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     e.set_defaults(func=cmd_estimate)
 
 
-def _positive(value: float | None, flag: str) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise UsageError(f"{flag} {value!r}: must be a positive number")
-
-
 def _read_all(paths: list[str], default_joint: str | None,
               skipped: list[str] | None = None) -> list[tuple[str, str, Any]]:
     """``(path, joint, table)`` of every input; with ``skipped`` a bag that cannot be read (a failed cycle that
@@ -110,12 +105,10 @@ def cmd_commission(args: argparse.Namespace) -> int:
     from ..types import ObservationTable
     from ..units import SetUnits, TableUnits, prepare_baseline, to_set_frame
 
-    _positive(args.gear_ratio, "--gear-ratio")
-    _positive(args.torque_scale, "--torque-scale")
+    assumed, explicit = units_from_args(args, joint_side=args.gear_ratio is not None)  # flags checked here
     if (args.gear_ratio is None) != (args.torque_scale is None):
         raise UsageError("--gear-ratio and --torque-scale go together (DATA joint side: both say how it maps to "
                          "the motor side and the normalized torque)")
-    assumed, explicit = units_from_args(args, joint_side=args.gear_ratio is not None)
     out = check_output_file(args.out, "--out", ".yaml")
     assert out is not None  # --out is required
     report = check_output_dir(args.report, "--report")
@@ -237,11 +230,6 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     pset = load_parameter_set_info(args.params)
     set_joint = str(pset.provenance.get("joint", "")) or args.joint or ""
     assumed, explicit = units_from_args(args)
-    if assumed.joint_side and not pset.units.joint_side and (assumed.gear_ratio is None or
-                                                            assumed.torque_scale is None):
-        raise UsageError(f"--joint-side: parameter set {pset.name!r} is in the paper's normalized motor-side units; "
-                         "add --gear-ratio G --torque-scale S (how the joint maps to it), or give the table in "
-                         "those units")
     tau_range = pset.friction_range()
     tables = []
     for path, joint, table in _read_all(args.data, set_joint):

@@ -101,10 +101,6 @@ def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], 
     version = args.analysis_version or f"{method}:{pset.name}:{__version__}"
     default_joint = str(pset.provenance.get("joint", "")) or "joint_1"
     assumed, explicit = units_from_args(args)
-    if assumed.joint_side and not pset.units.joint_side and (assumed.gear_ratio is None or
-                                                            assumed.torque_scale is None):
-        raise UsageError(f"--joint-side: parameter set {pset.name!r} is in the paper's normalized motor-side units; "
-                         "add --gear-ratio G --torque-scale S (how the joint maps to it)")
     tau_range = pset.friction_range()
     # each table to the suite's units, checked against the set as `jointwear estimate` checks it: a unit slip or a
     # joint hotter than the set's range is one line, exit 2, and nothing is stored
