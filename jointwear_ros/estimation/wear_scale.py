@@ -40,6 +40,7 @@ import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -176,12 +177,24 @@ def prior_rel_std(ratio: float) -> float:
     return math.hypot(SCALE_FLOOR, SCALE_PER_LOG_RATIO * lr)
 
 
-@functools.lru_cache(maxsize=256)
 def wear_scale_of(params: str) -> WearScale | None:
     """:func:`wear_scale` of the set an estimate names (its name or path, as the history stores it); None when
-    that set cannot be read here (another machine's path, a set since deleted): unknown, never guessed."""
+    that set cannot be read here (another machine's path, a set since deleted): unknown, never guessed.
+
+    Cached per set file and its modification time: the plant page asks every refresh, and a set
+    commissioned again under the same path is read again.
+    """
     if not params:
         return None
+    try:
+        stamp = Path(params).stat().st_mtime_ns if Path(params).is_file() else 0
+    except OSError:
+        stamp = 0
+    return _wear_scale_of(params, stamp)
+
+
+@functools.lru_cache(maxsize=256)
+def _wear_scale_of(params: str, stamp: int) -> WearScale | None:
     try:
         return wear_scale(load_parameter_set_info(params))
     except Exception:  # any set this machine cannot read: the calibration is unknown here
