@@ -166,6 +166,15 @@ class DemoResult:
         return out
 
 
+
+def _stop_cell(children: list[Child]) -> None:
+    """Stop the cell's nodes: the producers first (each waits until the recorder acknowledged its last
+    messages), then the recorder, the clock source (joint_sim) last: sim-time nodes need /clock."""
+    _progress("stopping the nodes")
+    stop_children([c for c in children if c.name not in ("joint_sim", "recorder")], progress=_progress)
+    stop_children([c for c in children if c.name == "recorder"], progress=_progress)
+    stop_children([c for c in children if c.name == "joint_sim"], progress=_progress)
+
 def _finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
@@ -349,12 +358,7 @@ def run_demo(
         if op is not None:
             op.close()
         if children:
-            _progress("stopping the nodes")
-            # the producers first (each waits until the recorder acknowledged its last messages),
-            # then the recorder, the clock source (joint_sim) last: sim-time nodes need /clock
-            stop_children([c for c in children if c.name not in ("joint_sim", "recorder")], progress=_progress)
-            stop_children([c for c in children if c.name == "recorder"], progress=_progress)
-            stop_children([c for c in children if c.name == "joint_sim"], progress=_progress)
+            _stop_cell(children)
     bags = [b for b in find_bags(bagdir) if b not in bags_before]
     bag = str(bags[-1]) if bags else None
     if bag is None:
@@ -847,10 +851,7 @@ def run_commission_demo(
         if op is not None:
             op.close()
         if children:
-            _progress("stopping the nodes")
-            stop_children([c for c in children if c.name not in ("joint_sim", "recorder")], progress=_progress)
-            stop_children([c for c in children if c.name == "recorder"], progress=_progress)
-            stop_children([c for c in children if c.name == "joint_sim"], progress=_progress)
+            _stop_cell(children)
     if not results:  # the run ended before its test cycle
         results = _commission_joints(setups, records, setdir, wear_calibration)
     test_settings = next(pc for pc in plan if pc.stage == "test").settings
