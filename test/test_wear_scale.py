@@ -148,6 +148,37 @@ def test_the_monitor_names_the_calibration_in_its_key_values(cobot, tmp_path):
         assert "wear_calibration" in values and float(values["wear_std"]) >= float(values["wear_std_noise"])
 
 
+def test_one_monitor_cycle_after_cycle_keeps_the_wear_scale_and_an_impossible_reading_hides_no_alarm(cobot, tmp_path):
+    """Five cycles through one monitor with a commissioned (prior) set, wear rising 0 -> 40 and back to 10 (a
+    reducer replaced): each result says calibrated false, carries the total std, holds its truth within 3 std, and
+    an impossible temperature on one observation of a cycle at wear 40 does not turn it into OK."""
+    from jointwear_ros.contract import DiagnosticLevel
+    from jointwear_ros.observer import FrictionObservationData
+
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(parameter_set_document(cobot)), encoding="utf-8")
+    mon = WearMonitor(MonitorConfig(params=str(path), method="joint", use_measured_temperature=True))
+    for cycle, (wear, bad) in enumerate(((0.0, False), (20.0, False), (40.0, False), (40.0, True), (10.0, False)),
+                                        start=1):
+        t = synth_observations(n_cycles=1, seed=40 + cycle, params="cobot-j3", model="paper+wear", wear=wear,
+                               temperature=(38.0, 38.0), position=(0.3, 0.3))
+        out = []
+        for i, (v, tau) in enumerate(zip(t["speed"], t["tau_f"], strict=True)):
+            temp = -300.0 if bad and i == 2 else float(t["temperature"][i])
+            out += mon.add(FrictionObservationData(
+                stamp=100.0 * cycle + i, joint_name="joint_1", cycle_id=cycle, speed=float(v), tau_f=float(tau),
+                tau_f_std=1.5e-3, tau_plus=0.1 + tau, tau_minus=0.1 - tau, load_torque=float(t["load_torque"][i]),
+                temperature=temp, position=0.3, samples_plus=500, samples_minus=500))
+        out += mon.poll(100.0 * cycle + 1e3)
+        (res,) = out
+        values = dict(res.values)
+        assert values["calibrated"] == "false" and not res.calibrated
+        std = float(values["wear_std"])
+        assert std >= float(values["wear_std_noise"]) and abs(float(values["wear"]) - wear) <= 3 * std, values
+        if wear >= 40.0:
+            assert res.level != DiagnosticLevel.OK, values  # the alarm is not hidden by the prior or the reading
+
+
 # -- done when: robots unlike the reference, commissioned with the default calibration ------------------------
 
 
