@@ -427,7 +427,7 @@ def _levels(speed: Array, direction: Array, cfg: TimeseriesConfig, rejected: lis
     return sorted(levels)
 
 
-def _runs(mask: Array) -> list[tuple[int, int]]:
+def _runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
     """[start, stop) of the runs of True in ``mask``."""
     d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
