@@ -188,7 +188,8 @@ def test_a_bag_with_wear_trend_messages_reads_back(tmp_path):
         robot="cell_1", joint_name="joint_4", estimates=12, estimates_total=30, wear=22.5, wear_std=0.4,
         rate_per_day=0.2, rate_std_per_day=0.02, time_to_alarm_median=62.0, time_to_alarm_lo90=50.0,
         time_to_alarm_hi90=80.0, alarm_threshold=35.0, horizon_days=30.0, growth_detected=True, level=0,
-        message="ok")
+        alarm_expected=False, forecast="beyond_horizon", level_wear=22.4, level_wear_std=0.5, evidence="complete",
+        confirmation="confirmed", message="ok")
     path = tmp_path / "bag"
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         c = w.add_connection("/jointwear/wear_trend", "jointwear_msgs/msg/WearTrend", typestore=store)

@@ -38,10 +38,14 @@ def _run(monitor, cycle_id, wear, **kw):
 
 
 def test_levels_at_the_thresholds():
-    assert diagnostic_level(29.999, 30, 35) == DiagnosticLevel.OK
-    assert diagnostic_level(30.0, 30, 35) == DiagnosticLevel.WARN
-    assert diagnostic_level(34.999, 30, 35) == DiagnosticLevel.WARN
-    assert diagnostic_level(35.0, 30, 35) == DiagnosticLevel.ERROR
+    assert diagnostic_level(29.999, 0.1, 30, 35) == DiagnosticLevel.OK
+    assert diagnostic_level(30.0, 0.1, 30, 35) == DiagnosticLevel.WARN
+    assert diagnostic_level(34.999, 0.1, 30, 35) == DiagnosticLevel.WARN
+    assert diagnostic_level(35.0, 0.1, 30, 35) == DiagnosticLevel.ERROR
+    # the uncertainty counts: an estimate that cannot rule out the alarm is WARN, whatever its point value
+    assert diagnostic_level(25.0, 7.0, 30, 35) == DiagnosticLevel.WARN
+    assert diagnostic_level(25.0, 6.0, 30, 35) == DiagnosticLevel.OK
+    assert diagnostic_level(float("nan"), 1.0, 30, 35) == DiagnosticLevel.STALE
 
 
 @pytest.mark.parametrize(("wear", "level"), [(5.0, DiagnosticLevel.OK), (32.5, DiagnosticLevel.WARN), (45.0, DiagnosticLevel.ERROR)])
@@ -155,13 +159,14 @@ def test_finished_cycles_are_remembered_up_to_a_bound():
     assert len(mon._finished) <= 4 and 7 in mon._finished
 
 
-def test_aborted_cycle_without_observations_is_reported_as_warning():
+def test_aborted_cycle_without_observations_gives_no_level_and_names_the_cycles_reason():
     mon = WearMonitor(MonitorConfig(done_timeout=1.0))
     mon.on_status(1.0, 9, CycleState.RUNNING, 0, 8, "joint_1")
-    mon.on_status(2.0, 9, CycleState.ABORTED, 0, 8, "joint_1")
+    mon.on_status(2.0, 9, CycleState.ABORTED, 0, 8, "joint_1", message="effort limit 12 N·m exceeded")
     (r,) = mon.poll(3.5)
-    assert r.result is None and r.level == DiagnosticLevel.WARN
-    assert "ABORTED" in r.message and "0 friction observations" in r.message
+    assert r.result is None and r.level == DiagnosticLevel.STALE and r.stale and not r.alarm
+    assert "ABORTED" in r.message and "no usable friction observation" in r.message
+    assert "test_cycle: effort limit 12 N·m exceeded" in r.message and "friction_observer" not in r.message
 
 
 def test_cycle_without_status_is_estimated_after_idle_timeout():
@@ -205,7 +210,7 @@ def test_estimator_failure_is_reported_not_raised():
 
     mon = WearMonitor(MonitorConfig(), estimator_factory=broken)
     (r,) = _run(mon, 1, 10.0)
-    assert r.result is None and r.level == DiagnosticLevel.WARN and "no good" in r.message
+    assert r.result is None and r.level == DiagnosticLevel.STALE and r.stale and "no good" in r.message
 
 
 def test_config_rejects_inverted_thresholds():
@@ -299,12 +304,12 @@ def test_a_non_physical_observation_is_dropped_and_the_rest_estimated(field, val
     assert mon.rejected_count == 1 and why in mon.ignored[-1]
 
 
-def test_a_cycle_whose_observations_are_all_dropped_is_a_warning_with_the_reasons():
+def test_a_cycle_whose_observations_are_all_dropped_gives_no_level_with_the_reasons():
     mon = WearMonitor(MonitorConfig(seed=1))
     mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
     (r,) = [x for o in _obs(1, 40.0) for x in mon.add(replace(o, tau_f=math.nan))]
-    assert r.result is None and r.level == DiagnosticLevel.WARN and not r.alarm
-    assert "0 friction observations" in r.message and "3 observation(s) rejected" in r.message
+    assert r.result is None and r.level == DiagnosticLevel.STALE and r.stale and not r.alarm
+    assert "no usable friction observation" in r.message and "3 observation(s) rejected" in r.message
 
 
 def test_nan_tau_f_std_means_not_given_and_is_kept():

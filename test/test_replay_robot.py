@@ -74,7 +74,8 @@ def _extra(store, observations, results):
                         method=res.method, wear=res.wear, wear_std=res.wear_std, wear_low=res.wear_low,
                         wear_high=res.wear_high, temperature_estimate=res.temperature,
                         speeds=np.array(res.speeds, dtype=float), per_speed_wear=np.array(res.per_speed_wear, dtype=float),
-                        alarm_threshold=35.0, alarm=bool(res.wear >= 35.0))))
+                        alarm_threshold=35.0, alarm=bool(res.wear >= 35.0), level=0,
+                        evidence="complete", confirmation="confirmed")))
     return out
 
 

@@ -24,7 +24,15 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
 
-from plant_example import ERROR_JOINT, STALE_JOINT, WARN_JOINTS, expected_levels, write_plant  # noqa: E402
+from plant_example import (  # noqa: E402
+    ERROR_JOINT,
+    NEAR_JOINT,
+    RISING_JOINTS,
+    STALE_JOINT,
+    WARN_JOINTS,
+    expected_levels,
+    write_plant,
+)
 from plant_screenshot import start_serve, stop  # noqa: E402
 
 RULES = ROOT / "config" / "prometheus" / "jointwear-rules.yml"
@@ -115,7 +123,8 @@ def test_a_real_prometheus_scrapes_serve_and_the_error_rule_fires_for_the_error_
             if len(levels) == 30 and firing:
                 break
             time.sleep(0.3)
-        assert levels == expected_levels()  # scraped: every joint, the level jointwear decided
+        # scraped: every joint, the level jointwear decided (the near-threshold joint: whatever the rule said)
+        assert all(want is None or levels[k] == want for k, want in expected_levels().items()) and len(levels) == 30
         assert [(a["labels"]["robot"], a["labels"]["joint"]) for a in firing] == [ERROR_JOINT]
         assert firing[0]["labels"]["severity"] == "critical"
         target_health = _query(base, "/api/v1/targets")["activeTargets"]
@@ -125,11 +134,13 @@ def test_a_real_prometheus_scrapes_serve_and_the_error_rule_fires_for_the_error_
         by_rule: dict[str, set] = {}
         for a in alerts:
             by_rule.setdefault(a["labels"]["alertname"], set()).add((a["labels"]["robot"], a["labels"]["joint"]))
-        assert by_rule.get("JointwearJointWarn", set()) <= set(WARN_JOINTS)
+        assert by_rule.get("JointwearJointWarn", set()) <= set(WARN_JOINTS) | {NEAR_JOINT}
+        assert by_rule.get("JointwearAlarmExpected", set()) <= set(RISING_JOINTS)
         assert by_rule.get("JointwearJointStale", set()) <= {STALE_JOINT}
         groups = _query(base, "/api/v1/rules")["groups"]
         assert {r["name"] for g in groups for r in g["rules"]} >= {
-            "JointwearJointError", "JointwearJointWarn", "JointwearAlarmWithinHorizon", "JointwearJointStale",
+            "JointwearJointError", "JointwearJointWarn", "JointwearAlarmExpected", "JointwearAlarmWithinHorizon",
+            "JointwearJointStale",
             "JointwearStoreDown", "JointwearServeDown"}
     finally:
         proc.terminate()

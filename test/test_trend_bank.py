@@ -108,28 +108,35 @@ def test_prediction_horizon_caps_the_interval():
 # --------------------------------------------------------------------------- the WARN and ERROR boundaries
 
 
-def test_warn_exactly_when_the_lower_bound_is_within_the_horizon_on_both_sides():
+def test_alarm_expected_exactly_when_the_lower_bound_is_within_the_horizon_on_both_sides():
     t, w, s = _issue_linear()
     lo = analyze_joint(t, w, s).time_to_alarm.lo90
-    assert analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo + 0.05)).level_name == "WARN"
-    assert analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo - 0.05)).level_name == "OK"
-    assert analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo)).level_name == "WARN"  # "within": <=
+    within = analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo + 0.05))
+    assert within.alarm_expected and within.forecast.state == "within_horizon"
+    assert not analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo - 0.05)).alarm_expected
+    assert analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=lo)).alarm_expected  # "within": <=
+    # the forecast never moves the condition level: the same estimates, the same level at every horizon
+    levels = {analyze_joint(t, w, s, cfg=TrendConfig(horizon_days=h)).level for h in (lo - 0.05, lo, lo + 0.05)}
+    assert len(levels) == 1
 
 
-def test_error_exactly_when_the_wear_is_at_or_above_the_alarm_on_both_sides():
+def test_error_exactly_when_the_standing_estimate_is_at_or_above_the_alarm_on_both_sides():
     t, w, s = _series(40, 0.1, w0=20.0)
-    wear = analyze_joint(t, w, s).wear
-    above = analyze_joint(t, w, s, cfg=TrendConfig(alarm=wear - 0.01))
-    below = analyze_joint(t, w, s, cfg=TrendConfig(alarm=wear + 0.01))
-    assert above.level_name == "ERROR" and above.time_to_alarm.median == 0.0
-    assert below.level_name != "ERROR" and below.time_to_alarm.median > 0.0
-    assert analyze_joint(t, w, s, cfg=TrendConfig(alarm=wear)).level_name == "ERROR"  # "at or above": >=
+    r = analyze_joint(t, w, s)
+    newest = r.level_wear
+    assert newest == w[-1]  # the standing estimate: the newest, confirmed
+    above = analyze_joint(t, w, s, cfg=TrendConfig(alarm=newest - 0.01))
+    below = analyze_joint(t, w, s, cfg=TrendConfig(alarm=newest + 0.01))
+    assert above.level_name == "ERROR"
+    assert below.level_name == "WARN"  # just below the alarm: within the estimate's 95 % bound
+    assert analyze_joint(t, w, s, cfg=TrendConfig(alarm=newest)).level_name == "ERROR"  # "at or above": >=
 
 
-def test_no_warn_without_growth_even_when_the_lower_bound_would_be_near():
+def test_no_alarm_expected_without_growth_even_when_the_lower_bound_would_be_near():
     t, w, s = _series(60, 0.0, w0=33.0, seed=2)
     r = analyze_joint(t, w, s)
-    assert not r.growth_detected and r.level_name == "OK" and r.time_to_alarm is None
+    assert not r.growth_detected and not r.alarm_expected and r.time_to_alarm is None
+    assert r.level_name == "WARN"  # in the warning band: the condition says so, the forecast does not
 
 
 # --------------------------------------------------------------------------- what the bank does

@@ -224,6 +224,7 @@ def _report(report: Path, table: Any, res: Any, doc: dict[str, Any]) -> None:
 
 def cmd_estimate(args: argparse.Namespace) -> int:
     from ..commission import estimate_cycles
+    from ..commission.estimate import conditions
     from ..model import load_parameter_set_info
     from ..units import prepare_for_set
 
@@ -243,11 +244,15 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     verdict = str(pset.provenance.get("verdict_after") or pset.provenance.get("verdict") or "")
     rows: list[dict[str, Any]] = []
     infos: list[Any] = []
-    for c in estimate_cycles(tables, pset, args.method, args.seed):
+    cycles = estimate_cycles(tables, pset, args.method, args.seed)
+    for c, cond in zip(cycles, conditions(cycles, args.warn, args.alarm)):
         r = c.result
         infos.append(r.info)
         rows.append({"source": c.source, "joint": c.joint, "cycle": c.cycle, "estimate": r.wear,
-                     "std": r.wear_std, "temperature": r.temperature, "level": c.level(args.warn, args.alarm),
+                     "std": r.wear_std, "temperature": r.temperature, "level": cond.level,
+                     "evidence": cond.evidence, "confirmation": cond.confirmation,
+                     "level_wear": cond.level_wear if math.isfinite(cond.level_wear) else None,
+                     "level_reason": cond.reason,
                      "method": r.method, "wear_calibration": r.info.get("wear_calibration"),
                      "calibrated": bool(r.info.get("calibrated", True)),
                      "std_noise": r.info.get("wear_std_noise", r.wear_std),
@@ -265,11 +270,15 @@ def cmd_estimate(args: argparse.Namespace) -> int:
           f"{pset.wear_calibration}), method {args.method}")
     if verdict in ("found", "unexplained"):
         print(f"note: the set was commissioned against a workbench verdict '{verdict}': its model may miss an effect")
-    print(f"{'joint':<10} {'cycle':>6} {'wear':>7} {'std':>6} {'T':>6} {'cal':>3} level")
+    print(f"{'joint':<10} {'cycle':>6} {'wear':>7} {'std':>6} {'T':>6} {'cal':>3} {'level':<5} note")
     for row in rows:
         t = "-" if not math.isfinite(row["temperature"]) else f"{row['temperature']:.1f}"
+        note = {"insufficient": "too few speeds for a level: the level before stands",
+                "unconfirmed": "far from the joint's standing estimate: held until the next cycle",
+                "step": "a step, confirmed by two cycles", "outlier": "not confirmed by the next cycle"}
+        why = note.get(row["evidence"] if row["evidence"] == "insufficient" else row["confirmation"], "")
         print(f"{row['joint'] or '-':<10} {row['cycle']:>6} {row['estimate']:>7.2f} {row['std']:>6.2f} {t:>6} "
-              f"{'yes' if row['calibrated'] else 'no':>3} {row['level']}")
+              f"{'yes' if row['calibrated'] else 'no':>3} {row['level']:<5} {why}".rstrip())
     uncal = [r for r in rows if not r["calibrated"]]
     if uncal:
         info = uncal_info[0] if (uncal_info := [i for i in infos if not i.get("calibrated", True)]) else {}

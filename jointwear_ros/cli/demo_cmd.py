@@ -134,6 +134,8 @@ class DemoResult:
     logs: str = ""
     robot: bool = False
     rejections: list[str] = field(default_factory=list)
+    #: why the cycle did not end DONE, naming the node that said so ("" when it ended DONE)
+    failure: str = ""
 
     @property
     def diagnostic_level(self) -> str:
@@ -162,6 +164,7 @@ class DemoResult:
             "wall_seconds": self.wall_seconds,
             "cell_seconds": _finite_or_none(self.cell_seconds),
             "logs": self.logs,
+            "failure": self.failure or None,
         })
         return out
 
@@ -308,6 +311,7 @@ def run_demo(
     observations: list[dict[str, Any]] = []
     cycle_id = 0
     final_state = "?"
+    failure = ""
     cell_seconds = math.nan
     try:
         _progress(f"ROS_DOMAIN_ID={domain_id}, loopback only; logs in {logdir}")
@@ -352,6 +356,11 @@ def run_demo(
         observations.sort(key=lambda o: (order.get(o["joint_name"], len(order)), o["speed"]))
         final = op.status
         final_state = final.state_name if final is not None and final.cycle_id == cycle_id else "?"
+        if final is not None and final.cycle_id == cycle_id and final.state in (CycleState.ABORTED,
+                                                                                 CycleState.FAILED):
+            failure = (f"test_cycle: cycle {cycle_id} {final.state_name}"
+                       + (f" at {final.joint_name}" if final.joint_name else "")
+                       + (f": {final.message}" if final.message else " (no reason given)"))
         cell_seconds = op.cell_seconds(cycle_id)
         time.sleep(0.5)  # the recorder gets the estimate and diagnostics too
     finally:
@@ -366,7 +375,7 @@ def run_demo(
     return DemoResult(
         cycle_id=cycle_id, observations=observations, joints=per_joint, final_state=final_state, bag=bag,
         wall_seconds=time.monotonic() - t_start, cell_seconds=cell_seconds, logs=str(logdir),
-        robot=joints is not None,
+        robot=joints is not None, failure=failure,
     )
 
 
@@ -520,7 +529,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
         temperature = temperatures if n is not None else temperatures[0]
     res = run_demo(wears if n is not None else wears[0], speeds, Path(args.out), rtf, temperature, args.method,
                    timeout, args.domain_id, overrides, joints=n)
-    rc = 0 if all(j.estimate for j in res.joints) else 1
+    # a cycle that did not end DONE, or a joint without an estimate, is a failed demo (exit 1), whatever the level
+    rc = 0 if all(j.estimate for j in res.joints) and not res.failure else 1
+    if res.failure:
+        print(f"jointwear demo: {res.failure}; logs in {res.logs}", file=sys.stderr)
     if args.json:
         print_json(res.as_dict())
         return rc

@@ -7,14 +7,17 @@ Pure: tables in, estimates out.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
+from ..condition import INSUFFICIENT, evidence_of, level_name, standing
 from ..estimation import make_estimator
 from ..model import ParameterSet
 from ..types import ObservationTable, WearResult
 
-__all__ = ["CycleEstimate", "estimate_cycles"]
+__all__ = ["CycleCondition", "CycleEstimate", "conditions", "estimate_cycles"]
 
 
 @dataclass(frozen=True)
@@ -26,10 +29,42 @@ class CycleEstimate:
     cycle: int
     time: float
     result: WearResult
+    #: ``complete`` or ``insufficient`` (fewer distinct speeds than a level needs, :mod:`jointwear_ros.condition`)
+    evidence: str = "complete"
 
-    def level(self, warn: float, alarm: float) -> str:
-        w = self.result.wear
-        return "alarm" if w >= alarm else ("warn" if w >= warn else "ok")
+
+@dataclass(frozen=True)
+class CycleCondition:
+    """The joint's condition after one cycle: the level name (``NONE`` without one), the estimate it stands on,
+    the cycle's evidence and its confirmation (the live wear_estimator's rule, over the joint's cycles in order)."""
+
+    level: str
+    level_wear: float
+    level_wear_std: float
+    evidence: str
+    confirmation: str
+    reason: str
+
+
+def conditions(cycles: Sequence[CycleEstimate], warn: float, alarm: float) -> list[CycleCondition]:
+    """:class:`CycleCondition` of every cycle, each joint's cycles in time (else cycle) order, as the live
+    monitor would have said after each."""
+    out: list[CycleCondition | None] = [None] * len(cycles)
+    by_joint: dict[str, list[int]] = {}
+    for i, c in enumerate(cycles):
+        by_joint.setdefault(c.joint, []).append(i)
+    for idx in by_joint.values():
+        idx = sorted(idx, key=lambda i: (cycles[i].time if math.isfinite(cycles[i].time) else math.inf,
+                                         cycles[i].cycle))
+        for k in range(len(idx)):
+            seen = [cycles[i] for i in idx[: k + 1]]
+            days = [(c.time if math.isfinite(c.time) else float(c.cycle)) / 86400.0 for c in seen]
+            st = standing([c.result.wear for c in seen], [c.result.wear_std for c in seen], days,
+                          [c.evidence for c in seen], warn, alarm)
+            here = seen[-1]
+            conf = "none" if here.evidence == INSUFFICIENT else st.newest_status
+            out[idx[k]] = CycleCondition(level_name(st.level), st.wear, st.wear_std, here.evidence, conf, st.reason)
+    return [c for c in out if c is not None]
 
 
 def estimate_cycles(tables: Iterable[tuple[str, str, ObservationTable]], pset: ParameterSet, method: str = "joint",
@@ -43,5 +78,8 @@ def estimate_cycles(tables: Iterable[tuple[str, str, ObservationTable]], pset: P
         for cyc, t in groups:
             res = est.estimate(ObservationTable(dict(t.columns), source=f"{source} [{joint}] cycle {cyc:g}"))
             stamp = float(max(t["time"])) if "time" in t else math.nan
-            out.append(CycleEstimate(str(source), joint, int(cyc), stamp, res))
+            t_known = "temperature" in t and bool(np.all(np.isfinite(t["temperature"])))
+            n_speeds = len(set(np.round(np.asarray(t["speed"], float), 9).tolist()))
+            ev = evidence_of(n_speeds, 0, False, t_known)
+            out.append(CycleEstimate(str(source), joint, int(cyc), stamp, res, ev))
     return out

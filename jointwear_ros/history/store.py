@@ -35,6 +35,7 @@ Tables
 ``fleet_bags``
     the fleet ledger: one row per analysis version and bag fingerprint a re-analysis has done
     (:mod:`jointwear_ros.fleet.ledger` reads and writes it; schema version 4 creates it).
+    Schema version 5 adds ``estimates.evidence`` (``complete``/``partial``).
 ``schema_version``
     one row per applied migration (version, applied_ns). :data:`MIGRATIONS`
     are forward only; :meth:`HistoryStore.migrate` applies the missing ones
@@ -55,7 +56,7 @@ relies on when it is killed.
 >>> [r.wear for r in s.estimates(robot="robot_1", joint="joint_1")]
 [10.0]
 >>> s.schema_version()
-4
+5
 >>> r = s.write_estimates([EstimateRecord("robot_1", "joint_1", cycle_id=2, time=1.7e9, wear=1e300, wear_std=0.8)])
 >>> r.added, [f.reason for f in r.refused], [x["wear"] for x in s.refused()]
 (0, ['wear_out_of_range'], ['1e+300'])
@@ -128,6 +129,9 @@ class EstimateRecord:
     bag: str = ""
     analysis_version: str = LIVE
     source: str = "live"
+    #: ``complete`` or ``partial`` (a FAILED/ABORTED cycle or one that missed speeds:
+    #: :mod:`jointwear_ros.condition`); an estimate from too few speeds carries no level and is not stored
+    evidence: str = "complete"
     #: when the estimate was received or recorded (a bag's log time), seconds since the epoch; NaN when
     #: unknown. Not stored: the screening compares it with ``time`` to detect a jumped clock.
     received: float = math.nan
@@ -198,6 +202,7 @@ estimates_t = Table(
     Column("analysis_version", String(200), nullable=False, default=LIVE),
     Column("source", String(20), nullable=False, default="live"),
     Column("inserted_ns", BigInteger, nullable=False),
+    Column("evidence", String(20), nullable=False, server_default="complete"),
     UniqueConstraint("robot", "joint", "analysis_version", "cycle_id", "time_ns", name="uq_estimate_identity"),
 )
 
@@ -297,8 +302,17 @@ def _m4(conn: Connection) -> None:
     metadata.create_all(conn, tables=[fleet_bags_t], checkfirst=True)
 
 
+def _m5(conn: Connection) -> None:
+    """Version 5: ``estimates.evidence`` (``complete``/``partial``, :mod:`jointwear_ros.condition`); rows stored
+    before it are ``complete`` (a store created at version 1 by this code has the column already)."""
+    from sqlalchemy import inspect
+
+    if "evidence" not in {c["name"] for c in inspect(conn).get_columns("estimates")}:
+        conn.execute(text("ALTER TABLE estimates ADD COLUMN evidence VARCHAR(20) NOT NULL DEFAULT 'complete'"))
+
+
 #: forward migrations, version -> function; applied in order, each in its own transaction
-MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2, 3: _m3, 4: _m4}
+MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2, 3: _m3, 4: _m4, 5: _m5}
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
@@ -667,7 +681,7 @@ def _record(r: Any) -> EstimateRecord:
         wear=float(r["wear"]), wear_std=float(r["wear_std"]), hardware_id=r["hardware_id"],
         temperature=math.nan if t is None else float(t), method=r["method"], params=r["params"],
         software_version=r["software_version"], bag=r["bag"], analysis_version=r["analysis_version"],
-        source=r["source"],
+        source=r["source"], evidence=r.get("evidence") or "complete",
     )
 
 

@@ -33,11 +33,18 @@ is appended to :attr:`WearMonitor.ignored`, counted in the cycle's result
 estimated. A dropped observation still counts towards the cycle's
 ``speeds_total`` (the cycle is estimated as soon as every speed was heard of).
 
-The diagnostic level follows ``diagnostic_msgs/DiagnosticStatus``: OK (0)
-below ``warn_threshold``, WARN (1) in ``[warn_threshold, alarm_threshold)``,
-ERROR (2) at ``w_hat >= alarm_threshold``. A cycle that could not be
-estimated (no observations, estimator error) is reported as WARN with the
-reason.
+The level is the joint's *condition level* (:mod:`jointwear_ros.condition`, the one rule of the
+suite): ERROR at ``w_hat >= alarm_threshold``, WARN at ``w_hat >= warn_threshold`` or when the
+alarm lies within the estimate's one-sided 95 % bound, else OK. Only evidence moves it:
+
+- an estimate from fewer distinct speeds than the method needs (:func:`~jointwear_ros.condition.min_speeds`:
+  3 with the temperature unknown, 1 with it measured) gives no level; nor does a cycle with no usable
+  observation or a failed estimation. The joint's last level stands, ``stale`` (STALE when it has none), and the
+  message says why, with the test cycle's own reason when the cycle FAILED or was ABORTED;
+- an estimate of a FAILED/ABORTED cycle, or one that missed planned speeds, stands but is ``partial``;
+- an estimate far from the joint's standing estimate is held ``unconfirmed`` (the level stays) until the
+  next estimate confirms it (a step, reported at once) or not (an outlier)
+  (:func:`~jointwear_ros.condition.confirm`, over the last :data:`CONFIRM_MEMORY` estimates).
 
 Pure numpy; no ROS import.
 """
@@ -51,6 +58,7 @@ from typing import Any
 
 import numpy as np
 
+from ..condition import INSUFFICIENT, evidence_of, min_speeds
 from ..contract import ENDED_STATES, CycleState, DiagnosticLevel
 from ..errors import InputDataError, JointwearError
 from ..estimation import make_estimator
@@ -63,7 +71,9 @@ __all__ = ["LEVEL_NAMES", "CycleResult", "EstimatorFactory", "MonitorConfig", "W
            "cycle_seed", "diagnostic_level", "observations_table"]
 
 #: level byte -> name of the levels a cycle result takes
-LEVEL_NAMES = {int(lv): lv.name for lv in (DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR)}
+LEVEL_NAMES = {int(lv): lv.name for lv in DiagnosticLevel}
+#: estimates of a joint the confirmation looks back over (the standing one and the one held are what count)
+CONFIRM_MEMORY = 8
 
 
 
@@ -153,6 +163,15 @@ class CycleResult:
     rejected: tuple[str, ...] = ()
     #: reasons of the observations whose temperature was made unknown (the first 5)
     temperature_unknown: tuple[str, ...] = ()
+    #: ``complete``, ``partial`` or ``insufficient`` (:mod:`jointwear_ros.condition`); ``none``: no estimate
+    evidence: str = "complete"
+    #: this estimate against the joint's standing one: ``confirmed``, ``unconfirmed`` (held), ``step``; ``none``
+    confirmation: str = "confirmed"
+    #: the level is the joint's earlier one (this cycle gave none, or its estimate is held)
+    stale: bool = False
+    #: the estimate the level stands on (NaN: none)
+    standing_wear: float = math.nan
+    standing_wear_std: float = math.nan
 
     @property
     def level_name(self) -> str:
@@ -167,18 +186,22 @@ class CycleResult:
 
     @property
     def alarm(self) -> bool:
-        return self.level == DiagnosticLevel.ERROR and self.result is not None
+        """The joint's condition level is ERROR (whether or not this cycle's own estimate made it so)."""
+        return self.level == DiagnosticLevel.ERROR
 
 
-def diagnostic_level(wear: float, warn_threshold: float, alarm_threshold: float) -> DiagnosticLevel:
-    """OK below ``warn_threshold``, WARN in [warn, alarm), ERROR at ``wear >= alarm_threshold``; NaN is WARN.
+def diagnostic_level(wear: float, wear_std: float, warn_threshold: float, alarm_threshold: float) -> DiagnosticLevel:
+    """The condition level of one estimate (:func:`jointwear_ros.condition.condition_level`); no estimate: STALE.
 
-    (:meth:`jointwear_ros.contract.DiagnosticLevel.for_wear`.)
-
-    >>> [diagnostic_level(w, 30.0, 35.0).name for w in (29.99, 30.0, 34.99, 35.0, float("nan"))]
-    ['OK', 'WARN', 'WARN', 'ERROR', 'WARN']
+    >>> [diagnostic_level(w, 1.0, 30.0, 35.0).name for w in (29.99, 30.0, 34.99, 35.0, float("nan"))]
+    ['OK', 'WARN', 'WARN', 'ERROR', 'STALE']
+    >>> diagnostic_level(20.0, 1.0, 30.0, 35.0).name
+    'OK'
     """
-    return DiagnosticLevel.for_wear(wear, warn_threshold, alarm_threshold)
+    from ..condition import condition_level
+
+    lv = condition_level(wear, wear_std, warn_threshold, alarm_threshold)
+    return DiagnosticLevel.STALE if lv is None else lv
 
 
 def cycle_seed(seed: int, cycle_id: int) -> int:
@@ -210,6 +233,7 @@ class _Cycle:
     speeds_total: int = 0
     ended_at: float = math.nan
     end_state: int = -1
+    end_message: str = ""  # the test cycle's reason when it ended ABORTED/FAILED
     last_obs: float = math.nan
     revision: int = 0
     late: list[float] = field(default_factory=list)
@@ -264,6 +288,9 @@ class WearMonitor:
         self._order = 0
         self._last_order = 0
         self.last: CycleResult | None = None
+        #: the joint's recent estimates that carry a level (cycle id -> order, stamp, wear, std, evidence),
+        #: the confirmation's memory (:data:`CONFIRM_MEMORY`)
+        self._recent: dict[int, tuple[int, float, float, float, str]] = {}
         #: notes on ignored or corrected inputs, newest last (the last ``max_notes`` are kept)
         self.ignored: list[str] = []
         #: notes made in all (``ignored`` is bounded: a flood of bad messages must not grow memory)
@@ -342,7 +369,7 @@ class WearMonitor:
         return []
 
     def on_status(self, stamp: float, cycle_id: int, state: int, speeds_done: int = 0, speeds_total: int = 0,
-                  joint_name: str = "") -> list[CycleResult]:
+                  joint_name: str = "", message: str = "") -> list[CycleResult]:
         """A ``TestCycleStatus``: learns ``speeds_total``, starts the timeout on DONE/ABORTED/FAILED.
 
         ``stamp`` is on the clock :meth:`poll` is given (the node passes its
@@ -363,6 +390,7 @@ class WearMonitor:
         if state in ENDED_STATES and not math.isfinite(cyc.ended_at):
             cyc.ended_at = float(stamp)
             cyc.end_state = int(state)
+            cyc.end_message = str(message)
         if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
             return [self._finish(cid, float(stamp))]
         return self.poll(float(stamp))
@@ -417,7 +445,8 @@ class WearMonitor:
         partial = ""
         if cyc.speeds_total > 0 and len(obs) < cyc.speeds_total:
             partial = f"; {len(obs)} of {cyc.speeds_total} speeds observed"
-        ended = f" (cycle {CycleState(cyc.end_state).name})" if cyc.end_state in (CycleState.ABORTED, CycleState.FAILED) else ""
+        failed = cyc.end_state in (CycleState.ABORTED, CycleState.FAILED)
+        ended = f" (cycle {CycleState(cyc.end_state).name})" if failed else ""
         if cyc.revision:
             partial += (f"; revision {cyc.revision}: re-estimated with late observation(s) at "
                         + ", ".join(f"{v:g}" for v in cyc.late) + " rad/s")
@@ -433,35 +462,50 @@ class WearMonitor:
         base: list[tuple[str, str]] = [("cycle_id", str(cid)), ("n_observations", str(len(obs))),
                                        ("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
                                        ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
-        if len(obs) < cfg.min_observations:
-            msg = (f"cycle {cid}{ended}: no wear estimate, {len(obs)} friction observations "
-                   f"(need {cfg.min_observations}); see the friction_observer log for rejected windows{partial}")
-            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, DiagnosticLevel.WARN, msg,
-                                           tuple(base + rev), obs,
-                                           cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
+        why_cycle = ""
+        if failed:
+            why_cycle = f"; test_cycle: {cyc.end_message}" if cyc.end_message else "; test_cycle gave no reason"
         # order by speed so the estimate does not depend on the arrival order of observations
-        obs = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
-        table = observations_table(obs, use_temperature=cfg.use_measured_temperature,
+        obs_s = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
+        table = observations_table(obs_s, use_temperature=cfg.use_measured_temperature,
                                    noise_std=cfg.observation_noise_std, source=f"cycle {cid}")
+        speeds = len({float(o.speed) for o in obs})
+        t_known = bool(len(obs)) and bool(np.all(np.isfinite(table.get("temperature"))))
+        need = max(min_speeds(t_known), int(cfg.min_observations))
+        evidence = evidence_of(speeds, cyc.speeds_total, failed, t_known)
+        if speeds < need:
+            if not obs:
+                what = (f"no usable friction observation{why_cycle}" if failed else
+                        "no usable friction observation (see the friction_observer log for rejected windows)")
+            else:
+                what = (f"{speeds} speed(s) observed; a wear level needs {need} "
+                        f"({'temperature measured' if t_known else 'temperature unknown: the wear and the temperature together'})"
+                        f"{why_cycle}")
+            return self._no_level(cid, cyc, stamp, f"cycle {cid}{ended}: no wear level from this cycle, {what}{partial}",
+                                  tuple(base + rev), obs, "none" if not obs else INSUFFICIENT, extra)
         try:
             est = self._factory(cfg.method, cycle_seed(cfg.seed, cid))
             res = est.estimate(table)
         except JointwearError as exc:
-            msg = f"cycle {cid}{ended}: wear estimation failed: {exc}{partial}"
-            return self._store(CycleResult(cid, cfg.joint_name, stamp, None, DiagnosticLevel.WARN, msg,
-                                           tuple(base + rev), obs,
-                                           cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
-        level = diagnostic_level(res.wear, cfg.warn_threshold, cfg.alarm_threshold)
-        what = {DiagnosticLevel.OK: "wear below the warning band",
-                DiagnosticLevel.WARN: f"wear in the warning band [{cfg.warn_threshold:g}, {cfg.alarm_threshold:g})",
-                DiagnosticLevel.ERROR: f"wear at or above the alarm threshold {cfg.alarm_threshold:g}"}
-        msg = f"{what[level]}: {res.wear:.1f} ± {res.wear_std:.1f} (cycle {cid}{ended}{partial})"
+            return self._no_level(cid, cyc, stamp, f"cycle {cid}{ended}: wear estimation failed: {exc}{partial}",
+                                  tuple(base + rev), obs, "none", extra)
+        self._recent[cid] = (cyc.order, float(stamp), float(res.wear), float(res.wear_std), evidence)
+        for old in sorted(self._recent, key=lambda c: self._recent[c][0])[:-CONFIRM_MEMORY]:
+            del self._recent[old]
+        st, own = self._standing(cid)
+        level = DiagnosticLevel.STALE if st.level is None else st.level
+        tag = f"cycle {cid}{ended}{partial}"
+        if evidence == "partial":
+            tag += f"; partial: {speeds} of {max(cyc.speeds_total, speeds)} speeds{why_cycle}"
+        msg = f"{st.reason} ({tag})" if own == "confirmed" else f"{st.reason}; this cycle: {res.wear:.1f} ± {res.wear_std:.1f} ({tag})"
         values = [("wear", f"{res.wear:.3f}"), ("wear_std", f"{res.wear_std:.3f}"),
                   ("wear_low", f"{res.wear_low:.3f}"), ("wear_high", f"{res.wear_high:.3f}"),
                   ("method", res.method), ("cycle_id", str(cid)),
                   ("temperature_estimate", f"{res.temperature:.2f}"), ("n_observations", str(len(obs))),
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
-                  ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
+                  ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}"),
+                  ("evidence", evidence), ("confirmation", own),
+                  ("level_wear", f"{st.wear:.3f}"), ("level_wear_std", f"{st.wear_std:.3f}")]
         values += [(k, str(res.info[k])) for k in ("parameter_set", "wear_calibration") if k in res.info]
         if "calibrated" in res.info:  # a prior wear scale (no wear data on the joint): its std is in wear_std
             values += [("calibrated", "true" if res.info["calibrated"] else "false"),
@@ -474,8 +518,42 @@ class WearMonitor:
         if res.info.get("misfit"):
             msg += f"; {res.info['misfit']}"
             values.append(("misfit", str(res.info["misfit"])))
-        return self._store(CycleResult(cid, cfg.joint_name, stamp, res, level, msg, tuple(values + rev), obs,
-                                       cfg.alarm_threshold, cyc.revision, **extra), cyc.order)
+        return self._store(CycleResult(cid, cfg.joint_name, stamp, res, int(level), msg, tuple(values + rev), obs,
+                                       cfg.alarm_threshold, cyc.revision, **extra, evidence=evidence,
+                                       confirmation=own, stale=own == "unconfirmed",
+                                       standing_wear=st.wear, standing_wear_std=st.wear_std), cyc.order)
+
+    def _standing(self, cid: int | None = None) -> tuple[Any, str]:
+        """The joint's condition over its recent estimates, and the confirmation of cycle ``cid``'s."""
+        from ..condition import standing as _standing
+
+        cfg = self.config
+        ids = sorted(self._recent, key=lambda c: self._recent[c][0])
+        rows = [self._recent[c] for c in ids]
+        st = _standing([r[2] for r in rows], [r[3] for r in rows], [r[1] / 86400.0 for r in rows],
+                       [r[4] for r in rows], cfg.warn_threshold, cfg.alarm_threshold)
+        own = "none"
+        if cid is not None and cid in self._recent:
+            from ..condition import confirm
+
+            conf = confirm([(r[2], r[3]) for r in rows], [r[1] / 86400.0 for r in rows])
+            own = conf[ids.index(cid)].status
+        return st, own
+
+    def _no_level(self, cid: int, cyc: _Cycle, stamp: float, what: str, values: tuple[tuple[str, str], ...],
+                  obs: tuple[FrictionObservationData, ...], evidence: str, extra: dict[str, Any]) -> CycleResult:
+        """A cycle that gives no level: the joint's last level stands, marked stale (STALE when there is none)."""
+        cfg = self.config
+        st, _ = self._standing()
+        if st.level is None:
+            level, msg = DiagnosticLevel.STALE, f"{what}; the joint has no wear level yet"
+        else:
+            level, msg = st.level, f"{what}; the joint's level stands (stale): {st.reason}"
+        vals = (*values, ("evidence", evidence), ("confirmation", "none"), ("stale", "true"))
+        return self._store(CycleResult(cid, cfg.joint_name, stamp, None, int(level), msg, vals, obs,
+                                       cfg.alarm_threshold, cyc.revision, **extra, evidence=evidence,
+                                       confirmation="none", stale=True, standing_wear=st.wear,
+                                       standing_wear_std=st.wear_std), cyc.order)
 
     def _store(self, result: CycleResult, order: int) -> CycleResult:
         if order >= self._last_order:  # a revision of an older cycle does not replace a newer one

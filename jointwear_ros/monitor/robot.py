@@ -48,7 +48,7 @@ class RobotMonitor:
         if j is None:
             return None
         return self.monitors[j].on_status(now, status.cycle_id, int(status.state), status.speeds_done,
-                                          status.speeds_total, j)
+                                          status.speeds_total, j, status.message)
 
     def poll(self, now: float) -> list[CycleResult]:
         """Every joint's timeouts at ``now``."""

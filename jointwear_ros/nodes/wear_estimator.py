@@ -15,8 +15,10 @@ cycle id and estimates a cycle's wear when all its speeds are in or
 ``jointwear_msgs/WearEstimate`` per joint and cycle and keeps one
 ``diagnostic_msgs/DiagnosticStatus`` per joint named ``wear_estimator: <joint>``
 (a held status each in one :class:`~jointwear_ros.nodes.diagnostics.Updater`:
-all joints in one ``DiagnosticArray``): level OK below ``warn_threshold``, WARN
-in ``[warn_threshold, alarm_threshold)``, ERROR at ``w_hat >= alarm_threshold``
+all joints in one ``DiagnosticArray``): the joint's condition level
+(:mod:`jointwear_ros.condition`, the same rule on every surface: ERROR at the alarm, WARN in the
+warning band or when the estimate cannot rule the alarm out, else OK; a cycle from too few speeds,
+with no observation or a held outlier leaves the level as it stood, docs/levels.md)
 -- one joint's level never changes another's; key/values wear, wear_std,
 method, cycle_id, temperature_estimate, n_observations (and
 observations_rejected / temperatures_unknown when the screening dropped an
@@ -143,7 +145,10 @@ def estimate_to_msg(r: CycleResult) -> WearEstimate:
     per = list(res.per_speed_wear)
     m.per_speed_wear = [float(w) for w in per] if len(per) == len(res.speeds) else [math.nan] * len(res.speeds)
     m.alarm_threshold = float(r.alarm_threshold)
-    m.alarm = bool(res.wear >= r.alarm_threshold)
+    m.alarm = bool(r.alarm)
+    m.level = int(r.level)
+    m.evidence = r.evidence
+    m.confirmation = r.confirmation
     return m
 
 

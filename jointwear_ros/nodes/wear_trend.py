@@ -11,11 +11,12 @@ restarted node) is stored once. Then the joint's trend is recomputed from the
 store and published:
 
 - ``jointwear_msgs/WearTrend`` on ``trend_topic`` (wear, rate, time to alarm
-  median and 90 % interval, level);
-- ``/diagnostics``: one status per joint named ``wear_trend: <joint>``, OK /
-  WARN when growth is detected and the 90 % interval's lower bound of the
-  time to alarm is within ``horizon_days`` / ERROR when the current wear is at
-  or above ``alarm_threshold``; republished every ``diagnostics_period``.
+  median and 90 % interval, the forecast ``alarm_expected``, the condition level);
+- ``/diagnostics``: one status per joint named ``wear_trend: <joint>`` with the
+  joint's *condition level* (:mod:`jointwear_ros.condition`: the same rule and
+  value as the wear_estimator's for the same estimates; STALE without one) and the
+  forecast in its values (``alarm_expected``, ``forecast``: never the level);
+  republished every ``diagnostics_period``.
 
 On start the node reloads the robot's history from the store and publishes
 the trend of every joint it holds, so a restart loses nothing. The service
@@ -37,12 +38,13 @@ reaches the trend. The node keeps running.
 a locked or damaged file), the estimates it could not take wait in a bounded
 buffer (``buffer_max``), spooled to ``buffer_path`` on disk when it can be
 written, and are written again every ``retry_period`` until the store takes them
-(inserts are idempotent: none twice); meanwhile ``/diagnostics`` says ERROR
-("history store failing: ...", ``buffered``) on every joint and on
-``wear_trend: history``, and each joint's trend includes its buffered estimates,
+(inserts are idempotent: none twice); meanwhile ``/diagnostics`` says ERROR on
+``wear_trend: history`` and names the failure on every joint ("history store
+failing: ...", ``buffered``) without changing its condition level, and each joint's
+trend includes its buffered estimates,
 so the level follows the newest estimate, not the last stored one. A failed read
 keeps the last history read; nothing ends the node. A store that cannot be opened
-at start is opened again at every retry. ``alarm_threshold``, ``horizon_days``,
+at start is opened again at every retry. ``alarm_threshold``, ``warn_threshold``, ``horizon_days``,
 ``min_estimates``, ``future_tolerance`` and ``clock_tolerance`` apply at run time
 (every joint's trend recomputed); a bad value is refused with the reason; the
 others are read at start-up.
@@ -90,7 +92,8 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               read_only=True),
     ParamDecl("params", "ref-2011r", "friction-model parameter set the estimates were made with (stored)",
               read_only=True),
-    ParamDecl("alarm_threshold", _T.alarm, "wear at which the level is ERROR", 0.0, 100.0),
+    ParamDecl("alarm_threshold", _T.alarm, "wear at which the condition level is ERROR", 0.0, 100.0),
+    ParamDecl("warn_threshold", _T.warn, "wear at which the condition level is WARN", 0.0, 100.0),
     ParamDecl("horizon_days", _T.horizon_days, "WARN when the 90 % interval's lower bound of the time to alarm "
               "is within this many days", 0.0, 3650.0),
     ParamDecl("min_estimates", _T.min_estimates, "estimates a segment needs before it has a trend"),
@@ -130,7 +133,11 @@ def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: flo
     m.alarm_threshold = float(alarm)
     m.horizon_days = float(horizon_days)
     m.growth_detected = bool(r.growth_detected)
+    m.alarm_expected = bool(r.alarm_expected)
+    m.forecast = "" if r.forecast is None else r.forecast.state
     m.level = int(r.level)
+    m.level_wear, m.level_wear_std = float(r.level_wear), float(r.level_wear_std)
+    m.evidence, m.confirmation = r.evidence, r.confirmation
     m.message = r.message
     return m
 
@@ -150,8 +157,8 @@ class WearTrendNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.params = p
         self.robot = str(p["robot"])
-        self.cfg = TrendConfig(alarm=float(p["alarm_threshold"]), horizon_days=float(p["horizon_days"]),
-                               min_estimates=int(p["min_estimates"]))
+        self.cfg = TrendConfig(alarm=float(p["alarm_threshold"]), warn=float(p["warn_threshold"]),
+                               horizon_days=float(p["horizon_days"]), min_estimates=int(p["min_estimates"]))
         self.screen_cfg = replace(_S, future_tolerance_s=float(p["future_tolerance"]),
                                   clock_tolerance_s=float(p["clock_tolerance"]))
         self.stored = 0
@@ -200,8 +207,9 @@ class WearTrendNode(Node):
         self.get_logger().info(
             f"wear history of {self.robot} in {self._url()}: "
             f"{self._count()} estimates, "
-            f"{len(joints)} joint(s) reloaded; WARN when the alarm {self.cfg.alarm:g} may come within "
-            f"{self.cfg.horizon_days:g} days, ERROR at it"
+            f"{len(joints)} joint(s) reloaded; condition level: WARN from {self.cfg.warn:g} (or when an estimate "
+            f"cannot rule the alarm out), ERROR at {self.cfg.alarm:g}; forecast: alarm expected when it may come "
+            f"within {self.cfg.horizon_days:g} days"
         )
         self.health.update()
 
@@ -334,6 +342,7 @@ class WearTrendNode(Node):
             wear_std=float(msg.wear_std), hardware_id=str(self.params["hardware_id"]) or f"{self.robot}/{joint}",
             temperature=float(msg.temperature_estimate), method=str(msg.method), params=str(self.params["params"]),
             software_version=__version__, bag="", analysis_version=LIVE, source="live",
+            evidence=str(getattr(msg, "evidence", "") or "complete"),
         )
         f = screen_record(rec, now=self._now(), cfg=self.screen_cfg, not_before=self._newest.get(joint))
         if f is not None and f.reason == "clock_jump" and self._stored_already(rec):
@@ -401,8 +410,8 @@ class WearTrendNode(Node):
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
         p = {**self.params, **changes}
-        cfg = TrendConfig(alarm=float(p["alarm_threshold"]), horizon_days=float(p["horizon_days"]),
-                          min_estimates=int(p["min_estimates"]))
+        cfg = TrendConfig(alarm=float(p["alarm_threshold"]), warn=float(p["warn_threshold"]),
+                          horizon_days=float(p["horizon_days"]), min_estimates=int(p["min_estimates"]))
         scfg = replace(self.screen_cfg, future_tolerance_s=float(p["future_tolerance"]),
                        clock_tolerance_s=float(p["clock_tolerance"]))
         self.params.update(changes)
@@ -444,7 +453,7 @@ class WearTrendNode(Node):
         try:
             r = analyze_joint([x.time for x in recs], [x.wear for x in recs], [x.wear_std for x in recs],
                               cycle_ids=[x.cycle_id for x in recs], maintenance_times=[e.time for e in events],
-                              cfg=self.cfg, robot=self.robot, joint=joint)
+                              cfg=self.cfg, robot=self.robot, joint=joint, evidence=[x.evidence for x in recs])
         except JointwearError as exc:  # pragma: no cover - only screened records get here
             self.get_logger().error(f"trend of {joint} failed: {exc}")
             return
@@ -466,7 +475,7 @@ class WearTrendNode(Node):
     def _set_status(self, joint: str, r: TrendResult | None) -> None:
         if r is None:
             values = [("robot", self.robot)]
-            level, message = DiagnosticLevel.OK, "no usable wear estimate stored yet"
+            level, message = DiagnosticLevel.STALE, "no usable wear estimate stored yet: no level"
         else:
             tta = r.time_to_alarm
             values = [("robot", self.robot), ("wear", f"{r.wear:.3f}"), ("wear_std", f"{r.wear_std:.3f}"),
@@ -476,7 +485,11 @@ class WearTrendNode(Node):
                       ("time_to_alarm_lo90", "nan" if tta is None else f"{tta.lo90:.1f}"),
                       ("time_to_alarm_hi90", "nan" if tta is None else f"{tta.hi90:.1f}"),
                       ("horizon_days", f"{self.cfg.horizon_days:g}"),
-                      ("alarm_threshold", f"{self.cfg.alarm:g}")]
+                      ("alarm_threshold", f"{self.cfg.alarm:g}"),
+                      ("level_wear", f"{r.level_wear:.3f}"), ("level_wear_std", f"{r.level_wear_std:.3f}"),
+                      ("evidence", r.evidence or "none"), ("newest_estimate", r.confirmation or "none"),
+                      ("alarm_expected", "true" if r.alarm_expected else "false"),
+                      ("forecast", "" if r.forecast is None else r.forecast.state)]
             level, message = DiagnosticLevel(r.level), r.message
         held = self._trend_status.get(joint)
         if held is None:
@@ -501,8 +514,7 @@ class WearTrendNode(Node):
         if last is not None:  # the joint's newest estimate is unusable: say so (the level stays the trend's)
             message = f"newest estimate refused ({last.reason}: {last.detail}); {message}"
         failing = self.store_error
-        if failing is not None:
-            level = DiagnosticLevel.ERROR
+        if failing is not None:  # the store's own status is ERROR; the joint's condition level stays its own
             waiting = sum(1 for r, f in self.pending if r.joint == joint)
             message = f"history store failing ({failing}); {waiting} estimate(s) of {joint} buffered; {message}"
         stat.summary(level, message)

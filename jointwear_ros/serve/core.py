@@ -4,8 +4,10 @@ Pure Python over :class:`~jointwear_ros.trend.TrendResult` (no web framework, no
 function decides the level for ``jointwear trend --json``, the plant page, ``/api/joints`` and
 ``/metrics``, so they cannot disagree.
 
-**Levels** (``diagnostic_msgs/DiagnosticStatus`` bytes): OK (0), WARN (1) and ERROR (2) as the trend
-decides them; **STALE** (3) when the joint's newest estimate (any segment) is older than ``stale_days``
+**Levels** (``diagnostic_msgs/DiagnosticStatus`` bytes): the joint's *condition level* OK (0), WARN (1) and
+ERROR (2), the one rule of :mod:`jointwear_ros.condition` that the wear_estimator, the trend and
+``estimate`` apply too; the *forecast* ("alarm expected within ``horizon_days``") is a separate field
+(``alarm_expected``, ``forecast``) and never raises the level; **STALE** (3) when the joint's newest estimate (any segment) is older than ``stale_days``
 and the trend's level is not ERROR: an alarm is never hidden by age, but a joint that has gone
 silent is not shown as fine either. A joint whose history the trend refuses (:class:`InputDataError`)
 is STALE too, with the reason: there is no current estimate anyone should trust.
@@ -68,6 +70,8 @@ class JointHistory:
     maintenance_times: Sequence[float] = ()
     #: the parameter set the newest estimate names (whether its wear scale is calibrated is shown)
     params: str = ""
+    #: each estimate's evidence (``complete``/``partial``); None: all complete
+    evidence: Sequence[str] | None = None
 
 
 @dataclass(frozen=True)
@@ -95,6 +99,14 @@ class JointView:
     rows_refused: int = 0
     #: whether the newest estimate's wear scale is calibrated (known wear levels), a prior (False), or unknown
     calibrated: bool | None = None
+    #: the forecast: the alarm expected within the horizon, and its state (condition.Forecast.state)
+    alarm_expected: bool = False
+    forecast: str = ""
+    #: the estimate the level stands on, its evidence, and the newest estimate's confirmation
+    level_wear: float = math.nan
+    level_wear_std: float = math.nan
+    evidence: str = ""
+    confirmation: str = ""
 
     @property
     def level_name(self) -> str:
@@ -114,6 +126,9 @@ class JointView:
             "rate_per_day": num(self.rate_per_day), "estimates": self.estimates,
             "estimates_total": self.estimates_total, "message": self.message, "refused": self.refused or None,
             "rows_refused": self.rows_refused, "wear_scale_calibrated": self.calibrated,
+            "alarm_expected": self.alarm_expected, "forecast": self.forecast or None,
+            "level_wear": num(self.level_wear), "level_wear_std": num(self.level_wear_std),
+            "evidence": self.evidence or None, "newest_estimate": self.confirmation or None,
         }
 
 
@@ -130,7 +145,9 @@ def joint_view(r: TrendResult, newest_time: float, now: float, stale_days: float
         rate_per_day=r.rate_per_day, time=newest_time, age_days=age,
         days_to_alarm=None if tta is None else tta.median, days_to_alarm_low=None if tta is None else tta.lo90,
         days_to_alarm_high=None if tta is None else tta.hi90, estimates=r.estimates,
-        estimates_total=r.estimates_total, message=msg,
+        estimates_total=r.estimates_total, message=msg, alarm_expected=r.alarm_expected,
+        forecast="" if r.forecast is None else r.forecast.state, level_wear=r.level_wear,
+        level_wear_std=r.level_wear_std, evidence=r.evidence, confirmation=r.confirmation,
     )
 
 
@@ -150,7 +167,7 @@ def analyze_plant(histories: Iterable[JointHistory], cfg: TrendConfig, now: floa
         try:
             r = analyze_joint(h.times, h.wear, h.wear_std, cycle_ids=h.cycle_ids,
                               maintenance_times=h.maintenance_times, cfg=cfg, robot=h.robot, joint=h.joint,
-                              smooth=smooth)
+                              smooth=smooth, evidence=h.evidence)
         except InputDataError as exc:
             out.append((refused_view(h.robot, h.joint, str(exc), newest, now, len(h.times)), None))
             continue
@@ -168,12 +185,14 @@ def calibrated_of(params: str) -> bool | None:
 
 
 def rank_views(views: Iterable[JointView]) -> list[JointView]:
-    """ERROR first, then WARN, STALE, OK; within a level the soonest time to alarm, then by name."""
+    """ERROR first, then WARN, STALE, OK; within a level the alarm expected within the horizon first, then the
+    soonest time to alarm, then by name."""
     order = {int(DiagnosticLevel.ERROR): 0, int(DiagnosticLevel.WARN): 1, int(STALE): 2, int(DiagnosticLevel.OK): 3}
 
-    def key(v: JointView) -> tuple[int, float, str, str]:
+    def key(v: JointView) -> tuple[int, int, float, str, str]:
         t = v.days_to_alarm
-        return (order[v.level], math.inf if t is None or math.isnan(t) else t, v.robot, v.joint)
+        return (order[v.level], 0 if v.alarm_expected else 1, math.inf if t is None or math.isnan(t) else t,
+                v.robot, v.joint)
 
     return sorted(views, key=key)
 

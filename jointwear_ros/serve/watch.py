@@ -16,8 +16,9 @@ with ``default_transaction_read_only=on``, a connect and a statement timeout.
 
 **Failures** (a missing, locked, migrating or unreachable store; a schema this software does not
 read) never end the service: the snapshot keeps the last good rows, marked with the time they were
-read and the error, and :attr:`Snapshot.store_ok` is False; the metrics then export no per-joint
-values (see :mod:`jointwear_ros.serve.web`).
+read and the error, and :attr:`Snapshot.store_ok` is False; the metrics keep exporting the last known
+per-joint values, marked by ``jointwear_store_up 0`` (see :mod:`jointwear_ros.serve.web`), so no alert on
+a joint's level resolves because the store went away.
 """
 
 from __future__ import annotations
@@ -185,7 +186,8 @@ class StoreWatcher:
                 continue
             items.append(JointHistory(rb, jt, [r.time for r in recs], [r.wear for r in recs],
                                       [r.wear_std for r in recs], [r.cycle_id for r in recs],
-                                      [e.time for e in events], params=recs[-1].params if recs else ""))
+                                      [e.time for e in events], params=recs[-1].params if recs else "",
+                                      evidence=[r.evidence for r in recs]))
         out = {}
         for h, (view, r) in zip(items, analyze_plant(items, self.cfg, now, self.stale_days, smooth=False)):
             recs, events = hist[(h.robot, h.joint)]

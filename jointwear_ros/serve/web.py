@@ -50,8 +50,9 @@ COLORS = {"OK": "#2e7d32", "WARN": "#ef6c00", "ERROR": "#c62828", "STALE": "#6d4
 
 
 class _PlantCollector:
-    """Per-joint gauges from the current snapshot; none while the store cannot be read (the rows would be
-    stale values shown as fresh); the store's health always."""
+    """Per-joint gauges from the current snapshot, and the store's health. While the store cannot be read the
+    per-joint series keep the last known values (``jointwear_store_up`` 0 marks them): an alert on a joint's
+    level must not resolve because the store went away."""
 
     def __init__(self, watcher: StoreWatcher) -> None:
         self.watcher = watcher
@@ -60,8 +61,13 @@ class _PlantCollector:
         snap = self.watcher.snapshot
         lab = ["robot", "joint"]
         fams = {
-            "level": GaugeMetricFamily("jointwear_joint_level", "Joint level: 0 OK, 1 WARN, 2 ERROR, 3 STALE "
-                                       "(diagnostic_msgs/DiagnosticStatus)", labels=lab),
+            "level": GaugeMetricFamily("jointwear_joint_level", "Joint condition level: 0 OK, 1 WARN, 2 ERROR, "
+                                       "3 STALE (diagnostic_msgs/DiagnosticStatus; docs/levels.md)", labels=lab),
+            "expected": GaugeMetricFamily("jointwear_joint_alarm_expected", "Forecast: 1 when the alarm is expected "
+                                          "within horizon_days (growth detected, 90 % lower bound of the time to "
+                                          "alarm within it), else 0; never part of the level", labels=lab),
+            "level_wear": GaugeMetricFamily("jointwear_joint_level_wear", "The estimate the condition level stands "
+                                            "on (the newest confirmed one), 0-100", labels=lab),
             "wear": GaugeMetricFamily("jointwear_joint_wear", "Current wear (trend level, 0-100)", labels=lab),
             "wear_std": GaugeMetricFamily("jointwear_joint_wear_std", "Standard deviation of the current wear",
                                           labels=lab),
@@ -83,10 +89,13 @@ class _PlantCollector:
                                          "when the trend cannot use it", labels=lab),
         }
         now = self.watcher.clock()
-        if snap.store_ok:
+        if snap.store_ok or snap.views:  # the last known rows stay while the store is down (store_up 0)
             for v in snap.views:
                 k = [v.robot, v.joint]
                 fams["level"].add_metric(k, float(v.level))
+                fams["expected"].add_metric(k, 1.0 if v.alarm_expected else 0.0)
+                if math.isfinite(v.level_wear):
+                    fams["level_wear"].add_metric(k, v.level_wear)
                 fams["refused"].add_metric(k, float(v.rows_refused + (v.estimates_total if v.refused else 0)))
                 if math.isfinite(v.time):
                     fams["age"].add_metric(k, max(0.0, now - v.time))

@@ -52,10 +52,15 @@ come back, which wear does not do). These curves are averaged with the members' 
 the rate is not credibly positive (``P(S > 0) < growth_probability``) there is no time to alarm:
 *no growth detected*.
 
-**Level** (``diagnostic_msgs/DiagnosticStatus`` bytes): ERROR when the current wear estimate
-(the mixture's level) is at or above the alarm, the wear_estimator's convention (``w_hat >= 35``);
-WARN when growth is detected and the 90 % interval's lower bound is within ``horizon_days``; else OK.
-Fewer than ``min_estimates`` estimates in the current segment give no trend (OK or ERROR only).
+**Condition level and forecast** (two quantities, :mod:`jointwear_ros.condition`): the *condition
+level* (``diagnostic_msgs/DiagnosticStatus`` bytes) is the one rule of the suite applied to the joint's
+standing estimate (the newest confirmed one of the segment: an estimate far from it is held
+``unconfirmed`` and left out of the trend until the next one confirms it as a step or refutes it as an
+outlier; estimates from too few speeds carry no level), exactly what the wear_estimator publishes for
+the same sequence; STALE when the segment has no estimate. The *forecast* is the time to alarm: *alarm
+expected within* ``horizon_days`` when growth is detected and the 90 % interval's lower bound is within
+it. The forecast never changes the condition level. Fewer than ``min_estimates`` estimates in the
+current segment give no trend.
 
 **Segments.** A maintenance event (regrease, reducer replaced) starts a new segment: the trend
 uses the estimates after the joint's last event. **Revisions.** A wear_estimator may re-estimate a
@@ -68,8 +73,8 @@ Pure numpy/scipy: no ROS, no database.
 >>> t = 1.7e9 + 86400.0 * np.arange(60)
 >>> w = 10.0 + 0.3 * np.arange(60)
 >>> r = analyze_joint(t, w, np.full(60, 0.85))
->>> round(r.rate_per_day, 2), r.level_name, round(r.time_to_alarm.median)
-(0.3, 'WARN', 24)
+>>> round(r.rate_per_day, 2), r.level_name, round(r.time_to_alarm.median), r.forecast.text
+(0.3, 'OK', 24, 'alarm expected within 30 days')
 >>> max(r.time_to_alarm.model_weights, key=r.time_to_alarm.model_weights.get)
 'line'
 >>> analyze_joint(t, np.full(60, 12.0), np.full(60, 0.85)).time_to_alarm is None
@@ -87,6 +92,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import ndtr
 
+from ..condition import INSUFFICIENT, Forecast, confirm, forecast_of, standing
 from ..contract import DiagnosticLevel
 from ..errors import InputDataError
 
@@ -124,7 +130,7 @@ __all__ = [
 
 DAY = 86400.0
 #: the trend's levels are ``DiagnosticStatus`` levels: aliases of :class:`jointwear_ros.contract.DiagnosticLevel`.
-LEVEL_NAMES = {int(lv): lv.name for lv in (DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR)}
+LEVEL_NAMES = {int(lv): lv.name for lv in DiagnosticLevel}
 
 Array = NDArray[np.float64]
 
@@ -136,7 +142,9 @@ class TrendConfig:
     Attributes
     ----------
     alarm : wear at which the alarm is raised (35, the paper's).
-    horizon_days : WARN when the 90 % interval's lower bound of the time to alarm is within it.
+    horizon_days : the forecast says "alarm expected within" when the 90 % interval's lower bound of the time
+        to alarm is within it (the forecast; it does not change the condition level).
+    warn : wear of the warning level (the condition level's WARN band starts there).
     accel_noise : ``q`` of the adaptive local-linear members, spectral density of the rate's random walk,
         wear² / day³ (how fast wear may accelerate).
     jerk_noise : jerk density of the local-quadratic member(s).
@@ -157,6 +165,7 @@ class TrendConfig:
 
     alarm: float = 35.0
     horizon_days: float = 30.0
+    warn: float = 30.0
     accel_noise: tuple[float, ...] = (1e-4, 1e-3)
     jerk_noise: tuple[float, ...] = (1e-8,)
     efold_days: tuple[float, ...] = (160.0, 120.0, 90.0, 60.0, 45.0)
@@ -184,7 +193,7 @@ class TrendConfig:
             object.__setattr__(self, name, tuple(float(x) for x in qs))
         if any(e <= 0 for e in self.efold_days):
             raise InputDataError(f"trend setting efold_days = {self.efold_days!r} must be > 0 days")
-        for name in ("alarm", "horizon_days", "level_noise", "slope_prior_std", "accel_prior_std",
+        for name in ("alarm", "warn", "horizon_days", "level_noise", "slope_prior_std", "accel_prior_std",
                      "max_horizon_days", "revision_window_s", "prior_line", "prior_accelerated",
                      "step_rate_per_day", "level_prior_std", "max_efolds", "evidence_temperature"):
             v = float(getattr(self, name))
@@ -345,10 +354,23 @@ class TrendResult:
     components: list[Component] = field(default_factory=list)
     members: list[Member] = field(default_factory=list)
     prior: RatePrior | None = None
+    #: the forecast (time to alarm, alarm expected within the horizon); its own quantity, not the level
+    forecast: Forecast | None = None
+    #: the estimate the condition level stands on, its evidence, and the newest estimate's confirmation
+    level_wear: float = math.nan
+    level_wear_std: float = math.nan
+    evidence: str = ""
+    confirmation: str = ""
+    #: estimates of the segment left out of the trend: held (unconfirmed) or refuted (outlier): times, wear, std
+    held: tuple[tuple[float, float, float, str], ...] = ()
 
     @property
     def level_name(self) -> str:
         return LEVEL_NAMES[self.level]
+
+    @property
+    def alarm_expected(self) -> bool:
+        return bool(self.forecast is not None and self.forecast.expected_within_horizon)
 
     def as_dict(self) -> dict[str, Any]:
         """The ``trend --json`` contract (plus a few extra keys)."""
@@ -361,8 +383,18 @@ class TrendResult:
             "estimates_total": self.estimates_total, "segments": self.segments,
             "last_time": self.last_time, "segment_start": self.segment_start, "message": self.message,
             "step_probability": self.step_probability,
+            "condition": {"level": self.level_name, "wear": _num(self.level_wear),
+                          "wear_std": _num(self.level_wear_std), "evidence": self.evidence or None,
+                          "newest_estimate": self.confirmation or None,
+                          "held": [{"time": h[0], "wear": h[1], "wear_std": h[2], "status": h[3]} for h in self.held]},
+            "forecast": None if self.forecast is None else self.forecast.as_dict(),
+            "alarm_expected": self.alarm_expected,
             "fleet_prior": None if self.prior is None or self.prior.source == "default" else self.prior.as_dict(),
         }
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
 
 
 # ---------------------------------------------------------------------------- adaptive members (Kalman)
@@ -799,20 +831,42 @@ def analyze_joint(
     joint: str = "",
     smooth: bool = False,
     prior: RatePrior | None = None,
+    evidence: Sequence[str] | None = None,
 ) -> TrendResult:
-    """The trend of one joint from its estimates (times in seconds since the epoch); ``prior``: a fleet prior."""
+    """The trend of one joint from its estimates (times in seconds since the epoch); ``prior``: a fleet prior;
+    ``evidence``: each estimate's (``complete``, ``partial``, ``insufficient``; default complete)."""
     cfg = cfg or TrendConfig()
     t, w, s, total, seg_start, segs = current_segment(times, wear, wear_std, cycle_ids, maintenance_times, cfg,
                                              f"{robot}/{joint}")
+    ev = _segment_evidence(times, cycle_ids, maintenance_times, evidence, cfg)
+    n_all = len(t)
+    if n_all == 0:
+        return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None,
+                           DiagnosticLevel.STALE, "no estimates since the last maintenance event", False, math.nan,
+                           seg_start, segs, prior=prior, forecast=forecast_of(None, None, None, False, False,
+                                                                              cfg.horizon_days))
+    days = (t - t[0]) / DAY
+    cond = standing(w, s, days, ev, cfg.warn, cfg.alarm)
+    use = [i for i in range(n_all) if ev[i] != INSUFFICIENT]
+    conf = confirm([(float(w[i]), float(s[i])) for i in use], [float(days[i]) for i in use])
+    out = {use[k]: c.status for k, c in enumerate(conf) if c.status in ("unconfirmed", "outlier")}
+    out.update({i: "insufficient" for i in range(n_all) if ev[i] == INSUFFICIENT})
+    held = tuple((float(t[i]), float(w[i]), float(s[i]), out[i]) for i in sorted(out))
+    fit = np.array([i for i in range(n_all) if i not in out], dtype=int)
+    last_time = float(t[-1])
+    t, w, s = t[fit], w[fit], s[fit]
     n = len(t)
+    level = int(DiagnosticLevel.STALE if cond.level is None else cond.level)
+    common = dict(level_wear=cond.wear, level_wear_std=cond.wear_std,
+                  evidence="" if cond.index is None else ev[cond.index], confirmation=cond.newest_status, held=held)
     if n == 0:
-        return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, DiagnosticLevel.OK,
-                           "no estimates since the last maintenance event", False, math.nan, seg_start, segs,
-                           prior=prior)
+        return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, level,
+                           cond.reason, False, last_time, seg_start, segs, prior=prior,
+                           forecast=forecast_of(None, None, None, False, False, cfg.horizon_days), **common)
     members = bank_members(cfg)
     st = trend_states((t - t[0]) / DAY, w, s, cfg, rows=np.array([n - 1]), prior=prior, keep=True)
     qs = st.quantiles
-    level, growth = int(st.level[0]), bool(st.growth[0])
+    growth = bool(st.growth[0])
     wear_now, wear_sd = float(st.wear[0]), float(st.wear_std[0])
     rate, rate_sd = float(st.rate[0]), float(st.rate_std[0])
     weights = {m.name: round(float(x), 4) for m, x in zip(members, st.weights[:, 0])}
@@ -834,22 +888,25 @@ def analyze_joint(
     tta: TimeToAlarm | None
     if wear_now >= cfg.alarm:
         tta = TimeToAlarm(0.0, 0.0, 0.0, weights)
-        msg = f"wear {wear_now:.1f} ± {wear_sd:.1f} at or above the alarm {cfg.alarm:g}"
+        fmsg = f"the trend's wear {wear_now:.1f} ± {wear_sd:.1f} is at or above the alarm {cfg.alarm:g}"
     elif n < cfg.min_estimates:
         tta = None
-        msg = f"{n} estimate(s) in this segment: a trend needs {cfg.min_estimates}"
+        fmsg = f"{n} estimate(s) in this segment: a trend needs {cfg.min_estimates}"
     elif not growth:
         tta = None
-        msg = f"no growth detected (rate {rate:+.3f} ± {rate_sd:.3f} /day); wear {wear_now:.1f} ± {wear_sd:.1f}"
+        fmsg = f"no growth detected (rate {rate:+.3f} ± {rate_sd:.3f} /day); trend wear {wear_now:.1f} ± {wear_sd:.1f}"
     else:
         reason = unbounded_reason(st, 0, members, cfg)
         tta = TimeToAlarm(float(qs[0, 1]), float(qs[0, 0]), float(qs[0, 2]), weights, reason)
-        msg = (f"alarm {cfg.alarm:g} in {_days(tta.median)} (90 %: {_days(tta.lo90)} to {_days(tta.hi90)}); "
-               f"wear {wear_now:.1f} ± {wear_sd:.1f}, rate {rate:+.3f} /day")
+        fmsg = (f"alarm {cfg.alarm:g} in {_days(tta.median)} (90 %: {_days(tta.lo90)} to {_days(tta.hi90)}); "
+                f"trend wear {wear_now:.1f} ± {wear_sd:.1f}, rate {rate:+.3f} /day")
         if reason:
-            msg += f"; no upper bound: {reason}"
-        if level == DiagnosticLevel.WARN:
-            msg = f"alarm possible within {cfg.horizon_days:g} days: " + msg
+            fmsg += f"; no upper bound: {reason}"
+    fc = forecast_of(None if tta is None else tta.median, None if tta is None else tta.lo90,
+                     None if tta is None else tta.hi90, growth, n >= cfg.min_estimates, cfg.horizon_days)
+    if fc.expected_within_horizon and fc.state == "within_horizon":
+        fmsg = f"alarm expected within {cfg.horizon_days:g} days: " + fmsg
+    msg = f"{cond.reason}; forecast: {fmsg}"
     if step_p >= 0.5:
         from datetime import UTC, datetime
 
@@ -858,11 +915,29 @@ def analyze_joint(
     return TrendResult(
         robot=robot, joint=joint, estimates=n, estimates_total=total, wear=wear_now, wear_std=wear_sd,
         rate_per_day=rate, rate_std=rate_sd, time_to_alarm=tta, level=level, message=msg,
-        growth_detected=growth, last_time=float(t[-1]), segment_start=float(seg_start), segments=segs,
+        growth_detected=growth, last_time=last_time, segment_start=float(seg_start), segments=segs,
         filtered=f, smoothed=rts_smooth(f, cfg) if (smooth and f is not None) else None, times=t, wears=w,
         wear_stds=s, model_weights=weights, step_probability=step_p, step_time=step_time, components=comps,
-        members=members, prior=prior,
+        members=members, prior=prior, forecast=fc, **common,
     )
+
+
+def _segment_evidence(times: Any, cycle_ids: Any, maintenance_times: Sequence[float],
+                      evidence: Sequence[str] | None, cfg: TrendConfig) -> list[str]:
+    """The evidence of the estimates :func:`current_segment` keeps, in its order."""
+    t = np.asarray(times, float)
+    if evidence is None:
+        ev = np.array(["complete"] * len(t), dtype=object)
+    else:
+        ev = np.array([str(x) or "complete" for x in evidence], dtype=object)
+        if len(ev) != len(t):
+            raise InputDataError(f"evidence has {len(ev)} entries for {len(t)} estimates")
+    if not len(t):
+        return []
+    cid = np.zeros(len(t), int) if cycle_ids is None else np.asarray(cycle_ids)
+    keep = collapse_revisions(t, cid, cfg.revision_window_s)
+    first, _, _ = last_segment(t[keep], maintenance_times)
+    return [str(x) for x in ev[keep][first:]]
 
 
 def _days(x: float) -> str:
