@@ -2,15 +2,76 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["new_figure", "plot_curve", "save_figure"]
+__all__ = ["WEAR_LABEL", "clip_band", "inside", "legend_outside", "new_figure", "plot_curve", "save_figure",
+           "span_limits", "wear_limits"]
 
 Array = npt.NDArray[np.float64]
+
+
+#: the wear axis: dimensionless, 0-100 % of a failure state (the paper's; 35 is its alarm)
+WEAR_LABEL = "wear [% of failure state]"
+
+
+def span_limits(*groups: Array | Sequence[float] | float, margin: float = 0.06,
+                min_span: float = 1.0) -> tuple[float, float]:
+    """``(lo, hi)`` covering every finite value of ``groups`` plus ``margin`` of the span each side.
+
+    Non-finite values are ignored; a span below ``min_span`` is widened about its centre (one value, or
+    values that all agree, still give a readable axis). With no finite value: ``(0, min_span)``.
+    """
+    vals = np.concatenate([np.atleast_1d(np.asarray(g, dtype=float)).ravel() for g in groups]) if groups else \
+        np.zeros(0)
+    vals = vals[np.isfinite(vals)]
+    if not vals.size:
+        return 0.0, float(min_span)
+    lo, hi = float(vals.min()), float(vals.max())
+    if hi - lo < min_span:
+        mid = 0.5 * (lo + hi)
+        lo, hi = mid - 0.5 * min_span, mid + 0.5 * min_span
+    pad = margin * (hi - lo)
+    return lo - pad, hi + pad
+
+
+def wear_limits(wear: Array | Sequence[float], alarm: float, *extra: Array | Sequence[float] | float,
+                margin: float = 0.06) -> tuple[float, float]:
+    """A wear axis: ``[min(data, 0) - margin, max(data, alarm) + margin]`` (a forecast is clipped to it,
+    never the other way round)."""
+    return span_limits(wear, 0.0, alarm, *extra, margin=margin)
+
+
+def clip_band(lo: Array, hi: Array, limits: tuple[float, float]) -> tuple[Array, Array]:
+    """A band's edges clipped to the axis ``limits`` (a forecast of 1e30 is drawn to the edge, not scaled to)."""
+    a, b = limits
+    return np.clip(np.asarray(lo, float), a, b), np.clip(np.asarray(hi, float), a, b)
+
+
+def inside(y: Array | Sequence[float], limits: tuple[float, float]) -> Array:
+    """``y`` with the values outside ``limits`` as NaN (a line stops at the axis edge instead of running along it)."""
+    y = np.asarray(y, dtype=float).copy()
+    y[(y < limits[0]) | (y > limits[1])] = np.nan
+    return y
+
+
+def legend_outside(ax, where: str = "right", fontsize: float = 7.5, ncol: int = 1, **kw: object):  # type: ignore[no-untyped-def]
+    """The axes' legend outside its plotting area (``right`` or ``below``), so it never covers data;
+    :func:`save_figure`'s tight layout makes room for it. Returns the legend (None when nothing is labelled)."""
+    handles, labels = kw.pop("handles", None), kw.pop("labels", None)
+    if handles is None:
+        handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    if where == "below":
+        place = {"loc": "upper center", "bbox_to_anchor": (0.5, -0.14)}
+    else:
+        place = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
+    return ax.legend(handles, labels, fontsize=max(float(fontsize), 7.0), ncol=ncol, frameon=False,
+                     borderaxespad=0.0, **place, **kw)  # type: ignore[arg-type]
 
 
 def new_figure(nrows: int = 1, ncols: int = 1, size: tuple[float, float] = (8.0, 5.0)):  # type: ignore[no-untyped-def]
