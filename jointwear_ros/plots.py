@@ -1,15 +1,19 @@
-"""Matplotlib figures (PNG, Agg backend): friction curves and their components."""
+"""Matplotlib figures (PNG, Agg backend): friction curves and their components, the plant's current wear, and
+the helpers every figure of the suite shares: axes limited to the data (:func:`span_limits`,
+:func:`wear_limits`; a forecast is clipped to them with :func:`clip_band` and :func:`inside`, never the axes
+scaled to it), legends outside the data (:func:`legend_outside`), the wear unit (:data:`WEAR_LABEL`)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["WEAR_LABEL", "clip_band", "inside", "legend_outside", "new_figure", "plot_curve", "save_figure",
-           "span_limits", "wear_limits"]
+__all__ = ["WEAR_LABEL", "clip_band", "inside", "legend_outside", "new_figure", "plot_current_wear", "plot_curve",
+           "save_figure", "span_limits", "wear_limits"]
 
 Array = npt.NDArray[np.float64]
 
@@ -58,20 +62,32 @@ def inside(y: Array | Sequence[float], limits: tuple[float, float]) -> Array:
     return y
 
 
-def legend_outside(ax, where: str = "right", fontsize: float = 7.5, ncol: int = 1, **kw: object):  # type: ignore[no-untyped-def]
-    """The axes' legend outside its plotting area (``right`` or ``below``), so it never covers data;
-    :func:`save_figure`'s tight layout makes room for it. Returns the legend (None when nothing is labelled)."""
+def legend_outside(ax, where: str = "right", fontsize: float = 7.5, ncol: int = 1, in_layout: bool = True,  # type: ignore[no-untyped-def]
+                   **kw: object):
+    """The axes' legend outside its plotting area (``right`` or ``below``), so it never covers data, in at
+    least 7 pt. :func:`save_figure`'s tight layout makes room for it; ``in_layout=False`` leaves the panels'
+    spacing alone (a legend wider than its panel, below a grid) and the saved image grows to hold it.
+    Returns the legend (None when nothing is labelled)."""
     handles, labels = kw.pop("handles", None), kw.pop("labels", None)
     if handles is None:
         handles, labels = ax.get_legend_handles_labels()
     if not handles:
         return None
-    if where == "below":
-        place = {"loc": "upper center", "bbox_to_anchor": (0.5, -0.14)}
+    if where == "below":  # under the tick labels and the axis label, measured (in inches: layout-proof)
+        import matplotlib.transforms as mtransforms
+
+        fig = ax.figure
+        renderer = fig.canvas.get_renderer()
+        bb = ax.xaxis.get_tightbbox(renderer)
+        below = 0.0 if bb is None else max(0.0, ax.get_window_extent(renderer).y0 - bb.y0) / fig.dpi
+        shift = mtransforms.ScaledTranslation(0.0, -(below + 0.08), fig.dpi_scale_trans)
+        place = {"loc": "upper left", "bbox_to_anchor": (0.0, 0.0), "bbox_transform": ax.transAxes + shift}
     else:
         place = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
-    return ax.legend(handles, labels, fontsize=max(float(fontsize), 7.0), ncol=ncol, frameon=False,
-                     borderaxespad=0.0, **place, **kw)  # type: ignore[arg-type]
+    leg = ax.legend(handles, labels, fontsize=max(float(fontsize), 7.0), ncol=ncol, frameon=False,
+                    borderaxespad=0.0, **place, **kw)  # type: ignore[arg-type]
+    leg.set_in_layout(in_layout)
+    return leg
 
 
 def new_figure(nrows: int = 1, ncols: int = 1, size: tuple[float, float] = (8.0, 5.0)):  # type: ignore[no-untyped-def]
@@ -84,14 +100,16 @@ def new_figure(nrows: int = 1, ncols: int = 1, size: tuple[float, float] = (8.0,
 
 
 def save_figure(fig, path: Path) -> Path:  # type: ignore[no-untyped-def]
-    """Write ``fig`` to ``path`` atomically (a temp file, then rename)."""
+    """Write ``fig`` to ``path`` atomically (a temp file, then rename); the image holds every artist (a
+    legend outside the axes included)."""
     import matplotlib.pyplot as plt
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp.png")
     fig.tight_layout()
-    fig.savefig(tmp, dpi=110)
+    legends = [leg for leg in (a.get_legend() for a in fig.axes) if leg is not None] + list(fig.legends)
+    fig.savefig(tmp, dpi=110, bbox_inches="tight", pad_inches=0.12, bbox_extra_artists=legends)
     plt.close(fig)
     tmp.replace(path)
     return path
@@ -119,5 +137,38 @@ def plot_curve(
     if title:
         ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
+    legend_outside(ax, "right", fontsize=8)
+    return save_figure(fig, path)
+
+
+def plot_current_wear(path: Path, rows: Sequence[tuple[str, float, float, str, str]], alarm: float,
+                      title: str = "") -> Path:
+    """Every joint's current wear with its 90 % interval, one row each (the plant page's overview).
+
+    ``rows``: ``(label, wear, wear_std, level name, colour)``, drawn bottom to top (give the most urgent
+    last to have it on top). The wear axis covers the data and the alarm (never a fixed 0-108 that cuts a
+    wear past it); the level names sit outside the plot, right of it.
+    """
+    rows = list(rows)
+    fig, axes = new_figure(size=(9.0, 1.2 + 0.24 * max(len(rows), 1)))
+    ax = axes[0][0]
+    ends = []
+    for i, (_label, wear, std, level, color) in enumerate(rows):
+        if math.isfinite(wear):
+            half = 1.645 * std if math.isfinite(std) else 0.0
+            ax.errorbar([wear], [i], xerr=[[half]], fmt="o", color=color, ms=5, capsize=3)
+            ends += [wear - half, wear + half]
+        ax.text(1.01, i, level, transform=ax.get_yaxis_transform(), va="center", fontsize=7, color=color,
+                fontweight="bold")
+    ax.axvline(alarm, color="tab:red", lw=1.2, ls="--")
+    ax.text(alarm, 1.0, f" alarm {alarm:g}", transform=ax.get_xaxis_transform(), color="tab:red", fontsize=7,
+            va="bottom", ha="left")
+    ax.set_xlim(*(wear_limits(np.clip(np.asarray(ends, float), -50.0, 200.0), alarm, margin=0.03) if ends
+                  else (0.0, 100.0)))
+    ax.set_yticks(range(len(rows)), [r[0] for r in rows], fontsize=7)
+    ax.set_ylim(-0.8, max(len(rows), 1) - 0.2)
+    ax.set_xlabel("current wear (trend) with its 90 % interval, " + WEAR_LABEL)
+    ax.grid(axis="x", alpha=0.3)
+    if title:
+        ax.set_title(title, fontsize=9, pad=12)
     return save_figure(fig, path)

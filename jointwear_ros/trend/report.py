@@ -90,14 +90,13 @@ def _window(r: TrendResult, cfg: TrendConfig, t: Array, maintenance_times: Seque
         focus_hi = last + horizon * DAY
     else:  # no estimate since the last maintenance: the history up to that event
         focus_lo = float(t.min()) if t.size else (max(maint) if maint else 0.0)
-        focus_hi = max([float(t.max())] if t.size else [] + maint[-1:] or [focus_lo])
-        focus_hi = max([focus_hi, *maint])
-    width = max(focus_hi - focus_lo, 3600.0)
+        focus_hi = max([focus_lo, *maint, *([float(t.max())] if t.size else [])])
+    width = focus_hi - focus_lo
     lo = max(float(t.min()) if t.size else focus_lo, focus_lo - width)
     for m in maint:  # the event that opened the current segment stays in view
-        if m <= focus_lo and m >= focus_lo - width:
+        if focus_lo - width <= m <= focus_lo:
             lo = min(lo, m)
-    pad = 0.03 * max(focus_hi - lo, 3600.0)
+    pad = 0.03 * (focus_hi - lo) if focus_hi > lo else 1800.0  # one estimate: an hour around it
     return lo - pad, focus_hi + pad, horizon
 
 
