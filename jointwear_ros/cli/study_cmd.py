@@ -369,7 +369,10 @@ def _plot_study(res: Any, out: Path) -> None:
             cs = ax.contourf(v, centres, dens.T, levels=12, cmap="viridis")
             fig.colorbar(cs, ax=ax, label="density of w_hat")
         mean = res.true_wear + res.bias
-        ax.plot(v, mean, color="white", lw=1.8, label="mean of w_hat")
+        import matplotlib.patheffects as pe
+
+        ax.plot(v, mean, color="white", lw=1.8, label="mean of w_hat",  # outlined: seen on the plot and the legend
+                path_effects=[pe.Stroke(linewidth=3.2, foreground="black"), pe.Normal()])
         ax.axhline(res.true_wear, color="red", ls="--", lw=1.0, label=f"true w = {res.true_wear:g}")
         ax.set_xlabel("speed v, motor side [rad/s]")
         ax.set_ylabel("w_hat, " + WEAR_LABEL)
