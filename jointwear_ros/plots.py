@@ -108,8 +108,9 @@ def save_figure(fig, path: Path) -> Path:  # type: ignore[no-untyped-def]
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp.png")
     fig.tight_layout()
-    legends = [leg for leg in (a.get_legend() for a in fig.axes) if leg is not None] + list(fig.legends)
-    fig.savefig(tmp, dpi=110, bbox_inches="tight", pad_inches=0.12, bbox_extra_artists=legends)
+    extra = [leg for leg in (a.get_legend() for a in fig.axes) if leg is not None] + list(fig.legends)
+    extra += [t for a in fig.axes for t in a.texts]  # notes written beside a plot
+    fig.savefig(tmp, dpi=110, bbox_inches="tight", pad_inches=0.12, bbox_extra_artists=extra)
     plt.close(fig)
     tmp.replace(path)
     return path

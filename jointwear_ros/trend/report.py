@@ -160,13 +160,14 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
         f_lo, f_hi = clip_band(np.maximum(band[:, 0], floor), band[:, 2], ylim)
         ax.fill_between(xf, f_lo, f_hi, color="tab:orange", alpha=0.15, lw=0, label="forecast 90 %")
         if math.isfinite(tta.median) and tta.median > 0:
-            lo = min(r.last_time + tta.lo90 * DAY, x1)
-            hi = min(r.last_time + (tta.hi90 if math.isfinite(tta.hi90) else math.inf) * DAY, x1)
+            f_end = r.last_time + end * DAY  # the interval shaded as far as the forecast is drawn
+            lo = min(r.last_time + tta.lo90 * DAY, f_end)
+            hi = min(r.last_time + (tta.hi90 if math.isfinite(tta.hi90) else math.inf) * DAY, f_end)
             lab = "alarm time 90 %" + ("" if math.isfinite(tta.hi90) else " (no upper bound)")
-            if lo < x1:
+            if lo < f_end:
                 ax.axvspan(_dt(np.array([lo]))[0], _dt(np.array([hi]))[0], color="tab:red", alpha=0.12, label=lab)
             cross = r.last_time + tta.median * DAY
-            if cross <= x1:
+            if cross <= f_end:
                 ax.plot(_dt(np.array([cross])), [cfg.alarm], "v", color="tab:red", ms=9,
                         label="predicted crossing (median)")
             else:
