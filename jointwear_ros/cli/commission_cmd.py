@@ -195,9 +195,11 @@ def cmd_commission(args: argparse.Namespace) -> int:
 
 
 def _report(report: Path, table: Any, res: Any, doc: dict[str, Any]) -> None:
+    """``commission.json`` and ``commission.png``: the baseline with the fitted model over it (left; the model
+    at each observation and its curve at the median of the other inputs) and the residual (right)."""
     import json
 
-    import matplotlib.pyplot as plt
+    from ..plots import legend_outside, new_figure, save_figure
 
     report.mkdir(parents=True, exist_ok=True)
     (report / "commission.json").write_text(json.dumps(doc, indent=2, default=str), encoding="utf-8")
@@ -205,21 +207,36 @@ def _report(report: Path, table: Any, res: Any, doc: dict[str, Any]) -> None:
     from ..workbench.fit import model_inputs
 
     m = parse_spec(res.spec)
-    fitted = m.evaluate(res.params, **model_inputs(m, table))
-    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    sc = ax[0].scatter(np.abs(table.speed), table.tau_f, s=6, c=table.get("temperature"), cmap="coolwarm")
-    ax[0].set_xlabel(f"speed ({res.units.speed_unit})")
-    ax[0].set_ylabel(f"tau_f ({res.units.torque_unit})")
-    ax[0].set_title(f"{res.joint}: baseline")
-    fig.colorbar(sc, ax=ax[0], label="temperature (degC)")
-    ax[1].scatter(np.abs(table.speed), table.tau_f - fitted, s=6)
-    ax[1].axhline(0, color="k", lw=0.5)
-    ax[1].set_xlabel(f"speed ({res.units.speed_unit})")
-    ax[1].set_ylabel(f"residual ({res.units.torque_unit})")
-    ax[1].set_title(f"CV RMSE {res.cv_rmse:.3g}, verdict {res.verdict}")
-    fig.tight_layout()
-    fig.savefig(report / "commission.png", dpi=90)
-    plt.close(fig)
+    inputs = model_inputs(m, table)
+    fitted = m.evaluate(res.params, **inputs)
+    speed = np.abs(np.asarray(table.speed, float))
+    fig, axes = new_figure(1, 2, size=(11.5, 4.4))
+    ax, axr = axes[0]
+    temp = table.get("temperature")
+    sc = ax.scatter(speed, table.tau_f, s=6, c=temp, cmap="coolwarm", zorder=3, label="baseline (observed)")
+    ax.plot(speed, fitted, "_", ms=7, mew=1.0, color="black", alpha=0.7, zorder=2,
+            label="fitted model at each observation")
+    grid = np.linspace(float(speed.min()), float(speed.max()), 200)
+    sign = -1.0 if float(np.median(np.asarray(table.speed, float))) < 0 else 1.0  # the side most data are on
+    at = {k: sign * grid if k == "speed" else np.full(grid.size, float(np.median(v))) for k, v in inputs.items()}
+    curve = np.asarray(m.evaluate(res.params, **at), float) * np.ones(grid.size)
+    med = ", ".join(f"{k} {float(np.median(v)):.3g}" for k, v in inputs.items() if k != "speed")
+    ax.plot(grid, curve, color="black", lw=1.6, zorder=4,
+            label="fitted model at the median inputs" + (f" ({med})" if med else ""))
+    ax.set_xlabel(f"speed |v| [{res.units.speed_unit}]")
+    ax.set_ylabel(f"friction torque tau_f [{res.units.torque_unit}]")
+    ax.set_title(f"{res.joint}: baseline and the fitted model", fontsize=10)
+    ax.grid(alpha=0.3)
+    if temp is not None:
+        fig.colorbar(sc, ax=ax, label="temperature [°C]")
+    legend_outside(ax, "below", fontsize=7.5)
+    axr.scatter(speed, table.tau_f - fitted, s=6)
+    axr.axhline(0, color="k", lw=0.5)
+    axr.set_xlabel(f"speed |v| [{res.units.speed_unit}]")
+    axr.set_ylabel(f"residual tau_f - model [{res.units.torque_unit}]")
+    axr.set_title(f"CV RMSE {res.cv_rmse:.3g}, verdict {res.verdict}", fontsize=10)
+    axr.grid(alpha=0.3)
+    save_figure(fig, report / "commission.png")
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:

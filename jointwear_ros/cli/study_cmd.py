@@ -356,7 +356,7 @@ def _cmd_case(args: argparse.Namespace) -> int:
 
 # -- figures -----------------------------------------------------------------------
 def _plot_study(res: Any, out: Path) -> None:
-    from ..plots import new_figure, save_figure
+    from ..plots import WEAR_LABEL, legend_outside, new_figure, save_figure
 
     v = np.asarray(res.speeds)
     if res.mode == "per-speed":
@@ -369,12 +369,15 @@ def _plot_study(res: Any, out: Path) -> None:
             cs = ax.contourf(v, centres, dens.T, levels=12, cmap="viridis")
             fig.colorbar(cs, ax=ax, label="density of w_hat")
         mean = res.true_wear + res.bias
-        ax.plot(v, mean, color="white", lw=1.8, label="mean of w_hat")
+        import matplotlib.patheffects as pe
+
+        ax.plot(v, mean, color="white", lw=1.8, label="mean of w_hat",  # outlined: seen on the plot and the legend
+                path_effects=[pe.Stroke(linewidth=3.2, foreground="black"), pe.Normal()])
         ax.axhline(res.true_wear, color="red", ls="--", lw=1.0, label=f"true w = {res.true_wear:g}")
         ax.set_xlabel("speed v, motor side [rad/s]")
-        ax.set_ylabel("w_hat")
+        ax.set_ylabel("w_hat, " + WEAR_LABEL)
         ax.set_title(f"Fig. 9: density of w_hat over speed ({res.method}, {res.runs} runs)")
-        ax.legend(fontsize=8)
+        legend_outside(ax, "below", fontsize=8, ncol=2)
         save_figure(fig, out / f"study_{res.method}_density.png")
 
         fig, axes = new_figure()
@@ -382,7 +385,7 @@ def _plot_study(res: Any, out: Path) -> None:
         ax.plot(v, res.bias, "o-", ms=3)
         ax.axhline(0.0, color="grey", lw=0.6)
         ax.set_xlabel("speed v, motor side [rad/s]")
-        ax.set_ylabel("bias of w_hat")
+        ax.set_ylabel("bias of w_hat, " + WEAR_LABEL)
         ax.set_title(f"Fig. 10: bias ({res.method})")
         ax.grid(alpha=0.3)
         save_figure(fig, out / f"study_{res.method}_bias.png")
@@ -405,39 +408,53 @@ def _plot_study(res: Any, out: Path) -> None:
     else:
         ax.bar(["variance", "mse", "multi-speed CRB"], [res.variance[0], res.mse[0], res.crb[0]])
         ax.set_yscale("log")
-    ax.set_ylabel("wear^2")
+    ax.set_ylabel("variance of w_hat [(% of failure state)²]")
     ax.set_title(f"Fig. 11: variance and the bound ({res.method})")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8) if res.mode == "per-speed" else None
+    legend_outside(ax, "right", fontsize=8) if res.mode == "per-speed" else None
     save_figure(fig, out / f"study_{res.method}_variance.png")
 
 
-def _plot_case(res: Any, out: Path) -> None:
-    from ..plots import new_figure, save_figure
+#: one look per estimator in the case study (colour, line, marker): told apart in colour and in grey
+_METHOD_STYLE = (("tab:blue", "-", "o"), ("tab:orange", "--", "s"), ("tab:green", "-.", "^"), ("tab:purple", ":", "D"))
 
-    fig, axes = new_figure(2, 1, size=(8.0, 8.0))
+
+def _plot_case(res: Any, out: Path) -> None:
+    from ..plots import WEAR_LABEL, legend_outside, new_figure, save_figure
+
+    fig, axes = new_figure(2, 1, size=(9.5, 8.5))
     ax = axes[0][0]
     k = res.k
-    ax.plot(k, res.w_true, "k-", lw=2, label="true w")
-    ax.plot(k, res.w_ref, "k--", lw=1, label="w* (Eq. 16)")
-    for m, d in res.methods.items():
+    ax.plot(k, res.w_true, "-", color="0.2", lw=2.4, alpha=0.5, label="true w", zorder=1)
+    ax.plot(k, res.w_ref, ":", color="black", lw=1.2, label="w* (Eq. 16)", zorder=2)
+    every = max(1, len(k) // 12)
+    for j, (m, d) in enumerate(res.methods.items()):
         i = d["best_index"]
-        ax.plot(k, d["estimates"][:, i], lw=1, label=f"{m} at {res.speeds[i]:.1f} rad/s")
-    ax.axhline(35.0, color="red", ls=":", label="threshold 35")
-    ax.set_xlabel("index k")
-    ax.set_ylabel("w")
-    ax.legend(fontsize=8)
+        c, ls, mk = _METHOD_STYLE[j % len(_METHOD_STYLE)]
+        ax.plot(k, d["estimates"][:, i], color=c, ls=ls, lw=1.4, marker=mk, ms=5, markevery=(j * every // 2, every),
+                mfc="white" if j % 2 else c, zorder=3 + j, label=f"{m} at {res.speeds[i]:.1f} rad/s")
+    ax.axhline(35.0, color="red", ls=(0, (1, 3)), label="threshold 35")
+    traces = [(m, np.asarray(d["estimates"][:, d["best_index"]], float)) for m, d in res.methods.items()]
+    if len(traces) >= 2:  # traces that lie on each other: say by how much they differ
+        (m0, a0), (m1, a1) = traces[:2]
+        diff = np.abs(a0 - a1)
+        diff = diff[np.isfinite(diff)]
+        if diff.size:
+            ax.text(1.01, 0.0, f"|{m0} - {m1}|:\nmean {float(diff.mean()):.2g},\nlargest {float(diff.max()):.2g}",
+                    transform=ax.transAxes, fontsize=8, va="bottom", ha="left")
+    ax.set_xlabel("index k (one estimate per step of the case) [-]")
+    ax.set_ylabel("w, " + WEAR_LABEL)
+    legend_outside(ax, "right", fontsize=8)
     ax.set_title("Fig. 13: estimated wear over k at the best speed")
     ax = axes[1][0]
-    for m, d in res.methods.items():
-        ax.plot(res.speeds, d["mean"], label=f"{m}: mean dw")
-        ax.plot(res.speeds, d["worst"], ls="--", label=f"{m}: worst |dw|")
-        ax.plot(res.speeds, 3 * d["std"], ls=":", label=f"{m}: 3 std")
-    ax.set_xlabel("speed v [rad/s]")
-    ax.set_ylabel("dw = w_hat - w*")
+    for j, (m, d) in enumerate(res.methods.items()):
+        c, _, mk = _METHOD_STYLE[j % len(_METHOD_STYLE)]
+        ax.plot(res.speeds, d["mean"], color=c, marker=mk, ms=4, label=f"{m}: mean dw")
+        ax.plot(res.speeds, d["worst"], color=c, ls="--", label=f"{m}: worst |dw|")
+        ax.plot(res.speeds, 3 * d["std"], color=c, ls=":", label=f"{m}: 3 std")
+    ax.set_xlabel("speed v, motor side [rad/s]")
+    ax.set_ylabel("dw = w_hat - w* [% of failure state]")
     # every curve whole (no cut at a fixed limit); a symmetric log scale when the worst case dwarfs the rest
-    import numpy as np
-
     vals = np.concatenate([np.asarray(d[key], float).ravel() * f for d in res.methods.values()
                            for key, f in (("mean", 1.0), ("worst", 1.0), ("std", 3.0))])  # what is drawn
     vals = vals[np.isfinite(vals)]
@@ -445,10 +462,10 @@ def _plot_case(res: Any, out: Path) -> None:
         lo, hi = min(float(vals.min()), 0.0), max(float(vals.max()), 1.0)
         if hi - lo > 100.0:
             ax.set_yscale("symlog", linthresh=5.0)
-            ax.set_ylabel("dw = w_hat - w* (linear within ±5, logarithmic beyond)")
+            ax.set_ylabel("dw = w_hat - w* [% of failure state]\n(linear within ±5, logarithmic beyond)")
         pad = 0.05 * (hi - lo)
         ax.set_ylim(lo - pad, hi + pad)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    legend_outside(ax, "right", fontsize=7.5)
     ax.set_title("Fig. 14: bias, worst case and 3 std of dw over speed")
     save_figure(fig, out / "case_study.png")

@@ -71,21 +71,26 @@ def _tta_text(t: Any) -> str:
 
 
 def _plot_changes(changes: Sequence[JointChange], path: Path, v_from: str, v_to: str) -> None:
-    from ..plots import new_figure, save_figure
+    from ..plots import legend_outside, new_figure, save_figure, span_limits
 
-    fig, ax = new_figure(size=(4.5, 4.2))
+    fig, ax = new_figure(size=(5.2, 4.6))
     a = ax[0][0]
     both = [c for c in changes if c.wear_from is not None and c.wear_to is not None]
     if both:
         xs = [float(c.wear_from or 0.0) for c in both]
         ys = [float(c.wear_to or 0.0) for c in both]
-        col = ["C3" if c.changed else "C0" for c in both]
-        a.scatter(xs, ys, c=col, s=14)
-        lo, hi = min(xs + ys) - 1, max(xs + ys) + 1
-        a.plot([lo, hi], [lo, hi], color="0.5", lw=0.8)
-    a.set_xlabel(f"wear, {v_from}"[:60])
-    a.set_ylabel(f"wear, {v_to}"[:60])
-    a.set_title("each joint's current wear (red: changed)", fontsize=9)
+        for changed, col, lab in ((False, "C0", "unchanged"), (True, "C3", "changed")):
+            pick = [i for i, c in enumerate(both) if bool(c.changed) == changed]
+            if pick:
+                a.scatter([xs[i] for i in pick], [ys[i] for i in pick], c=col, s=14, label=lab, zorder=3)
+        lo, hi = span_limits(xs, ys, margin=0.05)
+        a.plot([lo, hi], [lo, hi], color="0.5", lw=0.8, label="no change", zorder=1)
+        a.set_xlim(lo, hi)
+        a.set_ylim(lo, hi)
+        legend_outside(a, "below", fontsize=7.5, ncol=3)
+    a.set_xlabel(f"wear [% of failure state], {v_from}"[:70])
+    a.set_ylabel(f"wear [% of failure state], {v_to}"[:70])
+    a.set_title("each joint's current wear", fontsize=9)
     save_figure(fig, path)
 
 

@@ -66,88 +66,151 @@ def _history_fit(r: TrendResult, cfg: TrendConfig) -> tuple[Array, Array, Array,
     return x, mu, Z90 * sd, m.name + (" after the step" if c.step_at >= 0 else "")
 
 
+def _window(r: TrendResult, cfg: TrendConfig, t: Array, maintenance_times: Sequence[float],
+            forecast: bool) -> tuple[float, float, float]:
+    """The x window (s) and the forecast horizon (days) a reader needs: the current segment and its forecast
+    fill the plot, older segments at most as wide again to the left.
+
+    The forecast reaches the 90 % interval's end of the time to alarm when the data can carry it: at most
+    three times the current segment's span (at least ``cfg.horizon_days`` once the segment spans a few days),
+    so estimates minutes apart are not squashed against the edge by a forecast of months.
+    """
+    cur = np.asarray(r.times, float)
+    maint = [float(m) for m in maintenance_times if math.isfinite(float(m))]
+    horizon = 0.0
+    if cur.size:
+        focus_lo, last = float(cur[0]), float(r.last_time)
+        if forecast and r.time_to_alarm is not None:
+            tta = r.time_to_alarm
+            want = (tta.hi90 * 1.1 if math.isfinite(tta.hi90) else tta.median * 1.2 if math.isfinite(tta.median)
+                    else cfg.horizon_days)
+            span = (last - focus_lo) / DAY
+            cap = max(3.0 * span, min(float(cfg.horizon_days), 10.0 * span))
+            horizon = float(min(max(want, 0.0), cap, cfg.max_horizon_days))
+        focus_hi = last + horizon * DAY
+    else:  # no estimate since the last maintenance: the history up to that event
+        focus_lo = float(t.min()) if t.size else (max(maint) if maint else 0.0)
+        focus_hi = max([focus_lo, *maint, *([float(t.max())] if t.size else [])])
+    width = focus_hi - focus_lo
+    lo = max(float(t.min()) if t.size else focus_lo, focus_lo - width)
+    for m in maint:  # the event that opened the current segment stays in view
+        if focus_lo - width <= m <= focus_lo:
+            lo = min(lo, m)
+    pad = 0.03 * (focus_hi - lo) if focus_hi > lo else 1800.0  # one estimate: an hour around it
+    return lo - pad, focus_hi + pad, horizon
+
+
 def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence[float],
                all_wear: Sequence[float], all_std: Sequence[float], maintenance_times: Sequence[float] = ()) -> Path:
     """One joint's history and trend as a PNG: left the estimates, the fit, the forecast and the alarm-time
-    interval; right the weights of the bank's models (what the interval is made of)."""
-    from ..plots import new_figure, save_figure
+    interval; right the weights of the bank's models (what the interval is made of).
 
-    fig, axes = new_figure(1, 2, size=(12.0, 5.0))
-    ax, axw = axes[0]
-    ax.get_gridspec().set_width_ratios([3.3, 1.0])
+    What is drawn agrees with the title: a fit only once the segment has ``cfg.min_estimates`` estimates, a
+    forecast only when there is a time to alarm, the models' weights only when there is a trend. The axes
+    are limited to the data and the useful part of the forecast (:func:`_window`; wear from
+    :func:`~jointwear_ros.plots.wear_limits`, the forecast clipped to it), the legend sits outside the plot.
+    """
+    import matplotlib.dates as mdates
+
+    from ..plots import WEAR_LABEL, clip_band, inside, legend_outside, new_figure, save_figure, wear_limits
+
+    tta = r.time_to_alarm
+    has_trend = r.estimates >= cfg.min_estimates and len(r.times) >= 2
+    forecast = has_trend and tta is not None and bool(r.components)
+    weights = r.model_weights if has_trend else {}
+    if weights:
+        fig, axes = new_figure(1, 2, size=(13.0, 5.0))
+        ax, axw = axes[0]
+        ax.get_gridspec().set_width_ratios([3.3, 1.0])
+    else:
+        fig, axes = new_figure(1, 1, size=(10.5, 5.0))
+        ax, axw = axes[0][0], None
     t = np.asarray(all_times, float)
-    ax.errorbar(_dt(t), all_wear, yerr=2 * np.asarray(all_std, float), fmt="o", ms=2.5, lw=0.6, color="0.35",
-                ecolor="0.7", label="estimates ± 2 std")
+    wear = np.asarray(all_wear, float)
+    std = np.asarray(all_std, float)
+    x0, x1, end = _window(r, cfg, t, maintenance_times, forecast)
+    shown = (t >= x0) & (t <= x1)
+    ylim = wear_limits(np.concatenate([wear[shown], np.clip(wear[shown] - 2 * std[shown], -5.0, None),
+                                       np.clip(wear[shown] + 2 * std[shown], None, 105.0)]), cfg.alarm)
+    hidden = int(np.sum(t < x0))
+    ax.errorbar(_dt(t), wear, yerr=2 * std, fmt="o", ms=2.5, lw=0.6, color="0.35", ecolor="0.7",
+                label="estimates ± 2 std" + (f" ({hidden} older ones left of the plot)" if hidden else ""))
     for i, m in enumerate(maintenance_times):
         ax.axvline(_dt(np.array([m]))[0], color="tab:green", ls=":", lw=1.2, label="maintenance" if i == 0 else None)
     if r.step_probability >= 0.5 and math.isfinite(r.step_time):
         ax.axvline(_dt(np.array([r.step_time]))[0], color="tab:purple", ls="--", lw=1.0,
                    label=f"step without a maintenance event (P = {r.step_probability:.2f})")
-    fit = _history_fit(r, cfg)
-    if fit is not None and len(r.times) >= 2:  # a trend of one estimate is that estimate: nothing more to draw
+    fit = _history_fit(r, cfg) if has_trend else None
+    if fit is not None:
         x_s, lvl, half, name = fit
         x = _dt(x_s)
-        ax.plot(x, lvl, color="tab:blue", lw=1.6, label=f"fit: {name}")
-        ax.fill_between(x, lvl - half, lvl + half, color="tab:blue", alpha=0.2, lw=0, label="fit 90 %")
-    tta = r.time_to_alarm
-    if r.components and len(r.times):
-        end = 60.0
-        if tta is not None and math.isfinite(tta.hi90):
-            end = max(end, tta.hi90 * 1.1)
-        elif tta is not None and math.isfinite(tta.median):
-            end = max(end, tta.median * 1.5)
-        end = min(end, cfg.max_horizon_days)
+        ax.plot(x, inside(lvl, ylim), color="tab:blue", lw=1.6, label=f"fit: {name}")
+        band_lo, band_hi = clip_band(lvl - half, lvl + half, ylim)
+        ax.fill_between(x, band_lo, band_hi, color="tab:blue", alpha=0.2, lw=0, label="fit 90 %")
+    if forecast and tta is not None and end > 0:
         tau = np.linspace(0.0, end, 90)
         band = forecast_band(r.components, r.members, cfg, tau)
         xf = _dt(r.last_time + tau * DAY)
-        ax.plot(xf, band[:, 1], color="tab:orange", lw=1.4, ls="--", label="forecast (all models, median)")
         # wear does not fall within a segment (maintenance starts a new one) and is never below 0: the band's
-        # lower edge stops at the current wear's lower bound (a band of a few estimates would reach below)
+        # lower edge and the median stop at the current wear's lower bound (a band of a few estimates, or the
+        # median of a mixture far out, would reach below)
         floor = max(0.0, float(r.wear - Z90 * r.wear_std)) if math.isfinite(r.wear) and math.isfinite(r.wear_std) else 0.0
-        ax.fill_between(xf, np.maximum(band[:, 0], floor), band[:, 2], color="tab:orange", alpha=0.15, lw=0,
-                        label="forecast 90 %")
-        if tta is not None and math.isfinite(tta.median) and tta.median > 0:
-            lo = r.last_time + tta.lo90 * DAY
-            hi = r.last_time + (tta.hi90 if math.isfinite(tta.hi90) else end) * DAY
+        ax.plot(xf, inside(np.maximum(band[:, 1], floor), ylim), color="tab:orange", lw=1.4, ls="--",
+                label="forecast (all models, median)")
+        f_lo, f_hi = clip_band(np.maximum(band[:, 0], floor), band[:, 2], ylim)
+        ax.fill_between(xf, f_lo, f_hi, color="tab:orange", alpha=0.15, lw=0, label="forecast 90 %")
+        if math.isfinite(tta.median) and tta.median > 0:
+            f_end = r.last_time + end * DAY  # the interval shaded as far as the forecast is drawn
+            lo = min(r.last_time + tta.lo90 * DAY, f_end)
+            hi = min(r.last_time + (tta.hi90 if math.isfinite(tta.hi90) else math.inf) * DAY, f_end)
             lab = "alarm time 90 %" + ("" if math.isfinite(tta.hi90) else " (no upper bound)")
-            ax.axvspan(_dt(np.array([lo]))[0], _dt(np.array([hi]))[0], color="tab:red", alpha=0.12, label=lab)
-            ax.plot(_dt(np.array([r.last_time + tta.median * DAY])), [cfg.alarm], "v", color="tab:red", ms=9,
-                    label="predicted crossing (median)")
+            if lo < f_end:
+                ax.axvspan(_dt(np.array([lo]))[0], _dt(np.array([hi]))[0], color="tab:red", alpha=0.12, label=lab)
+            cross = r.last_time + tta.median * DAY
+            if cross <= f_end:
+                ax.plot(_dt(np.array([cross])), [cfg.alarm], "v", color="tab:red", ms=9,
+                        label="predicted crossing (median)")
+            else:
+                ax.annotate(f"crossing in {_fmt_days(tta.median)} d, beyond the plot \u2192", (0.99, cfg.alarm),
+                            xycoords=("axes fraction", "data"), xytext=(0, 4), textcoords="offset points",
+                            ha="right", va="bottom", fontsize=7.5, color="tab:red")
     ax.axhline(cfg.alarm, color="tab:red", lw=1.2, label=f"alarm {cfg.alarm:g}")
-    ax.set_ylabel("wear (0-100)")
+    ax.set_xlim(_dt(np.array([x0]))[0], _dt(np.array([x1]))[0])
+    ax.set_ylim(*ylim)
+    ax.set_ylabel(WEAR_LABEL)
+    locator = mdates.AutoDateLocator()
+    ax.xaxis.set_major_locator(locator)
+    ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))
+    ax.set_xlabel("date, time (UTC)")
     title = f"{r.robot} / {r.joint}: {r.level_name}"
-    if tta is not None and tta.median > 0:
+    if forecast and tta is not None and tta.median > 0:
         title += (f" - alarm in {_fmt_days(tta.median)} d (90 %: {_fmt_days(tta.lo90)} to "
                   f"{_fmt_days(tta.hi90)} d)")
-    elif tta is None:
+    else:
         title += " - " + r.message.split(";")[0]
     ax.set_title(title, fontsize=9)
-    if tta is not None and tta.unbounded_reason:
-        ax.text(0.01, 0.02, "no upper bound: " + tta.unbounded_reason, transform=ax.transAxes, fontsize=7,
-                color="tab:red", va="bottom", wrap=True)
+    if forecast and tta is not None and tta.unbounded_reason:
+        import textwrap
+
+        ax.text(1.01, 0.0, textwrap.fill("no upper bound: " + tta.unbounded_reason, 42), transform=ax.transAxes,
+                fontsize=7, color="tab:red", va="bottom", ha="left")  # outside, beside the legend
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left")
-    for lab in ax.get_xticklabels():
-        lab.set_rotation(25)
-        lab.set_ha("right")
-    weights = r.model_weights
-    if weights:
+    legend_outside(ax, "right")
+    if axw is not None:
         names = list(weights)[::-1]
         vals = [weights[k] for k in names]
         colors = ["tab:blue" if k == "line" else "tab:orange" if k.startswith("accelerated") else "tab:gray"
                   for k in names]
         axw.barh(names, vals, color=colors)
         for i, v in enumerate(vals):
-            inside = v > 0.75
-            axw.text(v - 0.02 if inside else v + 0.02, i, f"{100 * v:.0f} %", va="center", fontsize=7,
-                     ha="right" if inside else "left", color="white" if inside else "black")
+            inside_bar = v > 0.75
+            axw.text(v - 0.02 if inside_bar else v + 0.02, i, f"{100 * v:.0f} %", va="center", fontsize=7,
+                     ha="right" if inside_bar else "left", color="white" if inside_bar else "black")
         axw.set_xlim(0, 1.0)
-        axw.set_xlabel("weight (evidence × prior)")
+        axw.set_xlabel("weight (evidence × prior) [fraction]")
         axw.set_title("models of the trend", fontsize=9)
         axw.tick_params(axis="y", labelsize=7)
         axw.grid(alpha=0.3, axis="x")
-    else:
-        axw.axis("off")
     return save_figure(fig, Path(path))
 
 

@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..model.scaling import DataScales
-from ..plots import new_figure, save_figure
+from ..plots import legend_outside, new_figure, save_figure
 from ..types import ObservationTable
 from .compare import band_rmse, noise_floor, noise_test, residual_structure
 from .diagnose import Diagnosis
@@ -85,7 +85,7 @@ def plot_fit(path: Path, table: ObservationTable, fit: FitResult, title: str = "
     ax.set_ylabel(f"friction torque [{tu}]")
     ax.set_title(title or f"fit: RMSE {fit.rmse:.5f}, CV RMSE {fit.cv_rmse:.5f}")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_outside(ax, "below", fontsize=8, ncol=2)
     vv = np.linspace(0.0, float(max(np.max(np.abs(v)), 1.0)), 300)
     inputs = {c: np.full(vv.size, float(np.median(table[c]))) for c in fit.model.variables if c != "speed"}
     inputs["speed"] = vv
@@ -98,8 +98,9 @@ def plot_fit(path: Path, table: ObservationTable, fit: FitResult, title: str = "
     axc.set_title(f"components at the median inputs ({med})" if med else "components", fontsize=9)
     axc.axhline(0.0, color="grey", lw=0.6)
     axc.set_xlabel(side)
+    axc.set_ylabel(f"friction torque (contribution) [{tu}]")
     axc.grid(alpha=0.3)
-    axc.legend(fontsize=7, ncol=2)
+    legend_outside(axc, "right", fontsize=7.5)
     return save_figure(fig, path)
 
 
@@ -127,8 +128,8 @@ def plot_residuals(
     handles, labels = axes[0][0].get_legend_handles_labels()
     if len(cols) < nrow * ncol:  # an empty panel holds the legend
         axes[nrow - 1][ncol - 1].legend(handles, labels, loc="center", fontsize=8)
-    else:
-        axes[0][0].legend(handles, labels, fontsize=6)
+    else:  # below the panels, never over the residuals
+        legend_outside(axes[nrow - 1][0], "below", fontsize=8, in_layout=False, handles=handles, labels=labels)
     return save_figure(fig, path)
 
 
@@ -190,7 +191,7 @@ def plot_error_fall(path: Path, history: History) -> Path:
     ax.set_ylabel("error [unit of tau_f]")
     ax.set_title("error over model versions")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
+    legend_outside(ax, "right", fontsize=8)
     return save_figure(fig, path)
 
 
@@ -233,7 +234,7 @@ def plot_dependence(path: Path, table: ObservationTable, diagnosis: Diagnosis) -
         axr.set_title(f"{single.name}: {single.shape_hint}" if single.significant else
                       f"{single.name}: no significant dependence (the strongest column, for reference)", fontsize=9)
         axr.grid(alpha=0.3)
-        axr.legend(fontsize=7)
+        legend_outside(axr, "below", fontsize=7.5)
     else:
         axr.axis("off")
     return save_figure(fig, path)
