@@ -108,17 +108,29 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
     if not selection.bags:
         raise UsageError(f"{' '.join(args.bags)}: no bag among the matched paths ("
                          + "; ".join(f"{s['path']}: {s['reason']}" for s in selection.skipped[:3]) + ")")
+    robot = args.robot.strip() if args.robot else None
+    version = analysis_version(args.params, args.method, label=args.label)
     store = _open_store(args.db, must_exist=False)
     try:
+        before = _already_stored(store, version, selection.bags)
+        moved = sorted(r for r in before if r != robot)
+        if robot is not None and moved:
+            n = sum(len(before[r]) for r in moved)
+            raise UsageError(
+                f"--robot {robot}: {n} of these bags were already re-analysed into analysis version {version} under "
+                f"robot {', '.join(moved)}, and a rerun of the same version skips them (the store keeps what it "
+                f"wrote; nothing is renamed): to store them under {robot}, give a new --label or another --db")
         bar = Progress(len(selection.bags), enabled=not args.quiet)
         rep = reprocess(selection.bags, store, params=args.params, method=args.method, label=args.label,
-                        scheduler=args.scheduler, workers=workers, progress=bar,
-                        robot=args.robot.strip() if args.robot else None)
+                        scheduler=args.scheduler, workers=workers, progress=bar, robot=robot)
+        stored = _where_stored(store, rep, before, args.db)
     finally:
         store.close()
     rep.not_bags = selection.skipped
+    folder = _robots_from_folders(rep.settings)
     if args.json:
-        print_json(rep.as_dict())
+        print_json({**rep.as_dict(), "db": args.db, "stored": stored, "robot_from_folder": folder,
+                    "skipped_stored_under": {r: len(b) for r, b in sorted(before.items())}})
         return 0
     rate = f", {rep.processed / rep.seconds:.2f} bags/s" if rep.seconds > 0 and rep.processed else ""
     print(f"analysis version {rep.analysis_version}: {rep.bags} bags, {rep.processed} replayed, {rep.skipped} "
@@ -134,7 +146,67 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
         print(f"failed: {f['error']}")
     for s_ in rep.not_bags:
         print(f"not a bag, skipped: {s_['path']}: {s_['reason']}")
+    if before:
+        print("the skipped bags' estimates are already stored under robot "
+              + ", ".join(f"{r} ({len(b)} bag(s))" for r, b in sorted(before.items())))
+    for f_ in folder:
+        print(f"robot name '{f_['robot']}' taken from folder {f_['folder']} (its bags record no robot); use --robot "
+              "to set it")
+    for g in stored:
+        print(f"stored in {g['db']}: robot {g['robot']}, joint(s) {', '.join(g['joints'])}, analysis version "
+              f"{g['analysis_version']}: {g['estimates']} estimate(s)")
+        print(f"  see them: {g['see']}")
     return 0
+
+
+def _already_stored(store: Any, version: str, bags: list[Path]) -> dict[str, set[str]]:
+    """robot -> the bags of ``bags`` that ``version`` has already done (the fleet ledger) whose estimates are
+    stored under that robot (matched by the bag's path, as the estimates name it)."""
+    from ..fleet import bag_fingerprint
+    from ..fleet.ledger import LEDGER_SCHEMA_VERSION, done_fingerprints
+
+    if store.schema_version() < LEDGER_SCHEMA_VERSION:
+        return {}  # no ledger yet: nothing done
+    done = done_fingerprints(store, version)
+    paths = set()
+    for b in bags:
+        try:
+            if bag_fingerprint(b) in done:
+                paths.add(str(Path(b).resolve()))
+        except OSError:
+            continue  # the re-analysis reports it
+    out: dict[str, set[str]] = {}
+    if paths:
+        for r in store.estimates(analysis_version=version):
+            if r.bag in paths:
+                out.setdefault(r.robot, set()).add(r.bag)
+    return out
+
+
+def _where_stored(store: Any, rep: Any, before: dict[str, set[str]], db: str) -> list[dict[str, Any]]:
+    """Per robot this run wrote to or found done: its joints and estimates in the analysis version, and the
+    ``jointwear trend`` command that shows them."""
+    from .history_cmd import trend_command
+
+    robots = sorted({str(s_["robot"]) for s_ in rep.settings} | set(before))
+    out = []
+    for robot in robots:
+        recs = store.estimates(robot=robot, analysis_version=rep.analysis_version)
+        if recs:
+            out.append({"robot": robot, "joints": sorted({r.joint for r in recs}),
+                        "analysis_version": rep.analysis_version, "estimates": len(recs), "db": db,
+                        "see": trend_command(db, robot, rep.analysis_version)})
+    return out
+
+
+def _robots_from_folders(settings: list[dict[str, str]]) -> list[dict[str, Any]]:
+    """The robot names taken from a bag's folder name (no robot recorded, none given), one entry per folder."""
+    out: dict[tuple[str, str], int] = {}
+    for s_ in settings:
+        if s_.get("robot_from") == "folder":
+            key = (str(s_["robot"]), str(Path(s_["bag"]).parent))
+            out[key] = out.get(key, 0) + 1
+    return [{"robot": r, "folder": f, "bags": n} for (r, f), n in sorted(out.items())]
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
