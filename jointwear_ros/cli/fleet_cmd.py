@@ -186,8 +186,6 @@ def _already_stored(store: Any, version: str, bags: list[Path]) -> dict[str, set
 def _where_stored(store: Any, rep: Any, before: dict[str, set[str]], db: str) -> list[dict[str, Any]]:
     """Per robot this run wrote to or found done: its joints and estimates in the analysis version, and the
     ``jointwear trend`` command that shows them."""
-    from .history_cmd import trend_command
-
     robots = sorted({str(s_["robot"]) for s_ in rep.settings} | set(before))
     out = []
     for robot in robots:
@@ -195,8 +193,16 @@ def _where_stored(store: Any, rep: Any, before: dict[str, set[str]], db: str) ->
         if recs:
             out.append({"robot": robot, "joints": sorted({r.joint for r in recs}),
                         "analysis_version": rep.analysis_version, "estimates": len(recs), "db": db,
-                        "see": trend_command(db, robot, rep.analysis_version)})
+                        "see": _trend_command(db, robot, rep.analysis_version)})
     return out
+
+
+def _trend_command(db: str, robot: str, version: str) -> str:
+    """The ``jointwear trend`` command that shows a robot's estimates of one analysis version (as
+    ``history import`` prints it; sub-commands do not import each other)."""
+    import shlex
+
+    return shlex.join(["jointwear", "trend", "--db", db, "--robot", robot, "--analysis-version", version])
 
 
 def _robots_from_folders(settings: list[dict[str, str]]) -> list[dict[str, Any]]:

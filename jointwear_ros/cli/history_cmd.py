@@ -217,8 +217,7 @@ def trend_command(db: str, robot: str, analysis_version: str) -> str:
     """The exact ``jointwear trend`` command that shows a robot's estimates of one analysis version."""
     import shlex
 
-    return (f"jointwear trend --db {shlex.quote(db)} --robot {shlex.quote(robot)} "
-            f"--analysis-version {shlex.quote(analysis_version)}")
+    return shlex.join(["jointwear", "trend", "--db", db, "--robot", robot, "--analysis-version", analysis_version])
 
 
 def where_stored(records: list[Any], refused: list[Any], db: str, *,
