@@ -134,7 +134,7 @@ def test_fleet_reprocess_says_a_robot_name_came_from_a_folder_and_where_it_store
     folder = bare_bags[0].parent
     assert f"robot name 'bags' taken from folder {folder} (its bags record no robot); use --robot to set it" in out
     where = next(ln for ln in out.splitlines() if ln.startswith("stored in "))
-    assert "robot bags, joint(s) joint_1, analysis version ref-2011r/paper/" in where and "2 estimate(s)" in where
+    assert "robot bags, joint(s) joint_1, analysis version ref-2011r/paper/" in where
     rc, shown, _ = run(see_command(next(ln for ln in out.splitlines() if "see them:" in ln)), capsys)
     assert rc == 0 and "bags" in shown and "joint_1" in shown
 
@@ -154,14 +154,17 @@ def test_fleet_reprocess_rerun_with_another_robot_is_refused_with_the_reason(fol
         assert {r.robot for r in store.estimates(analysis_version=None)} == {"bags"}
     # a plain rerun says where the skipped bags' estimates are
     rc, out, _ = run(base, capsys)
-    assert rc == 0 and "2 skipped" in out
-    assert "the skipped bags' estimates are already stored under robot bags (2 bag(s))" in out
+    assert rc == 0 and "2 skipped" in out and "the skipped bags were done before" in out
+    assert "stored in " in out and "robot bags, joint(s) joint_1" in out
+    # with the name they were stored under: skipped, and said so
+    rc, out, _ = run([*base, "--robot", "bags"], capsys)
+    assert rc == 0 and "the skipped bags' estimates are already stored under robot bags (2 bag(s))" in out
     # the way the refusal names: a new label stores them under cell_7
     rc, out, _ = run([*base, "--robot", "cell_7", "--label", "cell7-paper", "--json"], capsys)
     data = json.loads(out)
     assert rc == 0 and data["robot_from_folder"] == [] and data["estimates"] == 2
-    assert [(g["robot"], g["analysis_version"], g["estimates"]) for g in data["stored"]] == [
-        ("cell_7", "cell7-paper", 2)]
+    assert [(g["robot"], g["analysis_version"], g["joints"]) for g in data["stored"]] == [
+        ("cell_7", "cell7-paper", ["joint_1"])]
 
 
 # --------------------------------------------------------------------------- replay: like with like

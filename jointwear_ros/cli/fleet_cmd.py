@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,9 @@ from . import UsageError
 from .common import format_table, open_history, parse_float, print_json
 
 __all__ = ["register"]
+
+#: robots named one per line at the end of ``fleet reprocess`` (all of them in --json)
+MAX_ROBOT_LINES = 10
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -112,9 +116,11 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
     version = analysis_version(args.params, args.method, label=args.label)
     store = _open_store(args.db, must_exist=False)
     try:
-        before = _already_stored(store, version, selection.bags)
+        # with --robot, the bags this version already did must be stored under that robot (reads the version's
+        # estimates: only when a name is given, the one case where a rerun could mean a rename)
+        before = _already_stored(store, version, selection.bags) if robot is not None else {}
         moved = sorted(r for r in before if r != robot)
-        if robot is not None and moved:
+        if moved:
             n = sum(len(before[r]) for r in moved)
             raise UsageError(
                 f"--robot {robot}: {n} of these bags were already re-analysed into analysis version {version} under "
@@ -123,7 +129,7 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
         bar = Progress(len(selection.bags), enabled=not args.quiet)
         rep = reprocess(selection.bags, store, params=args.params, method=args.method, label=args.label,
                         scheduler=args.scheduler, workers=workers, progress=bar, robot=robot)
-        stored = _where_stored(store, rep, before, args.db)
+        stored = _where_stored(store, rep, before, args.db, all_robots=robot is None and rep.skipped > 0)
     finally:
         store.close()
     rep.not_bags = selection.skipped
@@ -149,13 +155,20 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
     if before:
         print("the skipped bags' estimates are already stored under robot "
               + ", ".join(f"{r} ({len(b)} bag(s))" for r, b in sorted(before.items())))
+    elif rep.skipped:
+        print(f"the skipped bags were done before: their estimates are in analysis version {rep.analysis_version} "
+              "(below)")
     for f_ in folder:
         print(f"robot name '{f_['robot']}' taken from folder {f_['folder']} (its bags record no robot); use --robot "
               "to set it")
-    for g in stored:
+    for g in stored[:MAX_ROBOT_LINES]:
         print(f"stored in {g['db']}: robot {g['robot']}, joint(s) {', '.join(g['joints'])}, analysis version "
-              f"{g['analysis_version']}: {g['estimates']} estimate(s)")
+              f"{g['analysis_version']}")
         print(f"  see them: {g['see']}")
+    if len(stored) > MAX_ROBOT_LINES:
+        print(f"... and {len(stored) - MAX_ROBOT_LINES} more robots (--json lists them): "
+              + shlex.join(["jointwear", "trend", "--db", args.db, "--analysis-version", rep.analysis_version])
+              + " shows them all")
     return 0
 
 
@@ -183,25 +196,23 @@ def _already_stored(store: Any, version: str, bags: list[Path]) -> dict[str, set
     return out
 
 
-def _where_stored(store: Any, rep: Any, before: dict[str, set[str]], db: str) -> list[dict[str, Any]]:
-    """Per robot this run wrote to or found done: its joints and estimates in the analysis version, and the
-    ``jointwear trend`` command that shows them."""
-    robots = sorted({str(s_["robot"]) for s_ in rep.settings} | set(before))
-    out = []
-    for robot in robots:
-        recs = store.estimates(robot=robot, analysis_version=rep.analysis_version)
-        if recs:
-            out.append({"robot": robot, "joints": sorted({r.joint for r in recs}),
-                        "analysis_version": rep.analysis_version, "estimates": len(recs), "db": db,
-                        "see": _trend_command(db, robot, rep.analysis_version)})
-    return out
+def _where_stored(store: Any, rep: Any, before: dict[str, set[str]], db: str, *,
+                  all_robots: bool = False) -> list[dict[str, Any]]:
+    """Per robot this run wrote to (or found done, ``before``; ``all_robots``: every robot of the version, where
+    the skipped bags' estimates are): its joints in the analysis version and the ``jointwear trend`` command that
+    shows them. One DISTINCT query, whatever the size of the version."""
+    by_robot: dict[str, list[str]] = {}
+    for r, j in store.joints(rep.analysis_version):
+        by_robot.setdefault(r, []).append(j)
+    robots = {str(s_["robot"]) for s_ in rep.settings} | set(before) | (set(by_robot) if all_robots else set())
+    return [{"robot": robot, "joints": sorted(by_robot[robot]), "analysis_version": rep.analysis_version, "db": db,
+             "see": _trend_command(db, robot, rep.analysis_version)}
+            for robot in sorted(robots) if robot in by_robot]
 
 
 def _trend_command(db: str, robot: str, version: str) -> str:
     """The ``jointwear trend`` command that shows a robot's estimates of one analysis version (as
     ``history import`` prints it; sub-commands do not import each other)."""
-    import shlex
-
     return shlex.join(["jointwear", "trend", "--db", db, "--robot", robot, "--analysis-version", version])
 
 
