@@ -105,7 +105,7 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
         if args.method.strip().lower() not in ESTIMATORS:
             raise UsageError(f"--method: unknown method {args.method!r}; choose one of {', '.join(ESTIMATORS)}")
         args.method = args.method.strip().lower()
-    analysis_version(args.params, args.method, label=args.label)  # a bad set or label: exit 2 before any work
+    version = analysis_version(args.params, args.method, label=args.label)  # a bad set or label: exit 2 first
     if args.robot is not None and not args.robot.strip():
         raise UsageError("--robot: empty robot name")
     selection = discover_bags(args.bags)  # a missing bag or a glob that matches nothing: exit 2, nothing written
@@ -113,7 +113,6 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
         raise UsageError(f"{' '.join(args.bags)}: no bag among the matched paths ("
                          + "; ".join(f"{s['path']}: {s['reason']}" for s in selection.skipped[:3]) + ")")
     robot = args.robot.strip() if args.robot else None
-    version = analysis_version(args.params, args.method, label=args.label)
     store = _open_store(args.db, must_exist=False)
     try:
         # with --robot, the bags this version already did must be stored under that robot (reads the version's
