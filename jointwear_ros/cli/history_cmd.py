@@ -3,7 +3,8 @@
 ``--db`` takes a URL (``sqlite:///path``, ``postgresql://user@host/db``) or a
 path (an SQLite file). Imports are idempotent: the same bag or table imported
 twice adds nothing. Every input file is read and checked before anything is
-written.
+written. An import ends with where it stored (robot, joints, analysis version,
+store) and the ``jointwear trend`` command that shows them (``--json``: ``stored``).
 """
 
 from __future__ import annotations

@@ -8,7 +8,9 @@ docs/robot.md), to the same pure cores the live nodes run
 :class:`~jointwear_ros.monitor.WearMonitor`), with the parameters the live
 nodes declared (recorded ``/parameter_events``) over the config files. The
 result is compared with the FrictionObservation and WearEstimate messages
-recorded in the bag, per (joint, cycle); ``--json`` adds a ``joints`` list with
+recorded in the bag, per (joint, cycle), like with like (each quantity with itself, the newest
+estimate of a cycle on each side, the same method: an estimate of another ``--method`` is shown
+beside the recorded one, not counted as matched or differing); ``--json`` adds a ``joints`` list with
 each joint's wear, level, cycles and comparison (the one-joint fields stay).
 
 ``--publish`` plays the bag onto a live graph instead (raw CDR bytes, log-time

@@ -8,6 +8,9 @@ bound beyond the prediction horizon is null; ``time_to_alarm_days`` also holds
 (:func:`jointwear_ros.serve.core.plant_level`, as ``jointwear serve`` shows it): the
 trend's OK / WARN / ERROR, or STALE when the newest estimate is older than
 ``--stale-days`` and the trend's level is not ERROR; ``trend_level`` is the trend's own.
+The top level also has ``analysis_version`` (the one shown), ``analysis_version_why`` and
+``analysis_versions`` (``[{"name", "estimates"}]``, every version in the store; :func:`pick_version` says
+which is shown without ``--analysis-version``); the text says the same under the table.
 ``--fleet-prior``: each joint's prior from its siblings (off by default). ``--plot DIR`` writes one PNG
 per joint, ``--html DIR`` a page ranking the joints by time to alarm.
 """
