@@ -82,12 +82,20 @@ class ReplayResult:
             s.get("estimator") == "recorded" or (s.get("method_from") == "given" and s.get("params_from") == "given"))
 
     def comparison(self, joint: str | None = None) -> dict[str, Any]:
-        """Replayed vs recorded: observations matched by (joint, cycle_id, speed), estimates by (joint, cycle_id).
+        """Replayed vs recorded, like with like: observations matched by (joint, cycle_id, speed), estimates by
+        (joint, cycle_id) and compared only when made by the same method.
 
         ``joint`` restricts it to one joint. A cycle re-estimated after a late
         observation has several results on each side; the newest of each is
         compared (what a consumer keeps). A recorded message without a joint
         name is taken for the single replayed joint.
+
+        Each quantity is compared with itself: ``max_abs_diff`` is the largest difference of the headline
+        quantity (an observation's ``tau_f``, an estimate's ``wear``), ``max_abs_diff_by_field`` that of every
+        compared field (``compared`` names them); ``matched`` needs every field equal. An estimate the replay
+        made with another method than the recorded one (``jointwear replay --method``) is not a reproduction:
+        it is listed in ``other_method`` (both methods, both wears, their difference) and counted neither as
+        matched nor as differing.
         """
         single = self.joints[0] if len(self.joints) == 1 else ""
 
@@ -96,26 +104,26 @@ class ReplayResult:
 
         numeric = ("tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position",
                    "samples_plus", "samples_minus")
+        est_fields = ("wear", "wear_std", "wear_low", "wear_high")
         rec_obs = [o for o in self.recorded_observations if joint is None or jn(o["joint_name"]) == joint]
         rec_est = [e for e in self.recorded_estimates if joint is None or jn(e["joint_name"]) == joint]
         observations = [o for o in self.observations if joint is None or o.joint_name == joint]
         cycles = [c for c in self.cycles if joint is None or c.joint_name == joint]
         rec = {(jn(o["joint_name"]), int(o["cycle_id"]), round(float(o["speed"]), 9)): o for o in rec_obs}
-        def diff(pairs: Any) -> float:
-            out = 0.0
-            for a, b in pairs:
-                a, b = float(a), float(b)
-                if math.isnan(a) and math.isnan(b):
-                    continue
-                d = abs(a - b)
-                out = max(out, d) if math.isfinite(d) else math.inf
-            return out
+
+        def diff(a: Any, b: Any) -> float:
+            a, b = float(a), float(b)
+            if math.isnan(a) and math.isnan(b):
+                return 0.0
+            d = abs(a - b)
+            return d if math.isfinite(d) else math.inf
 
         def same(pairs: list[tuple[float, float]]) -> bool:
             return all((math.isnan(float(a)) and math.isnan(float(b)))
                        or abs(float(a) - float(b)) <= MATCH_TOLERANCE * max(1.0, abs(float(b))) for a, b in pairs)
 
-        paired, matched, max_diff, missing, differ = 0, 0, 0.0, [], []
+        paired, matched, missing, differ = 0, 0, [], []
+        o_by_field = dict.fromkeys(numeric, 0.0)
         for o in observations:
             r = rec.get((o.joint_name, int(o.cycle_id), round(float(o.speed), 9)))
             if r is None:
@@ -123,7 +131,8 @@ class ReplayResult:
                 continue
             paired += 1
             pairs = [(getattr(o, f), r[f]) for f in numeric]
-            max_diff = max(max_diff, diff(pairs))
+            for f, (a, b) in zip(numeric, pairs):
+                o_by_field[f] = max(o_by_field[f], diff(a, b))
             if same(pairs):
                 matched += 1
             else:
@@ -132,30 +141,45 @@ class ReplayResult:
         not_replayed = [f"{k[0]} cycle {k[1]} speed {k[2]:g}" for k in rec if k not in replayed_keys]
         est = {(jn(e["joint_name"]), int(e["cycle_id"])): e for e in rec_est}  # the newest per joint and cycle
         newest = {(c.joint_name, int(c.cycle_id)): c for c in cycles if c.result is not None}
-        e_paired, e_matched, e_diff, e_differ = 0, 0, 0.0, []
+        e_paired, e_matched, e_differ, other = 0, 0, [], []
+        e_by_field = dict.fromkeys(est_fields, 0.0)
         for key, c in newest.items():
             e = est.get(key)
             if e is None:
                 continue
+            rec_method = str(e.get("method", "") or c.result.method)
+            if str(c.result.method) != rec_method:  # another estimator: a different quantity, not a reproduction
+                other.append({"joint": key[0], "cycle_id": key[1], "replayed_method": str(c.result.method),
+                              "recorded_method": rec_method, "replayed_wear": float(c.result.wear),
+                              "recorded_wear": float(e["wear"]),
+                              "wear_diff": float(c.result.wear) - float(e["wear"])})
+                continue
             e_paired += 1
-            pairs = [(c.result.wear, e["wear"]), (c.result.wear_std, e["wear_std"]),
-                     (c.result.wear_low, e["wear_low"]), (c.result.wear_high, e["wear_high"])]
-            e_diff = max(e_diff, diff(pairs))
-            if same(pairs) and str(c.result.method) == str(e.get("method", c.result.method)):
+            pairs = [(getattr(c.result, f), e[f]) for f in est_fields]
+            for f, (a, b) in zip(est_fields, pairs):
+                e_by_field[f] = max(e_by_field[f], diff(a, b))
+            if same(pairs):
                 e_matched += 1
             else:
-                e_differ.append(f"{key[0]} cycle {key[1]}: replayed {float(c.result.wear):.2f} ({c.result.method}), "
-                                f"recorded {float(e['wear']):.2f} ({e.get('method', '?')})")
+                e_differ.append(f"{key[0]} cycle {key[1]}: replayed {float(c.result.wear):.2f} "
+                                f"± {float(c.result.wear_std):.2f}, recorded {float(e['wear']):.2f} "
+                                f"± {float(e['wear_std']):.2f} ({c.result.method} both)")
         return {
             "observations": {
                 "recorded": len(rec_obs), "replayed": len(observations), "paired": paired,
-                "matched": matched, "differ": differ, "max_abs_diff": max_diff if paired else None,
+                "matched": matched, "differ": differ, "max_abs_diff": o_by_field["tau_f"] if paired else None,
+                "max_abs_diff_by_field": o_by_field if paired else None,
+                "compared": "per (joint, cycle, speed): " + ", ".join(numeric) + "; max_abs_diff is tau_f's",
                 "not_recorded": missing, "not_replayed": not_replayed,
             },
             "estimates": {
                 "recorded": len(rec_est), "replayed": sum(c.result is not None for c in cycles),
                 "revisions": sum(getattr(c, "revision", 0) > 0 for c in cycles), "paired": e_paired,
-                "matched": e_matched, "differ": e_differ, "max_abs_diff": e_diff if e_paired else None,
+                "matched": e_matched, "differ": e_differ, "max_abs_diff": e_by_field["wear"] if e_paired else None,
+                "max_abs_diff_by_field": e_by_field if e_paired else None,
+                "compared": ("the newest estimate per (joint, cycle) of the same method: " + ", ".join(est_fields)
+                             + "; max_abs_diff is the wear's"),
+                "other_method": other,
             },
         }
 

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,9 @@ from . import UsageError
 from .common import format_table, open_history, parse_float, print_json
 
 __all__ = ["register"]
+
+#: robots named one per line at the end of ``fleet reprocess`` (all of them in --json)
+MAX_ROBOT_LINES = 10
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -101,24 +105,37 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
         if args.method.strip().lower() not in ESTIMATORS:
             raise UsageError(f"--method: unknown method {args.method!r}; choose one of {', '.join(ESTIMATORS)}")
         args.method = args.method.strip().lower()
-    analysis_version(args.params, args.method, label=args.label)  # a bad set or label: exit 2 before any work
+    version = analysis_version(args.params, args.method, label=args.label)  # a bad set or label: exit 2 first
     if args.robot is not None and not args.robot.strip():
         raise UsageError("--robot: empty robot name")
     selection = discover_bags(args.bags)  # a missing bag or a glob that matches nothing: exit 2, nothing written
     if not selection.bags:
         raise UsageError(f"{' '.join(args.bags)}: no bag among the matched paths ("
                          + "; ".join(f"{s['path']}: {s['reason']}" for s in selection.skipped[:3]) + ")")
+    robot = args.robot.strip() if args.robot else None
     store = _open_store(args.db, must_exist=False)
     try:
+        # with --robot, the bags this version already did must be stored under that robot (reads the version's
+        # estimates: only when a name is given, the one case where a rerun could mean a rename)
+        before = _already_stored(store, version, selection.bags) if robot is not None else {}
+        moved = sorted(r for r in before if r != robot)
+        if moved:
+            n = sum(len(before[r]) for r in moved)
+            raise UsageError(
+                f"--robot {robot}: {n} of these bags were already re-analysed into analysis version {version} under "
+                f"robot {', '.join(moved)}, and a rerun of the same version skips them (the store keeps what it "
+                f"wrote; nothing is renamed): to store them under {robot}, give a new --label or another --db")
         bar = Progress(len(selection.bags), enabled=not args.quiet)
         rep = reprocess(selection.bags, store, params=args.params, method=args.method, label=args.label,
-                        scheduler=args.scheduler, workers=workers, progress=bar,
-                        robot=args.robot.strip() if args.robot else None)
+                        scheduler=args.scheduler, workers=workers, progress=bar, robot=robot)
+        stored = _where_stored(store, rep, before, args.db, all_robots=robot is None and rep.skipped > 0)
     finally:
         store.close()
     rep.not_bags = selection.skipped
+    folder = _robots_from_folders(rep.settings)
     if args.json:
-        print_json(rep.as_dict())
+        print_json({**rep.as_dict(), "db": args.db, "stored": stored, "robot_from_folder": folder,
+                    "skipped_stored_under": {r: len(b) for r, b in sorted(before.items())}})
         return 0
     rate = f", {rep.processed / rep.seconds:.2f} bags/s" if rep.seconds > 0 and rep.processed else ""
     print(f"analysis version {rep.analysis_version}: {rep.bags} bags, {rep.processed} replayed, {rep.skipped} "
@@ -134,7 +151,78 @@ def cmd_reprocess(args: argparse.Namespace) -> int:
         print(f"failed: {f['error']}")
     for s_ in rep.not_bags:
         print(f"not a bag, skipped: {s_['path']}: {s_['reason']}")
+    if before:
+        print("the skipped bags' estimates are already stored under robot "
+              + ", ".join(f"{r} ({len(b)} bag(s))" for r, b in sorted(before.items())))
+    elif rep.skipped:
+        print(f"the skipped bags were done before: their estimates are in analysis version {rep.analysis_version} "
+              "(below)")
+    for f_ in folder:
+        print(f"robot name '{f_['robot']}' taken from folder {f_['folder']} (its bags record no robot); use --robot "
+              "to set it")
+    for g in stored[:MAX_ROBOT_LINES]:
+        print(f"stored in {g['db']}: robot {g['robot']}, joint(s) {', '.join(g['joints'])}, analysis version "
+              f"{g['analysis_version']}")
+        print(f"  see them: {g['see']}")
+    if len(stored) > MAX_ROBOT_LINES:
+        print(f"... and {len(stored) - MAX_ROBOT_LINES} more robots (--json lists them): "
+              + shlex.join(["jointwear", "trend", "--db", args.db, "--analysis-version", rep.analysis_version])
+              + " shows them all")
     return 0
+
+
+def _already_stored(store: Any, version: str, bags: list[Path]) -> dict[str, set[str]]:
+    """robot -> the bags of ``bags`` that ``version`` has already done (the fleet ledger) whose estimates are
+    stored under that robot (matched by the bag's path, as the estimates name it)."""
+    from ..fleet import bag_fingerprint
+    from ..fleet.ledger import LEDGER_SCHEMA_VERSION, done_fingerprints
+
+    if store.schema_version() < LEDGER_SCHEMA_VERSION:
+        return {}  # no ledger yet: nothing done
+    done = done_fingerprints(store, version)
+    paths = set()
+    for b in bags:
+        try:
+            if bag_fingerprint(b) in done:
+                paths.add(str(Path(b).resolve()))
+        except OSError:
+            continue  # the re-analysis reports it
+    out: dict[str, set[str]] = {}
+    if paths:
+        for r in store.estimates(analysis_version=version):
+            if r.bag in paths:
+                out.setdefault(r.robot, set()).add(r.bag)
+    return out
+
+
+def _where_stored(store: Any, rep: Any, before: dict[str, set[str]], db: str, *,
+                  all_robots: bool = False) -> list[dict[str, Any]]:
+    """Per robot this run wrote to (or found done, ``before``; ``all_robots``: every robot of the version, where
+    the skipped bags' estimates are): its joints in the analysis version and the ``jointwear trend`` command that
+    shows them. One DISTINCT query, whatever the size of the version."""
+    by_robot: dict[str, list[str]] = {}
+    for r, j in store.joints(rep.analysis_version):
+        by_robot.setdefault(r, []).append(j)
+    robots = {str(s_["robot"]) for s_ in rep.settings} | set(before) | (set(by_robot) if all_robots else set())
+    return [{"robot": robot, "joints": sorted(by_robot[robot]), "analysis_version": rep.analysis_version, "db": db,
+             "see": _trend_command(db, robot, rep.analysis_version)}
+            for robot in sorted(robots) if robot in by_robot]
+
+
+def _trend_command(db: str, robot: str, version: str) -> str:
+    """The ``jointwear trend`` command that shows a robot's estimates of one analysis version (as
+    ``history import`` prints it; sub-commands do not import each other)."""
+    return shlex.join(["jointwear", "trend", "--db", db, "--robot", robot, "--analysis-version", version])
+
+
+def _robots_from_folders(settings: list[dict[str, str]]) -> list[dict[str, Any]]:
+    """The robot names taken from a bag's folder name (no robot recorded, none given), one entry per folder."""
+    out: dict[tuple[str, str], int] = {}
+    for s_ in settings:
+        if s_.get("robot_from") == "folder":
+            key = (str(s_["robot"]), str(Path(s_["bag"]).parent))
+            out[key] = out.get(key, 0) + 1
+    return [{"robot": r, "folder": f, "bags": n} for (r, f), n in sorted(out.items())]
 
 
 def cmd_compare(args: argparse.Namespace) -> int:

@@ -3,7 +3,8 @@
 ``--db`` takes a URL (``sqlite:///path``, ``postgresql://user@host/db``) or a
 path (an SQLite file). Imports are idempotent: the same bag or table imported
 twice adds nothing. Every input file is read and checked before anything is
-written.
+written. An import ends with where it stored (robot, joints, analysis version,
+store) and the ``jointwear trend`` command that shows them (``--json``: ``stored``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,9 @@ __all__ = ["MAINTENANCE_KINDS", "register"]
 #: what ``history maintenance --kind`` takes: each starts a new trend segment
 MAINTENANCE_KINDS = ("regrease", "reducer_replaced", "motor_replaced", "joint_replaced", "other")
 
+#: the robot of bag estimates and of CSV rows without one when ``history import`` is given no ``--robot``
+DEFAULT_ROBOT = "robot_1"
+
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -37,7 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="bag directories and/or .csv files (estimates; with --reestimate also observation tables, "
                         "as jointwear estimate takes them)")
     i.add_argument("--db", required=True, help="history store URL or SQLite file path")
-    i.add_argument("--robot", default="robot_1", help="robot of bag estimates and of CSV rows without one")
+    i.add_argument("--robot", default=None,
+                   help=f"robot of bag estimates and of CSV rows without one (default {DEFAULT_ROBOT}, said so)")
     i.add_argument("--reestimate", action="store_true",
                    help="bags: re-run observer and estimator (replay) instead of importing the recorded estimates")
     i.add_argument("--method", default=None, help="with --reestimate: estimator method")
@@ -145,8 +150,10 @@ def cmd_import(args: argparse.Namespace) -> int:
         from ..model import load_parameter_set_info
 
         load_parameter_set_info(args.params)
-    if not args.robot.strip():
+    robot_given = args.robot is not None
+    if robot_given and not args.robot.strip():
         raise UsageError("--robot: empty robot name")
+    args.robot = args.robot.strip() if robot_given else DEFAULT_ROBOT
     selection = discover_bags(args.files, accept=_is_csv)
     observer = node_params(None, "friction_observer.yaml", "friction_observer") if args.reestimate else {}
     monitor = node_params(None, "wear_estimator.yaml", "wear_estimator") if args.reestimate else {}
@@ -185,9 +192,10 @@ def cmd_import(args: argparse.Namespace) -> int:
     added = res.added
     total = total_before + added
     refused = [f.as_dict() for f in res.refused]
+    stored = where_stored(records, res.refused, args.db, default_robot=None if robot_given else DEFAULT_ROBOT)
     out = {"files": per_file, "read": len(records), "added": added, "duplicates": res.duplicates,
            "refused": refused, "total": total, "analysis_versions": sorted(versions), "failed": failed,
-           "not_bags": selection.skipped}
+           "not_bags": selection.skipped, "db": args.db, "stored": stored}
     if args.json:
         print_json(out)
     else:
@@ -201,19 +209,66 @@ def cmd_import(args: argparse.Namespace) -> int:
         for f in refused:
             src = f"{f['source']} {f['bag']}".strip()
             print(f"refused {f['robot']}/{f['joint']} cycle {f['cycle_id']} ({src}): {f['reason']}: {f['detail']}")
+        for line in where_stored_lines(stored):
+            print(line)
     return 0
+
+
+def trend_command(db: str, robot: str, analysis_version: str) -> str:
+    """The exact ``jointwear trend`` command that shows a robot's estimates of one analysis version."""
+    import shlex
+
+    return shlex.join(["jointwear", "trend", "--db", db, "--robot", robot, "--analysis-version", analysis_version])
+
+
+def where_stored(records: list[Any], refused: list[Any], db: str, *,
+                 default_robot: str | None = None) -> list[dict[str, Any]]:
+    """Where the accepted estimates of an import are: per (analysis version, robot) its joints, how many, and the
+    ``jointwear trend`` command that shows them; ``robot_from`` says "default" for ``default_robot`` (no --robot
+    given), else "given or in the table"."""
+    bad = {(f.record.robot, f.record.joint, f.record.analysis_version, f.record.cycle_id, f.record.time_ns)
+           for f in refused if getattr(f, "record", None) is not None}
+    groups: dict[tuple[str, str], dict[str, Any]] = {}
+    for r in records:
+        if (r.robot, r.joint, r.analysis_version, r.cycle_id, r.time_ns) in bad:
+            continue
+        g = groups.setdefault((r.analysis_version, r.robot), {"joints": set(), "estimates": 0})
+        g["joints"].add(r.joint)
+        g["estimates"] += 1
+    return [{"robot": robot, "joints": sorted(g["joints"]), "analysis_version": version, "estimates": g["estimates"],
+             "db": db, "robot_from": "default" if robot == default_robot else "given or in the table",
+             "see": trend_command(db, robot, version)}
+            for (version, robot), g in sorted(groups.items())]
+
+
+def where_stored_lines(stored: list[dict[str, Any]]) -> list[str]:
+    """The text of :func:`where_stored`: where each group is, and the command that shows it."""
+    out = []
+    for g in stored:
+        who = (f"robot {g['robot']} (the default name: give --robot to set it)" if g["robot_from"] == "default"
+               else f"robot {g['robot']}")
+        out.append(f"stored in {g['db']}: {who}, joint(s) {', '.join(g['joints'])}, analysis version "
+                   f"{g['analysis_version']}: {g['estimates']} estimate(s) (new or already there)")
+        out.append(f"  see them: {g['see']}")
+    return out
 
 
 def cmd_export(args: argparse.Namespace) -> int:
     from ..history import HistoryStore, backend_for
     from ..history.importers import write_csv
+    from .common import check_output_file
 
     backend = backend_for(args.db)
     if not backend.exists():
         raise UsageError(f"--db {args.db}: no such history file")
+    check_output_file(args.out, "--out")  # a directory or an unwritable place: one line, nothing written
     with HistoryStore(backend.url, read_only=True) as store:
         recs = store.estimates(robot=args.robot, joint=args.joint, analysis_version=args.analysis_version)
-    n = write_csv(recs, args.out)
+    try:
+        n = write_csv(recs, args.out)
+    except OSError as exc:  # write_csv removed its .part; the table at --out is as it was
+        raise UsageError(f"--out {args.out}: cannot write the CSV ({exc.strerror or type(exc).__name__}); "
+                         "nothing written") from None
     print(f"{n} estimates written to {args.out}")
     return 0
 

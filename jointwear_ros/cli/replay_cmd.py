@@ -8,7 +8,9 @@ docs/robot.md), to the same pure cores the live nodes run
 :class:`~jointwear_ros.monitor.WearMonitor`), with the parameters the live
 nodes declared (recorded ``/parameter_events``) over the config files. The
 result is compared with the FrictionObservation and WearEstimate messages
-recorded in the bag, per (joint, cycle); ``--json`` adds a ``joints`` list with
+recorded in the bag, per (joint, cycle), like with like (each quantity with itself, the newest
+estimate of a cycle on each side, the same method: an estimate of another ``--method`` is shown
+beside the recorded one, not counted as matched or differing); ``--json`` adds a ``joints`` list with
 each joint's wear, level, cycles and comparison (the one-joint fields stay).
 
 ``--publish`` plays the bag onto a live graph instead (raw CDR bytes, log-time
@@ -194,20 +196,8 @@ def _print_replay(result: Any) -> None:
         print(f"{c['joint']} cycle {c['cycle_id']}: {est}, level {c['diagnostic_level']}: {c['message']}")
     print("settings: " + settings_line(result.settings))
     cmp_ = summary["comparison"]
-    o, e = cmp_["observations"], cmp_["estimates"]
-    if o["recorded"] or e["recorded"]:
-        od = "n/a" if o["max_abs_diff"] is None else f"{o['max_abs_diff']:.3g}"
-        ed = "n/a" if e["max_abs_diff"] is None else f"{e['max_abs_diff']:.3g}"
-        print(f"vs recorded: observations {o['matched']}/{o['recorded']} matched"
-              + (f", {len(o['differ'])} DIFFER" if o["differ"] else "") + f", max |diff| {od}; "
-              f"estimates {e['matched']}/{e['recorded']} matched"
-              + (f", {len(e['differ'])} DIFFER" if e["differ"] else "") + f", max |diff| {ed}")
-        for d in e["differ"]:
-            print(f"DIFFERS: {d}")
-        for d in o.get("not_replayed", []):
-            print(f"NOT REPLAYED: the recorded observation {d} (the replay's rejections say why)")
-    else:
-        print("the bag holds no recorded FrictionObservation/WearEstimate messages to compare with")
+    for line in comparison_lines(cmp_):
+        print(line)
     if len(summary["joints"]) > 1:
         for j in summary["joints"]:
             w, c = j["wear"], j["comparison"]
@@ -215,7 +205,47 @@ def _print_replay(result: Any) -> None:
             print(f"{j['joint']}: {est}, level {j['diagnostic_level']}; {j['observations']} observation(s), "
                   f"{j['rejections']} rejected; estimates {c['estimates']['matched']}/{c['estimates']['recorded']} "
                   "matched the recorded ones" + (f", {len(c['estimates']['differ'])} DIFFER"
-                                                  if c["estimates"]["differ"] else ""))
+                                                  if c["estimates"]["differ"] else "")
+                  + (f", {len(c['estimates']['other_method'])} of another method (not compared)"
+                     if c["estimates"]["other_method"] else ""))
+
+
+def comparison_lines(cmp_: dict[str, Any]) -> list[str]:
+    """The replay-vs-recorded comparison as text, naming what is compared with what: each quantity with
+    itself (tau_f with tau_f, wear with wear), the same cycles, the same method; an estimate of another
+    method is shown beside the recorded one, never counted as a match or a difference."""
+    o, e = cmp_["observations"], cmp_["estimates"]
+    if not (o["recorded"] or e["recorded"]):
+        return ["the bag holds no recorded FrictionObservation/WearEstimate messages to compare with"]
+
+    def num(x: Any) -> str:
+        return "n/a" if x is None else f"{x:.3g}"
+
+    out = [f"vs recorded: observations {o['matched']}/{o['recorded']} matched"
+           + (f", {len(o['differ'])} DIFFER" if o["differ"] else "")
+           + f" (per joint, cycle and speed: tau_f, its std, load, temperature, ...), max |tau_f diff| "
+           f"{num(o['max_abs_diff'])}; "
+           + ("estimates: none of the recorded method to compare (below)" if not e["paired"] and e.get("other_method")
+              else f"estimates {e['matched']}/{e['recorded']} matched")
+           + (f", {len(e['differ'])} DIFFER" if e["differ"] else "")
+           + (f" (the newest per joint and cycle, same method: wear, std, 90 % bounds), max |wear diff| "
+              f"{num(e['max_abs_diff'])}" if e["paired"] else "")]
+    by = e.get("max_abs_diff_by_field") or {}
+    if e["differ"] and by:
+        out.append("estimates differ by: " + ", ".join(f"{k} {num(v)}" for k, v in by.items()))
+    for d in e["differ"]:
+        out.append(f"DIFFERS: {d}")
+    other = e.get("other_method", [])
+    if other:
+        methods = sorted({(x["replayed_method"], x["recorded_method"]) for x in other})
+        out.append(f"estimates of another method, not compared as a reproduction ({len(other)}): replayed with "
+                   + "; ".join(f"{a} where the cell ran {b}" for a, b in methods))
+        for x in other:
+            out.append(f"  {x['joint']} cycle {x['cycle_id']}: wear {x['replayed_wear']:.2f} ({x['replayed_method']})"
+                       f" vs {x['recorded_wear']:.2f} recorded ({x['recorded_method']}), {x['wear_diff']:+.2f}")
+    for d in o.get("not_replayed", []):
+        out.append(f"NOT REPLAYED: the recorded observation {d} (the replay's rejections say why)")
+    return out
 
 
 # --------------------------------------------------------------------------- --publish

@@ -8,6 +8,9 @@ bound beyond the prediction horizon is null; ``time_to_alarm_days`` also holds
 (:func:`jointwear_ros.serve.core.plant_level`, as ``jointwear serve`` shows it): the
 trend's OK / WARN / ERROR, or STALE when the newest estimate is older than
 ``--stale-days`` and the trend's level is not ERROR; ``trend_level`` is the trend's own.
+The top level also has ``analysis_version`` (the one shown), ``analysis_version_why`` and
+``analysis_versions`` (``[{"name", "estimates"}]``, every version in the store; :func:`pick_version` says
+which is shown without ``--analysis-version``); the text says the same under the table.
 ``--fleet-prior``: each joint's prior from its siblings (off by default). ``--plot DIR`` writes one PNG
 per joint, ``--html DIR`` a page ranking the joints by time to alarm.
 """
@@ -33,7 +36,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--db", required=True, help="history store URL or SQLite file path")
     p.add_argument("--robot", default=None, help="only this robot")
     p.add_argument("--joint", default=None, help="only this joint")
-    p.add_argument("--analysis-version", default="live", help="which estimates (default live)")
+    p.add_argument("--analysis-version", default=None,
+                   help="which estimates (default: live, the cell's own, when the store has them; else the only "
+                        "version there; the versions present are listed either way)")
     p.add_argument("--horizon", default="30", help="WARN horizon in days (default 30)")
     p.add_argument("--alarm", default="35", help="alarm wear level (default 35)")
     p.add_argument("--fleet-prior", action="store_true",
@@ -44,6 +49,36 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--plot", default=None, metavar="DIR", help="write one PNG per joint into DIR")
     p.add_argument("--html", default=None, metavar="DIR", help="write DIR/index.html ranking the joints (and PNGs)")
     p.set_defaults(func=cmd_trend)
+
+
+def pick_version(given: str | None, present: dict[str, int]) -> tuple[str, str]:
+    """The analysis version ``trend`` shows and why: the one given; else ``live`` (the cell's own estimates)
+    when the store has it, or when it is empty; else the only version there. Several versions and no live
+    ones: one line naming them, exit 2 (which one is the user's choice, not a guess).
+
+    >>> pick_version(None, {"live": 3, "v2": 5}), pick_version(None, {"v2": 5})[0], pick_version("v2", {})[1]
+    (('live', 'the default: the estimates the cell made'), 'v2', 'given with --analysis-version')
+    """
+    from ..history import LIVE
+
+    if given is not None:
+        return given, "given with --analysis-version"
+    if LIVE in present or not present:
+        return LIVE, "the default: the estimates the cell made"
+    if len(present) == 1:
+        (only,) = present
+        return only, "the only analysis version in the store (it has no live estimates)"
+    raise UsageError("the store has no live estimates but several analysis versions: "
+                     + ", ".join(f"{v} ({n})" for v, n in present.items())
+                     + "; choose one with --analysis-version V")
+
+
+def versions_line(shown: str, why: str, present: dict[str, int]) -> str:
+    """One line: the analysis version shown and why, and every version in the store with its count."""
+    others = [f"{v} ({n} estimates)" for v, n in present.items() if v != shown]
+    n = present.get(shown, 0)
+    return (f"analysis version {shown} ({n} estimates; {why})"
+            + (f"; also in the store: {', '.join(others)}: --analysis-version V shows one" if others else ""))
 
 
 def _safe(name: str) -> str:
@@ -73,6 +108,8 @@ def cmd_trend(args: argparse.Namespace) -> int:
         raise UsageError(f"--db {args.db}: no such history file (fill it with jointwear history import or wear_trend)")
     priors = {}
     with HistoryStore(backend.url, read_only=True) as store:
+        present = {v: store.count(v) for v in store.analysis_versions()}
+        args.analysis_version, why = pick_version(args.analysis_version, present)
         hist, refused = screened_history(store, args.analysis_version, robot=args.robot, joint=args.joint)
         if args.fleet_prior:
             from ..history.trends import fleet_priors
@@ -118,7 +155,9 @@ def cmd_trend(args: argparse.Namespace) -> int:
                               "refused": n_refused.get((r.robot, r.joint), 0),
                               "parameter_set": newest.params or None,
                               "wear_scale_calibrated": calibrated_of(newest.params)})
-        print_json({"joints": rows_json, "refused": refused})
+        print_json({"joints": rows_json, "refused": refused, "analysis_version": args.analysis_version,
+                    "analysis_version_why": why,
+                    "analysis_versions": [{"name": v, "estimates": n} for v, n in present.items()]})
         return 0
     if not results:
         print(f"no estimates in {args.db}" + (f" ({len(refused)} refused)" if refused else "")
@@ -135,6 +174,7 @@ def cmd_trend(args: argparse.Namespace) -> int:
                      time_to_alarm_text(r, "-")])
     if rows:
         print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)"], rows))
+    print(versions_line(args.analysis_version, why, present))
     for f in refused:
         what = (f"maintenance {f.get('kind')} at {f.get('time')}" if f.get("source") == "maintenance"
                 else f"cycle {f.get('cycle_id')} wear {f.get('wear')} std {f.get('wear_std')} time {f.get('time')}")

@@ -198,19 +198,29 @@ def reestimate_bag(path: str | os.PathLike[str], *, robot: str, observer_params:
 
 
 def write_csv(records: Iterable[EstimateRecord], path: str | os.PathLike[str]) -> int:
-    """Write estimates as CSV (:data:`CSV_COLUMNS`; ``time`` ISO 8601 UTC, ``time_ns`` exact); return rows."""
+    """Write estimates as CSV (:data:`CSV_COLUMNS`; ``time`` ISO 8601 UTC, ``time_ns`` exact); return rows.
+
+    The rows go to ``<path>.part`` first, which replaces ``path`` when complete: a reader never sees half a
+    table, and a write that fails midway (a full disk, a bad record, ``path`` a directory) removes the
+    ``.part`` and leaves ``path`` as it was.
+    """
     p = Path(path)
     rows = list(records)
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = p.with_name(p.name + ".part")
-    with tmp.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(CSV_COLUMNS)
-        for r in rows:
-            iso = datetime.fromtimestamp(r.time_ns // 1_000_000_000, UTC).strftime("%Y-%m-%dT%H:%M:%S")
-            iso += f".{(r.time_ns % 1_000_000_000) // 1000:06d}Z"
-            w.writerow([r.robot, r.joint, iso, r.time_ns, r.cycle_id, repr(float(r.wear)), repr(float(r.wear_std)),
-                        "" if math.isnan(r.temperature) else repr(float(r.temperature)), r.method, r.params,
-                        r.hardware_id, r.software_version, r.bag, r.analysis_version, r.source])
-    tmp.replace(p)
+    try:
+        with tmp.open("w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow(CSV_COLUMNS)
+            for r in rows:
+                iso = datetime.fromtimestamp(r.time_ns // 1_000_000_000, UTC).strftime("%Y-%m-%dT%H:%M:%S")
+                iso += f".{(r.time_ns % 1_000_000_000) // 1000:06d}Z"
+                w.writerow([r.robot, r.joint, iso, r.time_ns, r.cycle_id, repr(float(r.wear)),
+                            repr(float(r.wear_std)), "" if math.isnan(r.temperature) else repr(float(r.temperature)),
+                            r.method, r.params, r.hardware_id, r.software_version, r.bag, r.analysis_version,
+                            r.source])
+        tmp.replace(p)
+    except BaseException:  # a failure (or Ctrl-C) midway: no .part left behind, the old table untouched
+        tmp.unlink(missing_ok=True)
+        raise
     return len(rows)
