@@ -97,8 +97,10 @@ def backtest_joint(j: _Joint, cfg: TrendConfig, epoch0: float, prior: RatePrior 
                            true_tta=cross - days, true_wear=np.asarray(j.true_wear(days), float), count=count)
 
 
-def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_days: float) -> dict[str, Any]:
-    """The four figures of the fleet benchmark, and counts behind them."""
+def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_days: float,
+                backtests: Sequence[NightlyBacktest] | None = None) -> dict[str, Any]:
+    """The four figures of the fleet benchmark, and counts behind them (``backtests``: the joints'
+    :func:`backtest_joint` results when already run)."""
     covered = total_cov = nights_pred_possible = 0
     widths: list[float] = []
     rel_widths: list[float] = []
@@ -109,8 +111,8 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
     missed = 0
     per_profile: dict[str, dict[str, int]] = {}
     early = all_nights = 0
-    for j in joints:
-        b = backtest_joint(j, cfg, epoch0)
+    for i, j in enumerate(joints):
+        b = backtests[i] if backtests is not None else backtest_joint(j, cfg, epoch0)
         all_nights += len(b.days)
         early += int(((b.level >= DiagnosticLevel.WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
         pp = per_profile.setdefault(j.profile, {"covered": 0, "intervals": 0})
