@@ -213,7 +213,8 @@ def trial_rows(cfgs: dict[str, TrendConfig]) -> list[list[str]]:
             s = score_trial(js, cfg, EPOCH0, prior=prior)
         grow = [x for x in s["rows"] if x["profile"] != "flat" and 1.0 <= x["true"] <= 365.0]
         med = {k: float(np.median([x[f"w_{k}"] for x in grow])) for k in ("line", "accelerated", "adaptive")}
-        out.append([name, str(s["growing"]), pct(s["coverage"]), f"{s['no_interval']} / {s['unbounded']}",
+        out.append([name, str(s["growing"]), pct(s["coverage"]), pct(s["median_within_20pct"]),
+                    f"{s['no_interval']} / {s['unbounded']}",
                     num(s["median_width_over_true"]), num(s["median_line_width_over_true"]),
                     *(num(med[k]) for k in ("line", "accelerated", "adaptive")), str(s["flat_warn"])])
     return out
@@ -342,7 +343,8 @@ def config_from_sets(items: list[str]) -> TrendConfig:
 
 def print_trial(extra: dict[str, TrendConfig] | None = None) -> None:
     print("\nthe issue's trial: 90 joints (seeds 100-102), each at the last of 60 estimates (estimates 100-159)")
-    print(format_table(["bank", "growing", "coverage %", "no interval / unbounded", "width/true", "line width/true",
+    print(format_table(["bank", "growing", "coverage %", "median within 20 %", "no interval / unbounded",
+                        "width/true", "line width/true",
                         "weight line", "accelerated", "adaptive", "flat warn"],
                        trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER, **ABLATIONS,
                                    **(extra or {})})))

@@ -16,6 +16,7 @@ from jointwear_ros.trend.backtest import (
     backtest_joint,
     prognostic_horizon,
     score_prognostics,
+    trial_summary,
     tta_probability,
 )
 from jointwear_ros.trend.families import EPOCH0, make_family
@@ -136,6 +137,17 @@ def test_the_distribution_behind_the_beta_criterion_is_the_one_whose_quantiles_t
     assert tta_probability(j, cfg, n, 0.0, b.lo90[n]) == pytest.approx(0.05, abs=1e-6)
     assert tta_probability(j, cfg, n, 0.0, b.median[n]) == pytest.approx(0.5, abs=1e-6)
     assert tta_probability(j, cfg, n, b.lo90[n], b.hi90[n]) == pytest.approx(0.9, abs=1e-6)
+
+
+def test_trial_counts_the_medians_within_the_alpha_cone_of_the_true_time():
+    def row(median, true=100.0, profile="linear"):
+        lo = median - 10.0 if math.isfinite(median) else math.nan
+        return {"profile": profile, "true": true, "lo90": lo, "median": median, "hi90": median + 10.0,
+                "level": 0, "line_width": 20.0}
+
+    rows = [row(115.0), row(81.0), row(125.0), row(79.0), row(math.nan), row(100.0, profile="flat")]
+    s = trial_summary(rows)
+    assert s["growing"] == 5 and s["median_within_20pct"] == pytest.approx(2 / 5)
 
 
 # --- against NASA's progpy (a test dependency; skipped where it is not installed) -------------------------------

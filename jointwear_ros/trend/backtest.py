@@ -373,13 +373,18 @@ def score_trial(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, *, first
 
 
 def trial_summary(rows: Sequence[dict[str, Any]], max_true_days: float = 365.0) -> dict[str, Any]:
-    """The figures of :func:`score_trial` from its per-joint ``rows`` (rows of several runs may be joined)."""
+    """The figures of :func:`score_trial` from its per-joint ``rows`` (rows of several runs may be joined);
+    ``median_within_20pct``: the share of growing joints whose median lies within ±20 % of the true time to
+    alarm (the α-λ cone, α = 0.2, at the trial's one look)."""
     grow = [x for x in rows if x["profile"] != "flat" and 1.0 <= x["true"] <= max_true_days]
     inside = [math.isfinite(x["lo90"]) and x["lo90"] <= x["true"] <= x["hi90"] for x in grow]
     width = [(x["hi90"] - x["lo90"]) / x["true"] if math.isfinite(x["lo90"]) else math.inf for x in grow]
     line = [x["line_width"] / x["true"] for x in grow]
+    # the α-λ cone (α = 0.2) at the trial's one look: the median within (1 ± 0.2) of the true time to alarm
+    cone = [math.isfinite(x["median"]) and abs(x["median"] - x["true"]) <= 0.2 * x["true"] for x in grow]
     return {"joints": len(rows), "growing": len(grow),
             "coverage": float(np.mean(inside)) if grow else math.nan,
+            "median_within_20pct": float(np.mean(cone)) if grow else math.nan,
             "no_interval": sum(1 for x in grow if math.isnan(x["lo90"])),
             "unbounded": sum(1 for x in grow if math.isfinite(x["lo90"]) and not math.isfinite(x["hi90"])),
             "median_width_over_true": float(np.median(width)) if grow else math.nan,
