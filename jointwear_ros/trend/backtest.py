@@ -536,7 +536,9 @@ def tta_probability(j: Any, cfg: TrendConfig, night: int, lo: float, hi: float,
     index ``night`` of ``j``'s history, the segment run as :func:`backtest_joint` runs it: the mixture of its
     members' crossing CDFs (the distribution whose 5, 50 and 95 % points are the backtest's ``lo90``, ``median``
     and ``hi90``), for the β-criterion of :func:`alpha_lambda`. Mass beyond ``cfg.max_horizon_days`` is "never"."""
-    from .core import _crossing, bank_members, forecast_basis, tau_grid
+    from scipy.special import ndtr
+
+    from .core import bank_members, forecast_basis, tau_grid
 
     t = np.asarray(j.times, float)
     bounds = sorted(j.maintenance_times)
@@ -548,8 +550,12 @@ def tta_probability(j: Any, cfg: TrendConfig, night: int, lo: float, hi: float,
     tau = tau_grid(float(cfg.max_horizon_days))
     F = np.zeros(len(tau))
     for c in st.mixtures[0]:
+        # the component's wear tau days ahead is N(mean @ H, H' cov H + extra); P(crossed by tau) is the running
+        # maximum of P(above the alarm at tau), as the trend's own quantiles are computed
         H, extra = forecast_basis(members[c.member], tau, cfg)
-        F += c.weight * _crossing(c.mean, c.cov, H, extra, cfg.alarm)[0]
+        v = np.einsum("ig,ij,jg->g", H, c.cov, H) + extra
+        above = ndtr((c.mean @ H - cfg.alarm) / np.sqrt(np.maximum(v, 1e-12)))
+        F += c.weight * np.maximum.accumulate(above)
     return float(np.interp(hi, tau, F, right=F[-1]) - np.interp(lo, tau, F, left=0.0))
 
 
