@@ -12,8 +12,8 @@ from jointwear_ros.trend import TrendConfig
 from jointwear_ros.trend.backtest import (
     NightlyBacktest,
     alpha_lambda,
-    joint_run,
     backtest_joint,
+    joint_run,
     prognostic_horizon,
     score_prognostics,
     trial_summary,
