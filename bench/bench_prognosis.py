@@ -18,6 +18,8 @@ backtested at every night: the trend sees only the estimates so far, as the
   joint-nights of all joints;
 - median lead time of the first WARN before the true crossing, and the alarm
   lag (first ERROR after the crossing);
+- the standard prognostics scores per profile next to its coverage: alpha-lambda accuracy (alpha 0.2,
+  lambda 0.5) and the prognostic horizon (docs/prognostics-scores.md);
 - the cost: trend updates per second (one update = one joint-night), and the
   history store: writing the fleet to SQLite and the trend of every joint from it.
 
@@ -38,7 +40,7 @@ from jointwear_ros.cli.common import format_table
 from jointwear_ros.data.fleet import EPOCH0, calibrate_estimator_noise, make_fleet
 from jointwear_ros.history import EstimateRecord, HistoryStore, MaintenanceEvent, trends_from_store
 from jointwear_ros.trend import TrendConfig
-from jointwear_ros.trend.backtest import score_at_lead, score_fleet
+from jointwear_ros.trend.backtest import backtest_joint, score_at_lead, score_fleet, score_prognostics
 
 
 def pct(x: float) -> str:
@@ -64,8 +66,9 @@ def main() -> int:
     fleet = make_fleet(n_joints=a.joints, days=a.days, seed=a.seed)
     nights = sum(len(j.times) for j in fleet)
     t0 = time.perf_counter()
-    s = score_fleet(fleet, cfg, EPOCH0, a.days)
+    runs = [backtest_joint(j, cfg, EPOCH0) for j in fleet]
     dt = time.perf_counter() - t0
+    s = score_fleet(fleet, cfg, EPOCH0, a.days, backtests=runs)
     lead = score_at_lead(fleet, cfg, EPOCH0, lead_days=cfg.horizon_days)
     print(f"fleet: {a.joints} joints ({', '.join(sorted({j.profile for j in fleet}))}), {a.days} nights each, "
           f"{nights} estimates, seed {a.seed}; horizon {cfg.horizon_days:g} days, alarm {cfg.alarm:g}")
@@ -86,6 +89,21 @@ def main() -> int:
         ["trend updates per second (backtest, one joint-night each)", f"{nights / dt:.0f}", ""],
     ]
     print(format_table(["figure", "value", "target"], rows))
+    prog = score_prognostics(fleet, runs, cfg, beta_criterion=True)
+    print("standard prognostics scores (docs/prognostics-scores.md), one run per joint after its last maintenance: "
+          "alpha-lambda (alpha 0.2, lambda 0.5) with the median and with >= 50 % of the distribution in the cone; "
+          "prognostic horizon of the median, +-5 % of the run's EoL, over the joints whose alarm falls within the span")
+    prows = []
+    for k in (*sorted(s["coverage_by_profile"]), "all"):
+        p = prog.get(k, {})
+        n_al, n_ph = p.get("alpha_lambda_joints", 0), p.get("ph_joints", 0)
+        prows.append([k, pct(s["coverage_by_profile"].get(k, s["coverage"])),
+                      f"{round(p['alpha_lambda'] * n_al)}/{n_al}" if n_al else "-",
+                      f"{round(p['alpha_lambda_beta'] * n_al)}/{n_al}" if n_al else "-", str(n_ph),
+                      f"{p['ph_median_days']:.0f} ({p['ph_median_rel']:.2f})" if n_ph else "-",
+                      f"{p['ph_stay_median_days']:.0f} ({p['ph_stay_median_rel']:.2f})" if n_ph else "-"])
+    print(format_table(["profile", "coverage (every night)", "alpha-lambda, median", "beta 0.5", "PH joints",
+                        "PH d (/ run)", "PH staying d (/ run)"], prows))
 
     with tempfile.TemporaryDirectory() as d:
         store = HistoryStore(Path(d) / "fleet.db")

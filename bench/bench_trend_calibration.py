@@ -1,7 +1,8 @@
 """Calibration of the time to alarm on the histories a planner meets, before and after issue 23.
 
 Usage: python bench/run_all.py trend_calibration   (or python bench/bench_trend_calibration.py
-[--per-family N] [--days D] [--seed S] [--quick] [--trial] [--derive-prior])
+[--per-family N] [--days D] [--seed S] [--quick] [--trial] [--scores] [--set FIELD=VALUE ...]
+[--derive-prior])
 
 Seven families of joints with known true wear (``jointwear_ros.trend.families``: linear,
 accelerating (half the paper's exponential shape, half a power law no model has), flat, a step
@@ -33,6 +34,12 @@ likelihood over the reference histories (seeds 0 and 5), against which ``TrendCo
 same seed, leave-one-out, pooled as ``--fleet-prior`` does, with type-II weights, or contaminated with
 P(unlike siblings)), and on joints unlike their siblings (accelerating among linear).
 
+Per bank, the standard prognostics scores per family next to the 90 % coverage (``--scores`` alone: only
+these): alpha-lambda accuracy (alpha 0.2, lambda 0.5) and the prognostic horizon (+-5 % of EoL), as Saxena et
+al. (2010) and NASA's progpy define them (docs/prognostics-scores.md). ``--set FIELD=VALUE`` (repeatable) adds a
+bank, ``TrendConfig()`` with those settings, to every table and to the trial: a candidate setting measured
+without touching the trend's defaults.
+
 Then the fleet prior: young joints (8-20 estimates) whose 30 linear siblings have full histories, at
 their last night, with and without :func:`jointwear_ros.trend.fleet_prior` (leave-one-out).
 Benchmarks measure; they do not pass or fail.
@@ -42,12 +49,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import numpy as np
 
 from jointwear_ros.cli.common import format_table
+from jointwear_ros.errors import JointwearError
 from jointwear_ros.trend import (
     DAY,
     RatePrior,
@@ -60,7 +69,13 @@ from jointwear_ros.trend import (
     trend_states,
     type2_weights,
 )
-from jointwear_ros.trend.backtest import backtest_joint, score_calibration, score_trial, trial_summary
+from jointwear_ros.trend.backtest import (
+    backtest_joint,
+    score_calibration,
+    score_prognostics,
+    score_trial,
+    trial_summary,
+)
 from jointwear_ros.trend.families import (
     EPOCH0,
     FAMILIES,
@@ -105,6 +120,25 @@ def table(score: dict[str, dict[str, float]]) -> str:
     return format_table(["family", "joints", "nights", "coverage % ± se", "with interval %", "unbounded %",
                          "width/true", "width/line", "flat warn", "false ERROR", "early /1000", "lead d",
                          "warned"], rows)
+
+
+def scores_table(every: dict[str, dict[str, float]], sixty: dict[str, dict[str, float]],
+                 prog: dict[str, dict[str, float]]) -> str:
+    """The standard prognostics scores (docs/prognostics-scores.md) per family next to the 90 % coverage."""
+    rows = []
+    for f in (*FAMILIES, "all"):
+        p = prog.get(f, {})
+        n_al, n_ph = p.get("alpha_lambda_joints", 0), p.get("ph_joints", 0)
+        al = f"{round(p['alpha_lambda'] * n_al)}/{n_al} ({pct(p['alpha_lambda'])})" if n_al else "-"
+        alb = f"{round(p['alpha_lambda_beta'] * n_al)}/{n_al} ({pct(p['alpha_lambda_beta'])})" if n_al else "-"
+        ph = (f"{num(p['ph_median_days'], '.0f')} ({num(p['ph_median_rel'])}), {p['ph_never']}" if n_ph else "-")
+        st = (f"{num(p['ph_stay_median_days'], '.0f')} ({num(p['ph_stay_median_rel'])}), {p['ph_stay_never']}"
+              if n_ph else "-")
+        rows.append([f, f"{pct(sixty[f]['coverage'])} ± {pct(sixty[f]['coverage_se'])}", pct(every[f]["coverage"]),
+                     al, alb, str(n_ph), ph, st])
+    return format_table(["family", "coverage % (>= 60 est.)", "coverage % (every night)",
+                         "alpha-lambda (a 0.2, l 0.5): median", "beta 0.5", "PH joints", "PH d (/ run), never",
+                         "PH staying d (/ run), never"], rows)
 
 
 def fleet_experiment(seed: int, siblings: int = 30, young: int = 20) -> list[list[str]]:
@@ -179,7 +213,8 @@ def trial_rows(cfgs: dict[str, TrendConfig]) -> list[list[str]]:
             s = score_trial(js, cfg, EPOCH0, prior=prior)
         grow = [x for x in s["rows"] if x["profile"] != "flat" and 1.0 <= x["true"] <= 365.0]
         med = {k: float(np.median([x[f"w_{k}"] for x in grow])) for k in ("line", "accelerated", "adaptive")}
-        out.append([name, str(s["growing"]), pct(s["coverage"]), f"{s['no_interval']} / {s['unbounded']}",
+        out.append([name, str(s["growing"]), pct(s["coverage"]), pct(s["median_within_20pct"]),
+                    f"{s['no_interval']} / {s['unbounded']}",
                     num(s["median_width_over_true"]), num(s["median_line_width_over_true"]),
                     *(num(med[k]) for k in ("line", "accelerated", "adaptive")), str(s["flat_warn"])])
     return out
@@ -285,11 +320,34 @@ def derive_prior(seeds: tuple[int, ...] = (0, 5), per_family: int = 10) -> list[
     return [[m.name, f"{w:.3f}"] for m, w in zip(members, pi)]
 
 
-def print_trial() -> None:
+def config_from_sets(items: list[str]) -> TrendConfig:
+    """``TrendConfig()`` with ``FIELD=VALUE`` settings (a tuple field: comma-separated numbers, empty for none);
+    a bad name or value raises ``ValueError`` with one line saying which."""
+    kinds = {f.name: type(getattr(AFTER, f.name)) for f in fields(TrendConfig)}
+    changes: dict[str, object] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or name not in kinds:
+            raise ValueError(f"--set {item!r}: expected FIELD=VALUE with FIELD one of {', '.join(kinds)}")
+        try:
+            kind = kinds[name]
+            changes[name] = (tuple(float(x) for x in value.split(",") if x.strip()) if kind is tuple
+                             else kind(value))
+        except ValueError:
+            raise ValueError(f"--set {item!r}: {value!r} is not a {kinds[name].__name__}") from None
+    try:
+        return replace(AFTER, **changes)  # type: ignore[arg-type]
+    except JointwearError as e:
+        raise ValueError(f"--set: {e}") from None
+
+
+def print_trial(extra: dict[str, TrendConfig] | None = None) -> None:
     print("\nthe issue's trial: 90 joints (seeds 100-102), each at the last of 60 estimates (estimates 100-159)")
-    print(format_table(["bank", "growing", "coverage %", "no interval / unbounded", "width/true", "line width/true",
+    print(format_table(["bank", "growing", "coverage %", "median within 20 %", "no interval / unbounded",
+                        "width/true", "line width/true",
                         "weight line", "accelerated", "adaptive", "flat warn"],
-                       trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER, **ABLATIONS})))
+                       trial_rows({"before (issue 13 bank)": BEFORE, "after (TrendConfig())": AFTER, **ABLATIONS,
+                                   **(extra or {})})))
     head = ["family", "growing", "coverage %", "no interval / unbounded", "width/true", "flat warn"]
     print("\nthe trial as a fleet: each joint's prior from its 29 siblings of the same seed (leave-one-out), "
           "at the 60th estimate")
@@ -308,30 +366,52 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=2027)
     ap.add_argument("--quick", action="store_true", help="5 joints per family")
     ap.add_argument("--trial", action="store_true", help="only the issue's trial")
+    ap.add_argument("--scores", action="store_true",
+                    help="only the coverage and the standard prognostics scores per family (alpha-lambda, PH)")
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                    help="a further bank: TrendConfig() with this setting (repeatable; tuples comma-separated), "
+                         "scored next to the others and in the trial")
     ap.add_argument("--derive-prior", action="store_true",
                     help="only the estimate of the default prior weights (reference seeds 0 and 5)")
     a = ap.parse_args()
+    banks = [("before (issue 13 bank)", BEFORE), ("after (issue 23 bank, TrendConfig())", AFTER)]
+    extra: dict[str, TrendConfig] = {}
+    if a.set:
+        try:
+            extra[f"TrendConfig({', '.join(a.set)})"] = config_from_sets(a.set)
+        except ValueError as e:
+            print(f"bench_trend_calibration: {e}", file=sys.stderr)
+            return 2
+        banks += list(extra.items())
     if a.derive_prior:
         print("prior weights, type-II maximum likelihood over the reference histories (seeds 0 and 5):")
         print(format_table(["member", "weight"], derive_prior()))
         return 0
     if a.trial:
-        print_trial()
+        print_trial(extra)
         return 0
     n = 5 if a.quick else a.per_family
     joints = [j for i, f in enumerate(FAMILIES) for j in make_family(f, n, days=a.days, seed=a.seed, first=i * n)]
     nights = sum(len(j.times) for j in joints)
     print(f"{len(joints)} joints ({n} per family), {a.days} days, {nights} estimates, seed {a.seed}")
-    for name, cfg in (("before (issue 13 bank)", BEFORE), ("after (issue 23 bank, TrendConfig())", AFTER)):
+    for name, cfg in banks:
         t0 = time.process_time()
         runs = [backtest_joint(j, cfg, EPOCH0) for j in joints]
         dt = time.process_time() - t0
+        cal = {}
         for m in (0, 60):
-            s = score_calibration(joints, cfg, EPOCH0, a.days, min_estimates=m, backtests=runs)
-            print(f"\n{name}; nights with >= {m} estimates in the segment:")
-            print(table(s))
+            cal[m] = s = score_calibration(joints, cfg, EPOCH0, a.days, min_estimates=m, backtests=runs)
+            if not a.scores:
+                print(f"\n{name}; nights with >= {m} estimates in the segment:")
+                print(table(s))
         print(f"{nights / dt:.0f} trend updates (joint-nights) per CPU second")
-    print_trial()
+        print(f"\n{name}: standard prognostics scores, one run per joint (after its last step); alpha-lambda decided "
+              "with the median, and with >= 50 % of the distribution in the cone; PH (the median's): +-5 % of the "
+              "run's EoL, median over the joints whose alarm falls within the history")
+        print(scores_table(cal[0], cal[60], score_prognostics(joints, runs, cfg, beta_criterion=True)))
+    if a.scores:
+        return 0
+    print_trial(extra)
     print("\nfleet prior: young joints (8-20 estimates) at their last night, 30 siblings of the same type")
     print(format_table(["trend", "joints", "coverage %", "median width/true"], fleet_experiment(a.seed)))
     return 0

@@ -39,8 +39,9 @@ from numpy.typing import NDArray
 from ..contract import DiagnosticLevel
 from .core import DAY, RatePrior, TrendConfig, trend_states
 
-__all__ = ["NightlyBacktest", "backtest_joint", "line_limit", "score_at_lead", "score_calibration", "score_fleet",
-           "score_trial", "trial_summary"]
+__all__ = ["NightlyBacktest", "alpha_lambda", "backtest_joint", "joint_run", "lambda_index", "line_limit",
+           "prognostic_horizon", "score_at_lead", "score_calibration", "score_fleet", "score_prognostics",
+           "score_trial", "trial_summary", "tta_probability"]
 
 Array = NDArray[np.float64]
 
@@ -96,8 +97,10 @@ def backtest_joint(j: _Joint, cfg: TrendConfig, epoch0: float, prior: RatePrior 
                            true_tta=cross - days, true_wear=np.asarray(j.true_wear(days), float), count=count)
 
 
-def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_days: float) -> dict[str, Any]:
-    """The four figures of the fleet benchmark, and counts behind them."""
+def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_days: float,
+                backtests: Sequence[NightlyBacktest] | None = None) -> dict[str, Any]:
+    """The four figures of the fleet benchmark, and counts behind them (``backtests``: the joints'
+    :func:`backtest_joint` results when already run)."""
     covered = total_cov = nights_pred_possible = 0
     widths: list[float] = []
     rel_widths: list[float] = []
@@ -108,8 +111,8 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
     missed = 0
     per_profile: dict[str, dict[str, int]] = {}
     early = all_nights = 0
-    for j in joints:
-        b = backtest_joint(j, cfg, epoch0)
+    for i, j in enumerate(joints):
+        b = backtests[i] if backtests is not None else backtest_joint(j, cfg, epoch0)
         all_nights += len(b.days)
         early += int(((b.level >= DiagnosticLevel.WARN) & (b.true_tta > 2 * cfg.horizon_days)).sum())
         pp = per_profile.setdefault(j.profile, {"covered": 0, "intervals": 0})
@@ -370,16 +373,273 @@ def score_trial(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, *, first
 
 
 def trial_summary(rows: Sequence[dict[str, Any]], max_true_days: float = 365.0) -> dict[str, Any]:
-    """The figures of :func:`score_trial` from its per-joint ``rows`` (rows of several runs may be joined)."""
+    """The figures of :func:`score_trial` from its per-joint ``rows`` (rows of several runs may be joined);
+    ``median_within_20pct``: the share of growing joints whose median lies within ±20 % of the true time to
+    alarm (the α-λ cone, α = 0.2, at the trial's one look)."""
     grow = [x for x in rows if x["profile"] != "flat" and 1.0 <= x["true"] <= max_true_days]
     inside = [math.isfinite(x["lo90"]) and x["lo90"] <= x["true"] <= x["hi90"] for x in grow]
     width = [(x["hi90"] - x["lo90"]) / x["true"] if math.isfinite(x["lo90"]) else math.inf for x in grow]
     line = [x["line_width"] / x["true"] for x in grow]
+    # the α-λ cone (α = 0.2) at the trial's one look: the median within (1 ± 0.2) of the true time to alarm
+    cone = [math.isfinite(x["median"]) and abs(x["median"] - x["true"]) <= 0.2 * x["true"] for x in grow]
     return {"joints": len(rows), "growing": len(grow),
             "coverage": float(np.mean(inside)) if grow else math.nan,
+            "median_within_20pct": float(np.mean(cone)) if grow else math.nan,
             "no_interval": sum(1 for x in grow if math.isnan(x["lo90"])),
             "unbounded": sum(1 for x in grow if math.isfinite(x["lo90"]) and not math.isfinite(x["hi90"])),
             "median_width_over_true": float(np.median(width)) if grow else math.nan,
             "median_line_width_over_true": float(np.median(line)) if grow else math.nan,
             "flat_warn": sum(1 for x in rows if x["profile"] == "flat" and x["level"] >= DiagnosticLevel.WARN),
             "rows": rows}
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Standard prognostics scores (Saxena, Celaya, Saha, Saha, Goebel, "Metrics for offline evaluation of prognostic
+# performance", IJPHM 1 (2010); NASA progpy ``progpy.metrics.alpha_lambda`` / ``prognostic_horizon``).
+# The event is the alarm (wear reaching ``TrendConfig.alarm``); its true time is the end of life (EoL); a
+# prediction made at time t is a remaining useful life (RUL) r(t), the trend's time to alarm.
+
+
+def _in_fraction(rul: Array, lo: Array, hi: Array) -> Array:
+    """Per prediction (rows of ``rul``, each one point or samples), the fraction of it within [lo, hi]."""
+    r = np.asarray(rul, float)
+    r2 = r[:, None] if r.ndim == 1 else r
+    with np.errstate(invalid="ignore"):
+        inside = (r2 >= np.asarray(lo, float)[:, None]) & (r2 <= np.asarray(hi, float)[:, None])
+    return np.asarray(inside.mean(axis=1), float)
+
+
+def lambda_index(t_pred: Array, eol: float, t_start: float, lam: float = 0.5) -> int | None:
+    """Index of the prediction α-λ is decided with: the first made at or after t_λ = t_P + λ (EoL − t_P) and
+    before EoL (progpy's rule); None when there is none.
+
+    >>> lambda_index(np.array([0.0, 30.0, 55.0, 80.0]), 100.0, 0.0)
+    2
+    """
+    t = np.asarray(t_pred, float)
+    k = np.nonzero((t >= t_start + lam * (eol - t_start)) & (t < eol))[0]
+    return int(k[0]) if len(k) else None
+
+
+def alpha_lambda(t_pred: Array, rul_pred: Array, eol: float, t_start: float, *, alpha: float = 0.2,
+                 lam: float = 0.5, beta: float = 0.5) -> bool | None:
+    """α-λ accuracy of one run: is the RUL predicted at t_λ within (1 ± α) of the true RUL?
+
+    Saxena et al. (2010), Sec. "α-λ accuracy": with t_λ = t_P + λ (EoL − t_P) and the true RUL r*(t) = EoL − t,
+    the test holds when (1 − α) r*(t_λ) ≤ r(t_λ) ≤ (1 + α) r*(t_λ), for a distribution when at least β of its
+    probability mass lies in that cone (the β-criterion). As in progpy, the prediction used is the first one
+    made at or after t_λ (the cone is taken at that prediction's own time).
+
+    Parameters
+    ----------
+    t_pred : (n,) times of the predictions, ascending (days).
+    rul_pred : (n,) point predictions of the RUL (days; ``inf``: no prediction, "never") or (n, m) samples of
+        each prediction's RUL distribution.
+    eol : the true time of the event (days, same clock).
+    t_start : t_P, the time of the first prediction the run is scored from (days).
+    alpha, lam, beta : the cone's half-width (relative), where between t_P and EoL the test is made, the share
+        of a distribution that must be inside (a point prediction is inside or not).
+
+    Returns
+    -------
+    True or False; None when no prediction was made between t_λ and EoL (the run cannot be scored).
+
+    Examples
+    --------
+    True RUL at t = 50 of a run from 0 to EoL 100 is 50; the cone is [40, 60]:
+
+    >>> t = np.arange(0.0, 100.0, 10.0)
+    >>> alpha_lambda(t, 100.0 - t, 100.0, 0.0)          # a perfect predictor
+    True
+    >>> alpha_lambda(t, 100.0 - t + 15.0, 100.0, 0.0)   # 15 days late: 65 at t_λ
+    False
+    >>> alpha_lambda(t, np.c_[100.0 - t - 5.0, 100.0 - t + 30.0], 100.0, 0.0)  # half the mass inside
+    True
+    >>> alpha_lambda(t, 100.0 - t, 100.0, 0.0, lam=0.95) is None  # no prediction in [95, 100)
+    True
+    """
+    t = np.asarray(t_pred, float)
+    i = lambda_index(t, eol, t_start, lam)
+    if i is None:
+        return None
+    r_true = eol - t[i]
+    r = np.asarray(rul_pred, float)[i:i + 1]
+    frac = _in_fraction(r, np.array([(1.0 - alpha) * r_true]), np.array([(1.0 + alpha) * r_true]))
+    return bool(frac[0] >= beta)
+
+
+def prognostic_horizon(t_pred: Array, rul_pred: Array, eol: float, *, alpha: float = 0.05, beta: float = 0.5,
+                       t_origin: float = 0.0, stay: bool = False) -> float:
+    """Prognostic horizon of one run: EoL − the first time the predictions are within ±α·EoL of the truth.
+
+    Saxena et al. (2010), Sec. "Prognostic horizon": PH = EoL − t_{i_α}, i_α the first prediction whose
+    predicted EoL (t + r(t)) lies within EoL ± α·EoL (a distribution: at least β of its mass), with the
+    *constant* accuracy zone of half-width α·EoL, EoL counted from the run's origin ``t_origin`` (the start
+    of the run's life). That is Saxena's definition and what progpy's ``prognostic_horizon`` computes with
+    that criterion (its first prediction meeting the criterion before the event). ``stay=True``: the
+    stricter reading, the first prediction *from which on* every prediction before EoL is within the zone.
+
+    Parameters
+    ----------
+    t_pred, rul_pred : as :func:`alpha_lambda` (predictions at or after ``eol`` are ignored).
+    eol : the true time of the event.
+    alpha, beta : the zone's half-width relative to EoL − ``t_origin``, the share of a distribution inside.
+    t_origin : time zero of the run (its EoL is ``eol - t_origin`` long).
+    stay : the predictions must stay within the zone until EoL.
+
+    Returns
+    -------
+    PH in the unit of the times; ``nan`` when no prediction before EoL meets the criterion (progpy: None).
+
+    Examples
+    --------
+    A run from 0 to EoL 100 (zone: predicted EoL within 100 ± 5):
+
+    >>> t = np.arange(0.0, 100.0, 10.0)
+    >>> float(prognostic_horizon(t, 100.0 - t, 100.0))          # perfect: from the first prediction
+    100.0
+    >>> float(prognostic_horizon(t, 100.0 - t + 20.0, 100.0))   # always 20 days late: never
+    nan
+    >>> conv = (100.0 - t) * 1.5                                # converging: predicted EoL 150 - t / 2
+    >>> float(prognostic_horizon(t, conv, 100.0))               # within 5 from t = 90
+    10.0
+    >>> wobble = 100.0 - t + np.where(t == 50.0, 9.0, 0.0)      # one prediction out at t = 50
+    >>> float(prognostic_horizon(t, wobble, 100.0)), float(prognostic_horizon(t, wobble, 100.0, stay=True))
+    (100.0, 40.0)
+    """
+    t = np.asarray(t_pred, float)
+    r = np.asarray(rul_pred, float)
+    keep = t < eol
+    t, r = t[keep], r[keep]
+    if len(t) == 0:
+        return math.nan
+    half = alpha * (eol - t_origin)
+    r_true = eol - t
+    ok = _in_fraction(r, r_true - half, r_true + half) >= beta
+    if stay:
+        # from index i on, all within: the suffix of ``ok`` that is all True
+        bad = np.nonzero(~ok)[0]
+        first = int(bad[-1]) + 1 if len(bad) else 0
+        if first >= len(t):
+            return math.nan
+    else:
+        hit = np.nonzero(ok)[0]
+        if len(hit) == 0:
+            return math.nan
+        first = int(hit[0])
+    return float(eol - t[first])
+
+
+def tta_probability(j: Any, cfg: TrendConfig, night: int, lo: float, hi: float,
+                    prior: RatePrior | None = None) -> float:
+    """P(``lo`` <= time to alarm <= ``hi`` days) under the trend's whole time-to-alarm distribution at night
+    index ``night`` of ``j``'s history, the segment run as :func:`backtest_joint` runs it: the mixture of its
+    members' crossing CDFs (the distribution whose 5, 50 and 95 % points are the backtest's ``lo90``, ``median``
+    and ``hi90``), for the β-criterion of :func:`alpha_lambda`. Mass beyond ``cfg.max_horizon_days`` is "never"."""
+    from scipy.special import ndtr
+
+    from .core import bank_members, forecast_basis, tau_grid
+
+    t = np.asarray(j.times, float)
+    bounds = sorted(j.maintenance_times)
+    seg = np.searchsorted(np.asarray(bounds, float), t, side="right") if bounds else np.zeros(len(t), int)
+    idx = np.nonzero(seg == seg[night])[0]
+    st = trend_states((t[idx] - t[idx[0]]) / DAY, np.asarray(j.wear)[idx], np.asarray(j.wear_std)[idx], cfg,
+                      rows=np.array([night - idx[0]]), prior=prior, keep=True)
+    members = bank_members(cfg)
+    tau = tau_grid(float(cfg.max_horizon_days))
+    F = np.zeros(len(tau))
+    for c in st.mixtures[0]:
+        # the component's wear tau days ahead is N(mean @ H, H' cov H + extra); P(crossed by tau) is the running
+        # maximum of P(above the alarm at tau), as the trend's own quantiles are computed
+        H, extra = forecast_basis(members[c.member], tau, cfg)
+        v = np.einsum("ig,ij,jg->g", H, c.cov, H) + extra
+        above = ndtr((c.mean @ H - cfg.alarm) / np.sqrt(np.maximum(v, 1e-12)))
+        F += c.weight * np.maximum.accumulate(above)
+    return float(np.interp(hi, tau, F, right=F[-1]) - np.interp(lo, tau, F, left=0.0))
+
+
+def joint_run(j: Any, b: NightlyBacktest, alarm: float) -> tuple[NDArray[np.int_], float, float] | None:
+    """The run a joint's backtest is scored over: the nights of its last segment (after the last recorded
+    maintenance or unrecorded step, ``j.step_day``), the run's first night t_P and its true EoL (the day the
+    wear law of that segment reaches ``alarm``; may lie after the last night). None when the wear is at the
+    alarm already at t_P."""
+    days = b.days
+    marks = [(m - float(j.times[0]) + days[0] * DAY) / DAY for m in j.maintenance_times]
+    step = getattr(j, "step_day", math.nan)
+    if isinstance(step, float) and math.isfinite(step):
+        marks.append(step)
+    start = max([m for m in marks if m <= days[-1]], default=-math.inf)
+    idx = np.nonzero(days >= start)[0]
+    if len(idx) == 0:
+        return None
+    t_p = float(days[idx[0]])
+    eol = float(j.segment_crossing(t_p, alarm))
+    if not eol > t_p:
+        return None
+    return idx, t_p, eol
+
+
+def score_prognostics(joints: Sequence[Any], backtests: Sequence[NightlyBacktest], cfg: TrendConfig, *,
+                      alpha: float = 0.2, lam: float = 0.5, ph_alpha: float = 0.05, beta: float = 0.5,
+                      beta_criterion: bool = False,
+                      prior: RatePrior | None = None) -> dict[str, dict[str, Any]]:
+    """Per family (``j.profile``) and ``"all"``: α-λ accuracy and prognostic horizon of the trend's time to
+    alarm, one run per joint (:func:`joint_run`), the prediction of each night the trend's *median* (a point
+    prediction; a night without a time to alarm, no growth detected, predicts "never").
+
+    ``alpha_lambda``: the fraction of the scoreable joints (a night between t_λ and EoL in the history) that
+    pass :func:`alpha_lambda` (α = ``alpha``, λ = ``lam``, decided with the median); ``alpha_lambda_joints``
+    how many were scoreable. ``ph_*``: over the joints whose EoL falls within their history (whose every
+    prediction up to the event is seen), the median prognostic horizon (days; a joint never within the zone
+    counts 0), the median PH / (EoL − t_P), how many joints never entered the zone; ``ph_stay_*`` the same with
+    ``stay=True``. The zone: ±``ph_alpha``·(EoL − t_P). With ``beta_criterion`` also
+    ``alpha_lambda_beta``: α-λ decided with the β-criterion on the trend's whole distribution at the same night
+    (:func:`tta_probability` of the cone ≥ ``beta``; a night without growth detected fails), which re-runs the
+    trend once per joint.
+    """
+    acc: dict[str, dict[str, list[Any]]] = {}
+    for j, b in zip(joints, backtests):
+        rows = [acc.setdefault(k, {"al": [], "alb": [], "ph": [], "ph_rel": [], "stay": [], "stay_rel": []})
+                for k in (j.profile, "all")]
+        run = joint_run(j, b, cfg.alarm)
+        if run is None:
+            continue
+        idx, t_p, eol = run
+        t = b.days[idx]
+        rul = np.where(b.growth[idx] & np.isfinite(b.lo90[idx]), b.median[idx], np.inf)
+        al = alpha_lambda(t, rul, eol, t_p, alpha=alpha, lam=lam)
+        alb: bool | None = None
+        k = lambda_index(t, eol, t_p, lam)
+        if beta_criterion and k is not None:
+            night = int(idx[k])
+            r_true = eol - float(t[k])
+            alb = bool(np.isfinite(rul[k])) and tta_probability(
+                j, cfg, night, (1 - alpha) * r_true, (1 + alpha) * r_true, prior) >= beta
+        seen = eol <= float(b.days[-1]) + 1.0
+        ph = prognostic_horizon(t, rul, eol, alpha=ph_alpha, t_origin=t_p) if seen else math.nan
+        ph_s = prognostic_horizon(t, rul, eol, alpha=ph_alpha, t_origin=t_p, stay=True) if seen else math.nan
+        for a in rows:
+            if al is not None:
+                a["al"].append(al)
+            if alb is not None:
+                a["alb"].append(alb)
+            if seen:
+                for key, v in (("ph", ph), ("stay", ph_s)):
+                    a[key].append(0.0 if math.isnan(v) else v)
+                    a[key + "_rel"].append(0.0 if math.isnan(v) else v / (eol - t_p))
+    out: dict[str, dict[str, Any]] = {}
+    for key, a in acc.items():
+        out[key] = {
+            "alpha_lambda": float(np.mean(a["al"])) if a["al"] else math.nan,
+            "alpha_lambda_joints": len(a["al"]),
+            "alpha_lambda_beta": float(np.mean(a["alb"])) if a["alb"] else math.nan,
+            "ph_joints": len(a["ph"]),
+            "ph_median_days": float(np.median(a["ph"])) if a["ph"] else math.nan,
+            "ph_median_rel": float(np.median(a["ph_rel"])) if a["ph_rel"] else math.nan,
+            "ph_never": sum(1 for v in a["ph"] if v == 0.0),
+            "ph_stay_median_days": float(np.median(a["stay"])) if a["stay"] else math.nan,
+            "ph_stay_median_rel": float(np.median(a["stay_rel"])) if a["stay_rel"] else math.nan,
+            "ph_stay_never": sum(1 for v in a["stay"] if v == 0.0),
+        }
+    return out
