@@ -168,7 +168,7 @@ def plot_current_wear(path: Path, rows: Sequence[tuple[str, float, float, str, s
                   else (0.0, 100.0)))
     ax.set_yticks(range(len(rows)), [r[0] for r in rows], fontsize=7)
     ax.set_ylim(-0.8, max(len(rows), 1) - 0.2)
-    ax.set_xlabel("current wear (trend) with its 90 % interval, " + WEAR_LABEL)
+    ax.set_xlabel("wear the condition level stands on, with its 90 % interval, " + WEAR_LABEL)
     ax.grid(axis="x", alpha=0.3)
     if title:
         ax.set_title(title, fontsize=9, pad=12)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -122,7 +123,14 @@ def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], 
     if args.time_origin is None and first < ScreenConfig().min_time:
         raise UsageError(f"{path}: its time column starts at {first:.0f} s, not a time since the epoch (before "
                          "2010): give --time-origin, when its time 0 was (ISO 8601, e.g. 2026-03-01T06:00:00Z)")
+    few = [c for c in cycles if c.evidence == "insufficient"]
+    if few:  # fewer distinct speeds than a wear level needs (jointwear_ros.condition): not an estimate to store
+        print(f"{path}: {len(few)} cycle(s) with too few speeds for a wear level not stored (cycle "
+              + ", ".join(f"{c.joint}/{c.cycle}" for c in few[:5]) + (", ..." if len(few) > 5 else "") + ")",
+              file=sys.stderr)
     for c in cycles:
+        if c.evidence == "insufficient":
+            continue
         out.append(EstimateRecord(
             robot=args.robot, joint=c.joint, cycle_id=c.cycle, time=c.time + origin, wear=float(c.result.wear),
             wear_std=float(c.result.wear_std), hardware_id=f"{args.robot}/{c.joint}",

@@ -125,7 +125,8 @@ def cmd_trend(args: argparse.Namespace) -> int:
     for key, (recs, events) in sorted(hist.items()):
         r = analyze_joint([x.time for x in recs], [x.wear for x in recs], [x.wear_std for x in recs],
                           cycle_ids=[x.cycle_id for x in recs], maintenance_times=[e.time for e in events],
-                          cfg=cfg, robot=key[0], joint=key[1], smooth=draw, prior=priors.get(key))
+                          cfg=cfg, robot=key[0], joint=key[1], smooth=draw, prior=priors.get(key),
+                          evidence=[x.evidence for x in recs])
         results.append(r)
         raw[key] = (recs, events)
     now = time.time()

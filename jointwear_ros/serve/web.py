@@ -49,6 +49,13 @@ COLORS = {"OK": "#2e7d32", "WARN": "#ef6c00", "ERROR": "#c62828", "STALE": "#6d4
 # ---------------------------------------------------------------------------- metrics
 
 
+def _level_point(v: JointView) -> tuple[float, float]:
+    """The estimate a joint's condition level stands on (the trend's wear when there is none)."""
+    if math.isfinite(v.level_wear):
+        return v.level_wear, v.level_wear_std
+    return v.wear, v.wear_std
+
+
 class _PlantCollector:
     """Per-joint gauges from the current snapshot, and the store's health. While the store cannot be read the
     per-joint series keep the last known values (``jointwear_store_up`` 0 marks them): an alert on a joint's
@@ -284,28 +291,15 @@ class _Plots:
 
     def plant(self, snap: Snapshot) -> bytes:
         def draw(path: Path) -> None:
-            from ..plots import new_figure, save_figure
+            from ..plots import plot_current_wear
 
             views = list(reversed(rank_views(snap.views)[:200]))
-            fig, axes = new_figure(size=(9.0, 1.2 + 0.24 * max(len(views), 1)))
-            ax = axes[0][0]
-            for i, v in enumerate(views):
-                c = COLORS[v.level_name]
-                if math.isfinite(v.wear):
-                    ax.errorbar([v.wear], [i], xerr=[[1.645 * v.wear_std]], fmt="o", color=c, ms=5, capsize=3)
-                ax.text(101, i, v.level_name, va="center", fontsize=7, color=c, fontweight="bold")
-            alarm = self.watcher.cfg.alarm
-            ax.axvline(alarm, color="tab:red", lw=1.2, ls="--")
-            ax.text(alarm + 0.8, len(views) - 0.45, f"alarm {alarm:g}", color="tab:red", fontsize=7, va="top")
-            ax.set_yticks(range(len(views)), [f"{v.robot} / {v.joint}" for v in views], fontsize=7)
-            ax.set_xlim(0, 108)
-            ax.set_ylim(-0.8, len(views) - 0.2)
-            ax.set_xlabel("current wear (trend) with its 90 % interval")
-            ax.grid(axis="x", alpha=0.3)
             shown = f"{len(views)} joints" if len(views) == len(snap.views) else \
                 f"the first {len(views)} of {len(snap.views)} joints"
-            ax.set_title(f"{shown}, ranked: ERROR, WARN, STALE, OK (read {_ts(snap.loaded_at)})", fontsize=9)
-            save_figure(fig, path)
+            # each joint at the estimate its condition level stands on, so the colour and the point agree
+            plot_current_wear(path, [(f"{v.robot} / {v.joint}", *_level_point(v), v.level_name, COLORS[v.level_name])
+                                     for v in views], self.watcher.cfg.alarm,
+                              title=f"{shown}, ranked: ERROR, WARN, STALE, OK (read {_ts(snap.loaded_at)})")
 
         return self.get(("plant", snap.version), draw)
 
