@@ -97,17 +97,25 @@ def _plot_changes(changes: Sequence[JointChange], path: Path, v_from: str, v_to:
 _CSS = """body{font-family:sans-serif;margin:1.5em;max-width:1100px}
 table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}
 td.l,th.l{text-align:left}.ERROR{background:#f8c8c8}.WARN{background:#fbe7b0}.OK{background:#dff3df}
+.STALE{background:#e8dcd6}
 img{max-width:100%}.joint{margin:1em 0;border-top:1px solid #ddd}"""
 
 
 def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None = None,
                  from_version: str | None = None, to_version: str | None = None, cfg: Any = None,
-                 title: str = "jointwear fleet") -> Path:
+                 title: str = "jointwear fleet", stale_days: float = 7.0, now: float | None = None) -> Path:
     """Write the fleet page of ``store`` to ``out``; return the path of ``index.html``.
 
     ``version``: the analysis version ranked and plotted (default: the newest written).
     ``from_version``/``to_version``: the changes section (default: the two newest, when there are two).
+    Each joint's level is the plant's (:func:`~jointwear_ros.serve.core.plant_level`: the condition level, STALE
+    when its newest estimate is older than ``stale_days`` at ``now`` and it is not ERROR), as ``trend --json``,
+    ``jointwear serve`` and ``/metrics`` show it; the forecast is its own column.
     """
+    import time as _time
+
+    from ..serve.core import LEVEL_NAMES, plant_level
+
     from ..errors import InputDataError
     from ..history import trends_from_store
     from ..trend import TrendConfig
@@ -126,8 +134,15 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
         from_version, to_version = versions[-2], versions[-1]
     cfg = cfg if cfg is not None else TrendConfig()
     alarm = float(cfg.alarm)
-    trends = sorted(trends_from_store(store, cfg, analysis_version=version), key=rank_key)
+    trends = trends_from_store(store, cfg, analysis_version=version)
     history = store.history(version)
+    t_now = _time.time() if now is None else float(now)
+    shown: dict[tuple[str, str], str] = {}
+    for t in trends:
+        newest = max((r.time for r in history[(t.robot, t.joint)][0]), default=math.nan)
+        shown[(t.robot, t.joint)] = LEVEL_NAMES[plant_level(t.level, newest, t_now, stale_days)]
+    order = {"ERROR": 0, "WARN": 1, "STALE": 2, "OK": 3}
+    trends = sorted(trends, key=lambda t: (order[shown[(t.robot, t.joint)]], *rank_key(t)[1:]))
     changes: list[JointChange] = []
     if from_version is not None and to_version is not None:
         changes = compare_versions(store, from_version, to_version, cfg)
@@ -149,21 +164,34 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
     parts.append("<h2>Robots, most urgent first</h2><table><tr><th class=l>robot</th><th>joints</th>"
                  "<th class=l>worst level</th><th class=l>most urgent joint</th><th class=l>time to alarm "
                  "(median, 90 %)</th></tr>")
-    for robot, ts in sorted(by_robot.items(), key=lambda kv: rank_key(kv[1][0])):
+    rank = {(t.robot, t.joint): i for i, t in enumerate(trends)}
+    for robot, ts in sorted(by_robot.items(), key=lambda kv: rank[(kv[1][0].robot, kv[1][0].joint)]):
         w = ts[0]
-        parts.append(f"<tr class={w.level_name}><td class=l>{e(robot)}</td><td>{len(ts)}</td>"
-                     f"<td class=l>{w.level_name}</td><td class=l><a href='#{_slug(w.robot, w.joint)}'>"
+        lw = shown[(w.robot, w.joint)]
+        parts.append(f"<tr class={lw}><td class=l>{e(robot)}</td><td>{len(ts)}</td>"
+                     f"<td class=l>{lw}</td><td class=l><a href='#{_slug(w.robot, w.joint)}'>"
                      f"{e(w.joint)}</a></td><td class=l>{e(_tta_text(w))}</td></tr>")
     parts.append("</table>")
-    parts.append("<h2>Joints ranked by time to alarm</h2><table><tr><th>#</th><th class=l>robot</th>"
-                 "<th class=l>joint</th><th class=l>level</th><th>estimates</th><th>wear</th><th>± std</th>"
-                 "<th>rate /day</th><th class=l>time to alarm (median, 90 %)</th></tr>")
+    parts.append("<h2>Joints ranked by condition level, then time to alarm</h2><p>Condition level (the standing "
+                 "estimate against warn and alarm) and forecast (alarm expected within the horizon) as every "
+                 f"jointwear surface shows them (docs/levels.md); STALE: no estimate for {stale_days:g} days and "
+                 "not ERROR.</p><table><tr><th>#</th>"
+                 "<th class=l>robot</th><th class=l>joint</th><th class=l>level</th><th class=l>forecast</th>"
+                 "<th>estimates</th><th>level wear</th><th>trend wear</th><th>± std</th>"
+                 "<th>rate /day</th><th class=l>time to alarm (median, 90 %)</th><th class=l>newest estimate</th></tr>")
     for i, t in enumerate(trends, 1):
-        parts.append(f"<tr class={t.level_name}><td>{i}</td><td class=l>{e(t.robot)}</td>"
+        lv = shown[(t.robot, t.joint)]
+        fc = "alarm expected" if t.alarm_expected else "–"
+        note = {"unconfirmed": "held (unconfirmed)", "step": "step"}.get(t.confirmation, "")
+        if t.evidence == "partial":
+            note = (note + ", " if note else "") + "partial cycle"
+        parts.append(f"<tr class={lv}><td>{i}</td><td class=l>{e(t.robot)}</td>"
                      f"<td class=l><a href='#{_slug(t.robot, t.joint)}'>{e(t.joint)}</a></td>"
-                     f"<td class=l>{t.level_name}</td><td>{t.estimates}</td><td>{_fmt(t.wear)}</td>"
+                     f"<td class=l data-level='{lv}'>{lv}</td><td class=l data-alarm-expected="
+                     f"'{'true' if t.alarm_expected else 'false'}'>{fc}</td><td>{t.estimates}</td>"
+                     f"<td>{_fmt(t.level_wear)}</td><td>{_fmt(t.wear)}</td>"
                      f"<td>{_fmt(t.wear_std)}</td><td>{_fmt(t.rate_per_day, '+.3f')}</td>"
-                     f"<td class=l>{e(_tta_text(t))}</td></tr>")
+                     f"<td class=l>{e(_tta_text(t))}</td><td class=l>{e(note)}</td></tr>")
     parts.append("</table>")
     if changes:
         n_changed = sum(c.changed for c in changes)
@@ -191,7 +219,7 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
         recs, events = history[(t.robot, t.joint)]
         plot_trend(img / f"{slug}.png", t, cfg, [r.time for r in recs], [r.wear for r in recs],
                    [r.wear_std for r in recs], [e.time for e in events])
-        parts.append(f"<div class=joint id='{slug}'><h3>{e(t.robot)} / {e(t.joint)}: {t.level_name}</h3>"
+        parts.append(f"<div class=joint id='{slug}'><h3>{e(t.robot)} / {e(t.joint)}: {shown[(t.robot, t.joint)]}</h3>"
                      f"<p>{e(t.message)}</p><img src='img/{slug}.png' alt='trend of {e(t.robot)} {e(t.joint)}'>"
                      "</div>")
     parts.append("</body></html>\n")

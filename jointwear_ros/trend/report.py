@@ -31,11 +31,16 @@ Z90 = 1.6448536269514722
 Array = NDArray[np.float64]
 
 
+#: the order levels are ranked in on every surface (serve's rank_views too)
+LEVEL_RANK = {2: 0, 1: 1, 3: 2, 0: 3}
+
+
 def rank_key(r: TrendResult) -> tuple[float, float, str, str]:
-    """Sort key: ERROR, WARN, OK; within a level the soonest median time to alarm first."""
+    """Sort key: ERROR, WARN, STALE, OK; within a level the soonest median time to alarm first."""
     tta = r.time_to_alarm
     med = math.inf if tta is None else tta.median
-    return (-float(r.level), med if math.isfinite(med) else 1e12 + (0 if tta is not None else 1), r.robot, r.joint)
+    return (float(LEVEL_RANK.get(int(r.level), 4)), med if math.isfinite(med) else 1e12 + (0 if tta is not None else 1),
+            r.robot, r.joint)
 
 
 def _dt(t: np.ndarray) -> list[datetime]:
@@ -186,8 +191,9 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
     if forecast and tta is not None and tta.median > 0:
         title += (f" - alarm in {_fmt_days(tta.median)} d (90 %: {_fmt_days(tta.lo90)} to "
                   f"{_fmt_days(tta.hi90)} d)")
-    else:
-        title += " - " + r.message.split(";")[0]
+    else:  # the forecast's own reason (no growth, too few estimates, at the alarm), after the condition's
+        fc = r.message.split("forecast: ", 1)[1] if "forecast: " in r.message else r.message
+        title += " - " + fc.split(";")[0]
     ax.set_title(title, fontsize=9)
     if forecast and tta is not None and tta.unbounded_reason:
         import textwrap
