@@ -114,10 +114,9 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
     """
     import time as _time
 
-    from ..serve.core import LEVEL_NAMES, plant_level
-
     from ..errors import InputDataError
     from ..history import trends_from_store
+    from ..serve.core import LEVEL_NAMES, plant_level
     from ..trend import TrendConfig
 
     versions = newest_versions(store)
