@@ -193,6 +193,18 @@ def test_page_api_metrics_and_trend_json_agree_on_every_joint_of_a_plant(plant_d
     assert newest[OUTLIER_JOINT].wear > rows[OUTLIER_JOINT]["level_wear"] + 15
     assert tj[OUTLIER_JOINT]["condition"]["held"][-1]["status"] == "unconfirmed"
     assert rows[PARTIAL_JOINT]["evidence"] == "partial" and tj[PARTIAL_JOINT]["condition"]["evidence"] == "partial"
+    # the fleet page (a static report of the same store) shows the same level and forecast for every joint
+    from jointwear_ros.fleet.report import write_report
+
+    with HistoryStore(plant_db) as store:
+        index = write_report(store, Path(plant_db).parent / "fleet_page", version="live")
+    fleet = index.read_text()
+    rows_f = {(r, j): (lv, ex) for r, j, lv, ex in re.findall(
+        r"<td class=l>(\w+)</td><td class=l><a href='#[^']*'>(\w+)</a></td><td class=l data-level='(\w+)'>\w+</td>"
+        r"<td class=l data-alarm-expected='(\w+)'>", fleet)}
+    assert set(rows_f) == set(expected)
+    for key in expected:
+        assert rows_f[key] == (tj[key]["level"], "true" if tj[key]["alarm_expected"] else "false"), key
     counts = {name: float(sum(1 for k in tj if tj[k]["level"] == name)) for name in ("OK", "WARN", "ERROR", "STALE")}
     assert m["jointwear_joints"] == counts and counts["WARN"] >= 2 and counts["ERROR"] == counts["STALE"] == 1
     assert m["jointwear_store_up"][""] == 1.0 if "" in m["jointwear_store_up"] else True
