@@ -265,9 +265,11 @@ def reprocess(
     def flush() -> None:
         nonlocal last_flush
         if pending:
-            report.estimates += store.add_estimates([EstimateRecord(**r) for o in pending for r in o.records])
-            mark_done(store, version, pending)
+            # taken out first: a batch the store refused is reported once, not written again by the `finally`
+            done_now = pending[:]
             pending.clear()
+            report.estimates += store.add_estimates([EstimateRecord(**r) for o in done_now for r in o.records])
+            mark_done(store, version, done_now)
         last_flush = time.perf_counter()
 
     try:
