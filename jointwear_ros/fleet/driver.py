@@ -102,8 +102,9 @@ class Progress:
     def ready(self, workers: int, bags: int) -> None:
         """One line when the workers are up and the handler of Ctrl-C is in place, before any bag is sent."""
         if self.enabled:
-            self.stream.write(("\r" if self._tty else "") + f"reprocess: {workers} worker(s) ready, {bags} bag(s) "
-                              "to replay (Ctrl-C stops the run after the bags in progress are written)\n")
+            text = f"reprocess: {workers} worker(s) ready, {bags} bag(s) to replay (Ctrl-C stops the run; the bags " \
+                   "finished by then are kept)"
+            self.stream.write(("\r" + text.ljust(len(self.line())) if self._tty else text) + "\n")
             self.stream.flush()
 
     def close(self) -> None:
