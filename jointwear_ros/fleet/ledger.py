@@ -15,7 +15,7 @@ only reads and writes it, through the store's backend.
 
 Concurrent writers (two re-analyses of overlapping bags, a wear_trend node) can meet in the database: a
 PostgreSQL deadlock (SQLSTATE ``40P01``) or serialization failure (``40001``), an SQLite write lock still
-held after its busy timeout (``SQLITE_BUSY``/``SQLITE_LOCKED``). Each read and write here is one
+held after its busy timeout (``SQLITE_BUSY``/``SQLITE_LOCKED``). The ledger's read and its write are each one
 transaction, retried up to :data:`RETRIES` times with a doubling pause when the error is one of these,
 decided by the driver's exception (its SQLSTATE or SQLite error code, never its text:
 :func:`is_transient`); a transient error that outlasts the retries is a :class:`LedgerBusyError` (one
