@@ -21,6 +21,7 @@ __all__ = [
     "ModelError",
     "ParameterError",
     "ParameterSetError",
+    "TransientError",
 ]
 
 
@@ -42,3 +43,8 @@ class ParameterSetError(JointwearError):
 
 class InputDataError(JointwearError):
     """Input data from outside (CSV, bag, message, argument) is malformed."""
+
+
+class TransientError(JointwearError):
+    """A resource stayed busy through every retry (a database deadlock, a lock another writer held): nothing
+    was wrong with the input, and running again may succeed. The CLI's exit code is 2, like every error here."""

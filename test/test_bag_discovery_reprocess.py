@@ -139,15 +139,13 @@ def test_ctrl_c_during_fleet_reprocess_prints_one_line(tmp_path):
                           "--db", str(tmp_path / "c.db"), "--workers", "2"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
                          env=dict(os.environ))
-    progress = []
-    while True:  # wait for the first bag done (the progress bar says so), then Ctrl-C the process group
+    while True:  # wait for the line saying the workers are up and Ctrl-C is handled, then Ctrl-C the process group
         line = p.stderr.readline()
-        assert line, "reprocess ended before any progress"
-        progress.append(line)
-        if line.startswith("reprocess [") and " 0 done" not in line:
+        assert line, "reprocess ended before it said it was ready"
+        if line.startswith("reprocess: ") and "ready" in line:
             break
     os.killpg(p.pid, signal.SIGINT)
     _out, err = p.communicate(timeout=120)
-    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("reprocess [")]
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("reprocess")]
     assert p.returncode == 130 and lines == ["jointwear: interrupted"], err
     assert len(paths) == 40

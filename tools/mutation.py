@@ -457,6 +457,27 @@ MUTANTS: tuple[Mutant, ...] = (
            "jointwear_ros/trend/core.py", "type2_weights",
            expr("range(iterations)", "range(1)"),
            ("test/test_trend_bank.py",), select="type2_weights_maximize", fast=True),
+    # -- guards no test held (issue 28): each with the test that now holds it ---------------------
+    Mutant("history_std_min_lowered", "the history's minimum std lowered to 1e-9 (one row with std 1e-6 turned "
+                                      "ERROR 38.9 into OK 0.0)",
+           "jointwear_ros/history/screen.py", "ScreenConfig",
+           stmts("std_min: float = 1e-3", "std_min: float = 1e-9"),
+           ("test/test_faults28_guards.py",), select="std_1e_minus_6", fast=True),
+    Mutant("commission_noise_at_floor", "a commissioned set keeps the noise floor as its noise std when the model "
+                                        "misses an effect (estimates 2.3x overconfident)",
+           "jointwear_ros/commission/core.py", "commission",
+           expr("noise_std < fit.rmse and not nf.consistent", "False"),
+           ("test/test_faults28_guards.py",), select="misses_an_effect", fast=True),
+    Mutant("bound_tolerance_tight", "the bound detector's tolerance 1e-6 -> 1e-12 (a value a solver leaves beside "
+                                    "its bound is not on it)",
+           "jointwear_ros/model/scaling.py", "on_bound",
+           expr("1e-6", "1e-12"),
+           ("test/test_faults28_guards.py",), select="bound_detector", fast=True),
+    Mutant("bound_tolerance_wide", "the bound detector's tolerance 1e-6 -> 1e-2 (a value 1 % inside its bound "
+                                   "counts as on it)",
+           "jointwear_ros/model/scaling.py", "on_bound",
+           expr("1e-6", "1e-2"),
+           ("test/test_faults28_guards.py",), select="bound_detector", fast=True),
 )
 
 

@@ -13,13 +13,14 @@ anywhere can simply be started again.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -98,6 +99,14 @@ class Progress:
             self.stream.write(self.line() + "\n")
             self._next = n + max(1, math.ceil(self.total / 10))
 
+    def ready(self, workers: int, bags: int) -> None:
+        """One line when the workers are up and the handler of Ctrl-C is in place, before any bag is sent."""
+        if self.enabled:
+            text = f"reprocess: {workers} worker(s) ready, {bags} bag(s) to replay (Ctrl-C stops the run; the bags " \
+                   "finished by then are kept)"
+            self.stream.write(("\r" + text.ljust(len(self.line())) if self._tty else text) + "\n")
+            self.stream.flush()
+
     def close(self) -> None:
         if self.enabled and self._tty:
             self.stream.write("\n")
@@ -128,22 +137,11 @@ def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Ca
         return client, client.close
     if workers < 1:
         raise InputDataError(f"--workers {workers}: must be at least 1")
-    # The worker processes ignore SIGINT (they inherit it from here): Ctrl-C reaches the whole process
-    # group, and only this process should act on it (one line, `jointwear: interrupted`); the workers
-    # are stopped when the cluster is closed, not killed mid-task printing their tracebacks.
-    import signal
-    import threading
-
-    main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
-    try:
+    with _sigint_held():
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # no fixed port 8787
                                silence_logs=logging.ERROR)
-    finally:
-        if main_thread:
-            signal.signal(signal.SIGINT, previous)
-    client = Client(cluster)
+        client = Client(cluster)
 
     def close() -> None:
         client.close()
@@ -152,13 +150,44 @@ def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Ca
     return client, close
 
 
+@contextlib.contextmanager
+def _sigint_held() -> Iterator[None]:
+    """SIGINT blocked in the main thread while Dask starts: held pending, delivered when the block ends.
+
+    Ctrl-C reaches the whole process group, and only this process should act on it (one line,
+    `jointwear: interrupted`), not the worker processes, killed mid-task printing their tracebacks. Every
+    thread Dask starts here inherits the block, and so does every worker process those threads spawn (a
+    process keeps its signal mask across exec): the workers never receive SIGINT; they are stopped when the
+    cluster is closed. A Ctrl-C while the cluster starts (seconds under load) stays pending and is delivered
+    to this thread at the end of the block. (Ignoring SIGINT meanwhile, as before, lost it: a Ctrl-C during
+    startup was discarded and the run went on to the last bag, exit 0.)
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signals are handled in the main thread only; nothing to hold here
+        return
+    import multiprocessing.resource_tracker
+    import signal
+
+    # multiprocessing's resource tracker, started by the first spawned worker, unblocks SIGINT in the thread
+    # that starts it (the Dask loop's): started here first, that thread keeps the block its workers inherit
+    multiprocessing.resource_tracker.ensure_running()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 class _InterruptFlag:
     """SIGINT (Ctrl-C) recorded by a handler of our own in the main thread: :meth:`check` raises
-    KeyboardInterrupt once it came, however the code running when it arrived treated the exception."""
+    KeyboardInterrupt once it came, however the code running when it arrived treated the exception (one
+    raised inside a finalizer, such as a Dask future's ``__del__``, is printed and dropped by Python)."""
 
     def __init__(self, previous: Any) -> None:
         self.previous = previous
         self.seen = threading.Event()
+        #: raise KeyboardInterrupt at once (else only record it: while something must not be cut half-way)
+        self.armed = True
 
     @classmethod
     def install(cls) -> _InterruptFlag:
@@ -170,7 +199,8 @@ class _InterruptFlag:
 
         def on_sigint(signum: int, frame: Any) -> None:
             flag.seen.set()
-            raise KeyboardInterrupt
+            if flag.armed:
+                raise KeyboardInterrupt
 
         signal.signal(signal.SIGINT, on_sigint)
         return flag
@@ -252,22 +282,38 @@ def reprocess(
 
     op, mp = default_node_params()
     close: Callable[[], None] | None = None
-    if client is None:
-        client, close = open_client(scheduler, workers)
-    # Ctrl-C is honoured at the next finished bag whatever the Dask client does with the KeyboardInterrupt it may
-    # receive (it was seen to end a run of 40 bags with exit 0 under load): our own handler records it
+    # Ctrl-C from here on is recorded by a handler of our own (and honoured at the next finished bag whatever the
+    # code running when it came did with the KeyboardInterrupt); while the cluster starts it is held pending
+    # (open_client), recorded as it is delivered at the end of that, and honoured once the cluster can be closed
     interrupted = _InterruptFlag.install()
-    report.workers = _n_workers(client)
-    report.scheduler = str((getattr(client, "scheduler", None) and client.scheduler.address) or "")
+    try:
+        if client is None:
+            interrupted.armed = False
+            client, close = open_client(scheduler, workers)
+    finally:
+        interrupted.armed = True
+    try:
+        interrupted.check()
+        report.workers = _n_workers(client)
+        report.scheduler = str((getattr(client, "scheduler", None) and client.scheduler.address) or "")
+        bar.ready(report.workers, len(todo))
+    except BaseException:
+        interrupted.restore()
+        bar.close()
+        if close is not None:
+            close()
+        raise
     pending: list[BagOutcome] = []
     last_flush = time.perf_counter()
 
     def flush() -> None:
         nonlocal last_flush
         if pending:
-            report.estimates += store.add_estimates([EstimateRecord(**r) for o in pending for r in o.records])
-            mark_done(store, version, pending)
+            # taken out first: a batch the store refused is reported once, not written again by the `finally`
+            done_now = pending[:]
             pending.clear()
+            report.estimates += store.add_estimates([EstimateRecord(**r) for o in done_now for r in o.records])
+            mark_done(store, version, done_now)
         last_flush = time.perf_counter()
 
     try:

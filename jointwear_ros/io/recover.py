@@ -409,11 +409,13 @@ def _old_metadata(bag: Path) -> tuple[dict[str, Any], str]:
         return {}, "missing"
     import yaml
 
+    from .bags import metadata_problem
+
     try:
         doc = yaml.safe_load(meta.read_text())
         info = doc.get("rosbag2_bagfile_information") if isinstance(doc, dict) else None
-        if not isinstance(info, dict):
-            return {}, "unreadable"
+        if not isinstance(info, dict) or metadata_problem(info):
+            return {}, "unreadable"  # rebuilt from the MCAP alone (a number where a list belongs, ...)
         return info, "read"
     except (yaml.YAMLError, OSError, UnicodeDecodeError):
         return {}, "unreadable"
@@ -424,6 +426,29 @@ def _iter_sources(src: Path) -> Iterator[Path]:
     if not files:
         raise InputDataError(f"{src}: no .mcap file to recover (give the bag directory or its .mcap file)")
     yield from files
+
+
+def _looks_like_mcap(f: Path) -> bool:
+    """The file starts with the MCAP magic, or with as much of it as it holds (a recording cut at its first bytes,
+    or never written: a zero-byte file of a killed recorder is an empty bag)."""
+    try:
+        with f.open("rb") as fh:
+            head = fh.read(len(MAGIC))
+    except OSError as exc:
+        raise InputDataError(f"{f}: cannot open ({exc.strerror or exc})") from None
+    return MAGIC.startswith(head) if len(head) < len(MAGIC) else head == MAGIC
+
+
+def _refuse_non_bag(src: Path, sources: list[Path]) -> None:
+    """A source none of whose files is MCAP (a text file, a directory of files named .mcap that are not) is not
+    a bag: nothing could be recovered from it, and nothing is written."""
+    if src.is_file() and src.suffix != ".mcap" and not (src.stat().st_size and _looks_like_mcap(src)):
+        raise InputDataError(f"{src}: not a bag (recover reads a rosbag2 MCAP bag: its directory or its .mcap "
+                             "file); nothing written")
+    if not any(_looks_like_mcap(f) for f in sources):
+        which = (f"{sources[0].name} does not start" if len(sources) == 1 else
+                 f"none of its {len(sources)} .mcap files starts")
+        raise InputDataError(f"{src}: not an MCAP bag ({which} with the MCAP magic); nothing written")
 
 
 def recover_bag(src: str | os.PathLike[str], out: str | os.PathLike[str] | None = None) -> RecoverReport:
@@ -438,6 +463,8 @@ def recover_bag(src: str | os.PathLike[str], out: str | os.PathLike[str] | None 
     s = Path(src)
     if not s.exists():
         raise InputDataError(f"{s}: no such bag or file")
+    sources = list(_iter_sources(s))
+    _refuse_non_bag(s, sources)  # before --out is chosen or checked: a non-bag writes nothing anywhere
     bag_dir = (s.parent if s.is_file() else s).resolve()  # absolute: "x.mcap" run from its own folder has parent "."
     dst = Path(out) if out is not None else bag_dir.with_name(bag_dir.name + "_recovered")
     if dst.exists():
@@ -446,7 +473,6 @@ def recover_bag(src: str | os.PathLike[str], out: str | os.PathLike[str] | None 
         raise InputDataError(f"{dst.parent}: no such directory for --out")
     if dst.resolve() == bag_dir.resolve() or bag_dir.resolve() in dst.resolve().parents:
         raise InputDataError(f"{dst}: --out must be outside the source bag {bag_dir}")
-    sources = list(_iter_sources(s))
     old, old_state = _old_metadata(bag_dir)
     old_qos: dict[str, list[Any]] = {}
     for t in old.get("topics_with_message_count") or []:
