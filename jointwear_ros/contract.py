@@ -10,8 +10,6 @@ nodes, the bag reader, replay, the recorder and the CLI share them.
 
 >>> CycleState.RUNNING == 1, CycleState(4).name
 (True, 'FAILED')
->>> DiagnosticLevel.for_wear(31.0, warn=30.0, alarm=35.0).name
-'WARN'
 >>> CycleState.name_of(9), DiagnosticLevel.name_of(2)
 ('9', 'ERROR')
 >>> seconds_to_stamp_fields(12.25)
@@ -202,17 +200,6 @@ class DiagnosticLevel(_Contract):
     WARN = 1
     ERROR = 2
     STALE = 3
-
-    @classmethod
-    def for_wear(cls, wear: float, warn: float, alarm: float) -> DiagnosticLevel:
-        """OK below ``warn``, WARN in ``[warn, alarm)``, ERROR at ``wear >= alarm``; a NaN wear is WARN."""
-        if not math.isfinite(wear):
-            return cls.WARN
-        if wear >= alarm:
-            return cls.ERROR
-        if wear >= warn:
-            return cls.WARN
-        return cls.OK
 
 
 class RefusalReason(_Contract):

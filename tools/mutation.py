@@ -281,16 +281,26 @@ MUTANTS: tuple[Mutant, ...] = (
     # -- the alarm and the diagnostic level ---------------------------------------------------
     Mutant("alarm_forced_true", "WearEstimate.alarm is always true",
            "jointwear_ros/nodes/wear_estimator.py", "estimate_to_msg",
-           expr("bool(res.wear >= r.alarm_threshold)", "True"),
+           expr("bool(r.alarm)", "True"),
            ("test/test_nodes_observer_estimator.py",), select="exactly_the_threshold"),
-    Mutant("alarm_ge_to_gt_message", "WearEstimate.alarm uses > instead of >= (w_hat = 35 gives no alarm)",
-           "jointwear_ros/nodes/wear_estimator.py", "estimate_to_msg",
-           expr("res.wear >= r.alarm_threshold", "res.wear > r.alarm_threshold"),
-           ("test/test_nodes_observer_estimator.py",), select="exactly_the_threshold"),
-    Mutant("alarm_ge_to_gt_level", "the diagnostic level's ERROR uses > instead of >=",
-           "jointwear_ros/contract.py", "DiagnosticLevel.for_wear",
-           expr("wear >= alarm", "wear > alarm"),
-           ("test/test_monitor.py",), fast=True),
+    Mutant("alarm_ge_to_gt_level", "the condition level's ERROR uses > instead of >= (w_hat = 35 gives no alarm)",
+           "jointwear_ros/condition.py", "condition_level",
+           expr("w >= alarm", "w > alarm"),
+           ("test/test_monitor.py", "test/test_condition.py"), fast=True),
+    Mutant("warn_bound_ignored", "the condition level ignores the estimate's uncertainty (an estimate that cannot "
+                                 "rule the alarm out reads OK)",
+           "jointwear_ros/condition.py", "condition_level",
+           expr("w >= warn or w + z * s >= alarm", "w >= warn"),
+           ("test/test_monitor.py", "test/test_condition.py"), fast=True),
+    Mutant("outlier_not_held", "one estimate far from the joint's standing one moves the level at once",
+           "jointwear_ros/condition.py", "ConfirmConfig.far",
+           stmts("return d > allowance", "return False"),
+           ("test/test_condition.py",), fast=True),
+    Mutant("insufficient_speeds_give_a_level", "an estimate from 1 or 2 speeds with the temperature unknown "
+                                               "carries a level",
+           "jointwear_ros/condition.py", "min_speeds",
+           expr("1 if temperature_known else 3", "1"),
+           ("test/test_condition.py",), fast=True),
     Mutant("log_severity_one_line", "one logging line picks the severity (rclpy then logs every level as the first)",
            "jointwear_ros/nodes/wear_estimator.py", "WearEstimatorNode._log_result",
            stmts("""
@@ -478,6 +488,11 @@ MUTANTS: tuple[Mutant, ...] = (
            "jointwear_ros/model/scaling.py", "on_bound",
            expr("1e-6", "1e-2"),
            ("test/test_faults28_guards.py",), select="bound_detector", fast=True),
+    Mutant("spool_skipped_on_write_failure", "an estimate the store could not write (the store opened, the write "
+                                             "failed) is not spooled: a kill loses it",
+           "jointwear_ros/nodes/wear_trend.py", "WearTrendNode._on_estimate",
+           stmts("self._spool_append(rec)", "pass"),
+           ("test/test_faults28_wear_trend.py",), select="spool_disk_full"),
 )
 
 

@@ -84,9 +84,10 @@ class HistoryBackend(Protocol):
         answers on connect)."""
         ...
 
-    def engine(self, *, read_only: bool = False) -> Engine:
+    def engine(self, *, read_only: bool = False, lock_timeout_s: float = 30.0) -> Engine:
         """An engine to write (creating a missing database where the kind can), or, ``read_only``, one that
-        never writes and never creates anything."""
+        never writes and never creates anything. ``lock_timeout_s``: how long a statement waits for a lock
+        another writer holds before it fails (a live node keeps it short, so it is never blocked for long)."""
         ...
 
     def watch_engine(self, timeout_s: float) -> Engine:
@@ -124,14 +125,15 @@ class SqliteBackend:
     def exists(self) -> bool:
         return not self.path or Path(self.path).expanduser().is_file()
 
-    def engine(self, *, read_only: bool = False) -> Engine:
+    def engine(self, *, read_only: bool = False, lock_timeout_s: float = 30.0) -> Engine:
         f = self.file
         if read_only and f is not None:
             return _sqlite_read_only_engine(f)
         if f is not None:
             f.parent.mkdir(parents=True, exist_ok=True)
-        engine = create_engine(self.url, connect_args={"timeout": 30.0})
-        event.listen(engine, "connect", _sqlite_pragmas)
+        engine = create_engine(self.url, connect_args={"timeout": float(lock_timeout_s)})
+        ms = max(1, int(lock_timeout_s * 1000))
+        event.listen(engine, "connect", lambda conn, rec: _sqlite_pragmas(conn, rec, ms))
         return engine
 
     def watch_engine(self, timeout_s: float) -> Engine:
@@ -185,8 +187,9 @@ class PostgresBackend:
     def exists(self) -> bool:
         return True
 
-    def engine(self, *, read_only: bool = False) -> Engine:
-        engine = create_engine(self.url, pool_pre_ping=True)
+    def engine(self, *, read_only: bool = False, lock_timeout_s: float = 30.0) -> Engine:
+        opts = f"-c lock_timeout={max(1, int(lock_timeout_s * 1000))}"
+        engine = create_engine(self.url, pool_pre_ping=True, connect_args={"options": opts})
         if read_only:
             event.listen(engine, "connect", _pg_read_only)
         return engine
@@ -287,9 +290,9 @@ def _pg_read_only(dbapi_conn: Any, _record: Any) -> None:
     dbapi_conn.commit()
 
 
-def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
+def _sqlite_pragmas(dbapi_conn: Any, _record: Any, busy_ms: int = 30000) -> None:
     cur = dbapi_conn.cursor()
     cur.execute("PRAGMA journal_mode=WAL")
     cur.execute("PRAGMA synchronous=FULL")
-    cur.execute("PRAGMA busy_timeout=30000")
+    cur.execute(f"PRAGMA busy_timeout={int(busy_ms)}")
     cur.close()

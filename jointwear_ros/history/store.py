@@ -325,10 +325,15 @@ class HistoryStore:
         (in memory), ``postgresql+psycopg://...`` or ``postgresql://...``, or a bare file path.
     create : create/migrate the schema to :data:`SCHEMA_VERSION` (else it must be current).
     migrate_to : with ``create``, stop at this schema version (tests of migrations).
+    lock_timeout_s : how long a statement waits for another writer's lock before it fails (30 s; the
+        ``wear_trend`` node keeps it short so that a locked store never stops its diagnostics).
+    write_attempts : tries of a write transaction that meets a deadlock or a lock (5; the node makes one and
+        retries on its own timer).
     """
 
     def __init__(self, url: str | Path, *, create: bool = True, migrate_to: int | None = None,
-                 read_only: bool = False) -> None:
+                 read_only: bool = False, lock_timeout_s: float = 30.0, write_attempts: int = 5) -> None:
+        self.write_attempts = max(1, int(write_attempts))
         self.backend: HistoryBackend = backend_for(url)
         self.url = self.backend.url
         self.dialect = self.backend.name
@@ -336,7 +341,8 @@ class HistoryStore:
         if self.read_only:
             create = False
         try:
-            self.engine: Engine = self.backend.engine(read_only=self.read_only)
+            self.engine: Engine = (self.backend.engine(read_only=True) if self.read_only else
+                                   self.backend.engine(lock_timeout_s=lock_timeout_s))
             found = self.schema_version()
             if found > SCHEMA_VERSION:
                 raise HistoryError(f"{self.display_url}: schema version {found} was written by a newer jointwear "
@@ -486,7 +492,7 @@ class HistoryStore:
         # orders deadlock on PostgreSQL's unique index (seen with 4 writers); sorted, they queue instead
         rows.sort(key=lambda d: (d["robot"], d["joint"], d["analysis_version"], d["cycle_id"], d["time_ns"]))
         bad_rows.sort(key=lambda d: (d["robot"], d["joint"], d["analysis_version"], d["cycle_id"], d["time"]))
-        for attempt in range(5):
+        for attempt in range(self.write_attempts):
             n = nb_new = 0
             try:
                 with self.engine.begin() as conn:
@@ -498,7 +504,7 @@ class HistoryStore:
                         nb_new += len(conn.execute(bad_stmt, bad_rows[start:start + 1000]).all())
                 break
             except OperationalError as exc:  # deadlock / serialization failure / locked: retry the transaction
-                if attempt == 4 or not _retryable(exc):
+                if attempt == self.write_attempts - 1 or not _retryable(exc):
                     raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
                 _time.sleep(0.05 * (attempt + 1))
             except SQLAlchemyError as exc:

@@ -36,8 +36,12 @@ reaches the trend. The node keeps running.
 
 **Nothing reported is lost.** When the store fails (disk full, PostgreSQL down,
 a locked or damaged file), the estimates it could not take wait in a bounded
-buffer (``buffer_max``), spooled to ``buffer_path`` on disk when it can be
-written, and are written again every ``retry_period`` until the store takes them
+buffer (``buffer_max``), spooled to ``buffer_path`` (default under ``$ROS_HOME``,
+never beside the store's file; the node warns when it shares the store's disk)
+and, when that cannot be written either (the same disk is full), to a RAM file
+in ``/dev/shm`` that survives the node being killed; both are reloaded on start.
+A locked store makes a statement fail after ``store_lock_timeout`` (0.5 s), never
+blocking the node: its diagnostics keep their period. They are written again every ``retry_period`` until the store takes them
 (inserts are idempotent: none twice); meanwhile ``/diagnostics`` says ERROR on
 ``wear_trend: history`` and names the failure on every joint ("history store
 failing: ...", ``buffered``) without changing its condition level, and each joint's
@@ -103,8 +107,12 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               "one (more: the estimator's clock jumped back)", 1.0, 86400.0 * 365),
     ParamDecl("buffer_max", 10000, "estimates kept while the store fails (the oldest dropped beyond, counted)",
               read_only=True),
-    ParamDecl("buffer_path", "", "spool file of the estimates waiting for the store (empty: next to an SQLite "
-              "file, else ~/.ros/wear_trend_<robot>.pending.jsonl)", read_only=True),
+    ParamDecl("buffer_path", "", "spool file of the estimates waiting for the store (empty: "
+              "$ROS_HOME/wear_trend_<robot>.pending.jsonl; put it on another disk than the store's; when it "
+              "cannot be written, /dev/shm holds them)", read_only=True),
+    ParamDecl("store_lock_timeout", 0.5, "s a write or read waits for another writer's lock before it counts as a "
+              "store failure (buffered, retried): the node's diagnostics keep their period", 0.01, 30.0,
+              read_only=True),
     ParamDecl("retry_period", 1.0, "s between attempts to write the buffered estimates", 0.05, 600.0,
               read_only=True),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications", 0.01, 60.0, read_only=True),
@@ -143,10 +151,39 @@ def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: flo
 
 
 def _default_spool(db_url: str, robot: str) -> Path:
-    db_file = backend_for(db_url).file
-    if db_file is not None:  # beside the store's file
-        return db_file.with_name(db_file.name + f".{robot}.pending.jsonl")
+    """``$ROS_HOME`` (``~/.ros``)``/wear_trend_<robot>.pending.jsonl``: never beside the store's file, whose disk is
+    the one that fills when the store fails for lack of space."""
     return Path(os.environ.get("ROS_HOME", "~/.ros")).expanduser() / f"wear_trend_{robot}.pending.jsonl"
+
+
+def _fallback_spool(db_url: str, robot: str) -> Path:
+    """Where the buffer goes when its spool cannot be written (that disk is full too): a RAM file system
+    (``/dev/shm``), which survives the node being killed (not a reboot); the temp directory without one."""
+    import hashlib
+    import tempfile
+
+    base = Path("/dev/shm")
+    if not (base.is_dir() and os.access(base, os.W_OK)):
+        base = Path(tempfile.gettempdir())
+    tag = hashlib.sha1(str(db_url).encode()).hexdigest()[:10]
+    return base / f"jointwear-wear_trend-{robot}-{tag}.pending.jsonl"
+
+
+def _same_disk(a: Path, b: Path | None) -> bool:
+    """Whether ``a`` and ``b`` (files, existing or not) are on one file system (False when unknown)."""
+    if b is None:
+        return False
+
+    def dev(p: Path) -> int | None:
+        for q in (p, *p.parents):
+            try:
+                return q.stat().st_dev
+            except OSError:
+                continue
+        return None
+
+    da, db = dev(a.expanduser()), dev(b.expanduser())
+    return da is not None and da == db
 
 
 class WearTrendNode(Node):
@@ -179,6 +216,13 @@ class WearTrendNode(Node):
         self.spool = Path(str(p["buffer_path"])) if str(p["buffer_path"]) else _default_spool(str(p["db_url"]),
                                                                                                self.robot)
         self._spool_ok = True
+        self.fallback_spool = _fallback_spool(str(p["db_url"]), self.robot)
+        self._fallback_ok = True
+        self.spool_same_disk = _same_disk(self.spool, backend_for(str(p["db_url"])).file)
+        if self.spool_same_disk:
+            self.get_logger().warning(
+                f"the buffer spool {self.spool} is on the store's disk: when that disk fills, buffered estimates go "
+                f"to {self.fallback_spool} (RAM: kept through a kill, not a reboot); set buffer_path to another disk")
         self._newest: dict[str, float] = {}  # joint -> newest accepted stamp (live arrival order)
         self._last_refusal: dict[str, Refusal | None] = {}
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
@@ -238,7 +282,8 @@ class WearTrendNode(Node):
         if self.store is not None:
             return True
         try:
-            self.store = HistoryStore(str(self.params["db_url"]))
+            self.store = HistoryStore(str(self.params["db_url"]),
+                                      lock_timeout_s=float(self.params["store_lock_timeout"]), write_attempts=1)
         except JointwearError as exc:
             self._fail("cannot open", exc)
             return False
@@ -254,43 +299,77 @@ class WearTrendNode(Node):
         return sorted(joints)
 
     def _load_spool(self) -> None:
-        """Estimates a previous run could not store (it was stopped while the store failed)."""
-        if not self.spool.is_file():
-            return
-        n = 0
-        try:
-            for line in self.spool.read_text(encoding="utf-8").splitlines():
-                try:
-                    rec = EstimateRecord(**json.loads(line))
+        """Estimates a previous run could not store (it was stopped, or killed, while the store failed): from the
+        spool and from the RAM fallback (each estimate once)."""
+        seen: set[tuple[str, int, int]] = set()
+        for path in (self.spool, self.fallback_spool):
+            if not path.is_file():
+                continue
+            n = 0
+            try:
+                for line in path.read_text(encoding="utf-8").splitlines():
+                    try:
+                        rec = EstimateRecord(**json.loads(line))
+                    except (ValueError, TypeError):
+                        continue  # a line cut by a crash
+                    key = (rec.joint, rec.cycle_id, rec.time_ns)
+                    if key in seen:
+                        continue
+                    seen.add(key)
                     f = screen_record(rec, now=self._now(), cfg=self.screen_cfg)
                     self.pending.append((rec, f))
                     n += 1
-                except (ValueError, TypeError):
-                    continue  # a line cut by a crash
-        except OSError as exc:
-            self.get_logger().warning(f"cannot read the buffer {self.spool}: {exc}")
-        if n:
-            self.get_logger().info(f"{n} estimate(s) buffered by a previous run reloaded from {self.spool}")
+            except OSError as exc:
+                self.get_logger().warning(f"cannot read the buffer {path}: {exc}")
+            if n:
+                self.get_logger().info(f"{n} estimate(s) buffered by a previous run reloaded from {path}")
+
+    @staticmethod
+    def _append_line(path: Path, rec: EstimateRecord) -> None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with path.open("a", encoding="utf-8") as fh:
+            fh.write(json.dumps(asdict(rec)) + "\n")  # NaN/inf as JSON's NaN/Infinity, read back by json
+            fh.flush()
+            os.fsync(fh.fileno())
 
     def _spool_append(self, rec: EstimateRecord) -> None:
-        if not self._spool_ok:
-            return
-        try:
-            self.spool.parent.mkdir(parents=True, exist_ok=True)
-            with self.spool.open("a", encoding="utf-8") as fh:
-                fh.write(json.dumps(asdict(rec)) + "\n")  # NaN/inf as JSON's NaN/Infinity, read back by json
-                fh.flush()
-                os.fsync(fh.fileno())
-        except OSError as exc:  # the disk the store failed on may be full too: memory only, said so
-            self._spool_ok = False
-            self.get_logger().error(f"cannot spool the buffer to {self.spool} ({exc}); buffered in memory only")
+        if self._spool_ok:
+            try:
+                self._append_line(self.spool, rec)
+                return
+            except OSError as exc:  # the disk the store failed on may be full too
+                self._spool_ok = False
+                self.get_logger().error(f"cannot spool the buffer to {self.spool} ({exc}); the buffer goes to "
+                                        f"{self.fallback_spool} (RAM: kept through a kill, not a reboot)")
+                self._rewrite_fallback()  # the whole buffer (this estimate is in it), each estimate once
+                return
+        self._fallback_append(rec)
 
-    def _spool_clear(self) -> None:
+    def _rewrite_fallback(self) -> None:
         try:
-            self.spool.unlink(missing_ok=True)
+            self.fallback_spool.unlink(missing_ok=True)
         except OSError:
             pass
-        self._spool_ok = True
+        for r, _ in self.pending:
+            self._fallback_append(r)
+
+    def _fallback_append(self, rec: EstimateRecord) -> None:
+        if not self._fallback_ok:
+            return
+        try:
+            self._append_line(self.fallback_spool, rec)
+        except OSError as exc:
+            self._fallback_ok = False
+            self.get_logger().error(f"cannot spool the buffer to {self.fallback_spool} either ({exc}); "
+                                    "buffered in memory only")
+
+    def _spool_clear(self) -> None:
+        for path in (self.spool, self.fallback_spool):
+            try:
+                path.unlink(missing_ok=True)
+            except OSError:
+                pass
+        self._spool_ok = self._fallback_ok = True
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -363,7 +442,9 @@ class WearTrendNode(Node):
             self.dropped += 1
             self.get_logger().error(f"buffer full ({self._buffer_max}): the oldest buffered estimate "
                                     f"({lost.joint} cycle {lost.cycle_id}) is dropped")
-        if not self._flush():
+        # while the store fails, the retry timer (one attempt per retry_period) writes the buffer: an estimate
+        # arriving meanwhile waits with it, without a blocking attempt of its own
+        if self.store_error is not None or not self._flush():
             self._spool_append(rec)  # the store failed: this one waits, on disk where possible
         self._update(joint)
 
@@ -531,7 +612,8 @@ class WearTrendNode(Node):
                          f"buffered, retried every {float(self.params['retry_period']):g} s")
         else:
             stat.summary(DiagnosticLevel.OK, "no wear estimates stored yet")
-        stat.extend([("robot", self.robot), ("db_url", self._url()), *self._counters()])
+        stat.extend([("robot", self.robot), ("db_url", self._url()), ("buffer_path", str(self.spool)),
+                     ("spool_same_disk", "true" if self.spool_same_disk else "false"), *self._counters()])
         return None
 
     def on_shutdown(self) -> None:
@@ -539,11 +621,18 @@ class WearTrendNode(Node):
         reliable subscribers get the last trends; close the store."""
         if self.pending and not self._flush():
             if not self._spool_ok or not self.spool.is_file():
-                self._spool_ok = True
                 self._spool_clear()
-                for rec, _ in self.pending:
-                    self._spool_append(rec)
-            self.get_logger().error(f"{len(self.pending)} estimate(s) not stored at exit: kept in {self.spool}")
+                try:
+                    for rec, _ in self.pending:
+                        self._append_line(self.spool, rec)
+                    where = self.spool
+                except OSError:
+                    self._spool_clear()
+                    self._rewrite_fallback()
+                    where = self.fallback_spool
+            else:
+                where = self.spool
+            self.get_logger().error(f"{len(self.pending)} estimate(s) not stored at exit: kept in {where}")
         wait_acked([self.trend_pub])
         if self.store is not None:
             self.store.close()
