@@ -207,3 +207,18 @@ def test_replay_publish_without_the_awaited_subscribers_is_a_one_line_error(demo
     last = proc.stderr.strip().splitlines()[-1]
     assert last.startswith("jointwear: error: --wait-for-subscribers 1: after 1 s still too few subscribers on "
                            "/jointwear/wear_estimate (0)"), proc.stderr
+
+
+def test_demo_whose_cycle_fails_exits_1_naming_test_cycle_and_its_reason(tmp_path):
+    """A window whose gravity trips the effort limit (issue 28's reproduction): the cycle FAILS; there is no wear
+    level from it (it once read ERROR 57.8 at true wear 0, exit 0); the demo exits 1 and names the node and why."""
+    r = subprocess.run([sys.executable, "-m", "jointwear_ros", "demo", "--wear", "0", "--temperature", "47",
+                        "--set", "joint_sim.params=cobot-j3", "--set", "joint_sim.gravity_torque=0.45",
+                        "--out", str(tmp_path), "--json"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 1, r.stderr[-2000:]
+    d = json.loads(r.stdout)
+    assert d["cycle_state"] == "FAILED" and d["failure"].startswith("test_cycle: cycle ")
+    assert "effort" in d["failure"] and d["wear"]["estimate"] is None
+    assert d["diagnostic_level"] != "ERROR" and "no wear level from this cycle" in d["diagnostic_message"]
+    line = [x for x in r.stderr.splitlines() if x.startswith("jointwear demo: ")]
+    assert len(line) == 1 and "test_cycle" in line[0] and "effort" in line[0]
