@@ -218,3 +218,23 @@ def test_a_partial_estimate_stands_in_the_trend_and_says_so(evidence):
     t = 1.7e9 + DAY * np.arange(6)
     r = analyze_joint(t, np.full(6, 31.0), np.full(6, 0.85), evidence=["complete"] * 5 + [evidence])
     assert r.level == WARN_ and r.evidence == evidence
+
+
+def test_estimate_cli_conditions_equal_the_trends_over_the_same_cycles():
+    """``jointwear estimate``'s level column (commission.estimate.conditions) is the rule the trend applies."""
+    from jointwear_ros.commission.estimate import CycleEstimate, conditions
+    from jointwear_ros.types import WearResult
+
+    wears = [10.0, 10.5, 31.0, 11.0, 30.5, 31.0, 12.0, 48.0, 47.5]
+    cycles = [CycleEstimate("t.csv", "joint_2", k, 1.7e9 + k * DAY, WearResult(w, 0.8, w - 1.6, w + 1.6, "joint"))
+              for k, w in enumerate(wears, start=1)]
+    cycles.insert(3, CycleEstimate("t.csv", "joint_2", 99, 1.7e9 + 3.5 * DAY, WearResult(70.0, 9.0, 52.0, 88.0, "joint"),
+                                   evidence="insufficient"))
+    conds = conditions(cycles, WARN, ALARM)
+    for k in range(1, len(cycles) + 1):
+        seen = cycles[:k]
+        r = analyze_joint([c.time for c in seen], [c.result.wear for c in seen], [c.result.wear_std for c in seen],
+                          cycle_ids=[c.cycle for c in seen], evidence=[c.evidence for c in seen])
+        assert conds[k - 1].level == r.level_name, (k, conds[k - 1], r.message)
+    assert conds[3].evidence == "insufficient" and conds[3].level == "OK"  # 70 from too few speeds: no level
+    assert [c.confirmation for c in conds][-2:] == ["unconfirmed", "step"] and conds[-1].level == "ERROR"

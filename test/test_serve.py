@@ -165,8 +165,9 @@ def test_page_api_metrics_and_trend_json_agree_on_every_joint_of_a_plant(plant_d
             want = condition_level(e.wear, e.wear_std).name
         assert t["level"] == a["level"] == want, key
         assert LEVEL_NAMES[int(m["jointwear_joint_level"][key])] == want, key
-        tr = re.search(rf'<tr data-robot="{key[0]}" data-joint="{key[1]}" data-level="(\w+)">', page)
-        assert tr and tr.group(1) == want, key
+        tr = re.search(rf'<tr data-robot="{key[0]}" data-joint="{key[1]}" data-level="(\w+)" '
+                       rf'data-alarm-expected="(\w+)">', page)
+        assert tr and tr.group(1) == want and tr.group(2) == ("true" if forecast[key] else "false"), key
         # the forecast: its own field, the same everywhere, never the level
         assert t["alarm_expected"] is a["alarm_expected"] is forecast[key], key
         assert m["jointwear_joint_alarm_expected"][key] == float(forecast[key]), key
@@ -285,7 +286,7 @@ def test_a_new_estimate_appears_on_the_page_and_in_metrics_without_a_restart(tmp
         assert m["jointwear_joint_level"][("cell_9", "joint_1")] == 2.0 and m["jointwear_joints"]["ERROR"] == 2.0
         _, page = get(base + "/")
         assert int(re.search(r'<main data-version="(\d+)"', page).group(1)) > version
-        assert '<tr data-robot="cell_9" data-joint="joint_1" data-level="ERROR">' in page
+        assert '<tr data-robot="cell_9" data-joint="joint_1" data-level="ERROR" ' in page
         print(f"new estimate shown after {delay:.2f} s (refresh 0.5 s)")
         assert delay < 5.0  # the documented bound: --refresh plus one analysis of the store (< 1 s here)
     finally:
@@ -468,6 +469,6 @@ def test_bad_rows_written_straight_into_the_store_never_hide_an_error_joint(tmp_
         assert m["jointwear_joint_level"][("cell_1", "joint_2")] == 2.0
         assert m["jointwear_joint_estimates_refused"][("cell_1", "joint_2")] == 4.0
         _, page = get(base + "/")
-        assert '<tr data-robot="cell_1" data-joint="joint_2" data-level="ERROR">' in page
+        assert '<tr data-robot="cell_1" data-joint="joint_2" data-level="ERROR" ' in page
     finally:
         stop(proc)

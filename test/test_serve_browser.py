@@ -34,7 +34,7 @@ def plant(tmp_path_factory):
 
 
 def _row(dom: str, robot: str, joint: str) -> str:
-    m = re.search(rf'<tr data-robot="{robot}" data-joint="{joint}" data-level="\w+">(.*?)</tr>', dom, re.S)
+    m = re.search(rf'<tr data-robot="{robot}" data-joint="{joint}" data-level="\w+"[^>]*>(.*?)</tr>', dom, re.S)
     assert m, f"no row of {robot}/{joint}"
     return m.group(0)
 
@@ -53,14 +53,16 @@ def test_chromium_shows_the_error_joint_as_error_with_its_numbers_and_the_plot_d
     assert f"{a['wear']:.1f} ± {a['wear_std']:.1f}" in err and "at the alarm now" in err
     stale = _text(_row(dom, *STALE_JOINT))
     assert stale.split()[2] == "STALE" and "no estimate for 2" in stale  # 22 days
-    known = rows[("cell_2", "joint_2")]  # a WARN joint: wear and its time to alarm, as the API says
-    warn = _text(_row(dom, "cell_2", "joint_2"))
-    assert warn.split()[2] == "WARN" and f"{known['wear']:.1f} ± {known['wear_std']:.1f}" in warn
+    known = rows[("cell_2", "joint_2")]  # a rising joint: OK today, the alarm expected (the forecast), as the API says
+    rising = _text(_row(dom, "cell_2", "joint_2"))
+    assert rising.split()[2] == "OK" and "alarm expected" in rising and known["alarm_expected"] is True
+    assert f"{known['wear']:.1f} ± {known['wear_std']:.1f}" in rising
     assert (f"{known['days_to_alarm']:.0f} ({known['days_to_alarm_low']:.0f} to "
-            f"{known['days_to_alarm_high']:.0f})") in warn
-    # the summary and the order a person reads: ERROR first
-    assert re.search(r"1 ERROR", dom) and re.findall(r'data-level="(\w+)"', dom)[:4] == ["ERROR", "WARN", "WARN",
-                                                                                         "STALE"]
+            f"{known['days_to_alarm_high']:.0f})") in rising
+    # the summary and the order a person reads: ERROR first, then WARN, STALE, OK
+    order = re.findall(r'data-level="(\w+)"', dom)
+    n_warn = order.count("WARN")
+    assert re.search(r"1 ERROR", dom) and order[: 2 + n_warn] == ["ERROR"] + ["WARN"] * n_warn + ["STALE"]
     drawn = re.search(r'id="plant-plot"[^>]*data-drawn="(\d+)x(\d+)"', dom) or re.search(
         r'data-drawn="(\d+)x(\d+)"[^>]*id="plant-plot"', dom)
     assert drawn and int(drawn.group(1)) > 500 and int(drawn.group(2)) > 500, "the plant plot was not drawn"

@@ -155,6 +155,7 @@ body{font-family:sans-serif;margin:1.2em;color:#222}
 table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px}
 th{background:#eee;text-align:left}td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 .lv{font-weight:bold;color:#fff;padding:1px 6px;border-radius:3px}
+.fc{font-weight:bold;color:#ef6c00}
 {% for k, c in colors.items() %}.lv-{{ k }}{background:{{ c }}}{% endfor %}
 .banner{padding:.5em .8em;margin:.5em 0;border-radius:4px}.bad{background:#ffebee;border:1px solid #c62828}
 .good{background:#f1f8e9;border:1px solid #9ccc65}.muted{color:#777}nav a{margin-right:1em}
@@ -198,12 +199,13 @@ setInterval(tick, {{ poll_ms }});
 """
 
 _TABLE = """{% macro table(views) %}
-<table id="joints"><tr><th>robot</th><th>joint</th><th>level</th><th>wear</th><th>rate /day</th>
+<table id="joints"><tr><th>robot</th><th>joint</th><th>level</th><th>forecast</th><th>wear</th><th>rate /day</th>
 <th>days to alarm (90 %)</th><th>last estimate</th><th>estimates</th><th>message</th></tr>
-{% for v in views %}<tr data-robot="{{ v.robot }}" data-joint="{{ v.joint }}" data-level="{{ v.level_name }}">
+{% for v in views %}<tr data-robot="{{ v.robot }}" data-joint="{{ v.joint }}" data-level="{{ v.level_name }}" data-alarm-expected="{{ 'true' if v.alarm_expected else 'false' }}">
 <td><a href="/robot/{{ v.robot|urlencode }}">{{ v.robot }}</a></td>
 <td><a href="/joint/{{ v.robot|urlencode }}/{{ v.joint|urlencode }}">{{ v.joint }}</a></td>
-<td><span class="lv lv-{{ v.level_name }}">{{ v.level_name }}</span></td>
+<td><span class="lv lv-{{ v.level_name }}">{{ v.level_name }}</span>{% if v.confirmation == "unconfirmed" %} <span class="muted">(newest held)</span>{% endif %}{% if v.evidence == "partial" %} <span class="muted">(partial cycle)</span>{% endif %}</td>
+<td>{% if v.alarm_expected %}<span class="fc">alarm expected</span>{% else %}<span class="muted">–</span>{% endif %}</td>
 <td class="num wear">{{ wear(v) }}</td><td class="num">{{ num(v.rate_per_day, "%+.3f") }}</td>
 <td class="num tta">{{ tta(v) }}</td><td>{{ ts(v.time) }} <span class="muted">({{ num(v.age_days, "%.1f") }} d ago)</span></td>
 <td class="num">{{ v.estimates }}</td><td>{{ v.message }}</td></tr>
