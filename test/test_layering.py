@@ -20,7 +20,7 @@ import pytest
 PKG = Path(__file__).resolve().parents[1] / "jointwear_ros"
 
 CORES = ("model", "estimation", "workbench", "commission", "data", "sim", "cycle", "observer", "monitor", "trend",
-         "types", "units", "errors", "fmt", "contract", "resources")
+         "types", "units", "errors", "fmt", "contract", "resources", "condition")
 ROS = ("rclpy", "rcl_interfaces", "std_msgs", "std_srvs", "sensor_msgs", "diagnostic_msgs", "rosgraph_msgs",
        "builtin_interfaces", "jointwear_msgs", "launch", "launch_ros")
 

@@ -65,7 +65,7 @@ def _query(base: str, path: str, **params: str) -> dict:
 def test_promtool_accepts_the_rules_and_the_scrape_example():
     promtool = _tool("promtool")
     r = subprocess.run([promtool, "check", "rules", str(RULES)], capture_output=True, text=True)
-    assert r.returncode == 0 and "SUCCESS: 6 rules found" in r.stdout, r.stdout + r.stderr
+    assert r.returncode == 0 and "SUCCESS: 7 rules found" in r.stdout, r.stdout + r.stderr
     r = subprocess.run([promtool, "check", "config", str(SCRAPE)], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
 
