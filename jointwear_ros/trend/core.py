@@ -846,7 +846,7 @@ def analyze_joint(
                            seg_start, segs, prior=prior, forecast=forecast_of(None, None, None, False, False,
                                                                               cfg.horizon_days))
     days = (t - t[0]) / DAY
-    cond = standing(w, s, days, ev, cfg.warn, cfg.alarm)
+    cond = standing(w.tolist(), s.tolist(), days.tolist(), ev, cfg.warn, cfg.alarm)
     use = [i for i in range(n_all) if ev[i] != INSUFFICIENT]
     conf = confirm([(float(w[i]), float(s[i])) for i in use], [float(days[i]) for i in use])
     out = {use[k]: c.status for k, c in enumerate(conf) if c.status in ("unconfirmed", "outlier")}
@@ -857,12 +857,13 @@ def analyze_joint(
     t, w, s = t[fit], w[fit], s[fit]
     n = len(t)
     level = int(DiagnosticLevel.STALE if cond.level is None else cond.level)
-    common = dict(level_wear=cond.wear, level_wear_std=cond.wear_std,
-                  evidence="" if cond.index is None else ev[cond.index], confirmation=cond.newest_status, held=held)
+    lv_ev = "" if cond.index is None else ev[cond.index]
     if n == 0:
         return TrendResult(robot, joint, 0, total, math.nan, math.nan, math.nan, math.nan, None, level,
                            cond.reason, False, last_time, seg_start, segs, prior=prior,
-                           forecast=forecast_of(None, None, None, False, False, cfg.horizon_days), **common)
+                           forecast=forecast_of(None, None, None, False, False, cfg.horizon_days),
+                           level_wear=cond.wear, level_wear_std=cond.wear_std, evidence=lv_ev,
+                           confirmation=cond.newest_status, held=held)
     members = bank_members(cfg)
     st = trend_states((t - t[0]) / DAY, w, s, cfg, rows=np.array([n - 1]), prior=prior, keep=True)
     qs = st.quantiles
@@ -918,7 +919,8 @@ def analyze_joint(
         growth_detected=growth, last_time=last_time, segment_start=float(seg_start), segments=segs,
         filtered=f, smoothed=rts_smooth(f, cfg) if (smooth and f is not None) else None, times=t, wears=w,
         wear_stds=s, model_weights=weights, step_probability=step_p, step_time=step_time, components=comps,
-        members=members, prior=prior, forecast=fc, **common,
+        members=members, prior=prior, forecast=fc, level_wear=cond.wear, level_wear_std=cond.wear_std,
+        evidence=lv_ev, confirmation=cond.newest_status, held=held,
     )
 
 
