@@ -242,7 +242,7 @@ def write_html(out_dir: Path, results: Sequence[TrendResult], images: dict[tuple
     """``out_dir/index.html``: a table of the joints ranked by :func:`rank_key`, each with its figure."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    colors = {"OK": "#2e7d32", "WARN": "#ef6c00", "ERROR": "#c62828"}
+    colors = {"OK": "#2e7d32", "WARN": "#ef6c00", "ERROR": "#c62828", "STALE": "#6d4c41"}
     rows = []
     for i, r in enumerate(sorted(results, key=rank_key), start=1):
         cell = time_to_alarm_text(r)
