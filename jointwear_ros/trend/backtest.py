@@ -3,7 +3,9 @@
 At each night the trend sees only the estimates so far in the current segment
 (after the last maintenance event up to that night), exactly what the
 ``wear_trend`` node would have said then. Scores over a fleet
-(:func:`score_fleet`):
+(:func:`score_fleet`). "WARN" below is the forecast's signal, the alarm expected within the horizon
+(:attr:`~jointwear_ros.trend.core.TrendStates.level`), and "ERROR" the trend's wear at the alarm: what a planner
+acts on ahead of time; the condition level (docs/levels.md) is the estimates' own and is not scored here.
 
 ``coverage``
     over nights before the true crossing of the current segment's wear law

@@ -653,6 +653,8 @@ class TrendStates:
     p_growth: Array
     growth: NDArray[np.bool_]
     quantiles: Array  # (n, 3): lo90, median, hi90 in days
+    #: the *forecast's* signal, what the backtest scores (not the condition level, docs/levels.md): WARN = the alarm
+    #: expected within the horizon (growth and the 90 % lower bound within it), ERROR = the trend's wear at the alarm
     level: NDArray[np.int_]
     weights: Array  # (M, n)
     step_probability: Array
