@@ -239,6 +239,8 @@ class Standing:
     newest_status: str  # confirmation of the newest estimate: confirmed, unconfirmed, step, none
     newest_evidence: str
     reason: str
+    #: every estimate's confirmation after the whole sequence (:func:`confirm`), ``insufficient`` for one left out
+    statuses: tuple[str, ...] = ()
 
     @property
     def held(self) -> bool:
@@ -259,6 +261,9 @@ def standing(wear: Sequence[float], wear_std: Sequence[float], times_days: Seque
     ev = list(evidence) if evidence is not None else [COMPLETE] * n
     use = [i for i in range(n) if ev[i] != INSUFFICIENT]
     conf = confirm([(float(wear[i]), float(wear_std[i])) for i in use], [float(times_days[i]) for i in use], cfg)
+    statuses = [INSUFFICIENT] * n
+    for k, c in zip(use, conf):
+        statuses[k] = c.status
     newest_ev = ev[-1] if n else ""
     newest_status = "none"
     if n and use and use[-1] == n - 1:
@@ -266,7 +271,7 @@ def standing(wear: Sequence[float], wear_std: Sequence[float], times_days: Seque
     at = conf[-1].standing if conf else None
     if at is None:
         why = "no usable estimate" if n == 0 else "no estimate from enough speeds yet"
-        return Standing(None, math.nan, math.nan, None, newest_status, newest_ev, why)
+        return Standing(None, math.nan, math.nan, None, newest_status, newest_ev, why, tuple(statuses))
     idx = use[at]
     w, s = float(wear[idx]), float(wear_std[idx])
     lv = condition_level(w, s, warn, alarm)
@@ -280,7 +285,7 @@ def standing(wear: Sequence[float], wear_std: Sequence[float], times_days: Seque
         why += "; a step confirmed by two estimates"
     if ev[idx] == PARTIAL:
         why += " (from a partial cycle)"
-    return Standing(lv, w, s, idx, newest_status, newest_ev, why)
+    return Standing(lv, w, s, idx, newest_status, newest_ev, why, tuple(statuses))
 
 
 @dataclass(frozen=True)

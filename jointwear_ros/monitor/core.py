@@ -58,7 +58,7 @@ from typing import Any
 
 import numpy as np
 
-from ..condition import INSUFFICIENT, evidence_of, min_speeds
+from ..condition import INSUFFICIENT, Standing, condition_level, evidence_of, min_speeds, standing
 from ..contract import ENDED_STATES, CycleState, DiagnosticLevel
 from ..errors import InputDataError, JointwearError
 from ..estimation import make_estimator
@@ -198,8 +198,6 @@ def diagnostic_level(wear: float, wear_std: float, warn_threshold: float, alarm_
     >>> diagnostic_level(20.0, 1.0, 30.0, 35.0).name
     'OK'
     """
-    from ..condition import condition_level
-
     lv = condition_level(wear, wear_std, warn_threshold, alarm_threshold)
     return DiagnosticLevel.STALE if lv is None else lv
 
@@ -523,21 +521,14 @@ class WearMonitor:
                                        confirmation=own, stale=own == "unconfirmed",
                                        standing_wear=st.wear, standing_wear_std=st.wear_std), cyc.order)
 
-    def _standing(self, cid: int | None = None) -> tuple[Any, str]:
+    def _standing(self, cid: int | None = None) -> tuple[Standing, str]:
         """The joint's condition over its recent estimates, and the confirmation of cycle ``cid``'s."""
-        from ..condition import standing as _standing
-
         cfg = self.config
         ids = sorted(self._recent, key=lambda c: self._recent[c][0])
         rows = [self._recent[c] for c in ids]
-        st = _standing([r[2] for r in rows], [r[3] for r in rows], [r[1] / 86400.0 for r in rows],
-                       [r[4] for r in rows], cfg.warn_threshold, cfg.alarm_threshold)
-        own = "none"
-        if cid is not None and cid in self._recent:
-            from ..condition import confirm
-
-            conf = confirm([(r[2], r[3]) for r in rows], [r[1] / 86400.0 for r in rows])
-            own = conf[ids.index(cid)].status
+        st = standing([r[2] for r in rows], [r[3] for r in rows], [r[1] / 86400.0 for r in rows],
+                      [r[4] for r in rows], cfg.warn_threshold, cfg.alarm_threshold)
+        own = st.statuses[ids.index(cid)] if cid is not None and cid in self._recent else "none"
         return st, own
 
     def _no_level(self, cid: int, cyc: _Cycle, stamp: float, what: str, values: tuple[tuple[str, str], ...],

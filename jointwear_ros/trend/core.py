@@ -92,7 +92,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import ndtr
 
-from ..condition import INSUFFICIENT, Forecast, confirm, forecast_of, standing
+from ..condition import INSUFFICIENT, Forecast, forecast_of, standing
 from ..contract import DiagnosticLevel
 from ..errors import InputDataError
 
@@ -849,10 +849,7 @@ def analyze_joint(
                                                                               cfg.horizon_days))
     days = (t - t[0]) / DAY
     cond = standing(w.tolist(), s.tolist(), days.tolist(), ev, cfg.warn, cfg.alarm)
-    use = [i for i in range(n_all) if ev[i] != INSUFFICIENT]
-    conf = confirm([(float(w[i]), float(s[i])) for i in use], [float(days[i]) for i in use])
-    out = {use[k]: c.status for k, c in enumerate(conf) if c.status in ("unconfirmed", "outlier")}
-    out.update({i: "insufficient" for i in range(n_all) if ev[i] == INSUFFICIENT})
+    out = {i: st_i for i, st_i in enumerate(cond.statuses) if st_i in ("unconfirmed", "outlier", INSUFFICIENT)}
     held = tuple((float(t[i]), float(w[i]), float(s[i]), out[i]) for i in sorted(out))
     fit = np.array([i for i in range(n_all) if i not in out], dtype=int)
     last_time = float(t[-1])
