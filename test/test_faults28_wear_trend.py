@@ -131,3 +131,37 @@ def test_a_locked_store_keeps_the_diagnostics_period_and_a_kill_with_the_spool_d
                 n.destroy_node()
         probe.destroy_node()
         fallback.unlink(missing_ok=True)
+
+
+def test_a_spool_an_earlier_version_left_beside_the_store_is_stored_on_start(ros_context, tmp_path, monkeypatch):
+    """Earlier versions spooled beside the store's file by default: an upgrade must not lose what a killed node
+    left there."""
+    import json
+    from dataclasses import asdict
+
+    from jointwear_ros.history import EstimateRecord
+
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    db = tmp_path / "h.db"
+    robot = f"cell_legacy_{os.getpid()}"
+    legacy = tmp_path / f"h.db.{robot}.pending.jsonl"
+    now = time.time()
+    recs = [EstimateRecord(robot, "joint_2", cycle_id=k, time=now - (5 - k) * 60.0, wear=36.0 + k, wear_std=0.5)
+            for k in range(1, 4)]
+    legacy.write_text("".join(json.dumps(asdict(r)) + "\n" for r in recs))
+    node = WearTrendNode(context=ros_context, parameter_overrides=[
+        Parameter("db_url", value=str(db)), Parameter("robot", value=robot),
+        Parameter("estimate_topic", value="/jw_legacy/wear_estimate"), Parameter("trend_topic", value="/jw_legacy/trend"),
+        Parameter("diagnostics_topic", value="/jw_legacy/diagnostics"), Parameter("retry_period", value=0.1)])
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    try:
+        assert spin_until(ex, lambda: node.stored == 3 and not node.pending, 20.0, "the legacy spool stored")
+        assert not legacy.exists()
+        with HistoryStore(str(db)) as st:
+            assert [r.cycle_id for r in st.estimates(robot=robot, joint="joint_2")] == [1, 2, 3]
+    finally:
+        ex.remove_node(node)
+        node.on_shutdown()
+        node.destroy_node()
+        _fallback_spool(str(db), robot).unlink(missing_ok=True)

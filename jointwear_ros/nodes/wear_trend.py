@@ -217,6 +217,11 @@ class WearTrendNode(Node):
                                                                                                self.robot)
         self._spool_ok = True
         self.fallback_spool = _fallback_spool(str(p["db_url"]), self.robot)
+        #: where earlier versions spooled by default (beside the store's file): read on start, so an upgrade loses
+        #: nothing a killed node left there
+        db_file = backend_for(str(p["db_url"])).file
+        self._legacy_spool = (db_file.with_name(db_file.name + f".{self.robot}.pending.jsonl")
+                              if db_file is not None and not str(p["buffer_path"]) else None)
         self._fallback_ok = True
         self.spool_same_disk = _same_disk(self.spool, backend_for(str(p["db_url"])).file)
         if self.spool_same_disk:
@@ -302,7 +307,7 @@ class WearTrendNode(Node):
         """Estimates a previous run could not store (it was stopped, or killed, while the store failed): from the
         spool and from the RAM fallback (each estimate once)."""
         seen: set[tuple[str, int, int]] = set()
-        for path in (self.spool, self.fallback_spool):
+        for path in self._spool_paths():
             if not path.is_file():
                 continue
             n = 0
@@ -323,6 +328,9 @@ class WearTrendNode(Node):
                 self.get_logger().warning(f"cannot read the buffer {path}: {exc}")
             if n:
                 self.get_logger().info(f"{n} estimate(s) buffered by a previous run reloaded from {path}")
+
+    def _spool_paths(self) -> list[Path]:
+        return [self.spool, self.fallback_spool, *([self._legacy_spool] if self._legacy_spool else [])]
 
     @staticmethod
     def _append_line(path: Path, rec: EstimateRecord) -> None:
@@ -364,7 +372,7 @@ class WearTrendNode(Node):
                                     "buffered in memory only")
 
     def _spool_clear(self) -> None:
-        for path in (self.spool, self.fallback_spool):
+        for path in self._spool_paths():
             try:
                 path.unlink(missing_ok=True)
             except OSError:
