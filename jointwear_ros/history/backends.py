@@ -84,10 +84,11 @@ class HistoryBackend(Protocol):
         answers on connect)."""
         ...
 
-    def engine(self, *, read_only: bool = False, lock_timeout_s: float = 30.0) -> Engine:
+    def engine(self, *, read_only: bool = False, lock_timeout_s: float | None = None) -> Engine:
         """An engine to write (creating a missing database where the kind can), or, ``read_only``, one that
         never writes and never creates anything. ``lock_timeout_s``: how long a statement waits for a lock
-        another writer holds before it fails (a live node keeps it short, so it is never blocked for long)."""
+        another writer holds before it fails (None: the kind's default; a live node keeps it short, so it is
+        never blocked for long)."""
         ...
 
     def watch_engine(self, timeout_s: float) -> Engine:
@@ -125,14 +126,15 @@ class SqliteBackend:
     def exists(self) -> bool:
         return not self.path or Path(self.path).expanduser().is_file()
 
-    def engine(self, *, read_only: bool = False, lock_timeout_s: float = 30.0) -> Engine:
+    def engine(self, *, read_only: bool = False, lock_timeout_s: float | None = None) -> Engine:
         f = self.file
         if read_only and f is not None:
             return _sqlite_read_only_engine(f)
         if f is not None:
             f.parent.mkdir(parents=True, exist_ok=True)
-        engine = create_engine(self.url, connect_args={"timeout": float(lock_timeout_s)})
-        ms = max(1, int(lock_timeout_s * 1000))
+        wait = 30.0 if lock_timeout_s is None else float(lock_timeout_s)  # SQLite's default: a 30 s busy timeout
+        engine = create_engine(self.url, connect_args={"timeout": wait})
+        ms = max(1, int(wait * 1000))
         event.listen(engine, "connect", lambda conn, rec: _sqlite_pragmas(conn, rec, ms))
         return engine
 
@@ -187,9 +189,10 @@ class PostgresBackend:
     def exists(self) -> bool:
         return True
 
-    def engine(self, *, read_only: bool = False, lock_timeout_s: float = 30.0) -> Engine:
-        opts = f"-c lock_timeout={max(1, int(lock_timeout_s * 1000))}"
-        engine = create_engine(self.url, pool_pre_ping=True, connect_args={"options": opts})
+    def engine(self, *, read_only: bool = False, lock_timeout_s: float | None = None) -> Engine:
+        # PostgreSQL's default: no lock timeout (a writer waits its turn); a short one only when asked
+        args = {} if lock_timeout_s is None else {"options": f"-c lock_timeout={max(1, int(lock_timeout_s * 1000))}"}
+        engine = create_engine(self.url, pool_pre_ping=True, connect_args=args)
         if read_only:
             event.listen(engine, "connect", _pg_read_only)
         return engine

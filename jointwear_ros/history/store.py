@@ -325,14 +325,15 @@ class HistoryStore:
         (in memory), ``postgresql+psycopg://...`` or ``postgresql://...``, or a bare file path.
     create : create/migrate the schema to :data:`SCHEMA_VERSION` (else it must be current).
     migrate_to : with ``create``, stop at this schema version (tests of migrations).
-    lock_timeout_s : how long a statement waits for another writer's lock before it fails (30 s; the
-        ``wear_trend`` node keeps it short so that a locked store never stops its diagnostics).
+    lock_timeout_s : how long a statement waits for another writer's lock before it fails (None: the backend's
+        default, 30 s on SQLite, none on PostgreSQL; the ``wear_trend`` node keeps it short so that a locked
+        store never stops its diagnostics).
     write_attempts : tries of a write transaction that meets a deadlock or a lock (5; the node makes one and
         retries on its own timer).
     """
 
     def __init__(self, url: str | Path, *, create: bool = True, migrate_to: int | None = None,
-                 read_only: bool = False, lock_timeout_s: float = 30.0, write_attempts: int = 5) -> None:
+                 read_only: bool = False, lock_timeout_s: float | None = None, write_attempts: int = 5) -> None:
         self.write_attempts = max(1, int(write_attempts))
         self.backend: HistoryBackend = backend_for(url)
         self.url = self.backend.url
