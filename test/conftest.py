@@ -400,3 +400,22 @@ def db_url(request, tmp_path):
     if request.param == "sqlite":
         return f"sqlite:///{tmp_path / 'history.db'}"
     return request.getfixturevalue("postgres_url")
+
+
+@pytest.fixture
+def saved(monkeypatch: Any) -> dict[str, object]:
+    """Every figure saved through ``jointwear_ros.plots.save_figure`` (also where a module imported it), by file
+    name: the figure tests read axis limits, labels and legends off the saved Figure objects."""
+    import jointwear_ros.plots as plots
+    import jointwear_ros.workbench.report as wb_report
+
+    figs: dict[str, object] = {}
+    orig = plots.save_figure
+
+    def capture(fig: Any, path: Any) -> Any:
+        figs[Path(path).name] = fig
+        return orig(fig, path)
+
+    monkeypatch.setattr(plots, "save_figure", capture)
+    monkeypatch.setattr(wb_report, "save_figure", capture)
+    return figs

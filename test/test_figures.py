@@ -11,7 +11,6 @@ fleet page's change plot and the plant's current-wear overview.
 from __future__ import annotations
 
 import re
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -19,24 +18,6 @@ import pytest
 
 DAY = 86400.0
 T0 = 1.79e9
-
-
-@pytest.fixture
-def saved(monkeypatch):
-    """Every figure saved through ``jointwear_ros.plots.save_figure`` (also where a module imported it), by name."""
-    import jointwear_ros.plots as plots
-    import jointwear_ros.workbench.report as wb_report
-
-    figs: dict[str, object] = {}
-    orig = plots.save_figure
-
-    def capture(fig, path):
-        figs[Path(path).name] = fig
-        return orig(fig, path)
-
-    monkeypatch.setattr(plots, "save_figure", capture)
-    monkeypatch.setattr(wb_report, "save_figure", capture)
-    return figs
 
 
 # ------------------------------------------------------------------------------------------------ helpers

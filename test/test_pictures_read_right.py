@@ -21,24 +21,6 @@ ROOT = Path(__file__).resolve().parents[1]
 DAY = 86400.0
 
 
-@pytest.fixture
-def saved(monkeypatch):
-    """Every figure saved through ``jointwear_ros.plots.save_figure`` (also where a module imported it)."""
-    import jointwear_ros.plots as plots
-    import jointwear_ros.workbench.report as wb_report
-
-    figs: dict[str, object] = {}
-    orig = plots.save_figure
-
-    def capture(fig, path):
-        figs[Path(path).name] = fig
-        return orig(fig, path)
-
-    monkeypatch.setattr(plots, "save_figure", capture)
-    monkeypatch.setattr(wb_report, "save_figure", capture)
-    return figs
-
-
 def _labels(ax) -> list[str]:
     return ax.get_legend_handles_labels()[1]
 
