@@ -78,6 +78,7 @@ __all__ = [
     "forecast_of",
     "level_name",
     "min_speeds",
+    "plant_level",
     "standing",
 ]
 
@@ -286,6 +287,21 @@ def standing(wear: Sequence[float], wear_std: Sequence[float], times_days: Seque
     if ev[idx] == PARTIAL:
         why += " (from a partial cycle)"
     return Standing(lv, w, s, idx, newest_status, newest_ev, why, tuple(statuses))
+
+
+def plant_level(level: int, last_time: float, now: float, stale_days: float) -> int:
+    """The level a plant view shows (serve, ``/metrics``, ``trend --json``, the fleet page): the condition level, or
+    STALE when the joint's newest estimate (``last_time``, s) is older than ``stale_days`` at ``now`` (s) and the
+    level is not ERROR (an alarm is never hidden by age). A ``last_time`` that is not finite is STALE.
+
+    >>> plant_level(0, last_time=0.0, now=8 * 86400.0, stale_days=7), plant_level(2, 0.0, 8 * 86400.0, 7)
+    (3, 2)
+    """
+    if int(level) == DiagnosticLevel.ERROR:
+        return int(DiagnosticLevel.ERROR)
+    if not math.isfinite(last_time) or now - last_time > stale_days * 86400.0:
+        return int(DiagnosticLevel.STALE)
+    return int(level)
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ JSON (``--json``): ``{"joints": [{"robot", "joint", "estimates", "wear",
 or null, "level", "trend_level", "newest_time", "age_days", ...}]}``, times in days from the joint's last estimate (a
 bound beyond the prediction horizon is null; ``time_to_alarm_days`` also holds
 ``model_weights`` and ``unbounded_reason``). ``level`` is the plant's level
-(:func:`jointwear_ros.serve.core.plant_level`, as ``jointwear serve`` shows it): the
+(:func:`jointwear_ros.condition.plant_level`, as ``jointwear serve`` shows it): the
 trend's OK / WARN / ERROR, or STALE when the newest estimate is older than
 ``--stale-days`` and the trend's level is not ERROR; ``trend_level`` is the trend's own.
 The top level also has ``analysis_version`` (the one shown), ``analysis_version_why`` and

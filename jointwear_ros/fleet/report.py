@@ -108,15 +108,15 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
 
     ``version``: the analysis version ranked and plotted (default: the newest written).
     ``from_version``/``to_version``: the changes section (default: the two newest, when there are two).
-    Each joint's level is the plant's (:func:`~jointwear_ros.serve.core.plant_level`: the condition level, STALE
+    Each joint's level is the plant's (:func:`~jointwear_ros.condition.plant_level`: the condition level, STALE
     when its newest estimate is older than ``stale_days`` at ``now`` and it is not ERROR), as ``trend --json``,
     ``jointwear serve`` and ``/metrics`` show it; the forecast is its own column.
     """
     import time as _time
 
+    from ..condition import level_name, plant_level
     from ..errors import InputDataError
     from ..history import trends_from_store
-    from ..serve.core import LEVEL_NAMES, plant_level
     from ..trend import TrendConfig
 
     versions = newest_versions(store)
@@ -139,7 +139,7 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
     shown: dict[tuple[str, str], str] = {}
     for t in trends:
         newest = max((r.time for r in history[(t.robot, t.joint)][0]), default=math.nan)
-        shown[(t.robot, t.joint)] = LEVEL_NAMES[plant_level(t.level, newest, t_now, stale_days)]
+        shown[(t.robot, t.joint)] = level_name(plant_level(t.level, newest, t_now, stale_days))
     order = {"ERROR": 0, "WARN": 1, "STALE": 2, "OK": 3}
     trends = sorted(trends, key=lambda t: (order[shown[(t.robot, t.joint)]], *rank_key(t)[1:]))
     changes: list[JointChange] = []

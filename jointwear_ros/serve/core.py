@@ -25,6 +25,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from ..condition import plant_level
 from ..contract import DiagnosticLevel
 from ..errors import InputDataError
 from ..trend import DAY, TrendConfig, TrendResult, analyze_joint
@@ -45,16 +46,6 @@ __all__ = [
 STALE = DiagnosticLevel.STALE
 #: every level the plant view shows, by byte value
 LEVEL_NAMES = {int(lv): lv.name for lv in (DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR, STALE)}
-
-
-def plant_level(trend_level: int, last_time: float, now: float, stale_days: float) -> int:
-    """The trend's level, or STALE when the newest estimate (``last_time``, s) is older than ``stale_days``
-    at ``now`` (s) and the trend's level is not ERROR. A ``last_time`` that is not finite is STALE."""
-    if int(trend_level) == DiagnosticLevel.ERROR:
-        return int(DiagnosticLevel.ERROR)
-    if not math.isfinite(last_time) or now - last_time > stale_days * DAY:
-        return int(STALE)
-    return int(trend_level)
 
 
 @dataclass(frozen=True)
