@@ -62,7 +62,6 @@ from .contract import DiagnosticLevel
 __all__ = [
     "ALARM",
     "COMPLETE",
-    "EVIDENCE",
     "INSUFFICIENT",
     "PARTIAL",
     "WARN",
@@ -89,8 +88,6 @@ WARN = 30.0
 Z_ONE_SIDED = 1.645
 
 COMPLETE, PARTIAL, INSUFFICIENT = "complete", "partial", "insufficient"
-#: every evidence value, in order of strength
-EVIDENCE = (COMPLETE, PARTIAL, INSUFFICIENT)
 
 
 def condition_level(wear: float, wear_std: float, warn: float = WARN, alarm: float = ALARM,
@@ -242,10 +239,6 @@ class Standing:
     reason: str
     #: every estimate's confirmation after the whole sequence (:func:`confirm`), ``insufficient`` for one left out
     statuses: tuple[str, ...] = ()
-
-    @property
-    def held(self) -> bool:
-        return self.newest_status == "unconfirmed"
 
 
 def standing(wear: Sequence[float], wear_std: Sequence[float], times_days: Sequence[float],
