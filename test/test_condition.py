@@ -238,3 +238,26 @@ def test_estimate_cli_conditions_equal_the_trends_over_the_same_cycles():
         assert conds[k - 1].level == r.level_name, (k, conds[k - 1], r.message)
     assert conds[3].evidence == "insufficient" and conds[3].level == "OK"  # 70 from too few speeds: no level
     assert [c.confirmation for c in conds][-2:] == ["unconfirmed", "step"] and conds[-1].level == "ERROR"
+
+
+def test_a_partial_estimate_stays_partial_through_the_store_and_a_csv_round_trip(tmp_path):
+    """Evidence is data: stored, exported, imported back; a table without the column is complete; a bad cell is
+    refused in one line."""
+    from jointwear_ros.errors import InputDataError
+    from jointwear_ros.history import EstimateRecord, HistoryStore
+    from jointwear_ros.history.importers import estimates_from_csv, write_csv
+
+    recs = [EstimateRecord("cell_1", "joint_4", cycle_id=k, time=1.7e9 + k * DAY, wear=12.0, wear_std=0.8,
+                           evidence="partial" if k == 3 else "complete") for k in (1, 2, 3)]
+    with HistoryStore(f"sqlite:///{tmp_path / 'h.db'}") as store:
+        store.add_estimates(recs)
+        stored = store.estimates(robot="cell_1", joint="joint_4")
+    assert [r.evidence for r in stored] == ["complete", "complete", "partial"]
+    write_csv(stored, tmp_path / "h.csv")
+    assert [r.evidence for r in estimates_from_csv(tmp_path / "h.csv")] == ["complete", "complete", "partial"]
+    (tmp_path / "old.csv").write_text("robot,joint,time,wear,wear_std\ncell_1,joint_4,2026-01-01T00:00:00Z,12,0.8\n")
+    assert estimates_from_csv(tmp_path / "old.csv")[0].evidence == "complete"
+    (tmp_path / "bad.csv").write_text("robot,joint,time,wear,wear_std,evidence\n"
+                                      "cell_1,joint_4,2026-01-01T00:00:00Z,12,0.8,maybe\n")
+    with pytest.raises(InputDataError, match="bad.csv:2: evidence = 'maybe'"):
+        estimates_from_csv(tmp_path / "bad.csv")

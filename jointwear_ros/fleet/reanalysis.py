@@ -266,6 +266,7 @@ def reprocess_bag(
                 "cycle_id": int(c.cycle_id), "time": float(c.stamp), "wear": wear, "wear_std": std,
                 "temperature": _finite_or_nan(r.temperature), "method": str(r.method), "params": p_name,
                 "software_version": software_version, "bag": path, "analysis_version": v, "source": "reprocess",
+                "evidence": c.evidence,
             })
         out.observations = len(rep.observations)
         out.rejections = len(rep.rejections)

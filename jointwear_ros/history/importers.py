@@ -6,7 +6,7 @@ the file, the line and what is wrong.
 
 CSV tables: columns ``robot, joint, time, wear, wear_std`` (``time`` ISO 8601,
 naive = UTC, or seconds since the epoch), optional ``cycle_id``,
-``temperature``, ``method``, ``params``, ``hardware_id``, ``bag``,
+``temperature``, ``method``, ``params``, ``hardware_id``, ``bag``, ``evidence`` (``complete`` or ``partial``),
 ``time_ns`` (takes precedence over ``time``: what :func:`write_csv` writes, so
 an export imports back to the very same entries).
 """
@@ -29,7 +29,7 @@ __all__ = ["CSV_COLUMNS", "estimates_from_bag", "estimates_from_csv", "parse_tim
 
 REQUIRED = ("robot", "joint", "time", "wear", "wear_std")
 CSV_COLUMNS = ("robot", "joint", "time", "time_ns", "cycle_id", "wear", "wear_std", "temperature", "method",
-               "params", "hardware_id", "software_version", "bag", "analysis_version", "source")
+               "params", "hardware_id", "software_version", "bag", "analysis_version", "source", "evidence")
 
 
 def parse_time(text: str, where: str = "time") -> float:
@@ -69,6 +69,14 @@ def _float(row: dict[str, str], key: str, where: str, default: float | None = No
         return float(text)
     except ValueError:
         raise InputDataError(f"{where}: {key} = {text!r} is not a number") from None
+
+
+def _evidence(text: str | None, where: str) -> str:
+    """An optional ``evidence`` cell: ``complete`` (the default) or ``partial`` (docs/levels.md)."""
+    v = (text or "").strip().lower() or "complete"
+    if v not in ("complete", "partial"):
+        raise InputDataError(f"{where}: evidence = {text!r}: use complete or partial (or leave it empty)")
+    return v
 
 
 def estimates_from_csv(path: str | os.PathLike[str], *, robot: str | None = None) -> list[EstimateRecord]:
@@ -111,7 +119,7 @@ def estimates_from_csv(path: str | os.PathLike[str], *, robot: str | None = None
                     software_version=(row.get("software_version") or "").strip() or "",
                     bag=(row.get("bag") or "").strip(),
                     analysis_version=(row.get("analysis_version") or "").strip() or LIVE,
-                    source="csv",
+                    source="csv", evidence=_evidence(row.get("evidence"), where),
                 )
                 out.append(rec.check(where))
     except UnicodeDecodeError:
@@ -148,6 +156,7 @@ def estimates_from_bag(path: str | os.PathLike[str], *, robot: str, params: str 
             wear_std=float(m.msg.wear_std), hardware_id=hardware_id or f"{robot}/{joint}",
             temperature=float(m.msg.temperature_estimate), method=str(m.msg.method), params=params,
             software_version="", bag=p.name, analysis_version=LIVE, source="bag", received=m.log_time * 1e-9,
+            evidence=str(getattr(m.msg, "evidence", "") or "complete"),  # a bag from before the field: complete
         ).check(f"{p}: WearEstimate at log time {m.log_time} ns"))
     if out and not params:
         recorded = recorded_node_params(events, "wear_estimator").get("params")
@@ -192,7 +201,7 @@ def reestimate_bag(path: str | os.PathLike[str], *, robot: str, observer_params:
             hardware_id=(hardware_id or str(res.monitor_params.get(f"{c.joint_name}.hardware_id", "") or "")
                          or f"{robot}/{c.joint_name}"), temperature=float(c.result.temperature),
             method=str(c.result.method), params=used_params, software_version=__version__, bag=p.name,
-            analysis_version=version, source="bag",
+            analysis_version=version, source="bag", evidence=c.evidence,
         ).check(f"{p}: re-estimated cycle {c.cycle_id}"))
     return out, version
 
@@ -218,7 +227,7 @@ def write_csv(records: Iterable[EstimateRecord], path: str | os.PathLike[str]) -
                 w.writerow([r.robot, r.joint, iso, r.time_ns, r.cycle_id, repr(float(r.wear)),
                             repr(float(r.wear_std)), "" if math.isnan(r.temperature) else repr(float(r.temperature)),
                             r.method, r.params, r.hardware_id, r.software_version, r.bag, r.analysis_version,
-                            r.source])
+                            r.source, r.evidence])
         tmp.replace(p)
     except BaseException:  # a failure (or Ctrl-C) midway: no .part left behind, the old table untouched
         tmp.unlink(missing_ok=True)
