@@ -315,3 +315,11 @@ def units_from_args(args: Any, *, joint_side: bool | None = None) -> tuple[Any, 
     explicit = (side or gear is not None or torque is not None or units.speed_unit != "rad/s"
                 or units.temperature_unit != "degC")
     return units, explicit
+
+
+def trend_command(db: str, robot: str, analysis_version: str) -> str:
+    """The exact ``jointwear trend`` command that shows a robot's estimates of one analysis version (what every
+    command that stores estimates prints)."""
+    import shlex
+
+    return shlex.join(["jointwear", "trend", "--db", db, "--robot", robot, "--analysis-version", analysis_version])

@@ -18,7 +18,7 @@ from typing import Any
 
 from ..estimation import ESTIMATORS
 from . import UsageError
-from .common import format_table, open_history, parse_float, print_json
+from .common import format_table, open_history, parse_float, print_json, trend_command
 
 __all__ = ["register"]
 
@@ -205,14 +205,8 @@ def _where_stored(store: Any, rep: Any, before: dict[str, set[str]], db: str, *,
         by_robot.setdefault(r, []).append(j)
     robots = {str(s_["robot"]) for s_ in rep.settings} | set(before) | (set(by_robot) if all_robots else set())
     return [{"robot": robot, "joints": sorted(by_robot[robot]), "analysis_version": rep.analysis_version, "db": db,
-             "see": _trend_command(db, robot, rep.analysis_version)}
+             "see": trend_command(db, robot, rep.analysis_version)}
             for robot in sorted(robots) if robot in by_robot]
-
-
-def _trend_command(db: str, robot: str, version: str) -> str:
-    """The ``jointwear trend`` command that shows a robot's estimates of one analysis version (as
-    ``history import`` prints it; sub-commands do not import each other)."""
-    return shlex.join(["jointwear", "trend", "--db", db, "--robot", robot, "--analysis-version", version])
 
 
 def _robots_from_folders(settings: list[dict[str, str]]) -> list[dict[str, Any]]:

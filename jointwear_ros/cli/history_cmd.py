@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from . import UsageError
-from .common import add_unit_flags, print_json, units_from_args
+from .common import add_unit_flags, print_json, trend_command, units_from_args
 
 __all__ = ["MAINTENANCE_KINDS", "register"]
 
@@ -220,13 +220,6 @@ def cmd_import(args: argparse.Namespace) -> int:
         for line in where_stored_lines(stored):
             print(line)
     return 0
-
-
-def trend_command(db: str, robot: str, analysis_version: str) -> str:
-    """The exact ``jointwear trend`` command that shows a robot's estimates of one analysis version."""
-    import shlex
-
-    return shlex.join(["jointwear", "trend", "--db", db, "--robot", robot, "--analysis-version", analysis_version])
 
 
 def where_stored(records: list[Any], refused: list[Any], db: str, *,
