@@ -22,6 +22,7 @@ __all__ = [
     "ParameterError",
     "ParameterSetError",
     "TransientError",
+    "one_line",
 ]
 
 
@@ -48,3 +49,16 @@ class InputDataError(JointwearError):
 class TransientError(JointwearError):
     """A resource stayed busy through every retry (a database deadlock, a lock another writer held): nothing
     was wrong with the input, and running again may succeed. The CLI's exit code is 2, like every error here."""
+
+
+def one_line(exc: BaseException) -> str:
+    """The one line that tells a user what went wrong: the first line of the error's message (a database
+    driver's own message when a wrapper carries it as ``orig``, as SQLAlchemy's errors do: not the wrapper's
+    statement and parameters), else the error's type name.
+
+    >>> one_line(ValueError("disk full\\n[SQL: INSERT ...]")), one_line(KeyError()), one_line(OSError("  "))
+    ('disk full', 'KeyError', 'OSError')
+    """
+    orig = getattr(exc, "orig", None)
+    lines = str(orig if isinstance(orig, BaseException) else exc).strip().splitlines()
+    return lines[0].strip() if lines else type(exc).__name__

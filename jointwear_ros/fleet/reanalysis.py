@@ -42,6 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
+from ..errors import one_line
 
 __all__ = [
     "BagOutcome",
@@ -172,11 +173,6 @@ def bag_identity(monitor_params: dict[str, Any], bag: str | os.PathLike[str],
     return robot, hw
 
 
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return text[0] if text else type(exc).__name__
-
-
 def _finite_or_nan(x: Any) -> float:
     try:
         v = float(x)
@@ -274,10 +270,10 @@ def reprocess_bag(
         from ..errors import JointwearError
 
         if isinstance(exc, JointwearError):
-            msg = _one_line(exc)
+            msg = one_line(exc)
         else:
             where = traceback.extract_tb(exc.__traceback__)[-1]
-            msg = f"{path}: {type(exc).__name__}: {_one_line(exc)} (at {Path(where.filename).name}:{where.lineno})"
+            msg = f"{path}: {type(exc).__name__}: {one_line(exc)} (at {Path(where.filename).name}:{where.lineno})"
         out.error = msg if path in msg else f"{path}: {msg}"
         out.records = []
     finally:

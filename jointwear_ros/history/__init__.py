@@ -4,18 +4,9 @@ queries."""
 from __future__ import annotations
 
 from .backends import BACKENDS, HistoryBackend, PostgresBackend, SqliteBackend, backend_for, register_backend
+from .records import LIVE, EstimateRecord, MaintenanceEvent
 from .screen import REASONS, Refusal, ScreenConfig
-from .store import (
-    LIVE,
-    MIGRATIONS,
-    SCHEMA_VERSION,
-    EstimateRecord,
-    HistoryError,
-    HistoryStore,
-    MaintenanceEvent,
-    WriteResult,
-    normalize_url,
-)
+from .store import MIGRATIONS, SCHEMA_VERSION, HistoryError, HistoryStore, WriteResult, normalize_url
 from .trends import screened_history, trends_from_store
 
 __all__ = [

@@ -28,7 +28,7 @@ Reasons
     by more than ``clock_tolerance_s``, or, live, goes back more than that before the joint's newest
     estimate: the estimator's clock jumped.
 
->>> from jointwear_ros.history.store import EstimateRecord
+>>> from jointwear_ros.history.records import EstimateRecord
 >>> now = 1.8e9
 >>> ok = EstimateRecord("r", "j", cycle_id=1, time=now - 60, wear=38.0, wear_std=0.8)
 >>> screen_record(ok, now=now) is None
@@ -49,12 +49,10 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..errors import InputDataError
-
-if TYPE_CHECKING:
-    from .store import EstimateRecord
+from .records import EstimateRecord
 
 __all__ = ["REASONS", "Refusal", "ScreenConfig", "screen", "screen_record"]
 
