@@ -16,8 +16,9 @@ from sqlalchemy.engine import Engine
 
 from jointwear_ros.cli import main as cli_main
 from jointwear_ros.fleet import ledger
-from jointwear_ros.fleet.ledger import RETRIES, LedgerBusyError, ensure_ledger, fleet_bags_t, mark_done
+from jointwear_ros.fleet.ledger import RETRIES, LedgerBusyError, ensure_ledger, mark_done
 from jointwear_ros.history import HistoryError, HistoryStore
+from jointwear_ros.history.store import fleet_bags_t
 
 
 @dataclass

@@ -35,17 +35,7 @@ __all__ = ["newest_versions", "write_report"]
 
 def newest_versions(store: Any) -> list[str]:
     """The store's analysis versions, oldest first by when their newest estimate was written."""
-    from sqlalchemy import func, select
-
-    try:
-        from ..history.store import estimates_t
-    except ImportError:  # pragma: no cover - a store without the table object: name order
-        return list(store.analysis_versions())
-    q = select(estimates_t.c.analysis_version, func.max(estimates_t.c.inserted_ns)).group_by(
-        estimates_t.c.analysis_version)
-    with store.engine.connect() as conn:
-        rows = conn.execute(q).all()
-    return [str(v) for v, _ in sorted(rows, key=lambda r: (int(r[1] or 0), str(r[0])))]
+    return list(store.versions_by_recency())
 
 
 def _slug(robot: str, joint: str) -> str:

@@ -5,7 +5,9 @@ storage plugin from one mapping; the store (:class:`~jointwear_ros.history.Histo
 fleet ledger, ``jointwear serve`` and the CLI then ask the backend and never look at the URL or
 the dialect again. A backend knows how to reach its database three ways (to write, to read
 without ever writing, and to watch with short timeouts for the web service), which ``INSERT``
-skips an existing row (``ON CONFLICT DO NOTHING``), and whether it keeps its data in a file.
+skips an existing row (``ON CONFLICT DO NOTHING``), whether it keeps its data in a file, and which of
+its errors may pass when the transaction is run again (:meth:`HistoryBackend.retryable`, by the driver's
+error code: the store and the fleet ledger retry those, never by matching a message).
 
 Built in (:data:`BACKENDS`, scheme -> class):
 
@@ -40,7 +42,10 @@ from ..errors import InputDataError, JointwearError
 
 __all__ = [
     "BACKENDS",
+    "PG_RETRYABLE",
+    "SQLITE_RETRYABLE",
     "HistoryBackend",
+    "HistoryError",
     "PostgresBackend",
     "SqliteBackend",
     "backend_for",
@@ -50,7 +55,17 @@ __all__ = [
 
 
 class HistoryError(JointwearError):
-    """The history store cannot be opened, migrated or written."""
+    """The history store cannot be opened, migrated, read or written.
+
+    ``retryable``: the backend said the database error behind it may pass when the transaction is run
+    again (:meth:`HistoryBackend.retryable`: a lock, a deadlock, a serialization failure); ``detail``: that
+    error's one line, without the store's URL.
+    """
+
+    def __init__(self, message: str, *, retryable: bool = False, detail: str = "") -> None:
+        super().__init__(message)
+        self.retryable = bool(retryable)
+        self.detail = detail or message
 
 
 @runtime_checkable
@@ -99,6 +114,12 @@ class HistoryBackend(Protocol):
 
     def insert(self, table: Table) -> Any:
         """``INSERT`` into ``table`` with ``.on_conflict_do_nothing(index_elements=...)`` and ``.returning``."""
+        ...
+
+    def retryable(self, exc: BaseException) -> bool:
+        """Whether a database error (SQLAlchemy's, or the driver's own) may pass when its transaction is run
+        again: a lock another writer held, a deadlock, a serialization failure. Decided by the driver's
+        error type and code, never by the message (translated with the server's locale)."""
         ...
 
 
@@ -160,6 +181,23 @@ class SqliteBackend:
 
         return insert(table)
 
+    def retryable(self, exc: BaseException) -> bool:
+        """``sqlite3.OperationalError`` whose primary result code is SQLITE_BUSY or SQLITE_LOCKED (the
+        database, or a table, held by another connection past the busy timeout).
+
+        >>> import sqlite3
+        >>> busy = sqlite3.OperationalError("database is locked"); busy.sqlite_errorcode = 5
+        >>> full = sqlite3.OperationalError("database is locked"); full.sqlite_errorcode = 13
+        >>> b = SqliteBackend("sqlite://")
+        >>> b.retryable(busy), b.retryable(full), b.retryable(sqlite3.OperationalError("database is locked"))
+        (True, False, False)
+        """
+        import sqlite3
+
+        orig = _driver_error(exc)
+        code = getattr(orig, "sqlite_errorcode", None)
+        return isinstance(orig, sqlite3.OperationalError) and isinstance(code, int) and (code & 0xFF) in SQLITE_RETRYABLE
+
 
 class PostgresBackend:
     """A PostgreSQL database (a fleet's shared history), through psycopg 3."""
@@ -206,6 +244,36 @@ class PostgresBackend:
         from sqlalchemy.dialects.postgresql import insert
 
         return insert(table)
+
+    def retryable(self, exc: BaseException) -> bool:
+        """An error whose SQLSTATE (psycopg's ``sqlstate``, psycopg2's ``pgcode``) is a serialization failure
+        (40001), a deadlock (40P01), a lock not available (55P03: the lock timeout) or a connection exception
+        (class 08).
+
+        >>> class E(Exception):
+        ...     sqlstate = "40P01"
+        >>> b = PostgresBackend("postgresql+psycopg://u@h/d")
+        >>> b.retryable(E("deadlock detected")), b.retryable(Exception("deadlock detected"))
+        (True, False)
+        """
+        orig = _driver_error(exc)
+        code = getattr(orig, "sqlstate", None) or getattr(orig, "pgcode", None)
+        return isinstance(code, str) and (code in PG_RETRYABLE or code[:2] in PG_RETRYABLE_CLASSES)
+
+
+#: SQLite primary result codes of a database another connection holds: SQLITE_BUSY, SQLITE_LOCKED.
+SQLITE_RETRYABLE = frozenset({5, 6})
+#: PostgreSQL SQLSTATEs of a transaction that may pass when run again: serialization_failure, deadlock_detected,
+#: lock_not_available (a lock timeout).
+PG_RETRYABLE = frozenset({"40001", "40P01", "55P03"})
+#: PostgreSQL SQLSTATE classes that may pass when run again: 08, connection exception.
+PG_RETRYABLE_CLASSES = frozenset({"08"})
+
+
+def _driver_error(exc: BaseException) -> BaseException:
+    """The driver's own error behind a SQLAlchemy one (``exc.orig``), else ``exc``."""
+    orig = getattr(exc, "orig", None)
+    return orig if isinstance(orig, BaseException) else exc
 
 
 #: URL scheme -> backend class: the one place a URL's kind is decided.

@@ -34,7 +34,8 @@ Tables
     cycle_id, time, wear, wear_std)``: the same bad row imported twice is one entry.
 ``fleet_bags``
     the fleet ledger: one row per analysis version and bag fingerprint a re-analysis has done
-    (:mod:`jointwear_ros.fleet.ledger` reads and writes it; schema version 4 creates it).
+    (:mod:`jointwear_ros.fleet.ledger` reads and writes it through :meth:`HistoryStore.bags_done` and
+    :meth:`HistoryStore.mark_bags_done`; schema version 4 creates it).
     Schema version 5 adds ``estimates.evidence`` (``complete``/``partial``).
 ``schema_version``
     one row per applied migration (version, applied_ns). :data:`MIGRATIONS`
@@ -66,7 +67,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -82,6 +83,7 @@ from sqlalchemy import (
     Table,
     Text,
     UniqueConstraint,
+    func,
     inspect,
     select,
     text,
@@ -89,9 +91,9 @@ from sqlalchemy import (
 from sqlalchemy.engine import Connection, Engine
 from sqlalchemy.exc import ArgumentError, OperationalError, SQLAlchemyError
 
-from .. import __version__
-from ..errors import InputDataError
+from ..errors import InputDataError, one_line
 from .backends import HistoryBackend, HistoryError, backend_for, normalize_url
+from .records import LIVE, EstimateRecord, MaintenanceEvent
 from .screen import Refusal, ScreenConfig, screen_record
 
 __all__ = [
@@ -106,81 +108,6 @@ __all__ = [
     "fleet_bags_t",
     "normalize_url",
 ]
-
-#: analysis_version of the estimates the cell made (live node, recorded bags, CSV tables)
-LIVE = "live"
-
-
-@dataclass(frozen=True)
-class EstimateRecord:
-    """One wear estimate of one joint (a row of ``estimates``). ``time`` is seconds since the epoch."""
-
-    robot: str
-    joint: str
-    cycle_id: int
-    time: float
-    wear: float
-    wear_std: float
-    hardware_id: str = ""
-    temperature: float = math.nan
-    method: str = ""
-    params: str = ""
-    software_version: str = __version__
-    bag: str = ""
-    analysis_version: str = LIVE
-    source: str = "live"
-    #: ``complete`` or ``partial`` (a FAILED/ABORTED cycle or one that missed speeds:
-    #: :mod:`jointwear_ros.condition`); an estimate from too few speeds carries no level and is not stored
-    evidence: str = "complete"
-    #: when the estimate was received or recorded (a bag's log time), seconds since the epoch; NaN when
-    #: unknown. Not stored: the screening compares it with ``time`` to detect a jumped clock.
-    received: float = math.nan
-
-    @property
-    def time_ns(self) -> int:
-        """The stored time: ns since the epoch, rounded to the microsecond (a float of seconds since the epoch
-        keeps microseconds exactly, so the identity survives any float round trip: CSV, JSON, messages)."""
-        return round(self.time * 1e6) * 1000
-
-    def check(self, where: str = "estimate") -> EstimateRecord:
-        """Raise :class:`InputDataError` unless the record is storable (names, finite wear, std > 0)."""
-        if not self.robot or not self.joint:
-            raise InputDataError(f"{where}: robot {self.robot!r} and joint {self.joint!r} must be non-empty")
-        for name in ("time", "wear", "wear_std"):
-            v = float(getattr(self, name))
-            if not math.isfinite(v):
-                raise InputDataError(f"{where}: {name} = {v!r} is not a finite number")
-        if not 0.0 < float(self.wear_std) < 1e6:
-            raise InputDataError(f"{where}: wear_std = {self.wear_std!r} must be > 0 (the estimate's standard deviation)")
-        if not -1e9 < self.time < 1e11:
-            raise InputDataError(f"{where}: time = {self.time!r} is not seconds since the epoch")
-        if self.cycle_id < 0 or self.cycle_id >= 2**31:
-            raise InputDataError(f"{where}: cycle_id = {self.cycle_id!r} must be in [0, 2^31)")
-        return self
-
-
-@dataclass(frozen=True)
-class MaintenanceEvent:
-    """A maintenance event of one joint (regrease, reducer replaced, ...); starts a new trend segment."""
-
-    robot: str
-    joint: str
-    time: float
-    kind: str
-    note: str = ""
-
-    @property
-    def time_ns(self) -> int:
-        return round(self.time * 1e6) * 1000
-
-    def check(self, where: str = "maintenance event") -> MaintenanceEvent:
-        if not self.robot or not self.joint or not self.kind:
-            raise InputDataError(f"{where}: robot, joint and kind must be non-empty "
-                                 f"(got {self.robot!r}, {self.joint!r}, {self.kind!r})")
-        if not (math.isfinite(self.time) and -1e9 < self.time < 1e11):
-            raise InputDataError(f"{where}: time = {self.time!r} is not seconds since the epoch")
-        return self
-
 
 metadata = MetaData()
 
@@ -361,7 +288,7 @@ class HistoryStore:
             raise InputDataError(f"database URL {str(url)!r} is not valid ({exc}); "
                                  "use sqlite:///path or postgresql://user@host/db") from None
         except (OperationalError, SQLAlchemyError, OSError) as exc:
-            raise HistoryError(f"{self.display_url}: cannot open the history store: {_one_line(exc)}") from None
+            raise HistoryError(f"{self.display_url}: cannot open the history store: {one_line(exc)}") from None
         except ModuleNotFoundError as exc:
             raise InputDataError(f"database URL {str(url)!r}: its driver is not installed ({exc}); "
                                  "use sqlite:///path or postgresql://user@host/db") from None
@@ -374,7 +301,12 @@ class HistoryStore:
         except SQLAlchemyError as exc:
             hint = ("; the file is damaged: restore it from a backup, or export what is readable with "
                     "sqlite3 DB .recover") if "malformed" in str(exc) or "not a database" in str(exc) else ""
-            raise HistoryError(f"{self.display_url}: cannot read {what}: {_one_line(exc)}{hint}") from None
+            raise self._error(f"read {what}", exc, hint) from None
+
+    def _error(self, what: str, exc: BaseException, hint: str = "") -> HistoryError:
+        """A database error as one :class:`HistoryError` line, ``retryable`` as the backend says."""
+        return HistoryError(f"{self.display_url}: cannot {what}: {one_line(exc)}{hint}",
+                            retryable=self.backend.retryable(exc), detail=one_line(exc))
 
     @classmethod
     def watching(cls, url: str | Path, *, timeout_s: float = 5.0) -> HistoryStore:
@@ -429,7 +361,7 @@ class HistoryStore:
                 if self.schema_version() >= version:
                     continue
                 raise HistoryError(f"{self.display_url}: migration to schema version {version} failed: "
-                                   f"{_one_line(exc)}") from None
+                                   f"{one_line(exc)}") from None
             applied.append(version)
         return applied
 
@@ -504,12 +436,10 @@ class HistoryStore:
                     for start in range(0, len(bad_rows), 1000):
                         nb_new += len(conn.execute(bad_stmt, bad_rows[start:start + 1000]).all())
                 break
-            except OperationalError as exc:  # deadlock / serialization failure / locked: retry the transaction
-                if attempt == self.write_attempts - 1 or not _retryable(exc):
-                    raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
+            except SQLAlchemyError as exc:  # a lock, deadlock or serialization failure (the backend says): again
+                if attempt == self.write_attempts - 1 or not self.backend.retryable(exc):
+                    raise self._error("write estimates", exc) from None
                 _time.sleep(0.05 * (attempt + 1))
-            except SQLAlchemyError as exc:
-                raise HistoryError(f"{self.display_url}: cannot write estimates: {_one_line(exc)}") from None
         res.added, res.duplicates, res.refused_new = n, len(rows) - n, nb_new
         return res
 
@@ -551,7 +481,7 @@ class HistoryStore:
             try:
                 every = set(self.joints(None))
             except SQLAlchemyError as exc:
-                raise HistoryError(f"{self.display_url}: cannot read the joints: {_one_line(exc)}") from None
+                raise HistoryError(f"{self.display_url}: cannot read the joints: {one_line(exc)}") from None
             known = {j for r, j in every if r == ev.robot} | set(known_joints or ())
             if not known:
                 robots = sorted({r for r, _ in every})
@@ -570,7 +500,7 @@ class HistoryStore:
             with self.engine.begin() as conn:
                 return bool(conn.execute(stmt).fetchall())
         except SQLAlchemyError as exc:
-            raise HistoryError(f"{self.display_url}: cannot write the maintenance event: {_one_line(exc)}") from None
+            raise HistoryError(f"{self.display_url}: cannot write the maintenance event: {one_line(exc)}") from None
 
     # ------------------------------------------------------------------ reading
     def estimates(self, robot: str | None = None, joint: str | None = None,
@@ -587,7 +517,6 @@ class HistoryStore:
 
     def count(self, analysis_version: str | None = None) -> int:
         """Number of stored estimates (of one analysis version, or all)."""
-        from sqlalchemy import func
         q = select(func.count()).select_from(estimates_t)
         if analysis_version is not None:
             q = q.where(estimates_t.c.analysis_version == analysis_version)
@@ -630,6 +559,58 @@ class HistoryStore:
             if (ev.robot, ev.joint) in out:
                 out[(ev.robot, ev.joint)][1].append(ev)
         return out
+
+    def versions_by_recency(self) -> list[str]:
+        """The analysis versions present, oldest first by when their newest estimate was written."""
+        c = estimates_t.c
+        q = select(c.analysis_version, func.max(c.inserted_ns)).group_by(c.analysis_version)
+        with self._reading("the analysis versions"), self.engine.connect() as conn:
+            rows = conn.execute(q).all()
+        return [str(v) for v, _ in sorted(rows, key=lambda r: (int(r[1] or 0), str(r[0])))]
+
+    def change_marks(self, analysis_version: str | None = LIVE) -> dict[tuple[str, str], tuple[int, int, int, int]]:
+        """Per joint with estimates: (estimates, newest estimate row id, maintenance events, newest event row id).
+        Any row added to or removed from a joint changes its entry: what a long-running reader polls to know
+        which joints to read again (two grouped aggregate queries over the store's indexes)."""
+        e, m = estimates_t.c, maintenance_t.c
+        qe = select(e.robot, e.joint, func.count(), func.max(e.id)).group_by(e.robot, e.joint)
+        if analysis_version is not None:
+            qe = qe.where(e.analysis_version == analysis_version)
+        qm = select(m.robot, m.joint, func.count(), func.max(m.id)).group_by(m.robot, m.joint)
+        with self._reading("the joints' row counts"), self.engine.connect() as conn:
+            est, mnt = conn.execute(qe).all(), conn.execute(qm).all()
+        events = {(str(r), str(j)): (int(n), int(i)) for r, j, n, i in mnt}
+        return {(str(r), str(j)): (int(n), int(i), *events.get((str(r), str(j)), (0, 0))) for r, j, n, i in est}
+
+    # ------------------------------------------------------------------ the fleet ledger (fleet_bags)
+    def bags_done(self, analysis_version: str) -> set[str]:
+        """Fingerprints of the bags a re-analysis ``analysis_version`` has done (:mod:`jointwear_ros.fleet.ledger`;
+        one transaction, one attempt: the error's ``retryable`` says whether another may pass)."""
+        q = select(fleet_bags_t.c.fingerprint).where(fleet_bags_t.c.analysis_version == analysis_version)
+        with self._reading("the fleet ledger"), self.engine.connect() as conn:
+            return {str(r[0]) for r in conn.execute(q).all()}
+
+    def mark_bags_done(self, analysis_version: str, bags: Iterable[Mapping[str, Any]]) -> int:
+        """Record bags (``fingerprint``, ``bag``, ``estimates``, ``seconds``) as done for ``analysis_version``:
+        idempotent, one transaction, one attempt (the error's ``retryable`` says whether another may pass),
+        rows in fingerprint order (one lock order for every writer). Returns how many rows were new."""
+        if self.read_only:
+            raise HistoryError(f"{self.display_url}: opened read-only; nothing can be written")
+        now = _time.time_ns()
+        rows = sorted(({"analysis_version": analysis_version, "fingerprint": str(b["fingerprint"]),
+                        "bag": str(b["bag"]), "estimates": int(b["estimates"]), "seconds": float(b["seconds"]),
+                        "done_ns": now} for b in bags), key=lambda r: r["fingerprint"])
+        stmt = self.insert(fleet_bags_t).on_conflict_do_nothing(
+            index_elements=["analysis_version", "fingerprint"]).returning(fleet_bags_t.c.id)
+        n = 0
+        try:
+            with self.engine.begin() as conn:
+                for row in rows:
+                    # the rows RETURNING gives back are the new ones, on every backend (a rowcount is -1 on psycopg)
+                    n += len(conn.execute(stmt.values(**row)).all())
+        except SQLAlchemyError as exc:
+            raise self._error("record the bags done in the fleet ledger", exc) from None
+        return n
 
     def close(self) -> None:
         self.engine.dispose()
@@ -691,12 +672,3 @@ def _record(r: Any) -> EstimateRecord:
         source=r["source"], evidence=r.get("evidence") or "complete",
     )
 
-
-def _retryable(exc: BaseException) -> bool:
-    text_ = str(getattr(exc, "orig", None) or exc).lower()
-    return any(k in text_ for k in ("deadlock", "could not serialize", "database is locked", "busy"))
-
-
-def _one_line(exc: BaseException) -> str:
-    text_ = str(getattr(exc, "orig", None) or exc).strip().splitlines()
-    return text_[0] if text_ else type(exc).__name__

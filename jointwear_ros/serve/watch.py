@@ -24,19 +24,14 @@ a joint's level resolves because the store went away.
 from __future__ import annotations
 
 import math
-import sqlite3
 import threading
 import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from sqlalchemy import func, select
-from sqlalchemy.exc import SQLAlchemyError
-
-from ..errors import JointwearError
+from ..errors import JointwearError, one_line
 from ..history import LIVE, SCHEMA_VERSION, EstimateRecord, HistoryError, HistoryStore
-from ..history.store import estimates_t, maintenance_t
 from ..history.trends import screened_history
 from ..trend import TrendConfig, TrendResult
 from .core import JointHistory, JointView, analyze_plant, joint_view, refused_view
@@ -51,15 +46,9 @@ def open_readonly(url: str, *, timeout_s: float = 5.0) -> HistoryStore:
 
 
 def _fingerprint(store: HistoryStore, analysis_version: str) -> dict[tuple[str, str], tuple[Any, ...]]:
-    """Per joint: (estimates, newest estimate row id, maintenance events, newest event row id). Any row added to
-    or removed from a joint changes its entry; two grouped aggregate queries over the store's indexes."""
-    e, m = estimates_t.c, maintenance_t.c
-    with store.engine.connect() as conn:
-        est = conn.execute(select(e.robot, e.joint, func.count(), func.max(e.id))
-                           .where(e.analysis_version == analysis_version).group_by(e.robot, e.joint)).all()
-        mnt = conn.execute(select(m.robot, m.joint, func.count(), func.max(m.id)).group_by(m.robot, m.joint)).all()
-    events = {(str(r), str(j)): (int(n), int(i)) for r, j, n, i in mnt}
-    return {(str(r), str(j)): (int(n), int(i), *events.get((str(r), str(j)), (0, 0))) for r, j, n, i in est}
+    """Per joint: (estimates, newest estimate row id, maintenance events, newest event row id): any row added to
+    or removed from a joint changes its entry (:meth:`HistoryStore.change_marks`)."""
+    return dict(store.change_marks(analysis_version))
 
 
 @dataclass(frozen=True)
@@ -152,9 +141,9 @@ class StoreWatcher:
                 new = replace(old, loaded_at=now)
             new = replace(new, views=self._views(new.joints, now), store_ok=True, error="", checked_at=now,
                           error_since=math.nan)
-        except (SQLAlchemyError, JointwearError, OSError, sqlite3.Error) as exc:
+        except (JointwearError, OSError) as exc:  # the store's errors are HistoryError lines
             self._drop_store()
-            msg = _one_line(exc)
+            msg = one_line(exc)
             new = replace(old, store_ok=False, error=msg, checked_at=now, failures=old.failures + 1,
                           error_since=old.error_since if not old.store_ok and math.isfinite(old.error_since) else now)
         if (_shown(new.views), new.store_ok, new.error) != (_shown(old.views), old.store_ok, old.error) \
@@ -230,7 +219,7 @@ class StoreWatcher:
             try:
                 self.poll()
             except Exception as exc:
-                self._publish(replace(self.snapshot, store_ok=False, error=f"internal error: {_one_line(exc)}",
+                self._publish(replace(self.snapshot, store_ok=False, error=f"internal error: {one_line(exc)}",
                                       checked_at=self.clock(), version=self.snapshot.version + 1))
 
     def stop(self) -> None:
@@ -251,7 +240,3 @@ def _shown(views: tuple[JointView, ...]) -> tuple[JointView, ...]:
     changes when something visible does, not on every poll."""
     return tuple(replace(v, age_days=round(v.age_days, 1)) for v in views)
 
-
-def _one_line(exc: BaseException) -> str:
-    text = str(getattr(exc, "orig", None) or exc).strip().splitlines()
-    return text[0] if text else type(exc).__name__
