@@ -25,7 +25,10 @@ from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 
 from jointwear_ros.history import HistoryStore  # noqa: E402
-from jointwear_ros.nodes.wear_trend import WearTrendNode, _default_spool, _fallback_spool, _same_disk  # noqa: E402
+from jointwear_ros.history.outbox import default_spool as _default_spool  # noqa: E402
+from jointwear_ros.history.outbox import fallback_spool as _fallback_spool  # noqa: E402
+from jointwear_ros.history.outbox import same_disk as _same_disk  # noqa: E402
+from jointwear_ros.nodes.wear_trend import WearTrendNode  # noqa: E402
 
 pytestmark = pytest.mark.ros
 

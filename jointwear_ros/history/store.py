@@ -597,9 +597,10 @@ class HistoryStore:
         if self.read_only:
             raise HistoryError(f"{self.display_url}: opened read-only; nothing can be written")
         now = _time.time_ns()
-        rows = sorted(({"analysis_version": analysis_version, "fingerprint": str(b["fingerprint"]),
-                        "bag": str(b["bag"]), "estimates": int(b["estimates"]), "seconds": float(b["seconds"]),
-                        "done_ns": now} for b in bags), key=lambda r: r["fingerprint"])
+        rows: list[dict[str, Any]] = sorted(
+            ({"analysis_version": analysis_version, "fingerprint": str(b["fingerprint"]), "bag": str(b["bag"]),
+              "estimates": int(b["estimates"]), "seconds": float(b["seconds"]), "done_ns": now} for b in bags),
+            key=lambda r: str(r["fingerprint"]))
         stmt = self.insert(fleet_bags_t).on_conflict_do_nothing(
             index_elements=["analysis_version", "fingerprint"]).returning(fleet_bags_t.c.id)
         n = 0

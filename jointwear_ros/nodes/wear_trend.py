@@ -1,7 +1,7 @@
 """wear_trend: WearEstimate → wear history store → trend, time to alarm, /diagnostics.
 
-A thin rclpy adapter over :class:`~jointwear_ros.history.HistoryStore` and the
-pure trend core :func:`~jointwear_ros.trend.analyze_joint`. Every
+A thin rclpy adapter over :class:`~jointwear_ros.history.HistoryStore`, its
+outbox and the pure trend core :func:`~jointwear_ros.trend.analyze_joint`. Every
 ``jointwear_msgs/WearEstimate`` on ``estimate_topic`` is appended to the store
 (``db_url``: an SQLite file by default, or ``postgresql://...``) in its own
 transaction *before* anything is published about it, so what the node has
@@ -34,12 +34,15 @@ logged and counted (``rejected`` and ``refused_<reason>`` in the diagnostics; th
 joint's message names it while its newest estimate is a refused one); it never
 reaches the trend. The node keeps running.
 
-**Nothing reported is lost.** When the store fails (disk full, PostgreSQL down,
-a locked or damaged file), the estimates it could not take wait in a bounded
-buffer (``buffer_max``), spooled to ``buffer_path`` (default under ``$ROS_HOME``,
-never beside the store's file; the node warns when it shares the store's disk)
-and, when that cannot be written either (the same disk is full), to a RAM file
-in ``/dev/shm`` that survives the node being killed; both are reloaded on start.
+**Nothing reported is lost.** Estimates go to the store through the history's
+outbox (:class:`~jointwear_ros.history.outbox.Outbox`, which holds the policy;
+the node only feeds it and calls its retry on a timer). When the store fails
+(disk full, PostgreSQL down, a locked or damaged file), the estimates it could
+not take wait in a bounded buffer (``buffer_max``), spooled to ``buffer_path``
+(default under ``$ROS_HOME``, never beside the store's file; the node warns when
+it shares the store's disk) and, when that cannot be written either (the same
+disk is full), to a RAM file in ``/dev/shm`` that survives the node being
+killed; both are reloaded on start.
 A locked store makes a statement fail after ``store_lock_timeout`` (0.5 s), never
 blocking the node: its diagnostics keep their period. They are written again every ``retry_period`` until the store takes them
 (inserts are idempotent: none twice); meanwhile ``/diagnostics`` says ERROR on
@@ -58,11 +61,8 @@ Parameters: see ``config/wear_trend.yaml`` and ``docs/history-trend.md``.
 
 from __future__ import annotations
 
-import json
 import math
-import os
-from collections import deque
-from dataclasses import asdict, replace
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -78,6 +78,7 @@ from .. import __version__
 from ..contract import DiagnosticLevel, stamp_to_seconds
 from ..errors import JointwearError
 from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, backend_for, screened_history
+from ..history.outbox import Outbox, SpoolPaths, same_disk
 from ..history.screen import REASONS, Refusal, ScreenConfig, screen_record
 from ..trend import TrendConfig, TrendResult, analyze_joint
 from .diagnostics import HeldStatus, Status, Updater
@@ -150,42 +151,6 @@ def trend_to_msg(r: TrendResult, stamp: TimeMsg, horizon_days: float, alarm: flo
     return m
 
 
-def _default_spool(db_url: str, robot: str) -> Path:
-    """``$ROS_HOME`` (``~/.ros``)``/wear_trend_<robot>.pending.jsonl``: never beside the store's file, whose disk is
-    the one that fills when the store fails for lack of space."""
-    return Path(os.environ.get("ROS_HOME", "~/.ros")).expanduser() / f"wear_trend_{robot}.pending.jsonl"
-
-
-def _fallback_spool(db_url: str, robot: str) -> Path:
-    """Where the buffer goes when its spool cannot be written (that disk is full too): a RAM file system
-    (``/dev/shm``), which survives the node being killed (not a reboot); the temp directory without one."""
-    import hashlib
-    import tempfile
-
-    base = Path("/dev/shm")
-    if not (base.is_dir() and os.access(base, os.W_OK)):
-        base = Path(tempfile.gettempdir())
-    tag = hashlib.sha1(str(db_url).encode()).hexdigest()[:10]
-    return base / f"jointwear-wear_trend-{robot}-{tag}.pending.jsonl"
-
-
-def _same_disk(a: Path, b: Path | None) -> bool:
-    """Whether ``a`` and ``b`` (files, existing or not) are on one file system (False when unknown)."""
-    if b is None:
-        return False
-
-    def dev(p: Path) -> int | None:
-        for q in (p, *p.parents):
-            try:
-                return q.stat().st_dev
-            except OSError:
-                continue
-        return None
-
-    da, db = dev(a.expanduser()), dev(b.expanduser())
-    return da is not None and da == db
-
-
 class WearTrendNode(Node):
     """The wear trend node (see the module docstring)."""
 
@@ -198,36 +163,23 @@ class WearTrendNode(Node):
                                horizon_days=float(p["horizon_days"]), min_estimates=int(p["min_estimates"]))
         self.screen_cfg = replace(_S, future_tolerance_s=float(p["future_tolerance"]),
                                   clock_tolerance_s=float(p["clock_tolerance"]))
-        self.stored = 0
-        self.duplicates = 0
         self.rejected = 0
         self.refused_by_reason: dict[str, int] = {}
-        self.dropped = 0  # buffer overflow while the store failed
-        self.store_error: str | None = None
-        self.store_failures = 0
+        self._repeats = 0  # estimates received again that the store holds (screened as a clock jump)
         self.trends: dict[str, TrendResult] = {}
         #: joint -> its trend's status (set at each analysis; the node's counters are added at each update)
         self._trend_status: dict[str, HeldStatus] = {}
         #: joint -> (records, events) of the last successful read (used while reads fail)
         self._cache: dict[str, tuple[list[EstimateRecord], list[MaintenanceEvent]]] = {}
-        #: estimates (and refusals) waiting for the store, oldest first
-        self.pending: deque[tuple[EstimateRecord, Refusal | None]] = deque()
-        self._buffer_max = max(1, int(p["buffer_max"]))
-        self.spool = Path(str(p["buffer_path"])) if str(p["buffer_path"]) else _default_spool(str(p["db_url"]),
-                                                                                               self.robot)
-        self._spool_ok = True
-        self.fallback_spool = _fallback_spool(str(p["db_url"]), self.robot)
-        #: where earlier versions spooled by default (beside the store's file): read on start, so an upgrade loses
-        #: nothing a killed node left there
-        db_file = backend_for(str(p["db_url"])).file
-        self._legacy_spool = (db_file.with_name(db_file.name + f".{self.robot}.pending.jsonl")
-                              if db_file is not None and not str(p["buffer_path"]) else None)
-        self._fallback_ok = True
-        self.spool_same_disk = _same_disk(self.spool, backend_for(str(p["db_url"])).file)
+        #: the estimates on their way to the store: buffer, spool and retry (the pure history component)
+        paths = SpoolPaths.for_store(str(p["db_url"]), self.robot, str(p["buffer_path"]))
+        self.outbox = Outbox(self._open_store, paths, clock=self._now, screen=self.screen_cfg,
+                             max_items=int(p["buffer_max"]), log=self._log)
+        self.spool_same_disk = same_disk(paths.spool, backend_for(str(p["db_url"])).file)
         if self.spool_same_disk:
             self.get_logger().warning(
-                f"the buffer spool {self.spool} is on the store's disk: when that disk fills, buffered estimates go "
-                f"to {self.fallback_spool} (RAM: kept through a kill, not a reboot); set buffer_path to another disk")
+                f"the buffer spool {paths.spool} is on the store's disk: when that disk fills, buffered estimates go "
+                f"to {paths.fallback} (RAM: kept through a kill, not a reboot); set buffer_path to another disk")
         self._newest: dict[str, float] = {}  # joint -> newest accepted stamp (live arrival order)
         self._last_refusal: dict[str, Refusal | None] = {}
         reliable = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
@@ -239,17 +191,16 @@ class WearTrendNode(Node):
         self.health = Updater(self, "wear_trend", period=float(p["diagnostics_period"]),
                               topic=str(p["diagnostics_topic"]))
         self.health.add("history", self._history_health, hardware_id=str(p["hardware_id"]) or self.robot)
-        self.store: HistoryStore | None = None
-        self._open_store()
-        self._load_spool()
+        self.outbox.open()
+        self.outbox.load()
         self.create_subscription(WearEstimate, str(p["estimate_topic"]), self._on_estimate, reliable,
                                  qos_overriding_options=overridable_qos())
         self.create_service(RecordMaintenance, "~/record_maintenance", self._on_maintenance)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(float(p["retry_period"]), self._retry, clock=steady)
         on_parameter_change(self, self._on_parameters, LIVE_PARAMETERS)
-        if self.pending:
-            self._flush()
+        if self.outbox.pending:
+            self.outbox.flush()
         joints = self._known_joints()
         for joint in joints:
             self._update(joint)
@@ -263,36 +214,54 @@ class WearTrendNode(Node):
         self.health.update()
 
     # ------------------------------------------------------------------ store plumbing
+    @property
+    def store(self) -> HistoryStore | None:
+        return self.outbox.store  # type: ignore[return-value]
+
+    @property
+    def pending(self) -> Any:
+        """The estimates (and refusals) waiting for the store, oldest first."""
+        return self.outbox.pending
+
+    @property
+    def store_error(self) -> str | None:
+        return self.outbox.error
+
+    @property
+    def stored(self) -> int:
+        return self.outbox.stored
+
+    @property
+    def duplicates(self) -> int:
+        return self.outbox.duplicates + self._repeats
+
+    @property
+    def dropped(self) -> int:
+        return self.outbox.dropped
+
+    @property
+    def spool(self) -> Path:
+        return self.outbox.paths.spool
+
+    def _log(self, level: str, message: str) -> None:
+        log = self.get_logger()
+        {"error": log.error, "warning": log.warning}.get(level, log.info)(message)
+
     def _count(self) -> str:
         if self.store is None or self.store_error is not None:
             return "?"
         try:
             return str(self.store.count(LIVE))
         except Exception as exc:  # a failed read never ends the node
-            self._fail("cannot read", exc)
+            self.outbox.fail("cannot read", exc)
             return "?"
 
     def _url(self) -> str:
         return self.store.display_url if self.store is not None else str(self.params["db_url"])
 
-    def _fail(self, what: str, exc: Exception) -> None:
-        text = f"{what}: {exc}"
-        if self.store_error is None:
-            self.get_logger().error(f"history store failing: {text}; estimates are buffered and retried every "
-                                    f"{float(self.params['retry_period']):g} s")
-        self.store_error = text
-        self.store_failures += 1
-
-    def _open_store(self) -> bool:
-        if self.store is not None:
-            return True
-        try:
-            self.store = HistoryStore(str(self.params["db_url"]),
-                                      lock_timeout_s=float(self.params["store_lock_timeout"]), write_attempts=1)
-        except JointwearError as exc:
-            self._fail("cannot open", exc)
-            return False
-        return True
+    def _open_store(self) -> HistoryStore:
+        return HistoryStore(str(self.params["db_url"]), lock_timeout_s=float(self.params["store_lock_timeout"]),
+                            write_attempts=1)
 
     def _known_joints(self) -> list[str]:
         joints = set(self._cache) | {r.joint for r, _ in self.pending}
@@ -300,120 +269,14 @@ class WearTrendNode(Node):
             try:
                 joints |= {j for r, j in self.store.joints(LIVE) if r == self.robot}
             except Exception as exc:  # any driver error is a store failure
-                self._fail("cannot read", exc)
+                self.outbox.fail("cannot read", exc)
         return sorted(joints)
-
-    def _load_spool(self) -> None:
-        """Estimates a previous run could not store (it was stopped, or killed, while the store failed): from the
-        spool and from the RAM fallback (each estimate once)."""
-        seen: set[tuple[str, int, int]] = set()
-        for path in self._spool_paths():
-            if not path.is_file():
-                continue
-            n = 0
-            try:
-                for line in path.read_text(encoding="utf-8").splitlines():
-                    try:
-                        rec = EstimateRecord(**json.loads(line))
-                    except (ValueError, TypeError):
-                        continue  # a line cut by a crash
-                    key = (rec.joint, rec.cycle_id, rec.time_ns)
-                    if key in seen:
-                        continue
-                    seen.add(key)
-                    f = screen_record(rec, now=self._now(), cfg=self.screen_cfg)
-                    self.pending.append((rec, f))
-                    n += 1
-            except OSError as exc:
-                self.get_logger().warning(f"cannot read the buffer {path}: {exc}")
-            if n:
-                self.get_logger().info(f"{n} estimate(s) buffered by a previous run reloaded from {path}")
-
-    def _spool_paths(self) -> list[Path]:
-        return [self.spool, self.fallback_spool, *([self._legacy_spool] if self._legacy_spool else [])]
-
-    @staticmethod
-    def _append_line(path: Path, rec: EstimateRecord) -> None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("a", encoding="utf-8") as fh:
-            fh.write(json.dumps(asdict(rec)) + "\n")  # NaN/inf as JSON's NaN/Infinity, read back by json
-            fh.flush()
-            os.fsync(fh.fileno())
-
-    def _spool_append(self, rec: EstimateRecord) -> None:
-        if self._spool_ok:
-            try:
-                self._append_line(self.spool, rec)
-                return
-            except OSError as exc:  # the disk the store failed on may be full too
-                self._spool_ok = False
-                self.get_logger().error(f"cannot spool the buffer to {self.spool} ({exc}); the buffer goes to "
-                                        f"{self.fallback_spool} (RAM: kept through a kill, not a reboot)")
-                self._rewrite_fallback()  # the whole buffer (this estimate is in it), each estimate once
-                return
-        self._fallback_append(rec)
-
-    def _rewrite_fallback(self) -> None:
-        try:
-            self.fallback_spool.unlink(missing_ok=True)
-        except OSError:
-            pass
-        for r, _ in self.pending:
-            self._fallback_append(r)
-
-    def _fallback_append(self, rec: EstimateRecord) -> None:
-        if not self._fallback_ok:
-            return
-        try:
-            self._append_line(self.fallback_spool, rec)
-        except OSError as exc:
-            self._fallback_ok = False
-            self.get_logger().error(f"cannot spool the buffer to {self.fallback_spool} either ({exc}); "
-                                    "buffered in memory only")
-
-    def _spool_clear(self) -> None:
-        for path in self._spool_paths():
-            try:
-                path.unlink(missing_ok=True)
-            except OSError:
-                pass
-        self._spool_ok = self._fallback_ok = True
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _flush(self) -> bool:
-        """Write every buffered estimate (accepted and refused) in one transaction; True when the buffer is empty."""
-        if not self.pending:
-            return True
-        if not self._open_store():
-            return False
-        assert self.store is not None
-        items = list(self.pending)
-        ok = [r for r, f in items if f is None]
-        bad = [f for _, f in items if f is not None]
-        try:
-            res = self.store.write_estimates(ok, now=self._now(), screen=self.screen_cfg, strict=False,
-                                             extra_refused=bad)
-        except Exception as exc:  # any driver error (disk full, connection lost) is a store failure
-            self._fail("cannot write", exc)
-            return False
-        for _ in items:
-            self.pending.popleft()
-        self._spool_clear()
-        self.stored += res.added
-        self.duplicates += res.duplicates
-        if self.store_error is not None:
-            self.get_logger().info(f"history store writable again: {len(items)} buffered estimate(s) written "
-                                   f"({res.added} new)")
-        self.store_error = None
-        return True
-
     def _retry(self) -> None:
-        if self.store_error is None and not self.pending:
-            return
-        was = self.store_error
-        if self._flush() and was is not None:
+        if self.outbox.retry():  # the store came back: every joint's trend from what it holds now
             for joint in self._known_joints():
                 self._update(joint)
             self.health.update()
@@ -433,7 +296,7 @@ class WearTrendNode(Node):
         )
         f = screen_record(rec, now=self._now(), cfg=self.screen_cfg, not_before=self._newest.get(joint))
         if f is not None and f.reason == "clock_jump" and self._stored_already(rec):
-            self.duplicates += 1  # the same estimate again (a bag played onto the graph, a restarted estimator)
+            self._repeats += 1  # the same estimate again (a bag played onto the graph, a restarted estimator)
             return
         if f is not None:
             self.rejected += 1
@@ -444,16 +307,7 @@ class WearTrendNode(Node):
         else:
             self._newest[joint] = max(self._newest.get(joint, -math.inf), rec.time)
             self._last_refusal[joint] = None
-        self.pending.append((rec, f))
-        if len(self.pending) > self._buffer_max:
-            lost, _ = self.pending.popleft()
-            self.dropped += 1
-            self.get_logger().error(f"buffer full ({self._buffer_max}): the oldest buffered estimate "
-                                    f"({lost.joint} cycle {lost.cycle_id}) is dropped")
-        # while the store fails, the retry timer (one attempt per retry_period) writes the buffer: an estimate
-        # arriving meanwhile waits with it, without a blocking attempt of its own
-        if self.store_error is not None or not self._flush():
-            self._spool_append(rec)  # the store failed: this one waits, on disk where possible
+        self.outbox.put(rec, f)  # stored now, or buffered, spooled and retried while the store fails
         self._update(joint)
 
     def _stored_already(self, rec: EstimateRecord) -> bool:
@@ -474,7 +328,7 @@ class WearTrendNode(Node):
         if t <= 0:
             t = self._now()
         try:
-            if self.store is None and not self._open_store():
+            if not self.outbox.open():
                 raise JointwearError(f"the history store is failing ({self.store_error}); try again later")
             assert self.store is not None
             new = self.store.add_maintenance(MaintenanceEvent(robot, str(req.joint_name), t, str(req.kind),
@@ -505,20 +359,21 @@ class WearTrendNode(Node):
                        clock_tolerance_s=float(p["clock_tolerance"]))
         self.params.update(changes)
         self.cfg, self.screen_cfg = cfg, scfg
+        self.outbox.screen = scfg
         for joint in self._known_joints():
             self._update(joint)
         return None
 
     # ------------------------------------------------------------------ trend
     def _read(self, joint: str) -> tuple[list[EstimateRecord], list[MaintenanceEvent]] | None:
-        if self.store is None and not self._open_store():
+        if not self.outbox.open():
             return self._cache.get(joint)
         assert self.store is not None
         try:
             hist, _refused = screened_history(self.store, LIVE, robot=self.robot, joint=joint, now=self._now(),
                                               cfg=self.screen_cfg)
         except Exception as exc:  # a failed read keeps the last history read
-            self._fail("cannot read", exc)
+            self.outbox.fail("cannot read", exc)
             return self._cache.get(joint)
         got = hist.get((self.robot, joint))
         if got is not None:
@@ -530,7 +385,7 @@ class WearTrendNode(Node):
     def _update(self, joint: str) -> None:
         got = self._read(joint)
         recs, events = got if got is not None else ([], [])
-        waiting = [r for r, f in self.pending if f is None and r.joint == joint]
+        waiting = self.outbox.waiting(joint)
         if waiting:  # the newest estimates the store has not taken yet count: the level follows them
             have = {(r.cycle_id, r.time_ns) for r in recs}
             recs = sorted([*recs, *(r for r in waiting if (r.cycle_id, r.time_ns) not in have)],
@@ -627,23 +482,8 @@ class WearTrendNode(Node):
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: a last attempt at the buffer (kept in its spool file otherwise); let
         reliable subscribers get the last trends; close the store."""
-        if self.pending and not self._flush():
-            if not self._spool_ok or not self.spool.is_file():
-                self._spool_clear()
-                try:
-                    for rec, _ in self.pending:
-                        self._append_line(self.spool, rec)
-                    where = self.spool
-                except OSError:
-                    self._spool_clear()
-                    self._rewrite_fallback()
-                    where = self.fallback_spool
-            else:
-                where = self.spool
-            self.get_logger().error(f"{len(self.pending)} estimate(s) not stored at exit: kept in {where}")
+        self.outbox.close()  # a last attempt; what the store did not take stays in a spool file (logged)
         wait_acked([self.trend_pub])
-        if self.store is not None:
-            self.store.close()
 
 
 def main(args: list[str] | None = None) -> int:
