@@ -232,8 +232,6 @@ def _m4(conn: Connection) -> None:
 def _m5(conn: Connection) -> None:
     """Version 5: ``estimates.evidence`` (``complete``/``partial``, :mod:`jointwear_ros.condition`); rows stored
     before it are ``complete`` (a store created at version 1 by this code has the column already)."""
-    from sqlalchemy import inspect
-
     if "evidence" not in {c["name"] for c in inspect(conn).get_columns("estimates")}:
         conn.execute(text("ALTER TABLE estimates ADD COLUMN evidence VARCHAR(20) NOT NULL DEFAULT 'complete'"))
 

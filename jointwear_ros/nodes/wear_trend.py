@@ -244,8 +244,14 @@ class WearTrendNode(Node):
         return self.outbox.paths.spool
 
     def _log(self, level: str, message: str) -> None:
+        """The outbox's log lines (rclpy wants one call site per severity)."""
         log = self.get_logger()
-        {"error": log.error, "warning": log.warning}.get(level, log.info)(message)
+        if level == "error":
+            log.error(message)
+        elif level == "warning":
+            log.warning(message)
+        else:
+            log.info(message)
 
     def _count(self) -> str:
         if self.store is None or self.store_error is not None:
