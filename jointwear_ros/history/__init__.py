@@ -1,9 +1,11 @@
-"""The wear history store (SQLAlchemy Core over a backend: SQLite by default, PostgreSQL for a fleet) and its trend
-queries."""
+"""The wear history store (SQLAlchemy Core over a backend: SQLite by default, PostgreSQL for a fleet), its records,
+the outbox of a live writer (buffer, spool and retry of the estimates the store could not take yet) and its trend
+queries. All storage IO of the suite is here."""
 
 from __future__ import annotations
 
 from .backends import BACKENDS, HistoryBackend, PostgresBackend, SqliteBackend, backend_for, register_backend
+from .outbox import Outbox, SpoolPaths
 from .records import LIVE, EstimateRecord, MaintenanceEvent
 from .screen import REASONS, Refusal, ScreenConfig
 from .store import MIGRATIONS, SCHEMA_VERSION, HistoryError, HistoryStore, WriteResult, normalize_url
@@ -20,9 +22,11 @@ __all__ = [
     "HistoryError",
     "HistoryStore",
     "MaintenanceEvent",
+    "Outbox",
     "PostgresBackend",
     "Refusal",
     "ScreenConfig",
+    "SpoolPaths",
     "SqliteBackend",
     "WriteResult",
     "backend_for",

@@ -21,9 +21,8 @@ and the spool an earlier version kept beside the store's file (each estimate onc
 The store is opened by the ``open_store`` callable given (again at every attempt while it cannot be opened), the
 screening clock is the ``clock`` given: a test drives both.
 
->>> import tempfile
 >>> from jointwear_ros.history import EstimateRecord, HistoryStore
->>> d = Path(tempfile.mkdtemp())
+>>> d = Path(tempfile.gettempdir()) / "jointwear-outbox-example"  # written only while the store fails
 >>> box = Outbox(lambda: HistoryStore("sqlite://"), SpoolPaths(d / "spool.jsonl", d / "ram.jsonl"),
 ...              clock=lambda: 1.75e9)
 >>> box.put(EstimateRecord("robot_1", "joint_1", cycle_id=1, time=1.75e9 - 60, wear=20.0, wear_std=0.8))
