@@ -393,7 +393,7 @@ MUTANTS: tuple[Mutant, ...] = (
                  """),
            ("test/test_recorder.py",)),
     Mutant("history_whole_seconds", "the history stores times in whole seconds",
-           "jointwear_ros/history/store.py", "EstimateRecord.time_ns",
+           "jointwear_ros/history/records.py", "EstimateRecord.time_ns",
            expr("round(self.time * 1e6) * 1000", "round(self.time) * 1_000_000_000"),
            ("test/test_history_store.py",), select="to_the_microsecond and sqlite", fast=True),
     Mutant("history_screening_off", "estimates go into the history unscreened",
@@ -490,9 +490,9 @@ MUTANTS: tuple[Mutant, ...] = (
            ("test/test_faults28_guards.py",), select="bound_detector", fast=True),
     Mutant("spool_skipped_on_write_failure", "an estimate the store could not write (the store opened, the write "
                                              "failed) is not spooled: a kill loses it",
-           "jointwear_ros/nodes/wear_trend.py", "WearTrendNode._on_estimate",
+           "jointwear_ros/history/outbox.py", "Outbox.put",
            stmts("self._spool_append(rec)", "pass"),
-           ("test/test_faults28_wear_trend.py",), select="spool_disk_full"),
+           ("test/test_outbox.py",), select="fails_after_the_open", fast=True),
 )
 
 
