@@ -78,11 +78,11 @@ from scipy.interpolate import BSpline
 from scipy.signal import lombscargle
 from threadpoolctl import threadpool_limits
 
+from ..model.shapes import is_angle
 from ..types import ObservationTable
 from .candidates import candidate_variables
 from .compare import speed_region
 from .fit import group_folds
-from .shapes import is_angle
 from .significance import guarded, holm, nested_test, permutation_p
 
 __all__ = [

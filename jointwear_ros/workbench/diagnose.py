@@ -50,13 +50,13 @@ import numpy.typing as npt
 from scipy import stats
 
 from ..errors import ModelError
-from ..model import TERMS, Model, Parameters, Term
+from ..model import TERMS, Model, Parameters, Term, parse_spec
+from ..model.shapes import HarmonicRipple, Interaction, Scale, Spline, Step, is_angle
 from ..types import ObservationTable
-from .candidates import candidate_library, parse_spec
+from .candidates import candidate_library
 from .compare import NoiseFloor, noise_test, speed_region, sweep_scatter
 from .dependence import VariableDependence, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
-from .shapes import HarmonicRipple, Interaction, Scale, Spline, Step, is_angle
 from .significance import nested_test
 
 __all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
