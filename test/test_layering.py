@@ -50,7 +50,7 @@ RANK: dict[str, int] = {
 }
 
 CORES = ("model", "estimation", "workbench", "commission", "data", "sim", "cycle", "observer", "monitor", "trend",
-         "types", "units", "errors", "fmt", "contract", "resources", "condition")
+         "types", "units", "errors", "fmt", "contract", "resources", "condition", "observation")
 ROS = ("rclpy", "rcl_interfaces", "std_msgs", "std_srvs", "sensor_msgs", "diagnostic_msgs", "rosgraph_msgs",
        "builtin_interfaces", "jointwear_msgs", "launch", "launch_ros")
 

@@ -169,7 +169,7 @@ class Term:
 class Model:
     """A static friction model: the sum of its terms.
 
-    Build one with ``+`` (``Coulomb() + Viscous()``) or :func:`parse_model_spec`.
+    Build one with ``+`` (``Coulomb() + Viscous()``) or :func:`~.specs.parse_model_spec`.
     Parameter names must be distinct across terms; a clash is an error.
     """
 
@@ -202,7 +202,7 @@ class Model:
 
     @property
     def spec(self) -> str:
-        """The model as a spec string, accepted by :func:`parse_model_spec`."""
+        """The model as a spec string, accepted by :func:`~.specs.parse_model_spec`."""
         return " + ".join(t.name for t in self.terms)
 
     @property
