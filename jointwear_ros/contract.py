@@ -29,10 +29,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from functools import cache
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, TypeVar
 
-if TYPE_CHECKING:  # imported where used: observer.types itself takes its state constants from here
-    from .observer.types import FrictionObservationData
+from .observation import FrictionObservationData
 
 M = TypeVar("M")
 
@@ -240,8 +239,6 @@ def seconds_to_stamp_fields(t: float) -> tuple[int, int]:
 
 @cache
 def _obs_fields() -> tuple[str, ...]:
-    from .observer.types import FrictionObservationData
-
     return tuple(f.name for f in fields(FrictionObservationData) if f.name != "stamp")
 
 
@@ -251,8 +248,6 @@ _INT_FIELDS = {"cycle_id", "samples_plus", "samples_minus"}
 
 def observation_from_msg(msg: Any) -> FrictionObservationData:
     """A ``FrictionObservation`` message (rclpy or rosbags) -> :class:`FrictionObservationData`."""
-    from .observer.types import FrictionObservationData
-
     values: dict[str, Any] = {"stamp": stamp_to_seconds(msg.header.stamp)}
     for name in _obs_fields():
         raw = getattr(msg, name)

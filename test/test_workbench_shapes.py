@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from jointwear_ros.errors import JointwearError, ModelError
+from jointwear_ros.model.shapes import Step
+from jointwear_ros.model.specs import resolve_term
 from jointwear_ros.workbench import HarmonicRipple, Spline, fit_model, parse_spec
-from jointwear_ros.workbench.candidates import resolve_term
-from jointwear_ros.workbench.shapes import Step
 
 RNG = np.random.default_rng(7)
 N = 60
@@ -189,8 +189,8 @@ def test_hostile_spec_strings_never_crash_with_anything_but_a_model_error():
 
 # -- one registry ----------------------------------------------------------------------------------------------
 def test_one_registry_holds_every_shape_and_one_ripple():
+    from jointwear_ros.model.shapes import CandidateTerm
     from jointwear_ros.workbench import SHAPES
-    from jointwear_ros.workbench.shapes import CandidateTerm
 
     assert list(SHAPES) == ["lin", "x_stribeck", "x_viscous", "exp_viscous", "inter", "ripple", "step", "spline",
                             "scale"]
@@ -216,8 +216,8 @@ def test_every_shapes_hints_name_its_own_parameters(spec):
 
 
 def test_register_shape_adds_a_shape_to_the_grammar_and_refuses_a_taken_name():
+    from jointwear_ros.model.shapes import Lin
     from jointwear_ros.workbench import SHAPES, register_shape
-    from jointwear_ros.workbench.shapes import Lin
 
     class Doubled(Lin):
         """``2*a*x`` (a test shape)."""
@@ -254,7 +254,7 @@ def test_an_installed_package_offers_a_shape_through_the_entry_point_group(tmp_p
     from jointwear_ros.workbench import SHAPES
 
     (tmp_path / "jw_test_shapes.py").write_text(
-        "from jointwear_ros.workbench.shapes import Lin\n\n"
+        "from jointwear_ros.model.shapes import Lin\n\n"
         "class Tripled(Lin):\n"
         "    shape = 'jw_test_tripled'\n\n"
         "    def value(self, x, p):\n"

@@ -321,8 +321,8 @@ def _progress() -> Any:
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
+    from ..model import parse_spec
     from ..workbench import diagnose, resolve_term
-    from ..workbench.candidates import parse_spec
 
     _check_out_dir(args.report, "--report")
     if not 0 < args.alpha < 1:

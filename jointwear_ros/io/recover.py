@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputDataError
+from .metadata import metadata_problem
 
 __all__ = [
     "MAGIC",
@@ -408,8 +409,6 @@ def _old_metadata(bag: Path) -> tuple[dict[str, Any], str]:
     if not meta.is_file():
         return {}, "missing"
     import yaml
-
-    from .bags import metadata_problem
 
     try:
         doc = yaml.safe_load(meta.read_text())

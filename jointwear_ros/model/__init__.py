@@ -1,4 +1,4 @@
-"""The friction and wear model core: terms, parameters, models, parameter sets.
+"""The friction and wear model core: terms, shapes, parameters, models, specs, parameter sets.
 
 Pure numpy; no ROS import. Terms compose with ``+``; a model evaluates on
 named inputs and reports each term's share:
@@ -20,15 +20,7 @@ jointwear_ros.errors.ModelError: model input 'speed' holds nan; the model needs 
 
 from __future__ import annotations
 
-from .model import (
-    MODEL_SPECS,
-    Model,
-    paper_model,
-    paper_wear_model,
-    parse_model_spec,
-    split_model_spec,
-    standard_model,
-)
+from .model import Model, Term
 from .parameters import Parameter, Parameters, ParamSpec
 from .paramsets import (
     ParameterSet,
@@ -37,6 +29,17 @@ from .paramsets import (
     load_parameter_set,
     load_parameter_set_info,
     parameter_set_document,
+)
+from .shapes import SHAPES, CandidateTerm, register_shape
+from .specs import (
+    MODEL_SPECS,
+    paper_model,
+    paper_wear_model,
+    parse_model_spec,
+    parse_spec,
+    resolve_term,
+    split_model_spec,
+    standard_model,
 )
 from .terms import (
     STRIBECK_EXPONENT,
@@ -47,7 +50,6 @@ from .terms import (
     Stribeck,
     TempStribeck,
     TempViscous,
-    Term,
     Viscous,
     WearStribeck,
     WearViscous,
@@ -57,8 +59,10 @@ from .terms import (
 
 __all__ = [
     "MODEL_SPECS",
+    "SHAPES",
     "STRIBECK_EXPONENT",
     "TERMS",
+    "CandidateTerm",
     "Coulomb",
     "LoadCoulomb",
     "LoadStribeck",
@@ -82,6 +86,9 @@ __all__ = [
     "paper_wear_model",
     "parameter_set_document",
     "parse_model_spec",
+    "parse_spec",
+    "register_shape",
+    "resolve_term",
     "split_model_spec",
     "standard_model",
     "stribeck_shape",

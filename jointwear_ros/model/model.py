@@ -1,4 +1,8 @@
-"""A friction model: a sum of terms, evaluated on named input arrays.
+"""A friction model: a sum of terms, evaluated on named input arrays; and the base of every term.
+
+:class:`Term` (one physical effect) and :class:`Model` (their sum) live together, as lmfit's ``Model``
+and its composite do: ``Coulomb() + Viscous()`` is a :class:`Model`. The built-in terms are in
+:mod:`.terms`; named models and spec strings (``"paper + ripple(position)"``) in :mod:`.specs`.
 
 >>> from jointwear_ros.model import paper_wear_model, load_parameter_set
 >>> m = paper_wear_model()
@@ -10,34 +14,20 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
 from ..errors import ModelError, ParameterError
-from .parameters import Parameter, Parameters
-from .terms import Term, term_by_name
+from .dimensions import REFERENCE_SPEED, Dimension, Relative, decade, largest_abs, scale_factor, unit_dimension
+from .parameters import Parameter, Parameters, ParamSpec
 
-__all__ = ["MODEL_SPECS", "Model", "paper_model", "paper_wear_model", "parse_model_spec", "split_model_spec",
-           "standard_model"]
+__all__ = ["Model", "Term"]
 
 Array = npt.NDArray[np.float64]
-
-#: Named model specifications.
-MODEL_SPECS: dict[str, tuple[str, ...]] = {
-    "standard": ("coulomb", "stribeck", "viscous"),
-    "paper": ("coulomb", "load_coulomb", "load_stribeck", "temp_stribeck", "temp_viscous"),
-    "paper+wear": (
-        "coulomb",
-        "load_coulomb",
-        "load_stribeck",
-        "temp_stribeck",
-        "temp_viscous",
-        "wear_stribeck",
-        "wear_viscous",
-    ),
-}
+Inputs = Mapping[str, Array]
+Values = Mapping[str, float]
 
 #: 0 K in degC: the model refuses temperatures below it.
 ABSOLUTE_ZERO = -273.15
@@ -46,10 +36,140 @@ ABSOLUTE_ZERO = -273.15
 _INPUT_ALIASES = {"v": "speed", "tau_m": "load_torque", "T": "temperature", "w": "wear"}
 
 
+class Term:
+    """Base of every friction term.
+
+    Subclasses set ``name``, ``variables`` (input names used), ``params``
+    (a tuple of :class:`ParamSpec`), ``equation`` (readable formula) and
+    implement :meth:`value`. Built-in terms also implement
+    :meth:`param_gradient` and :meth:`input_gradient` analytically; a user
+    term that does not gets central differences from this base class.
+    """
+
+    name: ClassVar[str] = "term"
+    variables: ClassVar[tuple[str, ...]] = ()
+    params: ClassVar[tuple[ParamSpec, ...]] = ()
+    equation: ClassVar[str] = ""
+    paper_ref: ClassVar[str] = ""
+    #: Dimensions of the parameters whose unit does not imply it (see :data:`UNIT_DIMENSIONS`).
+    dimensions: ClassVar[Mapping[str, Dimension]] = {}
+    # -- workbench hints (as lmfit's Model carries its param hints and ``guess``) ----------
+    #: Parameters the term is linear in: a fit solves them by linear least squares given the others
+    #: (a candidate starts them at 0).
+    linear: ClassVar[tuple[str, ...]] = ()
+    #: Starting points of the nonlinear parameters to try, in the numbers the defaults are written in
+    #: (the paper's joint); :meth:`guess` moves them to the data's units.
+    starts: ClassVar[tuple[Mapping[str, float], ...]] = ()
+    #: What the term means physically, in a few words (the diagnosis lists it with the candidate).
+    meaning: ClassVar[str] = ""
+    #: The diagnosis offers the term as a candidate effect when the data has its inputs and the model lacks it.
+    candidate: ClassVar[bool] = False
+    #: Start and bounds of each parameter relative to the data's level of its dimension (:class:`Relative`),
+    #: for a fit that has no parameter set to start from (commissioning): positive speeds and Coulomb
+    #: levels, wide elsewhere.
+    relative: ClassVar[Mapping[str, Relative]] = {}
+
+    def start_points(self, x: Inputs) -> list[dict[str, float]]:
+        """Starting points of the nonlinear parameters for inputs ``x``, in the numbers of the term's defaults.
+
+        :attr:`starts` by default; a term whose starts depend on the data (a
+        column's span) overrides this.
+        """
+        return [dict(s) for s in self.starts] or [{}]
+
+    def guess(self, x: Inputs) -> list[dict[str, float]]:
+        """Starting points of the nonlinear parameters for data ``x``, in the data's own units.
+
+        :meth:`start_points` with each parameter moved by the data's speed scale
+        to the power of its :meth:`dimension` (:mod:`jointwear_ros.model.scaling`):
+        joint-side data at a few rad/s get Stribeck speeds inside their own range;
+        data at the paper's scale keep the numbers as written.
+
+        >>> from jointwear_ros.model.terms import LoadStribeck
+        >>> [g["vstm"] for g in LoadStribeck().guess({"speed": np.array([0.01, 2.5])})]
+        [0.04, 0.12, 0.3, 0.8]
+        """
+        grid = self.start_points(x)
+        speed = decade(largest_abs(x.get("speed")) / REFERENCE_SPEED)  # DataScales.of(speed=...).speed
+        if speed == 1.0:
+            return grid
+        return [{k: v * scale_factor(self.dimension(k), torque=1.0, speed=speed) for k, v in g.items()}
+                for g in grid]
+
+    def describe_effect(self) -> str:
+        """What the term means physically: :attr:`meaning`, else the first line of its docstring."""
+        if self.meaning:
+            return self.meaning
+        doc = (type(self).__doc__ or "").strip().splitlines()
+        return doc[0] if doc else self.name
+
+    def dimension(self, name: str) -> Dimension:
+        """The dimension of parameter ``name``: declared in :attr:`dimensions`, else implied by its unit."""
+        if name in self.dimensions:
+            return self.dimensions[name]
+        return unit_dimension(next((p.unit for p in self.params if p.name == name), ""))
+
+    # -- composition ---------------------------------------------------------
+    def __add__(self, other: Term | Model) -> Model:
+        return Model([self]) + other
+
+    def __radd__(self, other: object) -> Model:
+        if other == 0:  # sum([...]) support
+            return Model([self])
+        return NotImplemented
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+    def __eq__(self, other: object) -> bool:
+        return type(self) is type(other) and self.name == getattr(other, "name", None)
+
+    def __hash__(self) -> int:
+        return hash((type(self), self.name))
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.params)
+
+    # -- evaluation ----------------------------------------------------------
+    def value(self, x: Inputs, p: Values) -> Array:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
+        """d value / d parameter, for each of this term's parameters."""
+        out: dict[str, Array] = {}
+        for spec in self.params:
+            h = 1e-6 * max(1.0, abs(p[spec.name]))
+            hi = dict(p)
+            lo = dict(p)
+            hi[spec.name] += h
+            lo[spec.name] -= h
+            out[spec.name] = (self.value(x, hi) - self.value(x, lo)) / (2 * h)
+        return out
+
+    def input_gradient(self, x: Inputs, p: Values, var: str) -> Array:
+        """d value / d input variable ``var`` (zero if the term does not use it)."""
+        if var not in self.variables:
+            return np.zeros(np.broadcast(*[np.asarray(a) for a in x.values()]).shape)
+        base = np.asarray(x[var], dtype=float)
+        h = 1e-6 * np.maximum(1.0, np.abs(base))
+        hi = dict(x)
+        lo = dict(x)
+        hi[var] = base + h
+        lo[var] = base - h
+        return (self.value(hi, p) - self.value(lo, p)) / (2 * h)
+
+    @classmethod
+    def describe(cls) -> str:
+        """One line: name, equation and paper reference."""
+        ref = f"  [{cls.paper_ref}]" if cls.paper_ref else ""
+        return f"{cls.name}: {cls.equation}{ref}"
+
+
 class Model:
     """A static friction model: the sum of its terms.
 
-    Build one with ``+`` (``Coulomb() + Viscous()``) or :func:`parse_model_spec`.
+    Build one with ``+`` (``Coulomb() + Viscous()``) or :func:`~.specs.parse_model_spec`.
     Parameter names must be distinct across terms; a clash is an error.
     """
 
@@ -82,7 +202,7 @@ class Model:
 
     @property
     def spec(self) -> str:
-        """The model as a spec string, accepted by :func:`parse_model_spec`."""
+        """The model as a spec string, accepted by :func:`~.specs.parse_model_spec`."""
         return " + ".join(t.name for t in self.terms)
 
     @property
@@ -226,81 +346,3 @@ class Model:
         for t in self.terms:
             total = total + t.input_gradient(x, p, var)
         return total
-
-
-def parse_model_spec(spec: str, resolver: Any = None) -> Model:
-    """Build a model from a spec string.
-
-    ``spec`` is a named spec (``standard``, ``paper``, ``paper+wear``) or a sum
-    ``A + B + ...`` of named specs and term names. ``resolver`` (optional) is a
-    callable ``name -> Term | None`` consulted for names that are not built-in
-    (candidate effects, user terms by dotted path); the first one to return a
-    term wins.
-    """
-    text = spec.strip()
-    if not text:
-        raise ModelError("empty model spec; use e.g. 'paper', 'standard' or 'coulomb + viscous'")
-    if text in MODEL_SPECS:
-        return Model(term_by_name(n) for n in MODEL_SPECS[text])
-    parts = _split_top_level(text)
-    terms: list[Term] = []
-    for part in parts:
-        if part in MODEL_SPECS:
-            terms.extend(term_by_name(n) for n in MODEL_SPECS[part])
-            continue
-        term = resolver(part) if resolver is not None else None
-        if term is None:
-            term = term_by_name(part)
-        terms.append(term)
-    return Model(terms)
-
-
-def split_model_spec(text: str) -> list[str]:
-    """The parts of a spec: split on '+' outside parentheses; the named spec 'paper+wear' stays one name.
-
-    >>> split_model_spec("paper+wear + ripple(position, w0=3)")
-    ['paper+wear', 'ripple(position, w0=3)']
-    """
-    return _split_top_level(text)
-
-
-def _split_top_level(text: str) -> list[str]:
-    """Split on '+' outside parentheses; the named spec 'paper+wear' stays one name."""
-    raw: list[str] = []
-    depth = 0
-    cur = ""
-    for c in text:
-        if c == "(":
-            depth += 1
-        elif c == ")":
-            depth -= 1
-        if c == "+" and depth == 0:
-            raw.append(cur.strip())
-            cur = ""
-        else:
-            cur += c
-    raw.append(cur.strip())
-    if depth != 0 or any(not p for p in raw):
-        raise ModelError(f"malformed model spec {text!r}: unbalanced parentheses or an empty term")
-    out: list[str] = []
-    for part in raw:
-        if part == "wear" and out and out[-1] == "paper":
-            out[-1] = "paper+wear"
-        else:
-            out.append(part)
-    return out
-
-
-def standard_model() -> Model:
-    """Coulomb + Stribeck + viscous: the standard static model, no load or temperature."""
-    return parse_model_spec("standard")
-
-
-def paper_model() -> Model:
-    """Eq. (6): load and temperature effects, no wear."""
-    return parse_model_spec("paper")
-
-
-def paper_wear_model() -> Model:
-    """Eq. (9): Eq. (6) plus the wear terms of Eq. (7)."""
-    return parse_model_spec("paper+wear")

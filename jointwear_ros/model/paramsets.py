@@ -50,6 +50,7 @@ from ..errors import ParameterSetError
 from ..resources import resource_dirs
 from ..units import FRAMES, SetUnits
 from .parameters import Parameter, Parameters
+from .specs import parse_model_spec, parse_spec
 from .terms import TERMS
 
 if TYPE_CHECKING:
@@ -109,13 +110,9 @@ class ParameterSet:
 
     def model(self) -> Model:
         """The set's model (its ``model`` spec; Eq. 9 when the file names none)."""
-        from .model import parse_model_spec
-
         if self.spec == DEFAULT_SPEC:
             return parse_model_spec(self.spec)
-        from ..workbench.candidates import resolve_term  # candidate terms (ripple(position), ...)
-
-        return parse_model_spec(self.spec, resolver=resolve_term)
+        return parse_spec(self.spec)  # candidate terms too (ripple(position), ...)
 
     @property
     def wear_calibration(self) -> str:

@@ -39,16 +39,24 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from .dimensions import (
+    REFERENCE_SPEED,
+    REFERENCE_TORQUE,
+    Dimension,
+    Relative,
+    decade,
+    finite_abs,
+    largest_abs,
+    scale_factor,
+)
+from .model import Model, Term
 from .parameters import Parameter, Parameters
-from .terms import TERMS, Dimension, Relative, Term, param_dimension
-
-if TYPE_CHECKING:
-    from .model import Model
+from .terms import TERMS, param_dimension
 
 __all__ = [
     "REFERENCE_SPEED",
@@ -64,12 +72,6 @@ __all__ = [
     "speed_starts",
 ]
 
-#: The largest speed of the paper's test cycles is of this order (motor side, rad/s).
-REFERENCE_SPEED = 100.0
-#: The paper's friction is of this order (normalized torque).
-REFERENCE_TORQUE = 0.1
-
-
 #: Start and bounds of each built-in parameter, in units of the data's level of its dimension, gathered
 #: from the terms (:attr:`~jointwear_ros.model.terms.Term.relative`, where each term declares them).
 RELATIVE: dict[str, Relative] = {n: r for cls in TERMS.values() for n, r in cls.relative.items()}
@@ -77,26 +79,8 @@ RELATIVE: dict[str, Relative] = {n: r for cls in TERMS.values() for n, r in cls.
 _SPEED = Dimension(speed=1)
 
 
-def _decade(x: float) -> float:
-    """``x`` rounded to the nearest power of ten (1 for a non-positive or non-finite x)."""
-    if not (math.isfinite(x) and x > 0):
-        return 1.0
-    return float(10.0 ** round(math.log10(x)))
-
-
 def _or(x: float, default: float) -> float:
     return x if math.isfinite(x) else default
-
-
-def _abs_finite(a: Any) -> npt.NDArray[np.float64]:
-    x = np.abs(np.asarray([] if a is None else a, dtype=float).reshape(-1))
-    return x[np.isfinite(x)]
-
-
-def _top(a: Any) -> float:
-    """The largest |value| (NaN when none is positive)."""
-    x = _abs_finite(a)
-    return float(x.max()) if x.size and x.max() > 0 else math.nan
 
 
 @dataclass(frozen=True)
@@ -124,13 +108,13 @@ class DataScales:
         """Scales of arrays (any may be missing)."""
         t = np.asarray([] if temperature is None else temperature, dtype=float).reshape(-1)
         t = t[np.isfinite(t)]
-        f = _abs_finite(tau_f)
+        f = finite_abs(tau_f)
         f = f[f > 0]
         return cls(
-            speed_level=_top(speed),
+            speed_level=largest_abs(speed),
             torque_level=float(np.median(f)) if f.size else math.nan,
-            torque_top=_top(tau_f),
-            load_level=_top(load_torque),
+            torque_top=largest_abs(tau_f),
+            load_level=largest_abs(load_torque),
             temperature=float(np.mean(t)) if t.size else 40.0,
             temperature_span=max(float(np.ptp(t)), 1.0) if t.size else 20.0,
         )
@@ -143,12 +127,12 @@ class DataScales:
     @property
     def speed(self) -> float:
         """The largest speed in powers of ten of the paper's (:data:`REFERENCE_SPEED`)."""
-        return _decade(self.speed_level / REFERENCE_SPEED)
+        return decade(self.speed_level / REFERENCE_SPEED)
 
     @property
     def torque(self) -> float:
         """The median friction in powers of ten of the paper's (:data:`REFERENCE_TORQUE`)."""
-        return _decade(self.torque_level / REFERENCE_TORQUE)
+        return decade(self.torque_level / REFERENCE_TORQUE)
 
     @property
     def identity(self) -> bool:
@@ -159,7 +143,7 @@ class DataScales:
         numbers: torque (and load torque, in the same unit) and speed by their powers of ten; a
         temperature and the wear do not scale."""
         d = dimension if isinstance(dimension, Dimension) else param_dimension(name, dimension)
-        return float(self.torque ** (d.torque + d.load) * self.speed**d.speed)
+        return scale_factor(d, torque=self.torque, speed=self.speed)
 
     def level(self, dimension: Dimension) -> float:
         """The data's own magnitude of a dimension: the largest friction, speed and load torque, the

@@ -53,16 +53,15 @@ The wear Stribeck term of Eq. (7) at 47 rad/s and w = 35 (Eq. 8 values):
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, ClassVar, NamedTuple
+from typing import ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
 from ..errors import ModelError
+from .dimensions import UNIT_DIMENSIONS, Dimension, Relative, unit_dimension
+from .model import Term
 from .parameters import ParamSpec
-
-if TYPE_CHECKING:
-    from .model import Model
 
 __all__ = [
     "STRIBECK_EXPONENT",
@@ -92,58 +91,6 @@ Values = Mapping[str, float]
 STRIBECK_EXPONENT = 1.3
 
 
-class Dimension(NamedTuple):
-    """What a parameter's magnitude is made of: exponents of the data's scales.
-
-    ``torque`` (the friction's unit), ``speed``, ``load`` (the load torque's),
-    ``temperature`` (degrees C) and ``wear`` (0-100). A viscous coefficient is
-    ``Dimension(torque=1, speed=-1)``; a pure number is all zeros.
-    """
-
-    torque: int = 0
-    speed: int = 0
-    load: int = 0
-    temperature: int = 0
-    wear: int = 0
-
-
-#: The dimension a parameter's unit implies. The paper's torques are normalized, so ``-`` is a
-#: torque; ``w`` is wear; ``x``, ``y`` are a candidate term's columns, of unknown unit (pure numbers
-#: here). A unit not listed does not scale.
-UNIT_DIMENSIONS: dict[str, Dimension] = {
-    "-": Dimension(torque=1),
-    "1/degC": Dimension(torque=1, temperature=-1),
-    "1/w": Dimension(torque=1, wear=-1),
-    "-/x": Dimension(torque=1),
-    "-/(x*y)": Dimension(torque=1),
-    "rad/s": Dimension(speed=1),
-    "rad/s/degC": Dimension(speed=1, temperature=-1),
-    "rad/s/w": Dimension(speed=1, wear=-1),
-    "s/rad": Dimension(torque=1, speed=-1),
-    "s/rad/w": Dimension(torque=1, speed=-1, wear=-1),
-    "s/rad/x": Dimension(torque=1, speed=-1),
-    "degC": Dimension(temperature=1),
-}
-
-
-class Relative(NamedTuple):
-    """A parameter's start and bounds as multiples of the data's level of its dimension
-    (:meth:`~jointwear_ros.model.scaling.DataScales.level`): how a fit with no parameter set to start
-    from (commissioning) starts in any units.
-
-    ``absolute``: the bounds are in the parameter's own unit (physical limits), not multiples.
-    """
-
-    start: float
-    lo: float
-    hi: float
-    absolute: bool = False
-
-
-def _unit_dimension(unit: str) -> Dimension:
-    return UNIT_DIMENSIONS.get(unit.strip(), Dimension())
-
-
 def stribeck_shape(v: Array, vs: Array | float, alpha: float = STRIBECK_EXPONENT) -> tuple[Array, Array]:
     """Stribeck shape ``S = exp(-|v / vs|**alpha)`` and ``r**alpha`` with ``r = |v/vs|``.
 
@@ -160,138 +107,6 @@ def stribeck_shape(v: Array, vs: Array | float, alpha: float = STRIBECK_EXPONENT
         s = np.exp(-ra)
     ra = np.where(s > 0.0, ra, 0.0)
     return s, ra
-
-
-class Term:
-    """Base of every friction term.
-
-    Subclasses set ``name``, ``variables`` (input names used), ``params``
-    (a tuple of :class:`ParamSpec`), ``equation`` (readable formula) and
-    implement :meth:`value`. Built-in terms also implement
-    :meth:`param_gradient` and :meth:`input_gradient` analytically; a user
-    term that does not gets central differences from this base class.
-    """
-
-    name: ClassVar[str] = "term"
-    variables: ClassVar[tuple[str, ...]] = ()
-    params: ClassVar[tuple[ParamSpec, ...]] = ()
-    equation: ClassVar[str] = ""
-    paper_ref: ClassVar[str] = ""
-    #: Dimensions of the parameters whose unit does not imply it (see :data:`UNIT_DIMENSIONS`).
-    dimensions: ClassVar[Mapping[str, Dimension]] = {}
-    # -- workbench hints (as lmfit's Model carries its param hints and ``guess``) ----------
-    #: Parameters the term is linear in: a fit solves them by linear least squares given the others
-    #: (a candidate starts them at 0).
-    linear: ClassVar[tuple[str, ...]] = ()
-    #: Starting points of the nonlinear parameters to try, in the numbers the defaults are written in
-    #: (the paper's joint); :meth:`guess` moves them to the data's units.
-    starts: ClassVar[tuple[Mapping[str, float], ...]] = ()
-    #: What the term means physically, in a few words (the diagnosis lists it with the candidate).
-    meaning: ClassVar[str] = ""
-    #: The diagnosis offers the term as a candidate effect when the data has its inputs and the model lacks it.
-    candidate: ClassVar[bool] = False
-    #: Start and bounds of each parameter relative to the data's level of its dimension (:class:`Relative`),
-    #: for a fit that has no parameter set to start from (commissioning): positive speeds and Coulomb
-    #: levels, wide elsewhere.
-    relative: ClassVar[Mapping[str, Relative]] = {}
-
-    def start_points(self, x: Inputs) -> list[dict[str, float]]:
-        """Starting points of the nonlinear parameters for inputs ``x``, in the numbers of the term's defaults.
-
-        :attr:`starts` by default; a term whose starts depend on the data (a
-        column's span) overrides this.
-        """
-        return [dict(s) for s in self.starts] or [{}]
-
-    def guess(self, x: Inputs) -> list[dict[str, float]]:
-        """Starting points of the nonlinear parameters for data ``x``, in the data's own units.
-
-        :meth:`start_points` with each parameter moved by the data's speed scale
-        to the power of its :meth:`dimension` (:mod:`jointwear_ros.model.scaling`):
-        joint-side data at a few rad/s get Stribeck speeds inside their own range;
-        data at the paper's scale keep the numbers as written.
-
-        >>> [g["vstm"] for g in LoadStribeck().guess({"speed": np.array([0.01, 2.5])})]
-        [0.04, 0.12, 0.3, 0.8]
-        """
-        from .scaling import DataScales, scale_grid
-
-        grid = self.start_points(x)
-        sc = DataScales.of(speed=x.get("speed"))
-        return grid if sc.speed == 1.0 else scale_grid(self, grid, sc)
-
-    def describe_effect(self) -> str:
-        """What the term means physically: :attr:`meaning`, else the first line of its docstring."""
-        if self.meaning:
-            return self.meaning
-        doc = (type(self).__doc__ or "").strip().splitlines()
-        return doc[0] if doc else self.name
-
-    def dimension(self, name: str) -> Dimension:
-        """The dimension of parameter ``name``: declared in :attr:`dimensions`, else implied by its unit."""
-        if name in self.dimensions:
-            return self.dimensions[name]
-        return _unit_dimension(next((p.unit for p in self.params if p.name == name), ""))
-
-    # -- composition ---------------------------------------------------------
-    def __add__(self, other: Term | Model) -> Model:
-        from .model import Model
-
-        return Model([self]) + other
-
-    def __radd__(self, other: object) -> Model:
-        from .model import Model
-
-        if other == 0:  # sum([...]) support
-            return Model([self])
-        return NotImplemented
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}()"
-
-    def __eq__(self, other: object) -> bool:
-        return type(self) is type(other) and self.name == getattr(other, "name", None)
-
-    def __hash__(self) -> int:
-        return hash((type(self), self.name))
-
-    @property
-    def param_names(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.params)
-
-    # -- evaluation ----------------------------------------------------------
-    def value(self, x: Inputs, p: Values) -> Array:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        """d value / d parameter, for each of this term's parameters."""
-        out: dict[str, Array] = {}
-        for spec in self.params:
-            h = 1e-6 * max(1.0, abs(p[spec.name]))
-            hi = dict(p)
-            lo = dict(p)
-            hi[spec.name] += h
-            lo[spec.name] -= h
-            out[spec.name] = (self.value(x, hi) - self.value(x, lo)) / (2 * h)
-        return out
-
-    def input_gradient(self, x: Inputs, p: Values, var: str) -> Array:
-        """d value / d input variable ``var`` (zero if the term does not use it)."""
-        if var not in self.variables:
-            return np.zeros(np.broadcast(*[np.asarray(a) for a in x.values()]).shape)
-        base = np.asarray(x[var], dtype=float)
-        h = 1e-6 * np.maximum(1.0, np.abs(base))
-        hi = dict(x)
-        lo = dict(x)
-        hi[var] = base + h
-        lo[var] = base - h
-        return (self.value(hi, p) - self.value(lo, p)) / (2 * h)
-
-    @classmethod
-    def describe(cls) -> str:
-        """One line: name, equation and paper reference."""
-        ref = f"  [{cls.paper_ref}]" if cls.paper_ref else ""
-        return f"{cls.name}: {cls.equation}{ref}"
 
 
 def _v(x: Inputs) -> Array:
@@ -677,7 +492,7 @@ def param_dimension(name: str, unit: str = "") -> Dimension:
     for cls in TERMS.values():
         if name in cls().param_names:
             return cls().dimension(name)
-    return _unit_dimension(unit)
+    return unit_dimension(unit)
 
 
 def term_by_name(name: str) -> Term:

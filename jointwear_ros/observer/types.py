@@ -1,19 +1,19 @@
 """Plain data types of the friction observer: configuration, observation, rejection, segment.
 
-Pure Python; no ROS import. :class:`FrictionObservationData` has the fields of
-``jointwear_msgs/msg/FrictionObservation`` with the header reduced to its stamp
-(``stamp``, seconds), so the nodes and the bag reader convert field by field.
+Pure Python; no ROS import. :class:`FrictionObservationData` lives next to the message contract
+(:mod:`jointwear_ros.observation`) and is re-exported here.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from typing import Any, NamedTuple
 
 from ..contract import CycleState
 from ..errors import InputDataError
+from ..observation import FrictionObservationData
 
 __all__ = [
     "PLAUSIBLE_TEMPERATURE",
@@ -119,32 +119,6 @@ class ObserverConfig:
             default = getattr(cls, key)
             kwargs[key] = type(default)(value)
         return cls(**kwargs)
-
-
-@dataclass(frozen=True)
-class FrictionObservationData:
-    """One static friction observation: the fields of ``FrictionObservation.msg``.
-
-    ``stamp`` is the header stamp (s): the stamp of the last sample of the
-    reverse window. Torques are normalized, ``speed`` is motor side.
-    """
-
-    stamp: float
-    joint_name: str
-    cycle_id: int
-    speed: float
-    tau_f: float
-    tau_f_std: float
-    tau_plus: float
-    tau_minus: float
-    load_torque: float
-    temperature: float
-    position: float
-    samples_plus: int
-    samples_minus: int
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,9 @@ Pure numpy/scipy (plus matplotlib for plots in :mod:`.report`); no ROS import.
 from __future__ import annotations
 
 from ..model.scaling import BoundHit, DataScales, on_bound, scale_parameters
-from .candidates import ENTRY_POINT_GROUP, candidate_library, candidate_variables, parse_spec, resolve_term
+from ..model.shapes import SHAPES, CandidateTerm, HarmonicRipple, Scale, Spline, Step, register_shape
+from ..model.specs import ENTRY_POINT_GROUP, parse_spec, resolve_term
+from .candidates import candidate_library, candidate_variables
 from .compare import (
     SPEED_BAND_EDGES,
     BandError,
@@ -20,7 +22,6 @@ from .compare import (
 from .dependence import VariableDependence, residual_dependence
 from .diagnose import VERDICTS, CandidateResult, Diagnosis, diagnose
 from .fit import FitResult, fit_model, group_folds
-from .shapes import SHAPES, CandidateTerm, HarmonicRipple, Scale, Spline, Step, register_shape
 
 __all__ = [
     "ENTRY_POINT_GROUP",

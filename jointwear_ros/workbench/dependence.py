@@ -24,7 +24,7 @@ on all rows; only a column's own coefficients are fitted per fold.
 * *periodogram*, for angle-like columns (``position``, ``*angle*``): the peak
   of the normalised Lomb-Scargle periodogram (:func:`scipy.signal.lombscargle`)
   over angular frequencies from half a cycle over the column's span up to
-  :data:`W_MAX` per unit;
+  :data:`~.residual_tests.W_MAX` per unit;
 * *changepoint*, for time-like columns (``time``, ``*_time``, ``stamp``): the
   standardised CUSUM of the per-cycle mean residual in time order (a single
   level shift); when a step beats a trend, the column's share is the step's
@@ -36,10 +36,11 @@ on all rows; only a column's own coefficients are fitted per fold.
   model input (the best one tested as a pair with it, its p-value times the
   number screened).
 
-Each test is one named object (:class:`SmootherTest`, :class:`ModulationTest`,
-:class:`PeriodogramTest`, :class:`ChangepointTest`, :class:`PairTest`,
-:class:`ScreenTest`: its statistic, its p-value and its assumptions in its
-docstring) on one :class:`ResidualSpace`, which holds what they share (the
+Each test is one named object in :mod:`.residual_tests` (:class:`~.residual_tests.SmootherTest`,
+:class:`~.residual_tests.ModulationTest`, :class:`~.residual_tests.PeriodogramTest`,
+:class:`~.residual_tests.ChangepointTest`, :class:`~.residual_tests.PairTest`,
+:class:`~.residual_tests.ScreenTest`: its statistic, its p-value and its assumptions in its
+docstring) on one :class:`~.residual_tests.ResidualSpace`, which holds what they share (the
 residual, the folds, the nuisance space, the cycles, the permutations). The
 nested chi-square / F test, the permutation p-value, the guard and Holm's
 method are :mod:`.significance`'s.
@@ -69,32 +70,29 @@ import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple, ParamSpec, TypeVar
+from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats
-from scipy.interpolate import BSpline
-from scipy.signal import lombscargle
 from threadpoolctl import threadpool_limits
 
+from ..model.shapes import is_angle
 from ..types import ObservationTable
 from .candidates import candidate_variables
 from .compare import speed_region
-from .fit import group_folds
-from .shapes import is_angle
-from .significance import guarded, holm, nested_test, permutation_p
+from .phrases import shape_hint, speed_region_label
+from .residual_tests import (
+    ChangepointTest,
+    ModulationTest,
+    PairTest,
+    PeriodogramTest,
+    ResidualSpace,
+    ScreenTest,
+    SmootherTest,
+)
+from .significance import holm
 
 __all__ = [
-    "W_MAX",
-    "ChangepointTest",
-    "ModulationTest",
-    "Outcome",
-    "PairTest",
-    "PeriodogramTest",
-    "ResidualSpace",
-    "ScreenTest",
-    "SmootherTest",
     "VariableDependence",
     "is_time",
     "residual_dependence",
@@ -102,14 +100,8 @@ __all__ = [
 
 Array = npt.NDArray[np.float64]
 
-#: Largest angular frequency of the periodogram, per unit of the column (rad^-1 for an angle).
-W_MAX = 100.0
-#: Basis functions of the smoother per column (cubic B-splines of the rank).
-N_BASIS = 6
 #: Permutations per test.
 N_PERM = 199
-#: Permutations of the periodogram (each costs a full periodogram).
-N_PERM_PERIODOGRAM = 39
 #: Columns always tried in pairs (with the strongest singles): the model's own inputs.
 PHYSICAL_INPUTS = ("load_torque", "temperature")
 #: Columns of the strongest singles tried in pairs.
@@ -124,7 +116,7 @@ class VariableDependence:
     ``step``; a pair: ``interaction`` or ``adds``) with ``monotone`` (a smooth column's
     ``increasing``, ``decreasing`` or ``non-monotone``), ``scaled_term`` (the model's term a
     column scales), ``peak_frequency``, ``changepoint`` and the speed region; :attr:`shape_hint`
-    is its sentence (:func:`~jointwear_ros.workbench.render.shape_hint`).
+    is its sentence (:func:`~jointwear_ros.workbench.phrases.shape_hint`).
     """
 
     name: str
@@ -149,14 +141,10 @@ class VariableDependence:
 
     @property
     def shape_hint(self) -> str:
-        from .render import shape_hint
-
         return shape_hint(self)
 
     @property
     def speed_region_label(self) -> str:
-        from .render import speed_region_label
-
         return speed_region_label(self.speed_region)
 
     def to_dict(self) -> dict[str, Any]:
@@ -195,474 +183,6 @@ def one_blas_thread(fn: Callable[_P, _R]) -> Callable[_P, _R]:
 def is_time(name: str) -> bool:
     """Columns the changepoint test is run on: times."""
     return name in ("time", "stamp", "date") or name.endswith("_time") or name.startswith("time")
-
-
-class Outcome(NamedTuple):
-    """What one test says about one column: its statistic, its p-value and the share of the residual it explains
-    (cross-validated; 0 when the test does not measure one)."""
-
-    name: str
-    statistic: float
-    p_value: float
-    share: float = 0.0
-
-
-class ResidualSpace:
-    """What every test of one residual vector shares: the residual, folds, speed shapes, nuisance space, cycles.
-
-    The nuisance space holds an intercept, two speed shapes (low speeds ``exp(-|v/15|^1.3)``, high
-    speeds ``v/v_max``) and, given the fitted model's Jacobian (``tangent``), the model's own tangent
-    space: testing a column on top of it is the score (Lagrange multiplier) test of an omitted effect
-    in nonlinear least squares, the first-order gain of refitting the model with the effect added.
-    Permutations come from one seeded generator, so a ranking is deterministic.
-    """
-
-    def __init__(self, table: ObservationTable, residuals: Array, folds: Array | None, seed: int,
-                 tangent: Array | None = None) -> None:
-        n = len(table)
-        self.n = n
-        # what the model misses, data minus model (FitResult.residuals are model minus data)
-        self.r = float(np.mean(residuals)) - np.asarray(residuals, dtype=float)
-        self.total = float(np.sum(self.r**2))
-        self.folds = folds if folds is not None else group_folds(table, 5)
-        self.fold_ids = np.unique(self.folds)
-        v = np.abs(table.speed)
-        vmax = float(np.max(v)) if v.size and np.max(v) > 0 else 1.0
-        self.speed = v
-        self.low = np.exp(-((v / 15.0) ** 1.3))
-        self.high = v / vmax
-        z = np.column_stack([np.ones(n), self.low, self.high])
-        if tangent is not None and tangent.size:
-            tg = np.asarray(tangent, dtype=float).reshape(n, -1)
-            tg = tg[:, np.all(np.isfinite(tg), axis=0)]  # a parameter at a singular point gives no direction
-            sd = np.std(tg, axis=0)
-            z = np.column_stack([z, (tg[:, sd > 0] - tg[:, sd > 0].mean(axis=0)) / sd[sd > 0]])
-        u, sv, _ = np.linalg.svd(z, full_matrices=False)
-        keep = sv > sv[0] * 1e-7
-        # an orthonormal basis of the nuisance space (scaled to the columns' size), the intercept first in span
-        self.z0 = u[:, keep] * math.sqrt(n)
-        self.q = int(self.z0.shape[1])
-        self.r_perp = self.r - self.z0 @ (self.z0.T @ self.r) / n
-        self.cycle = table["cycle"] if "cycle" in table else np.arange(n, dtype=float)
-        self.ucyc, self.cinv = np.unique(self.cycle, return_inverse=True)
-        self.cinv = self.cinv.reshape(-1)
-        self.rng = np.random.default_rng(seed)
-        self.sse0 = float(self.cv_sse(self.z0[None, :, :])[0])
-        self.sse0_in = float(self.in_sse(self.z0[None, :, :])[0])
-
-    # -- permutations ------------------------------------------------------------------
-    def cycle_level(self, x: Array) -> bool:
-        """Is ``x`` constant within cycles (a per-cycle column)?"""
-        if self.ucyc.size == self.n or self.ucyc.size < 2:
-            return False
-        means = np.bincount(self.cinv, weights=x) / np.bincount(self.cinv)
-        within = float(np.sum((x - means[self.cinv]) ** 2))
-        total = float(np.sum((x - x.mean()) ** 2))
-        return total > 0 and within <= 1e-4 * total
-
-    def permuted(self, x: Array, r: int) -> Array:
-        """``r`` permutations of ``x`` (row 0 the data itself): by whole cycles when x is per cycle."""
-        out = np.empty((r + 1, self.n))
-        out[0] = x
-        if self.cycle_level(x):
-            counts = np.bincount(self.cinv)
-            means = np.bincount(self.cinv, weights=x) / counts
-            dev = x - means[self.cinv]
-            for i in range(1, r + 1):
-                out[i] = means[self.rng.permutation(means.size)][self.cinv] + dev
-        else:
-            for i in range(1, r + 1):
-                out[i] = x[self.rng.permutation(self.n)]
-        return out
-
-    # -- least squares on the nuisance space --------------------------------------------
-    @staticmethod
-    def rank_basis(xs: Array, nb: int = N_BASIS) -> Array:
-        """Cubic B-splines of the rank of each row of ``xs`` (shape (R, n) -> (R, n, nb - 1))."""
-        rr, n = xs.shape
-        u = stats.rankdata(xs, axis=1) / n
-        knots = np.concatenate([[0.0] * 3, np.linspace(0.0, 1.0, nb - 2), [1.0] * 3])
-        dm = BSpline.design_matrix(np.clip(u.ravel(), 0.0, 1.0), knots, 3).toarray()
-        return dm.reshape(rr, n, nb)[:, :, 1:]  # type: ignore[no-any-return]
-
-    def cv_sse(self, d: Array, return_pred: bool = False) -> Array:
-        """Cross-validated SSE of the residual on each design ``d[k]`` (shape (R, n, p), ``z0`` first).
-
-        The nuisance part (the first ``q`` columns: the speed shapes and the
-        model's tangent space) is partialled out of the residual and of the
-        other columns on all rows (Frisch-Waugh), as a refit of the model on
-        all cycles would; only the column's own coefficients are fitted per
-        fold and judged on the held-out cycles. (Refitting a dozen nuisance
-        directions per fold on a few cycles would charge the column with
-        their extrapolation error.) The SSE of the nuisance alone is the
-        partialled residual's sum of squares.
-        """
-        rr = d.shape[0]
-        extra = d[:, :, self.q:]
-        extra = extra - np.matmul(self.z0, np.matmul(self.z0.T, extra)) / self.n
-        r = self.r_perp
-        p = extra.shape[2]
-        pred = np.zeros((rr, self.n)) if return_pred else None
-        if p == 0:
-            sse = np.full(rr, float(np.sum(r**2)))
-            return (sse, pred) if return_pred else sse  # type: ignore[return-value]
-        sse = np.zeros(rr)
-        ridge = 1e-8 * self.n * np.eye(p)
-        for f in self.fold_ids:
-            te = self.folds == f
-            tr = ~te
-            dtr = extra[:, tr, :]
-            g = np.matmul(dtr.transpose(0, 2, 1), dtr) + ridge
-            b = np.matmul(dtr.transpose(0, 2, 1), r[tr])
-            coef = np.linalg.solve(g, b[..., None])[..., 0]
-            pr = np.matmul(extra[:, te, :], coef[..., None])[..., 0]
-            sse += np.sum((r[te] - pr) ** 2, axis=1)
-            if pred is not None:
-                pred[:, te] = pr
-        return (sse, pred) if return_pred else sse  # type: ignore[return-value]
-
-    def in_sse(self, d: Array) -> Array:
-        """In-sample SSE of the residual on each design ``d[k]`` (shape (R, n, p))."""
-        p = d.shape[2]
-        dt = d.transpose(0, 2, 1)
-        g = np.matmul(dt, d) + 1e-8 * self.n * np.eye(p)
-        coef = np.linalg.solve(g, np.matmul(dt, self.r)[..., None])[..., 0]
-        pr = np.matmul(d, coef[..., None])[..., 0]
-        return np.sum((self.r - pr) ** 2, axis=1)  # type: ignore[no-any-return]
-
-    def cv_share(self, d: Array) -> float:
-        """Cross-validated share of the residual design ``d`` (one design, z0 first) explains beyond the nuisance."""
-        return float((self.sse0 - self.cv_sse(d)[0]) / self.total)
-
-    def nested(self, d_small: Array, d_large: Array, noise: float | None) -> float:
-        """p-value of the nested test (:func:`~.significance.nested_test`) of design ``d_large[0]`` on ``d_small``."""
-        sse_small = float(self.in_sse(d_small[:1])[0])
-        sse = float(self.in_sse(d_large[:1])[0])
-        k = d_large.shape[2] - d_small.shape[2]
-        return nested_test(sse_small - sse, sse, k, self.n - d_large.shape[2], noise).p_value
-
-    def nested_on_nuisance(self, d: Array, noise: float | None) -> float:
-        """p-value of the nested test of design ``d[0]`` against the nuisance space alone."""
-        sse = float(self.in_sse(d[:1])[0])
-        return nested_test(self.sse0_in - sse, sse, d.shape[2] - self.q, self.n - d.shape[2], noise).p_value
-
-    def designs(self, b: Array) -> tuple[Array, Array]:
-        """The nuisance space plus basis ``b`` (level), and plus ``b`` times the speed shapes too (speed)."""
-        rr = b.shape[0]
-        z0 = np.broadcast_to(self.z0, (rr, self.n, self.q))
-        lvl = np.concatenate([z0, b], axis=2)
-        spd = np.concatenate([lvl, b * self.low[None, :, None], b * self.high[None, :, None]], axis=2)
-        return lvl, spd
-
-    def basis_size(self, x: Array) -> int:
-        """Basis functions for a column: fewer when it has few distinct values (a per-cycle column, few cycles)."""
-        distinct = np.unique(x).size
-        return int(np.clip(distinct // 4 + 1, 4, N_BASIS))  # a cubic B-spline basis needs 4 or more
-
-    # -- effect sizes --------------------------------------------------------------------
-    def prediction(self, x: Array, with_speed: bool) -> Array:
-        """The cross-validated part of the residual a smooth function of ``x`` explains (times the speed shapes)."""
-        b = self.rank_basis(x[None, :])
-        d = np.concatenate([self.z0[None], b], axis=2)
-        if with_speed:
-            d = np.concatenate([d, b * self.low[None, :, None], b * self.high[None, :, None]], axis=2)
-        _, pred = self.cv_sse(d, return_pred=True)  # type: ignore[misc]
-        base = self.cv_sse(self.z0[None], return_pred=True)[1]  # type: ignore[index]
-        return pred[0] - base[0]  # type: ignore[no-any-return]
-
-    def linear_share(self, x: Array) -> float:
-        """Cross-validated share explained by x linearly (and times the speed shapes), on the speed shapes.
-
-        A spline of the rank is extrapolated into the held-out cycles of a column that grows with the
-        cycle (time, days, hours since a service); a straight line is not, so the share of a trend is
-        the larger of the two.
-        """
-        sd = float(np.std(x))
-        if not sd > 0:
-            return 0.0
-        xs = (x - x.mean()) / sd
-        d = np.concatenate([self.z0, np.column_stack([xs, xs * self.low, xs * self.high])], axis=1)[None]
-        return float(min(1.0, self.cv_share(d)))
-
-    def step_share(self, x: Array, at: float) -> float:
-        """Cross-validated share of the residual explained by one level step at ``at`` (on the speed shapes)."""
-        if not math.isfinite(at):
-            return 0.0
-        d = np.concatenate([self.z0, (x > at).astype(float)[:, None]], axis=1)[None]
-        return float(min(1.0, self.cv_share(d)))
-
-    def step_beats_trend(self, x: Array, at: float) -> bool:
-        """Does a single step at ``at`` explain the residual better than a straight trend in x?"""
-        if not math.isfinite(at):
-            return False
-        step = (x > at).astype(float)
-        a = np.column_stack([np.ones(self.n), step])
-        b = np.column_stack([np.ones(self.n), x - x.mean()])
-        fs = a @ np.linalg.lstsq(a, self.r, rcond=None)[0]
-        ft = b @ np.linalg.lstsq(b, self.r, rcond=None)[0]
-        return _r2(self.r, fs) > _r2(self.r, ft)
-
-
-class SmootherTest:
-    """Does a smooth function of the column explain the residual? (``smoother``)
-
-    Design: cubic B-splines of the column's rank (fewer basis functions for a column with
-    few distinct values), alone (level) and also times the two speed shapes (speed), on the
-    nuisance space. Statistic: the larger of the two designs' in-sample shares, each
-    standardised by its permutation distribution. p-value: the nested test of the better
-    design (the smaller p counted twice), guarded by the permutation p-value of the statistic.
-    Shares: cross-validated, level and speed. Assumptions: the nested test's (independent
-    errors of equal variance, or the noise floor's); rows (or, for a per-cycle column,
-    whole cycles) exchangeable under the null.
-    """
-
-    name = "smoother"
-
-    def __init__(self, space: ResidualSpace) -> None:
-        self.s = space
-
-    def run(self, xs: Array, noise: float | None) -> tuple[Outcome, float, float]:
-        """The outcome (share: the larger CV share), and the CV shares of the level and speed designs."""
-        s = self.s
-        lvl, spd = s.designs(s.rank_basis(xs, s.basis_size(xs[0])))
-        zs = []
-        for d in (lvl, spd):
-            share = (s.sse0_in - s.in_sse(d)) / s.total
-            null = share[1:]
-            sd = float(np.std(null, ddof=1)) if null.size > 1 else 1.0
-            zs.append((share - float(np.mean(null)) if null.size else share) / (sd if sd > 0 else 1.0))
-        stat = np.maximum(zs[0], zs[1])
-        cv_lvl = s.cv_share(lvl[:1])
-        cv_spd = s.cv_share(spd[:1])
-        p_perm = permutation_p(float(stat[0]), stat[1:])
-        p_f = min(1.0, 2.0 * min(s.nested_on_nuisance(lvl[:1], noise), s.nested_on_nuisance(spd[:1], noise)))
-        return Outcome(self.name, float(stat[0]), guarded(p_f, p_perm), max(cv_lvl, cv_spd)), cv_lvl, cv_spd
-
-
-class ModulationTest:
-    """Does the column scale the model's own terms? (``modulation``)
-
-    Design: ``x * term_k`` for every term ``k`` of the fitted model (x centred and standardised,
-    each term by its RMS), on the nuisance space: the score test of ``x`` as a factor of each
-    term. An effect that reshapes a term of the model with a column (the Stribeck amplitude
-    with the temperature, every term with the motor's temperature) is one direction of it.
-    Statistic: the in-sample share. p-value: the nested test, guarded by permutations.
-    Also names the term the column scales most (the one whose product alone explains most;
-    "" for a constant term: the Coulomb level scaled by x is what the smoother already says).
-    Assumptions: the smoother's.
-    """
-
-    name = "modulation"
-
-    def __init__(self, space: ResidualSpace, components: Mapping[str, Array] | None) -> None:
-        self.s = space
-        self.names: list[str] = []
-        self.varies: list[bool] = []
-        cols = []
-        for name, v in (components or {}).items():
-            v = np.asarray(v, dtype=float).reshape(-1)
-            rms = float(np.sqrt(np.mean(v**2)))
-            if v.size == space.n and rms > 0 and np.all(np.isfinite(v)):
-                self.names.append(name)
-                self.varies.append(bool(np.std(v) > 1e-9 * rms))
-                cols.append(v / rms)
-        self.comp = np.column_stack(cols) if cols else np.zeros((space.n, 0))
-
-    @property
-    def applicable(self) -> bool:
-        return bool(self.comp.shape[1])
-
-    def run(self, xs: Array, noise: float | None) -> tuple[Outcome, str]:
-        """The outcome (share cross-validated) and the model's term the column scales most."""
-        s = self.s
-        k = self.comp.shape[1]
-        sd = float(np.std(xs[0]))
-        if k == 0 or not sd > 0:
-            return Outcome(self.name, 0.0, 1.0, 0.0), ""
-        z = (xs - xs.mean(axis=1, keepdims=True)) / sd
-        rr = xs.shape[0]
-        d = np.concatenate([np.broadcast_to(s.z0, (rr, s.n, s.q)), z[:, :, None] * self.comp[None]], axis=2)
-        share_in = (s.sse0_in - s.in_sse(d)) / s.total
-        p_perm = permutation_p(float(share_in[0]), share_in[1:])
-        p = guarded(s.nested_on_nuisance(d[:1], noise), p_perm)
-        share = s.cv_share(d[:1])
-        # the term it scales: the one whose product alone explains most (coefficients of collinear terms
-        # do not say it)
-        one = np.stack([np.concatenate([s.z0, (z[0] * self.comp[:, j])[:, None]], axis=1) for j in range(k)])
-        j = int(np.argmin(s.in_sse(one)))
-        return Outcome(self.name, float(share_in[0]), p, share), self.names[j] if self.varies[j] else ""
-
-
-class PeriodogramTest:
-    """Is the residual periodic in an angle-like column? (``periodogram``)
-
-    Statistic: the peak of the normalised Lomb-Scargle periodogram
-    (:func:`scipy.signal.lombscargle`, floating mean) of the residual over angular frequencies
-    from half a period over the column's span up to :data:`W_MAX` per unit. p-value: from
-    :data:`N_PERM_PERIODOGRAM` permutations of the residual; beyond their range the false-alarm
-    probability ``1 - (1 - (1 - z)^((n - 3)/2))^M`` with the effective number of independent
-    frequencies ``M`` fitted to the median of the permutation maxima. The share is the peak's
-    normalised power. Assumptions: rows exchangeable under the null; one sinusoid.
-    """
-
-    name = "periodogram"
-
-    def __init__(self, space: ResidualSpace) -> None:
-        self.s = space
-
-    def run(self, x: Array) -> tuple[Outcome, float]:
-        """The outcome (share: the peak's power) and the peak's angular frequency (nan: no frequency to try)."""
-        s = self.s
-        span = float(np.ptp(x))
-        w_lo = max(math.pi / span, 1e-3)
-        step = 2.0 * math.pi / span / 3.0
-        w = np.arange(w_lo, W_MAX, step)
-        if w.size < 2:
-            return Outcome(self.name, 0.0, 1.0, 0.0), math.nan
-
-        def peak(y: Array) -> tuple[float, float]:
-            pw = lombscargle(x, y, w, normalize=True, floating_mean=True)
-            i = int(np.argmax(pw))
-            return float(w[i]), float(pw[i])
-
-        w_best, z = peak(s.r)
-        null = np.array([peak(s.r[s.rng.permutation(s.n)])[1] for _ in range(N_PERM_PERIODOGRAM)])
-        e = (s.n - 3) / 2.0
-
-        def single(zz: float) -> float:
-            return float((1.0 - min(max(zz, 0.0), 1.0)) ** e)
-
-        med = float(np.median(null))
-        q = single(med)
-        m_eff = math.log(0.5) / math.log1p(-q) if 0 < q < 1 else float(w.size)
-        fap = -math.expm1(m_eff * math.log1p(-single(z))) if single(z) < 1 else 1.0
-        ge = int(np.sum(null >= z))
-        p = (1 + ge) / (null.size + 1) if ge > 0 else min(1.0 / (null.size + 1), fap)
-        return Outcome(self.name, z, float(p), z), w_best
-
-
-class ChangepointTest:
-    """Does the residual step once along the column? (``changepoint``)
-
-    Statistic: the standardised CUSUM (the likelihood-ratio form of a single mean shift) of the
-    per-cycle mean residual (per row for a column that varies within cycles) ordered by the
-    column, over its standard deviation. p-value: from ``r`` permutations of the order
-    (:func:`~.significance.permutation_p`; 1 without permutations). Also the change's place
-    (between two groups) and a width (an eighth of the gap there). Assumptions: groups
-    exchangeable under the null; one shift of the mean.
-    """
-
-    name = "changepoint"
-
-    def __init__(self, space: ResidualSpace) -> None:
-        self.s = space
-
-    def run(self, x: Array, r: int) -> tuple[Outcome, float, float]:
-        """The outcome (no share), the change's place and its width (nan when there are too few groups)."""
-        s = self.s
-        if s.cycle_level(x):
-            cnt = np.bincount(s.cinv)
-            gx = np.bincount(s.cinv, weights=x) / cnt
-            gr = np.bincount(s.cinv, weights=s.r) / cnt
-        else:
-            gx, gr = x, s.r
-        order = np.argsort(gx, kind="stable")
-        gx, gr = gx[order], gr[order]
-        g = gr.size
-        if g < 4 or not np.std(gr) > 0:
-            return Outcome(self.name, 0.0, 1.0), math.nan, math.nan
-
-        def cusum(m: Array) -> tuple[Array, Array]:
-            c = np.cumsum(m - m.mean(axis=-1, keepdims=True), axis=-1)[..., :-1]
-            k = np.arange(1, g)
-            st = c / np.sqrt(k * (g - k) / g)  # the standardised (likelihood-ratio) form of a mean shift
-            return np.max(np.abs(st), axis=-1) / m.std(axis=-1), np.argmax(np.abs(st), axis=-1)
-
-        perm = np.stack([gr] + [gr[s.rng.permutation(g)] for _ in range(r)])
-        stat, arg = cusum(perm)
-        p = permutation_p(float(stat[0]), stat[1:]) if r > 0 else 1.0
-        k = int(arg[0])
-        at = 0.5 * (gx[k] + gx[k + 1])
-        width = max(float(gx[k + 1] - gx[k]) / 8.0, 1e-9 * max(abs(at), 1.0))
-        return Outcome(self.name, float(stat[0]), p), float(at), width
-
-
-class PairTest:
-    """Does a second column add to a smooth function of the first? (``smoother (pair)``)
-
-    Two designs on the first column's splines (nested on them), the smaller p-value counted
-    twice: a tensor product of cubic splines of both (any smooth interaction, also times the
-    speed shapes) and the bilinear one (b and a*b, each also times the speed shapes: few
-    parameters, so it keeps its power with few cycles). A *screened* second column (chosen by
-    :class:`ScreenTest` among ``screened`` columns) enters as the screen had it (linear and
-    times the speed shapes), its p-value multiplied by ``screened``. Each p-value: the nested
-    test guarded by permutations of the second column (by whole cycles when it is per cycle).
-    Assumptions: the smoother's.
-    """
-
-    name = "smoother (pair)"
-
-    def __init__(self, space: ResidualSpace) -> None:
-        self.s = space
-
-    def _one(self, d_pair: Array, d_a: Array, noise: float | None) -> tuple[float, float]:
-        """(p-value, CV share) of the designs ``d_pair`` (row 0 the data, then permutations) nested on ``d_a``."""
-        s = self.s
-        in_pair = (s.sse0_in - s.in_sse(d_pair)) / s.total
-        p_perm = permutation_p(float(in_pair[0]), in_pair[1:])
-        return guarded(s.nested(d_a, d_pair[:1], noise), p_perm), s.cv_share(d_pair[:1])
-
-    def run(self, xa: Array, xb: Array, screened: int, n_perm: int, noise: float | None) -> Outcome:
-        s = self.s
-        xbp = s.permuted(xb, n_perm)
-        ba = s.rank_basis(xa[None, :], 4)
-        bb = s.rank_basis(xbp, 4)
-        rr = bb.shape[0]
-        z0 = np.broadcast_to(s.z0, (rr, s.n, s.q))
-        d_a = np.concatenate([s.z0[None], ba], axis=2)
-        xs = (xbp - xbp.mean(axis=1, keepdims=True)) / (float(np.std(xbp[0])) or 1.0)
-        if screened > 1:  # the screened column enters as the screen had it: linear, times the speed shapes
-            lin = np.stack([xs, xs * s.low[None, :], xs * s.high[None, :]], axis=2)
-            p, share = self._one(np.concatenate([z0, np.broadcast_to(ba, (rr, s.n, ba.shape[2])), lin], axis=2),
-                                 d_a, noise)
-            return Outcome(self.name, math.nan, min(1.0, p * screened), share)
-        inter = (np.broadcast_to(ba, bb.shape)[:, :, :, None] * bb[:, :, None, :]).reshape(rr, s.n, -1)
-        d_full = np.concatenate([z0, np.broadcast_to(ba, bb.shape), bb,
-                                 inter, inter * s.low[None, :, None], inter * s.high[None, :, None]], axis=2)
-        sa = (xa - xa.mean()) / (float(np.std(xa)) or 1.0)
-        lean = np.stack([xs, xs * sa[None, :]], axis=2)
-        d_lean = np.concatenate([z0, np.broadcast_to(ba, bb.shape), lean, lean * s.low[None, :, None],
-                                 lean * s.high[None, :, None]], axis=2)
-        p_full, share_full = self._one(d_full, d_a, noise)
-        p_lean, share_lean = self._one(d_lean, d_a, noise)
-        return Outcome(self.name, math.nan, min(1.0, 2.0 * min(p_full, p_lean)), max(share_full, share_lean))
-
-
-class ScreenTest:
-    """Screen: does column ``x`` (linear, and times the speed shapes) add to a smooth function of ``a``?
-
-    A cheap nested test (no permutations) on four cubic B-splines of ``a``'s rank: which column
-    a model input hides. The one with the smallest p-value is then tested as a pair
-    (:class:`PairTest`), its p-value multiplied by the number screened. Assumptions: the nested
-    test's.
-    """
-
-    name = "screen"
-
-    def __init__(self, space: ResidualSpace) -> None:
-        self.s = space
-
-    def run(self, a: Array, x: Array, noise: float | None) -> Outcome:
-        s = self.s
-        da = np.concatenate([s.z0, s.rank_basis(a[None, :], 4)[0]], axis=1)
-        xs = (x - x.mean()) / (float(np.std(x)) or 1.0)
-        dx = np.concatenate([da, np.column_stack([xs, xs * s.low, xs * s.high])], axis=1)
-        return Outcome(self.name, math.nan, s.nested(da[None], dx[None], noise))
-
-
-def _r2(y: Array, yhat: Array) -> float:
-    tot = float(np.sum((y - y.mean()) ** 2))
-    return 1.0 - float(np.sum((y - yhat) ** 2)) / tot if tot > 0 else 0.0
 
 
 def _monotone(x: Array, contribution: Array) -> str:

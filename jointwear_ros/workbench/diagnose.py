@@ -50,13 +50,14 @@ import numpy.typing as npt
 from scipy import stats
 
 from ..errors import ModelError
-from ..model import TERMS, Model, Parameters, Term
+from ..model import TERMS, Model, Parameters, Term, parse_spec
+from ..model.shapes import HarmonicRipple, Interaction, Scale, Spline, Step, is_angle
 from ..types import ObservationTable
-from .candidates import candidate_library, parse_spec
+from .candidates import candidate_library
 from .compare import NoiseFloor, noise_test, speed_region, sweep_scatter
 from .dependence import VariableDependence, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
-from .shapes import HarmonicRipple, Interaction, Scale, Spline, Step, is_angle
+from .phrases import candidate_region_label, diagnosis_summary
 from .significance import nested_test
 
 __all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
@@ -98,8 +99,6 @@ class CandidateResult:
 
     @property
     def speed_region_label(self) -> str:
-        from .render import candidate_region_label
-
         return candidate_region_label(self.speed_region)
 
     def to_dict(self) -> dict[str, Any]:
@@ -163,13 +162,16 @@ class Diagnosis:
         return any(c.significant for c in self.candidates)
 
     @property
+    def stable(self) -> bool:
+        """Do the best candidate's columns win at least :data:`STABLE_SUPPORT` of the bootstrap resamples?"""
+        return self.support >= STABLE_SUPPORT
+
+    @property
     def best(self) -> CandidateResult | None:
         return self.candidates[0] if self.candidates and self.candidates[0].significant else None
 
     def summary(self) -> str:
-        """The verdict in a few sentences (:func:`~jointwear_ros.workbench.render.diagnosis_summary`)."""
-        from .render import diagnosis_summary
-
+        """The verdict in a few sentences (:func:`~jointwear_ros.workbench.phrases.diagnosis_summary`)."""
         return diagnosis_summary(self)
 
     def to_dict(self) -> dict[str, Any]:
@@ -570,7 +572,7 @@ def diagnose(
         diag.alternatives = [c.term for c in top if c not in same and diag.stability.get(c.term, 0.0) > 0]
     # a wrong "found" is worse than "unexplained": the data must pick the best term's column(s) clearly
     # over every other explanation, cycle resample after cycle resample
-    stable = diag.support >= STABLE_SUPPORT
+    stable = diag.stable
     # outlying rows first: a shape whose gain comes mostly from a few gross rows (a narrow step isolating them)
     # is not a missing effect
     diag.isolates_outliers = _gain_on(outliers, base.residuals, best.fit.residuals) >= OUTLIER_GAIN_SHARE

@@ -1,39 +1,44 @@
-"""The workbench's words: every sentence and text table the workbench shows, made from its results.
+"""The workbench's reports: every text table and terminal or Markdown report, made from its results.
 
-The core (:mod:`.fit`, :mod:`.compare`, :mod:`.dependence`, :mod:`.diagnose`) returns data;
-this module is the one place that turns it into text: the shape a column's evidence points
-to (:func:`shape_hint`), the goodness-of-fit line (:func:`goodness_of_fit`), a diagnosis's
-verdict in sentences (:func:`diagnosis_summary`), and the terminal reports of ``jointwear
-model fit|diagnose|compare|add`` (:func:`fit_text`, :func:`diagnosis_text`,
-:func:`compare_text`, :func:`add_text`), and a diagnosis as Markdown (:func:`diagnosis_markdown`). The JSON (``to_dict``) and the HTML report
-(:mod:`.report`) take their sentences from here, so the three say the same.
+The core (:mod:`.fit`, :mod:`.compare`, :mod:`.dependence`, :mod:`.diagnose`) returns data; this module
+imports it and renders it (never the other way): the terminal reports of ``jointwear model
+fit|diagnose|compare|add`` (:func:`fit_text`, :func:`diagnosis_text`, :func:`compare_text`,
+:func:`add_text`) and a diagnosis as Markdown (:func:`diagnosis_markdown`). The sentences a result's JSON
+(``to_dict``) carries too (the shape hint, the region labels, the goodness-of-fit line, the verdict) are
+made in :mod:`.phrases`, below the cores, and re-exported here, so the JSON, the terminal and the HTML report
+(:mod:`.report`) say the same.
 
 >>> from jointwear_ros.workbench.dependence import VariableDependence
 >>> v = VariableDependence("position", 1e-9, 1e-9, 0.68, "periodogram", True, shape="periodic",
 ...                        peak_frequency=17.07)
 >>> shape_hint(v)
 'periodic in position, w = 17.07 per unit (period 0.3681)'
->>> shape_hint(VariableDependence("temperature", 0.2, 0.1, 0.02, "smoother", False, monotone="increasing",
-...                               speed_dependent=True, speed_region=(0.0, 30.0)))
-'smooth in temperature, increasing, mostly at 0-30 rad/s'
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..fmt import format_table
-from .compare import SPEED_BAND_EDGES, NoiseFloor, band_label, band_rmse, noise_floor, noise_test, residual_structure
-
-if TYPE_CHECKING:
-    from ..types import ObservationTable
-    from .dependence import VariableDependence
-    from .diagnose import Diagnosis
-    from .fit import FitResult
+from ..types import ObservationTable
+from .compare import band_rmse, noise_floor, noise_test, residual_structure
+from .diagnose import Diagnosis
+from .fit import FitResult
+from .phrases import (
+    NOISE_UNKNOWN,
+    candidate_region_label,
+    cv_rmse_text,
+    diagnosis_summary,
+    floor_text,
+    goodness_of_fit,
+    noise_line,
+    shape_hint,
+    speed_region_label,
+)
 
 __all__ = [
     "NOISE_UNKNOWN",
@@ -53,159 +58,6 @@ __all__ = [
     "stability_text",
 ]
 
-#: What a report says when the data give no noise floor.
-NOISE_UNKNOWN = "noise floor unknown (no tau_f_std, replicates or repeated speeds across cycles)"
-
-
-# -- labels ------------------------------------------------------------------------------
-def speed_region_label(region: tuple[float, float]) -> str:
-    """``all speeds`` or ``10-30 rad/s``."""
-    lo, hi = region
-    if lo <= SPEED_BAND_EDGES[0] and not math.isfinite(hi):
-        return "all speeds"
-    return f"{band_label(lo, hi)} rad/s"
-
-
-def candidate_region_label(region: tuple[float, float]) -> str:
-    """``all speeds`` or ``low speeds 0-30 rad/s`` (low, mid, high speeds by the paper's motor-side bands)."""
-    lo, hi = region
-    if lo <= SPEED_BAND_EDGES[0] and not math.isfinite(hi):
-        return "all speeds"
-    where = ("low speeds" if hi <= 60 else "high speeds" if lo >= 100
-             else "mid speeds" if lo >= 10 and hi <= 150 else "speeds")
-    return f"{where} {band_label(lo, hi)} rad/s"
-
-
-def shape_hint(v: VariableDependence) -> str:
-    """The shape a column's (or a pair's) evidence points to, in words."""
-    c = v.name
-    if v.shape == "interaction":
-        a, b = v.columns
-        return f"interaction of {a} and {b}"
-    if v.shape == "adds":
-        a, b = v.columns
-        return f"{b} adds to {a}"
-    if v.shape == "periodic" and v.peak_frequency is not None:
-        w = v.peak_frequency
-        hint = f"periodic in {c}, w = {w:.4g} per unit (period {2 * math.pi / w:.4g})"
-    elif v.shape == "step" and v.changepoint is not None:
-        hint = f"step in {c} at {v.changepoint:.6g}"
-    elif v.shape == "scales":
-        hint = f"scales the model's {v.scaled_term} with {c}"
-    else:
-        hint = f"smooth in {c}, {v.monotone}"
-    if v.speed_dependent:
-        hint += f", mostly at {band_label(*v.speed_region)} rad/s"
-    return hint
-
-
-# -- the noise floor ---------------------------------------------------------------------
-def _consistent(nf: NoiseFloor) -> str:
-    return "consistent" if nf.consistent else "NOT consistent"
-
-
-def goodness_of_fit(nf: NoiseFloor, cv_rmse: float) -> str:
-    """``goodness of fit: chi-square with tau_f_std, p = 0.57: the residual is consistent with the noise
-    (CV RMSE 1.02x the floor)``."""
-    if not math.isfinite(nf.value):
-        return f"goodness of fit: {NOISE_UNKNOWN}"
-    return (f"goodness of fit: {nf.method}, p = {nf.p_value:.2g}: the residual is {_consistent(nf)} with the noise "
-            f"(CV RMSE {cv_rmse / nf.value:.2f}x the floor)")
-
-
-def noise_line(nf: NoiseFloor, cv_rmse: float | None = None) -> str:
-    """``noise floor 0.00150 (method): [CV RMSE = 1.00x the floor; ]p = 0.7, consistent with the noise``."""
-    if not math.isfinite(nf.value):
-        return NOISE_UNKNOWN
-    ratio = f"CV RMSE = {cv_rmse / nf.value:.2f}x the floor; " if cv_rmse is not None else ""
-    return f"noise floor {nf.value:.5f} ({nf.method}): {ratio}p = {nf.p_value:.2g}, {_consistent(nf)} with the noise"
-
-
-def floor_text(nf: NoiseFloor) -> str:
-    """``noise floor 0.00150 (method: p = 0.7, consistent with the noise)``, as the summary says it."""
-    if not math.isfinite(nf.value):
-        return NOISE_UNKNOWN
-    return f"noise floor {nf.value:.5f} ({nf.method}: p = {nf.p_value:.2g}, {_consistent(nf)} with the noise)"
-
-
-# -- a diagnosis in sentences --------------------------------------------------------------
-def _ratio(nf: NoiseFloor, rmse: float) -> str:
-    r = nf.ratio(rmse)
-    return f"{r:.2f}x the noise floor" if math.isfinite(r) else "noise floor unknown"
-
-
-def _outlier_text(d: Diagnosis) -> str:
-    if not d.outliers:
-        return ""
-    rows = ", ".join(f"row {o.row} (cycle {o.cycle:g}, speed {o.speed:g}, {o.z:+.1f} std)" for o in d.outliers[:5])
-    more = f" and {len(d.outliers) - 5} more" if len(d.outliers) > 5 else ""
-    iso = (f" The best shape, {d.suggestion}, owes most of its gain to them: it isolates them, it is not a "
-           "missing effect." if d.isolates_outliers else "")
-    return (f" {len(d.outliers)} outlying observation(s): {rows}{more}; check them (a bad sample, a "
-            f"disturbed cycle) before trusting any shape.{iso}")
-
-
-def diagnosis_summary(d: Diagnosis) -> str:
-    """The verdict in a few sentences: what is missing, or that nothing is, or what stays unexplained."""
-    from .diagnose import STABLE_SUPPORT
-
-    b = d.best
-    nf = d.noise
-    if d.verdict == "undetermined":
-        cv = (f"CV RMSE {d.cv_rmse:.5f}" if math.isfinite(d.cv_rmse) else
-              "no CV RMSE (a single group: nothing to hold out)")
-        sug = f" The best candidate would be {b.term} (p = {b.p_value:.2g})." if b is not None else ""
-        return (f"Undetermined: model {d.model!r} has RMSE {d.rmse:.5f}, {cv}, but there is no noise estimate to "
-                "judge it by (no tau_f_std column, no repeated observations, no cycles to compare at equal speed), "
-                f"so whether an effect is missing cannot be said.{sug} Give tau_f_std or record repeated cycles."
-                + _outlier_text(d))
-    if d.verdict == "nothing_missing":
-        top = d.variables[0] if d.variables else None
-        dep = (f"; no column explains its residual (strongest: {top.name}, adjusted p = {top.p_value:.2g}, "
-               f"significant below {d.alpha / 2:g})" if top else "; no column to test")
-        cand = (f"; the best candidate, {d.candidates[0].term}, is not significant "
-                f"(p = {d.candidates[0].p_value:.2g}; significant below {d.alpha / max(len(d.candidates), 1):.2g} "
-                "with a lower CV RMSE and BIC)") if d.candidates else ""
-        text = (f"Nothing missing: model {d.model!r} has {_cv_text(d.cv_rmse)} "
-                f"({_ratio(nf, d.cv_rmse)}); {floor_text(nf)}{dep}{cand}.")
-    elif d.verdict == "found" and b is not None:
-        stab = d.stability.get(b.term)
-        stab_txt = (f" It is chosen in {100 * stab:.0f} % of bootstrap resamples by cycle (terms of "
-                    f"{', '.join(b.key)}: {100 * d.support:.0f} %)." if stab is not None else "")
-        text = (f"Missing effect found: {b.term} — {b.description}, structured at {b.speed_region_label}. "
-                f"Adding it brings the CV RMSE from {d.cv_rmse:.5f} to {b.cv_rmse:.5f} "
-                f"({_ratio(nf, b.cv_rmse)}) and leaves no significant dependence on any column.{stab_txt} "
-                f"Try: --model \"{d.model} + {b.term}\"")
-    else:
-        sig = [v for v in d.variables if v.significant]
-        parts = [f"Unexplained structure remains: model {d.model!r} has {_cv_text(d.cv_rmse)} "
-                 f"({_ratio(nf, d.cv_rmse)}; {floor_text(nf)})."]
-        if sig:
-            parts.append("The residual depends on " + "; ".join(
-                f"{v.name} ({v.shape_hint}; explains {100 * v.explained_share:.0f} %, adjusted p = {v.p_value:.2g})"
-                for v in sig[:3]) + ".")
-        else:
-            parts.append("No column of the table explains it (a variable that is not recorded, or a noise "
-                         "estimate that is too optimistic).")
-        tried = d.candidates[:3]
-        if tried:
-            parts.append("Best shapes tried: " + ", ".join(
-                f"{c.term} ({_ratio(nf, c.cv_rmse)}{'' if c.significant else ', not significant'})"
-                for c in tried) + ".")
-        if b is not None:
-            rest = [v.name for v in d.after_variables if v.significant]
-            left = f"; the residual still depends on {', '.join(rest)}" if rest else ""
-            odd = ("" if d.agrees else
-                   "; its variables are not among those the model-free ranking found, so it can only be a "
-                   "partial fit")
-            if d.support < STABLE_SUPPORT and d.alternatives:
-                odd += (f"; the data does not tell it from {', '.join(d.alternatives[:3])} (terms of its "
-                        f"column(s) win only {100 * d.support:.0f} % of bootstrap resamples by cycle)")
-            parts.append(f"The best, {b.term}, leaves the CV RMSE at {_ratio(nf, b.cv_rmse)} "
-                         f"(at {b.speed_region_label}){left}{odd}. "
-                         f"Try next: --model \"{d.model} + {b.term}\", then diagnose again.")
-        text = " ".join(parts)
-    return text + _outlier_text(d)
 
 
 def stability_text(d: Diagnosis) -> str:
@@ -278,12 +130,6 @@ def _diagnosis_rows(d: Diagnosis, top: int) -> tuple[list[list[Any]], list[list[
     return variables, candidates
 
 
-def _cv_text(cv_rmse: float) -> str:
-    """``CV RMSE 0.00150``, or why there is none (never ``nan``)."""
-    return (f"CV RMSE {cv_rmse:.5f}" if math.isfinite(cv_rmse) else
-            "CV RMSE not computed (a single cycle and no other groups: nothing to hold out)")
-
-
 def _level_lines(d: Diagnosis) -> list[str]:
     """What ``signif.`` means in each table (the levels the p-values are compared with), and how the
     suggestion relates to the model-free ranking, so that the tables and the verdict read alike."""
@@ -314,7 +160,7 @@ def diagnosis_text(d: Diagnosis, source: str, top: int, at_bound: Sequence[Any] 
     ``at_bound``: the model's own parameters on a bound."""
     variables, candidates = _diagnosis_rows(d, top)
     cv = d.cv_rmse if math.isfinite(d.cv_rmse) else None
-    out = [f"# model: {d.model}", f"# data: {source}, n = {d.n}; RMSE {d.rmse:.5f}, {_cv_text(d.cv_rmse)}",
+    out = [f"# model: {d.model}", f"# data: {source}, n = {d.n}; RMSE {d.rmse:.5f}, {cv_rmse_text(d.cv_rmse)}",
            "# " + noise_line(d.noise, cv), "", f"# {_RANKING}", format_table(_VARIABLE_HEADERS, variables), "",
            format_table(_CANDIDATE_HEADERS, candidates) if candidates else f"# {_NO_CANDIDATE}"]
     out += [f"# {line}" for line in _level_lines(d)]
@@ -329,7 +175,7 @@ def diagnosis_markdown(d: Diagnosis, source: str, top: int, at_bound: Sequence[A
     """The same report as :func:`diagnosis_text`, as a Markdown document (for an issue, a wiki page, a log book)."""
     variables, candidates = _diagnosis_rows(d, top)
     out = [f"## Diagnosis of `{d.model}`", "",
-           f"Data: `{source}`, n = {d.n}; RMSE {d.rmse:.5f}, {_cv_text(d.cv_rmse)}; "
+           f"Data: `{source}`, n = {d.n}; RMSE {d.rmse:.5f}, {cv_rmse_text(d.cv_rmse)}; "
            f"{noise_line(d.noise, d.cv_rmse if math.isfinite(d.cv_rmse) else None)}.",
            "", f"**verdict: {d.verdict}**", "", d.summary(), ""]
     out += [f"*{line}*" for line in _bound_lines(at_bound)] + ([""] if at_bound else [])

@@ -1,4 +1,4 @@
-"""Workbench shapes: generic candidate terms of the data's columns, and the one registry of them.
+"""Shapes: generic candidate terms of the data's columns, and the one registry of them.
 
 A shape is a :class:`CandidateTerm` written in a model spec as
 ``shape(column, ..., option=value, ...)``: positional arguments are column
@@ -42,7 +42,7 @@ spec                                       equation                             
 ``lo``, ``hi``, ``n`` fix the structure. A new shape: docs/extending.md,
 "A workbench shape".
 
->>> from jointwear_ros.workbench import parse_spec
+>>> from jointwear_ros.model import parse_spec
 >>> m = parse_spec("paper + ripple(position, w0=17.2, k=2) + step(time, at=1.5e6, width=3e4)")
 >>> m.term_names[-2:]
 ['ripple(position, w0=17.2, k=2)', 'step(time, at=1500000, width=30000)']
@@ -60,10 +60,11 @@ from typing import ClassVar, TypeVar
 
 import numpy as np
 import numpy.typing as npt
-from scipy.interpolate import BSpline
 
 from ..errors import ModelError
-from ..model import STRIBECK_EXPONENT, TERMS, ParamSpec, Term, stribeck_shape
+from .model import Term
+from .parameters import ParamSpec
+from .terms import STRIBECK_EXPONENT, TERMS, stribeck_shape
 
 __all__ = [
     "SHAPES",
@@ -598,6 +599,8 @@ class Spline(CandidateTerm):
     def basis(self, col: Array) -> Array:
         """The basis functions 2..n at ``col`` (clipped into [lo, hi]), shape (len(col), n - 1)."""
         c = np.clip(np.ravel(np.asarray(col, dtype=float)), self.lo, self.hi)
+        from scipy.interpolate import BSpline  # scipy on use: importing the model stays quick
+
         dm = BSpline.design_matrix(c, self.knots, 3).toarray()
         return dm[:, 1:]  # type: ignore[no-any-return]
 
