@@ -155,39 +155,22 @@ def cmd_design(args: argparse.Namespace) -> int:
     return 0
 
 
-#: CycleConfig fields a test_cycle parameter file sets (node level, or nested under a joint's name).
-_PLAN_FIELDS = ("gear_ratio", "speeds", "window_half_width", "position", "joint_limits", "limit_margin",
-                "reaction_time", "velocity_lag", "max_speed", "min_speed", "max_speeds", "max_duration", "acceleration",
-                "approach_speed", "steady_time", "settle_time")
-
-
 def _joint_cycle_config(params: dict[str, Any], joint: str, where: str) -> CycleConfig:
-    """test_cycle's settings for ``joint``: ``<joint>.<setting>`` over the node-level value over the default."""
-    values: dict[str, Any] = {}
-    for name in _PLAN_FIELDS:
-        value = params.get(f"{joint}.{name}", params.get(name))
-        if value is None:
-            continue
-        try:
-            if name == "speeds":
-                value = tuple(float(v) for v in value)
-            elif name == "joint_limits":
-                lo, hi = (float(v) for v in value)
-                value = (lo, hi)
-            elif name == "max_speeds":
-                value = int(value)
-            else:
-                value = float(value)
-        except (TypeError, ValueError):
-            raise UsageError(f"{where}: {joint}.{name} = {value!r} is not valid for {name}") from None
-        values[name] = value
+    """test_cycle's settings for ``joint``: ``<joint>.<setting>`` over the node-level value over the default
+    (every :class:`CycleConfig` setting, as the node reads them: :func:`jointwear_ros.settings.from_mapping`)."""
+    from ..settings import from_mapping
+
+    fixed: dict[str, Any] = {}
     rate = params.get("command_rate")
     if rate is not None:  # the node's control period, part of each speed's stopping allowance
         try:
-            values["control_period"] = 1.0 / float(rate)
+            fixed["control_period"] = 1.0 / float(rate)
         except (TypeError, ValueError, ZeroDivisionError):
             raise UsageError(f"{where}: command_rate = {rate!r} must be a rate in Hz > 0") from None
-    return CycleConfig(joint_name=joint, **values)
+    try:
+        return from_mapping(CycleConfig, params, joint=joint, joint_name=joint, **fixed)
+    except JointwearError as exc:
+        raise UsageError(f"{where}: {exc}") from None
 
 
 def cmd_schedule(args: argparse.Namespace) -> int:

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 from ..contract import RefusalReason
 from ..errors import JointwearError
+from ..settings import setting
 
 __all__ = [
     "DEFAULT_SPEEDS",
@@ -72,6 +73,12 @@ class CycleRequestError(JointwearError):
 @dataclass(frozen=True)
 class CycleConfig:
     """Settings of the test cycle (defaults: the shared defaults of the project).
+
+    A field declared with :func:`~jointwear_ros.settings.setting` is also a parameter of the
+    ``test_cycle`` node (its description, unit, range, per-joint and read-only flags in the field
+    metadata; ``settings.declarations`` and ``settings.from_mapping`` build the node's declarations and
+    the config from it); ``joint_name``, ``control_period`` (the node's ``1 / command_rate``),
+    ``position_tolerance`` and ``move_timeout_factor`` are not parameters.
 
     Attributes
     ----------
@@ -131,29 +138,51 @@ class CycleConfig:
     """
 
     joint_name: str = "joint_1"
-    gear_ratio: float = 100.0
-    speeds: tuple[float, ...] = DEFAULT_SPEEDS
-    window_half_width: float = 0.1
-    position: float = 0.0
-    joint_limits: tuple[float, float] = (-1.5, 1.5)
-    max_speed: float = 280.0
-    acceleration: float = 4.0
-    approach_speed: float = 0.5
-    steady_time: float = 0.3
-    settle_time: float = 0.3
-    limit_margin: float = 0.02
-    control_period: float = 0.01
-    reaction_time: float = 0.1
-    velocity_lag: float = 0.02
-    state_timeout: float = 0.25
-    speed_tolerance: float = 0.05
-    effort_limit: float = 150.0
+    gear_ratio: float = setting(100.0, description="motor speed / joint speed", range=(1e-3, 1e6), per_joint=True,
+                                read_only=True)
+    speeds: tuple[float, ...] = setting(DEFAULT_SPEEDS, description="default speeds, motor side, rad/s",
+                                        unit="rad/s", per_joint=True)
+    window_half_width: float = setting(0.1, description="observation window half width, joint rad", unit="rad",
+                                       range=(1e-4, 10.0), per_joint=True)
+    position: float = setting(0.0, description="default window centre, joint rad", unit="rad",
+                              range=(-100.0, 100.0), per_joint=True)
+    joint_limits: tuple[float, float] = setting((-1.5, 1.5), description="allowed joint positions [low, high], rad",
+                                                unit="rad", per_joint=True)
+    max_speed: float = setting(280.0, description="largest allowed speed, motor side, rad/s", unit="rad/s",
+                               range=(1e-3, 1e6), per_joint=True)
+    acceleration: float = setting(4.0, description="joint acceleration of every move, rad/s^2", unit="rad/s^2",
+                                  range=(1e-3, 1e4), per_joint=True)
+    approach_speed: float = setting(0.5, description="joint speed of approach moves, rad/s", unit="rad/s",
+                                    range=(1e-3, 100.0), per_joint=True)
+    steady_time: float = setting(0.3, description="time at constant speed before the window, s", unit="s",
+                                 range=(0.0, 100.0), per_joint=True)
+    settle_time: float = setting(0.3, description="time at rest after each move, s", unit="s", range=(0.0, 100.0),
+                                 per_joint=True)
+    limit_margin: float = setting(0.02, description="planned positions stay this far inside the limits, rad",
+                                  unit="rad", range=(0.0, 10.0), per_joint=True)
+    control_period: float = 0.01  # the node's 1 / command_rate
+    reaction_time: float = setting(
+        0.1, description="lateness of one control update (s, node time) the plan allows for: each speed's positions "
+        "also keep the stopping allowance speed x (1/command_rate + reaction_time + velocity_lag) inside the limits",
+        unit="s", range=(0.0, 10.0), per_joint=True)
+    velocity_lag: float = setting(0.02, description="time the joint's velocity loop takes to follow a braking "
+                                  "command, s (part of the stopping allowance)", unit="s", range=(0.0, 10.0),
+                                  per_joint=True)
+    state_timeout: float = setting(0.25, description="watchdog: joint state older than this (s) stops the cycle",
+                                   unit="s", range=(1e-3, 100.0))
+    speed_tolerance: float = setting(0.05, description="watchdog: relative speed error allowed at the window start",
+                                     range=(1e-4, 10.0), per_joint=True)
+    effort_limit: float = setting(150.0, description="watchdog: largest allowed |effort|, N·m", unit="N·m",
+                                  range=(1e-3, 1e9), per_joint=True)
     position_tolerance: float = 1e-3
-    approach_tolerance: float = 0.01
+    approach_tolerance: float = setting(0.01, description="the joint must stand this close to a sweep start, rad",
+                                        unit="rad", range=(1e-4, 1.0), per_joint=True)
     move_timeout_factor: float = 3.0
-    min_speed: float = 1.0
-    max_speeds: int = 32
-    max_duration: float = 3600.0
+    min_speed: float = setting(1.0, description="smallest allowed speed, motor side, rad/s", unit="rad/s",
+                               range=(1e-3, 1e6), per_joint=True)
+    max_speeds: int = setting(32, description="most speeds in one cycle")
+    max_duration: float = setting(3600.0, description="longest planned cycle (all joints), s", unit="s",
+                                  range=(1.0, 1e6))
 
     def check(self) -> None:
         """Raise :class:`CycleRequestError` on settings that cannot plan a cycle."""

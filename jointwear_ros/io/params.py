@@ -1,7 +1,8 @@
 """ROS 2 node parameters outside a running graph: declarations, params files and recorded ``/parameter_events``.
 
 Every node declares its parameters once, as a tuple of :class:`ParamDecl` (name, default,
-description, range, read-only); the node declares them to ROS from it
+description, range, read-only; :mod:`jointwear_ros.settings`, re-exported here, also builds them from a
+config dataclass's field metadata); the node declares them to ROS from it
 (``nodes.runtime.declare_parameters``) and the CLI checks a ``--set node.name=value`` against
 it (:meth:`ParamDecl.check`). The offline replay, the CLI and the fleet re-analysis configure
 the pure cores with the same parameters the live nodes had: from a node's params YAML
@@ -19,52 +20,14 @@ from the ``ParameterEvent`` messages a bag recorded. Names are flattened to ROS'
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Iterable
-from dataclasses import dataclass
 from typing import Any
 
-from ..errors import ParameterError
 from ..resources import flatten, node_config
+from ..settings import ParamDecl
 
 __all__ = ["ParamDecl", "flatten", "nest", "node_params_from_yaml", "parameter_value", "recorded_node_params"]
-
-
-@dataclass(frozen=True)
-class ParamDecl:
-    """A node parameter: default (its type is the parameter's), description, optional numeric range.
-
-    ``dynamic``: any type (a list of regexes, say); the default only says what "unset" is.
-    """
-
-    name: str
-    default: Any
-    description: str
-    min: float | None = None
-    max: float | None = None
-    #: read at start-up only: a run-time change is refused by rclpy with "parameter is read-only"
-    read_only: bool = False
-    dynamic: bool = False
-
-    def check(self, value: Any) -> Any:
-        """``value`` as this parameter takes it (an integer for a double becomes that double), or a
-        :class:`~jointwear_ros.errors.ParameterError` saying why not (a number expected, not finite,
-        outside the declared range)."""
-        numeric = isinstance(self.default, (int, float)) and not isinstance(self.default, bool)
-        if self.dynamic or not numeric:
-            return value
-        if isinstance(self.default, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)  # 30 where 30.0 is declared: what everyone types
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
-                isinstance(self.default, float) != isinstance(value, float)):
-            kind = "a number" if isinstance(self.default, float) else "an integer"
-            raise ParameterError(f"{self.name} is {kind} (default {self.default:g}), not {value!r}")
-        if not math.isfinite(float(value)):
-            raise ParameterError(f"{self.name}={value:g}: not a finite number")
-        if (self.min is not None and value < self.min) or (self.max is not None and value > self.max):
-            raise ParameterError(f"{self.name}={value:g}: outside the declared range [{self.min}, {self.max}]")
-        return value
 
 
 def nest(flat: dict[str, Any]) -> dict[str, Any]:

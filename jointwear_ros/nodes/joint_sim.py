@@ -48,7 +48,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import replace
 from functools import partial
 from typing import Any
 
@@ -60,60 +59,48 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64MultiArray
 
 from ..contract import DiagnosticLevel
-from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
-from ..sim import JointSimConfig, RobotSim
+from ..settings import declarations, from_mapping
+from ..sim import JointSimConfig, RobotSim, parse_effects
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level
 from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
 
-__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "JointSimNode", "main"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "JointSimNode", "joint_config", "main", "parse_effects"]
 
-#: Parameters of the node (defaults as in ``config/joint_sim.yaml``).
-PARAMETERS: tuple[ParamDecl, ...] = (
+#: The node's own settings (each joint's simulation settings are JointSimConfig's fields, declared there)
+_NODE: tuple[ParamDecl, ...] = (
     ParamDecl("joint_name", "joint_1", "name of the simulated joint in /joint_states when joints is empty",
               read_only=True),
     ParamDecl("joints", [], "the simulated joints, in /joint_states and velocity-command order (empty: joint_name)",
               read_only=True),
     ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)", read_only=True),
-    ParamDecl("gear_ratio", 100.0, "motor speed / joint speed", 1e-3, 1e6, read_only=True),
-    ParamDecl("torque_scale", 200.0, "N·m (joint side) per normalized torque unit", 1e-6, 1e9, read_only=True),
-    ParamDecl("publish_rate", 500.0, "JointState rate = integration rate, Hz (sim time)", 50.0, 20000.0, read_only=True),
+    ParamDecl("publish_rate", 500.0, "JointState rate = integration rate, Hz (sim time)", 50.0, 20000.0, read_only=True,
+              unit="Hz"),
     ParamDecl("publish_temperature", True, "publish /joint_temperature (one message per joint, frame_id = joint)",
               read_only=True),
-    ParamDecl("temperature_rate", 10.0, "temperature publish rate, Hz (sim time)", 0.1, 1000.0),
+    ParamDecl("temperature_rate", 10.0, "temperature publish rate, Hz (sim time)", 0.1, 1000.0, unit="Hz"),
     ParamDecl("publish_clock", False, "be the clock source: publish /clock, step on wall time × real_time_factor", read_only=True),
     ParamDecl("real_time_factor", 1.0, "sim seconds per wall second (with publish_clock)", 0.01, 100.0),
-    ParamDecl("command_timeout", 0.5, "sim s without a command after which the sim decelerates to 0", 0.0, 1e6),
-    ParamDecl("max_velocity", 3.0, "largest accepted |command|, joint rad/s (larger ones are clamped)", 0.0, 1e3),
-    ParamDecl("wear", 0.0, "true wear level 0-100", 0.0, 100.0),
-    ParamDecl("temperature", 40.0, "joint temperature, degC", -50.0, 200.0),
-    ParamDecl("gravity_torque", 0.1, "gravity amplitude g (normalized): tau_g = g cos(phi - gravity_angle)", -10.0, 10.0),
-    ParamDecl("gravity_angle", 0.0, "joint angle of the largest gravity torque, rad", -10.0, 10.0),
-    ParamDecl("hidden_effects", "", "comma-separated hidden friction effects: " + ", ".join(HIDDEN_EFFECTS)),
-    ParamDecl("lube_hours", 0.0, "hours since lubrication (lubrication effect)", 0.0, 1e6),
-    ParamDecl("params", "ref-2011r", "friction parameter set: a name or a YAML path", read_only=True),
+    ParamDecl("command_timeout", 0.5, "sim s without a command after which the sim decelerates to 0", 0.0, 1e6,
+              unit="s"),
+    ParamDecl("max_velocity", 3.0, "largest accepted |command|, joint rad/s (larger ones are clamped)", 0.0, 1e3,
+              unit="rad/s", per_joint=True),
     ParamDecl("seed", 0, "seed of the noise generator (joint i of joints: seed + i unless <joint>.seed is given)",
-              read_only=True),
-    ParamDecl("initial_position", 0.0, "joint position at start, rad", -100.0, 100.0, read_only=True),
-    ParamDecl("inertia", 5.0e-4, "motor-side inertia, normalized torque per rad/s^2", 1e-9, 1e3),
-    ParamDecl("kp", 0.05, "velocity PI proportional gain, normalized torque per motor rad/s", 0.0, 1e3),
-    ParamDecl("ki", 1.0, "velocity PI integral gain, normalized torque per motor rad", 0.0, 1e6),
-    ParamDecl("accel_limit", 8.0, "reference acceleration limit of the drive, joint rad/s^2 (0: none)", 0.0, 1e6),
-    ParamDecl("torque_limit", 1.0, "saturation of the applied torque, normalized", 1e-6, 1e3),
-    ParamDecl("noise_std", 0.0015, "target scatter sigma_e of (u+ - u-)/2, normalized", 0.0, 1.0),
-    ParamDecl("effort_noise_std", 0.003, "white noise on each effort sample, normalized", 0.0, 1.0),
-    ParamDecl("tick_period", 0.005, "wall-clock period of the stepping timer, s", 1e-4, 1.0, read_only=True),
-    ParamDecl("max_lag", 0.1, "largest sim-time backlog stepped in one tick, s (beyond: the sim slows)", 1e-3, 10.0),
+              read_only=True, per_joint=True),
+    ParamDecl("tick_period", 0.005, "wall-clock period of the stepping timer, s", 1e-4, 1.0, read_only=True, unit="s"),
+    ParamDecl("max_lag", 0.1, "largest sim-time backlog stepped in one tick, s (beyond: the sim slows)", 1e-3, 10.0,
+              unit="s"),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
-              read_only=True),
+              read_only=True, unit="s"),
 )
+#: Parameters of the node (defaults as in ``config/joint_sim.yaml``): its own and :class:`JointSimConfig`'s
+PARAMETERS: tuple[ParamDecl, ...] = (*_NODE, *declarations(JointSimConfig))
 _DECLS = {d.name: d for d in PARAMETERS}
 #: JointSimConfig fields that can change on a running simulation
-_SIM_FIELDS = ("inertia", "gravity_torque", "gravity_angle", "temperature", "wear", "hidden_effects", "lube_hours",
-               "kp", "ki", "accel_limit", "torque_limit", "noise_std", "effort_noise_std")
+_SIM_LIVE = frozenset(d.name for d in declarations(JointSimConfig) if not d.read_only)
 #: Settings each joint has of its own (``<joint>.<setting>``; default: the node-level value)
-PER_JOINT = ("gear_ratio", "torque_scale", "params", "seed", "initial_position", "max_velocity", *_SIM_FIELDS)
+PER_JOINT = tuple(d.name for d in PARAMETERS if d.per_joint)
 #: Parameters that can change at run time (the per-joint ones, ``<joint>.<setting>``, too)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
@@ -121,30 +108,9 @@ _RELIABLE_1000 = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 
-def parse_effects(text: str) -> tuple[str, ...]:
-    """``"ripple, load_viscous"`` -> ``("ripple", "load_viscous")``, checking each name."""
-    names = tuple(s.strip() for s in text.replace(";", ",").split(",") if s.strip())
-    unknown = [n for n in names if n not in HIDDEN_EFFECTS]
-    if unknown:
-        raise ParameterError(
-            f"joint_sim: unknown hidden effect(s) {', '.join(unknown)} in hidden_effects={text!r}; "
-            f"known: {', '.join(HIDDEN_EFFECTS)}"
-        )
-    return names
-
-
-def _sim_value(name: str, value: Any) -> Any:
-    if name == "hidden_effects":
-        return parse_effects(str(value))
-    if name == "params":
-        return str(value)
-    return float(value)
-
-
 def joint_config(values: dict[str, Any]) -> JointSimConfig:
     """A joint's :class:`JointSimConfig` from its parameter values (name -> value)."""
-    fields = ("gear_ratio", "torque_scale", "params", "initial_position", *_SIM_FIELDS)
-    return JointSimConfig(**{n: _sim_value(n, values[n]) for n in fields})
+    return from_mapping(JointSimConfig, values)
 
 
 class JointSimNode(Node):
@@ -156,12 +122,14 @@ class JointSimNode(Node):
             self, PARAMETERS, PER_JOINT, lambda p, joints: {"seed": [int(p["seed"]) + i for i in range(len(joints))]})
         self.p = p
         self.joint_name = self.joints[0]
-        configs = [joint_config(self.values[j]) for j in self.joints]
-        for j, c in zip(self.joints, configs, strict=True):
+        configs = []
+        for j in self.joints:
             try:
+                c = joint_config(self.values[j])
                 c.check()
             except ParameterError as exc:
                 raise ParameterError(f"{j}: {exc}") from None
+            configs.append(c)
         self.sim = RobotSim(self.joints, configs, [int(self.values[j]["seed"]) for j in self.joints])
         self.max_velocity = [float(self.values[j]["max_velocity"]) for j in self.joints]
         self.dt = 1.0 / float(p["publish_rate"])
@@ -243,10 +211,9 @@ class JointSimNode(Node):
         # check every joint's new settings before applying any (all or none)
         new: dict[str, JointSimConfig] = {}
         for j, ch in per_joint.items():
-            sim_changes = {n: _sim_value(n, v) for n, v in ch.items() if n in _SIM_FIELDS}
-            if sim_changes:
-                cfg = replace(self.sim[j].config, **sim_changes)
+            if _SIM_LIVE.intersection(ch):
                 try:
+                    cfg = joint_config({**self.values[j], **ch})
                     cfg.check()
                 except ParameterError as exc:
                     return f"{j}: {exc}"

@@ -32,19 +32,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from ..errors import ParameterError
-from .runtime import ParamDecl, declare_accepting_integers, declare_parameters
+from .runtime import JOINTS, JOINTS_DESCRIPTION, ParamDecl, declare_accepting_integers, declare_parameters
 
 __all__ = ["JOINTS", "declare_joints", "declare_per_joint", "propagate_node_level", "replaced_own_values", "split_per_joint"]
 
-_JOINTS_DESCRIPTION = ("joints served, in order (empty = the single joint joint_name); per-joint settings nest "
-                       "under each name")
-
-
-#: the ``joints`` parameter of a node that serves a robot (declared by :func:`declare_joints`)
-JOINTS = ParamDecl("joints", [], _JOINTS_DESCRIPTION, read_only=True)
-
-
-def declare_joints(node: Node, joint_name: str, description: str = _JOINTS_DESCRIPTION) -> list[str]:
+def declare_joints(node: Node, joint_name: str, description: str = JOINTS_DESCRIPTION) -> list[str]:
     """Declare the read-only string array ``joints`` (empty by default) and return the joints served.
 
     Empty or not given: ``[joint_name]``. A :class:`~jointwear_ros.errors.ParameterError` for an empty
@@ -171,7 +163,7 @@ def declare_robot(node: Node, decls: Sequence[ParamDecl], per_joint: Sequence[st
     params = declare_parameters(node, [d for d in decls if d.name != "joints"])
     joints_decl = by_name.get("joints")
     joints = declare_joints(node, str(params["joint_name"]),
-                            joints_decl.description if joints_decl is not None else _JOINTS_DESCRIPTION)
+                            joints_decl.description if joints_decl is not None else JOINTS_DESCRIPTION)
     values = declare_per_joint(node, joints, [by_name[n] for n in per_joint],
                                defaults(params, joints) if defaults is not None else None)
     return params, joints, values

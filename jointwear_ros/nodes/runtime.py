@@ -29,9 +29,10 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 
 from ..contract import seconds_to_stamp_fields
-from ..io.params import ParamDecl
+from ..settings import ParamDecl
 
 __all__ = [
+    "JOINTS",
     "NODES",
     "ParamDecl",
     "accept_integers_for_doubles",
@@ -148,6 +149,10 @@ NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator", "wear
 #: the nodes that serve a robot: a ``joints`` parameter and per-joint settings ``<joint>.<name>`` (nodes/joints.py)
 ROBOT_NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator")
 _USE_SIM_TIME = ParamDecl("use_sim_time", False, "rclpy's own: follow /clock")
+JOINTS_DESCRIPTION = ("joints served, in order (empty = the single joint joint_name); per-joint settings nest "
+                      "under each name")
+#: the ``joints`` parameter of a node that serves a robot (declared by ``nodes.joints.declare_joints``)
+JOINTS = ParamDecl("joints", [], JOINTS_DESCRIPTION, read_only=True)
 
 
 def _node_module(node: str) -> Any:
@@ -163,8 +168,6 @@ def node_parameters(node: str) -> dict[str, ParamDecl]:
     serves a robot, and rclpy's ``use_sim_time``."""
     decls = {d.name: d for d in _node_module(node).PARAMETERS}
     if node in ROBOT_NODES:
-        from .joints import JOINTS
-
         decls.setdefault("joints", JOINTS)
     decls.setdefault("use_sim_time", _USE_SIM_TIME)
     return decls

@@ -73,7 +73,6 @@ from std_srvs.srv import Trigger
 
 from ..contract import DiagnosticLevel, RefusalReason, status_to_msg
 from ..cycle import (
-    DEFAULT_SPEEDS,
     CycleConfig,
     CycleRequestError,
     CycleState,
@@ -82,13 +81,15 @@ from ..cycle import (
     plan_robot_cycle,
 )
 from ..errors import JointwearError, ParameterError
+from ..settings import declarations, from_mapping
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level
 from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, wait_acked
 
-__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "TestCycleNode", "main"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "TestCycleNode", "main", "parameters"]
 
-PARAMETERS: tuple[ParamDecl, ...] = (
+#: the node's own settings (the cycle's are CycleConfig's fields, declared there with their metadata)
+_NODE_HEAD: tuple[ParamDecl, ...] = (
     ParamDecl("joint_name", "joint_1", "the joint this node drives when joints is empty (looked up by name in "
               "/joint_states)", read_only=True),
     ParamDecl("joints", [], "the joints this node drives, in velocity-command order (empty: joint_name)",
@@ -96,39 +97,18 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("command_topic", "/velocity_controller/commands", "velocity command topic (Float64MultiArray)",
               read_only=True),
     ParamDecl("joint_states_topic", "/joint_states", "joint state topic", read_only=True),
-    ParamDecl("gear_ratio", 100.0, "motor speed / joint speed", 1e-3, 1e6, read_only=True),
-    ParamDecl("speeds", list(DEFAULT_SPEEDS), "default speeds, motor side, rad/s"),
-    ParamDecl("window_half_width", 0.1, "observation window half width, joint rad", 1e-4, 10.0),
-    ParamDecl("position", 0.0, "default window centre, joint rad", -100.0, 100.0),
-    ParamDecl("joint_limits", [-1.5, 1.5], "allowed joint positions [low, high], rad"),
-    ParamDecl("limit_margin", 0.02, "planned positions stay this far inside the limits, rad", 0.0, 10.0),
-    ParamDecl("reaction_time", 0.1, "lateness of one control update (s, node time) the plan allows for: each "
-              "speed's positions also keep the stopping allowance speed x (1/command_rate + reaction_time + "
-              "velocity_lag) inside the limits", 0.0, 10.0),
-    ParamDecl("velocity_lag", 0.02, "time the joint's velocity loop takes to follow a braking command, s (part of "
-              "the stopping allowance)", 0.0, 10.0),
-    ParamDecl("max_speed", 280.0, "largest allowed speed, motor side, rad/s", 1e-3, 1e6),
-    ParamDecl("min_speed", 1.0, "smallest allowed speed, motor side, rad/s", 1e-3, 1e6),
-    ParamDecl("max_speeds", 32, "most speeds in one cycle"),
-    ParamDecl("max_duration", 3600.0, "longest planned cycle (all joints), s", 1.0, 1e6),
-    ParamDecl("acceleration", 4.0, "joint acceleration of every move, rad/s^2", 1e-3, 1e4),
-    ParamDecl("approach_speed", 0.5, "joint speed of approach moves, rad/s", 1e-3, 100.0),
-    ParamDecl("steady_time", 0.3, "time at constant speed before the window, s", 0.0, 100.0),
-    ParamDecl("settle_time", 0.3, "time at rest after each move, s", 0.0, 100.0),
-    ParamDecl("state_timeout", 0.25, "watchdog: joint state older than this (s) stops the cycle", 1e-3, 100.0),
+)
+_NODE_TAIL: tuple[ParamDecl, ...] = (
     ParamDecl(
         "state_timeout_wall", 1.0,
         "watchdog: no joint state for this many wall-clock s stops the cycle (catches a clock source that died)",
-        1e-3, 100.0,
+        1e-3, 100.0, unit="s",
     ),
-    ParamDecl("speed_tolerance", 0.05, "watchdog: relative speed error allowed at the window start", 1e-4, 10.0),
-    ParamDecl("approach_tolerance", 0.01, "the joint must stand this close to a sweep start, rad", 1e-4, 1.0),
-    ParamDecl("effort_limit", 150.0, "watchdog: largest allowed |effort|, N·m", 1e-3, 1e9),
     ParamDecl("hold_tolerance", 0.02, "watchdog: largest move of a held joint from where the cycle found it, rad",
-              1e-5, 10.0),
+              1e-5, 10.0, unit="rad"),
     ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0,
-              read_only=True),
-    ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0, read_only=True),
+              read_only=True, unit="Hz"),
+    ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0, read_only=True, unit="Hz"),
     ParamDecl("first_cycle_id", 0, "id of the first cycle after start, each next one +1; 0: the wall-clock "
               "second (Unix time) the node started, so ids stay unique per joint across restarts of the node "
               "and of the cell (the history and the trend tell cycles apart by id)", read_only=True),
@@ -136,34 +116,23 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               "setting it false stops a running cycle at once"),
     ParamDecl("simulator", False, "the joint is the simulator (joint_sim): motion allowed without motion_enabled"),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
-              read_only=True),
+              read_only=True, unit="s"),
 )
-#: Parameter name -> CycleConfig field, for the settings that apply from the next request
-_CYCLE_FIELDS = ("speeds", "window_half_width", "position", "joint_limits", "limit_margin", "reaction_time",
-                 "velocity_lag", "max_speed", "min_speed",
-                 "max_speeds", "max_duration", "acceleration", "approach_speed", "steady_time", "settle_time",
-                 "state_timeout", "speed_tolerance", "effort_limit", "approach_tolerance")
+
+
+def parameters(config: type = CycleConfig) -> tuple[ParamDecl, ...]:
+    """Every parameter of the node: its own and the cycle settings of ``config`` (its field metadata)."""
+    return (*_NODE_HEAD, *declarations(config), *_NODE_TAIL)
+
+
+PARAMETERS: tuple[ParamDecl, ...] = parameters()
+#: The cycle settings (CycleConfig fields); those not read-only apply from the next request
+_CYCLE_SETTINGS = frozenset(d.name for d in declarations(CycleConfig))
 #: Settings each joint may have of its own (``<joint>.<setting>``; the node-level value is the default)
-PER_JOINT = ("gear_ratio", "speeds", "window_half_width", "position", "joint_limits", "limit_margin", "reaction_time",
-             "velocity_lag", "max_speed",
-             "min_speed", "acceleration", "approach_speed", "steady_time", "settle_time", "speed_tolerance",
-             "effort_limit", "approach_tolerance")
+PER_JOINT = tuple(d.name for d in PARAMETERS if d.per_joint)
 _DECLS = {d.name: d for d in PARAMETERS}
 #: Parameters that can change at run time (the per-joint ones, ``<joint>.<setting>``, too)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
-
-
-def _cycle_value(name: str, value: Any) -> Any:
-    if name == "speeds":
-        return tuple(float(v) for v in value)
-    if name == "joint_limits":
-        limits = [float(x) for x in value]
-        if len(limits) != 2:
-            raise CycleRequestError(f"joint_limits must be [low, high], got {limits}")
-        return (limits[0], limits[1])
-    if name == "max_speeds":
-        return int(value)
-    return float(value)
 
 _RELIABLE_1 = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -181,8 +150,8 @@ class TestCycleNode(Node):
         p, self.joints, self._values = declare_robot(self, PARAMETERS, PER_JOINT)
         self.joint_name = self.joints[0]
         live = [n for n in PER_JOINT if not _DECLS[n].read_only]
-        self.node_values = {name: _cycle_value(name, p[name]) for name in ("max_speeds", "max_duration", "state_timeout")}
-        self.node_values["control_period"] = 1.0 / float(p["command_rate"])  # the runner's update interval
+        self.node_values = {name: p[name] for name in _CYCLE_SETTINGS}  # node level (each joint's own: _values)
+        self.control_period = 1.0 / float(p["command_rate"])  # the runner's update interval
         self.configs = self._build_configs(self._values, self.node_values)
         self.hold_tolerance = float(p["hold_tolerance"])
         self.max_duration = float(p["max_duration"])
@@ -236,16 +205,20 @@ class TestCycleNode(Node):
             + (", simulator" if p["simulator"] else f", motion_enabled={p['motion_enabled']}")
         )
 
-    @staticmethod
-    def _build_configs(values: Mapping[str, Mapping[str, Any]], node_values: Mapping[str, Any]) -> dict[str, CycleConfig]:
+    def _build_configs(self, values: Mapping[str, Mapping[str, Any]],
+                       node_values: Mapping[str, Any]) -> dict[str, CycleConfig]:
+        """Each joint's :class:`CycleConfig`: its own settings over the node-level ones
+        (:func:`jointwear_ros.settings.from_mapping`), checked."""
         configs: dict[str, CycleConfig] = {}
         for j, vals in values.items():
-            fields = {n: _cycle_value(n, v) for n, v in vals.items()}
-            cfg = CycleConfig(joint_name=j, **fields, **node_values)
             try:
+                cfg = from_mapping(CycleConfig, {**node_values, **vals}, joint_name=j,
+                                   control_period=self.control_period)
                 cfg.check()
             except CycleRequestError as exc:
                 raise CycleRequestError(f"{j}: {exc}", exc.reason) from None
+            except ParameterError as exc:
+                raise ParameterError(f"{j}: {exc}") from None
             configs[j] = cfg
         return configs
 
@@ -498,7 +471,7 @@ class TestCycleNode(Node):
             self.get_logger().warning(f"cycle {cid} stopped: {why}; zero velocity sent")
             self._note_end()
         cycle = {k: v for k, v in changes.items()
-                 if k in _CYCLE_FIELDS or k == "hold_tolerance" or ("." in k and k.split(".", 1)[0] in self.configs)}
+                 if k in _CYCLE_SETTINGS or k == "hold_tolerance" or ("." in k and k.split(".", 1)[0] in self.configs)}
         if cycle and self.runner.running:
             # name what was asked for: a node-level name, not the <joint>.<name> it set with it
             asked = sorted(k for k in cycle if not ("." in k and k.split(".", 1)[1] in cycle))
@@ -512,7 +485,7 @@ class TestCycleNode(Node):
                 j, name = k.split(".", 1)
                 values[j][name] = v
             elif k in node_values:
-                node_values[k] = _cycle_value(k, v)
+                node_values[k] = v
         hold = float(changes.get("hold_tolerance", self.hold_tolerance))
         max_duration = float(changes.get("max_duration", self.max_duration))
         configs = self.configs

@@ -10,7 +10,7 @@ one command array. The ``joint_sim`` node wraps it.
 from __future__ import annotations
 
 from .friction import FrictionTable
-from .joint import JointSample, JointSim, JointSimConfig
+from .joint import JointSample, JointSim, JointSimConfig, parse_effects
 from .robot import RobotSim
 
-__all__ = ["FrictionTable", "JointSample", "JointSim", "JointSimConfig", "RobotSim"]
+__all__ = ["FrictionTable", "JointSample", "JointSim", "JointSimConfig", "RobotSim", "parse_effects"]

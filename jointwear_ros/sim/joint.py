@@ -41,18 +41,39 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
+from ..settings import setting
 from .friction import FrictionTable
 
-__all__ = ["JointSample", "JointSim", "JointSimConfig"]
+__all__ = ["JointSample", "JointSim", "JointSimConfig", "parse_effects"]
+
+
+def parse_effects(text: Any) -> tuple[str, ...]:
+    """``"ripple, load_viscous"`` -> ``("ripple", "load_viscous")``, checking each name (the
+    ``hidden_effects`` parameter; a list or tuple of names is taken as it is)."""
+    parts = [str(s) for s in text] if isinstance(text, (list, tuple)) else str(text).replace(";", ",").split(",")
+    names = tuple(s.strip() for s in parts if s.strip())
+    unknown = [n for n in names if n not in HIDDEN_EFFECTS]
+    if unknown:
+        raise ParameterError(
+            f"joint_sim: unknown hidden effect(s) {', '.join(unknown)} in hidden_effects={text!r}; "
+            f"known: {', '.join(HIDDEN_EFFECTS)}"
+        )
+    return names
 
 
 @dataclass(frozen=True)
 class JointSimConfig:
     """Parameters of the simulated joint (defaults: the project's shared defaults).
+
+    A field declared with :func:`~jointwear_ros.settings.setting` is also a per-joint parameter of the
+    ``joint_sim`` node (description, unit, range and read-only flag in its field metadata); ``model``
+    and ``stick_speed`` are not parameters.
 
     Attributes
     ----------
@@ -89,25 +110,42 @@ class JointSimConfig:
         kick the torque. 0 disables it.
     """
 
-    gear_ratio: float = 100.0
-    torque_scale: float = 200.0
-    inertia: float = 5.0e-4
-    gravity_torque: float = 0.1
-    gravity_angle: float = 0.0
-    params: str = "ref-2011r"
+    gear_ratio: float = setting(100.0, description="motor speed / joint speed", range=(1e-3, 1e6), per_joint=True,
+                                read_only=True)
+    torque_scale: float = setting(200.0, description="N·m (joint side) per normalized torque unit", unit="N·m",
+                                  range=(1e-6, 1e9), per_joint=True, read_only=True)
+    inertia: float = setting(5.0e-4, description="motor-side inertia, normalized torque per rad/s^2",
+                             range=(1e-9, 1e3), per_joint=True)
+    gravity_torque: float = setting(0.1, description="gravity amplitude g (normalized): tau_g = g cos(phi - "
+                                    "gravity_angle)", range=(-10.0, 10.0), per_joint=True)
+    gravity_angle: float = setting(0.0, description="joint angle of the largest gravity torque, rad", unit="rad",
+                                   range=(-10.0, 10.0), per_joint=True)
+    params: str = setting("ref-2011r", description="friction parameter set: a name or a YAML path", per_joint=True,
+                          read_only=True)
     model: str = "paper+wear"
-    temperature: float = 40.0
-    wear: float = 0.0
-    hidden_effects: tuple[str, ...] = ()
-    lube_hours: float = 0.0
-    kp: float = 0.05
-    ki: float = 1.0
-    torque_limit: float = 1.0
-    noise_std: float = 0.0015
-    effort_noise_std: float = 0.003
+    temperature: float = setting(40.0, description="joint temperature, degC", unit="degC", range=(-50.0, 200.0),
+                                 per_joint=True)
+    wear: float = setting(0.0, description="true wear level 0-100", range=(0.0, 100.0), per_joint=True)
+    hidden_effects: tuple[str, ...] = setting(
+        (), description="comma-separated hidden friction effects: " + ", ".join(HIDDEN_EFFECTS), per_joint=True,
+        parse=parse_effects, param_default="")
+    lube_hours: float = setting(0.0, description="hours since lubrication (lubrication effect)", unit="h",
+                                range=(0.0, 1e6), per_joint=True)
+    kp: float = setting(0.05, description="velocity PI proportional gain, normalized torque per motor rad/s",
+                        range=(0.0, 1e3), per_joint=True)
+    ki: float = setting(1.0, description="velocity PI integral gain, normalized torque per motor rad",
+                        range=(0.0, 1e6), per_joint=True)
+    torque_limit: float = setting(1.0, description="saturation of the applied torque, normalized",
+                                  range=(1e-6, 1e3), per_joint=True)
+    noise_std: float = setting(0.0015, description="target scatter sigma_e of (u+ - u-)/2, normalized",
+                               range=(0.0, 1.0), per_joint=True)
+    effort_noise_std: float = setting(0.003, description="white noise on each effort sample, normalized",
+                                      range=(0.0, 1.0), per_joint=True)
     stick_speed: float = 0.05
-    initial_position: float = 0.0
-    accel_limit: float = 8.0
+    initial_position: float = setting(0.0, description="joint position at start, rad", unit="rad",
+                                      range=(-100.0, 100.0), per_joint=True, read_only=True)
+    accel_limit: float = setting(8.0, description="reference acceleration limit of the drive, joint rad/s^2 "
+                                 "(0: none)", unit="rad/s^2", range=(0.0, 1e6), per_joint=True)
 
     def check(self) -> None:
         """Raise :class:`ParameterError` on a value the simulator cannot run with."""
