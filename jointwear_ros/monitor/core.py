@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from ..condition import INSUFFICIENT, Standing, condition_level, evidence_of, min_speeds, standing
-from ..contract import ENDED_STATES, CycleState, DiagnosticLevel
+from ..contract import ENDED_STATES, CycleState, DiagnosticLevel, level_name
 from ..errors import InputDataError, JointwearError
 from ..estimation import make_estimator
 from ..model.paramsets import load_parameter_set_info
@@ -67,11 +67,9 @@ from ..observer.types import FrictionObservationData
 from ..types import ObservationTable, WearEstimator, WearResult
 from .validation import screen_observation
 
-__all__ = ["LEVEL_NAMES", "CycleResult", "EstimatorFactory", "MonitorConfig", "WearMonitor",
+__all__ = ["CycleResult", "EstimatorFactory", "MonitorConfig", "WearMonitor",
            "cycle_seed", "diagnostic_level", "observations_table"]
 
-#: level byte -> name of the levels a cycle result takes
-LEVEL_NAMES = {int(lv): lv.name for lv in DiagnosticLevel}
 #: estimates of a joint the confirmation looks back over (the standing one and the one held are what count)
 CONFIRM_MEMORY = 8
 
@@ -175,7 +173,7 @@ class CycleResult:
 
     @property
     def level_name(self) -> str:
-        return LEVEL_NAMES.get(self.level, str(self.level))
+        return level_name(self.level)
 
     @property
     def calibrated(self) -> bool | None:
