@@ -22,18 +22,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from ..contract import CycleStatus
-from .core import FrictionObserverCore
+from .core import FrictionObserverCore, receipt_stamp
 from .types import ObserverConfig, ObserverOutput
 
 __all__ = ["JointStateOutcome", "RobotObserver", "Routed", "receipt_stamp"]
 
 #: name lists remembered at most (a publisher that changes its names every time)
 _INDEX_CACHE_SIZE = 64
-
-
-def receipt_stamp(stamp: float, now: float) -> float:
-    """A message's header stamp, or ``now`` (the receiver's clock) when the header has none (0)."""
-    return stamp if stamp > 0 else now
 
 
 @dataclass
@@ -140,10 +135,7 @@ class RobotObserver:
         j = self.route(status.joint_name)
         if j is None:
             return None
-        return Routed(j, self.cores[j].on_status(
-            receipt_stamp(status.stamp, now), status.cycle_id, int(status.state), int(status.phase),
-            status.current_speed, status.speeds_done, status.speeds_total, status.window_center,
-            status.window_half_width, j))
+        return Routed(j, self.cores[j].on_status(status, now))
 
     def on_temperature(self, stamp: float, frame_id: str, celsius: float, now: float) -> Routed | None:
         """A temperature reading of the joint ``frame_id`` names (None: a joint not served)."""
