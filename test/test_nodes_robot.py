@@ -536,7 +536,7 @@ def test_observer_per_joint_settings_and_node_level_changes(ctx):
 
     node = _observer(ctx, "/jw_robot_obs", Parameter("joint_2.torque_scale", value=100.0))
     try:
-        c1, c2 = node.channels["joint_1"].core, node.channels["joint_2"].core
+        c1, c2 = node.observer.cores["joint_1"], node.observer.cores["joint_2"]
         assert (c1.config.torque_scale, c2.config.torque_scale) == (200.0, 100.0)
         assert (c1.config.joint_name, c2.config.joint_name) == ("joint_1", "joint_2")
         # a node-level change sets every joint's (joint_2's own torque scale included)
@@ -566,7 +566,7 @@ def test_observer_per_joint_gear_and_torque_scale_refused_while_that_joint_is_ob
     node = _observer(ctx, "/jw_robot_obs_live", Parameter("poll_grace", value=0.0))
     helper = Robot.__new__(Robot)
     try:
-        c1, c2 = node.channels["joint_1"].core, node.channels["joint_2"].core
+        c1, c2 = node.observer.cores["joint_1"], node.observer.cores["joint_2"]
 
         def settings() -> list[tuple[float, float]]:
             return [(c.config.gear_ratio, c.config.torque_scale) for c in (c1, c2)]
@@ -619,18 +619,18 @@ def test_observer_takes_any_joint_state_without_raising_and_feeds_exactly_the_go
     joint (its first entry) and that entry is finite; otherwise the message is counted bad or missing."""
     node = _hostile_observer(ctx)
     helper = Robot.__new__(Robot)
-    seen = {j: ch.core.samples_seen for j, ch in node.channels.items()}
+    seen = {j: core.samples_seen for j, core in node.observer.cores.items()}
     bad = sum(node.bad_messages.values())
     node._on_joint_state(helper.joint_state(5.0, names, pos, vel, eff))
     n = len(names)
     well_formed = len(eff) > 0 and len(pos) == n and len(vel) == n and len(eff) == n
     fed_any = False
-    for j, ch in node.channels.items():
+    for j, core in node.observer.cores.items():
         i = names.index(j) if j in names else -1
         ok = well_formed and i >= 0 and all(math.isfinite(a[i]) for a in (pos, vel, eff))
         fed_any |= ok
-        assert ch.core.samples_seen - seen[j] == (1 if ok else 0), (j, names, pos, vel, eff)
-    if not fed_any and (not any(j in names for j in node.channels) or not well_formed):
+        assert core.samples_seen - seen[j] == (1 if ok else 0), (j, names, pos, vel, eff)
+    if not fed_any and (not any(j in names for j in node.observer.cores) or not well_formed):
         assert sum(node.bad_messages.values()) == bad + 1
 
 
