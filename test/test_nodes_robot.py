@@ -227,8 +227,8 @@ def test_observer_and_estimator_processes_through_robot_cycles_of_three_joints(c
 
         # faults outside any cycle: a gripper-only JointState, a status and a temperature of joint_9
         robot.js_pub.publish(robot.joint_state(1.0, ["gripper"], [0.0], [0.0], [1.0]))
-        robot.st_pub.publish(robot.status((1.0, 1, CycleState.RUNNING, 1, 30.0, 0, 3, 0.0, 0.1, "joint_9"), 0,
-                                          ["joint_9"]))
+        robot.st_pub.publish(robot.status(_status(1.0, 1, CycleState.RUNNING, "joint_9", 30.0, speeds_total=3,
+                                                  phase=contract.CyclePhase.APPROACH), 0, ["joint_9"]))
         robot.tp_pub.publish(robot.temperature(1.0, 40.0, "joint_9"))
         robot.spin_until(lambda: robot.value("friction_observer: joint_1", "ignored_messages") == "2"
                          and robot.value("friction_observer: joint_1", "bad_messages") == "1", 20.0,
@@ -367,9 +367,9 @@ def _estimator(ctx, ns: str, *extra):
 
 
 def _status(t: float, cycle_id: int, state: CycleState, joint: str, speed: float, *, speeds_done: int = 0,
-            speeds_total: int) -> contract.CycleStatus:
-    """A status of ``joint`` sweeping forward at ``speed`` (window 0 ± 0.1 rad) at ``t``."""
-    return contract.CycleStatus(stamp=t, cycle_id=cycle_id, state=state, phase=contract.CyclePhase.FORWARD,
+            speeds_total: int, phase: contract.CyclePhase = contract.CyclePhase.FORWARD) -> contract.CycleStatus:
+    """A status of ``joint`` at ``speed`` (sweeping forward unless ``phase`` says; window 0 ± 0.1 rad) at ``t``."""
+    return contract.CycleStatus(stamp=t, cycle_id=cycle_id, state=state, phase=phase,
                                 current_speed=speed, speeds_done=speeds_done, speeds_total=speeds_total,
                                 window_half_width=0.1, joint_name=joint)
 
