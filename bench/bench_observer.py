@@ -31,6 +31,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from jointwear_ros.contract import status_to_msg  # noqa: E402
 from jointwear_ros.observer import FrictionObserverCore, ObserverConfig, observe_arrays  # noqa: E402
 from jointwear_ros.observer.synthetic import synthetic_cycle  # noqa: E402
 
@@ -68,13 +69,13 @@ def bench_offline() -> None:
     # the per-sample path of the live node, on one cycle
     n1 = t.size // 6
     core = FrictionObserverCore(cfg)
-    st_t = [s[0] for s in statuses]
+    st_t = [s.stamp for s in statuses]
     j = 0
     t_start = time.perf_counter()
     tl, pl, vl, el = t[:n1].tolist(), p[:n1].tolist(), v[:n1].tolist(), e[:n1].tolist()
     for i in range(n1):
         while j < len(st_t) and st_t[j] <= tl[i]:
-            core.on_status(*statuses[j])
+            core.on_status(statuses[j])
             j += 1
         core.on_joint_state(tl[i], pl[i], vl[i], el[i])
     dt = time.perf_counter() - t_start
@@ -99,8 +100,7 @@ _SINGLE_THREADED = (
 def bench_live(seconds: float, executor: str = "events") -> float:
     """CPU % of one core of the observer process; ``executor``: events (the node's) or single (rclpy's Python one)."""
     import rclpy
-    from jointwear_msgs.msg import FrictionObservation
-    from jointwear_msgs.msg import TestCycleStatus as CycleStatus
+    from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
 
@@ -124,7 +124,7 @@ def bench_live(seconds: float, executor: str = "events") -> float:
     got: list[FrictionObservation] = []
     try:
         js = node.create_publisher(JointState, f"{ns}/joint_states", high_rate_qos())
-        st = node.create_publisher(CycleStatus, f"{ns}/status", high_rate_qos())
+        st = node.create_publisher(TestCycleStatus, f"{ns}/status", high_rate_qos())
         node.create_subscription(FrictionObservation, f"{ns}/observations", got.append, high_rate_qos())
         end = time.monotonic() + 30
         while time.monotonic() < end and not (js.get_subscription_count() and st.get_subscription_count()
@@ -137,19 +137,14 @@ def bench_live(seconds: float, executor: str = "events") -> float:
 
         msg = JointState()
         msg.name = ["joint_0", "joint_1"]
-        statuses = c.statuses
+        statuses = [status_to_msg(s, TestCycleStatus) for s in c.statuses]
+        st_t = [s.stamp for s in c.statuses]
         j = 0
         cpu0, wall0, own0 = _cpu_seconds(child.pid), time.monotonic(), time.process_time()
         for i in range(n):
             ts = float(c.stamps[i])
-            while j < len(statuses) and statuses[j][0] <= ts:
-                s = statuses[j]
-                m = CycleStatus()
-                m.header.stamp = seconds_to_stamp(s[0])
-                m.cycle_id, m.state, m.phase = s[1], s[2], s[3]
-                m.current_speed, m.speeds_done, m.speeds_total = s[4], s[5], s[6]
-                m.window_center, m.window_half_width, m.joint_name = s[7], s[8], s[9]
-                st.publish(m)
+            while j < len(statuses) and st_t[j] <= ts:
+                st.publish(statuses[j])
                 j += 1
             msg.header.stamp = seconds_to_stamp(ts)
             msg.position = [0.0, float(c.position[i])]
@@ -215,7 +210,7 @@ def bench_robot_offline() -> None:
         n_obs = 0
         for k, j in enumerate(ROBOT_JOINTS):
             out = observe_arrays(ObserverConfig(joint_name=j), cyc.stamps, cyc.position[:, k], cyc.velocity[:, k],
-                                 cyc.effort[:, k], [s for s, _ in cyc.statuses])
+                                 cyc.effort[:, k], cyc.statuses)
             n_obs += len(out.observations)
         best = min(best, time.perf_counter() - t0)
     print(f"robot cycle, {len(ROBOT_JOINTS)} joints at {ROBOT_RATE:g} Hz: {n} JointStates ({n * len(ROBOT_JOINTS)} "
@@ -244,8 +239,7 @@ def bench_robot_offline() -> None:
 def bench_robot_live(seconds: float) -> float:
     """CPU % of one core of one observer process serving six joints at 500 Hz."""
     import rclpy
-    from jointwear_msgs.msg import FrictionObservation
-    from jointwear_msgs.msg import TestCycleStatus as CycleStatus
+    from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
 
@@ -267,7 +261,7 @@ def bench_robot_live(seconds: float) -> float:
     got: list[FrictionObservation] = []
     try:
         js = node.create_publisher(JointState, f"{ns}/joint_states", high_rate_qos())
-        st = node.create_publisher(CycleStatus, f"{ns}/status", high_rate_qos())
+        st = node.create_publisher(TestCycleStatus, f"{ns}/status", high_rate_qos())
         node.create_subscription(FrictionObservation, f"{ns}/observations", got.append, high_rate_qos())
         end = time.monotonic() + 30
         while time.monotonic() < end and not (js.get_subscription_count() and st.get_subscription_count()
@@ -279,20 +273,14 @@ def bench_robot_live(seconds: float) -> float:
         idle = (_cpu_seconds(child.pid) - idle0) / (time.monotonic() - w0)
         msg = JointState()
         msg.name = list(ROBOT_JOINTS)
-        statuses = cyc.statuses
+        statuses = [status_to_msg(s, TestCycleStatus) for s in cyc.statuses]  # joints, joints_done set
+        st_t = [s.stamp for s in cyc.statuses]
         j = 0
         cpu0, wall0 = _cpu_seconds(child.pid), time.monotonic()
         for i in range(n):
             ts = float(cyc.stamps[i])
-            while j < len(statuses) and statuses[j][0][0] <= ts:
-                s, done = statuses[j]
-                m = CycleStatus()
-                m.header.stamp = seconds_to_stamp(s[0])
-                m.cycle_id, m.state, m.phase = s[1], s[2], s[3]
-                m.current_speed, m.speeds_done, m.speeds_total = s[4], s[5], s[6]
-                m.window_center, m.window_half_width, m.joint_name = s[7], s[8], s[9]
-                m.joints, m.joints_done = list(ROBOT_JOINTS), done
-                st.publish(m)
+            while j < len(statuses) and st_t[j] <= ts:
+                st.publish(statuses[j])
                 j += 1
             msg.header.stamp = seconds_to_stamp(ts)
             msg.position = cyc.position[i].tolist()

@@ -75,7 +75,6 @@ __all__ = [
     "confirm",
     "evidence_of",
     "forecast_of",
-    "level_name",
     "min_speeds",
     "plant_level",
     "standing",
@@ -124,11 +123,6 @@ def condition_reason(wear: float, wear_std: float, warn: float = WARN, alarm: fl
         return (f"wear {w:.1f} ± {s:.1f}: the alarm {alarm:g} is within its 95 % bound "
                 f"({w + z * s:.1f}); the estimate cannot rule it out")
     return f"wear {w:.1f} ± {s:.1f} below the warning level {warn:g}"
-
-
-def level_name(level: int | None) -> str:
-    """``OK``, ``WARN``, ``ERROR``, ``STALE``; ``NONE`` for no level."""
-    return "NONE" if level is None else DiagnosticLevel.name_of(int(level))
 
 
 def min_speeds(temperature_known: bool) -> int:

@@ -10,8 +10,10 @@ nodes, the bag reader, replay, the recorder and the CLI share them.
 
 >>> CycleState.RUNNING == 1, CycleState(4).name
 (True, 'FAILED')
->>> CycleState.name_of(9), DiagnosticLevel.name_of(2)
-('9', 'ERROR')
+>>> CycleState.name_of(9), level_name(DiagnosticLevel.ERROR), level_name(3), level_name(None)
+('9', 'ERROR', 'STALE', 'NONE')
+>>> worst_level([DiagnosticLevel.OK, DiagnosticLevel.STALE, DiagnosticLevel.WARN]).name
+'WARN'
 >>> seconds_to_stamp_fields(12.25)
 (12, 250000000)
 >>> stamp_to_seconds(type("Stamp", (), {"sec": 12, "nanosec": 250000000})())
@@ -26,7 +28,7 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, fields
 from functools import cache
 from typing import Any, TypeVar
@@ -42,6 +44,8 @@ __all__ = [
     "CycleStatus",
     "DiagnosticLevel",
     "RefusalReason",
+    "level_name",
+    "level_rank",
     "observation_from_msg",
     "observation_to_msg",
     "robot_cycle_over",
@@ -49,6 +53,7 @@ __all__ = [
     "stamp_to_seconds",
     "status_from_msg",
     "status_to_msg",
+    "worst_level",
 ]
 
 
@@ -199,6 +204,40 @@ class DiagnosticLevel(_Contract):
     WARN = 1
     ERROR = 2
     STALE = 3
+
+
+def level_name(level: int | None) -> str:
+    """The name of a level, the one every surface shows: ``OK``, ``WARN``, ``ERROR``, ``STALE``; the number as
+    text for a byte the contract does not define; ``NONE`` for no level (a joint without a finite estimate).
+
+    >>> level_name(0), level_name(DiagnosticLevel.STALE), level_name(9), level_name(None)
+    ('OK', 'STALE', '9', 'NONE')
+    """
+    return "NONE" if level is None else DiagnosticLevel.name_of(int(level))
+
+
+#: how urgent each level is, the least first: a silent joint (STALE) ranks above OK and below WARN, so an
+#: alarm is never hidden by age (docs/levels.md); the plant page, ``trend`` and the demo rank by it
+_RANK = {DiagnosticLevel.OK: 0, DiagnosticLevel.STALE: 1, DiagnosticLevel.WARN: 2, DiagnosticLevel.ERROR: 3}
+
+
+def level_rank(level: int) -> int:
+    """How urgent ``level`` is: OK 0, STALE 1, WARN 2, ERROR 3; a byte the contract does not define ranks 4,
+    above ERROR (something is wrong that no level says). Sort by ``-level_rank`` to list ERROR first.
+
+    >>> sorted([0, 3, 2, 1], key=lambda lv: -level_rank(lv))
+    [2, 1, 3, 0]
+    """
+    return _RANK.get(int(level), len(_RANK))  # type: ignore[call-overload]
+
+
+def worst_level(levels: Iterable[int]) -> int:
+    """The most urgent of ``levels`` by :func:`level_rank` (OK when there are none); ERROR over STALE.
+
+    >>> worst_level([DiagnosticLevel.STALE, DiagnosticLevel.ERROR]).name, worst_level([])
+    ('ERROR', <DiagnosticLevel.OK: 0>)
+    """
+    return max(levels, key=level_rank, default=DiagnosticLevel.OK)
 
 
 class RefusalReason(_Contract):

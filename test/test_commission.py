@@ -309,7 +309,7 @@ def test_the_documented_command_sequence_runs_as_written(tmp_path):
 def test_the_live_monitor_takes_a_joint_side_set_by_path_and_screens_in_the_suites_units(tmp_path):
     import shutil
 
-    from jointwear_ros.contract import CycleState
+    from jointwear_ros.contract import CycleState, CycleStatus
     from jointwear_ros.monitor import MonitorConfig, WearMonitor
     from jointwear_ros.observer import FrictionObservationData
 
@@ -320,7 +320,7 @@ def test_the_live_monitor_takes_a_joint_side_set_by_path_and_screens_in_the_suit
     sf, tf = info.units.speed_factor, info.units.torque_factor
     mon = WearMonitor(MonitorConfig(joint_name="joint_1", method="joint", params=str(path)))
     speeds = (2.0, 20.0, 47.0, 110.0, 250.0)  # motor side, as the observer publishes them
-    mon.on_status(9.0, 3, CycleState.RUNNING, 0, len(speeds), "joint_1")
+    mon.on_status(CycleStatus(cycle_id=3, state=CycleState.RUNNING, speeds_total=len(speeds), joint_name="joint_1"), now=9.0)
     results = []
     for i, v in enumerate(speeds):
         tau = float(m.evaluate(p, speed=v * sf, load_torque=0.1 * tf, temperature=40.0, wear=30.0)) / tf

@@ -25,7 +25,7 @@ from jointwear_ros.condition import (
     min_speeds,
     standing,
 )
-from jointwear_ros.contract import CycleState, DiagnosticLevel
+from jointwear_ros.contract import CycleState, CycleStatus, DiagnosticLevel
 from jointwear_ros.model import load_parameter_set, paper_wear_model
 from jointwear_ros.monitor import MonitorConfig, WearMonitor
 from jointwear_ros.observer import FrictionObservationData
@@ -125,11 +125,11 @@ def _obs(cycle_id, wear, speeds=EIGHT, t0=0.0, temperature=math.nan):
 
 def _cycle(mon, cid, wear, *, speeds=EIGHT, end=CycleState.DONE, reason="", day=None, temperature=math.nan):
     t0 = (cid if day is None else day) * DAY
-    mon.on_status(t0, cid, CycleState.RUNNING, 0, len(EIGHT), "joint_1")
+    mon.on_status(CycleStatus(cycle_id=cid, state=CycleState.RUNNING, speeds_total=len(EIGHT), joint_name="joint_1"), now=t0)
     out = []
     for o in _obs(cid, wear, speeds, t0 + 1.0, temperature):
         out += mon.add(o)
-    out += mon.on_status(t0 + 20.0, cid, end, len(speeds), len(EIGHT), "joint_1", message=reason)
+    out += mon.on_status(CycleStatus(cycle_id=cid, state=end, speeds_done=len(speeds), speeds_total=len(EIGHT), joint_name="joint_1", message=reason), now=t0 + 20.0)
     out += mon.poll(t0 + 100.0)
     return out[-1]
 
@@ -154,8 +154,8 @@ def test_a_cycle_with_no_observation_leaves_the_level_as_it_was():
     mon = WearMonitor(MonitorConfig(seed=1, done_timeout=5.0))
     for cid in range(1, 4):
         assert _cycle(mon, cid, 40.0).level == ERROR
-    mon.on_status(10 * DAY, 9, CycleState.RUNNING, 0, 8, "joint_1")
-    mon.on_status(10 * DAY + 5, 9, CycleState.ABORTED, 0, 8, "joint_1", message="operator stop")
+    mon.on_status(CycleStatus(cycle_id=9, state=CycleState.RUNNING, speeds_total=8, joint_name="joint_1"), now=10 * DAY)
+    mon.on_status(CycleStatus(cycle_id=9, state=CycleState.ABORTED, speeds_total=8, joint_name="joint_1", message="operator stop"), now=10 * DAY + 5)
     (r,) = mon.poll(10 * DAY + 60)
     assert r.result is None and r.level == ERROR and r.alarm and r.stale  # the alarm is never hidden by a failure
     assert "operator stop" in r.message

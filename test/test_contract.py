@@ -201,3 +201,30 @@ def test_the_literal_check_catches_what_it_is_for(source):
 ])
 def test_the_literal_check_passes_the_contract_spelling(source):
     assert not literal_violations(source, "ok"), source
+
+
+# -- one name and one rank of a level ---------------------------------------------------------------
+def test_the_contract_names_every_level_once_and_a_byte_it_does_not_define_as_its_number():
+    from jointwear_ros.contract import level_name
+
+    assert [level_name(lv) for lv in DiagnosticLevel] == ["OK", "WARN", "ERROR", "STALE"]
+    assert [level_name(int(lv)) for lv in DiagnosticLevel] == ["OK", "WARN", "ERROR", "STALE"]
+    assert (level_name(7), level_name(None)) == ("7", "NONE")
+
+
+def test_the_contract_ranks_error_over_warn_over_stale_over_ok_and_an_unknown_byte_above_all():
+    from jointwear_ros.contract import level_rank, worst_level
+
+    lv = DiagnosticLevel
+    assert sorted(lv, key=level_rank) == [lv.OK, lv.STALE, lv.WARN, lv.ERROR]
+    assert worst_level([lv.STALE, lv.ERROR, lv.OK]) == lv.ERROR  # age never hides an alarm
+    assert worst_level([lv.OK, lv.STALE]) == lv.STALE and worst_level([]) == lv.OK
+    assert worst_level([lv.ERROR, 9]) == 9
+
+
+def test_the_demo_reports_the_worst_joint_by_the_contracts_rank_not_by_its_name():
+    from jointwear_ros.cli.demo_cmd import _worst_level
+
+    assert _worst_level(["STALE", "ERROR", "OK"]) == "ERROR"  # ordered as strings, STALE came last
+    assert _worst_level(["OK", "STALE", "WARN"]) == "WARN"
+    assert _worst_level(["OK", "UNKNOWN", "ERROR"]) == "UNKNOWN"  # no status heard: nothing says the joint is fine

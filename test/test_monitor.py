@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import pytest
 
-from jointwear_ros.contract import CycleState, DiagnosticLevel
+from jointwear_ros.contract import CycleState, CycleStatus, DiagnosticLevel
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.model import load_parameter_set, paper_wear_model
 from jointwear_ros.monitor import MonitorConfig, WearMonitor, diagnostic_level
@@ -30,7 +30,7 @@ def _obs(cycle_id: int, wear: float, temperature: float = math.nan, speeds=SPEED
 
 
 def _run(monitor, cycle_id, wear, **kw):
-    monitor.on_status(9.0, cycle_id, CycleState.RUNNING, 0, len(SPEEDS), "joint_1")
+    monitor.on_status(CycleStatus(cycle_id=cycle_id, state=CycleState.RUNNING, speeds_total=len(SPEEDS), joint_name="joint_1"), now=9.0)
     results = []
     for o in _obs(cycle_id, wear, **kw):
         results += monitor.add(o)
@@ -83,10 +83,10 @@ def test_unknown_temperature_uses_the_uncertain_temperature_estimator():
 
 def test_cycle_is_estimated_after_timeout_following_done():
     mon = WearMonitor(MonitorConfig(done_timeout=2.0))
-    mon.on_status(9.0, 4, CycleState.RUNNING, 0, 5, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=4, state=CycleState.RUNNING, speeds_total=5, joint_name="joint_1"), now=9.0)
     for o in _obs(4, 20.0, temperature=40.0):
         assert mon.add(o) == []
-    assert mon.on_status(20.0, 4, CycleState.DONE, 5, 5, "joint_1") == []
+    assert mon.on_status(CycleStatus(cycle_id=4, state=CycleState.DONE, speeds_done=5, speeds_total=5, joint_name="joint_1"), now=20.0) == []
     assert mon.poll(21.9) == []
     results = mon.poll(22.0)
     assert len(results) == 1 and results[0].level == DiagnosticLevel.OK
@@ -99,10 +99,10 @@ def test_a_late_observation_revises_the_cycle_estimate():
     mon = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5))
     speeds = (20.0, 30.0, 40.0, 50.0)
     obs = _obs(4, 36.0, temperature=40.0, speeds=speeds)
-    mon.on_status(9.0, 4, CycleState.RUNNING, 0, 4, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=4, state=CycleState.RUNNING, speeds_total=4, joint_name="joint_1"), now=9.0)
     for o in obs[:3]:
         assert mon.add(o) == []
-    mon.on_status(20.0, 4, CycleState.DONE, 4, 4, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=4, state=CycleState.DONE, speeds_done=4, speeds_total=4, joint_name="joint_1"), now=20.0)
     (first,) = mon.poll(22.0)
     assert first.revision == 0 and "3 of 4 speeds observed" in first.message
     assert "revision" not in dict(first.values)
@@ -114,7 +114,7 @@ def test_a_late_observation_revises_the_cycle_estimate():
     assert rev.result is not None and rev.result.speeds == speeds
     # the revision equals what an on-time cycle with all four speeds gives
     on_time = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5))
-    on_time.on_status(9.0, 4, CycleState.RUNNING, 0, 4, "joint_1")
+    on_time.on_status(CycleStatus(cycle_id=4, state=CycleState.RUNNING, speeds_total=4, joint_name="joint_1"), now=9.0)
     (full,) = [r for o in obs for r in on_time.add(o)]
     assert full.result is not None and rev.result.wear == full.result.wear
     # a repeat, and an observation beyond the cycle's speeds, are ignored with the reason
@@ -138,10 +138,10 @@ def test_a_revision_of_an_older_cycle_does_not_replace_the_newest_status():
     mon = WearMonitor(MonitorConfig(done_timeout=1.0, seed=6))
     speeds = (20.0, 30.0, 40.0, 50.0)
     late = _obs(2, 20.0, temperature=40.0, speeds=speeds)
-    mon.on_status(1.0, 2, CycleState.RUNNING, 0, 4, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=2, state=CycleState.RUNNING, speeds_total=4, joint_name="joint_1"), now=1.0)
     for o in late[:3]:
         mon.add(o)
-    mon.on_status(5.0, 2, CycleState.DONE, 4, 4, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=2, state=CycleState.DONE, speeds_done=4, speeds_total=4, joint_name="joint_1"), now=5.0)
     (first,) = mon.poll(7.0)
     assert mon.last is first and "3 of 4 speeds observed" in first.message
     (newer,) = _run(mon, 3, 40.0, temperature=40.0)
@@ -161,8 +161,8 @@ def test_finished_cycles_are_remembered_up_to_a_bound():
 
 def test_aborted_cycle_without_observations_gives_no_level_and_names_the_cycles_reason():
     mon = WearMonitor(MonitorConfig(done_timeout=1.0))
-    mon.on_status(1.0, 9, CycleState.RUNNING, 0, 8, "joint_1")
-    mon.on_status(2.0, 9, CycleState.ABORTED, 0, 8, "joint_1", message="effort limit 12 N·m exceeded")
+    mon.on_status(CycleStatus(cycle_id=9, state=CycleState.RUNNING, speeds_total=8, joint_name="joint_1"), now=1.0)
+    mon.on_status(CycleStatus(cycle_id=9, state=CycleState.ABORTED, speeds_total=8, joint_name="joint_1", message="effort limit 12 N·m exceeded"), now=2.0)
     (r,) = mon.poll(3.5)
     assert r.result is None and r.level == DiagnosticLevel.STALE and r.stale and not r.alarm
     assert "ABORTED" in r.message and "no usable friction observation" in r.message
@@ -182,7 +182,7 @@ def test_estimate_is_deterministic_and_independent_of_arrival_order():
     a = WearMonitor(MonitorConfig(seed=11))
     b = WearMonitor(MonitorConfig(seed=11))
     ra = _run(a, 5, 33.0)[0]
-    b.on_status(9.0, 5, CycleState.RUNNING, 0, len(SPEEDS), "joint_1")
+    b.on_status(CycleStatus(cycle_id=5, state=CycleState.RUNNING, speeds_total=len(SPEEDS), joint_name="joint_1"), now=9.0)
     rb = next(r for o in reversed(_obs(5, 33.0)) for r in b.add(o))
     assert ra.result is not None and rb.result is not None
     assert ra.result.wear == rb.result.wear and ra.result.wear_std == rb.result.wear_std
@@ -268,7 +268,7 @@ def test_level_and_alarm_at_exactly_the_thresholds(wear, level, alarm):
 @pytest.mark.parametrize("temperature", [-300.0, 1000.0, math.inf, -math.inf, 70.0, 5.0])
 def test_one_impossible_temperature_does_not_hide_the_alarm(temperature):
     mon = WearMonitor(MonitorConfig(seed=1, use_measured_temperature=True))
-    mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=1, state=CycleState.RUNNING, speeds_total=3, joint_name="joint_1"), now=9.0)
     obs = _obs(1, 40.0, temperature=40.0)
     obs[1] = replace(obs[1], temperature=temperature)
     (r,) = [x for o in obs for x in mon.add(o)]
@@ -290,7 +290,7 @@ def test_one_impossible_temperature_does_not_hide_the_alarm(temperature):
     ("load_torque", 3.0, "|load_torque| 3")])
 def test_a_non_physical_observation_is_dropped_and_the_rest_estimated(field, value, why):
     mon = WearMonitor(MonitorConfig(seed=1))
-    mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=1, state=CycleState.RUNNING, speeds_total=3, joint_name="joint_1"), now=9.0)
     obs = _obs(1, 40.0, temperature=40.0)
     obs[1] = replace(obs[1], **{field: value})
     results = [x for o in obs for x in mon.add(o)]
@@ -306,7 +306,7 @@ def test_a_non_physical_observation_is_dropped_and_the_rest_estimated(field, val
 
 def test_a_cycle_whose_observations_are_all_dropped_gives_no_level_with_the_reasons():
     mon = WearMonitor(MonitorConfig(seed=1))
-    mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=1, state=CycleState.RUNNING, speeds_total=3, joint_name="joint_1"), now=9.0)
     (r,) = [x for o in _obs(1, 40.0) for x in mon.add(replace(o, tau_f=math.nan))]
     assert r.result is None and r.level == DiagnosticLevel.STALE and r.stale and not r.alarm
     assert "no usable friction observation" in r.message and "3 observation(s) rejected" in r.message
@@ -314,7 +314,7 @@ def test_a_cycle_whose_observations_are_all_dropped_gives_no_level_with_the_reas
 
 def test_nan_tau_f_std_means_not_given_and_is_kept():
     mon = WearMonitor(MonitorConfig(seed=1))
-    mon.on_status(9.0, 1, CycleState.RUNNING, 0, 3, "joint_1")
+    mon.on_status(CycleStatus(cycle_id=1, state=CycleState.RUNNING, speeds_total=3, joint_name="joint_1"), now=9.0)
     (r,) = [x for o in _obs(1, 40.0, temperature=40.0) for x in mon.add(replace(o, tau_f_std=math.nan))]
     assert r.rejected == () and r.result is not None and r.level == DiagnosticLevel.ERROR
 
@@ -327,16 +327,16 @@ def test_a_revision_with_a_middle_speed_late_equals_the_on_time_estimate_exactly
     speeds = (20.0, 30.0, 40.0, 50.0, 60.0)
     obs = _obs(7, 33.0, temperature=40.0, speeds=speeds)
     late = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5, method=method))
-    late.on_status(9.0, 7, CycleState.RUNNING, 0, 5, "joint_1")
+    late.on_status(CycleStatus(cycle_id=7, state=CycleState.RUNNING, speeds_total=5, joint_name="joint_1"), now=9.0)
     for o in (obs[0], obs[2], obs[3], obs[4]):
         assert late.add(o) == []
-    late.on_status(20.0, 7, CycleState.DONE, 5, 5, "joint_1")
+    late.on_status(CycleStatus(cycle_id=7, state=CycleState.DONE, speeds_done=5, speeds_total=5, joint_name="joint_1"), now=20.0)
     (partial,) = late.poll(22.5)
     assert partial.revision == 0 and "4 of 5 speeds observed" in partial.message
     (rev,) = late.add(obs[1], now=23.0)
     assert rev.revision == 1 and rev.result is not None
     on_time = WearMonitor(MonitorConfig(done_timeout=2.0, seed=5, method=method))
-    on_time.on_status(9.0, 7, CycleState.RUNNING, 0, 5, "joint_1")
+    on_time.on_status(CycleStatus(cycle_id=7, state=CycleState.RUNNING, speeds_total=5, joint_name="joint_1"), now=9.0)
     (full,) = [r for o in obs for r in on_time.add(o)]
     assert full.result is not None
     assert (rev.result.wear, rev.result.wear_std) == (full.result.wear, full.result.wear_std)
@@ -349,7 +349,7 @@ def test_a_cycle_the_model_cannot_explain_says_so_in_its_status():
     speeds = (20.0, 40.0, 45.0, 55.0, 65.0, 80.0, 120.0, 160.0)
 
     def cycle(mon, cid, temp):
-        mon.on_status(9.0, cid, CycleState.RUNNING, 0, len(speeds), "joint_1")
+        mon.on_status(CycleStatus(cycle_id=cid, state=CycleState.RUNNING, speeds_total=len(speeds), joint_name="joint_1"), now=9.0)
         out = []
         for i, v in enumerate(speeds):
             tau = float(MODEL.evaluate(PARAMS, speed=v, load_torque=0.1, temperature=temp, wear=30.0))

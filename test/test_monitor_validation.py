@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from jointwear_ros.contract import CycleState
+from jointwear_ros.contract import CycleState, CycleStatus
 from jointwear_ros.monitor import PLAUSIBLE_TEMPERATURE, MonitorConfig, WearMonitor, screen_observation
 from jointwear_ros.observer import FrictionObservationData
 
@@ -42,11 +42,11 @@ def test_screening_never_passes_a_non_physical_value(speed, tau_f, std, load, te
 @given(st.lists(st.tuples(anything, anything, anything, anything, anything), min_size=1, max_size=4))
 def test_the_monitor_gives_a_result_for_any_cycle_and_never_raises(rows):
     mon = WearMonitor(MonitorConfig(seed=0, done_timeout=1.0, estimator_options={"n_samples": 20}))
-    mon.on_status(0.0, 1, CycleState.RUNNING, 0, len(rows), "joint_1")
+    mon.on_status(CycleStatus(cycle_id=1, state=CycleState.RUNNING, speeds_total=len(rows), joint_name="joint_1"), now=0.0)
     results = []
     for i, r in enumerate(rows):
         results += mon.add(_obs(*r, stamp=1.0 + i))
-    results += mon.on_status(10.0, 1, CycleState.DONE, len(rows), len(rows), "joint_1")
+    results += mon.on_status(CycleStatus(cycle_id=1, state=CycleState.DONE, speeds_done=len(rows), speeds_total=len(rows), joint_name="joint_1"), now=10.0)
     results += mon.poll(20.0)
     (res,) = results
     assert len(res.observations) + len(res.rejected) == len(rows)
@@ -83,7 +83,7 @@ def test_a_flood_of_bad_observations_keeps_memory_bounded():
     assert mon.rejected_count == 5000 and mon.notes_total == 5000
     assert len(mon.ignored) == mon.max_notes == 1000
     assert mon.notes_since(4998) == mon.ignored[-2:] and mon.notes_since(5000) == []
-    (r,) = mon.on_status(6000.0, 1, CycleState.DONE, 0, 3, "joint_1")  # 5000 heard >= 3 speeds: estimated now
+    (r,) = mon.on_status(CycleStatus(cycle_id=1, state=CycleState.DONE, speeds_total=3, joint_name="joint_1"), now=6000.0)  # 5000 heard >= 3 speeds: estimated now
     assert r.result is None and dict(r.values)["observations_rejected"] == "5000"
     assert len(r.rejected) == 5 and "and 4995 more" in r.message
 

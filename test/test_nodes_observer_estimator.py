@@ -20,6 +20,7 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 
+from jointwear_ros import contract  # noqa: E402
 from jointwear_ros.nodes.friction_observer import (  # noqa: E402
     FrictionObserverNode,
     high_rate_qos,
@@ -53,13 +54,15 @@ def _joint_state(t, names, pos, vel, eff):
     return m
 
 
-def _status(s):
-    m = CycleStatus()
-    m.header.stamp = seconds_to_stamp(s[0])
-    m.cycle_id, m.state, m.phase = s[1], s[2], s[3]
-    m.current_speed, m.speeds_done, m.speeds_total = s[4], s[5], s[6]
-    m.window_center, m.window_half_width, m.joint_name = s[7], s[8], s[9]
-    return m
+def _status(st: contract.CycleStatus):
+    return contract.status_to_msg(st, CycleStatus)
+
+
+def _running(stamp: float, cycle_id: int) -> contract.CycleStatus:
+    """Cycle ``cycle_id``'s first speed (40 rad/s of 2) sweeping forward on joint_1 at ``stamp``."""
+    return contract.CycleStatus(stamp=stamp, cycle_id=cycle_id, state=contract.CycleState.RUNNING,
+                                phase=contract.CyclePhase.FORWARD, current_speed=40.0, speeds_total=2,
+                                window_half_width=0.1, joint_name="joint_1")
 
 
 def test_observation_message_round_trip():
@@ -119,7 +122,7 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ros_context):
                                              "joint 'joint_1' not in name ['joint_9']; set joint_name"}
 
         # the cycle, in stamp order; another joint in the message first, as a broadcaster would send it
-        events = [(s[0], 0, s) for s in cyc.statuses] + [(t[0], 1, t) for t in cyc.temperatures]
+        events = [(s.stamp, 0, s) for s in cyc.statuses] + [(t[0], 1, t) for t in cyc.temperatures]
         events += [(float(t), 2, i) for i, t in enumerate(cyc.stamps)]
         events.sort(key=lambda e: (e[0], e[1]))
         sent = 0
@@ -356,7 +359,7 @@ def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ros_
                                               Parameter("alarm_threshold", value=20.0)])
         assert res.successful, res.reason
         assert (node.channels["joint_1"].monitor.config.warn_threshold, node.channels["joint_1"].monitor.config.alarm_threshold) == (15.0, 20.0)
-        node.channels["joint_1"].monitor.on_status(0.0, 7, 1, 0, 3, "joint_1")
+        node.channels["joint_1"].monitor.on_status(contract.CycleStatus(cycle_id=7, state=contract.CycleState.RUNNING, speeds_total=3, joint_name="joint_1"), now=0.0)
         for i, v in enumerate((30.0, 40.0, 50.0)):
             pub.publish(observation_to_msg(_model_observation(7, v, 25.0, stamp=100.0 + i)))
         assert spin_until(ex, lambda: len(got) == 1, timeout=10.0)
@@ -364,7 +367,7 @@ def test_estimator_thresholds_apply_at_run_time_and_bad_changes_are_refused(ros_
         res = node.set_parameters_atomically([Parameter("warn_threshold", value=30.0),
                                               Parameter("alarm_threshold", value=35.0)])
         assert res.successful
-        node.channels["joint_1"].monitor.on_status(0.0, 8, 1, 0, 3, "joint_1")
+        node.channels["joint_1"].monitor.on_status(contract.CycleStatus(cycle_id=8, state=contract.CycleState.RUNNING, speeds_total=3, joint_name="joint_1"), now=0.0)
         for i, v in enumerate((30.0, 40.0, 50.0)):
             pub.publish(observation_to_msg(_model_observation(8, v, 25.0, stamp=200.0 + i)))
         assert spin_until(ex, lambda: len(got) == 2, timeout=10.0)
@@ -390,7 +393,7 @@ def test_observer_node_reports_its_health_and_refuses_changes_during_a_speed(ros
         res = node.set_parameters_atomically([Parameter("joint_name", value="joint_2")])
         assert not res.successful and "read-only" in res.reason
         # a speed is being observed: no change until it is done
-        node._on_status(_status((10.0, 3, 1, 2, 40.0, 0, 2, 0.0, 0.1, "joint_1")))
+        node._on_status(_status(_running(10.0, 3)))
         res = node.set_parameters_atomically([Parameter("min_samples", value=20)])
         assert not res.successful and "cycle 3 speed #1 is being observed" in res.reason
         assert node.observer.cores["joint_1"].config.min_samples == 50
@@ -402,7 +405,7 @@ def test_observer_node_reports_its_health_and_refuses_changes_during_a_speed(ros
         assert st.level == 1 and "cycle 3" in st.message and "non-finite value" in st.message
         assert kv["bad_messages"] == "2" and kv["temperatures_skipped"] == "1" and kv["cycle_id"] == "3"
         # the next cycle starts clean
-        node._on_status(_status((20.0, 4, 1, 2, 40.0, 0, 2, 0.0, 0.1, "joint_1")))
+        node._on_status(_status(_running(20.0, 4)))
         st = node.health.update()[0]
         assert st.level == 0
     finally:

@@ -26,6 +26,7 @@ joint that is not configured. Both processes must still run at the end and stop 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -39,6 +40,7 @@ from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (no
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 
+from jointwear_ros import contract  # noqa: E402
 from jointwear_ros.contract import CycleState  # noqa: E402
 from jointwear_ros.nodes.runtime import seconds_to_stamp  # noqa: E402
 from jointwear_ros.observer.synthetic import synthetic_robot_cycle  # noqa: E402
@@ -121,15 +123,10 @@ class Robot(GraphClient):
         m.effort = [float(x) for x in eff]
         return m
 
-    def status(self, st, joints_done: int, joints=JOINTS) -> CycleStatus:
-        m = CycleStatus()
-        m.header.stamp = seconds_to_stamp(st[0])
-        m.cycle_id, m.state, m.phase = st[1], st[2], st[3]
-        m.current_speed, m.speeds_done, m.speeds_total = st[4], st[5], st[6]
-        m.window_center, m.window_half_width, m.joint_name = st[7], st[8], st[9]
-        m.joints = list(joints)
-        m.joints_done = joints_done
-        return m
+    def status(self, st: contract.CycleStatus, joints_done: int | None = None, joints=JOINTS) -> CycleStatus:
+        """The message of ``st`` in a robot cycle of ``joints`` (``joints_done``: the status's own when None)."""
+        done = st.joints_done if joints_done is None else joints_done
+        return contract.status_to_msg(replace(st, joints=tuple(joints), joints_done=done), CycleStatus)
 
     def temperature(self, t: float, celsius: float, joint: str) -> Temperature:
         m = Temperature()
@@ -148,7 +145,7 @@ class Robot(GraphClient):
         cyc = synthetic_robot_cycle(JOINTS, wears, SPEEDS, cycle_id=cycle_id, t0=t0, rate=RATE, seed=cycle_id,
                                     torque_scales=TORQUE_SCALES, temperatures=TEMPERATURES, temperature_rate=2.0,
                                     noise_std=0.004)
-        events = [(s[0][0], 0, s) for s in cyc.statuses]
+        events = [(s.stamp, 0, s) for s in cyc.statuses]
         events += [(t[0] + temperature_delay, 1, t) for t in cyc.temperatures]
         events += [(float(t), 2, i) for i, t in enumerate(cyc.stamps)]
         events.sort(key=lambda e: (e[0], e[1]))
@@ -159,7 +156,7 @@ class Robot(GraphClient):
         base = self.samples_seen("joint_1")
         for t, kind, a in events:
             if kind == 0:
-                self.st_pub.publish(self.status(*a))
+                self.st_pub.publish(self.status(a))
             elif kind == 1:
                 self.tp_pub.publish(self.temperature(*a))
             else:
@@ -230,8 +227,8 @@ def test_observer_and_estimator_processes_through_robot_cycles_of_three_joints(c
 
         # faults outside any cycle: a gripper-only JointState, a status and a temperature of joint_9
         robot.js_pub.publish(robot.joint_state(1.0, ["gripper"], [0.0], [0.0], [1.0]))
-        robot.st_pub.publish(robot.status((1.0, 1, CycleState.RUNNING, 1, 30.0, 0, 3, 0.0, 0.1, "joint_9"), 0,
-                                          ["joint_9"]))
+        robot.st_pub.publish(robot.status(_status(1.0, 1, CycleState.RUNNING, "joint_9", 30.0, speeds_total=3,
+                                                  phase=contract.CyclePhase.APPROACH), 0, ["joint_9"]))
         robot.tp_pub.publish(robot.temperature(1.0, 40.0, "joint_9"))
         robot.spin_until(lambda: robot.value("friction_observer: joint_1", "ignored_messages") == "2"
                          and robot.value("friction_observer: joint_1", "bad_messages") == "1", 20.0,
@@ -323,7 +320,7 @@ def _check_offline_equals_live(robot: Robot, cyc, cycle_id: int) -> None:
     for k, j in enumerate(JOINTS):
         cfg = ObserverConfig.from_mapping({**base, "joint_name": j, "torque_scale": TORQUE_SCALES[k]})
         out = observe_arrays(cfg, cyc.stamps, cyc.position[:, k], cyc.velocity[:, k], cyc.effort[:, k],
-                             [st for st, _ in cyc.statuses], [(t, c) for t, c, jn in cyc.temperatures if jn == j])
+                             cyc.statuses, [(t, c) for t, c, jn in cyc.temperatures if jn == j])
         live = sorted((o for o in robot.observations if o.cycle_id == cycle_id and o.joint_name == j),
                       key=lambda o: o.speed)
         offline = sorted(out.observations, key=lambda o: o.speed)
@@ -369,10 +366,18 @@ def _estimator(ctx, ns: str, *extra):
         *extra])
 
 
+def _status(t: float, cycle_id: int, state: CycleState, joint: str, speed: float, *, speeds_done: int = 0,
+            speeds_total: int, phase: contract.CyclePhase = contract.CyclePhase.FORWARD) -> contract.CycleStatus:
+    """A status of ``joint`` at ``speed`` (sweeping forward unless ``phase`` says; window 0 ± 0.1 rad) at ``t``."""
+    return contract.CycleStatus(stamp=t, cycle_id=cycle_id, state=state, phase=phase,
+                                current_speed=speed, speeds_done=speeds_done, speeds_total=speeds_total,
+                                window_half_width=0.1, joint_name=joint)
+
+
 def _feed_cycle(node, robot_status, joint: str, cycle_id: int, wear: float, t: float) -> None:
     from jointwear_ros.nodes.friction_observer import observation_to_msg
 
-    node._on_status(robot_status((t, cycle_id, CycleState.RUNNING, 2, 30.0, 0, 3, 0.0, 0.1, joint), 0))
+    node._on_status(robot_status(_status(t, cycle_id, CycleState.RUNNING, joint, 30.0, speeds_total=3), 0))
     for i, v in enumerate((30.0, 40.0, 50.0)):
         node._on_observation(observation_to_msg(_observation(joint, cycle_id, v, wear, t + 1.0 + i)))
 
@@ -413,7 +418,7 @@ def test_estimator_levels_settings_and_restarts_are_per_joint(ctx):
         assert (_level(node.health.status("joint_1")), _level(node.health.status("joint_2"))) == (OK, WARN)
         # a joint not served, and an observation without a joint with two joints: ignored, counted
         before = node.ignored_messages
-        node._on_status(helper.status((40.0, 1, CycleState.RUNNING, 2, 30.0, 0, 3, 0.0, 0.1, "joint_9"), 0))
+        node._on_status(helper.status(_status(40.0, 1, CycleState.RUNNING, "joint_9", 30.0, speeds_total=3), 0))
         from jointwear_ros.nodes.friction_observer import observation_to_msg
 
         node._on_observation(observation_to_msg(_observation("joint_7", 3, 30.0, 10.0, 41.0)))
@@ -531,7 +536,7 @@ def test_observer_per_joint_settings_and_node_level_changes(ctx):
 
     node = _observer(ctx, "/jw_robot_obs", Parameter("joint_2.torque_scale", value=100.0))
     try:
-        c1, c2 = node.channels["joint_1"].core, node.channels["joint_2"].core
+        c1, c2 = node.observer.cores["joint_1"], node.observer.cores["joint_2"]
         assert (c1.config.torque_scale, c2.config.torque_scale) == (200.0, 100.0)
         assert (c1.config.joint_name, c2.config.joint_name) == ("joint_1", "joint_2")
         # a node-level change sets every joint's (joint_2's own torque scale included)
@@ -546,7 +551,7 @@ def test_observer_per_joint_settings_and_node_level_changes(ctx):
         assert (c1.config.torque_scale, c2.config.torque_scale) == (150.0, 100.0)
         # joint_2 is being tested: no change of any joint's settings that touches joint_2
         helper = Robot.__new__(Robot)
-        node._on_status(helper.status((10.0, 3, CycleState.RUNNING, 2, 40.0, 0, 2, 0.0, 0.1, "joint_2"), 1))
+        node._on_status(helper.status(_status(10.0, 3, CycleState.RUNNING, "joint_2", 40.0, speeds_total=2), 1))
         res = node.set_parameters_atomically([Parameter("min_samples", value=30)])
         assert not res.successful and "joint_2: cycle 3 speed #1 is being observed" in res.reason
         assert (c1.config.min_samples, c2.config.min_samples) == (20, 20)
@@ -561,13 +566,13 @@ def test_observer_per_joint_gear_and_torque_scale_refused_while_that_joint_is_ob
     node = _observer(ctx, "/jw_robot_obs_live", Parameter("poll_grace", value=0.0))
     helper = Robot.__new__(Robot)
     try:
-        c1, c2 = node.channels["joint_1"].core, node.channels["joint_2"].core
+        c1, c2 = node.observer.cores["joint_1"], node.observer.cores["joint_2"]
 
         def settings() -> list[tuple[float, float]]:
             return [(c.config.gear_ratio, c.config.torque_scale) for c in (c1, c2)]
 
         # cycle 3 tests joint_2: its speed #1 is being observed
-        node._on_status(helper.status((10.0, 3, CycleState.RUNNING, 2, 40.0, 0, 1, 0.0, 0.1, "joint_2"), 1))
+        node._on_status(helper.status(_status(10.0, 3, CycleState.RUNNING, "joint_2", 40.0, speeds_total=1), 1))
         for name, value in (("joint_2.gear_ratio", 80.0), ("joint_2.torque_scale", 60.0)):
             res = node.set_parameters_atomically([Parameter(name, value=value)])
             assert not res.successful, name
@@ -590,7 +595,7 @@ def test_observer_per_joint_gear_and_torque_scale_refused_while_that_joint_is_ob
         res = node.set_parameters_atomically([Parameter("joint_1.min_samples", value=1)])
         assert not res.successful and res.reason.startswith("joint_1: ") and "min_samples" in res.reason, res.reason
         # cycle 3 of joint_2 ends; its speed is processed (no samples: rejected) once the inputs fall silent
-        node._on_status(helper.status((12.0, 3, CycleState.DONE, 2, 0.0, 1, 1, 0.0, 0.1, "joint_2"), 1))
+        node._on_status(helper.status(_status(12.0, 3, CycleState.DONE, "joint_2", 0.0, speeds_done=1, speeds_total=1), 1))
         node._on_poll()
         assert c2.active_segment is None and not c2.pending_segments
         res = node.set_parameters_atomically([Parameter("joint_2.gear_ratio", value=80.0),
@@ -614,18 +619,18 @@ def test_observer_takes_any_joint_state_without_raising_and_feeds_exactly_the_go
     joint (its first entry) and that entry is finite; otherwise the message is counted bad or missing."""
     node = _hostile_observer(ctx)
     helper = Robot.__new__(Robot)
-    seen = {j: ch.core.samples_seen for j, ch in node.channels.items()}
+    seen = {j: core.samples_seen for j, core in node.observer.cores.items()}
     bad = sum(node.bad_messages.values())
     node._on_joint_state(helper.joint_state(5.0, names, pos, vel, eff))
     n = len(names)
     well_formed = len(eff) > 0 and len(pos) == n and len(vel) == n and len(eff) == n
     fed_any = False
-    for j, ch in node.channels.items():
+    for j, core in node.observer.cores.items():
         i = names.index(j) if j in names else -1
         ok = well_formed and i >= 0 and all(math.isfinite(a[i]) for a in (pos, vel, eff))
         fed_any |= ok
-        assert ch.core.samples_seen - seen[j] == (1 if ok else 0), (j, names, pos, vel, eff)
-    if not fed_any and (not any(j in names for j in node.channels) or not well_formed):
+        assert core.samples_seen - seen[j] == (1 if ok else 0), (j, names, pos, vel, eff)
+    if not fed_any and (not any(j in names for j in node.observer.cores) or not well_formed):
         assert sum(node.bad_messages.values()) == bad + 1
 
 

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from jointwear_ros.contract import CycleState
+from jointwear_ros.contract import CycleState, CycleStatus
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.observer import (
     FrictionObservationData,
@@ -34,7 +34,7 @@ def _feed_events(core, events, cycle):
     obs, rej = [], []
     for _, kind, a in events:
         if kind == "status":
-            out = core.on_status(*a)
+            out = core.on_status(a)
         elif kind == "temp":
             out = core.on_temperature(*a)
         else:
@@ -54,7 +54,7 @@ def _arrivals(stamps, shift, jitter, rng):
 def _events(cycle, shift_status=0.0, jitter=0.0, seed=0, sample_step=1):
     rng = np.random.default_rng(seed)
     ev = []
-    for key, s in zip(_arrivals([s[0] for s in cycle.statuses], shift_status, jitter, rng), cycle.statuses):
+    for key, s in zip(_arrivals([s.stamp for s in cycle.statuses], shift_status, jitter, rng), cycle.statuses):
         ev.append((float(key), "status", s))
     for key, t in zip(_arrivals([t[0] for t in cycle.temperatures], 0.0, jitter, rng), cycle.temperatures):
         ev.append((float(key), "temp", t))
@@ -169,24 +169,24 @@ def test_observer_rejects_wrong_direction(cycle):
 
 
 def test_observer_rejects_window_the_joint_never_reached(cycle):
-    statuses = [(*s[:7], 1.0, *s[8:]) for s in cycle.statuses]  # window centre at 1.0 rad
+    statuses = [replace(s, window_center=1.0) for s in cycle.statuses]  # window centre at 1.0 rad
     out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
     assert out.observations == []
     assert "no samples inside the window 1 ± 0.1 rad" in out.rejections[0].reason
 
 
 def test_observer_rejects_speed_cut_by_abort(cycle):
-    t_cut = cycle.statuses[len(cycle.statuses) // 3][0]
-    statuses = [s for s in cycle.statuses if s[0] < t_cut]
+    t_cut = cycle.statuses[len(cycle.statuses) // 3].stamp
+    statuses = [s for s in cycle.statuses if s.stamp < t_cut]
     last = statuses[-1]
-    statuses.append((t_cut, last[1], CycleState.ABORTED, 0, 0.0, last[5], last[6], last[7], last[8], last[9]))
+    statuses.append(replace(last, stamp=t_cut, state=CycleState.ABORTED, phase=0, current_speed=0.0))
     out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
     assert any(r.reason == "cycle ABORTED before this speed finished" for r in out.rejections)
-    assert len(out.observations) == last[5]  # the speeds finished before the abort
+    assert len(out.observations) == last.speeds_done  # the speeds finished before the abort
 
 
 def test_observer_ignores_status_of_another_joint(cycle):
-    statuses = [(*s[:9], "joint_2") for s in cycle.statuses]
+    statuses = [replace(s, joint_name="joint_2") for s in cycle.statuses]
     out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
     assert out.observations == [] and out.rejections == []
 
@@ -210,10 +210,10 @@ def test_batched_and_per_sample_feeding_agree(cycle):
 
 def test_observation_is_emitted_once_inputs_pass_the_margin(cycle):
     core = FrictionObserverCore(CFG)
-    first_end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    first_end = next(s.stamp for s in cycle.statuses if s.speeds_done == 1)
     emitted_at = None
     for _, kind, a in _events(cycle):
-        out = (core.on_status(*a) if kind == "status" else core.on_temperature(*a) if kind == "temp"
+        out = (core.on_status(a) if kind == "status" else core.on_temperature(*a) if kind == "temp"
                else core.on_joint_state(cycle.stamps[a], cycle.position[a], cycle.velocity[a], cycle.effort[a]))
         if out.observations:
             emitted_at = core._max_stamp
@@ -224,11 +224,11 @@ def test_observation_is_emitted_once_inputs_pass_the_margin(cycle):
 
 def test_poll_processes_a_finished_speed_when_inputs_stop(cycle):
     core = FrictionObserverCore(CFG)
-    end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    end = next(s.stamp for s in cycle.statuses if s.speeds_done == 1)
     keep = cycle.stamps <= end
     for s in cycle.statuses:
-        if s[0] <= end:
-            core.on_status(*s)
+        if s.stamp <= end:
+            core.on_status(s)
     core.on_joint_states(cycle.stamps[keep], cycle.position[keep], cycle.velocity[keep], cycle.effort[keep])
     assert len(core.pending_segments) == 1
     assert core.poll(end + 0.6).observations == []
@@ -276,12 +276,13 @@ def test_edge_trim_uses_fewer_samples(cycle):
 
 def test_status_running_after_last_speed_does_not_open_a_speed():
     core = FrictionObserverCore(CFG)
-    core.on_status(0.0, 1, CycleState.RUNNING, 0, 10.0, 2, 2, 0.0, 0.1, "joint_1")
+    core.on_status(CycleStatus(stamp=0.0, cycle_id=1, state=CycleState.RUNNING, current_speed=10.0, speeds_done=2,
+                               speeds_total=2, window_half_width=0.1, joint_name="joint_1"))
     assert core.active_segment is None
 
 
 def test_observer_names_a_clock_mismatch_between_status_and_joint_states(cycle):
-    statuses = [(s[0] + 1000.0, *s[1:]) for s in cycle.statuses]  # status stamped by another clock
+    statuses = [replace(s, stamp=s.stamp + 1000.0) for s in cycle.statuses]  # status stamped by another clock
     out = observe_arrays(CFG, cycle.stamps, cycle.position, cycle.velocity, cycle.effort, statuses)
     assert out.observations == []
     assert "same clock (use_sim_time)" in out.rejections[0].reason
@@ -289,10 +290,10 @@ def test_observer_names_a_clock_mismatch_between_status_and_joint_states(cycle):
 
 def test_process_pending_handles_finished_speeds_but_not_the_running_one(cycle):
     core = FrictionObserverCore(CFG)
-    end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    end = next(s.stamp for s in cycle.statuses if s.speeds_done == 1)
     for s in cycle.statuses:
-        if s[0] <= end + 0.2:
-            core.on_status(*s)
+        if s.stamp <= end + 0.2:
+            core.on_status(s)
     keep = cycle.stamps <= end + 0.2
     core.on_joint_states(cycle.stamps[keep], cycle.position[keep], cycle.velocity[keep], cycle.effort[keep])
     out = core.process_pending()
@@ -311,13 +312,13 @@ def test_an_approach_move_crossing_the_window_at_another_speed_is_left_out():
     app_v = np.full(n_app, -0.5)
     app_e = 200.0 * (0.1 - 0.08 + rng.normal(0, 0.01, n_app))
     t = np.concatenate([app_t, c.stamps])
-    status = [(app_t[0] - 0.01, *c.statuses[0][1:])]
+    status = [replace(c.statuses[0], stamp=app_t[0] - 0.01)]
     out = observe_arrays(CFG, t, np.concatenate([app_p, c.position]), np.concatenate([app_v, c.velocity]),
                          np.concatenate([app_e, c.effort]), status + c.statuses)
     assert out.rejections == []
     (o,) = out.observations
     assert o.tau_f == pytest.approx(c.tau_f_true[0], abs=4 * o.tau_f_std + 2e-4)
-    statuses = [(s[0], s[1], s[2], s[3], 50.0, *s[5:]) for s in status + c.statuses]
+    statuses = [replace(s, current_speed=50.0) for s in status + c.statuses]
     out50 = observe_arrays(CFG, t, np.concatenate([app_p, c.position]), np.concatenate([app_v, c.velocity]),
                            np.concatenate([app_e, c.effort]), statuses)
     assert "speed not reached in forward window" in out50.rejections[0].reason
@@ -345,7 +346,8 @@ def test_memory_stays_bounded_when_a_speed_never_ends():
     """A RUNNING status and then silence on the status topic: at most max_buffer_seconds are kept."""
     cfg = replace(CFG, max_buffer_seconds=20.0)
     core = FrictionObserverCore(cfg)
-    core.on_status(100.0, 1, CycleState.RUNNING, 2, 40.0, 0, 1, 0.0, 0.1, "joint_1")
+    core.on_status(CycleStatus(stamp=100.0, cycle_id=1, state=CycleState.RUNNING, phase=2, current_speed=40.0,
+                               speeds_total=1, window_half_width=0.1, joint_name="joint_1"))
     rate = 500.0
     t = np.arange(60_000) / rate + 100.0  # 120 s
     peak = 0
@@ -362,7 +364,7 @@ def test_memory_stays_bounded_when_a_speed_never_ends():
 def _events_temperature_late(cycle, delay, seed=0):
     """The status and joint-state streams on time; the temperature topic ``delay`` s late (in order)."""
     rng = np.random.default_rng(seed)
-    ev = [(float(s[0]), "status", s) for s in cycle.statuses]
+    ev = [(float(s.stamp), "status", s) for s in cycle.statuses]
     ev += [(float(k), "temp", t) for k, t in zip(_arrivals([t[0] for t in cycle.temperatures], delay, 0.02, rng),
                                                  cycle.temperatures)]
     ev += [(float(ts), "js", i) for i, ts in enumerate(cycle.stamps)]
@@ -383,16 +385,16 @@ def test_a_temperature_topic_late_by_more_than_the_reorder_margin_changes_nothin
 
 
 def test_a_sensor_that_stops_gives_unknown_temperature_after_the_bounded_wait_and_is_counted(cycle):
-    first_end = next(s[0] for s in cycle.statuses if s[5] == 1)
+    first_end = next(s.stamp for s in cycle.statuses if s.speeds_done == 1)
     temps = [t for t in cycle.temperatures if t[0] < first_end - 1.0]  # the sensor dies before speed 1 ends
     core = FrictionObserverCore(CFG)
-    ev = [(float(s[0]), "status", s) for s in cycle.statuses] + [(float(t[0]), "temp", t) for t in temps]
+    ev = [(float(s.stamp), "status", s) for s in cycle.statuses] + [(float(t[0]), "temp", t) for t in temps]
     ev += [(float(ts), "js", i) for i, ts in enumerate(cycle.stamps)]
     ev.sort(key=lambda e: e[0])
     emitted_at = None
     got = []
     for _, kind, a in ev:
-        out = (core.on_status(*a) if kind == "status" else core.on_temperature(*a) if kind == "temp"
+        out = (core.on_status(a) if kind == "status" else core.on_temperature(*a) if kind == "temp"
                else core.on_joint_state(cycle.stamps[a], cycle.position[a], cycle.velocity[a], cycle.effort[a]))
         got += out.observations
         if out.observations and emitted_at is None:
@@ -410,12 +412,12 @@ def test_a_sensor_that_stops_gives_unknown_temperature_after_the_bounded_wait_an
 
 def test_a_joint_without_a_sensor_does_not_wait(cycle):
     core = FrictionObserverCore(CFG)
-    first_end = next(s[0] for s in cycle.statuses if s[5] == 1)
-    ev = [(float(s[0]), "status", s) for s in cycle.statuses]
+    first_end = next(s.stamp for s in cycle.statuses if s.speeds_done == 1)
+    ev = [(float(s.stamp), "status", s) for s in cycle.statuses]
     ev += [(float(ts), "js", i) for i, ts in enumerate(cycle.stamps)]
     ev.sort(key=lambda e: e[0])
     for _, kind, a in ev:
-        out = (core.on_status(*a) if kind == "status"
+        out = (core.on_status(a) if kind == "status"
                else core.on_joint_state(cycle.stamps[a], cycle.position[a], cycle.velocity[a], cycle.effort[a]))
         if out.observations:
             assert core._max_stamp < first_end + CFG.reorder_margin + 0.01
@@ -434,10 +436,10 @@ def _events_statuses_in_a_burst(cycle, lag):
     before it: the burst a starved subscriber gets (a recorder under load logged 7.6 s of statuses at once)."""
     ev = [(float(t[0]), "temp", t) for t in cycle.temperatures]
     ev += [(float(ts), "js", i) for i, ts in enumerate(cycle.stamps)]
-    stamps = [s[0] for s in cycle.statuses]
+    stamps = [s.stamp for s in cycle.statuses]
     first = stamps[0]
     for s in cycle.statuses:  # one burst per `lag` seconds of statuses, each at the end of its burst + lag
-        burst_end = first + lag * (1 + (s[0] - first) // lag)
+        burst_end = first + lag * (1 + (s.stamp - first) // lag)
         ev.append((float(burst_end + lag), "status", s))
     ev.sort(key=lambda e: e[0])
     return ev

@@ -7,12 +7,15 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from jointwear_ros.contract import CycleStatus
 from jointwear_ros.observer import FrictionObserverCore, ObserverConfig
 
 anything = st.floats(allow_nan=True, allow_infinity=True)
 ints = st.integers(min_value=-(2**31), max_value=2**31)
-status = st.tuples(st.just("status"), anything, ints, st.integers(-2, 6), st.integers(-2, 6), anything, ints, ints,
-                   anything, anything, st.sampled_from(["", "joint_1", "joint_2"]))
+status = st.tuples(st.just("status"), st.builds(
+    CycleStatus, stamp=anything, cycle_id=ints, state=st.integers(-2, 6), phase=st.integers(-2, 6),
+    current_speed=anything, speeds_done=ints, speeds_total=ints, window_center=anything, window_half_width=anything,
+    joint_name=st.sampled_from(["", "joint_1", "joint_2"])))
 sample = st.tuples(st.just("js"), anything, anything, anything, anything)
 temperature = st.tuples(st.just("temp"), anything, anything)
 poll = st.tuples(st.just("poll"), anything)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -22,22 +23,15 @@ def _robot(joints=JOINTS) -> RobotObserver:
     return RobotObserver({j: ObserverConfig(joint_name=j) for j in joints})
 
 
-def _status(row, joint: str) -> CycleStatus:
-    """A synthetic cycle's status tuple as the one status type."""
-    t, cid, state, phase, v, done, total, center, half, _name = row
-    return CycleStatus(cycle_id=cid, state=state, phase=phase, current_speed=v, speeds_done=done, speeds_total=total,
-                       window_center=center, window_half_width=half, joint_name=joint, stamp=t)
-
-
 def _feed_robot(robot: RobotObserver, cyc, joint: str, offset: int):
     """One joint's synthetic cycle through the robot observer in a 3-joint JointState (its column at ``offset``)."""
     names = [JOINTS[(offset + k) % 3] for k in range(3)]
     col = names.index(joint)
     out = []
-    events = [(s[0], 0, s) for s in cyc.statuses] + [(float(t), 1, i) for i, t in enumerate(cyc.stamps)]
+    events = [(s.stamp, 0, replace(s, joint_name=joint)) for s in cyc.statuses] + [(float(t), 1, i) for i, t in enumerate(cyc.stamps)]
     for _, kind, a in sorted(events, key=lambda e: (e[0], e[1])):
         if kind == 0:
-            routed = robot.on_status(_status(a, joint), now=0.0)
+            routed = robot.on_status(a, now=0.0)
             assert routed is not None and routed.joint == joint
             out += routed.output.observations
         else:
@@ -53,7 +47,7 @@ def _feed_robot(robot: RobotObserver, cyc, joint: str, offset: int):
 def test_a_joint_split_out_of_a_robot_state_gives_what_its_own_core_gives():
     cyc = synthetic_cycle((20.0, 40.0, 80.0), seed=3)
     alone = observe_arrays(ObserverConfig(joint_name="joint_2"), cyc.stamps, cyc.position, cyc.velocity, cyc.effort,
-                           [(*s[:9], "joint_2") for s in cyc.statuses]).observations
+                           [replace(s, joint_name="joint_2") for s in cyc.statuses]).observations
     routed = _feed_robot(_robot(), cyc, "joint_2", offset=1)
     assert len(alone) == 3 and [o.speed for o in routed] == [o.speed for o in alone]
     assert [(o.tau_f, o.tau_f_std, o.joint_name) for o in routed] == [(o.tau_f, o.tau_f_std, o.joint_name) for o in alone]

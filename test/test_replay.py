@@ -11,6 +11,7 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from jointwear_ros.cli import main as cli_main
+from jointwear_ros.contract import CycleState, CycleStatus
 from jointwear_ros.io.bags import bag_info
 from jointwear_ros.io.params import node_params_from_yaml
 from jointwear_ros.io.typestore import jointwear_typestore
@@ -82,7 +83,7 @@ def _synthetic(tmp_path_factory, t0=50.0):
     results = []
     for o in out.observations:
         results += monitor.add(o, now=o.stamp)
-    results += monitor.on_status(cyc.statuses[-1][0], 1, cyc.statuses[-1][2], len(SPEEDS), len(SPEEDS), "joint_1")
+    results += monitor.on_status(cyc.statuses[-1], now=cyc.statuses[-1].stamp)
     results += monitor.poll(1e12)
     assert len(results) == 1 and results[0].result is not None
 
@@ -95,11 +96,12 @@ def _synthetic(tmp_path_factory, t0=50.0):
             header=_header(store, t), name=["joint_0", "joint_1"], position=np.array([0.5, p]),
             velocity=np.array([0.0, v]), effort=np.array([3.0, e]))))
     for st in cyc.statuses:
-        t, cid, state, phase, speed, done, total, centre, hw, joint = st
-        msgs.append((t, "/test_cycle/status", "jointwear_msgs/msg/TestCycleStatus", T["jointwear_msgs/msg/TestCycleStatus"](
-            header=_header(store, t), joint_name=joint, cycle_id=cid, state=state, phase=phase, current_speed=speed,
-            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="",
-            joints=[joint], joints_done=0)))
+        msgs.append((st.stamp, "/test_cycle/status", "jointwear_msgs/msg/TestCycleStatus",
+                     T["jointwear_msgs/msg/TestCycleStatus"](
+            header=_header(store, st.stamp), joint_name=st.joint_name, cycle_id=st.cycle_id, state=st.state,
+            phase=st.phase, current_speed=st.current_speed, speeds_done=st.speeds_done, speeds_total=st.speeds_total,
+            window_center=st.window_center, window_half_width=st.window_half_width, message="",
+            joints=[st.joint_name], joints_done=0)))
     for o in out.observations:
         d = o.to_dict()
         t = d.pop("stamp")
@@ -127,11 +129,13 @@ def test_replay_compares_the_newest_estimate_of_a_cycle_revised_live(tmp_path_fa
     the revision with all three. Replay (on time, all three) must match the revision, not the first."""
     _, observations, result, msgs, store = _synthetic(tmp_path_factory)
     live = WearMonitor(_monitor_config())
-    live.on_status(0.0, 1, 1, 0, len(SPEEDS), "joint_1")
+    live.on_status(CycleStatus(cycle_id=1, state=CycleState.RUNNING, speeds_total=len(SPEEDS), joint_name="joint_1"), now=0.0)
     for o in observations[:-1]:
         assert live.add(o, now=o.stamp) == []
     t_end = observations[-1].stamp
-    (first,) = live.on_status(t_end, 1, 2, len(SPEEDS), len(SPEEDS), "joint_1") + live.poll(t_end + 5.0)
+    done = CycleStatus(cycle_id=1, state=CycleState.DONE, speeds_done=len(SPEEDS), speeds_total=len(SPEEDS),
+                       joint_name="joint_1")
+    (first,) = live.on_status(done, now=t_end) + live.poll(t_end + 5.0)
     (revised,) = live.add(observations[-1], now=t_end + 6.0)
     # 2 of 3 speeds, the temperature unknown: too few for a level, so no estimate was published live
     assert first.result is None and first.evidence == "insufficient"

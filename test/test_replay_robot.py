@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from jointwear_ros.cli import main as cli_main
+from jointwear_ros.contract import CycleState, CycleStatus
 from jointwear_ros.fleet.reanalysis import reprocess_bag
 from jointwear_ros.fleet.synthetic_bags import store_header, write_robot_cycle_bag
 from jointwear_ros.history import HistoryStore
@@ -45,12 +46,12 @@ def _live(cyc):
     observations, results = [], []
     for k, j in enumerate(JOINTS):
         cfg = ObserverConfig(joint_name=j, torque_scale=TORQUE_SCALES[k])
-        statuses = [s for s, _ in cyc.statuses if s[9] == j]
+        statuses = [s for s in cyc.statuses if s.joint_name == j]
         temps = [(t, c) for t, c, jj in cyc.temperatures if jj == j]
         out = observe_arrays(cfg, cyc.stamps, cyc.position[:, k], cyc.velocity[:, k], cyc.effort[:, k], statuses, temps)
         assert len(out.observations) == len(SPEEDS), out.rejections
         mon = WearMonitor(MonitorConfig(joint_name=j, method="paper"))
-        mon.on_status(0.0, 1, 1, 0, len(SPEEDS), j)
+        mon.on_status(CycleStatus(cycle_id=1, state=CycleState.RUNNING, speeds_total=len(SPEEDS), joint_name=j), now=0.0)
         for o in out.observations:
             results += mon.add(o, now=o.stamp)
         observations += out.observations
@@ -211,14 +212,14 @@ def test_replay_of_a_robot_bag_skips_a_bad_sample_only_for_its_joint(tmp_path):
 def test_robot_cycle_statuses_follow_the_contract():
     cyc = synthetic_robot_cycle(JOINTS, WEARS, SPEEDS, rate=250.0, seed=2)
     order = []
-    for st, done in cyc.statuses:
-        j = st[9]
-        assert done == JOINTS.index(j) and st[1] == 1
+    for st in cyc.statuses:
+        j = st.joint_name
+        assert st.joints == tuple(JOINTS) and st.joints_done == JOINTS.index(j) and st.cycle_id == 1
         if not order or order[-1] != j:
             order.append(j)
     assert order == JOINTS  # each joint RUNNING ... DONE, one after another
-    last, done = cyc.statuses[-1]
-    assert last[2] == 2 and done + 1 == len(JOINTS)  # the robot cycle is over
+    last = cyc.statuses[-1]
+    assert last.state == CycleState.DONE and last.robot_cycle_over  # the robot cycle is over
     assert cyc.position.shape == (cyc.stamps.size, 3) and np.all(np.diff(cyc.stamps) > 0)
 
 

@@ -22,9 +22,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from jointwear_ros.contract import DiagnosticLevel
+from jointwear_ros.contract import DiagnosticLevel, level_name
 from jointwear_ros.history import SCHEMA_VERSION, EstimateRecord, HistoryStore
-from jointwear_ros.serve.core import LEVEL_NAMES, STALE, plant_level, rank_views
+from jointwear_ros.serve.core import plant_level, rank_views
 from jointwear_ros.trend import DAY
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,7 +41,7 @@ from plant_example import (  # noqa: E402
 )
 from plant_screenshot import start_serve, stop  # noqa: E402
 
-OK, WARN, ERROR = DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR
+OK, WARN, ERROR, STALE = DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR, DiagnosticLevel.STALE
 
 
 def get(url: str) -> tuple[int, str]:
@@ -105,7 +105,7 @@ def test_plant_level_is_the_trend_level_unless_silent_and_never_hides_an_error(t
     else:
         assert lv == trend_level
     assert plant_level(trend_level, math.nan, now, stale_days) == (ERROR if trend_level == ERROR else STALE)
-    assert LEVEL_NAMES[lv] in ("OK", "WARN", "ERROR", "STALE")
+    assert level_name(lv) in ("OK", "WARN", "ERROR", "STALE")
 
 
 nums = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.none())
@@ -122,7 +122,7 @@ def test_api_rows_are_strict_json_with_nulls_where_unknown(level, wear, t, med, 
     for key, x in (("wear", wear), ("time", t), ("days_to_alarm", med), ("days_to_alarm_low", lo),
                    ("days_to_alarm_high", hi)):
         assert row[key] == (x if x is not None and math.isfinite(x) else None)
-    assert row["level"] == LEVEL_NAMES[int(level)] and row["refused"] == (refused or None)
+    assert row["level"] == level_name(level) and row["refused"] == (refused or None)
 
 
 # ---------------------------------------------------------------------------- one plant, every view agrees
@@ -164,7 +164,7 @@ def test_page_api_metrics_and_trend_json_agree_on_every_joint_of_a_plant(plant_d
             e = newest[key]
             want = condition_level(e.wear, e.wear_std).name
         assert t["level"] == a["level"] == want, key
-        assert LEVEL_NAMES[int(m["jointwear_joint_level"][key])] == want, key
+        assert level_name(int(m["jointwear_joint_level"][key])) == want, key
         tr = re.search(rf'<tr data-robot="{key[0]}" data-joint="{key[1]}" data-level="(\w+)" '
                        rf'data-alarm-expected="(\w+)">', page)
         assert tr and tr.group(1) == want and tr.group(2) == ("true" if forecast[key] else "false"), key
@@ -250,7 +250,7 @@ def test_rank_puts_error_then_warn_then_stale_then_ok(served):
 
     views = []
     for j in api(served)["joints"]:
-        lv = {v: k for k, v in LEVEL_NAMES.items()}[j["level"]]
+        lv = int(DiagnosticLevel[j["level"]])
         views.append(JointView(j["robot"], j["joint"], lv, lv, j["wear"], j["wear_std"], 0.0, j["time"], 0.0,
                                j["days_to_alarm"], j["days_to_alarm_low"], j["days_to_alarm_high"], 1, 1, ""))
     order = [v.level_name for v in rank_views(views)]

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from ..commission.demo import MIN_BASELINE_CYCLES
-from ..contract import CycleState
+from ..contract import CycleState, DiagnosticLevel, level_name, worst_level
 from ..errors import JointwearError
 from ..nodes.cell import CellError, Child, JointReport, Operator, ready_conditions, start_child, stop_children
 from ..resources import node_config
@@ -182,18 +182,15 @@ def _finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-_LEVEL_ORDER = ("OK", "WARN", "ERROR", "STALE")
+def _worst_level(names: Sequence[str]) -> str:
+    """The name of the most urgent of the joints' diagnostic levels (:func:`~jointwear_ros.contract.worst_level`:
+    ERROR over WARN over STALE over OK); a name that is no level (UNKNOWN: no status heard) counts worst.
 
-
-def _worst_level(levels: Sequence[str]) -> str:
-    """The worst of the joints' diagnostic levels (UNKNOWN, i.e. no status heard, counts worst)."""
-    worst = "OK"
-    for lv in levels:
-        if lv not in _LEVEL_ORDER:
-            return lv
-        if _LEVEL_ORDER.index(lv) > _LEVEL_ORDER.index(worst):
-            worst = lv
-    return worst
+    >>> _worst_level(["OK", "STALE", "ERROR", "WARN"]), _worst_level(["OK", "UNKNOWN", "ERROR"]), _worst_level([])
+    ('ERROR', 'UNKNOWN', 'OK')
+    """
+    unknown = [n for n in names if n not in DiagnosticLevel.__members__]
+    return unknown[0] if unknown else level_name(worst_level(DiagnosticLevel[n] for n in names))
 
 
 def _config_value(node: str, name: str, default: Any) -> Any:

@@ -76,8 +76,6 @@ def replay_summary(result: Any) -> dict[str, Any]:
     an observation or a result: ``joint``, ``wear``, ``diagnostic_level`` (its last estimated cycle),
     ``observations`` and ``rejections`` (counts), ``cycles`` and ``comparison``.
     """
-    from ..monitor import LEVEL_NAMES
-
     def cycle_entry(c: Any) -> dict[str, Any]:
         return {
             "joint": c.joint_name,
@@ -85,7 +83,7 @@ def replay_summary(result: Any) -> dict[str, Any]:
             "wear": None if c.result is None else
             {"estimate": c.result.wear, "std": c.result.wear_std, "method": c.result.method,
              "low": c.result.wear_low, "high": c.result.wear_high, "temperature": c.result.temperature},
-            "diagnostic_level": LEVEL_NAMES.get(c.level, str(c.level)),
+            "diagnostic_level": c.level_name,
             "message": c.message,
             "revision": c.revision,
         }

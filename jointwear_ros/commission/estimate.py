@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..condition import INSUFFICIENT, evidence_of, level_name, standing
+from ..condition import INSUFFICIENT, evidence_of, standing
+from ..contract import level_name
 from ..estimation import make_estimator
 from ..model import ParameterSet
 from ..types import ObservationTable, WearResult

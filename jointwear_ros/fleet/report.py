@@ -104,7 +104,8 @@ def write_report(store: Any, out: str | os.PathLike[str], *, version: str | None
     """
     import time as _time
 
-    from ..condition import level_name, plant_level
+    from ..condition import plant_level
+    from ..contract import level_name
     from ..errors import InputDataError
     from ..history import trends_from_store
     from ..trend import TrendConfig

@@ -149,11 +149,11 @@ def write_cycle_bag(path: str | os.PathLike[str], spec: BagSpec, cycle: Syntheti
     if not parameters:
         events = []
     for st in cyc.statuses:
-        t, cid, state, phase, speed, done, total, centre, hw, joint = st
-        events.append((t, 1, T[st_type](
-            header=_header(ts, t), joint_name=joint, cycle_id=cid, state=state, phase=phase, current_speed=speed,
-            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="",
-            joints=[joint], joints_done=0)))
+        events.append((st.stamp, 1, T[st_type](
+            header=_header(ts, st.stamp), joint_name=st.joint_name, cycle_id=st.cycle_id, state=st.state,
+            phase=st.phase, current_speed=st.current_speed, speeds_done=st.speeds_done, speeds_total=st.speeds_total,
+            window_center=st.window_center, window_half_width=st.window_half_width, message="",
+            joints=[st.joint_name], joints_done=0)))
     js = T[js_type]
     names = [other, spec.joint]
     for t, q, v, e in zip(cyc.stamps.tolist(), cyc.position.tolist(), cyc.velocity.tolist(), cyc.effort.tolist()):
@@ -209,12 +209,12 @@ def write_robot_cycle_bag(path: str | os.PathLike[str], cycle: SyntheticRobotCyc
         (t_start + 0.002, 0, "/parameter_events", pe_type,
          _param_event(ts, t_start + 0.002, "wear_trend", {"robot": robot, "hardware_id": ""})),
     ]
-    for st, done_joints in cycle.statuses:
-        t, cid, state, phase, speed, done, total, centre, hw, joint = st
-        events.append((t, 1, "/test_cycle/status", st_type, T[st_type](
-            header=_header(ts, t), joint_name=joint, cycle_id=cid, state=state, phase=phase, current_speed=speed,
-            speeds_done=done, speeds_total=total, window_center=centre, window_half_width=hw, message="",
-            joints=list(cycle.joints), joints_done=done_joints)))
+    for st in cycle.statuses:
+        events.append((st.stamp, 1, "/test_cycle/status", st_type, T[st_type](
+            header=_header(ts, st.stamp), joint_name=st.joint_name, cycle_id=st.cycle_id, state=st.state,
+            phase=st.phase, current_speed=st.current_speed, speeds_done=st.speeds_done, speeds_total=st.speeds_total,
+            window_center=st.window_center, window_half_width=st.window_half_width, message="",
+            joints=list(cycle.joints), joints_done=st.joints_done)))
     if temperature_topic:
         for t, celsius, joint in cycle.temperatures:
             events.append((t, 1, temperature_topic, tp_type, T[tp_type](

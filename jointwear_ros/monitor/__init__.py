@@ -7,7 +7,6 @@ observations and statuses to them; the wear_estimator node and the offline repla
 from __future__ import annotations
 
 from .core import (
-    LEVEL_NAMES,
     CycleResult,
     EstimatorFactory,
     MonitorConfig,
@@ -20,7 +19,6 @@ from .robot import RobotMonitor
 from .validation import PLAUSIBLE_TEMPERATURE, screen_observation
 
 __all__ = [
-    "LEVEL_NAMES",
     "PLAUSIBLE_TEMPERATURE",
     "CycleResult",
     "EstimatorFactory",

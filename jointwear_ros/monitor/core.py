@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from ..condition import INSUFFICIENT, Standing, condition_level, evidence_of, min_speeds, standing
-from ..contract import ENDED_STATES, CycleState, DiagnosticLevel
+from ..contract import ENDED_STATES, CycleState, CycleStatus, DiagnosticLevel, level_name
 from ..errors import InputDataError, JointwearError
 from ..estimation import make_estimator
 from ..model.paramsets import load_parameter_set_info
@@ -67,11 +67,9 @@ from ..observer.types import FrictionObservationData
 from ..types import ObservationTable, WearEstimator, WearResult
 from .validation import screen_observation
 
-__all__ = ["LEVEL_NAMES", "CycleResult", "EstimatorFactory", "MonitorConfig", "WearMonitor",
+__all__ = ["CycleResult", "EstimatorFactory", "MonitorConfig", "WearMonitor",
            "cycle_seed", "diagnostic_level", "observations_table"]
 
-#: level byte -> name of the levels a cycle result takes
-LEVEL_NAMES = {int(lv): lv.name for lv in DiagnosticLevel}
 #: estimates of a joint the confirmation looks back over (the standing one and the one held are what count)
 CONFIRM_MEMORY = 8
 
@@ -175,7 +173,7 @@ class CycleResult:
 
     @property
     def level_name(self) -> str:
-        return LEVEL_NAMES.get(self.level, str(self.level))
+        return level_name(self.level)
 
     @property
     def calibrated(self) -> bool | None:
@@ -366,16 +364,17 @@ class WearMonitor:
             return [self._finish(cid, t_rx)]
         return []
 
-    def on_status(self, stamp: float, cycle_id: int, state: int, speeds_done: int = 0, speeds_total: int = 0,
-                  joint_name: str = "", message: str = "") -> list[CycleResult]:
-        """A ``TestCycleStatus``: learns ``speeds_total``, starts the timeout on DONE/ABORTED/FAILED.
+    def on_status(self, status: CycleStatus, now: float) -> list[CycleResult]:
+        """A ``TestCycleStatus`` heard at ``now``: learns ``speeds_total``, starts the timeout on DONE/ABORTED/FAILED.
 
-        ``stamp`` is on the clock :meth:`poll` is given (the node passes its
-        clock at receipt, a replay the log time).
+        ``now`` is on the clock :meth:`poll` is given (the node passes its clock at receipt, a replay the log
+        time; the status's own ``stamp`` is not used). A status of another joint (a non-empty ``joint_name``) is
+        ignored.
         """
-        if joint_name and joint_name != self.config.joint_name:
+        if status.joint_name and status.joint_name != self.config.joint_name:
             return []
-        cid = int(cycle_id)
+        cid, state, speeds_total, stamp = int(status.cycle_id), int(status.state), int(status.speeds_total), float(now)
+        message = status.message
         if cid in self._finished and state == CycleState.RUNNING:
             del self._finished[cid]  # the id is reused by a new cycle (test_cycle restarted)
             self._note(f"cycle {cid} RUNNING again: a new cycle reuses the id of an estimated one "
@@ -386,12 +385,12 @@ class WearMonitor:
         if speeds_total > 0:
             cyc.speeds_total = int(speeds_total)
         if state in ENDED_STATES and not math.isfinite(cyc.ended_at):
-            cyc.ended_at = float(stamp)
-            cyc.end_state = int(state)
+            cyc.ended_at = stamp
+            cyc.end_state = state
             cyc.end_message = str(message)
         if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
-            return [self._finish(cid, float(stamp))]
-        return self.poll(float(stamp))
+            return [self._finish(cid, stamp)]
+        return self.poll(stamp)
 
     def poll(self, now: float) -> list[CycleResult]:
         """Estimate the cycles whose timeout has passed at ``now`` (same clock as the stamps)."""

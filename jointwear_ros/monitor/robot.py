@@ -47,8 +47,7 @@ class RobotMonitor:
         j = self.route(status.joint_name)
         if j is None:
             return None
-        return self.monitors[j].on_status(now, status.cycle_id, int(status.state), status.speeds_done,
-                                          status.speeds_total, j, status.message)
+        return self.monitors[j].on_status(status, now)
 
     def poll(self, now: float) -> list[CycleResult]:
         """Every joint's timeouts at ``now``."""

@@ -28,7 +28,9 @@ all joints in one ``DiagnosticArray``, on every change and every
 messages, samples): WARN while that joint's current cycle has had a rejected
 window, a lost or a bad message, with the latest reason as the message; OK
 otherwise. The counts of "the current cycle" restart when a new cycle id of
-that joint appears on the status topic.
+that joint appears on the status topic. The robot observer keeps these counts
+and decides the status (:meth:`~jointwear_ros.observer.RobotObserver.health_report`);
+the node publishes it.
 
 Run-time parameters: the observer settings (tolerances, ``min_samples``,
 ``gear_ratio``, ``torque_scale``, ...) are declared for every joint
@@ -60,9 +62,10 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 
 from .. import contract
-from ..contract import DiagnosticLevel, observation_from_msg, stamp_to_seconds, status_from_msg
+from ..contract import observation_from_msg, stamp_to_seconds, status_from_msg
 from ..errors import JointwearError
-from ..observer import FrictionObservationData, FrictionObserverCore, ObserverConfig, ObserverOutput, RobotObserver
+from ..observer import FrictionObservationData, ObserverConfig, RobotObserver
+from ..observer.robot import Routed
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
@@ -133,34 +136,6 @@ def high_rate_qos() -> QoSProfile:
     return QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
 
 
-class _Joint:
-    """One observed joint: its core (in the robot observer) and the counts of its ``friction_observer: <joint>``
-    status."""
-
-    def __init__(self, name: str, core: FrictionObserverCore) -> None:
-        self.name = name
-        self.core = core
-        self.observations_published = 0
-        self.rejections_total = 0
-        #: bad messages that concern this joint (a whole bad message counts for every joint)
-        self.bad = 0
-        #: JointStates without this joint
-        self.missing = 0
-        self.cycle_id = 0
-        self.cycle_marks = (0, 0, 0)  # rejections, bad, lost at the start of the current cycle
-        self.last_problem = ""
-        self.temperatures_missing_seen = 0
-        self.observations_mark = 0  # observations published before the current cycle
-
-    def busy_reason(self) -> str | None:
-        """Why the settings cannot change now (a speed being observed), else None."""
-        seg = self.core.active_segment or next(iter(self.core.pending_segments), None)
-        if seg is None:
-            return None
-        return (f"{self.name}: cycle {seg.cycle_id} speed #{seg.speed_index + 1} is being observed; change the "
-                "observer settings between cycles")
-
-
 class FrictionObserverNode(Node):
     """The friction observer node (see the module docstring)."""
 
@@ -168,19 +143,9 @@ class FrictionObserverNode(Node):
         super().__init__("friction_observer", **kwargs)
         p, self.joints, values = declare_robot(self, PARAMETERS, PER_JOINT)
         self.params = p
-        #: one core per joint and the routing of the inputs to them (the same as replay's)
+        #: one core per joint, the routing of the inputs to them (the same as replay's) and their health counts
         self.observer = RobotObserver({j: ObserverConfig.from_mapping({**p, **values[j], "joint_name": j})
                                        for j in self.joints})
-        self.channels: dict[str, _Joint] = {j: _Joint(j, self.observer.cores[j]) for j in self.joints}
-        self.bad_messages: Counter[str] = Counter()
-        #: per topic, messages DDS reported lost before they reached this node
-        self.lost_messages: Counter[str] = Counter()
-        #: statuses, temperatures naming a joint this node does not serve (the names in ``unknown_joints``)
-        self.ignored_messages = 0
-        self.unknown_joints: set[str] = set()
-        #: the last 1000 rejected windows (reasons), every joint; ``rejections_total`` counts them all
-        self.rejections: list[str] = []
-        self.rejections_total = 0
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
         self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos,
@@ -201,24 +166,50 @@ class FrictionObserverNode(Node):
         self.add_pre_set_parameters_callback(propagate_node_level(PER_JOINT, self.joints))
         on_parameter_change(self, self._on_parameters,
                             LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in PER_JOINT))
-        for ch in self.channels.values():
-            cfg = ch.core.config
+        for j, core in self.observer.cores.items():
+            cfg = core.config
             self.get_logger().info(
-                f"observing {ch.name} on {p['joint_states_topic']} (gear {cfg.gear_ratio:g}, torque scale "
+                f"observing {j} on {p['joint_states_topic']} (gear {cfg.gear_ratio:g}, torque scale "
                 f"{cfg.torque_scale:g} N·m); status {p['status_topic']}; temperature "
                 f"{p['temperature_topic'] or 'none'}; publishing {p['observations_topic']}"
             )
 
+    # -- the robot observer's counts, read-only ----------------------------------------
+    @property
+    def bad_messages(self) -> Counter[str]:
+        """Bad messages by kind (:attr:`RobotObserver.bad_messages`)."""
+        return self.observer.bad_messages
+
+    @property
+    def lost_messages(self) -> Counter[str]:
+        """Per topic, messages DDS reported lost before they reached this node."""
+        return self.observer.lost_messages
+
+    @property
+    def ignored_messages(self) -> int:
+        """Statuses and temperatures naming a joint this node does not serve (the names in ``unknown_joints``)."""
+        return self.observer.ignored_messages
+
+    @property
+    def unknown_joints(self) -> set[str]:
+        return self.observer.unknown_joints
+
+    @property
+    def rejections(self) -> list[str]:
+        """The last rejected windows, every joint (``rejections_total`` counts them all)."""
+        return self.observer.rejections
+
+    @property
+    def rejections_total(self) -> int:
+        return self.observer.rejections_total
+
     # -- callbacks -----------------------------------------------------------------
     def _lost_callback(self, topic: str) -> Any:
         def cb(info: Any) -> None:
-            # the events executor may repeat the event with total_count_change 0: count from the total
-            change = int(info.total_count) - self.lost_messages[topic]
+            # the events executor may repeat the event with total_count_change 0: counted from the total
+            change = self.observer.lost(topic, int(info.total_count))
             if change <= 0:
                 return
-            self.lost_messages[topic] += change
-            for ch in self.channels.values():
-                ch.last_problem = f"{change} message(s) lost on {topic}"
             self.get_logger().warning(
                 f"{change} message(s) on {topic} lost before reaching the observer ({info.total_count} in all): "
                 "the publisher's history overflowed while this node was stalled; observations of that "
@@ -227,18 +218,12 @@ class FrictionObserverNode(Node):
 
         return cb
 
-    def _bad(self, reason: str, joints: Any = None) -> None:
-        """A bad JointState: counted once, and for each joint it concerns (default: every joint)."""
-        self.bad_messages[reason.split(":")[0]] += 1
-        for ch in (self.channels.values() if joints is None else joints):
-            ch.bad += 1
-            ch.last_problem = f"bad JointState: {reason}"
+    def _bad(self, reason: str) -> None:
+        """A bad JointState (counted by the robot observer): logged, throttled."""
         self.get_logger().warning(f"JointState skipped: {reason}", throttle_duration_sec=5.0)
 
     def _ignore(self, what: str, joint: str) -> None:
-        """A message of a joint this node does not serve: counted, logged (throttled), never used."""
-        self.ignored_messages += 1
-        self.unknown_joints.add(joint)
+        """A message of a joint this node does not serve (counted by the robot observer): logged, throttled."""
         self.get_logger().warning(
             f"{what} for joint {joint!r} ignored: this observer serves {self.joints!r} (parameter joints); "
             f"{self.ignored_messages} such message(s) so far", throttle_duration_sec=5.0)
@@ -257,13 +242,11 @@ class FrictionObserverNode(Node):
         if not js.used:
             self._bad(js.unusable)
             return
-        for j in js.missing:
-            self.channels[j].missing += 1
-        for j, reason in js.skipped:
-            self._bad(reason, (self.channels[j],))
+        for _, reason in js.skipped:
+            self._bad(reason)
         self._last_rx = time.monotonic()
         for routed in js.outputs:
-            self._emit(self.channels[routed.joint], routed.output)
+            self._emit(routed)
 
     def _on_status(self, msg: TestCycleStatus) -> None:
         self._last_rx = time.monotonic()
@@ -272,13 +255,7 @@ class FrictionObserverNode(Node):
         if routed is None:
             self._ignore("TestCycleStatus", st.joint_name)
             return
-        ch = self.channels[routed.joint]
-        if st.cycle_id != ch.cycle_id and st.cycle_id > 0:
-            ch.cycle_id = st.cycle_id
-            ch.cycle_marks = self._counts(ch)
-            ch.observations_mark = ch.observations_published
-            ch.last_problem = ""
-        self._emit(ch, routed.output)
+        self._emit(routed)
 
     def _on_temperature(self, msg: Temperature) -> None:
         joint = str(msg.header.frame_id)
@@ -287,13 +264,13 @@ class FrictionObserverNode(Node):
         if routed is None:
             self._ignore("Temperature (header.frame_id names the joint)", joint)
             return
-        self._emit(self.channels[routed.joint], routed.output)
+        self._emit(routed)
 
     def _on_poll(self) -> None:
         # Finished speeds are processed when a later-stamped message arrives; when the inputs fall
         # silent (end of a recording, a stopped driver) nothing will, so process them after poll_grace.
         for routed in self.observer.process_pending(time.monotonic() - self._last_rx):
-            self._emit(self.channels[routed.joint], routed.output)
+            self._emit(routed)
 
     def on_shutdown(self) -> None:
         """Called by ``run_node`` on exit: let reliable subscribers get the last observations."""
@@ -302,61 +279,31 @@ class FrictionObserverNode(Node):
     @property
     def observations_published(self) -> int:
         """Observations published, every joint."""
-        return sum(ch.observations_published for ch in self.channels.values())
+        return self.observer.observations
 
-    def _emit(self, ch: _Joint, out: ObserverOutput) -> None:
+    def _emit(self, routed: Routed) -> None:
+        """A core's output (already counted by the robot observer): published and logged."""
+        out = routed.output
         for o in out.observations:
             self.pub.publish(observation_to_msg(o))
-            ch.observations_published += 1
             self.get_logger().info(
                 f"{o.joint_name} cycle {o.cycle_id}: {o.speed:.1f} rad/s tau_f = {o.tau_f:.5f} ± {o.tau_f_std:.5f}, "
                 f"tau_m = {o.load_torque:.4f}, samples {o.samples_plus}/{o.samples_minus}"
             )
         for r in out.rejections:
-            self.rejections.append(f"{ch.name}: {r}")
-            self.rejections_total += 1
-            ch.rejections_total += 1
-            if len(self.rejections) > 1000:
-                del self.rejections[:-1000]
-            ch.last_problem = f"window rejected: {r}"
-            self.get_logger().warning(f"{ch.name}: window rejected: {r}")
-        if ch.core.temperatures_missing > ch.temperatures_missing_seen:
-            ch.temperatures_missing_seen = ch.core.temperatures_missing
-            ch.last_problem = (f"no temperature reading within temperature_wait "
-                               f"({ch.core.config.temperature_wait:g} s) after a speed's end: the sensor stopped "
-                               "or is late; that observation's temperature is unknown")
-            self.get_logger().warning(f"{ch.name}: {ch.last_problem}", throttle_duration_sec=5.0)
+            self.get_logger().warning(f"{routed.joint}: window rejected: {r}")
+        if routed.note:
+            self.get_logger().warning(f"{routed.joint}: {routed.note}", throttle_duration_sec=5.0)
         if out.observations or out.rejections:
             self.health.update()
 
     # -- health and run-time parameters -----------------------------------------------
-    def _counts(self, ch: _Joint) -> tuple[int, int, int]:
-        return (ch.rejections_total, ch.bad + ch.core.temperatures_skipped + ch.core.temperatures_missing,
-                sum(self.lost_messages.values()))
-
     def _joint_health(self, joint: str, stat: Status) -> None:
-        """The ``friction_observer: <joint>`` status (a task of the updater, run at every update)."""
-        ch = self.channels[joint]
-        core = ch.core
-        rej, bad, lost = self._counts(ch)
-        r0, b0, l0 = ch.cycle_marks
-        values = [("cycle_id", str(ch.cycle_id)), ("observations", str(ch.observations_published)),
-                  ("rejected_windows", str(rej)), ("bad_messages", str(bad)), ("lost_messages", str(lost)),
-                  ("observations_this_cycle", str(ch.observations_published - ch.observations_mark)),
-                  ("rejected_windows_this_cycle", str(rej - r0)), ("lost_messages_this_cycle", str(lost - l0)),
-                  ("samples_seen", str(core.samples_seen)), ("samples_skipped", str(core.samples_skipped)),
-                  ("temperatures_skipped", str(core.temperatures_skipped)),
-                  ("temperatures_missing", str(core.temperatures_missing)),
-                  ("buffered_samples", str(core.buffered_samples)), ("joint_missing", str(ch.missing)),
-                  ("gear_ratio", f"{core.config.gear_ratio:g}"), ("torque_scale", f"{core.config.torque_scale:g}"),
-                  ("ignored_messages", str(self.ignored_messages)),
-                  ("observation_subscribers", str(self.pub.get_subscription_count()))]
-        stat.extend(values)
-        if (rej - r0, bad - b0, lost - l0) != (0, 0, 0):
-            stat.summary(DiagnosticLevel.WARN, f"cycle {ch.cycle_id}: {rej - r0} window(s) rejected, {bad - b0} bad and {lost - l0} "
-                               f"lost message(s); latest: {ch.last_problem}")
-        else:
-            stat.summary(DiagnosticLevel.OK, f"{ch.observations_published} observation(s), {rej} window(s) rejected in all")
+        """The ``friction_observer: <joint>`` status (a task of the updater, run at every update): the robot
+        observer's report and this node's subscribers."""
+        report = self.observer.health_report(joint)
+        stat.extend([*report.values, ("observation_subscribers", str(self.pub.get_subscription_count()))])
+        stat.summary(report.level, report.message)
 
     def health_of(self, joint: str) -> Status:
         """The ``friction_observer: <joint>`` status as of now (not published)."""
@@ -369,8 +316,7 @@ class FrictionObserverNode(Node):
         # every joint or none: the new configs are built and the joints they change checked first
         new: dict[str, ObserverConfig] = {}
         for j, mine in split_per_joint(changes, self.joints).items():
-            ch = self.channels[j]
-            cfg = ch.core.config
+            cfg = self.observer.cores[j].config
             if not mine:
                 continue
             try:
@@ -378,13 +324,13 @@ class FrictionObserverNode(Node):
             except (JointwearError, ValueError, TypeError) as exc:
                 return f"{j}: {exc}"
         for j, cfg in new.items():
-            if cfg != self.channels[j].core.config:
-                why = self.channels[j].busy_reason()
+            if cfg != self.observer.cores[j].config:
+                why = self.observer.busy_reason(j)
                 if why:
                     return why
         replaced = replaced_own_values(self, changes, self.joints)
         for j, cfg in new.items():
-            self.channels[j].core.reconfigure(cfg)
+            self.observer.cores[j].reconfigure(cfg)
         if replaced:
             self.get_logger().info(f"node-level change replaced joints' own values: {', '.join(replaced)}")
         return None

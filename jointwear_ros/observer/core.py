@@ -37,7 +37,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from ..contract import CycleState
+from ..contract import CycleState, CycleStatus
 from ..errors import InputDataError
 from .segmentation import measure_segment
 from .types import (
@@ -49,10 +49,15 @@ from .types import (
     SpeedSegment,
 )
 
-__all__ = ["FrictionObserverCore", "SampleBuffer"]
+__all__ = ["FrictionObserverCore", "SampleBuffer", "receipt_stamp"]
 
 Array = npt.NDArray[np.float64]
 
+
+
+def receipt_stamp(stamp: float, now: float) -> float:
+    """A message's header stamp, or ``now`` (the receiver's clock) when the header has none (0)."""
+    return stamp if stamp > 0 else now
 
 class SampleBuffer:
     """Growable column store of (stamp, position, velocity, effort) samples.
@@ -167,23 +172,14 @@ class FrictionObserverCore:
         self.config = config
 
     # -- inputs ------------------------------------------------------------------
-    def on_status(
-        self,
-        stamp: float,
-        cycle_id: int,
-        state: int,
-        phase: int,
-        current_speed_motor: float,
-        speeds_done: int,
-        speeds_total: int,
-        window_center: float,
-        window_half_width: float,
-        joint_name: str = "",
-    ) -> ObserverOutput:
-        """A ``TestCycleStatus``: opens and closes speeds. ``phase`` is not used for selection."""
-        stamp = float(stamp)
-        if joint_name and joint_name != self.config.joint_name:
+    def on_status(self, status: CycleStatus, now: float = 0.0) -> ObserverOutput:
+        """A ``TestCycleStatus``: opens and closes speeds, at its stamp (``now`` when it has none, 0).
+        ``phase`` is not used for selection; a status of another joint (a non-empty ``joint_name``) is ignored."""
+        stamp = receipt_stamp(float(status.stamp), float(now))
+        if status.joint_name and status.joint_name != self.config.joint_name:
             return ObserverOutput([], [])
+        cycle_id, state, speeds_done, speeds_total = (int(status.cycle_id), int(status.state), int(status.speeds_done),
+                                                      int(status.speeds_total))
         act = self._active
         if state == CycleState.RUNNING:
             if act is not None and act.cycle_id == cycle_id and act.speed_index == speeds_done:
@@ -194,13 +190,13 @@ class FrictionObserverCore:
             if 0 < speeds_total <= speeds_done:  # every speed done; DONE follows
                 return self._advance(stamp)
             self._active = SpeedSegment(
-                cycle_id=int(cycle_id), speed_index=int(speeds_done), speed=float(current_speed_motor),
-                window_center=float(window_center), window_half_width=float(window_half_width),
-                t_start=stamp, speeds_total=int(speeds_total),
+                cycle_id=cycle_id, speed_index=speeds_done, speed=float(status.current_speed),
+                window_center=float(status.window_center), window_half_width=float(status.window_half_width),
+                t_start=stamp, speeds_total=speeds_total,
             )
         elif act is not None:
             completed = act.cycle_id == cycle_id and (state == CycleState.DONE or speeds_done > act.speed_index)
-            self._close(stamp, completed=completed, end_state=int(state))
+            self._close(stamp, completed=completed, end_state=state)
         return self._advance(stamp)
 
     def on_joint_state(self, stamp: float, position: float, velocity: float, effort: float) -> ObserverOutput:
@@ -421,16 +417,15 @@ def observe_arrays(
     position: npt.ArrayLike,
     velocity: npt.ArrayLike,
     effort: npt.ArrayLike,
-    statuses: Sequence[tuple[float, int, int, int, float, int, int, float, float, str]] = (),
+    statuses: Sequence[CycleStatus] = (),
     temperatures: Sequence[tuple[float, float]] = (),
     *,
     flush: bool = True,
 ) -> ObserverOutput:
     """Run the observer offline on whole arrays (the replay path), vectorised.
 
-    ``statuses`` are ``on_status`` argument tuples ``(stamp, cycle_id, state,
-    phase, current_speed_motor, speeds_done, speeds_total, window_center,
-    window_half_width, joint_name)``; ``temperatures`` are ``(stamp, celsius)``.
+    ``statuses`` are :class:`~jointwear_ros.contract.CycleStatus` (each at its ``stamp``);
+    ``temperatures`` are ``(stamp, celsius)``.
     Inputs are fed in stamp order, the samples in chunks between status
     stamps, so the result equals the live core's for any interleaving within
     ``reorder_margin``.
@@ -445,11 +440,11 @@ def observe_arrays(
     order = np.argsort(t, kind="stable")
     if not np.all(order[1:] > order[:-1]):
         t, p, v, e = t[order], p[order], v[order], e[order]
-    events: list[tuple[float, int, int, tuple[object, ...]]] = []
+    events: list[tuple[float, int, int, CycleStatus | tuple[float, float]]] = []
     for i, st in enumerate(statuses):
-        events.append((float(st[0]), 0, i, tuple(st)))
+        events.append((float(st.stamp), 0, i, st))
     for i, tm in enumerate(temperatures):
-        events.append((float(tm[0]), 1, i, tuple(tm)))
+        events.append((float(tm[0]), 1, i, (float(tm[0]), float(tm[1]))))
     events.sort(key=lambda ev: (ev[0], ev[1], ev[2]))
     obs: list[FrictionObservationData] = []
     rej: list[Rejection] = []
@@ -459,15 +454,15 @@ def observe_arrays(
         rej.extend(out.rejections)
 
     start = 0
-    for stamp, kind, _, args in events:
+    for stamp, _, _, ev in events:
         stop = int(np.searchsorted(t, stamp, side="left"))
         if stop > start:
             take(core.on_joint_states(t[start:stop], p[start:stop], v[start:stop], e[start:stop]))
             start = stop
-        if kind == 0:
-            take(core.on_status(*args))  # type: ignore[arg-type]
+        if isinstance(ev, CycleStatus):
+            take(core.on_status(ev))
         else:
-            take(core.on_temperature(*args))  # type: ignore[arg-type]
+            take(core.on_temperature(*ev))
     if start < t.size:
         take(core.on_joint_states(t[start:], p[start:], v[start:], e[start:]))
     if flush:

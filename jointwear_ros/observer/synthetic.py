@@ -8,7 +8,8 @@ applied torque is ``u = tau_g(phi) + sign(v) tau_f(|v|) + J a + noise`` with
 ``tau_g(phi) = load * cos(phi)``, the friction from the model at the given
 temperature and wear, and AR(1) noise; ``effort = u * torque_scale``.
 
-The status stream is what the test-cycle node publishes: RUNNING with the
+The status stream is what the test-cycle node publishes, as
+:class:`~jointwear_ros.contract.CycleStatus` (``stamp`` set): RUNNING with the
 phase, ``current_speed`` and ``speeds_done`` on every change and at
 ``status_rate``; DONE at the end.
 
@@ -19,13 +20,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
 from scipy.signal import lfilter
 
-from ..contract import CyclePhase, CycleState
+from ..contract import CyclePhase, CycleState, CycleStatus
 from ..model import Model, Parameters, load_parameter_set, paper_wear_model
 
 __all__ = [
@@ -33,7 +34,6 @@ __all__ = [
     "PHASE_FORWARD",
     "PHASE_REVERSE",
     "PHASE_SETTLE",
-    "StatusTuple",
     "SyntheticCycle",
     "SyntheticRobotCycle",
     "synthetic_cycle",
@@ -49,9 +49,6 @@ PHASE_FORWARD = CyclePhase.FORWARD
 PHASE_REVERSE = CyclePhase.REVERSE
 PHASE_SETTLE = CyclePhase.SETTLE
 
-#: ``FrictionObserverCore.on_status`` arguments.
-StatusTuple = tuple[float, int, int, int, float, int, int, float, float, str]
-
 
 @dataclass
 class SyntheticCycle:
@@ -61,7 +58,7 @@ class SyntheticCycle:
     position: Array
     velocity: Array
     effort: Array
-    statuses: list[StatusTuple]
+    statuses: list[CycleStatus]
     temperatures: list[tuple[float, float]]
     speeds: Array  # commanded, motor side
     tau_f_true: Array  # model friction at each speed, normalized
@@ -140,7 +137,7 @@ def synthetic_cycle(
     pos_chunks: list[Array] = []
     vel_chunks: list[Array] = []
     acc_chunks: list[Array] = []
-    statuses: list[StatusTuple] = []
+    statuses: list[CycleStatus] = []
     t_cursor = t0
     current = window_center - window_half_width - 0.2
     pos_chunks.append(np.full(int(0.2 * rate), current))
@@ -194,9 +191,13 @@ def synthetic_cycle(
         vel = vel + rng.normal(0.0, velocity_noise, n)
 
     # status stream: every change of (speeds_done, phase), plus periodic repeats
+    def status(ts: float, state: CycleState, phase: CyclePhase, v_m: float, k: int) -> CycleStatus:
+        return CycleStatus(cycle_id=cycle_id, state=state, phase=phase, current_speed=v_m, speeds_done=k,
+                           speeds_total=n_total, window_center=window_center, window_half_width=window_half_width,
+                           joint_name=joint_name, stamp=float(ts))
+
     for ts, k, phase, v_m in phase_marks:
-        statuses.append((ts, cycle_id, CycleState.RUNNING, phase, v_m, k, n_total, window_center, window_half_width,
-                         joint_name))
+        statuses.append(status(ts, CycleState.RUNNING, phase, v_m, k))
     periodic = np.arange(t0, t_done, 1.0 / status_rate)
     mark_t = np.array([pm[0] for pm in phase_marks])
     for ts in periodic:
@@ -204,12 +205,10 @@ def synthetic_cycle(
         if j < 0:
             continue
         _, k, phase, v_m = phase_marks[j]
-        statuses.append((float(ts), cycle_id, CycleState.RUNNING, phase, v_m, k, n_total, window_center,
-                         window_half_width, joint_name))
+        statuses.append(status(float(ts), CycleState.RUNNING, phase, v_m, k))
     for ts in (t_done, *np.arange(t_done + 1.0 / status_rate, stamps[-1], 1.0 / status_rate)):
-        statuses.append((float(ts), cycle_id, CycleState.DONE, PHASE_NONE, 0.0, n_total, n_total, window_center,
-                         window_half_width, joint_name))
-    statuses.sort(key=lambda s: s[0])
+        statuses.append(status(float(ts), CycleState.DONE, PHASE_NONE, 0.0, n_total))
+    statuses.sort(key=lambda s: s.stamp)
 
     temps: list[tuple[float, float]] = []
     if temperature_rate > 0:
@@ -230,10 +229,10 @@ class SyntheticRobotCycle:
     """A robot cycle: every joint tested in turn under one cycle id, the others held still.
 
     ``position``, ``velocity``, ``effort`` are ``(samples, joints)``, columns in
-    the order of ``joints`` (one JointState per row). ``statuses`` are
-    ``(on_status tuple, joints_done)``: the joint under test is the tuple's
-    ``joint_name``, ``joints_done`` the joints finished before it
-    (``TestCycleStatus.joints_done``). ``temperatures`` are ``(stamp, celsius,
+    the order of ``joints`` (one JointState per row). ``statuses`` are the
+    robot cycle's statuses in stamp order: the joint under test is their
+    ``joint_name``, ``joints`` every joint, ``joints_done`` the joints finished
+    before it (``TestCycleStatus.joints_done``). ``temperatures`` are ``(stamp, celsius,
     joint)`` (``Temperature.header.frame_id`` = the joint). ``cycles`` are the
     one-joint cycles it is made of (the truth of each joint).
     """
@@ -243,7 +242,7 @@ class SyntheticRobotCycle:
     position: Array
     velocity: Array
     effort: Array
-    statuses: list[tuple[StatusTuple, int]]
+    statuses: list[CycleStatus]
     temperatures: list[tuple[float, float, str]]
     cycles: dict[str, SyntheticCycle]
 
@@ -312,8 +311,8 @@ def synthetic_robot_cycle(
         eff[a:b, col] = c.effort
         eff[held, col] = (load * np.cos(pos[held, col])
                           + rng.normal(0.0, hold_noise_std, int(held.sum()))) * scales[col]
-    statuses = [(st, k) for k, j in enumerate(names) for st in cycles[j].statuses]
+    statuses = [replace(st, joints=tuple(names), joints_done=k) for k, j in enumerate(names) for st in cycles[j].statuses]
     temps = [(t, c, j) for j in names for t, c in cycles[j].temperatures]
     return SyntheticRobotCycle(joints=names, stamps=stamps, position=pos, velocity=vel, effort=eff,
-                               statuses=sorted(statuses, key=lambda s: s[0][0]),
+                               statuses=sorted(statuses, key=lambda s: s.stamp),
                                temperatures=sorted(temps, key=lambda s: s[0]), cycles=cycles)

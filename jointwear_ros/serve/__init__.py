@@ -7,7 +7,6 @@ is the Starlette adapter (pages, plots, ``/api/joints``, ``/metrics``).
 
 from __future__ import annotations
 
-from .core import LEVEL_NAMES, STALE, JointHistory, JointView, analyze_plant, joint_view, plant_level, rank_views
+from .core import JointHistory, JointView, analyze_plant, joint_view, plant_level, rank_views
 
-__all__ = ["LEVEL_NAMES", "STALE", "JointHistory", "JointView", "analyze_plant", "joint_view", "plant_level",
-           "rank_views"]
+__all__ = ["JointHistory", "JointView", "analyze_plant", "joint_view", "plant_level", "rank_views"]

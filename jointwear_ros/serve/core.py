@@ -14,7 +14,7 @@ is STALE too, with the reason: there is no current estimate anyone should trust.
 
 >>> plant_level(DiagnosticLevel.OK, last_time=0.0, now=8 * DAY, stale_days=7), plant_level(DiagnosticLevel.ERROR, 0.0, 8 * DAY, 7)
 (3, 2)
->>> LEVEL_NAMES[plant_level(DiagnosticLevel.WARN, last_time=0.0, now=6 * DAY, stale_days=7)]
+>>> level_name(plant_level(DiagnosticLevel.WARN, last_time=0.0, now=6 * DAY, stale_days=7))
 'WARN'
 """
 
@@ -26,13 +26,11 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from ..condition import plant_level
-from ..contract import DiagnosticLevel
+from ..contract import DiagnosticLevel, level_name, level_rank
 from ..errors import InputDataError
 from ..trend import DAY, TrendConfig, TrendResult, analyze_joint
 
 __all__ = [
-    "LEVEL_NAMES",
-    "STALE",
     "JointHistory",
     "JointView",
     "analyze_plant",
@@ -43,9 +41,6 @@ __all__ = [
     "refused_view",
 ]
 
-STALE = DiagnosticLevel.STALE
-#: every level the plant view shows, by byte value
-LEVEL_NAMES = {int(lv): lv.name for lv in (DiagnosticLevel.OK, DiagnosticLevel.WARN, DiagnosticLevel.ERROR, STALE)}
 
 
 @dataclass(frozen=True)
@@ -101,7 +96,7 @@ class JointView:
 
     @property
     def level_name(self) -> str:
-        return LEVEL_NAMES[self.level]
+        return level_name(self.level)
 
     def as_api(self) -> dict[str, Any]:
         """``/api/joints`` row: the documented keys first (docs/plant.md) (level as its name, nulls where unknown), then extras."""
@@ -113,7 +108,7 @@ class JointView:
             "robot": self.robot, "joint": self.joint, "level": self.level_name, "wear": num(self.wear),
             "wear_std": num(self.wear_std), "time": num(self.time), "days_to_alarm": num(self.days_to_alarm),
             "days_to_alarm_low": num(self.days_to_alarm_low), "days_to_alarm_high": num(self.days_to_alarm_high),
-            "trend_level": LEVEL_NAMES[self.trend_level], "age_days": num(self.age_days),
+            "trend_level": level_name(self.trend_level), "age_days": num(self.age_days),
             "rate_per_day": num(self.rate_per_day), "estimates": self.estimates,
             "estimates_total": self.estimates_total, "message": self.message, "refused": self.refused or None,
             "rows_refused": self.rows_refused, "wear_scale_calibrated": self.calibrated,
@@ -129,7 +124,7 @@ def joint_view(r: TrendResult, newest_time: float, now: float, stale_days: float
     level = plant_level(r.level, newest_time, now, stale_days)
     age = (now - newest_time) / DAY if math.isfinite(newest_time) else math.nan
     msg = r.message
-    if level == STALE:
+    if level == DiagnosticLevel.STALE:
         msg = f"no estimate for {age:.1f} days (stale after {stale_days:g}); last trend: {r.level_name}, {msg}"
     return JointView(
         robot=r.robot, joint=r.joint, level=level, trend_level=int(r.level), wear=r.wear, wear_std=r.wear_std,
@@ -145,7 +140,7 @@ def joint_view(r: TrendResult, newest_time: float, now: float, stale_days: float
 def refused_view(robot: str, joint: str, reason: str, newest_time: float, now: float, n: int) -> JointView:
     """A joint whose history the trend refused: STALE with the reason (no number is shown as current)."""
     age = (now - newest_time) / DAY if math.isfinite(newest_time) else math.nan
-    return JointView(robot, joint, int(STALE), int(STALE), math.nan, math.nan, math.nan, newest_time, age,
+    return JointView(robot, joint, int(DiagnosticLevel.STALE), int(DiagnosticLevel.STALE), math.nan, math.nan, math.nan, newest_time, age,
                      None, None, None, 0, n, f"history refused by the trend: {reason}", refused=reason)
 
 
@@ -176,13 +171,12 @@ def calibrated_of(params: str) -> bool | None:
 
 
 def rank_views(views: Iterable[JointView]) -> list[JointView]:
-    """ERROR first, then WARN, STALE, OK; within a level the alarm expected within the horizon first, then the
-    soonest time to alarm, then by name."""
-    order = {int(DiagnosticLevel.ERROR): 0, int(DiagnosticLevel.WARN): 1, int(STALE): 2, int(DiagnosticLevel.OK): 3}
+    """ERROR first, then WARN, STALE, OK (:func:`~jointwear_ros.contract.level_rank`); within a level the alarm
+    expected within the horizon first, then the soonest time to alarm, then by name."""
 
     def key(v: JointView) -> tuple[int, int, float, str, str]:
         t = v.days_to_alarm
-        return (order[v.level], 0 if v.alarm_expected else 1, math.inf if t is None or math.isnan(t) else t,
+        return (-level_rank(v.level), 0 if v.alarm_expected else 1, math.inf if t is None or math.isnan(t) else t,
                 v.robot, v.joint)
 
     return sorted(views, key=key)
@@ -190,7 +184,7 @@ def rank_views(views: Iterable[JointView]) -> list[JointView]:
 
 def level_counts(views: Iterable[JointView]) -> dict[str, int]:
     """Joints per level name (every level present, zeros included)."""
-    counts = {name: 0 for name in LEVEL_NAMES.values()}
+    counts = {level_name(lv): 0 for lv in DiagnosticLevel}
     for v in views:
         counts[v.level_name] += 1
     return counts

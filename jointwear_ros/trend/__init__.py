@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from .core import (
     DAY,
-    LEVEL_NAMES,
     Component,
     FilterOutput,
     Member,
@@ -34,7 +33,6 @@ from .core import (
 
 __all__ = [
     "DAY",
-    "LEVEL_NAMES",
     "Component",
     "FilterOutput",
     "Member",

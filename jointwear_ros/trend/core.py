@@ -93,12 +93,11 @@ from numpy.typing import NDArray
 from scipy.special import ndtr
 
 from ..condition import INSUFFICIENT, Forecast, forecast_of, standing
-from ..contract import DiagnosticLevel
+from ..contract import DiagnosticLevel, level_name
 from ..errors import InputDataError
 
 __all__ = [
     "DAY",
-    "LEVEL_NAMES",
     "Component",
     "FilterOutput",
     "Member",
@@ -129,8 +128,6 @@ __all__ = [
 ]
 
 DAY = 86400.0
-#: the trend's levels are ``DiagnosticStatus`` levels: aliases of :class:`jointwear_ros.contract.DiagnosticLevel`.
-LEVEL_NAMES = {int(lv): lv.name for lv in DiagnosticLevel}
 
 Array = NDArray[np.float64]
 
@@ -366,7 +363,7 @@ class TrendResult:
 
     @property
     def level_name(self) -> str:
-        return LEVEL_NAMES[self.level]
+        return level_name(self.level)
 
     @property
     def alarm_expected(self) -> bool:
