@@ -18,7 +18,6 @@ those name none, the configured ``joints`` (or ``joint_name``). Per-joint settin
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import asdict, dataclass, field
@@ -26,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from .contract import observation_from_msg, stamp_to_seconds, status_from_msg
-from .errors import InputDataError
+from .errors import InputDataError, ParameterError
 from .io.bags import (
     ESTIMATE_TYPE,
     JOINT_STATE_TYPE,
@@ -42,6 +41,7 @@ from .io.params import nest
 from .io.recover import check_bag
 from .monitor import MonitorConfig, RobotMonitor
 from .observer import FrictionObservationData, ObserverConfig, ObserverOutput, RobotObserver
+from .settings import from_mapping
 
 __all__ = ["MATCH_TOLERANCE", "ReplayResult", "replay_bag"]
 
@@ -190,16 +190,6 @@ def _joint_tree(tree: dict[str, Any], joint: str) -> dict[str, Any]:
     return {**tree, **own} if isinstance(own, dict) else dict(tree)
 
 
-def _estimator_options(tree: dict[str, Any]) -> dict[str, Any]:
-    opts = tree.get("estimator_options", {})
-    if isinstance(opts, str):  # the wear_estimator node takes a JSON object string
-        try:
-            tree["estimator_options"] = dict(json.loads(opts)) if opts.strip() else {}
-        except (ValueError, TypeError) as exc:
-            raise InputDataError(f"estimator_options = {opts!r} is not a JSON object: {exc}") from None
-    return tree
-
-
 def _status_joints(statuses: list[Any]) -> list[str]:
     """The joints the bag's test-cycle statuses name, in order of appearance."""
     out: list[str] = []
@@ -296,16 +286,12 @@ def replay_bag(
     joints = _served_joints(rec_obs, obs_params, named)
     obs_tree, mon_tree = nest(obs_params), nest(mon_params)
     try:
-        observer = RobotObserver({j: ObserverConfig.from_mapping({**_joint_tree(obs_tree, j), "joint_name": j})
+        # the configs as the live nodes build them from their parameters (settings.from_mapping)
+        observer = RobotObserver({j: from_mapping(ObserverConfig, _joint_tree(obs_tree, j), joint_name=j)
                                   for j in joints})
-        mon_configs = {}
-        for j in joints:
-            mt = _estimator_options({**_joint_tree(mon_tree, j), "joint_name": j})
-            if overrides:
-                mt.update(overrides)
-            mon_configs[j] = MonitorConfig.from_mapping(mt)
-        monitor = RobotMonitor(mon_configs)
-    except (TypeError, ValueError) as exc:
+        monitor = RobotMonitor({j: from_mapping(MonitorConfig, {**_joint_tree(mon_tree, j), **overrides}, joint_name=j)
+                                for j in joints})
+    except (ParameterError, TypeError, ValueError) as exc:
         raise InputDataError(f"{p}: observer/estimator parameters are malformed ({exc})") from None
     observations: list[FrictionObservationData] = []
     rejections: list[Any] = []

@@ -314,11 +314,12 @@ def _check_offline_equals_live(robot: Robot, cyc, cycle_id: int) -> None:
     import yaml
 
     from jointwear_ros.observer import ObserverConfig, observe_arrays
+    from jointwear_ros.settings import from_mapping
 
     node_level = yaml.safe_load((ROOT / "config" / "friction_observer.yaml").read_text())
     base = dict(node_level["friction_observer"]["ros__parameters"])
     for k, j in enumerate(JOINTS):
-        cfg = ObserverConfig.from_mapping({**base, "joint_name": j, "torque_scale": TORQUE_SCALES[k]})
+        cfg = from_mapping(ObserverConfig, {**base, "torque_scale": TORQUE_SCALES[k]}, joint=j, joint_name=j)
         out = observe_arrays(cfg, cyc.stamps, cyc.position[:, k], cyc.velocity[:, k], cyc.effort[:, k],
                              cyc.statuses, [(t, c) for t, c, jn in cyc.temperatures if jn == j])
         live = sorted((o for o in robot.observations if o.cycle_id == cycle_id and o.joint_name == j),

@@ -20,6 +20,7 @@ from jointwear_ros.observer import (
     observe_arrays,
 )
 from jointwear_ros.observer.synthetic import synthetic_cycle
+from jointwear_ros.settings import from_mapping
 
 CFG = ObserverConfig()
 
@@ -264,7 +265,7 @@ def test_config_rejects_bad_settings(field, value, match):
 
 
 def test_config_from_mapping_ignores_unknown_keys():
-    cfg = ObserverConfig.from_mapping({"gear_ratio": 50, "joint_name": "j2", "use_sim_time": True})
+    cfg = from_mapping(ObserverConfig, {"gear_ratio": 50, "use_sim_time": True}, joint_name="j2")
     assert cfg.gear_ratio == 50.0 and cfg.joint_name == "j2"
 
 

@@ -20,6 +20,7 @@ from jointwear_ros.observer import ObserverConfig, observe_arrays
 from jointwear_ros.observer.synthetic import synthetic_cycle
 from jointwear_ros.replay import replay_bag
 from jointwear_ros.resources import config_path
+from jointwear_ros.settings import from_mapping
 
 SPEEDS = (20.0, 80.0, 160.0)
 
@@ -35,12 +36,11 @@ def _header(store, t: float):
 
 def _monitor_config() -> MonitorConfig:
     params = node_params_from_yaml(config_path("wear_estimator.yaml"), "wear_estimator")
-    params["estimator_options"] = {}
-    return MonitorConfig.from_mapping(params)
+    return from_mapping(MonitorConfig, params)
 
 
 def _observer_config() -> ObserverConfig:
-    return ObserverConfig.from_mapping(node_params_from_yaml(config_path("friction_observer.yaml"), "friction_observer"))
+    return from_mapping(ObserverConfig, node_params_from_yaml(config_path("friction_observer.yaml"), "friction_observer"))
 
 
 def _estimate_msg(store, res):
@@ -264,3 +264,19 @@ def test_replay_reads_the_bag_once(synthetic_bag, monkeypatch):
     assert len(opened) == 1
     assert rep.joints == ["joint_1"] and rep.settings["method_from"] == "recorded estimates"
     assert [o.to_dict() for o in rep.observations] == [o.to_dict() for o in observations]
+
+
+@pytest.mark.parametrize(("flag", "node", "text", "says"), [
+    ("--observer-params", "friction_observer", "joint_1:\n      max_buffer_seconds: 5000.0",
+     "max_buffer_seconds=5000: outside the declared range [1.0, 3600.0] s"),
+    ("--estimator-params", "wear_estimator", "warn_threshold: 150.0\n    alarm_threshold: 160.0",
+     "warn_threshold=150: outside the declared range [0.0, 100.0] %"),
+])
+def test_replay_checks_each_setting_as_the_node_declares_it(synthetic_bag, tmp_path, capsys, flag, node, text, says):
+    # the configs are built as the live node builds them (settings.from_mapping): a value the node would
+    # refuse at start-up is refused in one line
+    path, _, _ = synthetic_bag
+    params = tmp_path / f"{node}.yaml"
+    params.write_text(f"{node}:\n  ros__parameters:\n    {text}\n")
+    err = _one_line_error(["replay", str(path), flag, str(params)], capsys)
+    assert says in err

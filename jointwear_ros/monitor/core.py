@@ -51,24 +51,51 @@ Pure numpy; no ROS import.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..condition import INSUFFICIENT, Standing, condition_level, evidence_of, min_speeds, standing
 from ..contract import ENDED_STATES, CycleState, CycleStatus, DiagnosticLevel, level_name
-from ..errors import InputDataError, JointwearError
-from ..estimation import make_estimator
+from ..errors import InputDataError, JointwearError, ParameterError
+from ..estimation import ESTIMATORS, make_estimator
 from ..model.paramsets import load_parameter_set_info
 from ..observer.types import FrictionObservationData
+from ..settings import setting
 from ..types import ObservationTable, WearEstimator, WearResult
 from .validation import screen_observation
 
 __all__ = ["CycleResult", "EstimatorFactory", "MonitorConfig", "WearMonitor",
-           "cycle_seed", "diagnostic_level", "observations_table"]
+           "cycle_seed", "diagnostic_level", "observations_table", "parse_estimator_options"]
+
+def parse_estimator_options(value: Any) -> dict[str, Any]:
+    """The ``estimator_options`` setting as the estimator takes it: a mapping as it is, a JSON object string
+    (the node's parameter; ``""``: none) parsed; anything else a one-line
+    :class:`~jointwear_ros.errors.ParameterError`.
+
+    >>> parse_estimator_options('{"n_samples": 200}'), parse_estimator_options("")
+    ({'n_samples': 200}, {})
+    >>> parse_estimator_options({"n_samples": 50})
+    {'n_samples': 50}
+    """
+    if isinstance(value, Mapping):
+        return dict(value)
+    if not isinstance(value, str):
+        raise ParameterError(f"estimator_options is a JSON object string, not {value!r}")
+    if not value.strip():
+        return {}
+    try:
+        parsed = json.loads(value)
+    except ValueError as exc:
+        raise ParameterError(f"estimator_options = {value!r} is not a JSON object: {exc}") from None
+    if not isinstance(parsed, dict):
+        raise ParameterError(f"estimator_options = {value!r} is not a JSON object")
+    return parsed
+
 
 #: estimates of a joint the confirmation looks back over (the standing one and the one held are what count)
 CONFIRM_MEMORY = 8
@@ -78,6 +105,12 @@ CONFIRM_MEMORY = 8
 @dataclass(frozen=True)
 class MonitorConfig:
     """Settings of :class:`WearMonitor`.
+
+    A field declared with :func:`~jointwear_ros.settings.setting` is also a parameter of the
+    ``wear_estimator`` node, each joint's own (``<joint>.<setting>``) and live: its description, unit
+    and range are in the field metadata, from which ``settings.declarations`` builds the node's
+    declarations and ``settings.from_mapping`` the config from parameter values (node, params YAML,
+    ``--set``, a bag's recorded settings, fleet re-analysis). ``joint_name`` is not a parameter.
 
     Attributes
     ----------
@@ -98,19 +131,30 @@ class MonitorConfig:
     """
 
     joint_name: str = "joint_1"
-    method: str = "paper"
-    params: str = "ref-2011r"
-    seed: int = 0
-    warn_threshold: float = 30.0
-    alarm_threshold: float = 35.0
-    use_measured_temperature: bool = True
-    done_timeout: float = 2.0
-    idle_timeout: float = 30.0
-    min_observations: int = 1
-    observation_noise_std: float = 0.0015
-    estimator_options: Mapping[str, Any] = field(default_factory=dict)
+    method: str = setting("paper", description=f"estimator: {', '.join(ESTIMATORS)}", per_joint=True)
+    params: str = setting("ref-2011r", description="friction-model parameter set: a name or a YAML path "
+                          "(a commissioned set)", per_joint=True)
+    seed: int = setting(0, description="base seed; each cycle's seed derives from it and the cycle id", per_joint=True)
+    warn_threshold: float = setting(30.0, description="wear at which the level becomes WARN", unit="%",
+                                    range=(0.0, 100.0), per_joint=True)
+    alarm_threshold: float = setting(35.0, description="wear at which the level becomes ERROR (alarm)", unit="%",
+                                     range=(0.0, 100.0), per_joint=True)
+    use_measured_temperature: bool = setting(True, description="use the observations' temperature when present; "
+                                             "else T is unknown (Eq. 11)", per_joint=True)
+    done_timeout: float = setting(2.0, description="s after DONE before a cycle with missing speeds is estimated",
+                                  unit="s", range=(0.0, 600.0), per_joint=True)
+    idle_timeout: float = setting(30.0, description="s after the last observation of a cycle without status",
+                                  unit="s", range=(0.0, 3600.0), per_joint=True)
+    min_observations: int = setting(1, description="observations needed for an estimate", per_joint=True)
+    observation_noise_std: float = setting(0.0015, description="sweep-to-sweep scatter of tau_f added to each "
+                                           "observation's window standard error", range=(0.0, 1.0), per_joint=True)
+    #: a JSON object string as a parameter (``""``: none), a mapping here (None: none)
+    estimator_options: Mapping[str, Any] = setting(
+        None, description="JSON object of extra estimator options, e.g. {\"n_samples\": 200}", per_joint=True,
+        parse=parse_estimator_options, param_default="")
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "estimator_options", dict(self.estimator_options or {}))
         w, a = float(self.warn_threshold), float(self.alarm_threshold)
         if not (math.isfinite(w) and math.isfinite(a) and w <= a):
             raise InputDataError(
@@ -126,19 +170,6 @@ class MonitorConfig:
             raise InputDataError(f"observation_noise_std = {sig!r} must be a number >= 0 (normalized torque)")
         if int(self.min_observations) < 1:
             raise InputDataError(f"min_observations = {self.min_observations!r} must be at least 1")
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, Any]) -> MonitorConfig:
-        """A config from a mapping (ROS parameters, YAML); unknown keys are ignored."""
-        names = {f.name for f in fields(cls)} - {"estimator_options"}
-        kwargs: dict[str, Any] = {}
-        for key, value in values.items():
-            if key in names:
-                default = getattr(cls, key)
-                kwargs[key] = type(default)(value)
-        if "estimator_options" in values:
-            kwargs["estimator_options"] = dict(values["estimator_options"])
-        return cls(**kwargs)
 
 
 @dataclass(frozen=True)

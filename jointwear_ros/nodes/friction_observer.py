@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
+from collections.abc import Mapping
 from functools import partial
 from typing import Any
 
@@ -66,6 +67,7 @@ from ..contract import observation_from_msg, stamp_to_seconds, status_from_msg
 from ..errors import JointwearError
 from ..observer import FrictionObservationData, ObserverConfig, RobotObserver
 from ..observer.robot import Routed
+from ..settings import declarations, from_mapping, settings_of
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
@@ -79,51 +81,52 @@ from .runtime import (
 )
 
 __all__ = [
+    "LIVE_PARAMETERS",
+    "PARAMETERS",
+    "PER_JOINT",
     "FrictionObserverNode",
     "main",
     "observation_from_msg",
     "observation_to_msg",
+    "observer_config",
+    "parameters",
     "seconds_to_stamp",
     "stamp_to_seconds",
 ]
 
-_DEFAULTS = ObserverConfig()
-
-PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", _DEFAULTS.joint_name,
+#: the node's own settings (each joint's observer settings are ObserverConfig's fields, declared there)
+_NODE_HEAD: tuple[ParamDecl, ...] = (
+    ParamDecl("joint_name", ObserverConfig.joint_name,
               "joint observed when joints is empty (looked up by name in each JointState)", read_only=True),
-    ParamDecl("gear_ratio", _DEFAULTS.gear_ratio, "motor speed = joint speed x gear_ratio", 1e-6, 1e6),
-    ParamDecl("torque_scale", _DEFAULTS.torque_scale, "N·m (joint side) per normalized torque unit", 1e-9, 1e9),
+)
+_NODE_TAIL: tuple[ParamDecl, ...] = (
     ParamDecl("joint_states_topic", "/joint_states", "sensor_msgs/JointState input", read_only=True),
     ParamDecl("status_topic", "/test_cycle/status", "jointwear_msgs/TestCycleStatus input", read_only=True),
     ParamDecl("temperature_topic", "", "sensor_msgs/Temperature input (degC); empty = no temperature", read_only=True),
     ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation output", read_only=True),
-    ParamDecl("speed_tolerance", _DEFAULTS.speed_tolerance, "at speed: |v - v_cmd| <= this x v_cmd", 1e-6, 10.0),
-    ParamDecl("speed_tolerance_min", _DEFAULTS.speed_tolerance_min, "floor of that tolerance, rad/s motor", 0.0, 1e6),
-    ParamDecl("max_speed_std", _DEFAULTS.max_speed_std, "speed std limit over the at-speed samples, x v_cmd", 1e-6, 10.0),
-    ParamDecl("max_speed_std_min", _DEFAULTS.max_speed_std_min, "floor of that limit, rad/s motor", 0.0, 1e6),
-    ParamDecl("min_constant_fraction", _DEFAULTS.min_constant_fraction,
-              "fraction of the moving window samples that must be at speed", 0.0, 1.0),
-    ParamDecl("min_samples", _DEFAULTS.min_samples, "at-speed samples needed per direction"),
-    ParamDecl("edge_trim", _DEFAULTS.edge_trim, "fraction of the half width trimmed off each window edge", 0.0, 0.99),
-    ParamDecl("pass_gap", _DEFAULTS.pass_gap, "s without samples that separates two passes through the window",
-              1e-4, 10.0),
-    ParamDecl("n_batches", _DEFAULTS.n_batches, "batches of the batch-means standard error"),
-    ParamDecl("reorder_margin", _DEFAULTS.reorder_margin, "s the inputs may be out of stamp order", 0.0, 60.0),
-    ParamDecl("poll_grace", _DEFAULTS.poll_grace, "s of silence on every input after which finished speeds are processed",
-              0.0, 60.0),
-    ParamDecl("temperature_wait", _DEFAULTS.temperature_wait,
-              "s of joint-state stamps a finished speed waits for its joint's temperature readings "
-              "(once the sensor was heard)", 0.0, 600.0),
-    ParamDecl("max_buffer_seconds", _DEFAULTS.max_buffer_seconds, "s of joint states kept at most", 1.0, 3600.0),
     ParamDecl("poll_period", 0.5, "s (wall) between checks for silent inputs", 0.01, 60.0, read_only=True),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
               read_only=True),
 )
+
+
+def parameters(config: type = ObserverConfig) -> tuple[ParamDecl, ...]:
+    """Every parameter of the node: its own and the observer settings of ``config`` (its field metadata)."""
+    return (*_NODE_HEAD, *declarations(config), *_NODE_TAIL)
+
+
+PARAMETERS: tuple[ParamDecl, ...] = parameters()
 #: Parameters that can change at run time (between cycles)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 #: Settings each joint has of its own (``<joint>.<setting>``, default: the node-level value; live)
-PER_JOINT = LIVE_PARAMETERS
+PER_JOINT = tuple(d.name for d in PARAMETERS if d.per_joint)
+
+
+def observer_config(values: Mapping[str, Any], joint: str, config: type = ObserverConfig) -> ObserverConfig:
+    """Joint ``joint``'s observer settings from the node's parameter values (``<joint>.<setting>`` over the
+    node-level ``<setting>``; :func:`jointwear_ros.settings.from_mapping`), checked."""
+    cfg: ObserverConfig = from_mapping(config, values, joint=joint, joint_name=joint)
+    return cfg
 
 
 def observation_to_msg(o: FrictionObservationData) -> FrictionObservation:
@@ -144,8 +147,7 @@ class FrictionObserverNode(Node):
         p, self.joints, values = declare_robot(self, PARAMETERS, PER_JOINT)
         self.params = p
         #: one core per joint, the routing of the inputs to them (the same as replay's) and their health counts
-        self.observer = RobotObserver({j: ObserverConfig.from_mapping({**p, **values[j], "joint_name": j})
-                                       for j in self.joints})
+        self.observer = RobotObserver({j: observer_config({**p, **values[j]}, j) for j in self.joints})
         self._last_rx = time.monotonic()
         qos = high_rate_qos()
         self.pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), qos,
@@ -320,7 +322,7 @@ class FrictionObserverNode(Node):
             if not mine:
                 continue
             try:
-                new[j] = ObserverConfig.from_mapping({**{f: getattr(cfg, f) for f in cfg.__dataclass_fields__}, **mine})
+                new[j] = observer_config({**{n: getattr(cfg, n) for n in settings_of(type(cfg))}, **mine}, j, type(cfg))
             except (JointwearError, ValueError, TypeError) as exc:
                 return f"{j}: {exc}"
         for j, cfg in new.items():

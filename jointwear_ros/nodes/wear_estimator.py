@@ -49,8 +49,8 @@ Parameters: see ``config/wear_estimator.yaml`` and ``docs/nodes-observer-estimat
 
 from __future__ import annotations
 
-import json
 import math
+from collections.abc import Mapping
 from typing import Any
 
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate
@@ -59,10 +59,11 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..contract import DiagnosticLevel, observation_from_msg, status_from_msg
-from ..errors import InputDataError, JointwearError, ParameterError
-from ..estimation import ESTIMATORS, wear_scale
+from ..errors import JointwearError, ParameterError
+from ..estimation import wear_scale
 from ..model import load_parameter_set_info
 from ..monitor import CycleResult, MonitorConfig, RobotMonitor, WearMonitor
+from ..settings import declarations, from_mapping, settings_of
 from .diagnostics import HeldStatus, Updater, diagnostic_status
 from .joints import declare_robot, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
@@ -74,48 +75,42 @@ from .runtime import (
     wait_acked,
 )
 
-__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg", "main"]
+__all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "WearEstimatorNode", "diagnostic_status", "estimate_to_msg",
+           "main", "monitor_config", "parameters"]
 
-_D = MonitorConfig()
-
-PARAMETERS: tuple[ParamDecl, ...] = (
-    ParamDecl("joint_name", _D.joint_name, "joint whose wear is estimated when joints is empty", read_only=True),
-    ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the joint name)", read_only=True),
-    ParamDecl("method", _D.method, f"estimator: {', '.join(ESTIMATORS)}"),
-    ParamDecl("params", _D.params, "friction-model parameter set: a name or a YAML path (a commissioned set)"),
-    ParamDecl("seed", _D.seed, "base seed; each cycle's seed derives from it and the cycle id"),
-    ParamDecl("estimator_options", "", "JSON object of extra estimator options, e.g. {\"n_samples\": 200}"),
-    ParamDecl("warn_threshold", _D.warn_threshold, "wear at which the level becomes WARN", 0.0, 100.0),
-    ParamDecl("alarm_threshold", _D.alarm_threshold, "wear at which the level becomes ERROR (alarm)", 0.0, 100.0),
-    ParamDecl("use_measured_temperature", _D.use_measured_temperature,
-              "use the observations' temperature when present; else T is unknown (Eq. 11)"),
-    ParamDecl("done_timeout", _D.done_timeout, "s after DONE before a cycle with missing speeds is estimated", 0.0, 600.0),
-    ParamDecl("idle_timeout", _D.idle_timeout, "s after the last observation of a cycle without status", 0.0, 3600.0),
-    ParamDecl("min_observations", _D.min_observations, "observations needed for an estimate"),
-    ParamDecl("observation_noise_std", _D.observation_noise_std,
-              "sweep-to-sweep scatter of tau_f added to each observation's window standard error", 0.0, 1.0),
+#: the node's own settings (each joint's estimator settings are MonitorConfig's fields, declared there)
+_NODE_HEAD: tuple[ParamDecl, ...] = (
+    ParamDecl("joint_name", MonitorConfig.joint_name, "joint whose wear is estimated when joints is empty",
+              read_only=True),
+    ParamDecl("hardware_id", "", "DiagnosticStatus.hardware_id (empty = the joint name)", read_only=True,
+              per_joint=True),
+)
+_NODE_TAIL: tuple[ParamDecl, ...] = (
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications", 0.01, 60.0, read_only=True),
     ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation input", read_only=True),
     ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus input", read_only=True),
     ParamDecl("estimate_topic", "/jointwear/wear_estimate", "WearEstimate output", read_only=True),
     ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output", read_only=True),
 )
+
+
+def parameters(config: type = MonitorConfig) -> tuple[ParamDecl, ...]:
+    """Every parameter of the node: its own and the estimator settings of ``config`` (its field metadata)."""
+    return (*_NODE_HEAD, *declarations(config), *_NODE_TAIL)
+
+
+PARAMETERS: tuple[ParamDecl, ...] = parameters()
 #: Parameters that apply at run time (from the next estimate)
 LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 #: Settings each joint has of its own (``<joint>.<setting>``, default: the node-level value; live ones live)
-PER_JOINT = (*LIVE_PARAMETERS, "hardware_id")
+PER_JOINT = tuple(d.name for d in PARAMETERS if d.per_joint)
 
 
-def _options(text: str) -> dict[str, Any]:
-    if not text:
-        return {}
-    try:
-        value = json.loads(str(text))
-    except ValueError as exc:
-        raise InputDataError(f"parameter estimator_options = {text!r} is not a JSON object: {exc}") from None
-    if not isinstance(value, dict):
-        raise InputDataError(f"parameter estimator_options = {text!r} is not a JSON object")
-    return value
+def monitor_config(values: Mapping[str, Any], joint: str, config: type = MonitorConfig) -> MonitorConfig:
+    """Joint ``joint``'s estimator settings from the node's parameter values (``<joint>.<setting>`` over the
+    node-level ``<setting>``; :func:`jointwear_ros.settings.from_mapping`), checked."""
+    cfg: MonitorConfig = from_mapping(config, values, joint=joint, joint_name=joint)
+    return cfg
 
 
 def _calibration_values(params: str) -> list[tuple[str, str]]:
@@ -162,11 +157,6 @@ class _Joint:
         self.results: list[CycleResult] = []
 
 
-def _monitor_config(values: dict[str, Any], joint: str) -> MonitorConfig:
-    return MonitorConfig.from_mapping(dict(values, joint_name=joint,
-                                           estimator_options=_options(str(values.get("estimator_options", "")))))
-
-
 class WearEstimatorNode(Node):
     """The wear estimator node (see the module docstring)."""
 
@@ -177,7 +167,7 @@ class WearEstimatorNode(Node):
         configs: dict[str, MonitorConfig] = {}
         for j in self.joints:
             try:
-                configs[j] = _monitor_config({**p, **values[j]}, j)
+                configs[j] = monitor_config({**p, **values[j]}, j)
             except (JointwearError, ValueError, TypeError) as exc:
                 raise ParameterError(f"wear_estimator: {j}: {exc}") from None
         try:
@@ -237,15 +227,9 @@ class WearEstimatorNode(Node):
             if not mine:
                 continue
             cfg = self.channels[j].monitor.config
-            merged: dict[str, Any] = {f: getattr(cfg, f) for f in (
-                "joint_name", "method", "params", "seed", "warn_threshold", "alarm_threshold",
-                "use_measured_temperature", "done_timeout", "idle_timeout", "min_observations",
-                "observation_noise_std", "estimator_options")}
-            merged.update(mine)
+            current = {n: getattr(cfg, n) for n in settings_of(type(cfg))}
             try:
-                if "estimator_options" in mine:
-                    merged["estimator_options"] = _options(str(mine["estimator_options"]))
-                new[j] = MonitorConfig.from_mapping(merged)
+                new[j] = monitor_config({**current, **mine}, j, type(cfg))
             except (JointwearError, ValueError, TypeError) as exc:
                 return f"{j}: {exc}"
         done: list[tuple[_Joint, MonitorConfig]] = []

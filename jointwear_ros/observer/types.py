@@ -7,13 +7,13 @@ Pure Python; no ROS import. :class:`FrictionObservationData` lives next to the m
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
-from typing import Any, NamedTuple
+from dataclasses import dataclass
+from typing import NamedTuple
 
 from ..contract import CycleState
 from ..errors import InputDataError
 from ..observation import FrictionObservationData
+from ..settings import setting
 
 __all__ = [
     "PLAUSIBLE_TEMPERATURE",
@@ -31,6 +31,13 @@ PLAUSIBLE_TEMPERATURE = (-50.0, 200.0)
 @dataclass(frozen=True)
 class ObserverConfig:
     """Settings of :class:`~jointwear_ros.observer.FrictionObserverCore`.
+
+    A field declared with :func:`~jointwear_ros.settings.setting` is also a parameter of the
+    ``friction_observer`` node, each joint's own (``<joint>.<setting>``) and live: its description, unit
+    and range are in the field metadata, from which ``settings.declarations`` builds the node's
+    declarations and ``settings.from_mapping`` the config from parameter values (node, params YAML,
+    a bag's recorded settings). ``joint_name`` (the node's joint) and ``idle_keep_seconds`` are not
+    parameters.
 
     Speeds and tolerances are motor side (rad/s), positions joint side (rad),
     times in seconds of the message stamps.
@@ -70,22 +77,36 @@ class ObserverConfig:
     """
 
     joint_name: str = "joint_1"
-    gear_ratio: float = 100.0
-    torque_scale: float = 200.0
-    speed_tolerance: float = 0.1
-    speed_tolerance_min: float = 1.0
-    max_speed_std: float = 0.05
-    max_speed_std_min: float = 0.5
-    min_constant_fraction: float = 0.8
-    min_samples: int = 20
-    edge_trim: float = 0.0
-    pass_gap: float = 0.05
-    n_batches: int = 10
-    reorder_margin: float = 0.5
-    poll_grace: float = 1.0
-    temperature_wait: float = 5.0
-    max_buffer_seconds: float = 120.0
-    idle_keep_seconds: float = 15.0
+    gear_ratio: float = setting(100.0, description="motor speed = joint speed x gear_ratio", range=(1e-6, 1e6),
+                                per_joint=True)
+    torque_scale: float = setting(200.0, description="N·m (joint side) per normalized torque unit", unit="N·m",
+                                  range=(1e-9, 1e9), per_joint=True)
+    speed_tolerance: float = setting(0.1, description="at speed: |v - v_cmd| <= this x v_cmd", range=(1e-6, 10.0),
+                                     per_joint=True)
+    speed_tolerance_min: float = setting(1.0, description="floor of that tolerance, rad/s motor", unit="rad/s",
+                                         range=(0.0, 1e6), per_joint=True)
+    max_speed_std: float = setting(0.05, description="speed std limit over the at-speed samples, x v_cmd",
+                                   range=(1e-6, 10.0), per_joint=True)
+    max_speed_std_min: float = setting(0.5, description="floor of that limit, rad/s motor", unit="rad/s",
+                                       range=(0.0, 1e6), per_joint=True)
+    min_constant_fraction: float = setting(0.8, description="fraction of the moving window samples that must be "
+                                           "at speed", range=(0.0, 1.0), per_joint=True)
+    min_samples: int = setting(20, description="at-speed samples needed per direction", per_joint=True)
+    edge_trim: float = setting(0.0, description="fraction of the half width trimmed off each window edge",
+                               range=(0.0, 0.99), per_joint=True)
+    pass_gap: float = setting(0.05, description="s without samples that separates two passes through the window",
+                              unit="s", range=(1e-4, 10.0), per_joint=True)
+    n_batches: int = setting(10, description="batches of the batch-means standard error", per_joint=True)
+    reorder_margin: float = setting(0.5, description="s the inputs may be out of stamp order", unit="s",
+                                    range=(0.0, 60.0), per_joint=True)
+    poll_grace: float = setting(1.0, description="s of silence on every input after which finished speeds are "
+                                "processed", unit="s", range=(0.0, 60.0), per_joint=True)
+    temperature_wait: float = setting(5.0, description="s of joint-state stamps a finished speed waits for its "
+                                      "joint's temperature readings (once the sensor was heard)", unit="s",
+                                      range=(0.0, 600.0), per_joint=True)
+    max_buffer_seconds: float = setting(120.0, description="s of joint states kept at most", unit="s",
+                                        range=(1.0, 3600.0), per_joint=True)
+    idle_keep_seconds: float = 15.0  # not a parameter
 
     def __post_init__(self) -> None:
         positive = ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "max_buffer_seconds", "pass_gap")
@@ -107,18 +128,6 @@ class ObserverConfig:
             raise InputDataError(f"observer setting min_samples = {self.min_samples!r} must be at least 2")
         if int(self.n_batches) < 2:
             raise InputDataError(f"observer setting n_batches = {self.n_batches!r} must be at least 2")
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, Any]) -> ObserverConfig:
-        """A config from a mapping (ROS parameters, YAML); unknown keys are ignored."""
-        names = {f.name: f.type for f in fields(cls)}
-        kwargs: dict[str, Any] = {}
-        for key, value in values.items():
-            if key not in names:
-                continue
-            default = getattr(cls, key)
-            kwargs[key] = type(default)(value)
-        return cls(**kwargs)
 
 
 @dataclass(frozen=True)
