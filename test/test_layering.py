@@ -8,6 +8,8 @@ Every ``import`` of every module (top level and inside functions) is read with `
 - one ``cli`` sub-command module never imports another (what they share lives in ``cli/common.py``
   or in a library module);
 - no module imports a private name (``_name``) of another module;
+- the workbench's cores return data and never import its rendering side (:data:`RENDERERS`: ``render``,
+  ``phrases``, ``report``); only those modules import each other;
 - the layer map: every package and top-level module of ``jointwear_ros`` has a rank (:data:`RANK`, lowest =
   foundation) and imports only from lower ranks (never from its own rank or above, its own package aside);
 - no import circle among the package's modules (strongly connected components of the module graph);
@@ -53,6 +55,9 @@ CORES = ("model", "estimation", "workbench", "commission", "data", "sim", "cycle
          "types", "units", "errors", "fmt", "contract", "resources", "condition", "observation", "settings")
 ROS = ("rclpy", "rcl_interfaces", "std_msgs", "std_srvs", "sensor_msgs", "diagnostic_msgs", "rosgraph_msgs",
        "builtin_interfaces", "jointwear_msgs", "launch", "launch_ros")
+#: The workbench's rendering side: the sentences, the text and Markdown reports, the HTML page. The workbench's
+#: other modules (its cores) return data and import none of these.
+RENDERERS = ("jointwear_ros.workbench.render", "jointwear_ros.workbench.phrases", "jointwear_ros.workbench.report")
 
 
 def _module_name(path: Path) -> str:
@@ -225,6 +230,9 @@ def _violations(path: Path) -> list[str]:
                 found.append(f"{where}: node imports {target}")
             if target == "jointwear_ros.replay" or "replay_bag" in names:
                 found.append(f"{where}: live node imports the offline replay pipeline ({target})")
+        if layer == "workbench" and mod not in RENDERERS:
+            for r in {t for t in (target, *(f"{target}.{n}" for n in names)) if t in RENDERERS}:
+                found.append(f"{where}: workbench core {mod} imports the renderer {r} (a core returns data)")
         if layer == "cli" and inner == "cli" and mod.endswith("_cmd") and target.endswith("_cmd"):
             found.append(f"{where}: sub-command {mod} imports sub-command {target}")
         if top == "jointwear_ros":
@@ -283,6 +291,8 @@ def test_the_rules_catch_what_they_are_for(tmp_path):
         "nodes/bad_replay.py": "from ..replay import ReplayResult\n",
         "cli/demo_cmd.py": "from .replay_cmd import config_path\n",
         "io/bad_node.py": "from ..nodes.runtime import run_node\n",
+        "workbench/bad_sentence.py": "def f():\n    from .phrases import shape_hint\n",
+        "workbench/bad_render.py": "from . import render\n",
     }
     root = tmp_path / "jointwear_ros"
     for rel, text in planted.items():
@@ -293,6 +303,8 @@ def test_the_rules_catch_what_they_are_for(tmp_path):
     try:
         for rel in planted:
             assert _violations(root / rel), f"no rule caught {rel}"
+        (root / "workbench/report.py").write_text("from .render import noise_line\n")
+        assert _violations(root / "workbench/report.py") == []  # the rendering side imports itself
     finally:
         PKG = saved
 

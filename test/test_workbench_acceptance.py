@@ -17,6 +17,7 @@ import pytest
 
 from jointwear_ros.data import HIDDEN_EFFECTS, NOISE_STD, synth_observations
 from jointwear_ros.workbench import diagnose, fit_model, noise_floor, parse_spec
+from jointwear_ros.workbench.render import diagnosis_summary
 
 #: Acceptance bound on the cross-validated RMSE, in noise floors.
 WITHIN_FLOOR = 1.3
@@ -51,8 +52,8 @@ def test_standard_model_journey_adds_load_and_temperature_terms_until_the_noise_
         spec = f"{spec} + {best.term}"
         diag = diagnose(table, spec)
     # the journey stopped because nothing significant was left, not because it ran out of steps
-    assert not diag.missing_effect_found, diag.summary()
-    assert diag.verdict == "nothing_missing", diag.summary()
+    assert not diag.missing_effect_found, diagnosis_summary(diag)
+    assert diag.verdict == "nothing_missing", diagnosis_summary(diag)
     assert diag.cv_rmse <= WITHIN_FLOOR * nf, (spec, diag.cv_rmse / nf)
     assert start_cv / diag.cv_rmse >= 4.0, (spec, start_cv / diag.cv_rmse)
     # only load and temperature effects were added: nothing invented on the way
@@ -67,10 +68,10 @@ def test_each_hidden_effect_is_found_and_adding_it_reaches_the_noise_floor(effec
     nf, _ = noise_floor(table)
     diag = diagnose(table, "paper")
     best = diag.candidates[0]
-    assert diag.missing_effect_found, diag.summary()
+    assert diag.missing_effect_found, diagnosis_summary(diag)
     assert best.significant
     assert set(best.variables) == set(HIDDEN_EFFECTS[effect].variables), (effect, best.term)
-    assert best.term in diag.summary()
+    assert best.term in diagnosis_summary(diag)
     assert diag.verdict == "found" and diag.suggestion == best.term
     # the user adds the proposed term string to the spec and refits from scratch
     fit = fit_model(parse_spec(f"paper + {best.term}"), table)
@@ -91,6 +92,6 @@ def test_clean_data_shows_no_significant_effect_in_at_least_19_of_20_seeds():
         if diag.missing_effect_found:
             found.append((seed, diag.candidates[0].term, diag.candidates[0].p_value))
         else:
-            assert diag.summary().startswith(("Nothing missing", "Unexplained structure remains"))
+            assert diagnosis_summary(diag).startswith(("Nothing missing", "Unexplained structure remains"))
             assert not any(c.significant for c in diag.candidates)
     assert len(found) <= 1, found

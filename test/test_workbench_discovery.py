@@ -28,6 +28,7 @@ from jointwear_ros.workbench import (
     residual_dependence,
 )
 from jointwear_ros.workbench.compare import METHOD_CYCLE_DIFF, METHOD_REPLICATES, METHOD_STD, METHOD_SWEEP
+from jointwear_ros.workbench.render import diagnosis_dict, diagnosis_summary, shape_hint
 from jointwear_ros.workbench.significance import holm
 
 WITHIN_FLOOR = 1.3
@@ -117,7 +118,7 @@ def test_the_ranking_finds_the_fast_ripple_frequency_and_the_regreasing_day():
     top = residual_dependence(table, fit.residuals, noise=NOISE_STD)[0]
     t = table["time"]
     step_at = t.min() + 0.55 * np.ptp(t)
-    assert top.name == "time" and "step in time" in top.shape_hint
+    assert top.name == "time" and "step in time" in shape_hint(top)
     assert top.changepoint is not None and abs(top.changepoint - step_at) < 86400.0
 
 
@@ -145,7 +146,7 @@ def family_results() -> dict[str, tuple[ObservationTable, object]]:
 @pytest.mark.slow
 def test_each_family_is_found_and_the_suggestion_reaches_the_noise_floor(family_results, effect):
     table, diag = family_results[effect]
-    assert diag.verdict != "nothing_missing", diag.summary()
+    assert diag.verdict != "nothing_missing", diagnosis_summary(diag)
     top = diag.variables[0]
     assert top.significant and set(top.columns) & set(EFFECT_FAMILIES[effect].variables), (effect, top.name)
     assert diag.suggestion is not None
@@ -153,8 +154,8 @@ def test_each_family_is_found_and_the_suggestion_reaches_the_noise_floor(family_
     fit = fit_model(parse_spec(f"{diag.model} + {diag.suggestion}"), table)
     assert fit.success, fit.message
     assert fit.cv_rmse <= WITHIN_FLOOR * diag.noise_floor, (effect, diag.suggestion, fit.cv_rmse / diag.noise_floor)
-    assert diag.verdict == "found", diag.summary()
-    assert diag.suggestion in diag.summary()
+    assert diag.verdict == "found", diagnosis_summary(diag)
+    assert diag.suggestion in diagnosis_summary(diag)
     # the bootstrap by cycle says how clearly the data picks the suggestion
     assert 0 < diag.stability[diag.suggestion] <= 1.0
     assert sum(diag.stability.values()) == pytest.approx(1.0)
@@ -164,10 +165,10 @@ def test_each_family_is_found_and_the_suggestion_reaches_the_noise_floor(family_
 def test_clean_tables_give_nothing_missing(seed, irrelevant):
     table = synth_observations(n_cycles=20, seed=seed, irrelevant=irrelevant)
     diag = diagnose(table, "paper")
-    assert diag.verdict == "nothing_missing", diag.summary()
+    assert diag.verdict == "nothing_missing", diagnosis_summary(diag)
     assert diag.noise.consistent and diag.suggestion is None
     assert not any(v.significant for v in diag.variables)
-    assert diag.summary().startswith("Nothing missing")
+    assert diagnosis_summary(diag).startswith("Nothing missing")
 
 
 def test_a_residual_above_the_floor_that_no_column_explains_is_unexplained():
@@ -180,7 +181,7 @@ def test_a_residual_above_the_floor_that_no_column_explains_is_unexplained():
     diag = diagnose(table, "paper")
     assert diag.verdict == "unexplained"
     assert not diag.noise.consistent
-    assert "No column of the table explains it" in diag.summary()
+    assert "No column of the table explains it" in diagnosis_summary(diag)
     assert diag.suggestion is None
 
 
@@ -191,7 +192,7 @@ def test_a_tau_f_std_below_the_scatter_between_cycles_gives_way_to_that_scatter(
     cols = dict(table.columns)
     cols["tau_f_std"] = cols["tau_f_std"] / 2.0
     diag = diagnose(ObservationTable(cols, source="halved-std"), "paper")
-    assert diag.verdict == "nothing_missing", diag.summary()
+    assert diag.verdict == "nothing_missing", diagnosis_summary(diag)
     assert diag.noise.method == METHOD_SWEEP and diag.noise.consistent
     assert 0.0012 < diag.noise.value < 0.0018
 
@@ -200,18 +201,18 @@ def test_a_tau_f_std_below_the_scatter_between_cycles_gives_way_to_that_scatter(
 def test_a_model_missing_two_effects_is_unexplained_after_its_best_single_term():
     table = synth_observations(n_cycles=40, seed=62, effects=["ripple_fast", "warmup"])
     diag = diagnose(table, "paper", n_bootstrap=0)
-    assert diag.verdict == "unexplained", diag.summary()
+    assert diag.verdict == "unexplained", diagnosis_summary(diag)
     assert {"position", "hours_running"} <= {c for v in diag.variables if v.significant for c in v.columns}
     assert diag.suggestion is not None
     # it names what stays after the best term and how far above the floor
-    assert "leaves the CV RMSE at" in diag.summary() and "x the noise floor" in diag.summary()
+    assert "leaves the CV RMSE at" in diagnosis_summary(diag) and "x the noise floor" in diagnosis_summary(diag)
     assert any(v.significant for v in diag.after_variables)
 
 
 @pytest.mark.slow
 def test_diagnosis_json_keeps_the_old_fields_and_adds_the_issue_11_contract(family_results):
     _, diag = family_results["regreasing"]
-    d = diag.to_dict()
+    d = diagnosis_dict(diag)
     assert {"model", "n", "rmse", "cv_rmse", "noise_source", "missing_effect_found", "alpha", "summary",
             "candidates"} <= set(d)
     assert d["verdict"] in VERDICTS
@@ -222,6 +223,10 @@ def test_diagnosis_json_keeps_the_old_fields_and_adds_the_issue_11_contract(fami
         assert {"name", "p_value", "explained_share", "shape_hint"} <= set(v)
         assert 0.0 <= v["p_value"] <= 1.0 and math.isfinite(v["explained_share"])
     assert d["suggestion"] == diag.suggestion and d["suggestion"].startswith("step(time")
+    # the sentences are the renderer's: the core's data holds the same keys, less the sentences
+    data = diag.to_dict()
+    assert set(d) - set(data) == {"summary"} and d["summary"] == diagnosis_summary(diag)
+    assert "shape_hint" not in data["variables"][0] and "label" not in data["candidates"][0]["speed_region"]
     assert parse_spec(f"{d['model']} + {d['suggestion']}").term_names[-1] == d["suggestion"]
 
 
@@ -239,7 +244,7 @@ def test_a_regreasing_step_with_few_cycles_ranks_time_first_and_its_refit_reache
     table = synth_observations(n_cycles=12, effects=["regreasing"], seed=1005, irrelevant=12)
     diag = diagnose(table, "paper", n_bootstrap=0)
     top = diag.variables[0]
-    assert top.name == "time" and top.significant and top.shape_hint.startswith("step in time")
+    assert top.name == "time" and top.significant and shape_hint(top).startswith("step in time")
     assert 0.5 < top.explained_share <= 1.0
     assert diag.verdict == "found" and diag.suggestion.startswith("step(time")
     assert _refit_ratio(table, diag) <= WITHIN_FLOOR
@@ -276,9 +281,9 @@ def test_a_stribeck_hump_reshaped_by_temperature_is_found_with_few_cycles():
     table = synth_observations(n_cycles=12, effects=["stribeck_temperature"], seed=1000)
     diag = diagnose(table, "paper", n_bootstrap=50)
     top = diag.variables[0]
-    assert top.name == "temperature" and top.significant and top.test == "modulation", diag.summary()
-    assert "scales the model's load_stribeck" in top.shape_hint
-    assert diag.verdict == "found" and diag.suggestion == "scale(load_stribeck, temperature)", diag.summary()
+    assert top.name == "temperature" and top.significant and top.test == "modulation", diagnosis_summary(diag)
+    assert "scales the model's load_stribeck" in shape_hint(top)
+    assert diag.verdict == "found" and diag.suggestion == "scale(load_stribeck, temperature)", diagnosis_summary(diag)
     assert _refit_ratio(table, diag) <= WITHIN_FLOOR
     assert not any(v.name.startswith("motor_temperature") and v.significant for v in diag.variables)
 
@@ -288,7 +293,7 @@ def test_a_temperature_effect_is_not_credited_to_the_correlated_motor_temperatur
     table = synth_observations(n_cycles=40, effects=["stribeck_temperature"], seed=1002)
     diag = diagnose(table, "paper", n_bootstrap=50)
     assert diag.variables[0].name == "temperature", [v.name for v in diag.variables[:3]]
-    assert diag.verdict == "found" and diag.suggestion == "scale(load_stribeck, temperature)", diag.summary()
+    assert diag.verdict == "found" and diag.suggestion == "scale(load_stribeck, temperature)", diagnosis_summary(diag)
     assert diag.support >= 0.8 and not diag.alternatives
 
 
@@ -301,7 +306,7 @@ def test_a_torque_constant_with_few_cycles_is_not_explained_by_another_per_cycle
     assert diag.suggestion is not None and "motor_temperature" in diag.suggestion and "hours_running" not in diag.suggestion
     assert _refit_ratio(table, diag) <= WITHIN_FLOOR
     # two scaled terms of the motor temperature share the resamples: one explanation, so the verdict stands
-    assert diag.verdict == "found" and diag.support >= 0.8, (diag.stability, diag.summary())
+    assert diag.verdict == "found" and diag.support >= 0.8, (diag.stability, diagnosis_summary(diag))
 
 
 def test_two_columns_the_data_cannot_tell_apart_give_unexplained_naming_both():
@@ -315,9 +320,9 @@ def test_two_columns_the_data_cannot_tell_apart_give_unexplained_naming_both():
     diag = diagnose(table, "paper", n_bootstrap=200)
     sig = {c for v in diag.variables if v.significant for c in v.columns}
     assert {"motor_temperature", "motor_temperature_b"} <= sig, [v.name for v in diag.variables[:4]]
-    assert diag.verdict == "unexplained", diag.summary()
+    assert diag.verdict == "unexplained", diagnosis_summary(diag)
     assert diag.support < 0.8 and diag.alternatives
-    assert "does not tell it from" in diag.summary() and diag.alternatives[0] in diag.summary()
+    assert "does not tell it from" in diagnosis_summary(diag) and diag.alternatives[0] in diagnosis_summary(diag)
 
 
 def test_the_ranking_on_the_models_tangent_space_sees_what_the_refit_absorbed():

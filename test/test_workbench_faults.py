@@ -12,6 +12,7 @@ from jointwear_ros.data.synth import synth_observations
 from jointwear_ros.io.tables import write_csv
 from jointwear_ros.types import ObservationTable
 from jointwear_ros.workbench.diagnose import VERDICTS, diagnose, find_outliers
+from jointwear_ros.workbench.render import diagnosis_summary
 
 
 def _with(t, **cols):
@@ -53,9 +54,9 @@ def test_two_outliers_in_a_clean_table_are_named_and_never_found(rows):
     tau[list(rows)] += 0.01  # about 7 noise std
     bad = _with(t, tau_f=tau)
     d = diagnose(bad, "paper", n_bootstrap=0)
-    assert d.verdict != "found", d.summary()
+    assert d.verdict != "found", diagnosis_summary(d)
     assert sorted(o.row for o in d.outliers) == sorted(rows)
-    assert "outlying observation(s)" in d.summary() and f"row {rows[0]}" in d.summary()
+    assert "outlying observation(s)" in diagnosis_summary(d) and f"row {rows[0]}" in diagnosis_summary(d)
     assert sorted(x["row"] for x in d.to_dict()["outliers"]) == sorted(rows)
     clean = diagnose(t, "paper", n_bootstrap=0)
     assert clean.outliers == [] and clean.verdict == "nothing_missing"

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from jointwear_ros.workbench import dependence
 from jointwear_ros.workbench.dependence import VariableDependence
-from jointwear_ros.workbench.render import shape_hint
+from jointwear_ros.workbench.render import shape_hint, variable_dict
 from jointwear_ros.workbench.significance import guarded, holm, nested_test, permutation_p
 
 
@@ -92,7 +92,7 @@ def test_the_ranking_reports_the_tests_by_their_names():
     dep = dependence.residual_dependence(t, fit.residuals, n_perm=19)
     assert dep and all(set(v.tests) <= names and v.test in names for v in dep)
     top = dep[0]
-    assert top.name == "position" and top.shape == "periodic" and top.shape_hint.startswith("periodic in position")
+    assert top.name == "position" and top.shape == "periodic" and shape_hint(top).startswith("periodic in position")
 
 
 @pytest.mark.parametrize(
@@ -111,4 +111,15 @@ def test_the_ranking_reports_the_tests_by_their_names():
 def test_the_renderer_says_the_shape_the_evidence_points_to(fields, hint):
     v = VariableDependence(p_value=0.001, p_raw=0.0001, explained_share=0.3, test="smoother", significant=True,
                            **fields)
-    assert shape_hint(v) == hint == v.shape_hint == v.to_dict()["shape_hint"]
+    assert shape_hint(v) == hint == variable_dict(v)["shape_hint"]
+
+
+def test_a_column_s_data_holds_no_sentence_and_the_renderer_s_json_adds_them_in_place():
+    v = VariableDependence("ambient", 0.001, 0.0001, 0.3, "smoother", True, shape="scales", scaled_term="temp_viscous",
+                           speed_dependent=True, speed_region=(100.0, math.inf))
+    data, doc = v.to_dict(), variable_dict(v)
+    assert not [x for x in data.values() if isinstance(x, str) and " " in x]  # names and numbers only
+    assert "shape_hint" not in data and "label" not in data["speed_region"]
+    assert list(doc) == [*list(data)[:3], "shape_hint", *list(data)[3:]]
+    assert doc["speed_region"] == {"lo": 100.0, "hi": math.inf, "label": "100+ rad/s"}
+    assert {k: x for k, x in doc.items() if k != "shape_hint"} == {**data, "speed_region": doc["speed_region"]}

@@ -342,7 +342,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
         write_report(args.report, table, base, diagnosis=diag)
     if args.json:
-        print_json({**diag.to_dict(), "converged": base.success, "at_bound": [h.to_dict() for h in base.at_bound]})
+        from ..workbench.render import diagnosis_dict
+
+        print_json({**diagnosis_dict(diag), "converged": base.success,
+                    "at_bound": [h.to_dict() for h in base.at_bound]})
         return 0
     from ..workbench.render import diagnosis_markdown, diagnosis_text
 

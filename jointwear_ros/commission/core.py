@@ -447,8 +447,10 @@ def commission(
     before, after = math.nan, math.nan
     nf = None
     if diagnose_baseline:
+        from ..workbench.render import diagnosis_summary
+
         d = diagnose(table, fit, cv_folds=cv_folds)
-        verdict, suggestion, summary = d.verdict, d.suggestion, d.summary()
+        verdict, suggestion, summary = d.verdict, d.suggestion, diagnosis_summary(d)
         nf = d.noise
         if verdict == "found" and d.best is not None:
             before = fit.cv_rmse

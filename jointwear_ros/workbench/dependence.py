@@ -59,8 +59,8 @@ irrelevant columns raise no false alarm.
 >>> t = synth_observations(n_cycles=20, effects=["ripple"], seed=2)
 >>> fit = fit_model(parse_spec("paper"), t, cv_folds=0)
 >>> dep = residual_dependence(t, fit.residuals)
->>> dep[0].name, dep[0].significant, dep[0].shape_hint.split(",")[0]
-('position', True, 'periodic in position')
+>>> dep[0].name, dep[0].significant, dep[0].shape
+('position', True, 'periodic')
 """
 
 from __future__ import annotations
@@ -80,7 +80,6 @@ from ..model.shapes import is_angle
 from ..types import ObservationTable
 from .candidates import candidate_variables
 from .compare import speed_region
-from .phrases import shape_hint, speed_region_label
 from .residual_tests import (
     ChangepointTest,
     ModulationTest,
@@ -115,8 +114,9 @@ class VariableDependence:
     The shape the evidence points to is data: ``shape`` (``smooth``, ``scales``, ``periodic``,
     ``step``; a pair: ``interaction`` or ``adds``) with ``monotone`` (a smooth column's
     ``increasing``, ``decreasing`` or ``non-monotone``), ``scaled_term`` (the model's term a
-    column scales), ``peak_frequency``, ``changepoint`` and the speed region; :attr:`shape_hint`
-    is its sentence (:func:`~jointwear_ros.workbench.phrases.shape_hint`).
+    column scales), ``peak_frequency``, ``changepoint`` and the speed region; the renderer says it in
+    words (:func:`~jointwear_ros.workbench.render.shape_hint`), and its JSON with those words is
+    :func:`~jointwear_ros.workbench.render.variable_dict`.
     """
 
     name: str
@@ -139,27 +139,18 @@ class VariableDependence:
     def columns(self) -> list[str]:
         return self.name.split(",")
 
-    @property
-    def shape_hint(self) -> str:
-        return shape_hint(self)
-
-    @property
-    def speed_region_label(self) -> str:
-        return speed_region_label(self.speed_region)
-
     def to_dict(self) -> dict[str, Any]:
+        """The data (no sentence: see :func:`~jointwear_ros.workbench.render.variable_dict`)."""
         return {
             "name": self.name,
             "p_value": self.p_value,
             "explained_share": self.explained_share,
-            "shape_hint": self.shape_hint,
             "shape": self.shape,
             "test": self.test,
             "significant": self.significant,
             "p_raw": self.p_raw,
             "tests": dict(self.tests),
-            "speed_region": {"lo": self.speed_region[0], "hi": self.speed_region[1],
-                             "label": self.speed_region_label},
+            "speed_region": {"lo": self.speed_region[0], "hi": self.speed_region[1]},
             "peak_frequency": self.peak_frequency,
             "changepoint": self.changepoint,
         }

@@ -57,7 +57,6 @@ from .candidates import candidate_library
 from .compare import NoiseFloor, noise_test, speed_region, sweep_scatter
 from .dependence import VariableDependence, one_blas_thread, residual_dependence
 from .fit import FitResult, fit_model, group_folds, model_inputs
-from .phrases import candidate_region_label, diagnosis_summary
 from .significance import nested_test
 
 __all__ = ["FOUND_RATIO", "STABLE_SUPPORT", "VERDICTS", "CandidateResult", "Diagnosis", "adaptive_candidates", "diagnose",
@@ -97,11 +96,9 @@ class CandidateResult:
     #: The columns the candidate brings in (a scaled term: its factor).
     factors: tuple[str, ...] = ()
 
-    @property
-    def speed_region_label(self) -> str:
-        return candidate_region_label(self.speed_region)
-
     def to_dict(self) -> dict[str, Any]:
+        """The data (no sentence: the JSON with the region's words is
+        :func:`~jointwear_ros.workbench.render.candidate_dict`)."""
         return {
             "term": self.term,
             "variables": self.variables,
@@ -114,15 +111,17 @@ class CandidateResult:
             "dof": self.dof,
             "p_value": self.p_value,
             "significant": self.significant,
-            "speed_region": {"lo": self.speed_region[0], "hi": self.speed_region[1],
-                             "label": self.speed_region_label},
+            "speed_region": {"lo": self.speed_region[0], "hi": self.speed_region[1]},
             "expected_cv_rmse": self.cv_rmse,
         }
 
 
 @dataclass
 class Diagnosis:
-    """The current model's errors, the noise test, the model-free ranking, every candidate, and the verdict."""
+    """The current model's errors, the noise test, the model-free ranking, every candidate, and the verdict.
+
+    Data only: the verdict in sentences is :func:`~jointwear_ros.workbench.render.diagnosis_summary`.
+    """
 
     model: str
     n: int
@@ -170,11 +169,9 @@ class Diagnosis:
     def best(self) -> CandidateResult | None:
         return self.candidates[0] if self.candidates and self.candidates[0].significant else None
 
-    def summary(self) -> str:
-        """The verdict in a few sentences (:func:`~jointwear_ros.workbench.phrases.diagnosis_summary`)."""
-        return diagnosis_summary(self)
-
     def to_dict(self) -> dict[str, Any]:
+        """The data (no sentence: the JSON with the verdict's summary, the shape hints and the region labels is
+        :func:`~jointwear_ros.workbench.render.diagnosis_dict`)."""
         return {
             "model": self.model,
             "n": self.n,
@@ -187,7 +184,6 @@ class Diagnosis:
             "suggestion": self.suggestion,
             "missing_effect_found": self.missing_effect_found,
             "alpha": self.alpha,
-            "summary": self.summary(),
             "after_suggestion": None if self.after_noise is None else {
                 "noise_floor": self.after_noise.to_dict(),
                 "cv_rmse": self.best.cv_rmse if self.best else None,

@@ -1,11 +1,11 @@
-"""The sentences a workbench result carries: region labels, the shape hint, the noise floor, the verdict.
+"""The sentences the workbench says about its results: region labels, the shape hint, the noise floor, the verdict.
 
-The cores (:mod:`.dependence`, :mod:`.diagnose`) return data; a result's JSON (``to_dict``) and its
-``summary()`` carry a few sentences made from that data, and they are made here, below the cores, from the
-plain values and the result's fields (``v`` a :class:`~.dependence.VariableDependence`, ``d`` a
-:class:`~.diagnose.Diagnosis`: read, never imported, so no core imports the renderer). The terminal and
-Markdown reports that assemble them (:mod:`.render`) and the HTML report (:mod:`.report`) import the cores and
-these sentences, so the JSON, the terminal and the page say the same.
+The rendering side's vocabulary. The cores (:mod:`.dependence`, :mod:`.diagnose`, ...) return data and
+import neither this module nor :mod:`.render`; the sentences are made here from the plain values and the
+results' fields (``v`` a :class:`~.dependence.VariableDependence`, ``d`` a :class:`~.diagnose.Diagnosis`).
+:mod:`.render` re-exports them and assembles them into the terminal and Markdown reports and a result's JSON
+(:func:`~.render.diagnosis_dict`); the HTML report (:mod:`.report`) takes them from :mod:`.render`, so the
+JSON, the terminal and the page say the same.
 
 >>> from jointwear_ros.workbench.dependence import VariableDependence
 >>> v = VariableDependence("position", 1e-9, 1e-9, 0.68, "periodogram", True, shape="periodic",
@@ -155,7 +155,7 @@ def diagnosis_summary(d: Any) -> str:
         stab = d.stability.get(b.term)
         stab_txt = (f" It is chosen in {100 * stab:.0f} % of bootstrap resamples by cycle (terms of "
                     f"{', '.join(b.key)}: {100 * d.support:.0f} %)." if stab is not None else "")
-        text = (f"Missing effect found: {b.term} — {b.description}, structured at {b.speed_region_label}. "
+        text = (f"Missing effect found: {b.term} — {b.description}, structured at {candidate_region_label(b.speed_region)}. "
                 f"Adding it brings the CV RMSE from {d.cv_rmse:.5f} to {b.cv_rmse:.5f} "
                 f"({_ratio(nf, b.cv_rmse)}) and leaves no significant dependence on any column.{stab_txt} "
                 f"Try: --model \"{d.model} + {b.term}\"")
@@ -165,7 +165,7 @@ def diagnosis_summary(d: Any) -> str:
                  f"({_ratio(nf, d.cv_rmse)}; {floor_text(nf)})."]
         if sig:
             parts.append("The residual depends on " + "; ".join(
-                f"{v.name} ({v.shape_hint}; explains {100 * v.explained_share:.0f} %, adjusted p = {v.p_value:.2g})"
+                f"{v.name} ({shape_hint(v)}; explains {100 * v.explained_share:.0f} %, adjusted p = {v.p_value:.2g})"
                 for v in sig[:3]) + ".")
         else:
             parts.append("No column of the table explains it (a variable that is not recorded, or a noise "
@@ -185,7 +185,7 @@ def diagnosis_summary(d: Any) -> str:
                 odd += (f"; the data does not tell it from {', '.join(d.alternatives[:3])} (terms of its "
                         f"column(s) win only {100 * d.support:.0f} % of bootstrap resamples by cycle)")
             parts.append(f"The best, {b.term}, leaves the CV RMSE at {_ratio(nf, b.cv_rmse)} "
-                         f"(at {b.speed_region_label}){left}{odd}. "
+                         f"(at {candidate_region_label(b.speed_region)}){left}{odd}. "
                          f"Try next: --model \"{d.model} + {b.term}\", then diagnose again.")
         text = " ".join(parts)
     return text + _outlier_text(d)

@@ -1,11 +1,13 @@
-"""The workbench's reports: every text table and terminal or Markdown report, made from its results.
+"""The workbench's reports: every sentence, text table and terminal or Markdown report, made from its results.
 
-The core (:mod:`.fit`, :mod:`.compare`, :mod:`.dependence`, :mod:`.diagnose`) returns data; this module
-imports it and renders it (never the other way): the terminal reports of ``jointwear model
-fit|diagnose|compare|add`` (:func:`fit_text`, :func:`diagnosis_text`, :func:`compare_text`,
-:func:`add_text`) and a diagnosis as Markdown (:func:`diagnosis_markdown`). The sentences a result's JSON
-(``to_dict``) carries too (the shape hint, the region labels, the goodness-of-fit line, the verdict) are
-made in :mod:`.phrases`, below the cores, and re-exported here, so the JSON, the terminal and the HTML report
+The core (:mod:`.fit`, :mod:`.compare`, :mod:`.dependence`, :mod:`.diagnose`, ...) returns data (numbers,
+names, dataclasses; ``to_dict`` holds no sentence); this module imports it and renders it (never the other
+way): the terminal reports of ``jointwear model fit|diagnose|compare|add`` (:func:`fit_text`,
+:func:`diagnosis_text`, :func:`compare_text`, :func:`add_text`), a diagnosis as Markdown
+(:func:`diagnosis_markdown`), and a result's JSON with its sentences (:func:`diagnosis_dict`,
+:func:`variable_dict`, :func:`candidate_dict`: the data's keys plus the shape hint, the region labels and the
+verdict's summary). The sentences themselves (the shape hint, the region labels, the goodness-of-fit line,
+the verdict) are made in :mod:`.phrases` and re-exported here, so the JSON, the terminal and the HTML report
 (:mod:`.report`) say the same.
 
 >>> from jointwear_ros.workbench.dependence import VariableDependence
@@ -26,7 +28,8 @@ import numpy as np
 from ..fmt import format_table
 from ..types import ObservationTable
 from .compare import band_rmse, noise_floor, noise_test, residual_structure
-from .diagnose import Diagnosis
+from .dependence import VariableDependence
+from .diagnose import CandidateResult, Diagnosis
 from .fit import FitResult
 from .phrases import (
     NOISE_UNKNOWN,
@@ -43,8 +46,10 @@ from .phrases import (
 __all__ = [
     "NOISE_UNKNOWN",
     "add_text",
+    "candidate_dict",
     "candidate_region_label",
     "compare_text",
+    "diagnosis_dict",
     "diagnosis_markdown",
     "diagnosis_summary",
     "diagnosis_text",
@@ -56,13 +61,57 @@ __all__ = [
     "shape_hint",
     "speed_region_label",
     "stability_text",
+    "variable_dict",
 ]
-
 
 
 def stability_text(d: Diagnosis) -> str:
     """``ripple(position, w0=17.07) 70 %, ...``: how often each candidate wins the bootstrap, most first."""
     return ", ".join(f"{t} {100 * f:.0f} %" for t, f in sorted(d.stability.items(), key=lambda kv: -kv[1]))
+
+
+# -- a result's JSON: its data and its sentences ----------------------------------------------
+def _insert_after(doc: dict[str, Any], after: str, key: str, value: Any) -> dict[str, Any]:
+    """``doc`` with ``key: value`` placed right after ``after`` (the JSON's key order is the reader's)."""
+    out: dict[str, Any] = {}
+    for k, v in doc.items():
+        out[k] = v
+        if k == after:
+            out[key] = value
+    return out
+
+
+def variable_dict(v: VariableDependence) -> dict[str, Any]:
+    """A column's (or pair's) JSON: its data (``to_dict``) with the shape hint and the speed region's label.
+
+    >>> v = VariableDependence("position", 1e-9, 1e-9, 0.68, "periodogram", True, shape="periodic",
+    ...                        peak_frequency=17.07)
+    >>> doc = variable_dict(v)
+    >>> doc["shape_hint"], doc["speed_region"]["label"], list(doc)[2:5]
+    ('periodic in position, w = 17.07 per unit (period 0.3681)', 'all speeds', ['explained_share', 'shape_hint', 'shape'])
+    """
+    doc = _insert_after(v.to_dict(), "explained_share", "shape_hint", shape_hint(v))
+    doc["speed_region"] = {**doc["speed_region"], "label": speed_region_label(v.speed_region)}
+    return doc
+
+
+def candidate_dict(c: CandidateResult) -> dict[str, Any]:
+    """A candidate's JSON: its data (``to_dict``) with the speed region's label (``low speeds 0-30 rad/s``)."""
+    doc = c.to_dict()
+    doc["speed_region"] = {**doc["speed_region"], "label": candidate_region_label(c.speed_region)}
+    return doc
+
+
+def diagnosis_dict(d: Diagnosis) -> dict[str, Any]:
+    """``jointwear model diagnose --json``: the diagnosis's data (``to_dict``) with its sentences: the verdict's
+    ``summary``, each column's ``shape_hint`` and each speed region's ``label``."""
+    doc = _insert_after(d.to_dict(), "alpha", "summary", diagnosis_summary(d))
+    doc["variables"] = [variable_dict(v) for v in d.variables]
+    if doc["after_suggestion"] is not None:
+        doc["after_suggestion"] = {**doc["after_suggestion"],
+                                   "variables": [variable_dict(v) for v in d.after_variables]}
+    doc["candidates"] = [candidate_dict(c) for c in d.candidates]
+    return doc
 
 
 # -- the terminal reports ------------------------------------------------------------------
@@ -120,12 +169,13 @@ _NO_CANDIDATE = "no candidate term to fit (no column explains the residual; the 
 def _diagnosis_rows(d: Diagnosis, top: int) -> tuple[list[list[Any]], list[list[Any]]]:
     """The rows of the model-free ranking and of the candidates (``top`` each)."""
     variables = [[i + 1, v.name, f"{100 * v.explained_share:.0f} %", f"{v.p_value:.2g}",
-                  "yes" if v.significant else "no", v.test, v.shape_hint] for i, v in enumerate(d.variables[:max(top, 0)])]
+                  "yes" if v.significant else "no", v.test, shape_hint(v)] for i, v in enumerate(d.variables[:max(top, 0)])]
     nf = d.noise
     floor = nf.value if np.isfinite(nf.value) and nf.value > 0 else float("nan")
     candidates = [[i + 1, c.term, ",".join(c.variables), c.cv_rmse,
                    f"{c.cv_rmse / floor:.2f}x" if math.isfinite(c.cv_rmse / floor) else "-", f"{c.delta_bic:.1f}",
-                   f"{c.p_value:.2g}", "yes" if c.significant else "no", c.speed_region_label]
+                   f"{c.p_value:.2g}", "yes" if c.significant else "no",
+                   candidate_region_label(c.speed_region)]
                   for i, c in enumerate(d.candidates[: max(top, 0)])]
     return variables, candidates
 
@@ -166,7 +216,7 @@ def diagnosis_text(d: Diagnosis, source: str, top: int, at_bound: Sequence[Any] 
     out += [f"# {line}" for line in _level_lines(d)]
     if d.stability:
         out.append("# chosen in bootstrap resamples by cycle: " + stability_text(d))
-    out += ["", f"verdict: {d.verdict}", d.summary()]
+    out += ["", f"verdict: {d.verdict}", diagnosis_summary(d)]
     out += [f"# {line}" for line in _bound_lines(at_bound)]
     return "\n".join(out)
 
@@ -177,7 +227,7 @@ def diagnosis_markdown(d: Diagnosis, source: str, top: int, at_bound: Sequence[A
     out = [f"## Diagnosis of `{d.model}`", "",
            f"Data: `{source}`, n = {d.n}; RMSE {d.rmse:.5f}, {cv_rmse_text(d.cv_rmse)}; "
            f"{noise_line(d.noise, d.cv_rmse if math.isfinite(d.cv_rmse) else None)}.",
-           "", f"**verdict: {d.verdict}**", "", d.summary(), ""]
+           "", f"**verdict: {d.verdict}**", "", diagnosis_summary(d), ""]
     out += [f"*{line}*" for line in _bound_lines(at_bound)] + ([""] if at_bound else [])
     out += [f"### {_RANKING[0].upper()}{_RANKING[1:]}", "", markdown_table(_VARIABLE_HEADERS, variables), "",
             "### Candidate terms", "", markdown_table(_CANDIDATE_HEADERS, candidates) if candidates else

@@ -32,7 +32,14 @@ from .compare import band_rmse, noise_floor, noise_test, residual_structure
 from .diagnose import Diagnosis
 from .fit import FitResult
 from .history import History
-from .render import goodness_of_fit, noise_line, stability_text
+from .render import (
+    candidate_region_label,
+    diagnosis_summary,
+    goodness_of_fit,
+    noise_line,
+    shape_hint,
+    stability_text,
+)
 
 __all__ = ["plot_band_errors", "plot_dependence", "plot_error_fall", "plot_fit", "plot_residuals", "residual_columns",
            "write_report"]
@@ -231,7 +238,7 @@ def plot_dependence(path: Path, table: ObservationTable, diagnosis: Diagnosis) -
             axr.axhspan(-nf, nf, color="0.88", zorder=0, label=f"noise floor ±{nf:.4f}")
         axr.set_xlabel(column_label(single.name, table))
         axr.set_ylabel(f"data - model [{_units(table)[0]}]")
-        axr.set_title(f"{single.name}: {single.shape_hint}" if single.significant else
+        axr.set_title(f"{single.name}: {shape_hint(single)}" if single.significant else
                       f"{single.name}: no significant dependence (the strongest column, for reference)", fontsize=9)
         axr.grid(alpha=0.3)
         legend_outside(axr, "below", fontsize=7.5)
@@ -320,13 +327,13 @@ def write_report(
             nft = diagnosis.noise
             parts.append("<h2>Diagnosis: which effect is missing?</h2>")
             parts.append(f"<p><b>verdict: {html.escape(diagnosis.verdict)}</b></p>")
-            parts.append(f"<p>{html.escape(diagnosis.summary())}</p>")
+            parts.append(f"<p>{html.escape(diagnosis_summary(diagnosis))}</p>")
             parts.append(f"<p>{html.escape(noise_line(nft))}</p>")
             parts.append("<h3>Which columns explain the residual (model-free)</h3>")
             parts.append(_table_html(
                 ["variable", "explains", "p (adjusted)", "significant", "test", "shape"],
                 [[v.name, f"{100 * v.explained_share:.0f} %", v.p_value, "yes" if v.significant else "no",
-                  v.test, v.shape_hint] for v in diagnosis.variables[:15]]))
+                  v.test, shape_hint(v)] for v in diagnosis.variables[:15]]))
             parts.append(_img(files["dependence.png"], "explained share per column; the strongest column's residual"))
             parts.append("<h3>Candidate terms</h3>")
             if not diagnosis.candidates:
@@ -337,7 +344,8 @@ def write_report(
                     ["term", "variables", "meaning", "CV RMSE", "x floor", "ΔBIC", "p", "significant",
                      "speed region"],
                     [[c.term, ", ".join(c.variables), c.description, c.cv_rmse, diagnosis.noise.ratio(c.cv_rmse),
-                      c.delta_bic, c.p_value, "yes" if c.significant else "no", c.speed_region_label]
+                      c.delta_bic, c.p_value, "yes" if c.significant else "no",
+                      candidate_region_label(c.speed_region)]
                      for c in diagnosis.candidates[:15]]))
             if diagnosis.stability:
                 parts.append("<p>chosen in bootstrap resamples by cycle: " + html.escape(stability_text(diagnosis))
