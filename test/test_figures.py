@@ -213,7 +213,7 @@ def test_the_current_segment_and_its_forecast_fill_the_plot_after_maintenance(sa
 
 def test_a_forecast_median_that_runs_off_to_minus_infinity_is_not_drawn_below_the_current_level(saved, tmp_path,
                                                                                                  slow):
-    from jointwear_ros.trend.core import forecast_band
+    from jointwear_ros.trend import forecast_band
 
     t, w, s, (r, cfg) = slow
     far = forecast_band(r.components, r.members, cfg, np.linspace(0.0, cfg.max_horizon_days, 200))

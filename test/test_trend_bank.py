@@ -25,8 +25,8 @@ from jointwear_ros.trend import (
     trend_states,
 )
 from jointwear_ros.trend.backtest import backtest_joint, line_limit, score_calibration
-from jointwear_ros.trend.core import unbounded_reason
 from jointwear_ros.trend.families import EPOCH0, FAMILIES, make_family
+from jointwear_ros.trend.states import unbounded_reason
 
 
 def _issue_linear():
@@ -82,11 +82,11 @@ def test_interval_quantiles_are_the_5_50_95_points_of_the_mixture():
     cfg = TrendConfig()
     st_ = trend_states((t - t[0]) / DAY, w, s, cfg, rows=np.array([len(t) - 1]), keep=True)
     lo, med, hi = st_.quantiles[0]
-    from jointwear_ros.trend.core import _crossing, forecast_basis, tau_grid
+    from jointwear_ros.trend.alarm import crossing_curves, forecast_basis, tau_grid
 
     tau = tau_grid(cfg.max_horizon_days)
     members = bank_members(cfg)
-    F = sum(c.weight * _crossing(c.mean[None], c.cov[None], *forecast_basis(members[c.member], tau, cfg), cfg.alarm)[0]
+    F = sum(c.weight * crossing_curves(c.mean[None], c.cov[None], *forecast_basis(members[c.member], tau, cfg), cfg.alarm)[0]
             for c in st_.mixtures[0])
     assert np.interp(lo, tau, F) == pytest.approx(0.05, abs=2e-3)
     assert np.interp(med, tau, F) == pytest.approx(0.50, abs=2e-3)
@@ -474,7 +474,7 @@ def test_crossing_probability_never_falls_with_the_days_ahead(level, rate, q, le
     """Wear does not come back down: once the alarm is likely by tau it stays so later, although the random-walk
     member's Gaussian P(wear(tau) >= alarm) falls back towards 1/2 far ahead (its variance grows as tau^3)."""
     from jointwear_ros.trend import crossing_cdf
-    from jointwear_ros.trend.core import tau_grid
+    from jointwear_ros.trend.alarm import tau_grid
 
     cfg = TrendConfig()
     tau = tau_grid(cfg.max_horizon_days)

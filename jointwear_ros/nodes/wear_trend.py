@@ -81,12 +81,13 @@ from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, back
 from ..history.outbox import Outbox, SpoolPaths, same_disk
 from ..history.screen import REASONS, Refusal, ScreenConfig, screen_record
 from ..trend import TrendConfig, TrendResult, analyze_joint
+from ..trend.config import from_parameters as trend_config
+from ..trend.config import node_declarations as trend_parameters
 from .diagnostics import HeldStatus, Status, Updater
 from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, wait_acked
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "WearTrendNode", "main", "trend_to_msg"]
 
-_T = TrendConfig()
 _S = ScreenConfig()
 
 PARAMETERS: tuple[ParamDecl, ...] = (
@@ -97,11 +98,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               read_only=True),
     ParamDecl("params", "ref-2011r", "friction-model parameter set the estimates were made with (stored)",
               read_only=True),
-    ParamDecl("alarm_threshold", _T.alarm, "wear at which the condition level is ERROR", 0.0, 100.0),
-    ParamDecl("warn_threshold", _T.warn, "wear at which the condition level is WARN", 0.0, 100.0),
-    ParamDecl("horizon_days", _T.horizon_days, "WARN when the 90 % interval's lower bound of the time to alarm "
-              "is within this many days", 0.0, 3650.0),
-    ParamDecl("min_estimates", _T.min_estimates, "estimates a segment needs before it has a trend"),
+    *trend_parameters(),  # the trend settings, declared in TrendConfig (jointwear_ros.trend.config)
     ParamDecl("future_tolerance", _S.future_tolerance_s, "s an estimate may be stamped ahead of the node's clock",
               0.0, 86400.0),
     ParamDecl("clock_tolerance", _S.clock_tolerance_s, "s an estimate may be stamped before its joint's newest "
@@ -159,8 +156,7 @@ class WearTrendNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.params = p
         self.robot = str(p["robot"])
-        self.cfg = TrendConfig(alarm=float(p["alarm_threshold"]), warn=float(p["warn_threshold"]),
-                               horizon_days=float(p["horizon_days"]), min_estimates=int(p["min_estimates"]))
+        self.cfg: TrendConfig = trend_config(p)
         self.screen_cfg = replace(_S, future_tolerance_s=float(p["future_tolerance"]),
                                   clock_tolerance_s=float(p["clock_tolerance"]))
         self.rejected = 0
@@ -359,8 +355,7 @@ class WearTrendNode(Node):
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
         p = {**self.params, **changes}
-        cfg = TrendConfig(alarm=float(p["alarm_threshold"]), warn=float(p["warn_threshold"]),
-                          horizon_days=float(p["horizon_days"]), min_estimates=int(p["min_estimates"]))
+        cfg = trend_config(p)
         scfg = replace(self.screen_cfg, future_tolerance_s=float(p["future_tolerance"]),
                        clock_tolerance_s=float(p["clock_tolerance"]))
         self.params.update(changes)

@@ -4,7 +4,7 @@ At each night the trend sees only the estimates so far in the current segment
 (after the last maintenance event up to that night), exactly what the
 ``wear_trend`` node would have said then. Scores over a fleet
 (:func:`score_fleet`). "WARN" below is the forecast's signal, the alarm expected within the horizon
-(:attr:`~jointwear_ros.trend.core.TrendStates.level`), and "ERROR" the trend's wear at the alarm: what a planner
+(:attr:`~jointwear_ros.trend.states.TrendStates.level`), and "ERROR" the trend's wear at the alarm: what a planner
 acts on ahead of time; the condition level (docs/levels.md) is the estimates' own and is not scored here.
 
 ``coverage``
@@ -39,7 +39,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..contract import DiagnosticLevel
-from .core import DAY, RatePrior, TrendConfig, trend_states
+from .alarm import crossing_cdf, crossing_quantiles, forecast_basis, tau_grid
+from .config import DAY, TrendConfig
+from .members import RatePrior, bank_members
+from .states import trend_states
 
 __all__ = ["NightlyBacktest", "alpha_lambda", "backtest_joint", "joint_run", "lambda_index", "line_limit",
            "prognostic_horizon", "score_at_lead", "score_calibration", "score_fleet", "score_prognostics",
@@ -204,8 +207,6 @@ def score_at_lead(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float,
 def line_limit(t_days: Array, y: Array, r: Array, cfg: TrendConfig) -> Array:
     """The straight-line limit: per night, the 90 % interval and median (n, 3) of the time to alarm that a
     straight line fitted (weighted least squares, flat prior) to all the estimates so far gives."""
-    from .core import crossing_cdf, crossing_quantiles, tau_grid
-
     t = np.asarray(t_days, float)
     w = 1.0 / np.asarray(r, float) ** 2
     out = np.full((len(t), 3), np.inf)
@@ -348,8 +349,6 @@ def score_trial(joints: Sequence[Any], cfg: TrendConfig, epoch0: float, *, first
     the median width / true time (no interval or unbounded: infinite); flat joints: how many warn. Per joint
     (``rows``): profile, true days, lo90, median, hi90 (nan without an interval), level, the weights on the
     line, on the accelerated shapes and on the adaptive members, and the straight-line limit's width."""
-    from .core import bank_members
-
     members = bank_members(cfg)
     kinds = {"line": [i for i, m in enumerate(members) if m.name == "line"],
              "accelerated": [i for i, m in enumerate(members) if m.kind == "steady" and m.name != "line"],
@@ -539,8 +538,6 @@ def tta_probability(j: Any, cfg: TrendConfig, night: int, lo: float, hi: float,
     members' crossing CDFs (the distribution whose 5, 50 and 95 % points are the backtest's ``lo90``, ``median``
     and ``hi90``), for the β-criterion of :func:`alpha_lambda`. Mass beyond ``cfg.max_horizon_days`` is "never"."""
     from scipy.special import ndtr
-
-    from .core import bank_members, forecast_basis, tau_grid
 
     t = np.asarray(j.times, float)
     bounds = sorted(j.maintenance_times)

@@ -23,7 +23,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .core import DAY, TrendConfig, TrendResult, forecast_band, forecast_basis, rts_smooth
+from ..contract import level_rank
+from .alarm import forecast_band, forecast_basis
+from .analysis import TrendResult
+from .config import DAY, TrendConfig
+from .filters import rts_smooth
 
 __all__ = ["plot_trend", "rank_key", "write_html"]
 
@@ -31,15 +35,12 @@ Z90 = 1.6448536269514722
 Array = NDArray[np.float64]
 
 
-#: the order levels are ranked in on every surface (serve's rank_views too)
-LEVEL_RANK = {2: 0, 1: 1, 3: 2, 0: 3}
-
-
 def rank_key(r: TrendResult) -> tuple[float, float, str, str]:
-    """Sort key: ERROR, WARN, STALE, OK; within a level the soonest median time to alarm first."""
+    """Sort key: ERROR, WARN, STALE, OK (:func:`~jointwear_ros.contract.level_rank`, as the plant page ranks; a
+    byte the contract does not define first); within a level the soonest median time to alarm first."""
     tta = r.time_to_alarm
     med = math.inf if tta is None else tta.median
-    return (float(LEVEL_RANK.get(int(r.level), 4)), med if math.isfinite(med) else 1e12 + (0 if tta is not None else 1),
+    return (float(-level_rank(r.level)), med if math.isfinite(med) else 1e12 + (0 if tta is not None else 1),
             r.robot, r.joint)
 
 
