@@ -6,28 +6,15 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from test_estimation_paper import MODEL, PARAMS, friction, table
 
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.estimation import make_estimator
 from jointwear_ros.estimation.crb import crb_multi_speed
 from jointwear_ros.estimation.joint import JointEstimator
-from jointwear_ros.model import load_parameter_set, paper_wear_model
 from jointwear_ros.types import ObservationTable, WearEstimator
 
-MODEL = paper_wear_model()
-PARAMS = MODEL.make_params(load_parameter_set("ref-2011r"))
 SPEEDS = np.array([0.0, 20.0, 40.0, 60.0, 100.0, 150.0])
-
-
-def friction(speed, wear=35.0, temperature=40.0, load=0.1):
-    return MODEL.evaluate(PARAMS, speed=speed, load_torque=load, temperature=temperature, wear=wear)
-
-
-def table(speed, tau, temperature=None, load=0.1):
-    cols = dict(speed=speed, tau_f=tau, load_torque=load)
-    if temperature is not None:
-        cols["temperature"] = temperature
-    return ObservationTable.from_arrays(**cols)
 
 
 @pytest.mark.parametrize(("w0", "t0"), [(35.0, 40.0), (10.0, 28.0), (60.0, 52.0), (80.0, 33.0)])
@@ -167,3 +154,22 @@ def test_a_widened_interval_contains_the_old_one_and_stays_in_the_wear_range(est
     low, high = min(a, b), max(a, b)
     lo, hi = widen_interval(est, low, high, scale, (0.0, 100.0))
     assert 0.0 <= lo <= low <= high <= hi <= 100.0
+
+
+def test_the_estimators_on_a_set_take_model_noise_and_wear_range_from_one_place():
+    # joint, bayes and paper took their model and set by three hand-written copies, and joint and bayes checked
+    # noise_std and wear_range by two more: one base and two checks in _common now serve them all
+    from jointwear_ros.estimation import BayesEstimator, PaperEstimator
+    from jointwear_ros.estimation._common import SetModelEstimator, check_noise_std, check_wear_range
+
+    for cls in (JointEstimator, BayesEstimator, PaperEstimator):
+        est = cls(MODEL, PARAMS, noise_std=0.002)
+        assert isinstance(est, SetModelEstimator)
+        assert est.params.valuesdict() == PARAMS.valuesdict() and est.param_set is None
+        assert est.full_model.spec == est.model.spec == MODEL.spec and est.extra is None and est.noise_std == 0.002
+    assert check_noise_std(0.002) == 0.002 and check_wear_range((0, 80)) == (0.0, 80.0)
+    for cls in (JointEstimator, BayesEstimator):
+        with pytest.raises(InputDataError, match=r"^noise_std = 0\.0 must be a positive number \(normalized torque\)$"):
+            cls(MODEL, PARAMS, noise_std=0.0)
+        with pytest.raises(InputDataError, match=r"^wear_range = \(5\.0, 5\.0\): needs finite low < high$"):
+            cls(MODEL, PARAMS, wear_range=(5.0, 5.0))

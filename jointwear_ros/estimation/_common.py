@@ -6,7 +6,7 @@ Pure numpy; no ROS import.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,11 +23,15 @@ __all__ = [
     "DEFAULT_PARAMS",
     "WEAR_RANGE",
     "Capabilities",
+    "Progress",
     "Rows",
     "SetModel",
+    "SetModelEstimator",
     "capabilities_of",
     "check_estimator_options",
+    "check_noise_std",
     "check_observation_values",
+    "check_wear_range",
     "combine_rows",
     "make_rng",
     "prepare_rows",
@@ -43,6 +47,8 @@ __all__ = [
 STANDARD_INPUTS = ("speed", "load_torque", "temperature", "wear")
 
 Array = npt.NDArray[np.float64]
+#: A study's progress callback: ``progress(done, total)``.
+Progress = Callable[[int, int], None]
 
 #: Noise level of a static friction observation, Section 5.1 of the paper.
 DEFAULT_NOISE_STD = 0.0015
@@ -428,9 +434,7 @@ def prepare_rows(
     else:
         temp = np.full(n, math.nan)
     check_observation_values(table, temperature=use_temperature)  # the bounds the checks above do not cover
-    if not (math.isfinite(noise_std) and noise_std > 0):
-        raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
-    sig = np.full(n, float(noise_std))
+    sig = np.full(n, check_noise_std(noise_std))
     if "tau_f_std" in table:
         given = np.asarray(table["tau_f_std"], dtype=float)  # NaN or >= 0: check_observation_values above
         ok = np.isfinite(given) & (given > 0)
@@ -516,6 +520,43 @@ def setup_model(
         else:  # the paper's sigma_e, in the set's torque unit
             noise_std = DEFAULT_NOISE_STD * (pset.units.torque_factor if pset is not None else 1.0)
     return SetModel(m, core, extra, p, pset, float(noise_std))
+
+
+class SetModelEstimator:
+    """Base of the estimators built on a model and a parameter set: what they take from :func:`setup_model`."""
+
+    full_model: Model
+    model: Model
+    extra: Model | None
+    params: Parameters
+    param_set: ParameterSet | None
+
+    def attach_set_model(
+        self, model: Model | None, params: Parameters | Mapping[str, float] | str | ParameterSet | None,
+        noise_std: float | None,
+    ) -> float:
+        """Set ``full_model``, ``model``, ``extra``, ``params`` and ``param_set`` from :func:`setup_model`;
+        return its noise_std (not yet checked: see :func:`check_noise_std`)."""
+        sm = setup_model(model, params, noise_std)
+        self.full_model, self.model, self.extra = sm.full_model, sm.model, sm.extra
+        self.params, self.param_set = sm.params, sm.param_set
+        return sm.noise_std
+
+
+def check_noise_std(noise_std: float) -> float:
+    """sigma_e of an observation as a float, or InputDataError unless a positive finite number."""
+    sig = float(noise_std)
+    if not (math.isfinite(sig) and sig > 0):
+        raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
+    return sig
+
+
+def check_wear_range(wear_range: tuple[float, float]) -> tuple[float, float]:
+    """An estimator's wear range as ``(low, high)`` floats, or InputDataError unless finite with low < high."""
+    lo, hi = float(wear_range[0]), float(wear_range[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise InputDataError(f"wear_range = {wear_range!r}: needs finite low < high")
+    return lo, hi
 
 
 def with_set_info(result: WearResult, pset: ParameterSet | None) -> WearResult:

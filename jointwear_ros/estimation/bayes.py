@@ -59,10 +59,12 @@ from ..types import ObservationTable, WearResult
 from ._common import (
     WEAR_RANGE,
     Capabilities,
+    SetModelEstimator,
+    check_noise_std,
+    check_wear_range,
     combine_rows,
     prepare_rows,
     set_temperature_prior,
-    setup_model,
     with_set_info,
 )
 from .inverse import base_friction
@@ -289,7 +291,7 @@ def _quantile_rows(cdf: Array, w: Array, q: float) -> Array:
     return np.where(cdf[:, 0] >= q, w[0], out)
 
 
-class BayesEstimator:
+class BayesEstimator(SetModelEstimator):
     """Posterior mean of w per observation with T marginalised under a stated prior.
 
     Parameters
@@ -348,18 +350,12 @@ class BayesEstimator:
     ) -> None:
         # seed/rng are accepted for a uniform factory interface; the estimator is deterministic
         del seed, rng
-        sm = setup_model(model, params, noise_std)
-        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
-        self.param_set, noise_std = sm.param_set, sm.noise_std
+        noise_std = self.attach_set_model(model, params, noise_std)
         if prior is None:
             prior = set_temperature_prior(self.param_set, None)
         self.prior = uniform_prior(*DEFAULT_BAYES_PRIOR) if prior is None else parse_temperature_prior(prior)
-        if not (math.isfinite(noise_std) and noise_std > 0):
-            raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
-        self.noise_std = float(noise_std)
-        lo, hi = map(float, wear_range)
-        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-            raise InputDataError(f"wear_range = {wear_range!r}: needs finite low < high")
+        self.noise_std = check_noise_std(noise_std)
+        lo, hi = check_wear_range(wear_range)
         if not (math.isfinite(grid_step) and 0 < grid_step <= (hi - lo) / 10):
             raise InputDataError(f"grid_step = {grid_step!r}: needs 0 < step <= {(hi - lo) / 10:g}")
         self.wear_range = (lo, hi)

@@ -47,7 +47,7 @@ True
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -59,7 +59,7 @@ from ..errors import InputDataError
 from ..fmt import format_table
 from ..model import Model, Parameters
 from ..types import ObservationTable
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, capabilities_of, make_rng, resolve_model
+from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, Progress, capabilities_of, make_rng, resolve_model
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior
 
 __all__ = [
@@ -74,7 +74,6 @@ __all__ = [
 ]
 
 Array = npt.NDArray[np.float64]
-Progress = Callable[[int, int], None]
 
 #: The wear parameters of Eq. (8); the rest of the model are Table 1's.
 WEAR_PARAMS: tuple[str, ...] = ("Fsw", "vsw", "Fvw")

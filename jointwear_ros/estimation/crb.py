@@ -60,7 +60,7 @@ from scipy.stats import norm, qmc
 
 from ..errors import InputDataError
 from ..model import Model, Parameters
-from ._common import DEFAULT_NOISE_STD, resolve_model
+from ._common import DEFAULT_NOISE_STD, check_noise_std, resolve_model
 from .priors import TemperaturePrior, parse_temperature_prior, uniform_prior
 
 __all__ = [
@@ -140,9 +140,7 @@ def check_crb_inputs(
     tm = float(load)
     if not math.isfinite(tm):
         raise InputDataError(f"load = {load!r} must be a finite load torque (normalized)")
-    sig = float(noise_std)
-    if not (math.isfinite(sig) and sig > 0):
-        raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
+    sig = check_noise_std(noise_std)
     pr = parse_temperature_prior(prior)
     key = str(method).strip().lower().replace("_", "-")
     if key in ("mc", "montecarlo"):

@@ -56,7 +56,17 @@ from scipy.special import logsumexp
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import WEAR_RANGE, Capabilities, Rows, prepare_rows, set_temperature_prior, setup_model, with_set_info
+from ._common import (
+    WEAR_RANGE,
+    Capabilities,
+    Rows,
+    SetModelEstimator,
+    check_noise_std,
+    check_wear_range,
+    prepare_rows,
+    set_temperature_prior,
+    with_set_info,
+)
 from .crb import DEFAULT_CRB_PRIOR, temperature_nodes
 from .priors import TemperaturePrior, parse_temperature_prior
 
@@ -118,7 +128,7 @@ class _Grid:
         return self._eval(self.w[idx])
 
 
-class JointEstimator:
+class JointEstimator(SetModelEstimator):
     """Wear and temperature together from all speeds of one cycle (one shared unknown T).
 
     Parameters
@@ -170,18 +180,11 @@ class JointEstimator:
         seed: int | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        sm = setup_model(model, params, noise_std)
-        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
-        self.param_set, noise_std = sm.param_set, sm.noise_std
+        noise_std = self.attach_set_model(model, params, noise_std)
         self.prior = parse_temperature_prior(prior if prior is not None
                                              else set_temperature_prior(self.param_set, DEFAULT_CRB_PRIOR))
-        if not (math.isfinite(noise_std) and noise_std > 0):
-            raise InputDataError(f"noise_std = {noise_std!r} must be a positive number (normalized torque)")
-        self.noise_std = float(noise_std)
-        lo, hi = (float(wear_range[0]), float(wear_range[1]))
-        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-            raise InputDataError(f"wear_range = {wear_range!r}: needs finite low < high")
-        self.wear_range = (lo, hi)
+        self.noise_std = check_noise_std(noise_std)
+        self.wear_range = lo, hi = check_wear_range(wear_range)
         if not (math.isfinite(wear_step) and 0 < wear_step <= (hi - lo) / (4 * _REFINE)):
             raise InputDataError(f"wear_step = {wear_step!r} must be positive and at most {(hi - lo) / (4 * _REFINE):g}")
         n = math.ceil((hi - lo) / wear_step / _REFINE) * _REFINE

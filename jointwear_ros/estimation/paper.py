@@ -31,7 +31,16 @@ import numpy.typing as npt
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import WEAR_RANGE, Capabilities, Rows, combine_rows, make_rng, prepare_rows, setup_model, with_set_info
+from ._common import (
+    WEAR_RANGE,
+    Capabilities,
+    Rows,
+    SetModelEstimator,
+    combine_rows,
+    make_rng,
+    prepare_rows,
+    with_set_info,
+)
 from .inverse import TemperatureTable, WearInverse, base_friction
 from .priors import parse_temperature_prior
 
@@ -47,7 +56,7 @@ PAPER_N_SAMPLES = 200
 _CHUNK_ELEMENTS = 1 << 18
 
 
-class _PaperBase:
+class _PaperBase(SetModelEstimator):
     """What both implementations share: options, sampling, combination."""
 
     name = "paper"
@@ -66,9 +75,7 @@ class _PaperBase:
         seed: int | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        sm = setup_model(model, params, noise_std)
-        self.full_model, self.model, self.extra, self.params = sm.full_model, sm.model, sm.extra, sm.params
-        self.param_set, noise_std = sm.param_set, sm.noise_std
+        noise_std = self.attach_set_model(model, params, noise_std)
         if temperature_range is None:
             temperature_range = PAPER_TEMPERATURE_RANGE
             if self.param_set is not None and self.param_set.temperature_prior:

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,7 +40,7 @@ import numpy.typing as npt
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ..types import ObservationTable
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, capabilities_of, make_rng, resolve_model
+from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, Progress, capabilities_of, make_rng, resolve_model
 from .priors import TemperaturePrior, normal_prior, parse_temperature_prior
 
 __all__ = [
@@ -56,7 +56,6 @@ __all__ = [
 ]
 
 Array = npt.NDArray[np.float64]
-Progress = Callable[[int, int], None]
 
 #: The data distribution of T in Section 5.1, degC.
 PAPER_STUDY_TEMPERATURE = normal_prior(40.0, 3.0)
