@@ -59,10 +59,9 @@ from importlib import metadata
 from typing import ClassVar, TypeVar
 
 import numpy as np
-import numpy.typing as npt
 
 from ..errors import ModelError
-from .model import Term
+from .model import Array, Inputs, Term, Values
 from .parameters import ParamSpec
 from .terms import STRIBECK_EXPONENT, TERMS, stribeck_shape
 
@@ -86,9 +85,6 @@ __all__ = [
     "shape_class",
 ]
 
-Array = npt.NDArray[np.float64]
-Inputs = Mapping[str, Array]
-Values = Mapping[str, float]
 
 #: Entry point group of shapes from installed packages (``name = pkg.module:Class``).
 SHAPE_ENTRY_POINT_GROUP = "jointwear.shapes"

@@ -56,11 +56,10 @@ from collections.abc import Mapping
 from typing import ClassVar
 
 import numpy as np
-import numpy.typing as npt
 
 from ..errors import ModelError
 from .dimensions import UNIT_DIMENSIONS, Dimension, Relative, unit_dimension
-from .model import Term
+from .model import Array, Inputs, Term, Values
 from .parameters import ParamSpec
 
 __all__ = [
@@ -83,9 +82,6 @@ __all__ = [
     "stribeck_shape",
 ]
 
-Array = npt.NDArray[np.float64]
-Inputs = Mapping[str, Array]
-Values = Mapping[str, float]
 
 #: The Stribeck shape exponent the paper fixes for every exponential term.
 STRIBECK_EXPONENT = 1.3
