@@ -160,11 +160,11 @@ def test_the_estimators_on_a_set_take_model_noise_and_wear_range_from_one_place(
     # joint, bayes and paper took their model and set by three hand-written copies, and joint and bayes checked
     # noise_std and wear_range by two more: one base and two checks in _common now serve them all
     from jointwear_ros.estimation import BayesEstimator, PaperEstimator
-    from jointwear_ros.estimation._common import SetModelEstimator, check_noise_std, check_wear_range
+    from jointwear_ros.estimation._common import SetModelBase, check_noise_std, check_wear_range
 
     for cls in (JointEstimator, BayesEstimator, PaperEstimator):
         est = cls(MODEL, PARAMS, noise_std=0.002)
-        assert isinstance(est, SetModelEstimator)
+        assert isinstance(est, SetModelBase)
         assert est.params.valuesdict() == PARAMS.valuesdict() and est.param_set is None
         assert est.full_model.spec == est.model.spec == MODEL.spec and est.extra is None and est.noise_std == 0.002
     assert check_noise_std(0.002) == 0.002 and check_wear_range((0, 80)) == (0.0, 80.0)

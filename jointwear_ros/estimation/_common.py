@@ -26,7 +26,7 @@ __all__ = [
     "Progress",
     "Rows",
     "SetModel",
-    "SetModelEstimator",
+    "SetModelBase",
     "capabilities_of",
     "check_estimator_options",
     "check_noise_std",
@@ -522,7 +522,7 @@ def setup_model(
     return SetModel(m, core, extra, p, pset, float(noise_std))
 
 
-class SetModelEstimator:
+class SetModelBase:
     """Base of the estimators built on a model and a parameter set: what they take from :func:`setup_model`."""
 
     full_model: Model

@@ -59,7 +59,7 @@ from ..types import ObservationTable, WearResult
 from ._common import (
     WEAR_RANGE,
     Capabilities,
-    SetModelEstimator,
+    SetModelBase,
     check_noise_std,
     check_wear_range,
     combine_rows,
@@ -291,7 +291,7 @@ def _quantile_rows(cdf: Array, w: Array, q: float) -> Array:
     return np.where(cdf[:, 0] >= q, w[0], out)
 
 
-class BayesEstimator(SetModelEstimator):
+class BayesEstimator(SetModelBase):
     """Posterior mean of w per observation with T marginalised under a stated prior.
 
     Parameters

@@ -60,7 +60,7 @@ from ._common import (
     WEAR_RANGE,
     Capabilities,
     Rows,
-    SetModelEstimator,
+    SetModelBase,
     check_noise_std,
     check_wear_range,
     prepare_rows,
@@ -128,7 +128,7 @@ class _Grid:
         return self._eval(self.w[idx])
 
 
-class JointEstimator(SetModelEstimator):
+class JointEstimator(SetModelBase):
     """Wear and temperature together from all speeds of one cycle (one shared unknown T).
 
     Parameters

@@ -31,16 +31,7 @@ import numpy.typing as npt
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
-from ._common import (
-    WEAR_RANGE,
-    Capabilities,
-    Rows,
-    SetModelEstimator,
-    combine_rows,
-    make_rng,
-    prepare_rows,
-    with_set_info,
-)
+from ._common import WEAR_RANGE, Capabilities, Rows, SetModelBase, combine_rows, make_rng, prepare_rows, with_set_info
 from .inverse import TemperatureTable, WearInverse, base_friction
 from .priors import parse_temperature_prior
 
@@ -56,7 +47,7 @@ PAPER_N_SAMPLES = 200
 _CHUNK_ELEMENTS = 1 << 18
 
 
-class _PaperBase(SetModelEstimator):
+class _PaperBase(SetModelBase):
     """What both implementations share: options, sampling, combination."""
 
     name = "paper"
