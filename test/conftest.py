@@ -4,7 +4,9 @@
   ``make test-fast`` leaves them out), ``slow`` for tests without a graph that take 20 s or more here.
   A test that uses ``ros_context``, ``ros_context_per_test``, ``node_process`` or ``graph_client``
   is marked ``ros`` here, whether or not its module says so.
-- Every module runs on a ROS domain of its own and may leave no process running.
+- Every module runs on a ROS domain of its own, from the run's range ``JOINTWEAR_TEST_DOMAINS``
+  (``LO-HI``, default 10-149; ``make test`` picks a block no other suite on the machine holds), and
+  may leave no process running.
 - :func:`spin_until` waits for a condition (never for a time); :class:`NodeProcess` is a node in its
   own process; :class:`GraphClient` is the test's own node (executor, service calls, parameters,
   diagnostics). Test modules import these (``from conftest import ...``) or use the fixtures.
@@ -29,10 +31,9 @@ from typing import Any
 
 import pytest
 
-# Before anything imports rclpy: DDS discovery on loopback only, and a
-# per-run domain so parallel runs on one machine do not see each other.
+# Before anything imports rclpy: DDS discovery on loopback only (each module then gets a domain of
+# the run's own range, below).
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ.setdefault("ROS_DOMAIN_ID", str(random.Random(os.getpid()).randint(10, 99)))
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
@@ -60,12 +61,75 @@ def pytest_collection_modifyitems(config, items):
 
 # --------------------------------------------------------------------------- a domain per test module
 
-#: Domains handed to the test modules: 10-149 (Fast DDS refuses ids above 232; 150-232 stay free for
-#: a developer's own runs). Each module gets the next one after the run's own start value, so no
-#: two modules of a run share a domain (a node an earlier module left would answer a later one's
-#: messages) and two runs on one machine start far apart.
-_DOMAINS = itertools.cycle(range(10, 150))
-for _ in range(random.Random(os.getpid() ^ int(time.time())).randrange(140)):
+#: The environment variable that gives the run its ROS domains, ``LO-HI`` (inclusive), and its default.
+#: Fast DDS refuses ids above 232. ``make test`` sets a block of 20 that no other running suite on the
+#: machine holds (:func:`free_domain_block`), so two suites on one machine never share a domain; a bare
+#: ``pytest`` takes the default (and 150-232 stay free for a developer's own runs).
+DOMAINS_ENV = "JOINTWEAR_TEST_DOMAINS"
+DEFAULT_DOMAINS = "10-149"
+#: the highest domain id Fast DDS accepts
+MAX_DOMAIN = 232
+
+
+def parse_domains(text: str) -> range:
+    """The domains of ``LO-HI`` (inclusive, 0 <= LO <= HI <= 232); ``ValueError`` naming the variable otherwise."""
+    lo_hi = text.strip().split("-")
+    try:
+        if len(lo_hi) > 2:
+            raise ValueError
+        lo, hi = int(lo_hi[0]), int(lo_hi[-1])
+    except ValueError:
+        raise ValueError(f"{DOMAINS_ENV}={text!r}: give a range LO-HI of ROS domain ids, e.g. {DEFAULT_DOMAINS}") from None
+    if not 0 <= lo <= hi <= MAX_DOMAIN:
+        raise ValueError(f"{DOMAINS_ENV}={text!r}: need 0 <= LO <= HI <= {MAX_DOMAIN} (Fast DDS refuses larger ids)")
+    return range(lo, hi + 1)
+
+
+def domains_of_this_process(text: str, worker: str | None, workers: str | None) -> range:
+    """This process's share of the run's domains: all of them, or, in pytest-xdist worker ``gwN`` of
+    ``workers``, every ``workers``-th from the ``N``-th (two workers of a run never share one)."""
+    domains = parse_domains(text)
+    if worker and workers and worker.startswith("gw"):
+        share = domains[int(worker[2:]) % int(workers)::int(workers)]
+        if len(share):
+            return share
+    return domains
+
+
+def free_domain_block(width: int = 20, first: int = 10, last: int = 229) -> str:
+    """A block ``LO-HI`` of ``width`` domains that no live process's ``JOINTWEAR_TEST_DOMAINS`` overlaps
+    (the Makefile's per-run range); by this process's id when every block is taken."""
+    taken: list[range] = []
+    for entry in os.listdir("/proc") if os.path.isdir("/proc") else ():
+        try:
+            with open(f"/proc/{entry}/environ", "rb") as fh:
+                env = fh.read().split(b"\0")
+        except OSError:
+            continue
+        for var in env:
+            if var.startswith(DOMAINS_ENV.encode() + b"="):
+                try:
+                    taken.append(parse_domains(var.split(b"=", 1)[1].decode()))
+                except ValueError:
+                    pass
+    blocks = [range(lo, lo + width) for lo in range(first, last - width + 2, width)]
+    free = [b for b in blocks if not any(set(b) & set(t) for t in taken)]
+    block = free[0] if free else blocks[os.getpid() % len(blocks)]
+    return f"{block[0]}-{block[-1]}"
+
+
+try:
+    _RUN_DOMAINS = domains_of_this_process(os.environ.get(DOMAINS_ENV, DEFAULT_DOMAINS),
+                                           os.environ.get("PYTEST_XDIST_WORKER"),
+                                           os.environ.get("PYTEST_XDIST_WORKER_COUNT"))
+except ValueError as exc:
+    raise pytest.UsageError(str(exc)) from None
+os.environ.setdefault("ROS_DOMAIN_ID", str(_RUN_DOMAINS[0]))  # until a module sets its own
+#: Each module gets the next domain of the run's after a random start, so no two modules of a run
+#: share a domain while there are enough (a node an earlier module left would answer a later one's
+#: messages) and two runs on one range start far apart.
+_DOMAINS = itertools.cycle(_RUN_DOMAINS)
+for _ in range(random.Random(os.getpid() ^ int(time.time())).randrange(len(_RUN_DOMAINS))):
     next(_DOMAINS)
 #: Every process a test starts inherits this tag in its environment: what is still running with it
 #: when the module ends was left behind.
