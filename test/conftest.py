@@ -53,6 +53,13 @@ def pytest_configure(config):
         config.addinivalue_line("markers", f"{name}: {text}")
 
 
+def pytest_pycollect_makeitem(collector, name, obj):
+    """A message class a test module imports is not a test class, whatever its name (``TestCycleStatus``)."""
+    if isinstance(obj, type) and obj.__module__.startswith("jointwear_msgs."):
+        return []
+    return None
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if ROS_FIXTURES & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("ros") is None:

@@ -33,8 +33,7 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import GraphClient, NodeProcess  # noqa: E402
-from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate  # noqa: E402
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import Temperature  # noqa: E402
@@ -57,12 +56,12 @@ class Operator(GraphClient):
 
     def __init__(self, context, children: list[NodeProcess]):
         super().__init__(context, "jw_live_operator", children, diagnostics=["/diagnostics"], qos=QOS)
-        self.status: list[CycleStatus] = []
+        self.status: list[TestCycleStatus] = []
         self.estimates: list[WearEstimate] = []
         self.relayed: list[FrictionObservation] = []
         self.corrupt_cycle = 0  # the relay sets the temperature of this cycle's first observation to -300
         n = self.node
-        n.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
+        n.create_subscription(TestCycleStatus, "/test_cycle/status", self.status.append, QOS)
         n.create_subscription(WearEstimate, "/jointwear/wear_estimate", self.estimates.append, QOS)
         n.create_subscription(FrictionObservation, RAW, self._relay, QOS)
         self.obs_pub = n.create_publisher(FrictionObservation, "/jointwear/friction_observations", QOS)

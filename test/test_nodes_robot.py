@@ -34,8 +34,7 @@ from hypothesis import strategies as st
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import GraphClient, NodeProcess  # noqa: E402
-from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate  # noqa: E402
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 
@@ -88,7 +87,7 @@ class Robot(GraphClient):
         super().__init__(context, "jw_robot_test", children, diagnostics=("/diagnostics", f"{NS}/diagnostics"), qos=QOS)
         n = self.node
         self.js_pub = n.create_publisher(JointState, f"{NS}/joint_states", QOS)
-        self.st_pub = n.create_publisher(CycleStatus, f"{NS}/status", QOS)
+        self.st_pub = n.create_publisher(TestCycleStatus, f"{NS}/status", QOS)
         self.tp_pub = n.create_publisher(Temperature, f"{NS}/temperature", QOS)
         self.observations: list[FrictionObservation] = []
         self.estimates: list[WearEstimate] = []
@@ -121,8 +120,8 @@ class Robot(GraphClient):
         m.effort = [float(x) for x in eff]
         return m
 
-    def status(self, st, joints_done: int, joints=JOINTS) -> CycleStatus:
-        m = CycleStatus()
+    def status(self, st, joints_done: int, joints=JOINTS) -> TestCycleStatus:
+        m = TestCycleStatus()
         m.header.stamp = seconds_to_stamp(st[0])
         m.cycle_id, m.state, m.phase = st[1], st[2], st[3]
         m.current_speed, m.speeds_done, m.speeds_total = st[4], st[5], st[6]

@@ -20,7 +20,7 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import GraphClient, NodeProcess  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import TestCycleStatus  # noqa: E402  (a message, not a test class: conftest)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 from rcl_interfaces.srv import GetParameters  # noqa: E402
 from rclpy.parameter import parameter_value_to_python  # noqa: E402
@@ -52,12 +52,12 @@ class Operator(GraphClient):
     def __init__(self, context):
         super().__init__(context, "robot_operator", diagnostics=["/diagnostics"], qos=QOS)
         n = self.node
-        self.status: list[CycleStatus] = []
+        self.status: list[TestCycleStatus] = []
         self.commands: list[list[float]] = []
         #: (stamp, positions) per /joint_states sample (sim time; the subscriber may lag behind the status)
         self.samples: list[tuple[float, list[float]]] = []
         self.temperatures: dict[str, float] = {}
-        n.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
+        n.create_subscription(TestCycleStatus, "/test_cycle/status", self.status.append, QOS)
         n.create_subscription(Float64MultiArray, "/velocity_controller/commands",
                               lambda m: self.commands.append(list(m.data)), QOS)
         n.create_subscription(JointState, "/joint_states", self._on_js, QOS)
@@ -104,10 +104,10 @@ class Operator(GraphClient):
         res = self.call(self.get_client, GetParameters.Request(names=list(names)))
         return [parameter_value_to_python(v) for v in res.values]
 
-    def mine(self, cid: int) -> list[CycleStatus]:
+    def mine(self, cid: int) -> list[TestCycleStatus]:
         return [m for m in self.status if m.cycle_id == cid]
 
-    def wait_end(self, cid: int, timeout: float = 60.0) -> CycleStatus:
+    def wait_end(self, cid: int, timeout: float = 60.0) -> TestCycleStatus:
         def ended() -> bool:
             m = self.mine(cid)
             if not m or m[-1].state not in ENDED:

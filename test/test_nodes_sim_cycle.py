@@ -21,7 +21,7 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 from conftest import GraphClient, NodeProcess  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import TestCycleStatus  # noqa: E402  (a message, not a test class: conftest)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
 from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
@@ -50,12 +50,12 @@ class Operator(GraphClient):
 
     def __init__(self, context):
         super().__init__(context, "operator")
-        self.status: list[CycleStatus] = []
+        self.status: list[TestCycleStatus] = []
         self.commands: list[float] = []
         self.joint_states = 0
         self.diag: list = []  # DiagnosticStatus of test_cycle
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, QOS)
-        self.node.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
+        self.node.create_subscription(TestCycleStatus, "/test_cycle/status", self.status.append, QOS)
         self.node.create_subscription(
             Float64MultiArray, "/velocity_controller/commands", lambda m: self.commands.append(m.data[0] if len(m.data) else math.nan), QOS
         )
@@ -121,7 +121,7 @@ class Operator(GraphClient):
                 return m.state
         return None
 
-    def wait_state(self, cycle_id: int, states: tuple[int, ...], timeout: float = 30.0) -> CycleStatus:
+    def wait_state(self, cycle_id: int, states: tuple[int, ...], timeout: float = 30.0) -> TestCycleStatus:
         assert self.spin_until(lambda: self.last_state(cycle_id) in states, timeout), (
             f"cycle {cycle_id} did not reach {states}; last status: {self.status[-1] if self.status else None}"
         )
