@@ -25,6 +25,7 @@ import sys
 import tempfile
 import time
 import uuid
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,175 @@ MARKERS = {
     "ros": "a process or graph test: real rclpy/DDS on loopback (left out by make test-fast; run serially)",
     "slow": "no ROS graph, but 20 s or more on the shared 2-core machine (a costly fixture counts; left out by make test-fast)",
 }
+#: What ``make test-fast`` leaves out besides the ``ros`` tests: these tests (marker ``slow``, given here
+#: and nowhere else), by file and function (all its parameters). They are the costliest tests without
+#: a ROS graph: ``pytest --durations=0 -m "not ros" -n 2`` on this 2-core machine, each 7 s or more
+#: there (about 1 s or more of CPU idle; a module's costly fixture counts on its first test) — whole
+#: workbench discoveries on many seeds, a plant page served and scraped, process pools, Ctrl-C
+#: drills, installs into a prefix, the mutation run. ``make test`` runs them; so does ``-m slow``.
+SLOW_TESTS: dict[str, tuple[str, ...]] = {
+    "test_bag_discovery_reprocess.py": (
+        "test_a_bag_without_recorded_settings_is_refused_unless_params_and_method_are_given",
+        "test_ctrl_c_during_fleet_reprocess_prints_one_line",
+        "test_reprocess_says_the_settings_per_bag_and_robot_given_lines_up_with_history_import",
+    ),
+    "test_bag_recover.py": (
+        "test_random_damage_never_yields_an_invented_or_altered_message",
+        "test_recover_of_a_file_cut_anywhere_gives_exactly_the_complete_chunks_before_the_cut",
+        "test_the_writer_produces_a_checked_bag_that_rosbags_and_mcap_read_completely",
+    ),
+    "test_cli_history.py": (
+        "test_trend_plots_and_html_rank_the_joints_by_time_to_alarm",
+    ),
+    "test_cli_model.py": (
+        "test_bad_arguments_give_one_line_error_and_exit_code_2",
+    ),
+    "test_cli_study.py": (
+        "test_robustness_reports_which_estimators_stay_unbiased",
+    ),
+    "test_cli_workbench.py": (
+        "test_diagnose_json_contract",
+        "test_diagnose_markdown_says_what_the_json_says_in_markdown",
+        "test_diagnose_prints_json_and_html_say_the_same",
+        "test_every_candidate_term_appended_to_the_spec_is_accepted_by_fit",
+        "test_fit_json_states_the_goodness_of_fit_against_the_noise_floor",
+    ),
+    "test_commission.py": (
+        "test_the_documented_command_sequence_runs_as_written",
+    ),
+    "test_commission_effect.py": (
+        "test_a_clean_baseline_with_a_within_sweep_tau_f_std_is_nothing_missing",
+        "test_a_found_effect_that_validates_on_held_out_cycles_is_carried_into_the_set",
+        "test_an_effect_of_epoch_time_stamps_gets_a_spline_whose_range_survives_the_spec",
+        "test_an_explicit_model_is_kept_and_the_finding_only_reported",
+    ),
+    "test_condition.py": (
+        "test_a_cycle_with_no_observation_leaves_the_level_as_it_was",
+        "test_a_failed_cycle_with_one_speed_leaves_the_level_as_it_was_and_names_test_cycles_reason",
+        "test_one_outlier_20_above_a_flat_history_is_held_and_a_confirmed_step_moves_the_level_at_once",
+        "test_the_monitor_and_the_trend_agree_on_the_same_estimates",
+    ),
+    "test_docs_examples.py": (
+        "test_every_python_and_sh_block_of_the_guide_runs_in_order",
+    ),
+    "test_estimation_joint.py": (
+        "test_spread_of_estimates_is_near_the_multi_speed_bound_and_unbiased",
+    ),
+    "test_faults28_bags.py": (
+        "test_metadata_of_any_type_in_any_key_is_read_or_refused_in_one_line_naming_the_key",
+    ),
+    "test_faults28_ctrl_c.py": (
+        "test_ctrl_c_while_the_dask_cluster_starts_is_not_lost",
+    ),
+    "test_faults28_guards.py": (
+        "test_a_set_whose_model_misses_an_effect_takes_its_validation_error_as_noise_not_the_floor",
+    ),
+    "test_faults28_ledger.py": (
+        "test_a_deadlock_that_outlasts_the_retries_is_one_line_and_exit_2",
+    ),
+    "test_fleet.py": (
+        "test_a_new_parameter_set_is_a_new_analysis_version_and_compare_names_the_changes",
+        "test_an_interrupted_reprocess_resumes_where_it_stopped",
+        "test_reprocess_bag_never_raises_for_broken_bags",
+        "test_reprocess_bag_of_a_damaged_mcap_gives_an_error_or_records_never_an_exception",
+        "test_reprocess_of_20_bags_gives_20_estimates_once_and_reports_the_broken_bag",
+        "test_scheduler_that_is_not_there_is_a_one_line_error",
+    ),
+    "test_history_store.py": (
+        "test_concurrent_writer_processes_lose_nothing_and_duplicate_nothing",
+        "test_processes_opening_a_new_store_at_once_agree_on_one_schema",
+    ),
+    "test_installed_prefix.py": (
+        "test_installed_cli_runs_from_the_prefix",
+        "test_installed_layout_has_the_share_files_and_scripts",
+        "test_installed_package_finds_its_parameter_sets_through_the_ament_index",
+    ),
+    "test_mutation.py": (
+        "test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught",
+    ),
+    "test_package_layout.py": (
+        "test_every_ros_package_the_code_imports_is_an_exec_depend",
+    ),
+    "test_pictures_read_right.py": (
+        "test_band_legend_is_below_the_bars",
+        "test_case_study_figure_shows_every_curve_whole",
+        "test_model_add_twice_adds_no_duplicate_versions_and_error_fall_says_what_each_added",
+        "test_nothing_missing_report_names_no_term_has_no_empty_table_and_formats_its_numbers",
+        "test_residual_axes_have_units_and_fitted_marks_lie_under_the_data",
+    ),
+    "test_properties_estimators.py": (
+        "test_estimators_give_a_finite_estimate_or_the_projects_error",
+    ),
+    "test_real_logs.py": (
+        "test_a_published_sweep_at_one_temperature_with_a_noisy_velocity_is_converted_and_commissioned",
+        "test_a_real_100hz_log_without_plateaus_is_converted_and_commissioned_to_a_set",
+    ),
+    "test_replay.py": (
+        "test_replay_and_bag_info_flag_a_bag_whose_recorder_lost_messages",
+    ),
+    "test_serve.py": (
+        "test_a_locked_store_is_reported_and_requests_stay_fast",
+        "test_a_new_estimate_appears_on_the_page_and_in_metrics_without_a_restart",
+        "test_a_store_being_migrated_is_reported_then_served_once_migrated",
+        "test_api_rows_are_strict_json_with_nulls_where_unknown",
+        "test_bad_rows_written_straight_into_the_store_never_hide_an_error_joint",
+        "test_page_api_metrics_and_trend_json_agree_on_every_joint_of_a_plant",
+        "test_serve_never_writes_and_survives_the_store_going_away_and_coming_back",
+        "test_serve_reads_a_postgresql_history_as_the_trend_does",
+        "test_trend_stale_days_moves_the_silent_joint_and_never_an_error",
+    ),
+    "test_serve_browser.py": (
+        "test_a_screenshot_of_the_plant_page",
+        "test_chromium_shows_the_error_joint_as_error_with_its_numbers_and_the_plot_drawn",
+        "test_the_open_page_shows_a_new_estimate_without_a_reload",
+    ),
+    "test_serve_prometheus.py": (
+        "test_a_real_prometheus_scrapes_serve_and_the_error_rule_fires_for_the_error_joint",
+        "test_every_metric_the_rules_and_the_dashboard_name_is_one_serve_exports",
+    ),
+    "test_trend_core.py": (
+        "test_fleet_scores_are_in_their_targets",
+        "test_interval_holds_the_true_time_to_alarm_for_most_growing_joints_and_is_narrower_than_it",
+        "test_no_flat_joint_ever_warns",
+    ),
+    "test_visible_where.py": (
+        "test_fleet_reprocess_rerun_with_another_robot_is_refused_with_the_reason",
+        "test_fleet_reprocess_says_a_robot_name_came_from_a_folder_and_where_it_stored",
+    ),
+    "test_wear_scale.py": (
+        "test_default_calibration_on_robots_unlike_the_reference_is_honest",
+    ),
+    "test_workbench_acceptance.py": (
+        "test_clean_data_shows_no_significant_effect_in_at_least_19_of_20_seeds",
+        "test_each_hidden_effect_is_found_and_adding_it_reaches_the_noise_floor",
+        "test_standard_model_journey_adds_load_and_temperature_terms_until_the_noise_floor",
+    ),
+    "test_workbench_discovery.py": (
+        "test_a_column_correlated_with_a_model_input_is_found_on_top_of_the_models_tangent_space",
+        "test_a_dozen_irrelevant_columns_raise_no_alarm_on_clean_data",
+        "test_a_model_missing_two_effects_is_unexplained_after_its_best_single_term",
+        "test_a_regreasing_step_with_few_cycles_ranks_time_first_and_its_refit_reaches_the_floor",
+        "test_a_residual_above_the_floor_that_no_column_explains_is_unexplained",
+        "test_a_stribeck_hump_reshaped_by_temperature_is_found_with_few_cycles",
+        "test_a_temperature_effect_is_not_credited_to_the_correlated_motor_temperature",
+        "test_a_time_drift_with_few_cycles_ranks_time_above_a_per_cycle_column",
+        "test_a_torque_constant_with_few_cycles_is_not_explained_by_another_per_cycle_column",
+        "test_clean_tables_give_nothing_missing",
+        "test_diagnosis_json_keeps_the_old_fields_and_adds_the_issue_11_contract",
+        "test_each_family_is_found_and_the_suggestion_reaches_the_noise_floor",
+        "test_the_ranking_finds_the_fast_ripple_frequency_and_the_regreasing_day",
+        "test_the_ranking_puts_the_hidden_variable_first",
+        "test_two_columns_the_data_cannot_tell_apart_give_unexplained_naming_both",
+    ),
+    "test_workbench_faults.py": (
+        "test_small_tables_and_few_valued_columns_give_a_verdict",
+        "test_two_outliers_in_a_clean_table_are_named_and_never_found",
+    ),
+    "test_workbench_units.py": (
+        "test_scaling_the_torque_by_k_scales_the_fit_by_k_with_the_same_verdict",
+        "test_standard_fit_of_a_panda_joint_in_newton_metres_reaches_a_plain_least_squares_fit",
+    ),
+}
 #: Fixtures that put a test on a ROS graph: a test using one is a ``ros`` test.
 ROS_FIXTURES = frozenset({"ros_context", "ros_context_per_test", "node_process", "graph_client"})
 
@@ -60,10 +230,25 @@ def pytest_pycollect_makeitem(collector, name, obj):
     return None
 
 
+@pytest.hookimpl(tryfirst=True)  # before -m and -k deselect: every test collected is seen
 def pytest_collection_modifyitems(config, items):
+    listed = {(f, n) for f, names in SLOW_TESTS.items() for n in names}
+    seen_files, seen = set(), set()
     for item in items:
         if ROS_FIXTURES & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("ros") is None:
             item.add_marker(pytest.mark.ros)
+        key = (item.path.name, getattr(item, "originalname", item.name))
+        seen_files.add(key[0])
+        if key in listed:
+            seen.add(key)
+            if item.get_closest_marker("slow") is None:
+                item.add_marker(pytest.mark.slow)
+    # a name left in the list after its test was renamed would quietly put the test back in the quick tier
+    whole_files = all(Path(a.split("::")[0]).is_dir() or "::" not in a for a in config.args)
+    stale = sorted(f"{f}::{n}" for f, n in listed - seen if f in seen_files)
+    if stale and whole_files:
+        warnings.warn(pytest.PytestWarning(f"conftest.SLOW_TESTS names tests that are not there: {', '.join(stale)}"),
+                      stacklevel=1)
 
 
 # --------------------------------------------------------------------------- a domain per test module
