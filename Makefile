@@ -71,8 +71,12 @@ test: env
 	$(PY) -m pytest -q -m ros test || rc=1; \
 	exit $$rc
 
-# The quick tier while you work: everything but the process and graph tests (marker ros) and
-# the few slow ones (marker slow); make test before you stop.
+# The quick tier while you work (at most a minute on this 2-core machine idle; docs/testing.md):
+# nearly nine tests in ten. It leaves out the process and graph tests (marker ros: real nodes over
+# DDS, run one at a time, the README walk among them) and the costliest tests without a graph
+# (marker slow, listed once in test/conftest.py's SLOW_TESTS by their measured durations: seeded
+# workbench discoveries, a served and scraped plant, process pools, Ctrl-C drills, the mutation run).
+# make test runs them all: run it before you stop.
 test-fast: env
 	@$(TEST_DOMAINS); $(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
 

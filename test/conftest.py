@@ -20,8 +20,6 @@ import os
 import random
 import shutil
 import signal
-import subprocess
-import sys
 import tempfile
 import time
 import uuid
@@ -31,6 +29,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
+from jointwear_ros.nodes.cell import Child, die_with_parent, start_child
 
 # Before anything imports rclpy: DDS discovery on loopback only (each module then gets a domain of
 # the run's own range, below).
@@ -410,12 +410,9 @@ def spin_until(executor: Any, predicate: Callable[[], object], timeout: float = 
     return bool(predicate())
 
 
-def _param_text(v: object) -> str:
-    return ("true" if v else "false") if isinstance(v, bool) else str(v)
-
-
-class NodeProcess:
-    """A node in its own process (``python -m jointwear_ros.nodes.<name>``, as ``ros2 run`` starts it).
+class NodeProcess(Child):
+    """A node in its own process (``python -m jointwear_ros.nodes.<name>``, as ``ros2 run`` starts it): the cell
+    library's :func:`~jointwear_ros.nodes.cell.start_child` with the harness's defaults.
 
     Its ``config/<name>.yaml`` (unless ``config=False``), then ``params_files``, then ``params`` as ``-p``
     overrides, then ``args``; on the module's domain and loopback unless ``env`` says otherwise; its output
@@ -425,61 +422,15 @@ class NodeProcess:
     def __init__(self, name: str, params: Mapping[str, object] | None = None, *, params_files: Sequence[Path] = (),
                  args: Sequence[str] = (), config: bool = True, env: Mapping[str, str] | None = None,
                  log: Path | None = None, preexec_fn: Callable[[], None] | None = None):
-        from jointwear_ros.nodes.cell import die_with_parent
         from jointwear_ros.nodes.runtime import loopback_env
 
-        self.name = name
-        cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args"]
-        if config:
-            cmd += ["--params-file", str(ROOT / "config" / f"{name}.yaml")]
-        for f in params_files:
-            cmd += ["--params-file", str(f)]
-        for k, v in (params or {}).items():
-            cmd += ["-p", f"{k}:={_param_text(v)}"]
-        cmd += list(args)
-        self._own_log = log is None
-        if log is None:
-            fd, name_ = tempfile.mkstemp(prefix=f"{name}-", suffix=".log")
-            os.close(fd)
-            log = Path(name_)
-        self.log = log
-        with log.open("wb") as fh:
-            self.proc = subprocess.Popen(cmd, env=loopback_env() if env is None else dict(env), stdout=fh,
-                                         stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                         preexec_fn=preexec_fn or die_with_parent)
-
-    @property
-    def pid(self) -> int:
-        return self.proc.pid
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
-        """Send ``sig`` (SIGINT: as Ctrl-C), wait ``timeout`` s, then SIGKILL; the exit code."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        return int(self.proc.returncode)
-
-    def output(self) -> str:
-        try:
-            return self.log.read_text(errors="replace")
-        except OSError:
-            return ""
+        child = start_child(name, params or {}, loopback_env() if env is None else env, log=log,
+                            params_files=params_files, args=args, config=config, as_module=True,
+                            preexec_fn=preexec_fn or die_with_parent)
+        super().__init__(child.name, child.proc, child.log, child.fh, child.own_log)
 
     def log_tail(self, lines: int = 20) -> str:
         return "\n".join(self.output().strip().splitlines()[-lines:])
-
-    def close(self) -> None:
-        """Stop it (if still running) and remove the log it made itself."""
-        self.stop()
-        if self._own_log:
-            self.log.unlink(missing_ok=True)
 
 
 class GraphClient:

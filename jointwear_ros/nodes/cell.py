@@ -2,10 +2,12 @@
 
 What ``jointwear demo`` does, reusable by scripts and tests:
 
-- :func:`start_child` starts one node's console script with its ``config/<node>.yaml`` and ``-p``
-  overrides, in the environment it is given (build it with
+- :func:`start_child` starts one node's console script (or ``python -m``) with its ``config/<node>.yaml``,
+  parameter files and ``-p`` overrides, in the environment it is given (build it with
   :func:`jointwear_ros.nodes.runtime.loopback_env`: loopback discovery, a domain of its own), its
-  output in ``logdir/<node>.log``; :func:`stop_children` stops them (SIGINT, then SIGTERM, SIGKILL).
+  output in ``logdir/<node>.log`` (or a file of its own); :class:`Child` is the process (``stop``,
+  ``output``, ``log_tail``); :func:`stop_children` stops a cell (SIGINT, then SIGTERM, SIGKILL). The test
+  harness (test/conftest.py's ``NodeProcess``) starts its nodes with these too.
 - :class:`Operator` is an rclpy node in its own context, on the cell's domain: it waits for the
   graph (:func:`ready_conditions`), calls ``/test_cycle/run`` (:meth:`Operator.start_cycle` retries a
   refusal whose :class:`~jointwear_ros.contract.RefusalReason` is ``retryable``), collects the
@@ -30,6 +32,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -55,22 +58,48 @@ def _quiet(text: str) -> None:
 
 @dataclass
 class Child:
-    """One node process and its log file."""
+    """One node process and its log file (``own_log``: a temporary file :meth:`close` removes)."""
 
     name: str
     proc: subprocess.Popen[bytes]
     log: Path
     fh: IO[bytes]
+    own_log: bool = False
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
 
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def log_tail(self, lines: int = 8) -> str:
+    def output(self) -> str:
+        """Everything the node wrote so far."""
         try:
-            text = self.log.read_text(errors="replace").strip().splitlines()
+            return self.log.read_text(errors="replace")
         except OSError:
             return ""
-        return " | ".join(text[-lines:])
+
+    def log_tail(self, lines: int = 8) -> str:
+        return " | ".join(self.output().strip().splitlines()[-lines:])
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
+        """Send ``sig`` (SIGINT: as Ctrl-C), wait ``timeout`` s, then SIGKILL; the exit code."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        self.fh.close()
+        return int(self.proc.returncode)
+
+    def close(self) -> None:
+        """Stop it (if still running) and remove its log if the log is its own temporary file."""
+        self.stop()
+        if self.own_log:
+            self.log.unlink(missing_ok=True)
 
 
 @dataclass
@@ -147,20 +176,39 @@ def die_with_parent() -> None:
         _PRCTL(_PR_SET_PDEATHSIG, int(signal.SIGTERM))
 
 
-def start_child(name: str, params: Mapping[str, Any], env: Mapping[str, str], logdir: Path) -> Child:
-    """Start node ``name`` with its config file and ``params`` overrides; output to ``logdir/<name>.log``."""
-    cmd = [_executable(name), "--ros-args"]
+def start_child(name: str, params: Mapping[str, Any], env: Mapping[str, str], logdir: Path | None = None, *,
+                log: Path | None = None, params_files: Sequence[Path] = (), args: Sequence[str] = (),
+                config: bool = True, as_module: bool = False,
+                preexec_fn: Callable[[], None] | None = die_with_parent) -> Child:
+    """Start node ``name``: its config file (unless ``config=False``), then ``params_files``, then ``params`` as
+    ``-p`` overrides, then ``args``.
+
+    Its output goes to ``log``, else ``logdir/<name>.log``, else a temporary file (:meth:`Child.close`
+    removes it). ``as_module``: run ``python -m jointwear_ros.nodes.<name>`` with this interpreter (the
+    package on ``sys.path``, as a test of a checkout wants) instead of the console script.
+    """
+    cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}"] if as_module else [_executable(name)]
+    cmd.append("--ros-args")
     cfg = config_path(f"{name}.yaml")
-    if cfg.is_file():
+    if config and cfg.is_file():
         cmd += ["--params-file", str(cfg)]
-    cmd += _param_args(params)
-    log = logdir / f"{name}.log"
+    for f in params_files:
+        cmd += ["--params-file", str(f)]
+    cmd += _param_args(params) + list(args)
+    own = log is None and logdir is None
+    if log is None:
+        if logdir is None:
+            fd, tmp = tempfile.mkstemp(prefix=f"{name}-", suffix=".log")
+            os.close(fd)
+            log = Path(tmp)
+        else:
+            log = logdir / f"{name}.log"
     fh = log.open("wb")
     fh.write(("$ " + " ".join(cmd) + "\n").encode())
     fh.flush()
     proc = subprocess.Popen(cmd, env=dict(env), stdout=fh, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                            preexec_fn=die_with_parent)
-    return Child(name, proc, log, fh)
+                            preexec_fn=preexec_fn)
+    return Child(name, proc, log, fh, own)
 
 
 def stop_children(children: Sequence[Child], sigint_timeout: float = 15.0, sigterm_timeout: float = 5.0,
