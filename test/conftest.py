@@ -53,14 +53,23 @@ MARKERS = {
 #: drills, installs into a prefix, the mutation run. ``make test`` runs them; so does ``-m slow``.
 SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_bag_discovery_reprocess.py": (
+        "test_a_bag_folder_without_metadata_is_a_failed_bag_not_left_out",
         "test_a_bag_without_recorded_settings_is_refused_unless_params_and_method_are_given",
         "test_ctrl_c_during_fleet_reprocess_prints_one_line",
         "test_reprocess_says_the_settings_per_bag_and_robot_given_lines_up_with_history_import",
     ),
     "test_bag_recover.py": (
+        "test_bag_info_and_replay_refuse_a_bag_with_20_kb_zeroed_in_the_middle",
         "test_random_damage_never_yields_an_invented_or_altered_message",
         "test_recover_of_a_file_cut_anywhere_gives_exactly_the_complete_chunks_before_the_cut",
         "test_the_writer_produces_a_checked_bag_that_rosbags_and_mcap_read_completely",
+    ),
+    "test_cli_cycle.py": (
+        "test_default_candidates_give_a_cycle_the_test_cycle_node_accepts",
+    ),
+    "test_cli_faults.py": (
+        "test_design_never_prints_a_bound_below_the_known_temperature_bound",
+        "test_the_real_process_prints_one_line_and_verbose_adds_the_traceback",
     ),
     "test_cli_history.py": (
         "test_trend_plots_and_html_rank_the_joints_by_time_to_alarm",
@@ -72,11 +81,16 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_robustness_reports_which_estimators_stay_unbiased",
     ),
     "test_cli_workbench.py": (
+        "test_add_shows_before_and_after_per_speed_band_and_keeps_a_json_history",
         "test_diagnose_json_contract",
         "test_diagnose_markdown_says_what_the_json_says_in_markdown",
         "test_diagnose_prints_json_and_html_say_the_same",
+        "test_diagnose_table_names_the_effect_and_the_next_command",
         "test_every_candidate_term_appended_to_the_spec_is_accepted_by_fit",
         "test_fit_json_states_the_goodness_of_fit_against_the_noise_floor",
+        "test_fit_report_writes_pngs_and_a_self_contained_html",
+        "test_report_command_with_diagnosis_and_history",
+        "test_the_real_command_exits_2_with_one_line_on_bad_data",
     ),
     "test_commission.py": (
         "test_the_documented_command_sequence_runs_as_written",
@@ -128,6 +142,9 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_installed_layout_has_the_share_files_and_scripts",
         "test_installed_package_finds_its_parameter_sets_through_the_ament_index",
     ),
+    "test_monitor.py": (
+        "test_finished_cycles_are_remembered_up_to_a_bound",
+    ),
     "test_mutation.py": (
         "test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught",
     ),
@@ -137,6 +154,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_pictures_read_right.py": (
         "test_band_legend_is_below_the_bars",
         "test_case_study_figure_shows_every_curve_whole",
+        "test_joints_past_the_alarm_say_so_and_the_page_shows_figures_in_the_ranked_order",
         "test_model_add_twice_adds_no_duplicate_versions_and_error_fall_says_what_each_added",
         "test_nothing_missing_report_names_no_term_has_no_empty_table_and_formats_its_numbers",
         "test_residual_axes_have_units_and_fitted_marks_lie_under_the_data",
@@ -151,25 +169,37 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_replay.py": (
         "test_replay_and_bag_info_flag_a_bag_whose_recorder_lost_messages",
     ),
+    "test_replay_robot.py": (
+        "test_history_import_of_a_robot_bag_stores_one_entry_per_joint_and_cycle_once",
+        "test_replay_json_has_an_entry_per_joint_and_keeps_the_one_joint_fields",
+        "test_replay_of_a_robot_bag_skips_a_bad_sample_only_for_its_joint",
+    ),
     "test_serve.py": (
         "test_a_locked_store_is_reported_and_requests_stay_fast",
         "test_a_new_estimate_appears_on_the_page_and_in_metrics_without_a_restart",
         "test_a_store_being_migrated_is_reported_then_served_once_migrated",
+        "test_an_unreachable_postgresql_is_reported_on_the_page_and_in_metrics",
         "test_api_rows_are_strict_json_with_nulls_where_unknown",
         "test_bad_rows_written_straight_into_the_store_never_hide_an_error_joint",
         "test_page_api_metrics_and_trend_json_agree_on_every_joint_of_a_plant",
         "test_serve_never_writes_and_survives_the_store_going_away_and_coming_back",
         "test_serve_reads_a_postgresql_history_as_the_trend_does",
+        "test_the_plant_robot_and_joint_pages_and_their_plots",
+        "test_the_watcher_re_reads_only_the_joints_that_changed",
         "test_trend_stale_days_moves_the_silent_joint_and_never_an_error",
     ),
     "test_serve_browser.py": (
         "test_a_screenshot_of_the_plant_page",
+        "test_chromium_draws_the_joint_page_plot",
         "test_chromium_shows_the_error_joint_as_error_with_its_numbers_and_the_plot_drawn",
         "test_the_open_page_shows_a_new_estimate_without_a_reload",
     ),
     "test_serve_prometheus.py": (
         "test_a_real_prometheus_scrapes_serve_and_the_error_rule_fires_for_the_error_joint",
         "test_every_metric_the_rules_and_the_dashboard_name_is_one_serve_exports",
+    ),
+    "test_trend_bank.py": (
+        "test_calibration_backtest_keeps_coverage_narrows_and_never_warns_a_flat_joint",
     ),
     "test_trend_core.py": (
         "test_fleet_scores_are_in_their_targets",
@@ -179,6 +209,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_visible_where.py": (
         "test_fleet_reprocess_rerun_with_another_robot_is_refused_with_the_reason",
         "test_fleet_reprocess_says_a_robot_name_came_from_a_folder_and_where_it_stored",
+        "test_trend_with_several_versions_and_no_live_ones_asks_which",
     ),
     "test_wear_scale.py": (
         "test_default_calibration_on_robots_unlike_the_reference_is_honest",
@@ -202,6 +233,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_diagnosis_json_keeps_the_old_fields_and_adds_the_issue_11_contract",
         "test_each_family_is_found_and_the_suggestion_reaches_the_noise_floor",
         "test_the_ranking_finds_the_fast_ripple_frequency_and_the_regreasing_day",
+        "test_the_ranking_on_the_models_tangent_space_sees_what_the_refit_absorbed",
         "test_the_ranking_puts_the_hidden_variable_first",
         "test_two_columns_the_data_cannot_tell_apart_give_unexplained_naming_both",
     ),
@@ -209,7 +241,11 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_small_tables_and_few_valued_columns_give_a_verdict",
         "test_two_outliers_in_a_clean_table_are_named_and_never_found",
     ),
+    "test_workbench_shapes.py": (
+        "test_hostile_spec_strings_never_crash_with_anything_but_a_model_error",
+    ),
     "test_workbench_units.py": (
+        "test_a_clean_joint_recorded_joint_side_in_newton_metres_is_nothing_missing",
         "test_scaling_the_torque_by_k_scales_the_fit_by_k_with_the_same_verdict",
         "test_standard_fit_of_a_panda_joint_in_newton_metres_reaches_a_plain_least_squares_fit",
     ),
