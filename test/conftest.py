@@ -18,6 +18,7 @@ from __future__ import annotations
 import itertools
 import os
 import random
+import re
 import shutil
 import signal
 import tempfile
@@ -264,6 +265,28 @@ def pytest_pycollect_makeitem(collector, name, obj):
     if isinstance(obj, type) and obj.__module__.startswith("jointwear_msgs."):
         return []
     return None
+
+
+_MODULE_MARKS = re.compile(r"^pytestmark = \[?((?:pytest\.mark\.\w+(?:, )?)+)\]?", re.M)
+
+
+def pytest_ignore_collect(collection_path, config):
+    """A test module marked as a whole (``pytestmark = pytest.mark.ros``) that ``-m`` leaves out is not even
+    imported: each pytest-xdist worker of ``make test-fast`` would otherwise import every graph test module
+    (rclpy and the messages, seconds of CPU) only to deselect its tests."""
+    markexpr = config.option.markexpr
+    if not markexpr or collection_path.suffix != ".py" or not collection_path.name.startswith("test_"):
+        return None
+    try:
+        from _pytest.mark.expression import Expression
+
+        found = _MODULE_MARKS.search(collection_path.read_text(encoding="utf-8"))
+        if found is None:
+            return None
+        marks = set(re.findall(r"pytest\.mark\.(\w+)", found.group(1)))
+        return True if not Expression.compile(markexpr).evaluate(lambda name: name in marks) else None
+    except Exception:  # an expression or a file this cannot read: collect as usual
+        return None
 
 
 @pytest.hookimpl(tryfirst=True)  # before -m and -k deselect: every test collected is seen
