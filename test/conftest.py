@@ -94,6 +94,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_the_real_command_exits_2_with_one_line_on_bad_data",
     ),
     "test_commission.py": (
+        "test_a_joint_side_robot_is_commissioned_in_n_m_and_estimates_its_wear",
         "test_the_documented_command_sequence_runs_as_written",
     ),
     "test_commission_effect.py": (
@@ -249,6 +250,9 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_a_clean_joint_recorded_joint_side_in_newton_metres_is_nothing_missing",
         "test_scaling_the_torque_by_k_scales_the_fit_by_k_with_the_same_verdict",
         "test_standard_fit_of_a_panda_joint_in_newton_metres_reaches_a_plain_least_squares_fit",
+    ),
+    "test_cycle_robot.py": (
+        "test_a_held_joint_trips_exactly_when_it_moves_beyond_the_tolerance",
     ),
 }
 #: Fixtures that put a test on a ROS graph: a test using one is a ``ros`` test.
