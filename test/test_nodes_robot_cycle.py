@@ -31,6 +31,7 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
+from jointwear_ros.nodes.cell import run_until_accepted  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -88,14 +89,11 @@ class Operator(GraphClient):
         return self.call(self.run_client, RunTestCycle.Request(**kwargs))
 
     def start(self, timeout: float = 20.0, **kwargs) -> int:
-        """Request a cycle, re-sending while the joint states are missing or late (retryable refusals)."""
-        end = time.monotonic() + timeout
-        while True:
-            resp = self.run(**kwargs)
-            if resp.accepted or not RefusalReason(resp.reason).retryable or time.monotonic() > end:
-                assert resp.accepted and resp.cycle_id > 0, resp.message
-                return int(resp.cycle_id)
-            self.spin_until(lambda: False, 0.2)
+        """Request a cycle as the cell library's operator does (retryable refusals re-sent)."""
+        resp = run_until_accepted(lambda: self.run(**kwargs), lambda s: self.spin_until(lambda: False, s), timeout,
+                                  pause=0.2)
+        assert resp.accepted and resp.cycle_id > 0, resp.message
+        return int(resp.cycle_id)
 
     def set_params(self, node: str, **values) -> list:
         return self.set_parameters(node, **values)

@@ -34,6 +34,7 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
+from jointwear_ros.nodes.cell import run_until_accepted  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -91,16 +92,12 @@ class Operator(GraphClient):
         return self.call(self.run_client, RunTestCycle.Request(**kwargs), attempts=attempts)
 
     def start(self, timeout: float = 20.0, **kwargs) -> RunTestCycle.Response:
-        """Request a cycle, retrying while test_cycle has not seen a joint state yet (it may start later than us)."""
-        end = time.monotonic() + timeout
-        while True:
-            resp = self.run(**kwargs)
-            # as an operator (and the demo) would: retry while the joint state is missing or late
-            late = resp.reason in (RefusalReason.STATE_MISSING, RefusalReason.STATE_STALE)
-            if resp.accepted or not late or time.monotonic() > end:
-                assert resp.accepted and resp.cycle_id > 0, resp.message
-                return resp
-            self.spin_until(lambda: False, 0.2)
+        """Request a cycle as the cell library's operator does (retryable refusals re-sent: test_cycle may
+        not have seen a joint state yet, it may start later than us)."""
+        resp = run_until_accepted(lambda: self.run(**kwargs), lambda s: self.spin_until(lambda: False, s), timeout,
+                                  pause=0.2)
+        assert resp.accepted and resp.cycle_id > 0, resp.message
+        return resp
 
     def wait_phase(self, cycle_id: int, phase: int, timeout: float = 20.0) -> None:
         def seen() -> bool:

@@ -38,14 +38,16 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, TypeVar
 
 from ..contract import CycleState, CycleStatus, DiagnosticLevel, RefusalReason, status_from_msg
 from ..errors import JointwearError
 from ..resources import config_path
 
 __all__ = ["CellError", "Child", "JointReport", "Operator", "after", "die_with_parent", "ready_conditions",
-           "start_child", "stop_children"]
+           "run_until_accepted", "start_child", "stop_children"]
+
+_Answer = TypeVar("_Answer")
 
 
 class CellError(JointwearError):
@@ -241,6 +243,36 @@ def stop_children(children: Sequence[Child], sigint_timeout: float = 15.0, sigte
 def after(deadline: float) -> Callable[[], bool]:
     """A predicate that turns true at ``deadline`` (time.monotonic)."""
     return lambda: time.monotonic() > deadline
+
+
+def _accepted(answer: Any) -> bool:
+    return bool(answer.accepted)
+
+
+def _reason(answer: Any) -> Any:
+    return answer.reason
+
+
+def _say_nothing(answer: Any) -> None:
+    """The default ``progress`` of :func:`run_until_accepted`."""
+
+
+def run_until_accepted(send: Callable[[], _Answer], wait: Callable[[float], None], retry_for: float, *,
+                       pause: float = 1.0, accepted: Callable[[_Answer], bool] = _accepted,
+                       reason: Callable[[_Answer], Any] = _reason,
+                       progress: Callable[[_Answer], None] = _say_nothing) -> _Answer:
+    """Ask for a test cycle as an operator would: ``send()`` calls ``/test_cycle/run`` and returns the answer
+    (a ``RunTestCycle.Response`` by default); a refusal whose :class:`~jointwear_ros.contract.RefusalReason`
+    is ``retryable`` (the joint state not there yet or late, a cycle still running) is sent again after
+    ``wait(pause)`` (``progress(answer)`` first) for ``retry_for`` seconds. The last answer, accepted or not.
+    The cell's :class:`Operator` and the tests' operators ask this way."""
+    end = time.monotonic() + retry_for
+    while True:
+        answer = send()
+        if accepted(answer) or not RefusalReason(reason(answer)).retryable or time.monotonic() > end:
+            return answer
+        progress(answer)
+        wait(pause)
 
 
 @contextmanager
@@ -515,16 +547,21 @@ class Operator:
 
     def start_cycle(self, speeds: Sequence[float], children: Sequence[Child], timeout: float = 30.0,
                     retry_for: float = 20.0) -> tuple[int, str]:
-        """Call ``/test_cycle/run`` as an operator would: a refusal whose reason is retryable (the joint
-        state not there yet or late, a cycle still running) is re-sent every second for ``retry_for``
-        seconds; any other refusal raises :class:`CellError` with the reason. Returns (cycle id, plan)."""
-        end = time.monotonic() + retry_for
-        while True:
-            accepted, cycle_id, reason, message = self.call_run(speeds, children, timeout)
-            if accepted or not reason.retryable or time.monotonic() > end:
-                break
-            self.progress(f"/test_cycle/run refused ({reason.name}: {message}); retrying in 1 s")
-            self.spin_until(after(time.monotonic() + 1.0), 5.0, children, "a retry")
+        """Call ``/test_cycle/run`` as an operator would (:func:`run_until_accepted`: a retryable refusal is
+        re-sent every second for ``retry_for`` seconds); any other refusal raises :class:`CellError` with the
+        reason. Returns (cycle id, plan)."""
+
+        def send() -> tuple[bool, int, RefusalReason, str]:
+            return self.call_run(speeds, children, timeout)
+
+        def wait(seconds: float) -> None:
+            self.spin_until(after(time.monotonic() + seconds), seconds + 4.0, children, "a retry")
+
+        def retrying(answer: tuple[bool, int, RefusalReason, str]) -> None:
+            self.progress(f"/test_cycle/run refused ({answer[2].name}: {answer[3]}); retrying in 1 s")
+
+        accepted, cycle_id, reason, message = run_until_accepted(
+            send, wait, retry_for, accepted=lambda a: a[0], reason=lambda a: a[2], progress=retrying)
         if not accepted:
             raise CellError(f"/test_cycle/run refused the request ({reason.name}): {message}")
         return cycle_id, message
