@@ -16,6 +16,12 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export ROS_DOMAIN_ID ?= $(shell $(PYTHON) -c "import os; print(os.getpid() % 90 + 10)")
 export MPLBACKEND ?= Agg
 
+# The tests' ROS domains: JOINTWEAR_TEST_DOMAINS=LO-HI if you set it, else a block of 20 that no other
+# suite running on this machine holds (test/conftest.py's free_domain_block; pytest alone: 10-149).
+TEST_DOMAINS = export JOINTWEAR_TEST_DOMAINS=$${JOINTWEAR_TEST_DOMAINS:-$$($(PY) -c \
+  "import sys; sys.path.insert(0, 'test'); import conftest; print(conftest.free_domain_block())")}; \
+  echo "ROS domains of this run: $$JOINTWEAR_TEST_DOMAINS"
+
 MSG_SRCS := $(wildcard msg_defs/msg/*.msg msg_defs/srv/*.srv) msg_defs/CMakeLists.txt msg_defs/package.xml
 
 .PHONY: all env demo test test-fast test-repeat bench lint mutation clean distclean
@@ -58,24 +64,28 @@ demo: env
 # one at a time, as they must. Both tiers always run; the target fails if either failed.
 test: env
 	bash tools/install_system_deps.sh
-	@rc=0; \
+	@$(TEST_DOMAINS); rc=0; \
 	echo "== tests without a ROS graph (2 workers)"; \
 	$(PY) -m pytest -q -m "not ros" -n 2 --dist loadfile test || rc=1; \
 	echo "== process and graph tests (marker ros), one at a time"; \
 	$(PY) -m pytest -q -m ros test || rc=1; \
 	exit $$rc
 
-# The quick tier while you work: everything but the process and graph tests (marker ros) and
-# the few slow ones (marker slow); make test before you stop.
+# The quick tier while you work (about a minute on this 2-core machine idle; docs/testing.md):
+# 85 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
+# DDS, run one at a time, the README walk among them) and the costliest tests without a graph
+# (marker slow, listed once in test/conftest.py's SLOW_TESTS by their measured durations: seeded
+# workbench discoveries, a served and scraped plant, process pools, Ctrl-C drills, the mutation run).
+# make test runs them all: run it before you stop.
 test-fast: env
-	$(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
+	@$(TEST_DOMAINS); $(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
 
 # The process and graph tests (marker ros: real nodes over DDS) N times in a row, each run on
 # fresh domains; run it before you stop after touching a node, the cell library or those tests.
 # A failure that shows up once in N runs is a race to find, not noise.
 N ?= 3
 test-repeat: env
-	@for i in $$(seq 1 $(N)); do \
+	@$(TEST_DOMAINS); for i in $$(seq 1 $(N)); do \
 	  echo "== process and graph tests, run $$i of $(N)"; \
 	  $(PY) -m pytest -q -m ros test || exit 1; \
 	done

@@ -4,7 +4,9 @@
   ``make test-fast`` leaves them out), ``slow`` for tests without a graph that take 20 s or more here.
   A test that uses ``ros_context``, ``ros_context_per_test``, ``node_process`` or ``graph_client``
   is marked ``ros`` here, whether or not its module says so.
-- Every module runs on a ROS domain of its own and may leave no process running.
+- Every module runs on a ROS domain of its own, from the run's range ``JOINTWEAR_TEST_DOMAINS``
+  (``LO-HI``, default 10-149; ``make test`` picks a block no other suite on the machine holds), and
+  may leave no process running.
 - :func:`spin_until` waits for a condition (never for a time); :class:`NodeProcess` is a node in its
   own process; :class:`GraphClient` is the test's own node (executor, service calls, parameters,
   diagnostics). Test modules import these (``from conftest import ...``) or use the fixtures.
@@ -16,23 +18,24 @@ from __future__ import annotations
 import itertools
 import os
 import random
+import re
 import shutil
 import signal
-import subprocess
-import sys
 import tempfile
 import time
 import uuid
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-# Before anything imports rclpy: DDS discovery on loopback only, and a
-# per-run domain so parallel runs on one machine do not see each other.
+from jointwear_ros.nodes.cell import Child, die_with_parent, start_child
+
+# Before anything imports rclpy: DDS discovery on loopback only (each module then gets a domain of
+# the run's own range, below).
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ.setdefault("ROS_DOMAIN_ID", str(random.Random(os.getpid()).randint(10, 99)))
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
@@ -43,6 +46,215 @@ MARKERS = {
     "ros": "a process or graph test: real rclpy/DDS on loopback (left out by make test-fast; run serially)",
     "slow": "no ROS graph, but 20 s or more on the shared 2-core machine (a costly fixture counts; left out by make test-fast)",
 }
+#: What ``make test-fast`` leaves out besides the ``ros`` tests: these tests (marker ``slow``, given here
+#: and nowhere else), by file and function (all its parameters). They are the costliest tests without
+#: a ROS graph: ``pytest --durations=0 -m "not ros" -n 2`` on this 2-core machine, each 7 s or more
+#: there (about 1 s or more of CPU idle; a module's costly fixture counts on its first test) — whole
+#: workbench discoveries on many seeds, a plant page served and scraped, process pools, Ctrl-C
+#: drills, installs into a prefix, the mutation run. ``make test`` runs them; so does ``-m slow``.
+SLOW_TESTS: dict[str, tuple[str, ...]] = {
+    "test_bag_discovery_reprocess.py": (
+        "test_a_bag_folder_without_metadata_is_a_failed_bag_not_left_out",
+        "test_a_bag_without_recorded_settings_is_refused_unless_params_and_method_are_given",
+        "test_ctrl_c_during_fleet_reprocess_prints_one_line",
+        "test_reprocess_says_the_settings_per_bag_and_robot_given_lines_up_with_history_import",
+    ),
+    "test_bag_recover.py": (
+        "test_bag_info_and_replay_refuse_a_bag_with_20_kb_zeroed_in_the_middle",
+        "test_random_damage_never_yields_an_invented_or_altered_message",
+        "test_recover_of_a_file_cut_anywhere_gives_exactly_the_complete_chunks_before_the_cut",
+        "test_the_writer_produces_a_checked_bag_that_rosbags_and_mcap_read_completely",
+    ),
+    "test_cli_cycle.py": (
+        "test_default_candidates_give_a_cycle_the_test_cycle_node_accepts",
+    ),
+    "test_cli_faults.py": (
+        "test_design_never_prints_a_bound_below_the_known_temperature_bound",
+        "test_the_real_process_prints_one_line_and_verbose_adds_the_traceback",
+    ),
+    "test_cli_history.py": (
+        "test_trend_plots_and_html_rank_the_joints_by_time_to_alarm",
+    ),
+    "test_cli_model.py": (
+        "test_bad_arguments_give_one_line_error_and_exit_code_2",
+    ),
+    "test_cli_study.py": (
+        "test_robustness_reports_which_estimators_stay_unbiased",
+    ),
+    "test_cli_workbench.py": (
+        "test_add_shows_before_and_after_per_speed_band_and_keeps_a_json_history",
+        "test_diagnose_json_contract",
+        "test_diagnose_markdown_says_what_the_json_says_in_markdown",
+        "test_diagnose_prints_json_and_html_say_the_same",
+        "test_diagnose_table_names_the_effect_and_the_next_command",
+        "test_every_candidate_term_appended_to_the_spec_is_accepted_by_fit",
+        "test_fit_json_states_the_goodness_of_fit_against_the_noise_floor",
+        "test_fit_report_writes_pngs_and_a_self_contained_html",
+        "test_report_command_with_diagnosis_and_history",
+        "test_the_real_command_exits_2_with_one_line_on_bad_data",
+    ),
+    "test_commission.py": (
+        "test_a_joint_side_robot_is_commissioned_in_n_m_and_estimates_its_wear",
+        "test_the_documented_command_sequence_runs_as_written",
+    ),
+    "test_commission_effect.py": (
+        "test_a_clean_baseline_with_a_within_sweep_tau_f_std_is_nothing_missing",
+        "test_a_found_effect_that_validates_on_held_out_cycles_is_carried_into_the_set",
+        "test_an_effect_of_epoch_time_stamps_gets_a_spline_whose_range_survives_the_spec",
+        "test_an_explicit_model_is_kept_and_the_finding_only_reported",
+    ),
+    "test_condition.py": (
+        "test_a_cycle_with_no_observation_leaves_the_level_as_it_was",
+        "test_a_failed_cycle_with_one_speed_leaves_the_level_as_it_was_and_names_test_cycles_reason",
+        "test_one_outlier_20_above_a_flat_history_is_held_and_a_confirmed_step_moves_the_level_at_once",
+        "test_the_monitor_and_the_trend_agree_on_the_same_estimates",
+    ),
+    "test_docs_examples.py": (
+        "test_every_python_and_sh_block_of_the_guide_runs_in_order",
+    ),
+    "test_estimation_joint.py": (
+        "test_spread_of_estimates_is_near_the_multi_speed_bound_and_unbiased",
+    ),
+    "test_faults28_bags.py": (
+        "test_metadata_of_any_type_in_any_key_is_read_or_refused_in_one_line_naming_the_key",
+    ),
+    "test_faults28_ctrl_c.py": (
+        "test_ctrl_c_while_the_dask_cluster_starts_is_not_lost",
+    ),
+    "test_faults28_guards.py": (
+        "test_a_set_whose_model_misses_an_effect_takes_its_validation_error_as_noise_not_the_floor",
+    ),
+    "test_faults28_ledger.py": (
+        "test_a_deadlock_that_outlasts_the_retries_is_one_line_and_exit_2",
+    ),
+    "test_fleet.py": (
+        "test_a_new_parameter_set_is_a_new_analysis_version_and_compare_names_the_changes",
+        "test_an_interrupted_reprocess_resumes_where_it_stopped",
+        "test_reprocess_bag_never_raises_for_broken_bags",
+        "test_reprocess_bag_of_a_damaged_mcap_gives_an_error_or_records_never_an_exception",
+        "test_reprocess_of_20_bags_gives_20_estimates_once_and_reports_the_broken_bag",
+        "test_scheduler_that_is_not_there_is_a_one_line_error",
+    ),
+    "test_history_store.py": (
+        "test_concurrent_writer_processes_lose_nothing_and_duplicate_nothing",
+        "test_processes_opening_a_new_store_at_once_agree_on_one_schema",
+    ),
+    "test_installed_prefix.py": (
+        "test_installed_cli_runs_from_the_prefix",
+        "test_installed_layout_has_the_share_files_and_scripts",
+        "test_installed_package_finds_its_parameter_sets_through_the_ament_index",
+    ),
+    "test_monitor.py": (
+        "test_finished_cycles_are_remembered_up_to_a_bound",
+    ),
+    "test_mutation.py": (
+        "test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught",
+    ),
+    "test_package_layout.py": (
+        "test_every_ros_package_the_code_imports_is_an_exec_depend",
+    ),
+    "test_pictures_read_right.py": (
+        "test_band_legend_is_below_the_bars",
+        "test_case_study_figure_shows_every_curve_whole",
+        "test_joints_past_the_alarm_say_so_and_the_page_shows_figures_in_the_ranked_order",
+        "test_model_add_twice_adds_no_duplicate_versions_and_error_fall_says_what_each_added",
+        "test_nothing_missing_report_names_no_term_has_no_empty_table_and_formats_its_numbers",
+        "test_residual_axes_have_units_and_fitted_marks_lie_under_the_data",
+    ),
+    "test_properties_estimators.py": (
+        "test_estimators_give_a_finite_estimate_or_the_projects_error",
+    ),
+    "test_real_logs.py": (
+        "test_a_published_sweep_at_one_temperature_with_a_noisy_velocity_is_converted_and_commissioned",
+        "test_a_real_100hz_log_without_plateaus_is_converted_and_commissioned_to_a_set",
+    ),
+    "test_replay.py": (
+        "test_replay_and_bag_info_flag_a_bag_whose_recorder_lost_messages",
+    ),
+    "test_replay_robot.py": (
+        "test_history_import_of_a_robot_bag_stores_one_entry_per_joint_and_cycle_once",
+        "test_replay_json_has_an_entry_per_joint_and_keeps_the_one_joint_fields",
+        "test_replay_of_a_robot_bag_skips_a_bad_sample_only_for_its_joint",
+    ),
+    "test_serve.py": (
+        "test_a_locked_store_is_reported_and_requests_stay_fast",
+        "test_a_new_estimate_appears_on_the_page_and_in_metrics_without_a_restart",
+        "test_a_store_being_migrated_is_reported_then_served_once_migrated",
+        "test_an_unreachable_postgresql_is_reported_on_the_page_and_in_metrics",
+        "test_api_rows_are_strict_json_with_nulls_where_unknown",
+        "test_bad_rows_written_straight_into_the_store_never_hide_an_error_joint",
+        "test_page_api_metrics_and_trend_json_agree_on_every_joint_of_a_plant",
+        "test_serve_never_writes_and_survives_the_store_going_away_and_coming_back",
+        "test_serve_reads_a_postgresql_history_as_the_trend_does",
+        "test_the_plant_robot_and_joint_pages_and_their_plots",
+        "test_the_watcher_re_reads_only_the_joints_that_changed",
+        "test_trend_stale_days_moves_the_silent_joint_and_never_an_error",
+    ),
+    "test_serve_browser.py": (
+        "test_a_screenshot_of_the_plant_page",
+        "test_chromium_draws_the_joint_page_plot",
+        "test_chromium_shows_the_error_joint_as_error_with_its_numbers_and_the_plot_drawn",
+        "test_the_open_page_shows_a_new_estimate_without_a_reload",
+    ),
+    "test_serve_prometheus.py": (
+        "test_a_real_prometheus_scrapes_serve_and_the_error_rule_fires_for_the_error_joint",
+        "test_every_metric_the_rules_and_the_dashboard_name_is_one_serve_exports",
+    ),
+    "test_trend_bank.py": (
+        "test_calibration_backtest_keeps_coverage_narrows_and_never_warns_a_flat_joint",
+    ),
+    "test_trend_core.py": (
+        "test_fleet_scores_are_in_their_targets",
+        "test_interval_holds_the_true_time_to_alarm_for_most_growing_joints_and_is_narrower_than_it",
+        "test_no_flat_joint_ever_warns",
+    ),
+    "test_visible_where.py": (
+        "test_fleet_reprocess_rerun_with_another_robot_is_refused_with_the_reason",
+        "test_fleet_reprocess_says_a_robot_name_came_from_a_folder_and_where_it_stored",
+        "test_trend_with_several_versions_and_no_live_ones_asks_which",
+    ),
+    "test_wear_scale.py": (
+        "test_default_calibration_on_robots_unlike_the_reference_is_honest",
+    ),
+    "test_workbench_acceptance.py": (
+        "test_clean_data_shows_no_significant_effect_in_at_least_19_of_20_seeds",
+        "test_each_hidden_effect_is_found_and_adding_it_reaches_the_noise_floor",
+        "test_standard_model_journey_adds_load_and_temperature_terms_until_the_noise_floor",
+    ),
+    "test_workbench_discovery.py": (
+        "test_a_column_correlated_with_a_model_input_is_found_on_top_of_the_models_tangent_space",
+        "test_a_dozen_irrelevant_columns_raise_no_alarm_on_clean_data",
+        "test_a_model_missing_two_effects_is_unexplained_after_its_best_single_term",
+        "test_a_regreasing_step_with_few_cycles_ranks_time_first_and_its_refit_reaches_the_floor",
+        "test_a_residual_above_the_floor_that_no_column_explains_is_unexplained",
+        "test_a_stribeck_hump_reshaped_by_temperature_is_found_with_few_cycles",
+        "test_a_temperature_effect_is_not_credited_to_the_correlated_motor_temperature",
+        "test_a_time_drift_with_few_cycles_ranks_time_above_a_per_cycle_column",
+        "test_a_torque_constant_with_few_cycles_is_not_explained_by_another_per_cycle_column",
+        "test_clean_tables_give_nothing_missing",
+        "test_diagnosis_json_keeps_the_old_fields_and_adds_the_issue_11_contract",
+        "test_each_family_is_found_and_the_suggestion_reaches_the_noise_floor",
+        "test_the_ranking_finds_the_fast_ripple_frequency_and_the_regreasing_day",
+        "test_the_ranking_on_the_models_tangent_space_sees_what_the_refit_absorbed",
+        "test_the_ranking_puts_the_hidden_variable_first",
+        "test_two_columns_the_data_cannot_tell_apart_give_unexplained_naming_both",
+    ),
+    "test_workbench_faults.py": (
+        "test_small_tables_and_few_valued_columns_give_a_verdict",
+        "test_two_outliers_in_a_clean_table_are_named_and_never_found",
+    ),
+    "test_workbench_shapes.py": (
+        "test_hostile_spec_strings_never_crash_with_anything_but_a_model_error",
+    ),
+    "test_workbench_units.py": (
+        "test_a_clean_joint_recorded_joint_side_in_newton_metres_is_nothing_missing",
+        "test_scaling_the_torque_by_k_scales_the_fit_by_k_with_the_same_verdict",
+        "test_standard_fit_of_a_panda_joint_in_newton_metres_reaches_a_plain_least_squares_fit",
+    ),
+    "test_cycle_robot.py": (
+        "test_a_held_joint_trips_exactly_when_it_moves_beyond_the_tolerance",
+    ),
+}
 #: Fixtures that put a test on a ROS graph: a test using one is a ``ros`` test.
 ROS_FIXTURES = frozenset({"ros_context", "ros_context_per_test", "node_process", "graph_client"})
 
@@ -52,20 +264,127 @@ def pytest_configure(config):
         config.addinivalue_line("markers", f"{name}: {text}")
 
 
+def pytest_pycollect_makeitem(collector, name, obj):
+    """A message class a test module imports is not a test class, whatever its name (``TestCycleStatus``)."""
+    if isinstance(obj, type) and obj.__module__.startswith("jointwear_msgs."):
+        return []
+    return None
+
+
+_MODULE_MARKS = re.compile(r"^pytestmark = \[?((?:pytest\.mark\.\w+(?:, )?)+)\]?", re.M)
+
+
+def pytest_ignore_collect(collection_path, config):
+    """A test module marked as a whole (``pytestmark = pytest.mark.ros``) that ``-m`` leaves out is not even
+    imported: each pytest-xdist worker of ``make test-fast`` would otherwise import every graph test module
+    (rclpy and the messages, seconds of CPU) only to deselect its tests."""
+    markexpr = config.option.markexpr
+    if not markexpr or collection_path.suffix != ".py" or not collection_path.name.startswith("test_"):
+        return None
+    try:
+        from _pytest.mark.expression import Expression
+
+        found = _MODULE_MARKS.search(collection_path.read_text(encoding="utf-8"))
+        if found is None:
+            return None
+        marks = set(re.findall(r"pytest\.mark\.(\w+)", found.group(1)))
+        return True if not Expression.compile(markexpr).evaluate(lambda name: name in marks) else None
+    except Exception:  # an expression or a file this cannot read: collect as usual
+        return None
+
+
+@pytest.hookimpl(tryfirst=True)  # before -m and -k deselect: every test collected is seen
 def pytest_collection_modifyitems(config, items):
+    listed = {(f, n) for f, names in SLOW_TESTS.items() for n in names}
+    seen_files, seen = set(), set()
     for item in items:
         if ROS_FIXTURES & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("ros") is None:
             item.add_marker(pytest.mark.ros)
+        key = (item.path.name, getattr(item, "originalname", item.name))
+        seen_files.add(key[0])
+        if key in listed:
+            seen.add(key)
+            if item.get_closest_marker("slow") is None:
+                item.add_marker(pytest.mark.slow)
+    # a name left in the list after its test was renamed would quietly put the test back in the quick tier
+    whole_files = all(Path(a.split("::")[0]).is_dir() or "::" not in a for a in config.args)
+    stale = sorted(f"{f}::{n}" for f, n in listed - seen if f in seen_files)
+    if stale and whole_files:
+        warnings.warn(pytest.PytestWarning(f"conftest.SLOW_TESTS names tests that are not there: {', '.join(stale)}"),
+                      stacklevel=1)
 
 
 # --------------------------------------------------------------------------- a domain per test module
 
-#: Domains handed to the test modules: 10-149 (Fast DDS refuses ids above 232; 150-232 stay free for
-#: a developer's own runs). Each module gets the next one after the run's own start value, so no
-#: two modules of a run share a domain (a node an earlier module left would answer a later one's
-#: messages) and two runs on one machine start far apart.
-_DOMAINS = itertools.cycle(range(10, 150))
-for _ in range(random.Random(os.getpid() ^ int(time.time())).randrange(140)):
+#: The environment variable that gives the run its ROS domains, ``LO-HI`` (inclusive), and its default.
+#: Fast DDS refuses ids above 232. ``make test`` sets a block of 20 that no other running suite on the
+#: machine holds (:func:`free_domain_block`), so two suites on one machine never share a domain; a bare
+#: ``pytest`` takes the default (and 150-232 stay free for a developer's own runs).
+DOMAINS_ENV = "JOINTWEAR_TEST_DOMAINS"
+DEFAULT_DOMAINS = "10-149"
+#: the highest domain id Fast DDS accepts
+MAX_DOMAIN = 232
+
+
+def parse_domains(text: str) -> range:
+    """The domains of ``LO-HI`` (inclusive, 0 <= LO <= HI <= 232); ``ValueError`` naming the variable otherwise."""
+    lo_hi = text.strip().split("-")
+    try:
+        if len(lo_hi) > 2:
+            raise ValueError
+        lo, hi = int(lo_hi[0]), int(lo_hi[-1])
+    except ValueError:
+        raise ValueError(f"{DOMAINS_ENV}={text!r}: give a range LO-HI of ROS domain ids, e.g. {DEFAULT_DOMAINS}") from None
+    if not 0 <= lo <= hi <= MAX_DOMAIN:
+        raise ValueError(f"{DOMAINS_ENV}={text!r}: need 0 <= LO <= HI <= {MAX_DOMAIN} (Fast DDS refuses larger ids)")
+    return range(lo, hi + 1)
+
+
+def domains_of_this_process(text: str, worker: str | None, workers: str | None) -> range:
+    """This process's share of the run's domains: all of them, or, in pytest-xdist worker ``gwN`` of
+    ``workers``, every ``workers``-th from the ``N``-th (two workers of a run never share one)."""
+    domains = parse_domains(text)
+    if worker and workers and worker.startswith("gw"):
+        share = domains[int(worker[2:]) % int(workers)::int(workers)]
+        if len(share):
+            return share
+    return domains
+
+
+def free_domain_block(width: int = 20, first: int = 10, last: int = 229) -> str:
+    """A block ``LO-HI`` of ``width`` domains that no live process's ``JOINTWEAR_TEST_DOMAINS`` overlaps
+    (the Makefile's per-run range); by this process's id when every block is taken."""
+    taken: list[range] = []
+    for entry in os.listdir("/proc") if os.path.isdir("/proc") else ():
+        try:
+            with open(f"/proc/{entry}/environ", "rb") as fh:
+                env = fh.read().split(b"\0")
+        except OSError:
+            continue
+        for var in env:
+            if var.startswith(DOMAINS_ENV.encode() + b"="):
+                try:
+                    taken.append(parse_domains(var.split(b"=", 1)[1].decode()))
+                except ValueError:
+                    pass
+    blocks = [range(lo, lo + width) for lo in range(first, last - width + 2, width)]
+    free = [b for b in blocks if not any(set(b) & set(t) for t in taken)]
+    block = free[0] if free else blocks[os.getpid() % len(blocks)]
+    return f"{block[0]}-{block[-1]}"
+
+
+try:
+    _RUN_DOMAINS = domains_of_this_process(os.environ.get(DOMAINS_ENV, DEFAULT_DOMAINS),
+                                           os.environ.get("PYTEST_XDIST_WORKER"),
+                                           os.environ.get("PYTEST_XDIST_WORKER_COUNT"))
+except ValueError as exc:
+    raise pytest.UsageError(str(exc)) from None
+os.environ.setdefault("ROS_DOMAIN_ID", str(_RUN_DOMAINS[0]))  # until a module sets its own
+#: Each module gets the next domain of the run's after a random start, so no two modules of a run
+#: share a domain while there are enough (a node an earlier module left would answer a later one's
+#: messages) and two runs on one range start far apart.
+_DOMAINS = itertools.cycle(_RUN_DOMAINS)
+for _ in range(random.Random(os.getpid() ^ int(time.time())).randrange(len(_RUN_DOMAINS))):
     next(_DOMAINS)
 #: Every process a test starts inherits this tag in its environment: what is still running with it
 #: when the module ends was left behind.
@@ -154,12 +473,9 @@ def spin_until(executor: Any, predicate: Callable[[], object], timeout: float = 
     return bool(predicate())
 
 
-def _param_text(v: object) -> str:
-    return ("true" if v else "false") if isinstance(v, bool) else str(v)
-
-
-class NodeProcess:
-    """A node in its own process (``python -m jointwear_ros.nodes.<name>``, as ``ros2 run`` starts it).
+class NodeProcess(Child):
+    """A node in its own process (``python -m jointwear_ros.nodes.<name>``, as ``ros2 run`` starts it): the cell
+    library's :func:`~jointwear_ros.nodes.cell.start_child` with the harness's defaults.
 
     Its ``config/<name>.yaml`` (unless ``config=False``), then ``params_files``, then ``params`` as ``-p``
     overrides, then ``args``; on the module's domain and loopback unless ``env`` says otherwise; its output
@@ -169,61 +485,15 @@ class NodeProcess:
     def __init__(self, name: str, params: Mapping[str, object] | None = None, *, params_files: Sequence[Path] = (),
                  args: Sequence[str] = (), config: bool = True, env: Mapping[str, str] | None = None,
                  log: Path | None = None, preexec_fn: Callable[[], None] | None = None):
-        from jointwear_ros.nodes.cell import die_with_parent
         from jointwear_ros.nodes.runtime import loopback_env
 
-        self.name = name
-        cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}", "--ros-args"]
-        if config:
-            cmd += ["--params-file", str(ROOT / "config" / f"{name}.yaml")]
-        for f in params_files:
-            cmd += ["--params-file", str(f)]
-        for k, v in (params or {}).items():
-            cmd += ["-p", f"{k}:={_param_text(v)}"]
-        cmd += list(args)
-        self._own_log = log is None
-        if log is None:
-            fd, name_ = tempfile.mkstemp(prefix=f"{name}-", suffix=".log")
-            os.close(fd)
-            log = Path(name_)
-        self.log = log
-        with log.open("wb") as fh:
-            self.proc = subprocess.Popen(cmd, env=loopback_env() if env is None else dict(env), stdout=fh,
-                                         stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                         preexec_fn=preexec_fn or die_with_parent)
-
-    @property
-    def pid(self) -> int:
-        return self.proc.pid
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
-        """Send ``sig`` (SIGINT: as Ctrl-C), wait ``timeout`` s, then SIGKILL; the exit code."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        return int(self.proc.returncode)
-
-    def output(self) -> str:
-        try:
-            return self.log.read_text(errors="replace")
-        except OSError:
-            return ""
+        child = start_child(name, params or {}, loopback_env() if env is None else env, log=log,
+                            params_files=params_files, args=args, config=config, as_module=True,
+                            preexec_fn=preexec_fn or die_with_parent)
+        super().__init__(child.name, child.proc, child.log, child.fh, child.own_log)
 
     def log_tail(self, lines: int = 20) -> str:
         return "\n".join(self.output().strip().splitlines()[-lines:])
-
-    def close(self) -> None:
-        """Stop it (if still running) and remove the log it made itself."""
-        self.stop()
-        if self._own_log:
-            self.log.unlink(missing_ok=True)
 
 
 class GraphClient:

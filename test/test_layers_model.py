@@ -14,6 +14,7 @@ from jointwear_ros import model, workbench
 from jointwear_ros.model import TERMS, parse_spec
 from jointwear_ros.model.scaling import DataScales, scale_grid
 
+
 def _same_grid(got: list[dict[str, float]], want: list[dict[str, float]]) -> bool:
     return len(got) == len(want) and all(g == pytest.approx(w, rel=1e-12) for g, w in zip(got, want, strict=True))
 

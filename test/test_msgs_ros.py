@@ -8,8 +8,7 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import spin_until  # noqa: E402
-from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate  # noqa: E402
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 
 pytestmark = pytest.mark.ros
@@ -50,11 +49,11 @@ def _estimate() -> WearEstimate:
     return m
 
 
-def _status() -> CycleStatus:
-    m = CycleStatus()
+def _status() -> TestCycleStatus:
+    m = TestCycleStatus()
     m.joint_name = "joint2"
     m.cycle_id = 7
-    m.state = CycleStatus.FAILED
+    m.state = TestCycleStatus.FAILED
     m.current_speed = 47.0
     m.speeds_done = 3
     m.speeds_total = 8
@@ -78,7 +77,7 @@ def _same(a, b) -> bool:
     return True
 
 
-@pytest.mark.parametrize(("msg_type", "make"), [(FrictionObservation, _observation), (WearEstimate, _estimate), (CycleStatus, _status)])
+@pytest.mark.parametrize(("msg_type", "make"), [(FrictionObservation, _observation), (WearEstimate, _estimate), (TestCycleStatus, _status)])
 def test_message_round_trips_over_dds(ros_context, msg_type, make):
     from rclpy.executors import SingleThreadedExecutor
 

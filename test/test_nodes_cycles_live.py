@@ -33,15 +33,14 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import GraphClient, NodeProcess  # noqa: E402
-from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate  # noqa: E402
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import Temperature  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState  # noqa: E402
+from jointwear_ros.nodes.cell import run_until_accepted  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -57,12 +56,12 @@ class Operator(GraphClient):
 
     def __init__(self, context, children: list[NodeProcess]):
         super().__init__(context, "jw_live_operator", children, diagnostics=["/diagnostics"], qos=QOS)
-        self.status: list[CycleStatus] = []
+        self.status: list[TestCycleStatus] = []
         self.estimates: list[WearEstimate] = []
         self.relayed: list[FrictionObservation] = []
         self.corrupt_cycle = 0  # the relay sets the temperature of this cycle's first observation to -300
         n = self.node
-        n.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
+        n.create_subscription(TestCycleStatus, "/test_cycle/status", self.status.append, QOS)
         n.create_subscription(WearEstimate, "/jointwear/wear_estimate", self.estimates.append, QOS)
         n.create_subscription(FrictionObservation, RAW, self._relay, QOS)
         self.obs_pub = n.create_publisher(FrictionObservation, "/jointwear/friction_observations", QOS)
@@ -80,17 +79,21 @@ class Operator(GraphClient):
         return self.set_parameters(node, 20.0, **values)
 
     def run_cycle(self, **kwargs) -> int:
-        """Request a cycle, re-sending while test_cycle has no (fresh) joint state yet."""
-        end = time.monotonic() + 30.0
-        while True:
+        """Request a cycle as the cell library's operator does (re-sent while test_cycle has no fresh joint
+        state yet)."""
+
+        def send() -> RunTestCycle.Response:
             fut = self.run_client.call_async(RunTestCycle.Request(joint_name="joint_1", **kwargs))  # of six
             self.spin_until(fut.done, 20.0, "/test_cycle/run")
-            resp = fut.result()
-            if resp.accepted:
-                return int(resp.cycle_id)
-            assert RefusalReason(resp.reason).retryable and time.monotonic() < end, resp.message
-            pause = time.monotonic() + 0.2
-            self.spin_until(lambda p=pause: time.monotonic() > p, 5.0, "a pause")
+            return fut.result()
+
+        def wait(seconds: float) -> None:
+            until = time.monotonic() + seconds
+            self.spin_until(lambda: time.monotonic() > until, 5.0, "a pause")
+
+        resp = run_until_accepted(send, wait, 30.0, pause=0.2)
+        assert resp.accepted, resp.message
+        return int(resp.cycle_id)
 
     def last_state(self, cid: int) -> int | None:
         return next((m.state for m in reversed(self.status) if m.cycle_id == cid), None)

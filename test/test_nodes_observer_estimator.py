@@ -14,8 +14,7 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 from conftest import spin_until  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
-from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
@@ -55,7 +54,7 @@ def _joint_state(t, names, pos, vel, eff):
 
 
 def _status(st: contract.CycleStatus):
-    return contract.status_to_msg(st, CycleStatus)
+    return contract.status_to_msg(st, TestCycleStatus)
 
 
 def _running(stamp: float, cycle_id: int) -> contract.CycleStatus:
@@ -94,7 +93,7 @@ def test_observer_and_estimator_nodes_on_a_synthetic_cycle(ros_context):
     got_obs, got_est, got_diag = [], [], []
     try:
         js_pub = io.create_publisher(JointState, TOPICS["joint_states_topic"], high_rate_qos())
-        st_pub = io.create_publisher(CycleStatus, TOPICS["status_topic"], high_rate_qos())
+        st_pub = io.create_publisher(TestCycleStatus, TOPICS["status_topic"], high_rate_qos())
         tp_pub = io.create_publisher(Temperature, TOPICS["temperature_topic"], high_rate_qos())
         io.create_subscription(FrictionObservation, TOPICS["observations_topic"], got_obs.append, high_rate_qos())
         io.create_subscription(WearEstimate, f"{NS}/wear_estimate", got_est.append, 10)
@@ -201,7 +200,7 @@ def test_estimator_node_revises_a_cycle_when_an_observation_comes_late(ros_conte
     got_est, got_diag = [], []
     try:
         ob_pub = io.create_publisher(FrictionObservation, f"{ns}/observations", high_rate_qos())
-        st_pub = io.create_publisher(CycleStatus, f"{ns}/status", high_rate_qos())
+        st_pub = io.create_publisher(TestCycleStatus, f"{ns}/status", high_rate_qos())
         io.create_subscription(WearEstimate, f"{ns}/wear_estimate", got_est.append, 10)
         io.create_subscription(DiagnosticArray, f"{ns}/diagnostics", got_diag.append, 10)
         assert spin_until(ex, lambda: ob_pub.get_subscription_count() > 0 and st_pub.get_subscription_count() > 0)

@@ -35,8 +35,7 @@ from hypothesis import strategies as st
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import GraphClient, NodeProcess  # noqa: E402
-from jointwear_msgs.msg import FrictionObservation, WearEstimate  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate  # noqa: E402
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 
@@ -90,7 +89,7 @@ class Robot(GraphClient):
         super().__init__(context, "jw_robot_test", children, diagnostics=("/diagnostics", f"{NS}/diagnostics"), qos=QOS)
         n = self.node
         self.js_pub = n.create_publisher(JointState, f"{NS}/joint_states", QOS)
-        self.st_pub = n.create_publisher(CycleStatus, f"{NS}/status", QOS)
+        self.st_pub = n.create_publisher(TestCycleStatus, f"{NS}/status", QOS)
         self.tp_pub = n.create_publisher(Temperature, f"{NS}/temperature", QOS)
         self.observations: list[FrictionObservation] = []
         self.estimates: list[WearEstimate] = []
@@ -123,10 +122,10 @@ class Robot(GraphClient):
         m.effort = [float(x) for x in eff]
         return m
 
-    def status(self, st: contract.CycleStatus, joints_done: int | None = None, joints=JOINTS) -> CycleStatus:
+    def status(self, st: contract.CycleStatus, joints_done: int | None = None, joints=JOINTS) -> TestCycleStatus:
         """The message of ``st`` in a robot cycle of ``joints`` (``joints_done``: the status's own when None)."""
         done = st.joints_done if joints_done is None else joints_done
-        return contract.status_to_msg(replace(st, joints=tuple(joints), joints_done=done), CycleStatus)
+        return contract.status_to_msg(replace(st, joints=tuple(joints), joints_done=done), TestCycleStatus)
 
     def temperature(self, t: float, celsius: float, joint: str) -> Temperature:
         m = Temperature()

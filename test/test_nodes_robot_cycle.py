@@ -20,7 +20,7 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import GraphClient, NodeProcess  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import TestCycleStatus  # noqa: E402  (a message, not a test class: conftest)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 from rcl_interfaces.srv import GetParameters  # noqa: E402
 from rclpy.parameter import parameter_value_to_python  # noqa: E402
@@ -31,6 +31,7 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
+from jointwear_ros.nodes.cell import run_until_accepted  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -52,12 +53,12 @@ class Operator(GraphClient):
     def __init__(self, context):
         super().__init__(context, "robot_operator", diagnostics=["/diagnostics"], qos=QOS)
         n = self.node
-        self.status: list[CycleStatus] = []
+        self.status: list[TestCycleStatus] = []
         self.commands: list[list[float]] = []
         #: (stamp, positions) per /joint_states sample (sim time; the subscriber may lag behind the status)
         self.samples: list[tuple[float, list[float]]] = []
         self.temperatures: dict[str, float] = {}
-        n.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
+        n.create_subscription(TestCycleStatus, "/test_cycle/status", self.status.append, QOS)
         n.create_subscription(Float64MultiArray, "/velocity_controller/commands",
                               lambda m: self.commands.append(list(m.data)), QOS)
         n.create_subscription(JointState, "/joint_states", self._on_js, QOS)
@@ -88,14 +89,11 @@ class Operator(GraphClient):
         return self.call(self.run_client, RunTestCycle.Request(**kwargs))
 
     def start(self, timeout: float = 20.0, **kwargs) -> int:
-        """Request a cycle, re-sending while the joint states are missing or late (retryable refusals)."""
-        end = time.monotonic() + timeout
-        while True:
-            resp = self.run(**kwargs)
-            if resp.accepted or not RefusalReason(resp.reason).retryable or time.monotonic() > end:
-                assert resp.accepted and resp.cycle_id > 0, resp.message
-                return int(resp.cycle_id)
-            self.spin_until(lambda: False, 0.2)
+        """Request a cycle as the cell library's operator does (retryable refusals re-sent)."""
+        resp = run_until_accepted(lambda: self.run(**kwargs), lambda s: self.spin_until(lambda: False, s), timeout,
+                                  pause=0.2)
+        assert resp.accepted and resp.cycle_id > 0, resp.message
+        return int(resp.cycle_id)
 
     def set_params(self, node: str, **values) -> list:
         return self.set_parameters(node, **values)
@@ -104,10 +102,10 @@ class Operator(GraphClient):
         res = self.call(self.get_client, GetParameters.Request(names=list(names)))
         return [parameter_value_to_python(v) for v in res.values]
 
-    def mine(self, cid: int) -> list[CycleStatus]:
+    def mine(self, cid: int) -> list[TestCycleStatus]:
         return [m for m in self.status if m.cycle_id == cid]
 
-    def wait_end(self, cid: int, timeout: float = 60.0) -> CycleStatus:
+    def wait_end(self, cid: int, timeout: float = 60.0) -> TestCycleStatus:
         def ended() -> bool:
             m = self.mine(cid)
             if not m or m[-1].state not in ENDED:

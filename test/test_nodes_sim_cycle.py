@@ -21,7 +21,7 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 from conftest import GraphClient, NodeProcess  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import TestCycleStatus  # noqa: E402  (a message, not a test class: conftest)
 from jointwear_msgs.srv import RunTestCycle  # noqa: E402
 from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
 from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
@@ -34,6 +34,7 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
 from jointwear_ros.cycle import CycleState, Phase  # noqa: E402
+from jointwear_ros.nodes.cell import run_until_accepted  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -50,12 +51,12 @@ class Operator(GraphClient):
 
     def __init__(self, context):
         super().__init__(context, "operator")
-        self.status: list[CycleStatus] = []
+        self.status: list[TestCycleStatus] = []
         self.commands: list[float] = []
         self.joint_states = 0
         self.diag: list = []  # DiagnosticStatus of test_cycle
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, QOS)
-        self.node.create_subscription(CycleStatus, "/test_cycle/status", self.status.append, QOS)
+        self.node.create_subscription(TestCycleStatus, "/test_cycle/status", self.status.append, QOS)
         self.node.create_subscription(
             Float64MultiArray, "/velocity_controller/commands", lambda m: self.commands.append(m.data[0] if len(m.data) else math.nan), QOS
         )
@@ -91,16 +92,12 @@ class Operator(GraphClient):
         return self.call(self.run_client, RunTestCycle.Request(**kwargs), attempts=attempts)
 
     def start(self, timeout: float = 20.0, **kwargs) -> RunTestCycle.Response:
-        """Request a cycle, retrying while test_cycle has not seen a joint state yet (it may start later than us)."""
-        end = time.monotonic() + timeout
-        while True:
-            resp = self.run(**kwargs)
-            # as an operator (and the demo) would: retry while the joint state is missing or late
-            late = resp.reason in (RefusalReason.STATE_MISSING, RefusalReason.STATE_STALE)
-            if resp.accepted or not late or time.monotonic() > end:
-                assert resp.accepted and resp.cycle_id > 0, resp.message
-                return resp
-            self.spin_until(lambda: False, 0.2)
+        """Request a cycle as the cell library's operator does (retryable refusals re-sent: test_cycle may
+        not have seen a joint state yet, it may start later than us)."""
+        resp = run_until_accepted(lambda: self.run(**kwargs), lambda s: self.spin_until(lambda: False, s), timeout,
+                                  pause=0.2)
+        assert resp.accepted and resp.cycle_id > 0, resp.message
+        return resp
 
     def wait_phase(self, cycle_id: int, phase: int, timeout: float = 20.0) -> None:
         def seen() -> bool:
@@ -121,7 +118,7 @@ class Operator(GraphClient):
                 return m.state
         return None
 
-    def wait_state(self, cycle_id: int, states: tuple[int, ...], timeout: float = 30.0) -> CycleStatus:
+    def wait_state(self, cycle_id: int, states: tuple[int, ...], timeout: float = 30.0) -> TestCycleStatus:
         assert self.spin_until(lambda: self.last_state(cycle_id) in states, timeout), (
             f"cycle {cycle_id} did not reach {states}; last status: {self.status[-1] if self.status else None}"
         )

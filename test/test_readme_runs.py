@@ -152,23 +152,60 @@ def _substitute(cmd: str, cwd: Path) -> str:
     return cmd
 
 
+#: README.md's commands in order: (index, line, command, why it is left out or None)
+WALK = [(i, line, cmd, next((w for k, w in NOT_HERE if k in cmd), None))
+        for i, (line, cmd) in enumerate(command_lines(README))]
+RUNS = [step for step in WALK if step[3] is None]
+
+
+class ReadmeWalk:
+    """README.md's commands run in order in one scratch directory, each at most once: a command's test
+    runs first the earlier commands that have not run (it needs what they made), then its own."""
+
+    def __init__(self, cwd: Path):
+        self.cwd = cwd
+        self.env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+        self.done: dict[int, str | None] = {}  # index -> None (exit 0) or what went wrong
+
+    def argv(self, cmd: str) -> list[str]:
+        run = _substitute(cmd, self.cwd)
+        argv = [sys.executable, "-m", "jointwear_ros", *_words(run)]
+        return [a for w in argv for a in (sorted(glob.glob(str(self.cwd / w))) or [w]
+                                          if any(c in w for c in "*?") else [w])]
+
+    def run(self, index: int) -> str | None:
+        """Run README command ``index`` (after the earlier ones not run yet); None, or why it failed."""
+        for i, line, cmd, _ in RUNS:
+            if i > index:
+                break
+            if i in self.done:
+                continue
+            argv = self.argv(cmd)
+            r = subprocess.run(argv, cwd=self.cwd, env=self.env, capture_output=True, text=True, timeout=1800)
+            self.done[i] = None if r.returncode == 0 else (
+                f"README.md:{line}: `{cmd}` (run as {' '.join(argv[3:])}) exit {r.returncode}:\n"
+                f"{r.stdout[-2000:]}\n{r.stderr[-2000:]}")
+        return self.done[index]
+
+
+@pytest.fixture(scope="module")
+def readme_walk(tmp_path_factory) -> ReadmeWalk:
+    """One scratch directory for the module: each README command's test adds what the command makes."""
+    return ReadmeWalk(tmp_path_factory.mktemp("readme"))
+
+
+def test_the_readme_walk_runs_most_commands_and_says_why_it_leaves_the_others():
+    left_out = [(line, cmd, why) for _, line, cmd, why in WALK if why is not None]
+    assert len(RUNS) >= 25, RUNS
+    assert len(left_out) <= 7, left_out
+
+
 @pytest.mark.slow
 @pytest.mark.ros
-def test_every_readme_command_runs_in_order(tmp_path):
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    ran, left_out = [], []
-    for line, cmd in command_lines(README):
-        why = next((w for k, w in NOT_HERE if k in cmd), None)
-        if why is not None:
-            left_out.append((line, cmd, why))
-            continue
-        run = _substitute(cmd, tmp_path)
-        argv = [sys.executable, "-m", "jointwear_ros", *_words(run)]
-        argv = [a for w in argv for a in (sorted(glob.glob(str(tmp_path / w))) or [w]
-                                          if any(c in w for c in "*?") else [w])]
-        r = subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=1800)
-        assert r.returncode == 0, f"README.md:{line}: `{cmd}` (run as {' '.join(argv[3:])}) exit {r.returncode}:\n" \
-                                  f"{r.stdout[-2000:]}\n{r.stderr[-2000:]}"
-        ran.append(line)
-    assert len(ran) >= 25, (ran, left_out)
-    assert len(left_out) <= 7, left_out
+@pytest.mark.parametrize(("index", "line", "cmd"), [s[:3] for s in RUNS],
+                         ids=[f"{i:02d}-README.md:{line}-{'-'.join(cmd.split()[1:3])}" for i, line, cmd, _ in RUNS])
+def test_the_readme_commands_run_in_order(readme_walk, index, line, cmd):
+    """README.md's command blocks in order (one test a command, so none takes long), with the placeholders
+    replaced by what the earlier commands made; each exits 0."""
+    failed = readme_walk.run(index)
+    assert failed is None, failed

@@ -7,7 +7,7 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import spin_until  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import TestCycleStatus  # noqa: E402  (a message, not a test class: conftest)
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
@@ -27,7 +27,7 @@ def test_per_cycle_bags_of_a_recorder_started_after_the_nodes_hold_their_setting
         est.declare_parameter("params", "ref-2011r")
         est.declare_parameter("alarm_threshold", 35.0)
         ex.add_node(est)
-        status = est.create_publisher(CycleStatus, "/rs_test/status", QoSProfile(
+        status = est.create_publisher(TestCycleStatus, "/rs_test/status", QoSProfile(
             depth=100, reliability=ReliabilityPolicy.RELIABLE))
         rec = RecorderNode(context=ctx, parameter_overrides=[
             Parameter("output_dir", value=str(tmp_path)), Parameter("discovery_period", value=0.1),
@@ -41,11 +41,11 @@ def test_per_cycle_bags_of_a_recorder_started_after_the_nodes_hold_their_setting
         def cycle(cid: int) -> None:
             n = len(rec.bags)
             for state in (CycleState_RUNNING, CycleState_DONE):
-                status.publish(CycleStatus(joint_name="joint_1", cycle_id=cid, state=state, speeds_total=2))
+                status.publish(TestCycleStatus(joint_name="joint_1", cycle_id=cid, state=state, speeds_total=2))
                 assert spin_until(ex, lambda: rec._queue.empty() and len(rec.bags) == n + 1), (rec.received, rec.bags, rec.recorded_topics, rec.dropped)
             assert spin_until(ex, lambda: rec._bag is None)
 
-        CycleState_RUNNING, CycleState_DONE = CycleStatus.RUNNING, CycleStatus.DONE
+        CycleState_RUNNING, CycleState_DONE = TestCycleStatus.RUNNING, TestCycleStatus.DONE
         cycle(1)
         est.set_parameters([Parameter("method", value="bayes")])  # between cycles, seen on /parameter_events
         assert spin_until(ex, lambda: rec._settings.get("wear_estimator", {}).get("method") == "bayes")

@@ -10,7 +10,7 @@ import yaml
 
 rclpy = pytest.importorskip("rclpy")
 from conftest import NodeProcess, spin_until  # noqa: E402
-from jointwear_msgs.msg import TestCycleStatus as CycleStatus  # noqa: E402  (not a test class)
+from jointwear_msgs.msg import TestCycleStatus  # noqa: E402  (a message, not a test class: conftest)
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
@@ -94,11 +94,11 @@ def test_recorder_records_every_topic_including_late_ones_into_an_mcap_bag_reada
             ex.spin_once(timeout_sec=0.0)
 
     # a topic that appears while the recorder runs, of a jointwear type
-    late = pub_node.create_publisher(CycleStatus, "/test_cycle/status", RELIABLE)
+    late = pub_node.create_publisher(TestCycleStatus, "/test_cycle/status", RELIABLE)
     assert spin_until(ex, lambda: "/test_cycle/status" in rec.recorded_topics)
     assert spin_until(ex, lambda: late.get_subscription_count() >= 1)
     for k in range(5):
-        st = CycleStatus(joint_name="joint_1", cycle_id=3, state=CycleStatus.RUNNING, speeds_done=k, speeds_total=8)
+        st = TestCycleStatus(joint_name="joint_1", cycle_id=3, state=TestCycleStatus.RUNNING, speeds_done=k, speeds_total=8)
         late.publish(st)
     assert spin_until(ex, lambda: rec.received.get("/joint_states", 0) == n_js
                        and rec.received.get("/velocity_controller/commands", 0) == n_cmd
@@ -148,7 +148,7 @@ def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
     ctx, ex = ros
     pub_node = rclpy.create_node("recorder_test_cycles", context=ctx)
     ex.add_node(pub_node)
-    status = pub_node.create_publisher(CycleStatus, "/test_cycle/status", RELIABLE)
+    status = pub_node.create_publisher(TestCycleStatus, "/test_cycle/status", RELIABLE)
     js = pub_node.create_publisher(JointState, "/joint_states", RELIABLE)
     rec = _recorder(ctx, ex, tmp_path, split="cycle", cycle_tail=0.0, include=["^/test_cycle/status$", "^/joint_states$"])
     assert spin_until(ex, lambda: len(rec.recorded_topics) == 2)
@@ -159,7 +159,7 @@ def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
     def send(state: int, cycle: int, joint_states: int) -> None:
         nonlocal sent
         # status first (received before the samples: subscriptions are served in no fixed order)
-        status.publish(CycleStatus(joint_name="joint_1", cycle_id=cycle, state=state, speeds_total=2))
+        status.publish(TestCycleStatus(joint_name="joint_1", cycle_id=cycle, state=state, speeds_total=2))
         sent += 1
         assert spin_until(ex, lambda: sum(rec.received.values()) == sent)
         for i in range(joint_states):
@@ -167,18 +167,18 @@ def test_recorder_splits_one_bag_per_test_cycle(ros, tmp_path):
         sent += joint_states
         assert spin_until(ex, lambda: sum(rec.received.values()) == sent)
 
-    send(CycleStatus.IDLE, 0, 5)          # before any cycle: not recorded
-    send(CycleStatus.RUNNING, 1, 10)
-    send(CycleStatus.DONE, 1, 0)
+    send(TestCycleStatus.IDLE, 0, 5)          # before any cycle: not recorded
+    send(TestCycleStatus.RUNNING, 1, 10)
+    send(TestCycleStatus.DONE, 1, 0)
     assert spin_until(ex, lambda: len(rec.bags) == 1 and rec._bag is None)
-    send(CycleStatus.RUNNING, 2, 7)
-    send(CycleStatus.FAILED, 2, 0)
+    send(TestCycleStatus.RUNNING, 2, 7)
+    send(TestCycleStatus.FAILED, 2, 0)
     assert spin_until(ex, lambda: len(rec.bags) == 2 and rec._bag is None)
-    send(CycleStatus.RUNNING, 1, 4)  # test_cycle restarted: it counts from cycle 1 again, a new bag
-    send(CycleStatus.DONE, 1, 0)
+    send(TestCycleStatus.RUNNING, 1, 4)  # test_cycle restarted: it counts from cycle 1 again, a new bag
+    send(TestCycleStatus.DONE, 1, 0)
     assert spin_until(ex, lambda: len(rec.bags) == 3 and rec._bag is None)
-    send(CycleStatus.RUNNING, 1, 3)  # restarted once more: cycle 1 right after a cycle 1
-    send(CycleStatus.DONE, 1, 0)
+    send(TestCycleStatus.RUNNING, 1, 3)  # restarted once more: cycle 1 right after a cycle 1
+    send(TestCycleStatus.DONE, 1, 0)
     rec.on_shutdown()
     bags = rec.bags
     assert [b.name.split("_cycle")[-1].split("_")[0] for b in bags] == ["1", "2", "1", "1"]
@@ -407,7 +407,7 @@ def test_a_robot_cycle_recorded_with_per_cycle_bags_is_one_bag_and_its_replay_ma
     ctx, ex = ros
     pub_node = rclpy.create_node("robot_cycle_player", context=ctx)
     ex.add_node(pub_node)
-    msg_types = {"sensor_msgs/msg/JointState": JointState, "jointwear_msgs/msg/TestCycleStatus": CycleStatus}
+    msg_types = {"sensor_msgs/msg/JointState": JointState, "jointwear_msgs/msg/TestCycleStatus": TestCycleStatus}
     from jointwear_msgs.msg import FrictionObservation, WearEstimate
     from sensor_msgs.msg import Temperature
     msg_types.update({"jointwear_msgs/msg/FrictionObservation": FrictionObservation,

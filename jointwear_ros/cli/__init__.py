@@ -1,7 +1,11 @@
 """The ``jointwear`` command line: a thin adapter over the core.
 
 Each sub-command lives in its own module ``*_cmd.py`` in this package with a
-``register(subparsers)`` function; they are found at start-up. Any
+``register(subparsers)`` function. :data:`COMMANDS` names them (command -> module, one-line
+help): :func:`main` imports only the module of the command on the line (``jointwear --help``
+imports none), and each module imports its heavy parts (scipy, the estimators, rclpy,
+SQLAlchemy, matplotlib) inside its command functions, so any ``--help`` answers at once
+(bench/bench_cli_startup.py). :func:`build_parser` without ``argv`` builds the whole parser. Any
 :class:`~jointwear_ros.errors.JointwearError` becomes a one-line message on
 stderr and exit code 2, as do argument errors; sub-commands check their
 arguments (output paths included) before they start any work. An error of the
@@ -24,12 +28,32 @@ from typing import Any
 
 from ..errors import JointwearError
 
-__all__ = ["COMMAND_MODULES", "UsageError", "build_parser", "main"]
+__all__ = ["COMMANDS", "COMMAND_MODULES", "UsageError", "build_parser", "main"]
 
 #: Modules (relative to this package) that register sub-commands.
 COMMAND_MODULES: tuple[str, ...] = tuple(
     sorted(m.name for m in pkgutil.iter_modules(__path__) if m.name.endswith("_cmd"))
 )
+
+#: Every top-level command: the module that registers it and its line in ``jointwear --help``
+#: (test_cli_startup.py checks this table against what the modules register).
+COMMANDS: dict[str, tuple[str, str]] = {
+    "bag": ("bag_cmd", "inspect and recover rosbag2 (MCAP) bags"),
+    "commission": ("commission_cmd", "identify a joint's nominal friction model from its baseline cycles"),
+    "cycle": ("cycle_cmd", "test-cycle design: which speeds to measure"),
+    "data": ("data_cmd", "synthetic observation tables with hidden effects; inspect a table"),
+    "demo": ("demo_cmd", "run the simulated cell: all nodes, one test cycle by service call, the wear estimate"),
+    "estimate": ("commission_cmd", "wear estimate of every test cycle with a parameter set"),
+    "fleet": ("fleet_cmd", "a fleet's wear history: re-analyse bags on Dask, compare versions, a page"),
+    "history": ("history_cmd", "the wear history store: import bags/CSV, export CSV, maintenance events"),
+    "model": ("model_cmd", "evaluate, fit and diagnose the friction model"),
+    "replay": ("replay_cmd", "re-run the friction observer and wear estimator on a recorded bag (offline), "
+               "or play it"),
+    "serve": ("serve_cmd", "live web page, /api/joints and Prometheus /metrics over the history store"),
+    "study": ("study_cmd", "the paper's Section 5.1 simulation study, robustness, and a Section 6 style "
+              "case study"),
+    "trend": ("trend_cmd", "wear trend and time to alarm of every joint in the history"),
+}
 
 EXIT_USAGE = 2
 EXIT_INTERNAL = 1
@@ -55,7 +79,14 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _command_word(argv: Sequence[str]) -> str | None:
+    """The command of a command line: its first word that is not a top-level option."""
+    return next((w for w in argv if not w.startswith("-")), None)
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``jointwear`` parser: every command in full, or, given the command line ``argv``, in full only
+    the commands of the module of its command (the others by name and help line, enough for ``--help``)."""
     parser = _Parser(
         prog="jointwear",
         description="Robot-joint wear diagnosis from static friction (ROS 2 Jazzy).",
@@ -64,8 +95,18 @@ def build_parser() -> argparse.ArgumentParser:
                         help="on an error, print the traceback as well as the one-line message")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    for mod in COMMAND_MODULES:
+    if argv is None:
+        modules = list(COMMAND_MODULES)
+    else:
+        word = _command_word(argv)
+        modules = [COMMANDS[word][0]] if word in COMMANDS else []
+    for mod in modules:
         importlib.import_module(f"{__name__}.{mod}").register(sub)
+    for name, (_, text) in COMMANDS.items():
+        if name not in sub.choices:
+            sub.add_parser(name, help=text)
+    # argparse lists the commands in the order they were added: by name, as before
+    sub._choices_actions.sort(key=lambda a: a.dest)
     return parser
 
 
@@ -81,8 +122,8 @@ def _fail(args: argparse.Namespace, message: str, code: int) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
     words = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser([w for w in words if w != "--verbose"])
     # --verbose is accepted anywhere on the line, not only before the sub-command
     verbose = "--verbose" in words
     args = parser.parse_args([w for w in words if w != "--verbose"])

@@ -12,12 +12,10 @@ import math
 import os
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from ..fmt import format_table
 from ..resources import config_path
 from . import UsageError
 
@@ -96,6 +94,8 @@ def parse_float_list(text: str, what: str, max_count: int = MAX_LIST) -> list[fl
             raise UsageError(f"{what}: count in {text!r} must be at least 1")
         if n > max_count:
             raise UsageError(f"{what}: count {n} in {text!r} is more than the {max_count:,} values allowed")
+        import numpy as np
+
         return [float(x) for x in np.linspace(lo, hi, n)]
     items = text.split(",")
     if len(items) > max_count:
@@ -202,11 +202,21 @@ def check_temperature_prior(prior: Any, flag: str, valid: tuple[float, float] | 
         )
 
 
+def format_table(headers: Sequence[str], rows: Sequence[Sequence[Any]], floatfmt: str = ".5f") -> str:
+    """:func:`jointwear_ros.fmt.format_table` (imported on use: it brings numpy)."""
+    from ..fmt import format_table as table
+
+    return table(headers, rows, floatfmt)
+
+
 def _clean(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {str(k): _clean(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [_clean(v) for v in obj]
+    np = sys.modules.get("numpy")  # no numpy value can exist before numpy is imported
+    if np is None:
+        return None if isinstance(obj, float) and not math.isfinite(obj) else obj
     if isinstance(obj, np.ndarray):
         return _clean(obj.tolist())
     if isinstance(obj, (np.floating, float)):

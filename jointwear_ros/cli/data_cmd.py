@@ -6,8 +6,6 @@ import argparse
 import math
 from pathlib import Path
 
-import numpy as np
-
 from . import UsageError
 from .common import check_output_dir, check_output_file, format_table, parse_float, parse_float_list, print_json
 
@@ -222,6 +220,8 @@ def cmd_effects(args: argparse.Namespace) -> int:
 
 
 def cmd_show(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ..io.tables import read_table
     from ..workbench import noise_floor
 
@@ -289,6 +289,8 @@ def cmd_synth_history(args: argparse.Namespace) -> int:
 
 
 def cmd_from_timeseries(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ..errors import InputDataError
     from ..io.tables import write_csv
     from ..io.timeseries import read_timeseries

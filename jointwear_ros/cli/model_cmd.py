@@ -11,9 +11,6 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from ..model import load_parameter_set_info, paper_wear_model
 from . import UsageError
 from .common import (
     check_output_dir,
@@ -52,6 +49,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 def cmd_curve(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..model import load_parameter_set_info, paper_wear_model
+
     info = load_parameter_set_info(args.params)
     load = parse_float(args.load, "--load")
     temperature = parse_float(args.temperature, "--temperature")
@@ -185,6 +186,7 @@ def _check_out_dir(value: str | None, flag: str) -> None:
 def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
     """Read the data, parse the model and the starting parameters (everything that can fail on input)."""
     from ..io.tables import read_table
+    from ..model import load_parameter_set_info
     from ..workbench import parse_spec
 
     if args.folds < 0 or args.folds == 1:
@@ -223,6 +225,7 @@ def _prepare(args: argparse.Namespace, spec: str) -> tuple[Any, Any, Any]:
 def _in_base_units(table: Any, args: argparse.Namespace) -> Any:
     """The table in degC and rad/s (its frame kept: the workbench fits in the data's own units), its temperatures
     checked: kelvin or degF named with the flag that converts them."""
+    from ..model import load_parameter_set_info
     from ..units import TableUnits, check_temperature, effective_units, in_base_units
 
     declared = table.units

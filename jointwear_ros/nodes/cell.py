@@ -2,10 +2,12 @@
 
 What ``jointwear demo`` does, reusable by scripts and tests:
 
-- :func:`start_child` starts one node's console script with its ``config/<node>.yaml`` and ``-p``
-  overrides, in the environment it is given (build it with
+- :func:`start_child` starts one node's console script (or ``python -m``) with its ``config/<node>.yaml``,
+  parameter files and ``-p`` overrides, in the environment it is given (build it with
   :func:`jointwear_ros.nodes.runtime.loopback_env`: loopback discovery, a domain of its own), its
-  output in ``logdir/<node>.log``; :func:`stop_children` stops them (SIGINT, then SIGTERM, SIGKILL).
+  output in ``logdir/<node>.log`` (or a file of its own); :class:`Child` is the process (``stop``,
+  ``output``, ``log_tail``); :func:`stop_children` stops a cell (SIGINT, then SIGTERM, SIGKILL). The test
+  harness (test/conftest.py's ``NodeProcess``) starts its nodes with these too.
 - :class:`Operator` is an rclpy node in its own context, on the cell's domain: it waits for the
   graph (:func:`ready_conditions`), calls ``/test_cycle/run`` (:meth:`Operator.start_cycle` retries a
   refusal whose :class:`~jointwear_ros.contract.RefusalReason` is ``retryable``), collects the
@@ -30,19 +32,22 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, TypeVar
 
 from ..contract import CycleState, CycleStatus, DiagnosticLevel, RefusalReason, status_from_msg
 from ..errors import JointwearError
 from ..resources import config_path
 
 __all__ = ["CellError", "Child", "JointReport", "Operator", "after", "die_with_parent", "ready_conditions",
-           "start_child", "stop_children"]
+           "run_until_accepted", "start_child", "stop_children"]
+
+_Answer = TypeVar("_Answer")
 
 
 class CellError(JointwearError):
@@ -55,22 +60,48 @@ def _quiet(text: str) -> None:
 
 @dataclass
 class Child:
-    """One node process and its log file."""
+    """One node process and its log file (``own_log``: a temporary file :meth:`close` removes)."""
 
     name: str
     proc: subprocess.Popen[bytes]
     log: Path
     fh: IO[bytes]
+    own_log: bool = False
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
 
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def log_tail(self, lines: int = 8) -> str:
+    def output(self) -> str:
+        """Everything the node wrote so far."""
         try:
-            text = self.log.read_text(errors="replace").strip().splitlines()
+            return self.log.read_text(errors="replace")
         except OSError:
             return ""
-        return " | ".join(text[-lines:])
+
+    def log_tail(self, lines: int = 8) -> str:
+        return " | ".join(self.output().strip().splitlines()[-lines:])
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
+        """Send ``sig`` (SIGINT: as Ctrl-C), wait ``timeout`` s, then SIGKILL; the exit code."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        self.fh.close()
+        return int(self.proc.returncode)
+
+    def close(self) -> None:
+        """Stop it (if still running) and remove its log if the log is its own temporary file."""
+        self.stop()
+        if self.own_log:
+            self.log.unlink(missing_ok=True)
 
 
 @dataclass
@@ -147,20 +178,39 @@ def die_with_parent() -> None:
         _PRCTL(_PR_SET_PDEATHSIG, int(signal.SIGTERM))
 
 
-def start_child(name: str, params: Mapping[str, Any], env: Mapping[str, str], logdir: Path) -> Child:
-    """Start node ``name`` with its config file and ``params`` overrides; output to ``logdir/<name>.log``."""
-    cmd = [_executable(name), "--ros-args"]
+def start_child(name: str, params: Mapping[str, Any], env: Mapping[str, str], logdir: Path | None = None, *,
+                log: Path | None = None, params_files: Sequence[Path] = (), args: Sequence[str] = (),
+                config: bool = True, as_module: bool = False,
+                preexec_fn: Callable[[], None] | None = die_with_parent) -> Child:
+    """Start node ``name``: its config file (unless ``config=False``), then ``params_files``, then ``params`` as
+    ``-p`` overrides, then ``args``.
+
+    Its output goes to ``log``, else ``logdir/<name>.log``, else a temporary file (:meth:`Child.close`
+    removes it). ``as_module``: run ``python -m jointwear_ros.nodes.<name>`` with this interpreter (the
+    package on ``sys.path``, as a test of a checkout wants) instead of the console script.
+    """
+    cmd = [sys.executable, "-m", f"jointwear_ros.nodes.{name}"] if as_module else [_executable(name)]
+    cmd.append("--ros-args")
     cfg = config_path(f"{name}.yaml")
-    if cfg.is_file():
+    if config and cfg.is_file():
         cmd += ["--params-file", str(cfg)]
-    cmd += _param_args(params)
-    log = logdir / f"{name}.log"
+    for f in params_files:
+        cmd += ["--params-file", str(f)]
+    cmd += _param_args(params) + list(args)
+    own = log is None and logdir is None
+    if log is None:
+        if logdir is None:
+            fd, tmp = tempfile.mkstemp(prefix=f"{name}-", suffix=".log")
+            os.close(fd)
+            log = Path(tmp)
+        else:
+            log = logdir / f"{name}.log"
     fh = log.open("wb")
     fh.write(("$ " + " ".join(cmd) + "\n").encode())
     fh.flush()
     proc = subprocess.Popen(cmd, env=dict(env), stdout=fh, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                            preexec_fn=die_with_parent)
-    return Child(name, proc, log, fh)
+                            preexec_fn=preexec_fn)
+    return Child(name, proc, log, fh, own)
 
 
 def stop_children(children: Sequence[Child], sigint_timeout: float = 15.0, sigterm_timeout: float = 5.0,
@@ -193,6 +243,36 @@ def stop_children(children: Sequence[Child], sigint_timeout: float = 15.0, sigte
 def after(deadline: float) -> Callable[[], bool]:
     """A predicate that turns true at ``deadline`` (time.monotonic)."""
     return lambda: time.monotonic() > deadline
+
+
+def _accepted(answer: Any) -> bool:
+    return bool(answer.accepted)
+
+
+def _reason(answer: Any) -> Any:
+    return answer.reason
+
+
+def _say_nothing(answer: Any) -> None:
+    """The default ``progress`` of :func:`run_until_accepted`."""
+
+
+def run_until_accepted(send: Callable[[], _Answer], wait: Callable[[float], None], retry_for: float, *,
+                       pause: float = 1.0, accepted: Callable[[_Answer], bool] = _accepted,
+                       reason: Callable[[_Answer], Any] = _reason,
+                       progress: Callable[[_Answer], None] = _say_nothing) -> _Answer:
+    """Ask for a test cycle as an operator would: ``send()`` calls ``/test_cycle/run`` and returns the answer
+    (a ``RunTestCycle.Response`` by default); a refusal whose :class:`~jointwear_ros.contract.RefusalReason`
+    is ``retryable`` (the joint state not there yet or late, a cycle still running) is sent again after
+    ``wait(pause)`` (``progress(answer)`` first) for ``retry_for`` seconds. The last answer, accepted or not.
+    The cell's :class:`Operator` and the tests' operators ask this way."""
+    end = time.monotonic() + retry_for
+    while True:
+        answer = send()
+        if accepted(answer) or not RefusalReason(reason(answer)).retryable or time.monotonic() > end:
+            return answer
+        progress(answer)
+        wait(pause)
 
 
 @contextmanager
@@ -467,16 +547,21 @@ class Operator:
 
     def start_cycle(self, speeds: Sequence[float], children: Sequence[Child], timeout: float = 30.0,
                     retry_for: float = 20.0) -> tuple[int, str]:
-        """Call ``/test_cycle/run`` as an operator would: a refusal whose reason is retryable (the joint
-        state not there yet or late, a cycle still running) is re-sent every second for ``retry_for``
-        seconds; any other refusal raises :class:`CellError` with the reason. Returns (cycle id, plan)."""
-        end = time.monotonic() + retry_for
-        while True:
-            accepted, cycle_id, reason, message = self.call_run(speeds, children, timeout)
-            if accepted or not reason.retryable or time.monotonic() > end:
-                break
-            self.progress(f"/test_cycle/run refused ({reason.name}: {message}); retrying in 1 s")
-            self.spin_until(after(time.monotonic() + 1.0), 5.0, children, "a retry")
+        """Call ``/test_cycle/run`` as an operator would (:func:`run_until_accepted`: a retryable refusal is
+        re-sent every second for ``retry_for`` seconds); any other refusal raises :class:`CellError` with the
+        reason. Returns (cycle id, plan)."""
+
+        def send() -> tuple[bool, int, RefusalReason, str]:
+            return self.call_run(speeds, children, timeout)
+
+        def wait(seconds: float) -> None:
+            self.spin_until(after(time.monotonic() + seconds), seconds + 4.0, children, "a retry")
+
+        def retrying(answer: tuple[bool, int, RefusalReason, str]) -> None:
+            self.progress(f"/test_cycle/run refused ({answer[2].name}: {answer[3]}); retrying in 1 s")
+
+        accepted, cycle_id, reason, message = run_until_accepted(
+            send, wait, retry_for, accepted=lambda a: a[0], reason=lambda a: a[2], progress=retrying)
         if not accepted:
             raise CellError(f"/test_cycle/run refused the request ({reason.name}): {message}")
         return cycle_id, message
