@@ -6,6 +6,8 @@ from __future__ import annotations
 import ast
 import dataclasses
 import json
+import re
+from collections.abc import Mapping
 from pathlib import Path
 
 import pytest
@@ -169,3 +171,143 @@ def test_settings_is_pure_and_the_robot_nodes_plumbing_has_no_import_circle():
     # nodes.joints builds on nodes.runtime, never the other way (function-local imports included)
     assert ".runtime" in _imported(PKG / "nodes/joints.py")
     assert ".joints" not in _imported(PKG / "nodes/runtime.py")
+
+
+# --- param=, default_factory=, one range check (check_ranges) and one node-declaration helper -------------------
+
+def _thresholds() -> type:
+    """A config whose field ``alarm`` is the parameter ``alarm_threshold`` and whose ``options`` default is made."""
+
+    @dataclasses.dataclass(frozen=True)
+    class Thresholds:
+        alarm: float = setting(35.0, description="wear of ERROR", unit="%", range=(0.0, 100.0), per_joint=True,
+                               param="alarm_threshold")
+        options: Mapping[str, float] = setting(default_factory=dict, description="extra options")
+
+    return Thresholds
+
+
+def test_param_names_the_node_parameter_when_it_is_not_the_field():
+    Thresholds = _thresholds()
+    d = declarations(Thresholds)[0]
+    assert (d.name, d.default, d.min, d.max) == ("alarm_threshold", 35.0, 0.0, 100.0)
+    assert per_joint(Thresholds) == ("alarm_threshold",)
+    # read under the parameter's name (a joint's own too); the field's name is not a parameter
+    assert from_mapping(Thresholds, {"alarm_threshold": 40, "alarm": 99.0}).alarm == 40.0
+    own = {"alarm_threshold": 40, "joint_2.alarm_threshold": 45.0}
+    assert from_mapping(Thresholds, own, joint="joint_2").alarm == 45.0
+    with pytest.raises(ParameterError, match=r"^alarm_threshold=300: outside the declared range \[0\.0, 100\.0\] %$"):
+        from_mapping(Thresholds, {"alarm_threshold": 300.0})
+    # the trend's alarm and warn are the wear_trend node's alarm_threshold and warn_threshold, by the same means
+    from jointwear_ros.trend import TrendConfig
+
+    assert [d.name for d in declarations(TrendConfig)] == ["alarm_threshold", "warn_threshold", "horizon_days",
+                                                            "min_estimates"]
+    cfg = from_mapping(TrendConfig, {"alarm_threshold": 40, "warn_threshold": 20.0, "alarm": 99.0})
+    assert (cfg.alarm, cfg.warn) == (40.0, 20.0)
+
+
+def test_default_factory_makes_each_configs_own_mutable_default():
+    Thresholds = _thresholds()
+    a, b = Thresholds(), Thresholds()
+    assert a.options == {} and a.options is not b.options
+    assert declarations(Thresholds)[1].default == {}
+    from jointwear_ros.monitor import MonitorConfig
+
+    f = {f.name: f for f in dataclasses.fields(MonitorConfig)}["estimator_options"]
+    assert f.default_factory is dict and f.default is dataclasses.MISSING  # no None standing for "none"
+    assert MonitorConfig().estimator_options == {}
+    assert settings_of(MonitorConfig)["estimator_options"].default == ""  # the node takes a JSON object string
+    with pytest.raises(TypeError, match="one of them"):
+        setting(1.0, default_factory=float, description="both")
+
+
+def _configs():
+    """Each config with settings, how it is checked (its error type, the prefix of its messages)."""
+    from jointwear_ros.cycle import CycleRequestError
+    from jointwear_ros.errors import InputDataError
+    from jointwear_ros.monitor import MonitorConfig
+    from jointwear_ros.observer import ObserverConfig
+    from jointwear_ros.trend import TrendConfig
+
+    return [(CycleConfig, CycleRequestError, "test cycle setting "), (JointSimConfig, ParameterError, "joint sim: "),
+            (ObserverConfig, InputDataError, "observer setting "), (MonitorConfig, InputDataError, ""),
+            (TrendConfig, InputDataError, "trend setting ")]
+
+
+def _build(cls, **values):
+    cfg = cls(**values)
+    if hasattr(cfg, "check"):  # the cycle and the simulator check on use, the others when built
+        cfg.check()
+    return cfg
+
+
+def test_every_declared_range_is_enforced_at_construction_in_one_line():
+    checked = 0
+    for cls, error, prefix in _configs():
+        for name, d in settings_of(cls).items():
+            if d.min is None and d.max is None:
+                continue
+            unit = f" {d.unit}" if d.unit else ""
+            width = d.max - d.min
+            below = d.min - 1 if isinstance(d.default, int) else d.min - max(width * 0.5, abs(d.min) * 0.5)
+            above = d.max + 1 if isinstance(d.default, int) else d.max + max(width * 0.5, 1.0)
+            for v in (below, above):
+                line = f"{prefix}{d.name}={v:g}: outside the declared range [{d.min}, {d.max}]{unit}"
+                with pytest.raises(error, match=f"^{re.escape(line)}$"):
+                    _build(cls, **{name: v})
+                checked += 1
+            with pytest.raises(error, match=rf"^{prefix}{d.name}=nan: not a finite number"):
+                _build(cls, **{name: float("nan")})
+    assert checked > 100  # every ranged setting of the five configs, each way
+
+
+@pytest.mark.parametrize("name", ["min_samples", "n_batches"])
+def test_the_stricter_hand_checks_are_declared_ranges_refused_as_parameters(name):
+    from jointwear_ros.monitor import MonitorConfig
+    from jointwear_ros.observer import ObserverConfig
+    from jointwear_ros.trend import TrendConfig
+
+    for cls, param, low in ((ObserverConfig, name, 2), (CycleConfig, "max_speeds", 1),
+                            (MonitorConfig, "min_observations", 1), (TrendConfig, "min_estimates", 2)):
+        d = settings_of(cls)[param]
+        assert d.min == low
+        key = f"joint_2.{param}" if d.per_joint else param  # a joint's own value, where it may have one
+        with pytest.raises(ParameterError, match=rf"^{key}={low - 1}: outside the declared range \[{low}, {d.max}\]$"):
+            from_mapping(cls, {key: low - 1}, joint="joint_2")
+    pytest.importorskip("rclpy")  # the node declares the range (the CLI's --set and the node refuse it)
+    from jointwear_ros.nodes.runtime import node_parameters
+
+    assert node_parameters("friction_observer")[name].min == 2
+
+
+def test_a_new_setting_with_a_range_and_no_hand_check_is_refused_at_construction():
+    from jointwear_ros.errors import InputDataError
+    from jointwear_ros.observer import ObserverConfig
+
+    @dataclasses.dataclass(frozen=True)
+    class SettleObserverConfig(ObserverConfig):
+        settle_skip: float = setting(0.1, description="s skipped after reaching speed", unit="s", range=(0.0, 1.0))
+
+    with pytest.raises(InputDataError, match=r"^observer setting settle_skip=2: outside the declared range "
+                                             r"\[0\.0, 1\.0\] s$"):
+        SettleObserverConfig(settle_skip=2.0)
+    from jointwear_ros.cycle import CycleRequestError
+
+    with pytest.raises(CycleRequestError, match=r"^test cycle setting dwell_time=20: outside the declared range "
+                                                r"\[0\.0, 10\.0\] s$"):
+        DwellCycleConfig(dwell_time=20.0).check()
+
+
+def test_the_robot_nodes_build_their_declarations_with_one_helper():
+    import jointwear_ros.settings as settings_module
+
+    for node in ("test_cycle", "joint_sim", "friction_observer", "wear_estimator"):
+        text = (PKG / "nodes" / f"{node}.py").read_text()
+        assert "PARAMETERS, LIVE_PARAMETERS, PER_JOINT = node_declarations(" in text, node
+        assert "for d in PARAMETERS if" not in text, node  # LIVE_PARAMETERS, PER_JOINT not assembled by hand
+    own = (ParamDecl("topic", "/x", "output", read_only=True),)
+    decls = settings_module.node_declarations(DwellCycleConfig, own, own)
+    assert decls.parameters == (*own, *declarations(DwellCycleConfig), *own)
+    assert decls.per_joint == per_joint(DwellCycleConfig)
+    assert decls.live == tuple(d.name for d in declarations(DwellCycleConfig) if not d.read_only)

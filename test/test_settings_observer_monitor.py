@@ -76,7 +76,7 @@ def test_the_declared_ranges_defaults_and_units_are_the_configs():
     obs, mon = settings_of(ObserverConfig), settings_of(MonitorConfig)
     assert (obs["gear_ratio"].default, obs["gear_ratio"].min, obs["gear_ratio"].max) == (100.0, 1e-6, 1e6)
     assert (obs["edge_trim"].min, obs["edge_trim"].max, obs["pass_gap"].unit) == (0.0, 0.99, "s")
-    assert (obs["min_samples"].default, obs["min_samples"].min, obs["min_samples"].max) == (20, None, None)
+    assert (obs["min_samples"].default, obs["min_samples"].min, obs["min_samples"].max) == (20, 2, 1_000_000)
     assert (mon["warn_threshold"].min, mon["warn_threshold"].max, mon["warn_threshold"].unit) == (0.0, 100.0, "%")
     assert mon["estimator_options"].default == ""  # the node takes a JSON object string
     assert MonitorConfig().estimator_options == {}  # the config a mapping

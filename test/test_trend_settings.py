@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import ast
 import math
-from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -13,9 +12,8 @@ import yaml
 
 from jointwear_ros.contract import DiagnosticLevel
 from jointwear_ros.errors import ParameterError
-from jointwear_ros.settings import settings_of
+from jointwear_ros.settings import declarations, from_mapping, settings_of
 from jointwear_ros.trend import TrendConfig, TrendResult
-from jointwear_ros.trend.config import PARAMETER_NAMES, from_parameters, node_declarations
 from jointwear_ros.trend.report import rank_key
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,26 +29,25 @@ def test_the_nodes_trend_parameters_are_the_configs_settings_under_their_paramet
     decls = {d.name: d for d in wear_trend.PARAMETERS}
     cfg = TrendConfig()
     for name, setting in settings_of(TrendConfig).items():
-        param = PARAMETER_NAMES.get(name, name)
-        assert decls[param] == replace(setting, name=param)
-        assert decls[param].default == getattr(cfg, name)
-    assert [d.name for d in node_declarations()] == ["alarm_threshold", "warn_threshold", "horizon_days",
-                                                      "min_estimates"]
-    assert set(wear_trend.LIVE_PARAMETERS) >= {d.name for d in node_declarations()}
+        assert decls[setting.name] == setting
+        assert decls[setting.name].default == getattr(cfg, name)
+    assert [d.name for d in declarations(TrendConfig)] == ["alarm_threshold", "warn_threshold", "horizon_days",
+                                                            "min_estimates"]
+    assert set(wear_trend.LIVE_PARAMETERS) >= {d.name for d in declarations(TrendConfig)}
 
 
 def test_the_params_file_says_the_configs_defaults():
     params = yaml.safe_load((ROOT / "config" / "wear_trend.yaml").read_text())["wear_trend"]["ros__parameters"]
-    for d in node_declarations():
+    for d in declarations(TrendConfig):
         assert params[d.name] == d.default, d.name
 
 
 def test_the_config_from_node_parameters_takes_integers_for_doubles_and_ignores_the_nodes_own():
-    cfg = from_parameters({"alarm_threshold": 40, "warn_threshold": 25.0, "horizon_days": 10, "min_estimates": 7,
-                           "robot": "robot_1", "retry_period": 1.0, "alarm": 99.0})
+    cfg = from_mapping(TrendConfig, {"alarm_threshold": 40, "warn_threshold": 25.0, "horizon_days": 10,
+                                     "min_estimates": 7, "robot": "robot_1", "retry_period": 1.0, "alarm": 99.0})
     assert (cfg.alarm, cfg.warn, cfg.horizon_days, cfg.min_estimates) == (40.0, 25.0, 10.0, 7)
     assert isinstance(cfg.alarm, float) and isinstance(cfg.horizon_days, float)
-    assert from_parameters({}) == TrendConfig()
+    assert from_mapping(TrendConfig, {}) == TrendConfig()
 
 
 @pytest.mark.parametrize(("values", "match"), [
@@ -60,7 +57,7 @@ def test_the_config_from_node_parameters_takes_integers_for_doubles_and_ignores_
 ])
 def test_a_bad_parameter_is_refused_in_one_line_naming_the_parameter(values, match):
     with pytest.raises(ParameterError, match=match):
-        from_parameters(values)
+        from_mapping(TrendConfig, values)
 
 
 def _imports(path: Path) -> set[str]:

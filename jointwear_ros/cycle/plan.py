@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 from ..contract import RefusalReason
 from ..errors import JointwearError
-from ..settings import setting
+from ..settings import check_ranges, setting
 
 __all__ = [
     "DEFAULT_SPEEDS",
@@ -180,31 +180,22 @@ class CycleConfig:
     move_timeout_factor: float = 3.0
     min_speed: float = setting(1.0, description="smallest allowed speed, motor side, rad/s", unit="rad/s",
                                range=(1e-3, 1e6), per_joint=True)
-    max_speeds: int = setting(32, description="most speeds in one cycle")
+    max_speeds: int = setting(32, description="most speeds in one cycle", range=(1, 10_000))
     max_duration: float = setting(3600.0, description="longest planned cycle (all joints), s", unit="s",
                                   range=(1.0, 1e6))
 
     def check(self) -> None:
-        """Raise :class:`CycleRequestError` on settings that cannot plan a cycle."""
-        positive = (
-            "gear_ratio", "window_half_width", "max_speed", "acceleration", "approach_speed",
-            "state_timeout", "speed_tolerance", "effort_limit", "position_tolerance", "approach_tolerance",
-            "move_timeout_factor", "min_speed", "max_duration", "control_period",
-        )
-        for name in positive:
+        """Raise :class:`CycleRequestError` on settings that cannot plan a cycle: a setting outside its
+        declared range (:func:`~jointwear_ros.settings.check_ranges`), then what no one range says."""
+        check_ranges(self, CycleRequestError, "test cycle setting")
+        for name in ("position_tolerance", "move_timeout_factor", "control_period"):  # not node parameters
             val = getattr(self, name)
             if not (math.isfinite(val) and val > 0):
                 raise CycleRequestError(f"test cycle setting {name} must be finite and > 0, got {val}")
-        for name in ("steady_time", "settle_time", "limit_margin", "reaction_time", "velocity_lag"):
-            val = getattr(self, name)
-            if not (math.isfinite(val) and val >= 0):
-                raise CycleRequestError(f"test cycle setting {name} must be finite and >= 0, got {val}")
         if not self.min_speed <= self.max_speed:
             raise CycleRequestError(
                 f"test cycle setting min_speed {self.min_speed:g} rad/s must not exceed max_speed {self.max_speed:g} rad/s"
             )
-        if int(self.max_speeds) < 1:
-            raise CycleRequestError(f"test cycle setting max_speeds must be at least 1, got {self.max_speeds}")
         lo, hi = self.joint_limits
         if not (math.isfinite(lo) and math.isfinite(hi) and lo + 2 * self.limit_margin < hi):
             raise CycleRequestError(

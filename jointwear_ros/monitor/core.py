@@ -65,7 +65,7 @@ from ..errors import InputDataError, JointwearError, ParameterError
 from ..estimation import ESTIMATORS, make_estimator
 from ..model.paramsets import load_parameter_set_info
 from ..observer.types import FrictionObservationData
-from ..settings import setting
+from ..settings import check_ranges, setting
 from ..types import ObservationTable, WearEstimator, WearResult
 from .validation import screen_observation
 
@@ -145,31 +145,22 @@ class MonitorConfig:
                                   unit="s", range=(0.0, 600.0), per_joint=True)
     idle_timeout: float = setting(30.0, description="s after the last observation of a cycle without status",
                                   unit="s", range=(0.0, 3600.0), per_joint=True)
-    min_observations: int = setting(1, description="observations needed for an estimate", per_joint=True)
+    min_observations: int = setting(1, description="observations needed for an estimate", range=(1, 100_000),
+                                    per_joint=True)
     observation_noise_std: float = setting(0.0015, description="sweep-to-sweep scatter of tau_f added to each "
                                            "observation's window standard error", range=(0.0, 1.0), per_joint=True)
-    #: a JSON object string as a parameter (``""``: none), a mapping here (None: none)
+    #: a JSON object string as a parameter (``""``: none), a mapping here
     estimator_options: Mapping[str, Any] = setting(
-        None, description="JSON object of extra estimator options, e.g. {\"n_samples\": 200}", per_joint=True,
-        parse=parse_estimator_options, param_default="")
+        default_factory=dict, description="JSON object of extra estimator options, e.g. {\"n_samples\": 200}",
+        per_joint=True, parse=parse_estimator_options, param_default="")
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "estimator_options", dict(self.estimator_options or {}))
-        w, a = float(self.warn_threshold), float(self.alarm_threshold)
-        if not (math.isfinite(w) and math.isfinite(a) and w <= a):
+        check_ranges(self, InputDataError)
+        if not float(self.warn_threshold) <= float(self.alarm_threshold):
             raise InputDataError(
                 f"warn_threshold = {self.warn_threshold!r}, alarm_threshold = {self.alarm_threshold!r}: "
                 "need finite thresholds with warn_threshold <= alarm_threshold (wear 0-100)"
             )
-        for name in ("done_timeout", "idle_timeout"):
-            value = float(getattr(self, name))
-            if not (math.isfinite(value) and value >= 0):
-                raise InputDataError(f"{name} = {value!r} must be a number of seconds >= 0")
-        sig = float(self.observation_noise_std)
-        if not (math.isfinite(sig) and sig >= 0):
-            raise InputDataError(f"observation_noise_std = {sig!r} must be a number >= 0 (normalized torque)")
-        if int(self.min_observations) < 1:
-            raise InputDataError(f"min_observations = {self.min_observations!r} must be at least 1")
 
 
 @dataclass(frozen=True)

@@ -67,7 +67,7 @@ from ..contract import observation_from_msg, stamp_to_seconds, status_from_msg
 from ..errors import JointwearError
 from ..observer import FrictionObservationData, ObserverConfig, RobotObserver
 from ..observer.robot import Routed
-from ..settings import declarations, from_mapping, settings_of
+from ..settings import from_mapping, node_declarations, settings_of
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
@@ -112,14 +112,12 @@ _NODE_TAIL: tuple[ParamDecl, ...] = (
 
 def parameters(config: type = ObserverConfig) -> tuple[ParamDecl, ...]:
     """Every parameter of the node: its own and the observer settings of ``config`` (its field metadata)."""
-    return (*_NODE_HEAD, *declarations(config), *_NODE_TAIL)
+    return node_declarations(config, _NODE_HEAD, _NODE_TAIL).parameters
 
 
-PARAMETERS: tuple[ParamDecl, ...] = parameters()
-#: Parameters that can change at run time (between cycles)
-LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
-#: Settings each joint has of its own (``<joint>.<setting>``, default: the node-level value; live)
-PER_JOINT = tuple(d.name for d in PARAMETERS if d.per_joint)
+#: every parameter; those that can change at run time (between cycles); the settings each joint has of its own
+#: (``<joint>.<setting>``, default: the node-level value)
+PARAMETERS, LIVE_PARAMETERS, PER_JOINT = node_declarations(ObserverConfig, _NODE_HEAD, _NODE_TAIL)
 
 
 def observer_config(values: Mapping[str, Any], joint: str, config: type = ObserverConfig) -> ObserverConfig:

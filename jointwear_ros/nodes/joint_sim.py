@@ -60,7 +60,7 @@ from std_msgs.msg import Float64MultiArray
 
 from ..contract import DiagnosticLevel
 from ..errors import ParameterError
-from ..settings import declarations, from_mapping
+from ..settings import declarations, from_mapping, node_declarations
 from ..sim import JointSimConfig, RobotSim, parse_effects
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level
@@ -95,14 +95,12 @@ _NODE: tuple[ParamDecl, ...] = (
               read_only=True, unit="s"),
 )
 #: Parameters of the node (defaults as in ``config/joint_sim.yaml``): its own and :class:`JointSimConfig`'s
-PARAMETERS: tuple[ParamDecl, ...] = (*_NODE, *declarations(JointSimConfig))
+#: the parameters that can change at run time (the per-joint ones, ``<joint>.<setting>``, too); the settings
+#: each joint has of its own (``<joint>.<setting>``; default: the node-level value)
+PARAMETERS, LIVE_PARAMETERS, PER_JOINT = node_declarations(JointSimConfig, _NODE)
 _DECLS = {d.name: d for d in PARAMETERS}
 #: JointSimConfig fields that can change on a running simulation
 _SIM_LIVE = frozenset(d.name for d in declarations(JointSimConfig) if not d.read_only)
-#: Settings each joint has of its own (``<joint>.<setting>``; default: the node-level value)
-PER_JOINT = tuple(d.name for d in PARAMETERS if d.per_joint)
-#: Parameters that can change at run time (the per-joint ones, ``<joint>.<setting>``, too)
-LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
 _RELIABLE_1000 = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)

@@ -81,7 +81,7 @@ from ..cycle import (
     plan_robot_cycle,
 )
 from ..errors import JointwearError, ParameterError
-from ..settings import declarations, from_mapping
+from ..settings import declarations, from_mapping, node_declarations
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level
 from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, wait_acked
@@ -122,17 +122,15 @@ _NODE_TAIL: tuple[ParamDecl, ...] = (
 
 def parameters(config: type = CycleConfig) -> tuple[ParamDecl, ...]:
     """Every parameter of the node: its own and the cycle settings of ``config`` (its field metadata)."""
-    return (*_NODE_HEAD, *declarations(config), *_NODE_TAIL)
+    return node_declarations(config, _NODE_HEAD, _NODE_TAIL).parameters
 
 
-PARAMETERS: tuple[ParamDecl, ...] = parameters()
+#: every parameter; those that can change at run time (the per-joint ones, ``<joint>.<setting>``, too); the
+#: settings each joint may have of its own (``<joint>.<setting>``; the node-level value is the default)
+PARAMETERS, LIVE_PARAMETERS, PER_JOINT = node_declarations(CycleConfig, _NODE_HEAD, _NODE_TAIL)
 #: The cycle settings (CycleConfig fields); those not read-only apply from the next request
 _CYCLE_SETTINGS = frozenset(d.name for d in declarations(CycleConfig))
-#: Settings each joint may have of its own (``<joint>.<setting>``; the node-level value is the default)
-PER_JOINT = tuple(d.name for d in PARAMETERS if d.per_joint)
 _DECLS = {d.name: d for d in PARAMETERS}
-#: Parameters that can change at run time (the per-joint ones, ``<joint>.<setting>``, too)
-LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
 
 _RELIABLE_1 = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)

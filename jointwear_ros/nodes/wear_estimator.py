@@ -63,7 +63,7 @@ from ..errors import JointwearError, ParameterError
 from ..estimation import wear_scale
 from ..model import load_parameter_set_info
 from ..monitor import CycleResult, MonitorConfig, RobotMonitor, WearMonitor
-from ..settings import declarations, from_mapping, settings_of
+from ..settings import from_mapping, node_declarations, settings_of
 from .diagnostics import HeldStatus, Updater, diagnostic_status
 from .joints import declare_robot, propagate_node_level, replaced_own_values, split_per_joint
 from .runtime import (
@@ -96,14 +96,12 @@ _NODE_TAIL: tuple[ParamDecl, ...] = (
 
 def parameters(config: type = MonitorConfig) -> tuple[ParamDecl, ...]:
     """Every parameter of the node: its own and the estimator settings of ``config`` (its field metadata)."""
-    return (*_NODE_HEAD, *declarations(config), *_NODE_TAIL)
+    return node_declarations(config, _NODE_HEAD, _NODE_TAIL).parameters
 
 
-PARAMETERS: tuple[ParamDecl, ...] = parameters()
-#: Parameters that apply at run time (from the next estimate)
-LIVE_PARAMETERS = tuple(d.name for d in PARAMETERS if not d.read_only)
-#: Settings each joint has of its own (``<joint>.<setting>``, default: the node-level value; live ones live)
-PER_JOINT = tuple(d.name for d in PARAMETERS if d.per_joint)
+#: every parameter; those that apply at run time (from the next estimate); the settings each joint has of its own
+#: (``<joint>.<setting>``, default: the node-level value)
+PARAMETERS, LIVE_PARAMETERS, PER_JOINT = node_declarations(MonitorConfig, _NODE_HEAD, _NODE_TAIL)
 
 
 def monitor_config(values: Mapping[str, Any], joint: str, config: type = MonitorConfig) -> MonitorConfig:

@@ -80,9 +80,8 @@ from ..errors import JointwearError
 from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, backend_for, screened_history
 from ..history.outbox import Outbox, SpoolPaths, same_disk
 from ..history.screen import REASONS, Refusal, ScreenConfig, screen_record
+from ..settings import declarations, from_mapping
 from ..trend import TrendConfig, TrendResult, analyze_joint
-from ..trend.config import from_parameters as trend_config
-from ..trend.config import node_declarations as trend_parameters
 from .diagnostics import HeldStatus, Status, Updater
 from .runtime import ParamDecl, declare_parameters, on_parameter_change, overridable_qos, run_node, wait_acked
 
@@ -98,7 +97,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
               read_only=True),
     ParamDecl("params", "ref-2011r", "friction-model parameter set the estimates were made with (stored)",
               read_only=True),
-    *trend_parameters(),  # the trend settings, declared in TrendConfig (jointwear_ros.trend.config)
+    *declarations(TrendConfig),  # the trend settings, declared in TrendConfig (jointwear_ros.trend.config)
     ParamDecl("future_tolerance", _S.future_tolerance_s, "s an estimate may be stamped ahead of the node's clock",
               0.0, 86400.0),
     ParamDecl("clock_tolerance", _S.clock_tolerance_s, "s an estimate may be stamped before its joint's newest "
@@ -156,7 +155,7 @@ class WearTrendNode(Node):
         p = declare_parameters(self, PARAMETERS)
         self.params = p
         self.robot = str(p["robot"])
-        self.cfg: TrendConfig = trend_config(p)
+        self.cfg: TrendConfig = from_mapping(TrendConfig, p)
         self.screen_cfg = replace(_S, future_tolerance_s=float(p["future_tolerance"]),
                                   clock_tolerance_s=float(p["clock_tolerance"]))
         self.rejected = 0
@@ -355,7 +354,7 @@ class WearTrendNode(Node):
 
     def _on_parameters(self, changes: dict[str, Any]) -> str | None:
         p = {**self.params, **changes}
-        cfg = trend_config(p)
+        cfg = from_mapping(TrendConfig, p)
         scfg = replace(self.screen_cfg, future_tolerance_s=float(p["future_tolerance"]),
                        clock_tolerance_s=float(p["clock_tolerance"]))
         self.params.update(changes)

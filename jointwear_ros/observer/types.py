@@ -13,7 +13,7 @@ from typing import NamedTuple
 from ..contract import CycleState
 from ..errors import InputDataError
 from ..observation import FrictionObservationData
-from ..settings import setting
+from ..settings import check_ranges, setting
 
 __all__ = [
     "PLAUSIBLE_TEMPERATURE",
@@ -91,12 +91,14 @@ class ObserverConfig:
                                        range=(0.0, 1e6), per_joint=True)
     min_constant_fraction: float = setting(0.8, description="fraction of the moving window samples that must be "
                                            "at speed", range=(0.0, 1.0), per_joint=True)
-    min_samples: int = setting(20, description="at-speed samples needed per direction", per_joint=True)
+    min_samples: int = setting(20, description="at-speed samples needed per direction", range=(2, 1_000_000),
+                               per_joint=True)
     edge_trim: float = setting(0.0, description="fraction of the half width trimmed off each window edge",
                                range=(0.0, 0.99), per_joint=True)
     pass_gap: float = setting(0.05, description="s without samples that separates two passes through the window",
                               unit="s", range=(1e-4, 10.0), per_joint=True)
-    n_batches: int = setting(10, description="batches of the batch-means standard error", per_joint=True)
+    n_batches: int = setting(10, description="batches of the batch-means standard error", range=(2, 10_000),
+                             per_joint=True)
     reorder_margin: float = setting(0.5, description="s the inputs may be out of stamp order", unit="s",
                                     range=(0.0, 60.0), per_joint=True)
     poll_grace: float = setting(1.0, description="s of silence on every input after which finished speeds are "
@@ -109,25 +111,10 @@ class ObserverConfig:
     idle_keep_seconds: float = 15.0  # not a parameter
 
     def __post_init__(self) -> None:
-        positive = ("gear_ratio", "torque_scale", "speed_tolerance", "max_speed_std", "max_buffer_seconds", "pass_gap")
-        for name in positive:
-            value = float(getattr(self, name))
-            if not (math.isfinite(value) and value > 0):
-                raise InputDataError(f"observer setting {name} = {value!r} must be a positive number")
-        nonneg = ("speed_tolerance_min", "max_speed_std_min", "reorder_margin", "poll_grace", "idle_keep_seconds",
-                  "temperature_wait")
-        for name in nonneg:
-            value = float(getattr(self, name))
-            if not (math.isfinite(value) and value >= 0):
-                raise InputDataError(f"observer setting {name} = {value!r} must be a number >= 0")
-        if not 0.0 <= float(self.edge_trim) < 1.0:
-            raise InputDataError(f"observer setting edge_trim = {self.edge_trim!r} must be in [0, 1) (fraction of the half width)")
-        if not 0.0 <= float(self.min_constant_fraction) <= 1.0:
-            raise InputDataError(f"observer setting min_constant_fraction = {self.min_constant_fraction!r} must be in [0, 1]")
-        if int(self.min_samples) < 2:
-            raise InputDataError(f"observer setting min_samples = {self.min_samples!r} must be at least 2")
-        if int(self.n_batches) < 2:
-            raise InputDataError(f"observer setting n_batches = {self.n_batches!r} must be at least 2")
+        check_ranges(self, InputDataError, "observer setting")
+        keep = float(self.idle_keep_seconds)  # not a parameter
+        if not (math.isfinite(keep) and keep >= 0):
+            raise InputDataError(f"observer setting idle_keep_seconds = {keep!r} must be a number >= 0")
 
 
 @dataclass(frozen=True)

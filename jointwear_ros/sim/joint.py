@@ -47,7 +47,7 @@ import numpy as np
 
 from ..data.synth import HIDDEN_EFFECTS
 from ..errors import ParameterError
-from ..settings import setting
+from ..settings import check_ranges, setting
 from .friction import FrictionTable
 
 __all__ = ["JointSample", "JointSim", "JointSimConfig", "parse_effects"]
@@ -149,20 +149,9 @@ class JointSimConfig:
 
     def check(self) -> None:
         """Raise :class:`ParameterError` on a value the simulator cannot run with."""
-        positive = ("gear_ratio", "torque_scale", "inertia", "torque_limit", "stick_speed")
-        for name in positive:
-            val = getattr(self, name)
-            if not (math.isfinite(val) and val > 0):
-                raise ParameterError(f"joint sim: {name} must be finite and > 0, got {val}")
-        nonneg = ("kp", "ki", "noise_std", "effort_noise_std", "lube_hours", "accel_limit")
-        for name in nonneg:
-            val = getattr(self, name)
-            if not (math.isfinite(val) and val >= 0):
-                raise ParameterError(f"joint sim: {name} must be finite and >= 0, got {val}")
-        for name in ("gravity_torque", "gravity_angle", "temperature", "wear", "initial_position"):
-            val = getattr(self, name)
-            if not math.isfinite(val):
-                raise ParameterError(f"joint sim: {name} must be finite, got {val}")
+        check_ranges(self, ParameterError, "joint sim:")
+        if not (math.isfinite(self.stick_speed) and self.stick_speed > 0):  # not a parameter
+            raise ParameterError(f"joint sim: stick_speed must be finite and > 0, got {self.stick_speed}")
 
 
 @dataclass(frozen=True)

@@ -1,15 +1,16 @@
 """The trend's settings (:class:`TrendConfig`) and its time unit (pure: no ROS, no io).
 
 The settings the ``wear_trend`` node takes as parameters are declared with
-:func:`~jointwear_ros.settings.setting` (description, unit, range in the field metadata):
-:func:`node_declarations` builds the node's declarations from them and :func:`from_parameters` the
-config from the node's parameter values (:func:`jointwear_ros.settings.declarations` and
-:func:`~jointwear_ros.settings.from_mapping`, with the two parameter names the node shares with the
-wear_estimator: :data:`PARAMETER_NAMES`). The bank's other settings are not node parameters.
+:func:`~jointwear_ros.settings.setting` (description, unit, range, and the parameter's name where it is not
+the field's: ``alarm`` and ``warn`` are the node's ``alarm_threshold`` and ``warn_threshold``, the names it
+shares with the wear_estimator): :func:`jointwear_ros.settings.declarations` builds the node's declarations
+from them and :func:`~jointwear_ros.settings.from_mapping` the config from the node's parameter values, as for
+every other config. The bank's other settings are not node parameters.
 
->>> [(d.name, d.default, d.min, d.max) for d in node_declarations()][:2]
+>>> from jointwear_ros.settings import declarations, from_mapping
+>>> [(d.name, d.default, d.min, d.max) for d in declarations(TrendConfig)][:2]
 [('alarm_threshold', 35.0, 0.0, 100.0), ('warn_threshold', 30.0, 0.0, 100.0)]
->>> cfg = from_parameters({"alarm_threshold": 40, "horizon_days": 10.0, "robot": "robot_1"})  # robot: the node's
+>>> cfg = from_mapping(TrendConfig, {"alarm_threshold": 40, "horizon_days": 10.0, "robot": "robot_1"})
 >>> cfg.alarm, cfg.horizon_days, cfg.min_estimates
 (40.0, 10.0, 5)
 """
@@ -17,17 +18,15 @@ wear_estimator: :data:`PARAMETER_NAMES`). The bank's other settings are not node
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, replace
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputDataError
-from ..settings import ParamDecl, declarations, from_mapping, setting
+from ..settings import check_ranges, setting
 
-__all__ = ["DAY", "PARAMETER_NAMES", "TrendConfig", "from_parameters", "node_declarations"]
+__all__ = ["DAY", "TrendConfig"]
 
 DAY = 86400.0
 
@@ -39,8 +38,7 @@ class TrendConfig:
     """Settings of the trend model and of the levels.
 
     ``alarm``, ``warn``, ``horizon_days`` and ``min_estimates`` are also parameters of the
-    ``wear_trend`` node (:func:`node_declarations`; ``alarm`` and ``warn`` as ``alarm_threshold`` and
-    ``warn_threshold``); the others are the bank's and not node parameters.
+    ``wear_trend`` node (``alarm`` and ``warn`` as ``alarm_threshold`` and ``warn_threshold``); the others are the bank's and not node parameters.
 
     Attributes
     ----------
@@ -67,8 +65,10 @@ class TrendConfig:
     revision_window_s : estimates with the same cycle id within this many seconds are one cycle (revisions).
     """
 
-    alarm: float = setting(35.0, description="wear at which the condition level is ERROR", range=(0.0, 100.0))
-    warn: float = setting(30.0, description="wear at which the condition level is WARN", range=(0.0, 100.0))
+    alarm: float = setting(35.0, description="wear at which the condition level is ERROR", range=(0.0, 100.0),
+                           param="alarm_threshold")
+    warn: float = setting(30.0, description="wear at which the condition level is WARN", range=(0.0, 100.0),
+                          param="warn_threshold")
     horizon_days: float = setting(
         30.0, description="WARN when the 90 % interval's lower bound of the time to alarm is within this many days",
         unit="days", range=(0.0, 3650.0))
@@ -85,12 +85,14 @@ class TrendConfig:
     slope_prior_std: float = 0.2
     max_efolds: float = 10.0
     evidence_temperature: float = 1.25
-    min_estimates: int = setting(5, description="estimates a segment needs before it has a trend")
+    min_estimates: int = setting(5, description="estimates a segment needs before it has a trend",
+                                 range=(2, 100_000))
     growth_probability: float = 0.95
     max_horizon_days: float = 3650.0
     revision_window_s: float = 3600.0
 
     def __post_init__(self) -> None:
+        check_ranges(self, InputDataError, "trend setting")
         for name, allow_empty in (("accel_noise", True), ("jerk_noise", True), ("efold_days", True)):
             q = getattr(self, name)
             qs = (q,) if isinstance(q, (int, float)) else tuple(q)
@@ -99,7 +101,7 @@ class TrendConfig:
             object.__setattr__(self, name, tuple(float(x) for x in qs))
         if any(e <= 0 for e in self.efold_days):
             raise InputDataError(f"trend setting efold_days = {self.efold_days!r} must be > 0 days")
-        for name in ("alarm", "warn", "horizon_days", "level_noise", "slope_prior_std", "accel_prior_std",
+        for name in ("level_noise", "slope_prior_std", "accel_prior_std",
                      "max_horizon_days", "revision_window_s", "prior_line", "prior_accelerated",
                      "step_rate_per_day", "level_prior_std", "max_efolds", "evidence_temperature"):
             v = float(getattr(self, name))
@@ -119,35 +121,3 @@ class TrendConfig:
                                  "adaptive member(s); with none they must sum to 1)")
         if not 0.5 <= self.growth_probability < 1:
             raise InputDataError(f"growth_probability = {self.growth_probability!r} must be in [0.5, 1)")
-        if int(self.min_estimates) < 2:
-            raise InputDataError(f"min_estimates = {self.min_estimates!r} must be at least 2")
-
-
-#: the node parameter of a setting whose field is named otherwise, field -> parameter (the ``wear_trend`` node
-#: shares ``alarm_threshold`` and ``warn_threshold`` with the ``wear_estimator``; ``alarm`` and ``warn`` are what
-#: every caller of the trend writes)
-PARAMETER_NAMES = {"alarm": "alarm_threshold", "warn": "warn_threshold"}
-
-
-def node_declarations() -> tuple[ParamDecl, ...]:
-    """The ``wear_trend`` node's declarations of the trend settings (:func:`jointwear_ros.settings.declarations`
-    of :class:`TrendConfig`, under their parameter names), in field order."""
-    return tuple(replace(d, name=PARAMETER_NAMES.get(d.name, d.name)) for d in declarations(TrendConfig))
-
-
-def from_parameters(values: Mapping[str, Any]) -> TrendConfig:
-    """:class:`TrendConfig` from the ``wear_trend`` node's parameter values (names that are not its trend
-    parameters are ignored, a parameter missing keeps its default): each value checked by its declaration (an
-    integer for a double becomes that double; outside its range: a
-    :class:`~jointwear_ros.errors.ParameterError` in one line naming the parameter), then
-    :func:`jointwear_ros.settings.from_mapping`.
-
-    >>> from_parameters({"warn_threshold": 300.0})
-    Traceback (most recent call last):
-    ...
-    jointwear_ros.errors.ParameterError: warn_threshold=300: outside the declared range [0.0, 100.0]
-    """
-    field_of = {param: name for name, param in PARAMETER_NAMES.items()}
-    checked = {field_of.get(d.name, d.name): d.check(values[d.name])
-               for d in node_declarations() if values.get(d.name) is not None}
-    return from_mapping(TrendConfig, checked)
