@@ -163,12 +163,13 @@ class StoreWatcher:
         else:
             hist = {}
             for rb, jt in sorted(keys):
-                h, f = screened_history(self._store, self.analysis_version, robot=rb, joint=jt, now=now)
-                hist.update(h)
-                refused += f
+                part, part_refused = screened_history(self._store, self.analysis_version, robot=rb, joint=jt, now=now)
+                hist.update(part)
+                refused += part_refused
         n_refused: dict[tuple[str, str], int] = {}
-        for f in refused:
-            n_refused[(str(f["robot"]), str(f["joint"]))] = n_refused.get((str(f["robot"]), str(f["joint"])), 0) + 1
+        for row in refused:
+            key = (str(row["robot"]), str(row["joint"]))
+            n_refused[key] = n_refused.get(key, 0) + 1
         items = []
         for (rb, jt), (recs, events) in sorted(hist.items()):
             if (rb, jt) not in keys:
