@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..commission.wear import DEFAULT_WEAR_CALIBRATION, WEAR_CALIBRATIONS
-from ..estimation import ESTIMATORS
+from ..estimation.names import ESTIMATOR_NAMES
 from . import UsageError
 from .common import add_unit_flags, check_output_dir, check_output_file, print_json, units_from_args
 
@@ -59,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     e.add_argument("data", nargs="+", metavar="DATA", help="bag directories and/or observation CSV tables")
     e.add_argument("--params", required=True, metavar="SET", help="parameter set name or YAML path")
     e.add_argument("--method", default="joint",
-                   help=f"estimator: {', '.join(ESTIMATORS)} (default joint, the cycle's shared temperature)")
+                   help=f"estimator: {', '.join(ESTIMATOR_NAMES)} (default joint, the cycle's shared temperature)")
     e.add_argument("--joint", default=None, help="only this joint (tables without a joint column: the set's joint)")
     add_unit_flags(e)
     e.add_argument("--alarm", type=float, default=35.0, help="alarm level of wear (default 35)")

@@ -14,12 +14,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..estimation import ESTIMATORS, make_estimator, resolve_model
-from ..estimation.priors import TemperaturePrior, parse_temperature_prior
+from ..estimation import resolve_model
+from ..estimation.names import ESTIMATOR_NAMES
 from ..model import load_parameter_set_info
 from . import UsageError
 from .common import (
@@ -30,6 +30,9 @@ from .common import (
     parse_float_list,
     print_json,
 )
+
+if TYPE_CHECKING:
+    from ..estimation.priors import TemperaturePrior
 
 __all__ = ["register"]
 
@@ -59,7 +62,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     p.add_argument("action", nargs="?", default="run", choices=ACTIONS, help="run (default), robustness or case")
     p.add_argument("--method", default="paper", type=_method_name,
-                   help=f"estimator of the study: {', '.join(ESTIMATORS)} (default paper)")
+                   help=f"estimator of the study: {', '.join(ESTIMATOR_NAMES)} (default paper)")
     p.add_argument("--methods", default=None,
                    help="robustness/case: comma list of estimators (default paper,bayes,joint / paper,bayes)")
     p.add_argument("--runs", default=None, help="runs per speed (default 10000; robustness 2000)")
@@ -92,6 +95,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 # -- argument helpers -------------------------------------------------------------
 def _method_name(text: str) -> str:
     """An estimator name of the registry (argparse ``type``: an unknown one is a usage error, exit 2)."""
+    from ..estimation import ESTIMATORS
+
     key = text.strip().lower()
     if key not in ESTIMATORS:
         raise argparse.ArgumentTypeError(f"unknown method {text!r}; choose one of {', '.join(ESTIMATORS)}")
@@ -117,6 +122,8 @@ class _Bar:
 
 def _prior(text: str, what: str, info: Any = None) -> TemperaturePrior:
     """A temperature distribution from the command line, checked against ``info``'s valid temperatures."""
+    from ..estimation.priors import parse_temperature_prior
+
     spec = text.strip()
     parts = spec.split(":")
     if len(parts) == 2 and _is_number(parts[0]):  # LO:HI
@@ -176,6 +183,8 @@ def _available_memory() -> float:
 def _check_memory(runs: int, n_speeds: int, n_samples: int, method: str) -> None:
     """Refuse a study whose arrays would not fit: runs x speeds observations, plus a sampling
     estimator's (the paper's) runs x N temperature samples at one speed."""
+    from ..estimation import ESTIMATORS
+
     need = 8.0 * runs * n_speeds * 8  # observations, estimates and their sorted copies, float64
     sampling = ESTIMATORS.capabilities(method).temperature_samples
     if sampling:
@@ -193,6 +202,8 @@ def _check_memory(runs: int, n_speeds: int, n_samples: int, method: str) -> None
 def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, params: Any,
                default_assumed: str | None) -> Any:
     """An estimator configured from the command line."""
+    from ..estimation import ESTIMATORS, make_estimator
+
     opts: dict[str, Any] = {"noise_std": parse_float(args.noise_std, "--noise-std")}
     assumed_text = args.assumed_temperature or default_assumed
     info = load_parameter_set_info(args.params)
@@ -238,6 +249,8 @@ def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, 
 
 
 def _methods(text: str | None, default: str) -> list[str]:
+    from ..estimation import ESTIMATORS
+
     names = [m.strip().lower() for m in (text or default).split(",") if m.strip()]
     bad = [m for m in names if m not in ESTIMATORS]
     if bad or not names:
@@ -255,6 +268,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from ..estimation import ESTIMATORS
     from ..estimation.study import StudySetup, run_study
 
     info, params, true_t, seed, wear, load, noise = _common(args)
@@ -297,6 +311,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_robustness(args: argparse.Namespace) -> int:
+    from ..estimation import ESTIMATORS
     from ..estimation.study import DEFAULT_ROBUSTNESS_SCENARIOS, StudySetup, robustness_study
 
     info, params, true_t, seed, wear, load, noise = _common(args)
