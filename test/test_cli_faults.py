@@ -285,3 +285,21 @@ def test_an_error_of_the_environment_half_way_is_one_line(monkeypatch, capsys, d
     rc, _out, err = run_main(capsys, ["data", "synth", "obs.csv", "--cycles", "2"])
     assert rc == 2 and err == "jointwear: error: obs.csv: No space left on device\n"
     assert not (work / "obs.csv").exists()
+
+
+def test_an_error_over_several_lines_is_the_one_line_errors_makes(monkeypatch, capsys, data, work):
+    """The CLI's line is :func:`jointwear_ros.errors.one_line` of its message (the one place): every word
+    of an error whose text runs over several lines (a library's message inside ours), on one line."""
+    import jointwear_ros.io.tables as tables
+    from jointwear_ros.errors import InputDataError, one_line
+
+    text = "obs.csv: cannot write:\n  while scanning a row\n    row 2, column 3"
+
+    def refuse(*args, **kwargs):
+        raise InputDataError(text)
+
+    monkeypatch.setattr(tables, "write_csv", refuse)
+    rc, _out, err = run_main(capsys, ["data", "synth", "obs.csv", "--cycles", "2"])
+    assert rc == 2
+    assert err == f"jointwear: {one_line('error: ' + text)}\n"
+    assert err == "jointwear: error: obs.csv: cannot write: while scanning a row row 2, column 3\n"
