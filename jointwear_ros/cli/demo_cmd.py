@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..commission.demo import MIN_BASELINE_CYCLES
+from ..commission.names import MIN_BASELINE_CYCLES
 from ..contract import CycleState, DiagnosticLevel, level_name, worst_level
 from ..errors import JointwearError
 from ..nodes.cell import CellError, Child, JointReport, Operator, ready_conditions, start_child, stop_children

@@ -16,11 +16,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from ..estimation import resolve_model
 from ..estimation.names import ESTIMATOR_NAMES
-from ..model import load_parameter_set_info
 from . import UsageError
 from .common import (
     check_output_dir,
@@ -202,7 +198,8 @@ def _check_memory(runs: int, n_speeds: int, n_samples: int, method: str) -> None
 def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, params: Any,
                default_assumed: str | None) -> Any:
     """An estimator configured from the command line."""
-    from ..estimation import ESTIMATORS, make_estimator
+    from ..estimation import ESTIMATORS, make_estimator, resolve_model
+    from ..model import load_parameter_set_info
 
     opts: dict[str, Any] = {"noise_std": parse_float(args.noise_std, "--noise-std")}
     assumed_text = args.assumed_temperature or default_assumed
@@ -226,6 +223,9 @@ def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, 
 
 
 def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, float, float, float]:
+    from ..estimation import resolve_model
+    from ..model import load_parameter_set_info
+
     info = load_parameter_set_info(args.params)
     _, params = resolve_model(None, info)
     true_t = _prior(args.true_temperature, "--true-temperature", info)
@@ -268,7 +268,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from ..estimation import ESTIMATORS
+    from ..estimation import ESTIMATORS, resolve_model
     from ..estimation.study import StudySetup, run_study
 
     info, params, true_t, seed, wear, load, noise = _common(args)
@@ -311,7 +311,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_robustness(args: argparse.Namespace) -> int:
-    from ..estimation import ESTIMATORS
+    from ..estimation import ESTIMATORS, resolve_model
     from ..estimation.study import DEFAULT_ROBUSTNESS_SCENARIOS, StudySetup, robustness_study
 
     info, params, true_t, seed, wear, load, noise = _common(args)
@@ -347,6 +347,7 @@ def _cmd_robustness(args: argparse.Namespace) -> int:
 
 
 def _cmd_case(args: argparse.Namespace) -> int:
+    from ..estimation import resolve_model
     from ..estimation.case_study import CaseSetup, run_case_study
 
     info, params, true_t, seed, _, load, noise = _common(args)
@@ -371,6 +372,8 @@ def _cmd_case(args: argparse.Namespace) -> int:
 
 # -- figures -----------------------------------------------------------------------
 def _plot_study(res: Any, out: Path) -> None:
+    import numpy as np
+
     from ..plots import WEAR_LABEL, legend_outside, new_figure, save_figure
 
     v = np.asarray(res.speeds)
@@ -435,6 +438,8 @@ _METHOD_STYLE = (("tab:blue", "-", "o"), ("tab:orange", "--", "s"), ("tab:green"
 
 
 def _plot_case(res: Any, out: Path) -> None:
+    import numpy as np
+
     from ..plots import WEAR_LABEL, legend_outside, new_figure, save_figure
 
     fig, axes = new_figure(2, 1, size=(9.5, 8.5))

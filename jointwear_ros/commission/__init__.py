@@ -3,8 +3,8 @@
 Pure numpy/scipy (the fit and the verdict through :mod:`jointwear_ros.workbench`);
 no ROS import. The CLI (``jointwear commission``, ``jointwear estimate``) wraps it.
 Importing the package imports none of its modules: each name loads its module on first use
-(PEP 562), so a parser can read a constant of the light modules (``commission.wear``'s calibration
-names, ``commission.demo``'s ``MIN_BASELINE_CYCLES``) without the fit's scipy.
+(PEP 562), so a parser reads the constants of :mod:`.names` (the wear calibrations, the demo's
+``MIN_BASELINE_CYCLES``) without numpy or the fit's scipy.
 """
 
 from __future__ import annotations

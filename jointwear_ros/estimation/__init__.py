@@ -5,9 +5,10 @@ and ``estimate(ObservationTable) -> WearResult``, and declares what it can do in
 ``capabilities`` (:class:`Capabilities`). :data:`ESTIMATORS` is the one registry of
 them by name (:mod:`.registry`); build one by name with :func:`make_estimator`.
 
-Pure numpy/scipy; no ROS import. Importing the package (or its light modules :mod:`.names`,
-``_common``, ``wear_scale``) imports no scipy: the estimators, the bound and the design load on first
-use of their names (PEP 562), so a command line's ``--help`` stays quick.
+Pure numpy/scipy; no ROS import. Importing the package (or its light module :mod:`.names`) imports
+none of its modules, not even numpy: each name loads its module on first use (PEP 562), so a command
+line's ``--help`` stays quick. ``wear_scale`` stays the function (its module is
+``jointwear_ros.estimation.wear_scale``), as it was when the package imported everything.
 
 >>> list(ESTIMATORS)
 ['paper', 'paper-grid', 'bayes', 'joint']
@@ -18,13 +19,14 @@ use of their names (PEP 562), so a command line's ``--help`` stays quick.
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 from typing import TYPE_CHECKING, Any
 
-from ._common import Capabilities, capabilities_of, resolve_model, set_frame_table
 from .names import ESTIMATOR_NAMES, PAPER_SECONDS_PER_SPEED
-from .wear_scale import WearScale, WearScaledEstimator, wear_scale
 
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and readers
+    from ._common import Capabilities, capabilities_of, resolve_model, set_frame_table
     from .bayes import BayesEstimator
     from .crb import (
         CRB_METHODS,
@@ -40,6 +42,7 @@ if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and 
     from .paper import PAPER_N_SAMPLES, PAPER_TEMPERATURE_RANGE, PaperEstimator, PaperGridEstimator
     from .priors import TemperaturePrior, normal_prior, parse_temperature_prior, uniform_prior
     from .registry import ENTRY_POINT_GROUP, ESTIMATORS, EstimatorRegistry, make_estimator, register_estimator
+    from .wear_scale import WearScale, WearScaledEstimator, wear_scale
 
 __all__ = [
     "CRB_METHODS",
@@ -81,6 +84,8 @@ __all__ = [
 
 #: The names this package loads on first use, and the module of each (the ones that import scipy).
 _LAZY: dict[str, str] = {
+    **dict.fromkeys(("Capabilities", "capabilities_of", "resolve_model", "set_frame_table"), "_common"),
+    **dict.fromkeys(("WearScale", "WearScaledEstimator", "wear_scale"), "wear_scale"),
     **dict.fromkeys(("BayesEstimator",), "bayes"),
     **dict.fromkeys(("CRB_METHODS", "FisherResult", "crb_known_temperature", "crb_multi_speed", "crb_per_speed",
                      "fisher_information"), "crb"),
@@ -105,3 +110,17 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY))
+
+
+class _Package(types.ModuleType):
+    """This package, whose names of :data:`_LAZY` a submodule of the same name does not cover."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        # the import system binds a loaded submodule on its package: not over a name the package gives
+        # (``wear_scale`` the function, not ``wear_scale`` the module)
+        if name in _LAZY and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
