@@ -24,6 +24,7 @@ from .common import (
     format_table,
     parse_float,
     parse_float_list,
+    parse_int,
     print_json,
 )
 
@@ -142,15 +143,7 @@ def _is_number(text: str) -> bool:
 
 
 def _int(text: str, what: str, lo: int, hi: int | None = None) -> int:
-    try:
-        n = int(text)
-    except (TypeError, ValueError):
-        raise UsageError(f"{what}: {text!r} is not an integer") from None
-    if n < lo:
-        raise UsageError(f"{what}: {n} must be at least {lo}")
-    if hi is not None and n > hi:
-        raise UsageError(f"{what}: {n:,} is more than the {hi:,} a study handles")
-    return n
+    return parse_int(text, what, lo, hi, handler="a study")
 
 
 def _speeds(text: str, info: Any = None) -> list[float]:
