@@ -23,6 +23,7 @@ import sys
 import types
 from typing import TYPE_CHECKING, Any
 
+from ..errors import InputDataError  # noqa: F401 - the registry's error, as the package gave it before
 from .names import ESTIMATOR_NAMES, PAPER_SECONDS_PER_SPEED
 
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and readers
