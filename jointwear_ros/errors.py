@@ -51,14 +51,22 @@ class TransientError(JointwearError):
     was wrong with the input, and running again may succeed. The CLI's exit code is 2, like every error here."""
 
 
-def one_line(exc: BaseException) -> str:
-    """The one line that tells a user what went wrong: the first line of the error's message (a database
-    driver's own message when a wrapper carries it as ``orig``, as SQLAlchemy's errors do: not the wrapper's
-    statement and parameters), else the error's type name.
+def one_line(what: BaseException | str) -> str:
+    """The one line that tells a user what went wrong: the one place that makes it (the CLI's
+    ``jointwear: error: ...``, the history store's, serve's and the fleet's messages).
+
+    An error: the first line of its message (a database driver's own message when a wrapper carries it
+    as ``orig``, as SQLAlchemy's errors do: not the wrapper's statement and parameters), else the error's
+    type name. A text (a message built around an error, as the CLI's): all its words, its line breaks
+    and runs of spaces made single spaces.
 
     >>> one_line(ValueError("disk full\\n[SQL: INSERT ...]")), one_line(KeyError()), one_line(OSError("  "))
     ('disk full', 'KeyError', 'OSError')
+    >>> one_line("error: obs.csv:\\n  row 2 is empty")
+    'error: obs.csv: row 2 is empty'
     """
-    orig = getattr(exc, "orig", None)
-    lines = str(orig if isinstance(orig, BaseException) else exc).strip().splitlines()
-    return lines[0].strip() if lines else type(exc).__name__
+    if isinstance(what, str):
+        return " ".join(what.split())
+    orig = getattr(what, "orig", None)
+    lines = str(orig if isinstance(orig, BaseException) else what).strip().splitlines()
+    return lines[0].strip() if lines else type(what).__name__

@@ -285,3 +285,42 @@ def test_an_error_of_the_environment_half_way_is_one_line(monkeypatch, capsys, d
     rc, _out, err = run_main(capsys, ["data", "synth", "obs.csv", "--cycles", "2"])
     assert rc == 2 and err == "jointwear: error: obs.csv: No space left on device\n"
     assert not (work / "obs.csv").exists()
+
+
+def test_an_error_over_several_lines_is_the_one_line_errors_makes(monkeypatch, capsys, data, work):
+    """The CLI's line is :func:`jointwear_ros.errors.one_line` of its message (the one place): every word
+    of an error whose text runs over several lines (a library's message inside ours), on one line."""
+    import jointwear_ros.io.tables as tables
+    from jointwear_ros.errors import InputDataError, one_line
+
+    text = "obs.csv: cannot write:\n  while scanning a row\n    row 2, column 3"
+
+    def refuse(*args, **kwargs):
+        raise InputDataError(text)
+
+    monkeypatch.setattr(tables, "write_csv", refuse)
+    rc, _out, err = run_main(capsys, ["data", "synth", "obs.csv", "--cycles", "2"])
+    assert rc == 2
+    assert err == f"jointwear: {one_line('error: ' + text)}\n"
+    assert err == "jointwear: error: obs.csv: cannot write: while scanning a row row 2, column 3\n"
+
+
+def test_an_integer_above_what_a_command_handles_names_the_command(capsys):
+    """One integer check (cli.common.parse_int) for every command: the study's own copy is gone, its words kept."""
+    from jointwear_ros.cli import UsageError
+    from jointwear_ros.cli.common import parse_int
+
+    with pytest.raises(UsageError, match=r"^--runs: 2,000,000 is more than the 1,000,000 a study handles$"):
+        parse_int("2000000", "--runs", 2, 1_000_000, handler="a study")
+    with pytest.raises(UsageError, match=r"^--cycles: 5,000 is more than the 1,000 this command handles$"):
+        parse_int(" 5000 ", "--cycles", 1, 1_000)
+    assert parse_int(" 7 ", "--seed", 0) == 7
+
+
+def test_the_demos_domain_is_the_given_one_else_the_environments(monkeypatch):
+    from jointwear_ros.cli.demo_cmd import _domain_id
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", "42")
+    assert _domain_id(7) == 7 and _domain_id(None) == 42
+    monkeypatch.setenv("ROS_DOMAIN_ID", "")
+    assert 10 <= _domain_id(None) <= 99

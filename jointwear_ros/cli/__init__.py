@@ -26,7 +26,7 @@ import traceback
 from collections.abc import Sequence
 from typing import Any
 
-from ..errors import JointwearError
+from ..errors import JointwearError, one_line
 
 __all__ = ["COMMANDS", "COMMAND_MODULES", "UsageError", "build_parser", "main"]
 
@@ -110,14 +110,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
-
-
 def _fail(args: argparse.Namespace, message: str, code: int) -> int:
     if getattr(args, "verbose", False):
         traceback.print_exc(file=sys.stderr)
-    print(f"jointwear: {_one_line(message)}", file=sys.stderr)
+    print(f"jointwear: {one_line(message)}", file=sys.stderr)
     return code
 
 

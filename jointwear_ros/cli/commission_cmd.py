@@ -15,10 +15,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from ..commission.wear import DEFAULT_WEAR_CALIBRATION, WEAR_CALIBRATIONS
-from ..estimation import ESTIMATORS
+from ..commission.names import DEFAULT_WEAR_CALIBRATION, WEAR_CALIBRATIONS
+from ..estimation.names import ESTIMATOR_NAMES
 from . import UsageError
 from .common import add_unit_flags, check_output_dir, check_output_file, print_json, units_from_args
 
@@ -59,7 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     e.add_argument("data", nargs="+", metavar="DATA", help="bag directories and/or observation CSV tables")
     e.add_argument("--params", required=True, metavar="SET", help="parameter set name or YAML path")
     e.add_argument("--method", default="joint",
-                   help=f"estimator: {', '.join(ESTIMATORS)} (default joint, the cycle's shared temperature)")
+                   help=f"estimator: {', '.join(ESTIMATOR_NAMES)} (default joint, the cycle's shared temperature)")
     e.add_argument("--joint", default=None, help="only this joint (tables without a joint column: the set's joint)")
     add_unit_flags(e)
     e.add_argument("--alarm", type=float, default=35.0, help="alarm level of wear (default 35)")
@@ -99,6 +97,8 @@ def _is_bag(path: str) -> bool:
 
 
 def cmd_commission(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ..commission import commission
     from ..errors import InputDataError
     from ..model import parameter_set_document
@@ -198,6 +198,8 @@ def _report(report: Path, table: Any, res: Any, doc: dict[str, Any]) -> None:
     """``commission.json`` and ``commission.png``: the baseline with the fitted model over it (left; the model
     at each observation and its curve at the median of the other inputs) and the residual (right)."""
     import json
+
+    import numpy as np
 
     from ..plots import legend_outside, new_figure, save_figure
 

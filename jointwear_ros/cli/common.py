@@ -53,8 +53,9 @@ def parse_float(text: str, what: str) -> float:
     return value
 
 
-def parse_int(text: str | int, what: str, lo: int, hi: int | None = None) -> int:
-    """An integer in ``[lo, hi]`` (``hi`` None: no upper bound), else :class:`UsageError`."""
+def parse_int(text: str | int, what: str, lo: int, hi: int | None = None, *, handler: str = "this command") -> int:
+    """An integer in ``[lo, hi]`` (``hi`` None: no upper bound), else :class:`UsageError` (above ``hi``: the
+    most ``handler`` handles)."""
     try:
         n = int(str(text).strip())
     except (TypeError, ValueError):
@@ -62,7 +63,7 @@ def parse_int(text: str | int, what: str, lo: int, hi: int | None = None) -> int
     if n < lo:
         raise UsageError(f"{what}: {n} must be at least {lo}")
     if hi is not None and n > hi:
-        raise UsageError(f"{what}: {n} is more than the {hi:,} this command handles")
+        raise UsageError(f"{what}: {n:,} is more than the {hi:,} {handler} handles")
     return n
 
 

@@ -14,10 +14,7 @@ from typing import Any
 from ..cycle import CycleConfig, plan_cycle
 from ..cycle.schedule import MAX_SCHEDULE_JOINTS, ScheduleError, rotation_schedule
 from ..errors import JointwearError
-from ..estimation import resolve_model
-from ..estimation.design import PAPER_SECONDS_PER_SPEED, design_cycle
-from ..estimation.priors import parse_temperature_prior
-from ..model import load_parameter_set_info
+from ..estimation.names import PAPER_SECONDS_PER_SPEED
 from . import UsageError
 from .common import check_temperature_prior, format_table, parse_float, parse_float_list, print_json
 
@@ -90,6 +87,11 @@ def _progress(done: int, total: int) -> None:  # pragma: no cover - terminal onl
 
 
 def cmd_design(args: argparse.Namespace) -> int:
+    from ..estimation import resolve_model
+    from ..estimation.design import design_cycle
+    from ..estimation.priors import parse_temperature_prior
+    from ..model import load_parameter_set_info
+
     budget = parse_float(args.budget, "--budget")
     sps = parse_float(args.seconds_per_speed, "--seconds-per-speed")
     if budget <= 0:

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..commission.demo import MIN_BASELINE_CYCLES
+from ..commission.names import MIN_BASELINE_CYCLES
 from ..contract import CycleState, DiagnosticLevel, level_name, worst_level
 from ..errors import JointwearError
 from ..nodes.cell import CellError, Child, JointReport, Operator, ready_conditions, start_child, stop_children
@@ -170,6 +170,27 @@ class DemoResult:
 
 
 
+def _domain_id(domain_id: int | None) -> int:
+    """The cell's ROS domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else one of 10-99 at random."""
+    if domain_id is not None:
+        return domain_id
+    env_id = os.environ.get("ROS_DOMAIN_ID", "")
+    return int(env_id) if env_id.isdigit() else random.Random(os.getpid() ^ int(time.time())).randint(10, 99)
+
+
+def _start_cell(children: list[Child], params: dict[str, Any], env: dict[str, str], logdir: Path,
+                names: Sequence[str], domain_id: int) -> Operator:
+    """Start the cell's nodes (each added to ``children`` as it starts, so :func:`_stop_cell` stops what
+    started) and an operator, and wait until the graph is connected: the operator, ready to call."""
+    for name in DEMO_NODES:
+        children.append(start_child(name, params[name], env, logdir))
+        _progress(f"started {name} (pid {children[-1].proc.pid})")
+    op = Operator(names, domain_id, progress=_progress)
+    missing = ready_conditions(op)
+    op.spin_until(lambda: not missing(), 60.0, children, "the nodes to connect")
+    return op
+
+
 def _stop_cell(children: list[Child]) -> None:
     """Stop the cell's nodes: the producers first (each waits until the recorder acknowledged its last
     messages), then the recorder, the clock source (joint_sim) last: sim-time nodes need /clock."""
@@ -251,9 +272,7 @@ def run_demo(
     from ..nodes.runtime import loopback_env
 
     t_start = time.monotonic()
-    if domain_id is None:
-        env_id = os.environ.get("ROS_DOMAIN_ID", "")
-        domain_id = int(env_id) if env_id.isdigit() else random.Random(os.getpid() ^ int(time.time())).randint(10, 99)
+    domain_id = _domain_id(domain_id)
     env = loopback_env(domain_id)  # for the children; the operator takes the domain id itself
     logdir = out / "logs"
     bagdir = out / "bags"
@@ -312,12 +331,7 @@ def run_demo(
     cell_seconds = math.nan
     try:
         _progress(f"ROS_DOMAIN_ID={domain_id}, loopback only; logs in {logdir}")
-        for name in DEMO_NODES:
-            children.append(start_child(name, params[name], env, logdir))
-            _progress(f"started {name} (pid {children[-1].proc.pid})")
-        op = Operator(names, domain_id, progress=_progress)
-        missing = ready_conditions(op)
-        op.spin_until(lambda: not missing(), 60.0, children, "the nodes to connect")
+        op = _start_cell(children, params, env, logdir, names, domain_id)
         _progress(f"graph connected after {time.monotonic() - t_start:.1f} s; calling /test_cycle/run")
         # as an operator would: a refusal whose reason is retryable (the joint state not there yet or
         # late: nodes still starting on a loaded machine) is retried for a while; any other is final
@@ -773,9 +787,7 @@ def run_commission_demo(
     from ..nodes.runtime import loopback_env
 
     t_start = time.monotonic()
-    if domain_id is None:
-        env_id = os.environ.get("ROS_DOMAIN_ID", "")
-        domain_id = int(env_id) if env_id.isdigit() else random.Random(os.getpid() ^ int(time.time())).randint(10, 99)
+    domain_id = _domain_id(domain_id)
     env = loopback_env(domain_id)
     logdir, bagdir, setdir = out / "logs", out / "bags", out / "sets"
     for d in (logdir, bagdir, setdir):
@@ -814,12 +826,7 @@ def run_commission_demo(
     try:
         _progress(f"ROS_DOMAIN_ID={domain_id}, loopback only; logs in {logdir}; "
                   + ", ".join(f"{j.name} {j.params}" for j in setups))
-        for name in DEMO_NODES:
-            children.append(start_child(name, params[name], env, logdir))
-            _progress(f"started {name} (pid {children[-1].proc.pid})")
-        op = Operator(names, domain_id, progress=_progress)
-        missing = ready_conditions(op)
-        op.spin_until(lambda: not missing(), 60.0, children, "the nodes to connect")
+        op = _start_cell(children, params, env, logdir, names, domain_id)
         _progress(f"graph connected after {time.monotonic() - t_start:.1f} s")
         n_plan = len(plan)
         jog = False

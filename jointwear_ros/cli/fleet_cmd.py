@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..estimation import ESTIMATORS
+from ..estimation.names import ESTIMATOR_NAMES
 from . import UsageError
 from .common import format_table, open_history, parse_float, print_json, trend_command
 
@@ -44,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     r.add_argument("--params", default=None, metavar="SET",
                    help="friction-model parameter set (name or YAML path); default: each bag's recorded one "
                         "(a bag without recorded settings is refused unless --params and --method are given)")
-    r.add_argument("--method", default=None, help=f"estimator ({', '.join(ESTIMATORS)}); default: recorded")
+    r.add_argument("--method", default=None, help=f"estimator ({', '.join(ESTIMATOR_NAMES)}); default: recorded")
     r.add_argument("--robot", default=None,
                    help="robot of every bag's estimates (as `history import --robot`); default: the robot the "
                         "cell recorded (wear_trend's `robot`, the estimator's `robot` or `hardware_id`), else the "
@@ -97,6 +97,7 @@ def _workers(text: str) -> int:
 
 
 def cmd_reprocess(args: argparse.Namespace) -> int:
+    from ..estimation import ESTIMATORS
     from ..fleet import Progress, analysis_version, reprocess
     from ..io.bags import discover_bags
 

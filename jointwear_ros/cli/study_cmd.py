@@ -14,13 +14,9 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from ..estimation import ESTIMATORS, make_estimator, resolve_model
-from ..estimation.priors import TemperaturePrior, parse_temperature_prior
-from ..model import load_parameter_set_info
+from ..estimation.names import ESTIMATOR_NAMES
 from . import UsageError
 from .common import (
     check_output_dir,
@@ -28,8 +24,12 @@ from .common import (
     format_table,
     parse_float,
     parse_float_list,
+    parse_int,
     print_json,
 )
+
+if TYPE_CHECKING:
+    from ..estimation.priors import TemperaturePrior
 
 __all__ = ["register"]
 
@@ -59,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     p.add_argument("action", nargs="?", default="run", choices=ACTIONS, help="run (default), robustness or case")
     p.add_argument("--method", default="paper", type=_method_name,
-                   help=f"estimator of the study: {', '.join(ESTIMATORS)} (default paper)")
+                   help=f"estimator of the study: {', '.join(ESTIMATOR_NAMES)} (default paper)")
     p.add_argument("--methods", default=None,
                    help="robustness/case: comma list of estimators (default paper,bayes,joint / paper,bayes)")
     p.add_argument("--runs", default=None, help="runs per speed (default 10000; robustness 2000)")
@@ -92,6 +92,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 # -- argument helpers -------------------------------------------------------------
 def _method_name(text: str) -> str:
     """An estimator name of the registry (argparse ``type``: an unknown one is a usage error, exit 2)."""
+    from ..estimation import ESTIMATORS
+
     key = text.strip().lower()
     if key not in ESTIMATORS:
         raise argparse.ArgumentTypeError(f"unknown method {text!r}; choose one of {', '.join(ESTIMATORS)}")
@@ -117,6 +119,8 @@ class _Bar:
 
 def _prior(text: str, what: str, info: Any = None) -> TemperaturePrior:
     """A temperature distribution from the command line, checked against ``info``'s valid temperatures."""
+    from ..estimation.priors import parse_temperature_prior
+
     spec = text.strip()
     parts = spec.split(":")
     if len(parts) == 2 and _is_number(parts[0]):  # LO:HI
@@ -139,15 +143,7 @@ def _is_number(text: str) -> bool:
 
 
 def _int(text: str, what: str, lo: int, hi: int | None = None) -> int:
-    try:
-        n = int(text)
-    except (TypeError, ValueError):
-        raise UsageError(f"{what}: {text!r} is not an integer") from None
-    if n < lo:
-        raise UsageError(f"{what}: {n} must be at least {lo}")
-    if hi is not None and n > hi:
-        raise UsageError(f"{what}: {n:,} is more than the {hi:,} a study handles")
-    return n
+    return parse_int(text, what, lo, hi, handler="a study")
 
 
 def _speeds(text: str, info: Any = None) -> list[float]:
@@ -176,6 +172,8 @@ def _available_memory() -> float:
 def _check_memory(runs: int, n_speeds: int, n_samples: int, method: str) -> None:
     """Refuse a study whose arrays would not fit: runs x speeds observations, plus a sampling
     estimator's (the paper's) runs x N temperature samples at one speed."""
+    from ..estimation import ESTIMATORS
+
     need = 8.0 * runs * n_speeds * 8  # observations, estimates and their sorted copies, float64
     sampling = ESTIMATORS.capabilities(method).temperature_samples
     if sampling:
@@ -193,6 +191,9 @@ def _check_memory(runs: int, n_speeds: int, n_samples: int, method: str) -> None
 def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, params: Any,
                default_assumed: str | None) -> Any:
     """An estimator configured from the command line."""
+    from ..estimation import ESTIMATORS, make_estimator, resolve_model
+    from ..model import load_parameter_set_info
+
     opts: dict[str, Any] = {"noise_std": parse_float(args.noise_std, "--noise-std")}
     assumed_text = args.assumed_temperature or default_assumed
     info = load_parameter_set_info(args.params)
@@ -215,6 +216,9 @@ def _estimator(method: str, args: argparse.Namespace, true_t: TemperaturePrior, 
 
 
 def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, float, float, float]:
+    from ..estimation import resolve_model
+    from ..model import load_parameter_set_info
+
     info = load_parameter_set_info(args.params)
     _, params = resolve_model(None, info)
     true_t = _prior(args.true_temperature, "--true-temperature", info)
@@ -238,6 +242,8 @@ def _common(args: argparse.Namespace) -> tuple[Any, Any, TemperaturePrior, int, 
 
 
 def _methods(text: str | None, default: str) -> list[str]:
+    from ..estimation import ESTIMATORS
+
     names = [m.strip().lower() for m in (text or default).split(",") if m.strip()]
     bad = [m for m in names if m not in ESTIMATORS]
     if bad or not names:
@@ -255,6 +261,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from ..estimation import ESTIMATORS, resolve_model
     from ..estimation.study import StudySetup, run_study
 
     info, params, true_t, seed, wear, load, noise = _common(args)
@@ -297,6 +304,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_robustness(args: argparse.Namespace) -> int:
+    from ..estimation import ESTIMATORS, resolve_model
     from ..estimation.study import DEFAULT_ROBUSTNESS_SCENARIOS, StudySetup, robustness_study
 
     info, params, true_t, seed, wear, load, noise = _common(args)
@@ -332,6 +340,7 @@ def _cmd_robustness(args: argparse.Namespace) -> int:
 
 
 def _cmd_case(args: argparse.Namespace) -> int:
+    from ..estimation import resolve_model
     from ..estimation.case_study import CaseSetup, run_case_study
 
     info, params, true_t, seed, _, load, noise = _common(args)
@@ -356,6 +365,8 @@ def _cmd_case(args: argparse.Namespace) -> int:
 
 # -- figures -----------------------------------------------------------------------
 def _plot_study(res: Any, out: Path) -> None:
+    import numpy as np
+
     from ..plots import WEAR_LABEL, legend_outside, new_figure, save_figure
 
     v = np.asarray(res.speeds)
@@ -420,6 +431,8 @@ _METHOD_STYLE = (("tab:blue", "-", "o"), ("tab:orange", "--", "s"), ("tab:green"
 
 
 def _plot_case(res: Any, out: Path) -> None:
+    import numpy as np
+
     from ..plots import WEAR_LABEL, legend_outside, new_figure, save_figure
 
     fig, axes = new_figure(2, 1, size=(9.5, 8.5))

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import InputDataError
 from ..types import ObservationTable
+from .names import MIN_BASELINE_CYCLES
 
 __all__ = [
     "DEMO_SETS",
@@ -84,8 +85,6 @@ DEMO_SETS: tuple[tuple[str, str, float, float], ...] = (
     ("cobot-j3", "motor_normalized", 100.0, 200.0),
     ("arm6-wrist", "joint", 80.0, 4.0),
 )
-#: Fewest baseline cycles the demo runs (commissioning needs 4; the overloaded one does not count).
-MIN_BASELINE_CYCLES = 4
 #: test_cycle's effort limit of every demo joint, normalized (times the joint's torque scale: N·m; 180 N·m at
 #: the suite's 200 N·m per unit). The peak effort of a cycle is gravity + friction + the acceleration torque
 #: (inertia x 4 joint rad/s^2 x gear: 0.2 at gear 100, 0.24 at 120): 0.83 was measured on arm6-base at load

@@ -41,6 +41,7 @@ import numpy as np
 from ..errors import InputDataError
 from ..model import Model, Parameters, SetUnits, load_parameter_set_info
 from ..types import ObservationTable
+from .names import DEFAULT_WEAR_CALIBRATION, WEAR_CALIBRATIONS
 
 __all__ = [
     "DEFAULT_WEAR_CALIBRATION",
@@ -54,10 +55,6 @@ __all__ = [
     "wear_from_file",
 ]
 
-#: The wear calibration a commissioned set gets unless told otherwise (measured: docs/commissioning.md).
-DEFAULT_WEAR_CALIBRATION = "midpoint"
-#: The wear calibrations by name (the priors); a FILE calibrates.
-WEAR_CALIBRATIONS = ("midpoint", "paper", "relative")
 #: The set that holds the paper's wear parameters (Eq. 8) and its joint's nominal model.
 REFERENCE_SET = "ref-2011r"
 #: The wear parameters of Eq. (7).

@@ -48,6 +48,7 @@ from .crb import (
     log_quadrature_weights,
     temperature_nodes,
 )
+from .names import PAPER_SECONDS_PER_SPEED
 from .priors import TemperaturePrior, parse_temperature_prior
 
 __all__ = ["PAPER_SECONDS_PER_SPEED", "CycleDesign", "design_cycle"]
@@ -55,8 +56,6 @@ __all__ = ["PAPER_SECONDS_PER_SPEED", "CycleDesign", "design_cycle"]
 Array = npt.NDArray[np.float64]
 Work = npt.NDArray[Any]  # single-precision search arrays
 
-#: Seconds one speed took in the paper's experiments (forward and reverse, Section 2).
-PAPER_SECONDS_PER_SPEED = 14.0
 _SEARCH_POINTS = 1024
 #: A swap must lower the search bound by this fraction to count (the search points' noise is ~1 %).
 _MIN_GAIN = 3e-3
