@@ -59,16 +59,17 @@ $(VENV)/.stamp-pkg: $(VENV)/.stamp-msgs setup.py setup.cfg
 demo: env
 	$(VENV)/bin/jointwear demo --joints 6 --out out/demo
 
-# Every test, in two tiers (what CI runs): the tests without a ROS graph on both cores
-# (pytest-xdist, each test file in one worker), then the process and graph tests (marker ros)
-# one at a time, as they must. Both tiers always run; the target fails if either failed.
+# Every test, in two tiers (what CI runs): the tests without a ROS graph, then the process and
+# graph tests (marker ros), each tier on both cores (pytest-xdist, each test file in one worker;
+# the two workers take every second ROS domain of the run's block, so they never share one).
+# Both tiers always run; the target fails if either failed.
 test: env
 	bash tools/install_system_deps.sh
 	@$(TEST_DOMAINS); rc=0; \
 	echo "== tests without a ROS graph (2 workers)"; \
 	$(PY) -m pytest -q -m "not ros" -n 2 --dist loadfile test || rc=1; \
-	echo "== process and graph tests (marker ros), one at a time"; \
-	$(PY) -m pytest -q -m ros test || rc=1; \
+	echo "== process and graph tests (marker ros, 2 workers)"; \
+	$(PY) -m pytest -q -m ros -n 2 --dist loadfile test || rc=1; \
 	exit $$rc
 
 # The quick tier while you work (about a minute on this 2-core machine idle; docs/testing.md):

@@ -124,11 +124,13 @@ def test_record_then_replay_gives_equal_observations_and_estimate(demos):
     assert cmp_["observations"]["max_abs_diff"] == 0.0 and cmp_["estimates"]["max_abs_diff"] == 0.0
 
 
-def test_demo_command_rejects_a_bad_wear_with_a_one_line_error(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "jointwear_ros", "demo", "--wear", "250", "--out", str(tmp_path)],
-                          capture_output=True, text=True, timeout=60)
-    assert proc.returncode == 2
-    assert proc.stderr.strip().count("\n") == 0 and "--wear: 250 is outside 0-100" in proc.stderr
+def test_demo_command_rejects_a_bad_wear_with_a_one_line_error(tmp_path, capsys):
+    from jointwear_ros.cli import main
+
+    rc = main(["demo", "--wear", "250", "--out", str(tmp_path)])  # in this process: the CLI's own main
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.strip().count("\n") == 0 and "--wear: 250 is outside 0-100" in err
     assert not list(tmp_path.iterdir())  # nothing started
 
 
