@@ -77,8 +77,11 @@ test: env
 # (marker slow, listed once in test/conftest.py's SLOW_TESTS by their measured durations: seeded
 # workbench discoveries, a served and scraped plant, process pools, Ctrl-C drills, the mutation run).
 # make test runs them all: run it before you stop.
+# It keeps Python's bytecode (pytest's assertion-rewritten test modules, the package's modules) in
+# __pycache__ whatever PYTHONDONTWRITEBYTECODE says: without it each worker rewrites and compiles
+# every module again on every run, a third of the tier's CPU time.
 test-fast: env
-	@$(TEST_DOMAINS); $(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
+	@$(TEST_DOMAINS); PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
 
 # The process and graph tests (marker ros: real nodes over DDS) N times in a row, each run on
 # fresh domains; run it before you stop after touching a node, the cell library or those tests.
