@@ -71,8 +71,8 @@ test: env
 	$(PY) -m pytest -q -m ros test || rc=1; \
 	exit $$rc
 
-# The quick tier while you work (about a minute on this 2-core machine idle; docs/testing.md):
-# 85 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
+# The quick tier while you work (about 45 s on this 2-core machine idle; docs/testing.md):
+# 86 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
 # DDS, run one at a time, the README walk among them) and the costliest tests without a graph
 # (marker slow, listed once in test/conftest.py's SLOW_TESTS by their measured durations: seeded
 # workbench discoveries, a served and scraped plant, process pools, Ctrl-C drills, the mutation run).
