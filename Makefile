@@ -62,24 +62,27 @@ demo: env
 # Every test, in two tiers (what CI runs): the tests without a ROS graph, then the process and
 # graph tests (marker ros), each tier on both cores (pytest-xdist, each test file in one worker;
 # the two workers take every second ROS domain of the run's block, so they never share one).
-# Both tiers always run; the target fails if either failed.
+# Both tiers always run; the target fails if either failed. Bytecode is kept (see test-fast).
 test: env
 	bash tools/install_system_deps.sh
 	@$(TEST_DOMAINS); rc=0; \
 	echo "== tests without a ROS graph (2 workers)"; \
-	$(PY) -m pytest -q -m "not ros" -n 2 --dist loadfile test || rc=1; \
+	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m "not ros" -n 2 --dist loadfile test || rc=1; \
 	echo "== process and graph tests (marker ros, 2 workers)"; \
-	$(PY) -m pytest -q -m ros -n 2 --dist loadfile test || rc=1; \
+	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m ros -n 2 --dist loadfile test || rc=1; \
 	exit $$rc
 
-# The quick tier while you work (about a minute on this 2-core machine idle; docs/testing.md):
-# 85 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
-# DDS, run one at a time, the README walk among them) and the costliest tests without a graph
+# The quick tier while you work (about 45 s on this 2-core machine idle; docs/testing.md):
+# 86 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
+# DDS, the README walk among them) and the costliest tests without a graph
 # (marker slow, listed once in test/conftest.py's SLOW_TESTS by their measured durations: seeded
 # workbench discoveries, a served and scraped plant, process pools, Ctrl-C drills, the mutation run).
 # make test runs them all: run it before you stop.
+# It keeps Python's bytecode (pytest's assertion-rewritten test modules, the package's modules) in
+# __pycache__ whatever PYTHONDONTWRITEBYTECODE says: without it each worker rewrites and compiles
+# every module again on every run, a third of the tier's CPU time.
 test-fast: env
-	@$(TEST_DOMAINS); $(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
+	@$(TEST_DOMAINS); PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
 
 # The process and graph tests (marker ros: real nodes over DDS) N times in a row, each run on
 # fresh domains; run it before you stop after touching a node, the cell library or those tests.

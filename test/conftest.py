@@ -52,7 +52,10 @@ MARKERS = {
 #: a ROS graph: ``pytest --durations=0 -m "not ros" -n 2`` on this 2-core machine, each 7 s or more
 #: there (about 1 s or more of CPU idle; a module's costly fixture counts on its first test) — whole
 #: workbench discoveries on many seeds, a plant page served and scraped, process pools, Ctrl-C
-#: drills, installs into a prefix, the mutation run. ``make test`` runs them; so does ``-m slow``.
+#: drills, installs into a prefix, the mutation run — and, measured by the CPU time of each test's
+#: call (0.6 s or more in two runs of the quick tier), bag replays and re-estimations, CLI studies
+#: with their figures and the scatter-over-seeds checks, as many as keep the quick tier at 85 % of
+#: the tests or more (docs/testing.md). ``make test`` runs them; so does ``-m slow``.
 SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_bag_discovery_reprocess.py": (
         "test_a_bag_folder_without_metadata_is_a_failed_bag_not_left_out",
@@ -74,6 +77,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_the_real_process_prints_one_line_and_verbose_adds_the_traceback",
     ),
     "test_cli_history.py": (
+        "test_bags_import_their_recorded_estimates_or_a_re_estimation_once",
         "test_trend_plots_and_html_rank_the_joints_by_time_to_alarm",
     ),
     "test_cli_model.py": (
@@ -81,6 +85,8 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_cli_study.py": (
         "test_robustness_reports_which_estimators_stay_unbiased",
+        "test_study_joint_reports_one_cycle_row_with_temperature",
+        "test_study_plot_writes_figures_9_10_11",
     ),
     "test_cli_workbench.py": (
         "test_add_shows_before_and_after_per_speed_band_and_keeps_a_json_history",
@@ -110,11 +116,23 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_one_outlier_20_above_a_flat_history_is_held_and_a_confirmed_step_moves_the_level_at_once",
         "test_the_monitor_and_the_trend_agree_on_the_same_estimates",
     ),
+    "test_cycle_robot.py": (
+        "test_a_held_joint_trips_exactly_when_it_moves_beyond_the_tolerance",
+    ),
     "test_docs_examples.py": (
         "test_every_python_and_sh_block_of_the_guide_runs_in_order",
     ),
+    "test_estimation_case_study.py": (
+        "test_study_case_cli_json_and_plot",
+    ),
+    "test_estimation_hcr.py": (
+        "test_study_reports_the_hcr_column_and_json_null_for_infinite",
+    ),
     "test_estimation_joint.py": (
         "test_spread_of_estimates_is_near_the_multi_speed_bound_and_unbiased",
+    ),
+    "test_estimation_paper.py": (
+        "test_unknown_temperature_uses_the_uniform_samples_and_is_reproducible",
     ),
     "test_faults28_bags.py": (
         "test_metadata_of_any_type_in_any_key_is_read_or_refused_in_one_line_naming_the_key",
@@ -151,6 +169,12 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_mutation.py": (
         "test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught",
     ),
+    "test_observer_core.py": (
+        "test_tau_f_std_matches_scatter_over_seeds",
+    ),
+    "test_observer_hostile.py": (
+        "test_any_message_sequence_gives_only_finite_physical_observations",
+    ),
     "test_package_layout.py": (
         "test_every_ros_package_the_code_imports_is_an_exec_depend",
     ),
@@ -173,9 +197,11 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_replay_and_bag_info_flag_a_bag_whose_recorder_lost_messages",
     ),
     "test_replay_robot.py": (
+        "test_fleet_reprocess_of_a_robot_bag_gives_a_record_per_joint",
         "test_history_import_of_a_robot_bag_stores_one_entry_per_joint_and_cycle_once",
         "test_replay_json_has_an_entry_per_joint_and_keeps_the_one_joint_fields",
         "test_replay_of_a_robot_bag_skips_a_bad_sample_only_for_its_joint",
+        "test_replay_serves_the_joints_the_live_observer_served",
     ),
     "test_serve.py": (
         "test_a_locked_store_is_reported_and_requests_stay_fast",
@@ -201,8 +227,12 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_a_real_prometheus_scrapes_serve_and_the_error_rule_fires_for_the_error_joint",
         "test_every_metric_the_rules_and_the_dashboard_name_is_one_serve_exports",
     ),
+    "test_sim_core.py": (
+        "test_observations_scatter_like_sigma_e",
+    ),
     "test_trend_bank.py": (
         "test_calibration_backtest_keeps_coverage_narrows_and_never_warns_a_flat_joint",
+        "test_trend_plot_shows_the_interval_and_every_models_weight",
     ),
     "test_trend_core.py": (
         "test_fleet_scores_are_in_their_targets",
@@ -212,10 +242,13 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_visible_where.py": (
         "test_fleet_reprocess_rerun_with_another_robot_is_refused_with_the_reason",
         "test_fleet_reprocess_says_a_robot_name_came_from_a_folder_and_where_it_stored",
+        "test_history_import_reestimate_says_where_it_stored_and_the_trend_command_shows_them",
+        "test_replay_with_another_method_is_not_compared_as_a_reproduction",
         "test_trend_with_several_versions_and_no_live_ones_asks_which",
     ),
     "test_wear_scale.py": (
         "test_default_calibration_on_robots_unlike_the_reference_is_honest",
+        "test_every_estimator_built_with_a_commissioned_set_carries_the_total_std",
     ),
     "test_workbench_acceptance.py": (
         "test_clean_data_shows_no_significant_effect_in_at_least_19_of_20_seeds",
@@ -229,6 +262,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_a_regreasing_step_with_few_cycles_ranks_time_first_and_its_refit_reaches_the_floor",
         "test_a_residual_above_the_floor_that_no_column_explains_is_unexplained",
         "test_a_stribeck_hump_reshaped_by_temperature_is_found_with_few_cycles",
+        "test_a_tau_f_std_below_the_scatter_between_cycles_gives_way_to_that_scatter",
         "test_a_temperature_effect_is_not_credited_to_the_correlated_motor_temperature",
         "test_a_time_drift_with_few_cycles_ranks_time_above_a_per_cycle_column",
         "test_a_torque_constant_with_few_cycles_is_not_explained_by_another_per_cycle_column",
@@ -251,9 +285,6 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_a_clean_joint_recorded_joint_side_in_newton_metres_is_nothing_missing",
         "test_scaling_the_torque_by_k_scales_the_fit_by_k_with_the_same_verdict",
         "test_standard_fit_of_a_panda_joint_in_newton_metres_reaches_a_plain_least_squares_fit",
-    ),
-    "test_cycle_robot.py": (
-        "test_a_held_joint_trips_exactly_when_it_moves_beyond_the_tolerance",
     ),
 }
 #: Fixtures that put a test on a ROS graph: a test using one is a ``ros`` test.
