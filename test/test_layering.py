@@ -35,7 +35,7 @@ ARCHITECTURE = PKG.parent / "docs" / "architecture.md"
 #: package imports.
 RANK: dict[str, int] = {
     # the foundation: no import of the package (observation: the data type the contract and observer share)
-    "__init__": 0, "errors": 0, "fmt": 0, "plots": 0, "observation": 0,
+    "__init__": 0, "errors": 0, "fmt": 0, "plots": 0, "observation": 0, "lazy": 0,
     "types": 1, "resources": 1, "contract": 1, "settings": 1,
     "units": 2, "condition": 2, "cycle": 2,
     "model": 3,
@@ -52,7 +52,7 @@ RANK: dict[str, int] = {
 }
 
 CORES = ("model", "estimation", "workbench", "commission", "data", "sim", "cycle", "observer", "monitor", "trend",
-         "types", "units", "errors", "fmt", "contract", "resources", "condition", "observation", "settings")
+         "types", "units", "errors", "fmt", "contract", "resources", "condition", "observation", "settings", "lazy")
 ROS = ("rclpy", "rcl_interfaces", "std_msgs", "std_srvs", "sensor_msgs", "diagnostic_msgs", "rosgraph_msgs",
        "builtin_interfaces", "jointwear_msgs", "launch", "launch_ros")
 #: The workbench's rendering side: the sentences, the text and Markdown reports, the HTML page. The workbench's

@@ -18,12 +18,12 @@ line's ``--help`` stays quick. ``wear_scale`` stays the function (its module is
 
 from __future__ import annotations
 
-import importlib
 import sys
 import types
 from typing import TYPE_CHECKING, Any
 
 from ..errors import InputDataError  # noqa: F401 - the registry's error, as the package gave it before
+from ..lazy import lazy_names
 from .names import ESTIMATOR_NAMES, PAPER_SECONDS_PER_SPEED
 
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and readers
@@ -100,17 +100,7 @@ _LAZY: dict[str, str] = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, globals())
 
 
 class _Package(types.ModuleType):
