@@ -286,6 +286,7 @@ def cmd_synth_history(args: argparse.Namespace) -> int:
     for m in maintenance:
         print(f"regreased: jointwear history maintenance --db DB --robot {m['robot']} --joint {m['joint']} "
               f"--kind regrease --time {m['time']}")
+    return 0
 
 
 def cmd_from_timeseries(args: argparse.Namespace) -> int:

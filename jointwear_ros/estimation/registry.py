@@ -175,7 +175,7 @@ def make_estimator(
     >>> est.name
     'paper'
     """
-    cls = ESTIMATORS.get_class(method)
+    cls: Any = ESTIMATORS.get_class(method)  # a WearEstimator class: it has a name
     key = str(cls.name).strip().lower()
     # an option the estimator does not take is the caller's mistake (exit 2); any other TypeError is a bug
     # inside the estimator and keeps its traceback
