@@ -72,7 +72,7 @@ test: env
 	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m ros -n 2 --dist loadfile test || rc=1; \
 	exit $$rc
 
-# The quick tier while you work (about 45 s on this 2-core machine idle; docs/testing.md):
+# The quick tier while you work (54 s on this 2-core machine idle; docs/testing.md):
 # 86 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
 # DDS, the README walk among them) and the costliest tests without a graph
 # (marker slow, listed once in test/conftest.py's SLOW_TESTS by their measured durations: seeded

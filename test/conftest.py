@@ -62,6 +62,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_a_bag_without_recorded_settings_is_refused_unless_params_and_method_are_given",
         "test_ctrl_c_during_fleet_reprocess_prints_one_line",
         "test_reprocess_says_the_settings_per_bag_and_robot_given_lines_up_with_history_import",
+        "test_history_import_reports_one_bad_bag_and_imports_the_others",
     ),
     "test_bag_recover.py": (
         "test_bag_info_and_replay_refuse_a_bag_with_20_kb_zeroed_in_the_middle",
@@ -79,9 +80,13 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_cli_history.py": (
         "test_bags_import_their_recorded_estimates_or_a_re_estimation_once",
         "test_trend_plots_and_html_rank_the_joints_by_time_to_alarm",
+        "test_a_bag_stamped_by_a_clock_starting_at_zero_is_refused_with_the_reason_and_kept",
     ),
     "test_cli_model.py": (
         "test_bad_arguments_give_one_line_error_and_exit_code_2",
+    ),
+    "test_cli_startup.py": (
+        "test_each_commands_help_alone_imports_none_of_the_heavy_parts",
     ),
     "test_cli_study.py": (
         "test_robustness_reports_which_estimators_stay_unbiased",
@@ -116,6 +121,9 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_one_outlier_20_above_a_flat_history_is_held_and_a_confirmed_step_moves_the_level_at_once",
         "test_the_monitor_and_the_trend_agree_on_the_same_estimates",
     ),
+    "test_cycle_lateness.py": (
+        "test_one_update_late_by_the_reaction_time_anywhere_in_the_braking_stays_inside_the_limits",
+    ),
     "test_cycle_robot.py": (
         "test_a_held_joint_trips_exactly_when_it_moves_beyond_the_tolerance",
     ),
@@ -124,6 +132,9 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_estimation_case_study.py": (
         "test_study_case_cli_json_and_plot",
+    ),
+    "test_estimation_crb.py": (
+        "test_quadrature_bound_is_insensitive_to_node_counts",
     ),
     "test_estimation_hcr.py": (
         "test_study_reports_the_hcr_column_and_json_null_for_infinite",
@@ -145,6 +156,13 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_faults28_ledger.py": (
         "test_a_deadlock_that_outlasts_the_retries_is_one_line_and_exit_2",
+        "test_a_real_postgresql_deadlock_with_another_writer_is_retried",
+    ),
+    "test_figures.py": (
+        "test_slow_growth_keeps_the_data_readable_and_the_forecast_clipped_to_the_wear_axis",
+        "test_case_study_paper_and_bayes_traces_can_be_told_apart",
+        "test_commission_figure_shows_the_fitted_model_over_the_baseline_with_units",
+        "test_the_current_segment_and_its_forecast_fill_the_plot_after_maintenance",
     ),
     "test_fleet.py": (
         "test_a_new_parameter_set_is_a_new_analysis_version_and_compare_names_the_changes",
@@ -165,12 +183,14 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_monitor.py": (
         "test_finished_cycles_are_remembered_up_to_a_bound",
+        "test_a_late_observation_revises_the_cycle_estimate",
     ),
     "test_mutation.py": (
         "test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught",
     ),
     "test_observer_core.py": (
         "test_tau_f_std_matches_scatter_over_seeds",
+        "test_memory_stays_bounded_over_a_long_idle_at_500_hz",
     ),
     "test_observer_hostile.py": (
         "test_any_message_sequence_gives_only_finite_physical_observations",
@@ -185,6 +205,10 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_model_add_twice_adds_no_duplicate_versions_and_error_fall_says_what_each_added",
         "test_nothing_missing_report_names_no_term_has_no_empty_table_and_formats_its_numbers",
         "test_residual_axes_have_units_and_fitted_marks_lie_under_the_data",
+        "test_trend_figure_shows_maintenance_in_its_legend",
+    ),
+    "test_prognostic_scores.py": (
+        "test_alpha_lambda_and_horizon_agree_with_progpy",
     ),
     "test_properties_estimators.py": (
         "test_estimators_give_a_finite_estimate_or_the_projects_error",
@@ -192,9 +216,11 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_real_logs.py": (
         "test_a_published_sweep_at_one_temperature_with_a_noisy_velocity_is_converted_and_commissioned",
         "test_a_real_100hz_log_without_plateaus_is_converted_and_commissioned_to_a_set",
+        "test_a_long_recording_with_gaps_is_split_into_cycles_and_validated_on_held_out_cycles",
     ),
     "test_replay.py": (
         "test_replay_and_bag_info_flag_a_bag_whose_recorder_lost_messages",
+        "test_replay_compares_the_newest_estimate_of_a_cycle_revised_live",
     ),
     "test_replay_robot.py": (
         "test_fleet_reprocess_of_a_robot_bag_gives_a_record_per_joint",
@@ -202,6 +228,8 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_replay_json_has_an_entry_per_joint_and_keeps_the_one_joint_fields",
         "test_replay_of_a_robot_bag_skips_a_bad_sample_only_for_its_joint",
         "test_replay_serves_the_joints_the_live_observer_served",
+        "test_replay_of_a_robot_bag_gives_each_joint_its_recorded_observations_and_estimate",
+        "test_replay_without_the_joints_own_setting_misreads_that_joint_only",
     ),
     "test_serve.py": (
         "test_a_locked_store_is_reported_and_requests_stay_fast",
@@ -230,6 +258,9 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_sim_core.py": (
         "test_observations_scatter_like_sigma_e",
     ),
+    "test_timeseries.py": (
+        "test_a_recorded_bag_converted_by_the_observer_and_by_the_converter_agrees",
+    ),
     "test_trend_bank.py": (
         "test_calibration_backtest_keeps_coverage_narrows_and_never_warns_a_flat_joint",
         "test_trend_plot_shows_the_interval_and_every_models_weight",
@@ -245,10 +276,13 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_history_import_reestimate_says_where_it_stored_and_the_trend_command_shows_them",
         "test_replay_with_another_method_is_not_compared_as_a_reproduction",
         "test_trend_with_several_versions_and_no_live_ones_asks_which",
+        "test_replay_reports_the_wear_difference_not_the_largest_of_unlike_quantities",
+        "test_trend_names_the_versions_in_the_store_and_which_one_it_shows",
     ),
     "test_wear_scale.py": (
         "test_default_calibration_on_robots_unlike_the_reference_is_honest",
         "test_every_estimator_built_with_a_commissioned_set_carries_the_total_std",
+        "test_the_monitor_names_the_calibration_in_its_key_values",
     ),
     "test_workbench_acceptance.py": (
         "test_clean_data_shows_no_significant_effect_in_at_least_19_of_20_seeds",
@@ -277,6 +311,9 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_workbench_faults.py": (
         "test_small_tables_and_few_valued_columns_give_a_verdict",
         "test_two_outliers_in_a_clean_table_are_named_and_never_found",
+    ),
+    "test_workbench_fit.py": (
+        "test_standard_errors_match_the_spread_of_estimates_over_seeds",
     ),
     "test_workbench_shapes.py": (
         "test_hostile_spec_strings_never_crash_with_anything_but_a_model_error",
