@@ -22,6 +22,8 @@ hide a layer crossed or a circle.
 from __future__ import annotations
 
 import ast
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -281,6 +283,21 @@ def test_the_architecture_table_carries_the_ranks_in_order():
     assert ranks == sorted(ranks), f"docs/architecture.md's table is not in rank order: {rows}"
 
 
+
+@contextlib.contextmanager
+def _planted(tmp_path: Path, files: dict[str, str]) -> Iterator[Path]:
+    """A package ``jointwear_ros`` of ``files`` (path -> text) in ``tmp_path``, read by the rules instead of the real one."""
+    global PKG
+    root = tmp_path / "jointwear_ros"
+    for rel, text in files.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(text)
+    saved, PKG = PKG, root
+    try:
+        yield root
+    finally:
+        PKG = saved
+
 def test_the_rules_catch_what_they_are_for(tmp_path):
     """Each rule fires on a planted import (so a rule cannot silently go blind)."""
     planted = {
@@ -294,19 +311,11 @@ def test_the_rules_catch_what_they_are_for(tmp_path):
         "workbench/bad_sentence.py": "def f():\n    from .phrases import shape_hint\n",
         "workbench/bad_render.py": "from . import render\n",
     }
-    root = tmp_path / "jointwear_ros"
-    for rel, text in planted.items():
-        (root / rel).parent.mkdir(parents=True, exist_ok=True)
-        (root / rel).write_text(text)
-    global PKG
-    saved, PKG = PKG, root
-    try:
+    with _planted(tmp_path, planted) as root:
         for rel in planted:
             assert _violations(root / rel), f"no rule caught {rel}"
         (root / "workbench/report.py").write_text("from .render import noise_line\n")
         assert _violations(root / "workbench/report.py") == []  # the rendering side imports itself
-    finally:
-        PKG = saved
 
 
 def test_the_rank_and_circle_rules_catch_what_they_are_for(tmp_path):
@@ -325,13 +334,7 @@ def test_the_rank_and_circle_rules_catch_what_they_are_for(tmp_path):
         "trend/b.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from . import c\n",
         "trend/c.py": "def g():\n    from .a import y\n",
     }
-    root = tmp_path / "jointwear_ros"
-    for rel, text in planted.items():
-        (root / rel).parent.mkdir(parents=True, exist_ok=True)
-        (root / rel).write_text(text)
-    global PKG
-    saved, PKG = PKG, root
-    try:
+    with _planted(tmp_path, planted) as root:
         assert "rank 3) imports jointwear_ros.workbench.fit" in "".join(_rank_violations(root / "model/up.py"))
         assert "rank 4) imports jointwear_ros.workbench" in "".join(_rank_violations(root / "observer/same.py"))
         assert _rank_violations(root / "workbench/fit.py") == []
@@ -340,8 +343,6 @@ def test_the_rank_and_circle_rules_catch_what_they_are_for(tmp_path):
         assert circles == [["jointwear_ros.trend.a", "jointwear_ros.trend.b", "jointwear_ros.trend.c"]]
         assert _circle_text(circles[0], root) == ("jointwear_ros.trend.a -> (line 1) jointwear_ros.trend.b -> "
                                                   "(line 3) jointwear_ros.trend.c -> (line 2) jointwear_ros.trend.a")
-    finally:
-        PKG = saved
 
 
 def test_the_table_check_reads_ranks_and_order():
