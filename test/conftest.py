@@ -44,7 +44,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 #: The markers of the suite, declared once (``--strict-markers`` refuses any other).
 MARKERS = {
     "ros": ("a process or graph test: real rclpy/DDS on loopback (left out by make test-fast; make test runs "
-            "them on 2 workers, each on domains of its own)"),
+            "them one at a time, or on ROS_WORKERS workers each on domains of its own)"),
     "slow": "no ROS graph, but 20 s or more on the shared 2-core machine (a costly fixture counts; left out by make test-fast)",
 }
 #: What ``make test-fast`` leaves out besides the ``ros`` tests: these tests (marker ``slow``, given here
