@@ -62,7 +62,7 @@ demo: env
 # Every test, in two tiers (what CI runs): the tests without a ROS graph on both cores (pytest-xdist,
 # each test file in one worker), then the process and graph tests (marker ros) one at a time by
 # default. ROS_WORKERS=2 runs that tier on two workers too (each on every second ROS domain of the
-# run's block): about 12 min for the whole target instead of about 17 on this 2-core machine, but the
+# run's block): about 12 min for the whole target instead of 16 on this 2-core machine, but the
 # simulated cells then share the CPU and a test that runs the simulator faster than real time can
 # miss a window (one of four measured runs failed two tests; docs/testing.md). Both tiers always run; the target
 # fails if either failed. Bytecode is kept (see test-fast).
