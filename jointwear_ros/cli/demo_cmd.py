@@ -55,6 +55,15 @@ DemoError = CellError
 ROBOT_REAL_TIME_FACTOR = 3.0
 #: Most joints of a demo robot.
 MAX_DEMO_JOINTS = 12
+#: The arm a ``--joints`` demo simulates unless ``--arm`` says otherwise; ``none``: independent joints.
+DEFAULT_ARM = "ur5"
+ARM_CHOICES = ("ur5", "panda", "none")
+#: Largest payload of the demo arm, kg (joint_sim's range).
+MAX_PAYLOAD = 20.0
+#: How far the test cycle may take a joint of an arm from its test pose, rad (inside the URDF's limits).
+ARM_SWEEP_RANGE = 1.6
+#: The test cycle's effort limit on an arm: this fraction of the URDF's effort limit (the drive saturates there).
+ARM_EFFORT_FRACTION = 0.95
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -91,6 +100,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="override a node parameter, e.g. joint_sim.temperature=30 (repeatable)")
     p.add_argument("--domain-id", type=int, default=None,
                    help="ROS_DOMAIN_ID of the cell (default: $ROS_DOMAIN_ID, else a random free-ish one)")
+    p.add_argument("--arm", default=None, metavar="ARM",
+                   help=f"with --joints: the simulated arm, {' | '.join(ARM_CHOICES)} (default {DEFAULT_ARM}: its "
+                        "rigid-body dynamics from the URDF with Pinocchio; none: independent joints)")
+    p.add_argument("--sweep", default=None, choices=("simultaneous", "sequential"),
+                   help="with --joints: sweep every joint at once along one line in joint space (simultaneous, "
+                        "the default) or one joint after another (sequential)")
+    p.add_argument("--payload", default=None, metavar="KG",
+                   help="with --arm: payload at the flange, kg (default 0)")
     c = p.add_argument_group(
         "commissioning (--commission)",
         "Simulate a robot whose joints use the shipped non-reference sets (arm6-base, cobot-j3, arm6-wrist), record "
@@ -136,6 +153,10 @@ class DemoResult:
     rejections: list[str] = field(default_factory=list)
     #: why the cycle did not end DONE, naming the node that said so ("" when it ended DONE)
     failure: str = ""
+    #: the simulated arm ("": independent joints), its payload (kg) and how the joints were swept
+    arm: str = ""
+    payload: float = 0.0
+    sweep: str = "sequential"
 
     @property
     def diagnostic_level(self) -> str:
@@ -154,6 +175,7 @@ class DemoResult:
                             "diagnostic_message": j.diagnostic_message, "cycle_state": j.final_state,
                             "cell_seconds": _finite_or_none(j.cell_seconds)} for j in self.joints]
             out["true_wear"] = [{"joint": j.joint, "wear": j.true_wear} for j in self.joints]
+            out.update({"arm": self.arm or None, "payload": self.payload, "sweep": self.sweep})
         else:
             out["wear"] = self.joints[0].wear_dict()
             out["true_wear"] = self.joints[0].true_wear
@@ -262,12 +284,18 @@ def run_demo(
     domain_id: int | None = None,
     overrides: dict[str, dict[str, Any]] | None = None,
     joints: int | None = None,
+    arm: str | None = None,
+    sweep: str | None = None,
+    payload: float = 0.0,
 ) -> DemoResult:
     """Run the simulated cell for one test cycle; see the module docstring.
 
     ``joints=None``: the configured single joint (``wear`` and ``temperature`` are numbers). ``joints=N``:
     a robot cycle over the first N configured joints; ``wear`` (and ``temperature``) may then be one value
-    per joint, and the result's :meth:`DemoResult.as_dict` gives lists."""
+    per joint, and the result's :meth:`DemoResult.as_dict` gives lists. With ``joints``, ``arm`` (``ur5``,
+    ``panda``; ``None``: independent joints) puts the cell on that arm (:func:`arm_cell_parameters`, with
+    ``payload`` kg at the flange) and ``sweep`` is test_cycle's (``simultaneous`` or ``sequential``; ``None``:
+    its config)."""
     from ..io.bags import OBSERVATION_FIELDS, find_bags, message_fields
     from ..nodes.runtime import loopback_env
 
@@ -319,6 +347,11 @@ def run_demo(
             sim_params[f"{j}.wear"] = wears[i]
             if temps is not None:
                 sim_params[f"{j}.temperature"] = temps[i]
+        if arm is not None:
+            for node, values in arm_cell_parameters(arm, names, payload).items():
+                params[node].update(values)
+        if sweep is not None:
+            params["test_cycle"]["sweep"] = sweep
         for node, values in (overrides or {}).items():
             params[node].update(values)
     children: list[Child] = []
@@ -386,7 +419,8 @@ def run_demo(
     return DemoResult(
         cycle_id=cycle_id, observations=observations, joints=per_joint, final_state=final_state, bag=bag,
         wall_seconds=time.monotonic() - t_start, cell_seconds=cell_seconds, logs=str(logdir),
-        robot=joints is not None, failure=failure,
+        robot=joints is not None, failure=failure, arm=arm or "", payload=float(payload),
+        sweep=str(params["test_cycle"].get("sweep") or _config_value("test_cycle", "sweep", "sequential")),
     )
 
 
@@ -398,6 +432,33 @@ def _per_joint(value: float | Sequence[float], names: Sequence[str], what: str) 
     if len(values) != len(names):
         raise CellError(f"{len(values)} {what} values for {len(names)} joints ({', '.join(names)})")
     return values
+
+
+def arm_cell_parameters(arm: str, names: Sequence[str], payload: float = 0.0) -> dict[str, dict[str, Any]]:
+    """The node parameters that put the cell on arm ``arm``: joint_sim simulates it (``arm``, ``payload``; each
+    joint's drive from the arm's spec), test_cycle sweeps each joint around the arm's test pose inside its URDF
+    limits (``ARM_SWEEP_RANGE`` at most) below its effort limit, friction_observer scales each joint's effort
+    by the arm's torque scale. The i-th of ``names`` is the arm's i-th joint.
+
+    >>> p = arm_cell_parameters("ur5", ["joint_1", "joint_2"])
+    >>> p["joint_sim"]["arm"], p["test_cycle"]["joint_2.position"], p["friction_observer"]["joint_2.torque_scale"]
+    ('ur5', -1.3, 75.0)
+    >>> p["test_cycle"]["joint_2.joint_limits"], p["test_cycle"]["joint_2.effort_limit"]
+    ([-2.9, 0.3], 142.5)
+    """
+    from ..sim.arms import arm_spec
+
+    spec = arm_spec(arm)
+    out: dict[str, dict[str, Any]] = {"joint_sim": {"arm": spec.name, "payload": float(payload)},
+                                      "test_cycle": {}, "friction_observer": {}}
+    for name, j in zip(names, spec.for_names(names), strict=False):
+        lo = max(j.lower + 0.05, j.home - ARM_SWEEP_RANGE)
+        hi = min(j.upper - 0.05, j.home + ARM_SWEEP_RANGE)
+        out["test_cycle"].update({f"{name}.gear_ratio": j.gear_ratio, f"{name}.position": j.home,
+                                  f"{name}.joint_limits": [round(lo, 4), round(hi, 4)],
+                                  f"{name}.effort_limit": round(ARM_EFFORT_FRACTION * j.effort, 4)})
+        out["friction_observer"].update({f"{name}.gear_ratio": j.gear_ratio, f"{name}.torque_scale": j.torque_scale})
+    return out
 
 
 def _param_value(text: str) -> Any:
@@ -510,6 +571,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if args.domain_id is not None and not 0 <= args.domain_id <= 232:
         raise UsageError(f"--domain-id: {args.domain_id} is outside 0-232")
     check_method(args.method, "--method")
+    arm, payload = _arm_args(args, n)
     overrides = parse_overrides(args.set)
     check_overrides(overrides)
     info = load_parameter_set_info(_sim_parameter_set(overrides))
@@ -539,7 +601,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if temperatures is not None:
         temperature = temperatures if n is not None else temperatures[0]
     res = run_demo(wears if n is not None else wears[0], speeds, Path(args.out), rtf, temperature, args.method,
-                   timeout, args.domain_id, overrides, joints=n)
+                   timeout, args.domain_id, overrides, joints=n, arm=arm, payload=payload,
+                   sweep=args.sweep or ("simultaneous" if n is not None and n > 1 else None))
     # a cycle that did not end DONE, or a joint without an estimate, is a failed demo (exit 1), whatever the level
     rc = 0 if all(j.estimate for j in res.joints) and not res.failure else 1
     if res.failure:
@@ -570,6 +633,33 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return rc
 
 
+def _arm_args(args: argparse.Namespace, n: int | None) -> tuple[str | None, float]:
+    """``--arm`` and ``--payload`` checked against ``--joints``: the arm (``None``: independent joints) and kg."""
+    from ..sim.arms import arm_spec
+
+    if n is None:
+        given = [f for f, v in (("--arm", args.arm), ("--sweep", args.sweep), ("--payload", args.payload))
+                 if v is not None]
+        if given:
+            raise UsageError(f"{given[0]} needs --joints N (a robot cycle); the one-joint demo runs the single "
+                             "simulated joint")
+        return None, 0.0
+    name = (args.arm if args.arm is not None else DEFAULT_ARM).strip().lower()
+    if name not in ARM_CHOICES:
+        raise UsageError(f"--arm: {args.arm!r} is not an arm; choose one of {', '.join(ARM_CHOICES)}")
+    payload = parse_float(args.payload, "--payload") if args.payload is not None else 0.0
+    if name == "none":
+        if args.payload is not None:
+            raise UsageError("--payload needs an arm (--arm ur5 or panda); independent joints carry none")
+        return None, 0.0
+    spec = arm_spec(name)
+    if n > len(spec.joints):
+        raise UsageError(f"--joints: {n} joints, but the {spec.title} (--arm {name}) has {len(spec.joints)}")
+    if not 0.0 <= payload <= MAX_PAYLOAD:
+        raise UsageError(f"--payload: {payload:g} kg is outside 0-{MAX_PAYLOAD:g}")
+    return name, payload
+
+
 def _print_robot(res: DemoResult, rc: int) -> int:
     """The text summary of a robot demo: one row per joint."""
     rows: list[list[Any]] = []
@@ -584,7 +674,9 @@ def _print_robot(res: DemoResult, rc: int) -> int:
             rows.append([j.joint, f"{j.true_wear:g}", "none", "", "", j.diagnostic_level, j.final_state,
                          _fixed(j.cell_seconds, 1)])
     n_obs = len(res.observations)
-    print(f"robot cycle {res.cycle_id} ({res.final_state}): {len(res.joints)} joints, {n_obs} friction observations")
+    on = (f" on the {res.arm} arm" + (f" with {res.payload:g} kg" if res.payload else "")) if res.arm else ""
+    print(f"robot cycle {res.cycle_id} ({res.final_state}){on}: {len(res.joints)} joints swept {res.sweep}ly, "
+          f"{n_obs} friction observations")
     print(format_table(["joint", "true w", "estimate", "z", "T est", "level", "cycle", "cell s"], rows))
     print(f"worst level: {res.diagnostic_level}")
     cell = f"{res.cell_seconds:.0f} s of cell time (sim), " if math.isfinite(res.cell_seconds) else ""
