@@ -758,3 +758,28 @@ def saved(monkeypatch: Any) -> dict[str, object]:
     monkeypatch.setattr(plots, "save_figure", capture)
     monkeypatch.setattr(wb_report, "save_figure", capture)
     return figs
+
+
+def driver_error(dialect: str, kind: str) -> BaseException:
+    """A database driver's error as the history backends see it, for fault tests on both databases.
+
+    ``kind``: ``"busy"`` (a lock or deadlock the backend retries: SQLite BUSY, PostgreSQL 40P01) or
+    ``"full_says_locked"`` (a full disk whose message reads like a lock or a deadlock: only its code
+    tells it apart, so it must not be retried)."""
+    import sqlite3
+
+    if kind not in ("busy", "full_says_locked"):
+        raise ValueError(f"driver_error: unknown kind {kind!r}")
+    if dialect == "postgresql":
+        import psycopg.errors
+
+        if kind == "busy":
+            return psycopg.errors.DeadlockDetected("deadlock detected")
+        return psycopg.errors.DiskFull("database is locked; deadlock detected; could not serialize access")
+    if kind == "busy":
+        exc = sqlite3.OperationalError("database is locked")
+        exc.sqlite_errorcode = 5  # type: ignore[attr-defined]  # SQLITE_BUSY, as sqlite3 sets it
+        return exc
+    exc = sqlite3.OperationalError("deadlock detected; database is locked (busy)")
+    exc.sqlite_errorcode = 13  # type: ignore[attr-defined]  # SQLITE_FULL
+    return exc

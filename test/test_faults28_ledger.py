@@ -4,13 +4,13 @@ message); one that outlasts the retries is one line and exit 2, never an "intern
 
 from __future__ import annotations
 
-import sqlite3
 import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 import pytest
+from conftest import driver_error
 from sqlalchemy import event, select
 from sqlalchemy.engine import Engine
 
@@ -29,27 +29,6 @@ class _Outcome:
     bag: str = ""
     records: list[Any] = field(default_factory=list)
     seconds: float = 0.1
-
-
-def _transient(dialect: str) -> BaseException:
-    if dialect == "postgresql":
-        import psycopg.errors
-
-        return psycopg.errors.DeadlockDetected("deadlock detected")
-    exc = sqlite3.OperationalError("database is locked")
-    exc.sqlite_errorcode = 5  # SQLITE_BUSY, as sqlite3 sets it
-    return exc
-
-
-def _not_transient_but_says_deadlock(dialect: str) -> BaseException:
-    """An error whose text reads like a deadlock but whose code says otherwise (a full disk)."""
-    if dialect == "postgresql":
-        import psycopg.errors
-
-        return psycopg.errors.DiskFull("deadlock detected; could not serialize; database is locked")
-    exc = sqlite3.OperationalError("deadlock detected; database is locked")
-    exc.sqlite_errorcode = 13  # SQLITE_FULL
-    return exc
 
 
 class _FailLedgerInserts:
@@ -83,7 +62,7 @@ def test_a_transient_error_in_the_ledger_is_retried_and_every_bag_recorded(db_ur
     monkeypatch.setattr(ledger.time, "sleep", pauses.append)
     with HistoryStore(db_url) as store:
         ensure_ledger(store)
-        with _FailLedgerInserts(store.engine, lambda: _transient(store.dialect), times=RETRIES - 1) as fail:
+        with _FailLedgerInserts(store.engine, lambda: driver_error(store.dialect, "busy"), times=RETRIES - 1) as fail:
             assert mark_done(store, "v1", [_Outcome("fb"), _Outcome("fa")]) == 2
         assert _done(store) == ["fa", "fb"]
     assert fail.attempts == RETRIES - 1 + 2  # every failed attempt was one INSERT; the last did both bags
@@ -94,7 +73,7 @@ def test_an_error_that_only_reads_like_a_deadlock_is_not_retried(db_url, monkeyp
     monkeypatch.setattr(ledger.time, "sleep", lambda s: None)
     with HistoryStore(db_url) as store:
         ensure_ledger(store)
-        with _FailLedgerInserts(store.engine, lambda: _not_transient_but_says_deadlock(store.dialect),
+        with _FailLedgerInserts(store.engine, lambda: driver_error(store.dialect, "full_says_locked"),
                                 times=RETRIES) as fail:
             with pytest.raises(HistoryError, match="cannot record the bags done") as info:
                 mark_done(store, "v1", [_Outcome("fa")])
@@ -108,7 +87,7 @@ def test_a_deadlock_that_outlasts_the_retries_is_one_line_and_exit_2(tmp_path, c
     monkeypatch.setattr(ledger.time, "sleep", lambda s: None)
     bags = write_fleet(tmp_path / "bags", fleet_specs(1, 1, 1, rates=(0.0,), start_wear=15.0, method="joint"))
     db = tmp_path / "h.db"
-    with _FailLedgerInserts(Engine, lambda: _transient("sqlite"), times=10 * RETRIES) as fail:
+    with _FailLedgerInserts(Engine, lambda: driver_error("sqlite", "busy"), times=10 * RETRIES) as fail:
         rc = cli_main(["fleet", "reprocess", str(bags[0]), "--db", str(db), "--workers", "1", "--quiet"])
     err = capsys.readouterr().err
     assert rc == 2, err

@@ -7,6 +7,7 @@ from __future__ import annotations
 import sqlite3
 
 import pytest
+from conftest import driver_error
 from sqlalchemy import event
 
 from jointwear_ros.errors import one_line
@@ -75,17 +76,6 @@ def test_the_store_retries_a_real_lock_until_the_other_writer_lets_go(db_url, mo
     assert len(pauses) == 1
 
 
-def _reads_like_a_lock(dialect: str) -> BaseException:
-    """A full disk whose message reads like a lock: only its code tells them apart."""
-    if dialect == "postgresql":
-        import psycopg.errors
-
-        return psycopg.errors.DiskFull("database is locked; deadlock detected; could not serialize access")
-    exc = sqlite3.OperationalError("database is locked (busy)")
-    exc.sqlite_errorcode = 13  # SQLITE_FULL
-    return exc
-
-
 def test_an_error_that_only_reads_like_a_lock_is_written_once_and_not_retryable(db_url, monkeypatch):
     monkeypatch.setattr(store_mod._time, "sleep", lambda s: None)
     attempts = []
@@ -93,7 +83,7 @@ def test_an_error_that_only_reads_like_a_lock_is_written_once_and_not_retryable(
     def fail(conn, cursor, statement, *args):
         if statement.lstrip().upper().startswith("INSERT INTO ESTIMATES"):
             attempts.append(statement)
-            raise _reads_like_a_lock(s.dialect)
+            raise driver_error(s.dialect, "full_says_locked")
 
     with HistoryStore(db_url, write_attempts=5) as s:
         event.listen(s.engine, "before_cursor_execute", fail)

@@ -192,6 +192,16 @@ class DemoResult:
 
 
 
+#: The largest ROS domain id Fast DDS accepts (its port arithmetic refuses larger ones).
+MAX_DOMAIN_ID = 232
+
+
+def _check_domain_id(domain_id: int | None) -> None:
+    """``--domain-id`` within 0-232 (a one-line usage error otherwise)."""
+    if domain_id is not None and not 0 <= domain_id <= MAX_DOMAIN_ID:
+        raise UsageError(f"--domain-id: {domain_id} is outside 0-{MAX_DOMAIN_ID}")
+
+
 def _domain_id(domain_id: int | None) -> int:
     """The cell's ROS domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else one of 10-99 at random."""
     if domain_id is not None:
@@ -568,8 +578,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         raise UsageError(f"--timeout: {timeout:g} must be more than 0 and at most 86400 s")
     temperatures = (_values_per_joint(args.temperature, "--temperature", n, ()) if args.temperature is not None
                     else None)
-    if args.domain_id is not None and not 0 <= args.domain_id <= 232:
-        raise UsageError(f"--domain-id: {args.domain_id} is outside 0-232")
+    _check_domain_id(args.domain_id)
     check_method(args.method, "--method")
     arm, payload = _arm_args(args, n)
     overrides = parse_overrides(args.set)
@@ -1136,8 +1145,7 @@ def cmd_demo_commission(args: argparse.Namespace) -> int:
     wc = args.wear_calibration
     if wc is not None and wc not in ("paper", "relative") and not Path(wc).is_file():
         raise UsageError(f"--wear-calibration {wc!r}: use paper, relative or an existing calibration FILE")
-    if args.domain_id is not None and not 0 <= args.domain_id <= 232:
-        raise UsageError(f"--domain-id: {args.domain_id} is outside 0-232")
+    _check_domain_id(args.domain_id)
     overrides = parse_overrides(args.set)
     check_overrides(overrides)
     if any("joints" in overrides.get(node, {}) for node in _JOINT_NODES):
