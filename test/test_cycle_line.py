@@ -113,10 +113,15 @@ def test_six_joints_at_once_are_each_observed_at_every_speed_on_one_line_in_a_si
     assert runner.state == CycleState.DONE, runner.message
     assert runner.message.startswith("done: 6 joints at once, 8 speed step(s) in ")
     speeds = CycleConfig().speeds
+    errors = []
     for j in SIX:
         assert rej[j] == [], (j, rej[j])
         assert [round(o.speed) for o in obs[j]] == [round(s) for s in speeds], j
         assert all(o.tau_f > 0 and o.samples_plus >= 20 and o.samples_minus >= 20 for o in obs[j])
+        errors += [o.tau_f - sim[j].true_friction(o.speed, o.position) for o in obs[j]]
+    # each observation is the joint's friction, scattered as the sim's noise_std (0.0015) says
+    rms = math.sqrt(sum(e * e for e in errors) / len(errors))
+    assert rms < 2 * JointSimConfig().noise_std and abs(sum(errors) / len(errors)) < 1e-3, rms
     # every joint moved at every update of a sweep: all at once, not one after another
     moving = [c for c in commands if any(c)]
     assert moving and sum(all(v != 0.0 for v in c) for c in moving) > 0.9 * len(moving)
