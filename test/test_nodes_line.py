@@ -18,7 +18,7 @@ pytest.importorskip("rclpy")
 
 from jointwear_ros.contract import CyclePhase, CycleState
 from jointwear_ros.cycle import CycleConfig, plan_line_cycle, plan_robot_cycle
-from jointwear_ros.nodes.cell import Operator, start_child, stop_children
+from jointwear_ros.nodes.cell import CellError, Operator, start_child, stop_children
 from jointwear_ros.nodes.runtime import loopback_env
 
 pytestmark = pytest.mark.ros
@@ -46,6 +46,9 @@ def test_a_simultaneous_cycle_observes_every_joint_at_every_speed_in_about_one_j
                       and {"friction_observer", "wear_estimator"} <= op.subscribers("/test_cycle/status")
                       and "wear_estimator" in op.subscribers("/jointwear/friction_observations")
                       and all(j in op.observer_status for j in JOINTS), 60.0, children, "the graph")
+        with pytest.raises(CellError, match=r"test_cycle refused parameter\(s\) sweep: sweep 'diagonal' must be one "
+                                            r"of sequential, simultaneous"):
+            op.set_parameters("test_cycle", {"sweep": "diagonal"}, children)
         cid, plan = op.start_cycle(SPEEDS, children)
         assert "3 joints at once along one line" in plan, plan
         op.spin_until(lambda: op.robot_cycle_over(cid), 60.0, children, f"the end of cycle {cid}")
