@@ -278,7 +278,7 @@ def _change(joint: str, after: float, **f):
         (_change("joint_2", 2.0, effort=lambda e: 400.0), "joint_2",
          r"^watchdog: joint joint_2: \|effort\| 400\.0 N·m > effort_limit 150 N·m"),
         (_change("joint_3", 2.0, position=lambda p: p + 0.05), "joint_3",
-         r"^watchdog: joint_3 0\.0\d\d rad off the line of the \w+ move \(line_tolerance 0\.02 rad\)"),
+         r"^watchdog: joint_3 0\.0\d\d rad off the line of the \w+ move \(hold_tolerance 0\.02 rad\)"),
         (_change("joint_1", 0.0, velocity=lambda v: 0.8 * v), "joint_1",
          r"^watchdog: joint_1: speed not reached at the window start"),
         (_change("joint_2", 2.0, stamp=lambda t: t - 1.0), "joint_2", r"^watchdog: joint state of joint joint_2 stale"),

@@ -73,10 +73,10 @@ the reason in the message): a state missing, stale (``state_timeout``, and in wa
 ``wall_ages`` are given) or not finite; a position outside ``joint_limits``; ``|effort|`` above
 ``effort_limit``; the speed off by more than ``speed_tolerance`` (relative) where the joint
 enters its window; a move not finished within ``move_timeout_factor`` × its planned time + 2 s;
-a joint farther than ``line_tolerance`` from the line of the move (the distance of the joint
+a joint farther than ``hold_tolerance`` from the line of the move (the distance of the joint
 from the nearest point of the line, the point found by projecting the measured configuration).
 A driven joint not in the request is held at zero velocity and watched as a held joint of the
-sequential cycle (``line_tolerance`` is its hold tolerance).
+sequential cycle (it may move ``hold_tolerance`` from where the cycle found it).
 
 **Status** (:meth:`LineCycleRunner.statuses`): one :class:`~jointwear_ros.contract.CycleStatus`
 per joint per update, in the plan's order: ``joint_name`` that joint, ``current_speed`` its
@@ -321,7 +321,7 @@ class LineCycleRunner:
     ----------
     configs
         Every joint the node drives (name -> settings), in command order.
-    line_tolerance
+    hold_tolerance
         Largest distance of a moving joint from the line of its move, and of a held joint from where the
         cycle found it, rad.
     """
@@ -335,15 +335,15 @@ class LineCycleRunner:
     #: Approach moves tried before the cycle fails for not reaching a line's start.
     MAX_APPROACHES = 4
 
-    def __init__(self, configs: Mapping[str, CycleConfig], line_tolerance: float = 0.02) -> None:
+    def __init__(self, configs: Mapping[str, CycleConfig], hold_tolerance: float = 0.02) -> None:
         if not configs:
             raise CycleRequestError("a line cycle needs at least one joint")
         self.configs = dict(configs)
         for c in self.configs.values():
             c.check()
-        self.line_tolerance = float(line_tolerance)
-        if not (math.isfinite(self.line_tolerance) and self.line_tolerance > 0):
-            raise CycleRequestError(f"line_tolerance must be finite and > 0 rad, got {line_tolerance}")
+        self.hold_tolerance = float(hold_tolerance)
+        if not (math.isfinite(self.hold_tolerance) and self.hold_tolerance > 0):
+            raise CycleRequestError(f"hold_tolerance must be finite and > 0 rad, got {hold_tolerance}")
         self.names: tuple[str, ...] = tuple(self.configs)
         self.state = CycleState.IDLE
         self.phase = Phase.NONE
@@ -375,15 +375,15 @@ class LineCycleRunner:
         """The last joint of the plan (whose ended status ends the robot cycle); the first driven one before any."""
         return self.plan.joints[-1] if self.plan is not None else self.names[0]
 
-    def reconfigure(self, configs: Mapping[str, CycleConfig], line_tolerance: float | None = None) -> None:
+    def reconfigure(self, configs: Mapping[str, CycleConfig], hold_tolerance: float | None = None) -> None:
         """New settings for the next cycle (refused while one runs: its plan used the old ones)."""
         if self.running:
             raise RuntimeError("a line cycle is running")
         if list(configs) != list(self.names):
             raise CycleRequestError(f"the driven joints cannot change: {list(self.names)} -> {list(configs)}")
         self.configs = dict(configs)
-        if line_tolerance is not None:
-            self.line_tolerance = float(line_tolerance)
+        if hold_tolerance is not None:
+            self.hold_tolerance = float(hold_tolerance)
 
     def start(self, plan: LinePlan, cycle_id: int, now: float, positions: Mapping[str, float] | None = None) -> None:
         """Start ``plan``; ``positions`` are where the joints stand (the held joints' references)."""
@@ -486,9 +486,9 @@ class LineCycleRunner:
                 r = readings[j]
                 assert r is not None
                 ref = self._hold.setdefault(j, r.position)
-                if abs(r.position - ref) > self.line_tolerance:
+                if abs(r.position - ref) > self.hold_tolerance:
                     reason = (f"held joint {j} moved {r.position - ref:+.3f} rad from {ref:.3f} rad "
-                              f"(hold_tolerance {self.line_tolerance:g} rad)")
+                              f"(hold_tolerance {self.hold_tolerance:g} rad)")
             if reason is not None:
                 self.fail(f"watchdog: {reason}", j)
                 return self.commands
@@ -589,9 +589,9 @@ class LineCycleRunner:
             dev = abs(q[i] - mv.origin[i] - lam * mv.direction[i])
             if mv.phase != Phase.APPROACH:
                 self.max_deviation = max(self.max_deviation, dev)
-            if dev > self.line_tolerance:
+            if dev > self.hold_tolerance:
                 return self._trip(j, f"{j} {dev:.3f} rad off the line of the {mv.phase.name.lower()} move "
-                                     f"(line_tolerance {self.line_tolerance:g} rad) at {q[i]:.3f} rad")
+                                     f"(hold_tolerance {self.hold_tolerance:g} rad) at {q[i]:.3f} rad")
         if mv.phase != Phase.APPROACH:
             for i, j in enumerate(plan.joints):
                 if mv.checked[i]:
