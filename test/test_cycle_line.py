@@ -8,6 +8,7 @@ friction_observer node feeds them.
 from __future__ import annotations
 
 import math
+import random
 import re
 from dataclasses import replace
 
@@ -329,3 +330,32 @@ def test_abort_stops_every_joint():
     assert runner.state == CycleState.ABORTED and runner.commands == dict.fromkeys(THREE, 0.0)
     assert [s.state for s in statuses[-1]] == [CycleState.ABORTED] * 3
     assert all(r.state == CycleState.ABORTED for r in runner.results.values())
+
+
+@pytest.mark.parametrize("late", [0.03, 0.1])
+def test_late_control_updates_keep_every_joint_within_its_stopping_allowance(late):
+    """Every update late by up to ``late`` s (``reaction_time`` is 0.1 s): the cycle still ends DONE with every
+    observation, and no joint passes its sweep ends by more than its stopping allowance."""
+    configs = _configs(THREE)
+    sim = _robot(THREE)
+    plan = plan_line_cycle(configs, speeds=[40.0, 160.0])
+    runner = LineCycleRunner(configs)
+    rng = random.Random(1)
+    due = 0.0
+    runner.start(plan, 1, 0.0, dict.fromkeys(THREE, 0.0))
+    lo = dict.fromkeys(THREE, 0.0)
+    hi = dict.fromkeys(THREE, 0.0)
+    while runner.running and sim.time < 60.0:
+        if sim.time >= due - 1e-9:
+            cmd = runner.update(sim.time, _readings(sim))
+            sim.set_commands([cmd[j] for j in THREE])
+            due = sim.time + 0.01 + rng.uniform(0.0, late)
+        sim.step(0.002)
+        for j, p in zip(THREE, sim.sample()[0]):
+            lo[j], hi[j] = min(lo[j], p), max(hi[j], p)
+    assert runner.state == CycleState.DONE, runner.message
+    for j in THREE:
+        a, b = plan.extent(j)
+        allow = stop_allowance(1.6, configs[j])
+        print(f"{j}: planned [{a:.3f}, {b:.3f}] rad, reached [{lo[j]:.3f}, {hi[j]:.3f}] rad")
+        assert a - allow < lo[j] and hi[j] < b + allow
