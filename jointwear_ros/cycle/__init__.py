@@ -4,12 +4,14 @@
 limits and plans the sweeps; :class:`CycleRunner` runs a plan when fed
 ``(now, joint reading)`` and returns the velocity command.
 :func:`plan_robot_cycle` and :class:`RobotCycleRunner` do the same for several
-joints tested one after another, the others held still. The ``test_cycle``
-node wraps them.
+joints tested one after another, the others held still; :func:`plan_line_cycle`
+and :class:`LineCycleRunner` sweep every joint at once along one straight line in
+joint space and back. The ``test_cycle`` node wraps them.
 """
 
 from __future__ import annotations
 
+from .line import LineCycleRunner, LinePlan, LineStep, plan_line_cycle
 from .plan import (
     DEFAULT_SPEEDS,
     CycleConfig,
@@ -33,12 +35,16 @@ __all__ = [
     "CycleState",
     "JointOutcome",
     "JointReading",
+    "LineCycleRunner",
+    "LinePlan",
+    "LineStep",
     "Phase",
     "RobotCycleRunner",
     "RobotPlan",
     "SpeedPlan",
     "move_duration",
     "plan_cycle",
+    "plan_line_cycle",
     "plan_robot_cycle",
     "run_up",
     "stop_allowance",

@@ -291,6 +291,11 @@ class RobotCycleRunner:
             st = replace(st, state=self.state, message=self.message)
         return replace(st, joint_name=plan.joints[i], joints=plan.joints, joints_done=i, cycle_id=self.cycle_id)
 
+    def statuses(self) -> list[CycleStatus]:
+        """``[status()]``: the statuses to publish after an update (one here; one per joint in a line cycle,
+        :meth:`jointwear_ros.cycle.LineCycleRunner.statuses`)."""
+        return [self.status()]
+
     # -- the machine ---------------------------------------------------------
     def update(self, now: float, readings: Mapping[str, JointReading | None],
                wall_ages: Mapping[str, float] | None = None) -> dict[str, float]:

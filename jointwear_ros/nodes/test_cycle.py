@@ -11,13 +11,19 @@ accepted, cycle_id, the refusal ``reason`` code and the plan or the reason in wo
 (``std_srvs/srv/Trigger``). A request names the joints to test (``joints``; empty:
 ``joint_name``, or every driven joint when that is empty too), one window centre
 per joint (``positions``) and the speeds; the whole request is checked and every
-joint planned before anything moves; the joints are then tested one after
-another under one cycle id, every other joint held at zero velocity
-(:class:`jointwear_ros.cycle.RobotCycleRunner`). On a node that drives one
+joint planned before anything moves. The parameter ``sweep`` (read at each request)
+says how a request of several joints runs: ``sequential`` (the default) tests the
+joints one after another under one cycle id, every other joint held at zero velocity
+(:class:`jointwear_ros.cycle.RobotCycleRunner`); ``simultaneous`` sweeps every
+requested joint at once along one straight line in joint space and back, each joint
+at its own speeds (:mod:`jointwear_ros.cycle.line`; a driven joint not requested is
+held). A request of one joint runs as ``sequential`` either way. On a node that drives one
 joint, ``position`` applies as in earlier versions (also without ``joint_name``).
 
 Publishes ``~/status`` (``TestCycleStatus``: the joint under test, its state
-and phase, ``joints`` and ``joints_done``) on every change and at ``status_rate``.
+and phase, ``joints`` and ``joints_done``) on every change and at ``status_rate``;
+in a simultaneous cycle one status per requested joint each time, in the request's
+order (the last joint's ended status ends the robot cycle).
 While a cycle runs it streams velocity commands (``Float64MultiArray``, one
 joint rad/s per driven joint: the sweep for the joint under test, 0 for the
 others) at ``command_rate`` (forward command controllers hold the last command
@@ -77,7 +83,9 @@ from ..cycle import (
     CycleRequestError,
     CycleState,
     JointReading,
+    LineCycleRunner,
     RobotCycleRunner,
+    plan_line_cycle,
     plan_robot_cycle,
 )
 from ..errors import JointwearError, ParameterError
@@ -104,8 +112,11 @@ _NODE_TAIL: tuple[ParamDecl, ...] = (
         "watchdog: no joint state for this many wall-clock s stops the cycle (catches a clock source that died)",
         1e-3, 100.0, unit="s",
     ),
-    ParamDecl("hold_tolerance", 0.02, "watchdog: largest move of a held joint from where the cycle found it, rad",
-              1e-5, 10.0, unit="rad"),
+    ParamDecl("hold_tolerance", 0.02, "watchdog: largest move of a held joint from where the cycle found it, and "
+              "(sweep simultaneous) largest distance of a joint from the line, rad", 1e-5, 10.0, unit="rad"),
+    ParamDecl("sweep", "sequential", "how a request of several joints runs: sequential (one joint after another, "
+              "the others held) or simultaneous (every joint at once along one straight line in joint space and "
+              "back); read at each request"),
     ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0,
               read_only=True, unit="Hz"),
     ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0, read_only=True, unit="Hz"),
@@ -136,6 +147,15 @@ _RELIABLE_1 = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_10 = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 _RELIABLE_100 = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 _LEVEL = {CycleState.ABORTED: DiagnosticLevel.WARN, CycleState.FAILED: DiagnosticLevel.ERROR}
+#: the values of ``sweep``
+SWEEPS = ("sequential", "simultaneous")
+
+
+def _check_sweep(value: Any) -> str | None:
+    """Why ``value`` is not a ``sweep`` (None: it is one)."""
+    if value in SWEEPS:
+        return None
+    return f"sweep {value!r} must be one of {', '.join(SWEEPS)}"
 
 
 class TestCycleNode(Node):
@@ -154,7 +174,14 @@ class TestCycleNode(Node):
         self.hold_tolerance = float(p["hold_tolerance"])
         self.max_duration = float(p["max_duration"])
         plan_robot_cycle(self.configs)  # the default speeds of every joint must be plannable
-        self.runner = RobotCycleRunner(self.configs, self.hold_tolerance)
+        bad = _check_sweep(p["sweep"])
+        if bad is not None:
+            raise ParameterError(f"test_cycle: {bad}")
+        self.sequential = RobotCycleRunner(self.configs, self.hold_tolerance)
+        self.line = LineCycleRunner(self.configs, self.hold_tolerance)
+        self.line.results = self.sequential.results  # one outcome per joint, whichever sweep tested it last
+        #: the runner of the current (or last) cycle
+        self.runner: RobotCycleRunner | LineCycleRunner = self.sequential
         first = int(p["first_cycle_id"])
         if not 0 <= first < 2**32 - 10**6:
             raise ParameterError(f"test_cycle: first_cycle_id = {first} must be 0 (Unix time) or 1 to {2**32 - 10**6 - 1}")
@@ -299,19 +326,30 @@ class TestCycleNode(Node):
             )
         now = self._now()
         speeds = [float(v) for v in req.speeds]
-        plan = plan_robot_cycle(self.configs, joints, speeds, positions,
-                                {j: r.position for j, r in self.readings.items()}, self.max_duration)
+        here = {j: r.position for j, r in self.readings.items()}
+        at_once = self.get_parameter("sweep").value == "simultaneous" and len(joints or self.joints) > 1
+        if at_once:
+            line = plan_line_cycle(self.configs, joints, speeds, positions, here, self.max_duration)
+            summary, duration = line.summary(), line.duration
+        else:
+            plan = plan_robot_cycle(self.configs, joints, speeds, positions, here, self.max_duration)
+            summary, duration = plan.summary(), plan.duration
         if not req.dry_run:
             self._check_states(now)
         if req.dry_run:
-            return f"dry run OK: {plan.summary()}; plan duration {plan.duration:.1f} s"
+            return f"dry run OK: {summary}; plan duration {duration:.1f} s"
         cycle_id = self.next_cycle_id
         self.next_cycle_id += 1
-        self.runner.start(plan, cycle_id, now, {j: r.position for j, r in self.readings.items()})
-        self.get_logger().info(f"cycle {cycle_id} started: {plan.summary()}")
+        if at_once:
+            self.runner = self.line
+            self.line.start(line, cycle_id, now, here)
+        else:
+            self.runner = self.sequential
+            self.sequential.start(plan, cycle_id, now, here)
+        self.get_logger().info(f"cycle {cycle_id} started: {summary}")
         self._publish_status(force=True)
         self._update_diagnostics()
-        return f"cycle {cycle_id} started: {plan.summary()}"
+        return f"cycle {cycle_id} started: {summary}"
 
     def _check_states(self, now: float) -> None:
         """Refuse when a driven joint's state is missing or stale (every joint is watched, not only those tested)."""
@@ -363,15 +401,19 @@ class TestCycleNode(Node):
         self._send({})
 
     def _publish_status(self, force: bool = False) -> None:
-        st = self.runner.status()
-        key = (st.cycle_id, st.joint_name, st.joints_done, st.state, st.phase, st.current_speed, st.speeds_done,
-               st.speeds_total, st.message)
+        """The runner's statuses (one; one per joint in a simultaneous cycle, in order) on a change, when forced
+        and every status period."""
+        sts = self.runner.statuses()
+        key = tuple((st.cycle_id, st.joint_name, st.joints_done, st.state, st.phase, st.current_speed,
+                     st.speeds_done, st.speeds_total, st.message) for st in sts)
         now = self._now()
         if not force and key == self._last_status_key and now - self._last_status_time < self.status_period:
             return
-        msg = status_to_msg(st, TestCycleStatus)
-        msg.header.stamp = self.get_clock().now().to_msg()
-        self.status_pub.publish(msg)
+        stamp = self.get_clock().now().to_msg()
+        for st in sts:
+            msg = status_to_msg(st, TestCycleStatus)
+            msg.header.stamp = stamp
+            self.status_pub.publish(msg)
         self._last_status_key = key
         self._last_status_time = now
 
@@ -420,7 +462,10 @@ class TestCycleNode(Node):
 
     def _robot_health(self, stat: Status) -> None:
         st = self.runner.status()
-        if self.runner.running:
+        if self.runner.running and self.runner is self.line:
+            message = (f"cycle {st.cycle_id} running: {len(st.joints)} joints at once, speed "
+                       f"{st.speeds_done + 1} of {st.speeds_total}")
+        elif self.runner.running:
             message = f"cycle {st.cycle_id} running: {st.joint_name} ({st.joints_done + 1} of {len(st.joints)})"
         elif st.state == CycleState.IDLE:
             message = "idle"
@@ -484,6 +529,9 @@ class TestCycleNode(Node):
                 values[j][name] = v
             elif k in node_values:
                 node_values[k] = v
+        bad = _check_sweep(changes.get("sweep", "sequential"))
+        if bad is not None:
+            return bad
         hold = float(changes.get("hold_tolerance", self.hold_tolerance))
         max_duration = float(changes.get("max_duration", self.max_duration))
         configs = self.configs
@@ -501,7 +549,8 @@ class TestCycleNode(Node):
         self._values, self.node_values, self.configs = values, node_values, configs
         self.max_duration = max_duration
         self.hold_tolerance = hold
-        self.runner.reconfigure(configs, hold)
+        self.sequential.reconfigure(configs, hold)
+        self.line.reconfigure(configs, hold)
         self.state_timeout_wall = wall
         return None
 
