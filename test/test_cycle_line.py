@@ -260,7 +260,9 @@ def test_any_plannable_request_keeps_every_planned_position_inside_the_limits(a,
             assert step.acceleration * abs(w) <= cfg.acceleration * (1 + 1e-9)  # and accelerates within its limit
             assert step.end[i] - step.start[i] == pytest.approx(2 * step.reach * w)  # one line through the centres
             assert (step.start[i] + step.end[i]) / 2 == pytest.approx(plan.centers[i])
-    assert plan.duration <= plan.sequential_duration + 1e-9 or len(plan.joints) == 1
+    # no claim on the duration here: joints with very unlike gears, windows and accelerations can make the line
+    # slower than one joint after another (the summary says both; the six-joint test holds the usual case)
+    assert f"one joint after another: {plan.sequential_duration:.1f} s" in plan.summary()
 
 
 # -- the watchdog -----------------------------------------------------------------------------------------------
