@@ -381,17 +381,21 @@ def run_demo(
         cycle_id, message = op.start_cycle(speeds or [], children)
         _progress(f"cycle {cycle_id} accepted: {message}")
         shown: list[tuple[Any, ...] | None] = [None]
+        # a simultaneous cycle reports every joint at each step: one progress line per step, not per joint
+        together = len(names) > 1 and (params["test_cycle"].get("sweep")
+                                       or _config_value("test_cycle", "sweep", "sequential")) == "simultaneous"
 
         def tick() -> None:
             st = op.status if op is not None else None
             if st is None or st.cycle_id != cycle_id:
                 return
-            key = (st.joint_name, st.state, st.speeds_done)
+            key = (st.state, st.speeds_done) if together else (st.joint_name, st.state, st.speeds_done)
             if key != shown[0]:
                 shown[0] = key
                 state = st.state_name
                 extra = f": {st.message}" if st.state in (CycleState.ABORTED, CycleState.FAILED) and st.message else ""
-                where = (f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else "")
+                where = (f"{len(names)} joints at once " if together else
+                         f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else "")
                 _progress(f"cycle {cycle_id} {where}{state}, speeds done {st.speeds_done}/{st.speeds_total}{extra}")
 
         op.spin_until(lambda: op.estimated(cycle_id), timeout, children,  # type: ignore[union-attr]
