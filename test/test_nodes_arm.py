@@ -17,7 +17,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 
-from jointwear_ros.sim import arm_spec  # noqa: E402
+from jointwear_ros.sim.arms import arm_spec  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
