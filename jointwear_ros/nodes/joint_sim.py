@@ -14,7 +14,19 @@ one ``sensor_msgs/Temperature`` per joint per period, ``header.frame_id`` = the
 joint's name; a consumer matches its joint by frame_id) and ``/clock`` when
 ``publish_clock`` is set. The dynamics are :class:`jointwear_ros.sim.RobotSim`
 (one :class:`~jointwear_ros.sim.JointSim` per joint, one integration step per
-published sample).
+published sample), or with ``arm`` (``ur5``, ``panda``) a real arm,
+:class:`jointwear_ros.sim.ArmSim`: Pinocchio's rigid-body dynamics of its URDF
+(coupled joints, gravity of the whole configuration and of ``payload`` kg at
+the flange, the URDF's limits), integrated at ``physics_rate`` (each published
+sample's step split into sub-steps of at most ``1 / physics_rate``); the i-th
+name of ``joints`` drives the arm's i-th joint, the arm's other joints are
+locked at its test pose. On an arm each joint's ``gear_ratio``,
+``torque_scale``, ``initial_position``, ``kp``, ``ki`` and ``torque_limit``
+default to the arm's values for that joint (``jointwear_ros.sim.arms``:
+``ArmJoint.sim_defaults``) instead of the node-level ones; a joint's own
+``<joint>.<setting>`` still wins. ``inertia``, ``gravity_torque`` and
+``gravity_angle`` have no effect there (the arm's are the URDF's). docs/robot.md,
+"A real arm".
 
 Time: with ``publish_clock`` the simulator is the graph's clock source and
 advances at wall time × ``real_time_factor`` (stamps and ``/clock`` are sim
@@ -32,10 +44,13 @@ gravity, hidden effects, gains, noise, ``max_velocity``, ...) and ``command_time
 (``ros2 param set /joint_sim joint_3.wear 40.0``: the next sample of joint_3
 has the new friction; a node-level ``wear`` sets every joint's, and their
 ``<joint>.wear`` parameters with it); an invalid value is refused with the
-reason. The robot's identity and wiring (``joint_name``, ``joints``, topics,
-``gear_ratio``, ``torque_scale``, ``params``, ``seed``, ``publish_*``,
-``initial_position``, ``tick_period``) are read at start-up only (read-only
-parameters). Each joint's noise seed defaults to ``seed`` + its index in
+reason. ``payload`` (kg, with an arm) applies at once too: the arm sags until
+its drives catch it. The robot's identity and wiring (``joint_name``, ``joints``,
+``arm``, ``physics_rate``, topics, ``gear_ratio``, ``torque_scale``, ``params``,
+``seed``, ``publish_*``, ``initial_position``, ``tick_period``) are read at
+start-up only (read-only parameters). A bad start-up setting (an unknown arm,
+more joints than the arm has, a value out of range) is one line on stderr and
+exit status 2. Each joint's noise seed defaults to ``seed`` + its index in
 ``joints``, so the joints' noise is independent.
 
 Diagnostics: ``joint_sim: <joint>`` on ``/diagnostics`` per joint (OK; WARN
@@ -46,12 +61,14 @@ samples_published, bad_commands.
 from __future__ import annotations
 
 import math
+import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from functools import partial
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -61,10 +78,14 @@ from std_msgs.msg import Float64MultiArray
 from ..contract import DiagnosticLevel
 from ..errors import ParameterError
 from ..settings import declarations, from_mapping, node_declarations
-from ..sim import JointSimConfig, RobotSim, parse_effects
+from ..sim import JointSimConfig, RobotSim, arm_spec, parse_effects
+from ..sim.arms import ARM_DEFAULTS, ARMS
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level
 from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
+
+if TYPE_CHECKING:
+    from ..sim import ArmSim
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "JointSimNode", "joint_config", "main", "parse_effects"]
 
@@ -93,6 +114,11 @@ _NODE: tuple[ParamDecl, ...] = (
               unit="s"),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
               read_only=True, unit="s"),
+    ParamDecl("arm", "", "simulated arm: '' (independent joints) or " + ", ".join(ARMS) + "; the i-th of joints "
+              "drives the arm's i-th joint", read_only=True),
+    ParamDecl("payload", 0.0, "payload at the arm's flange, kg (with arm)", 0.0, 20.0, unit="kg"),
+    ParamDecl("physics_rate", 1000.0, "integration rate of the arm's dynamics, Hz (with arm; at least "
+              "publish_rate)", 100.0, 100000.0, read_only=True, unit="Hz"),
 )
 #: Parameters of the node (defaults as in ``config/joint_sim.yaml``): its own and :class:`JointSimConfig`'s
 #: the parameters that can change at run time (the per-joint ones, ``<joint>.<setting>``, too); the settings
@@ -111,14 +137,27 @@ def joint_config(values: dict[str, Any]) -> JointSimConfig:
     return from_mapping(JointSimConfig, values)
 
 
+def per_joint_defaults(params: Mapping[str, Any], joints: Sequence[str]) -> dict[str, list[Any]]:
+    """Each joint's own default of the settings that differ per joint (the defaults of ``<joint>.<setting>``):
+    its noise seed (``seed`` + its index), and with an ``arm`` the arm's :data:`~jointwear_ros.sim.arms.ARM_DEFAULTS`
+    for the joint it drives (its gear, torque scale, test pose, loop gains and effort limit) in place of the
+    node-level values. A :class:`ParameterError` (one line) for an unknown arm or more joints than it has."""
+    out: dict[str, list[Any]] = {"seed": [int(params["seed"]) + i for i in range(len(joints))]}
+    arm = str(params.get("arm", "")).strip()
+    if arm:
+        drives = [aj.sim_defaults() for aj in arm_spec(arm).for_names(joints)]
+        out.update({name: [d[name] for d in drives] for name in ARM_DEFAULTS})
+    return out
+
+
 class JointSimNode(Node):
     """The simulated robot as a ROS node (see the module docstring)."""
 
     def __init__(self, **kwargs: object) -> None:
         super().__init__("joint_sim", **kwargs)  # type: ignore[arg-type]
-        p, self.joints, self.values = declare_robot(
-            self, PARAMETERS, PER_JOINT, lambda p, joints: {"seed": [int(p["seed"]) + i for i in range(len(joints))]})
+        p, self.joints, self.values = declare_robot(self, PARAMETERS, PER_JOINT, per_joint_defaults)
         self.p = p
+        self.arm = str(p["arm"]).strip().lower()
         self.joint_name = self.joints[0]
         configs = []
         for j in self.joints:
@@ -128,7 +167,20 @@ class JointSimNode(Node):
             except ParameterError as exc:
                 raise ParameterError(f"{j}: {exc}") from None
             configs.append(c)
-        self.sim = RobotSim(self.joints, configs, [int(self.values[j]["seed"]) for j in self.joints])
+        seeds = [int(self.values[j]["seed"]) for j in self.joints]
+        self.sim: RobotSim | ArmSim
+        #: the arm (with ``arm``), else None
+        self.arm_sim: ArmSim | None = None
+        if self.arm:
+            from ..sim import ArmSim  # loads Pinocchio: only for an arm
+
+            self.sim = self.arm_sim = ArmSim(arm_spec(self.arm), self.joints, configs, seeds,
+                                             payload=float(p["payload"]), physics_rate=float(p["physics_rate"]))
+        else:
+            self.sim = RobotSim(self.joints, configs, seeds)
+            if float(p["payload"]) != 0.0:
+                self.get_logger().warning(f"payload={float(p['payload']):g} kg has no effect without an arm "
+                                          f"(parameter arm: {', '.join(ARMS)})")
         self.max_velocity = [float(self.values[j]["max_velocity"]) for j in self.joints]
         self.dt = 1.0 / float(p["publish_rate"])
         self.publish_clock = bool(p["publish_clock"])
@@ -174,14 +226,18 @@ class JointSimNode(Node):
         self.add_pre_set_parameters_callback(propagate_node_level(live, self.joints))
         on_parameter_change(self, self._on_parameters,
                             LIVE_PARAMETERS + tuple(f"{j}.{n}" for j in self.joints for n in live))
-        for j, c in zip(self.joints, configs, strict=True):
+        arm_joints = arm_spec(self.arm).for_names(self.joints) if self.arm else ()
+        for i, (j, c) in enumerate(zip(self.joints, configs, strict=True)):
+            where = f"{arm_joints[i].name} of the {self.arm}" if arm_joints else f"gravity {c.gravity_torque:g}"
             self.get_logger().info(
-                f"simulating {j}: wear {c.wear:g}, {c.temperature:g} degC, gravity {c.gravity_torque:g}, "
+                f"simulating {j}: wear {c.wear:g}, {c.temperature:g} degC, {where}, "
                 f"params {c.params}, seed {self.values[j]['seed']}"
                 + (f", hidden effects {', '.join(c.hidden_effects)}" if c.hidden_effects else "")
             )
         self.get_logger().info(
             f"{len(self.joints)} joint(s) at {1.0 / self.dt:g} Hz"
+            + (f", arm {self.arm} integrated at {float(p['physics_rate']):g} Hz, payload {float(p['payload']):g} kg"
+               if self.arm else "")
             + (f", clock source at {self.rtf:g}x real time" if self.publish_clock else "")
         )
 
@@ -206,6 +262,8 @@ class JointSimNode(Node):
                 per_joint.setdefault(j, {})[name] = v
         if "temperature_rate" in changes and not float(changes["temperature_rate"]) > 0:  # type: ignore[arg-type]
             return f"temperature_rate {changes['temperature_rate']!r} must be > 0 Hz"
+        if "payload" in changes and self.arm_sim is None:
+            return f"payload applies to an arm; this joint_sim simulates independent joints (parameter arm: {', '.join(ARMS)})"
         # check every joint's new settings before applying any (all or none)
         new: dict[str, JointSimConfig] = {}
         for j, ch in per_joint.items():
@@ -218,6 +276,8 @@ class JointSimNode(Node):
                 new[j] = cfg
         for j, cfg in new.items():
             self.sim.reconfigure(j, cfg)
+        if "payload" in changes and self.arm_sim is not None:
+            self.arm_sim.set_payload(float(changes["payload"]))  # type: ignore[arg-type]
         for j, ch in per_joint.items():
             self.values[j].update(ch)
             if "max_velocity" in ch:
@@ -327,8 +387,22 @@ class JointSimNode(Node):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    """Console entry point ``joint_sim``."""
-    return run_node(JointSimNode, args)
+    """Console entry point ``joint_sim``: exit status 2 with one line on stderr for a bad start-up setting
+    (an unknown arm, more joints than the arm has, a value out of range)."""
+    refused: list[str] = []
+
+    def factory() -> JointSimNode:
+        try:
+            return JointSimNode()
+        except ParameterError as exc:  # bad input: one line, not a traceback
+            refused.append(str(exc))
+            raise ExternalShutdownException from None
+
+    rc = run_node(factory, args)
+    if refused:
+        print(f"joint_sim: {refused[0]}", file=sys.stderr)
+        return 2
+    return rc
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -4,13 +4,32 @@
 inertia, gravity, the full friction model (wear, temperature, optional hidden
 effects) and torque noise designed so that friction observations scatter like
 the paper's ``sigma_e``. :class:`RobotSim` runs N of them on one clock behind
-one command array. The ``joint_sim`` node wraps it.
+one command array. :class:`ArmSim` is a real arm (:mod:`.arms`: a UR5, a Panda)
+with the same interface: Pinocchio's rigid-body dynamics of its URDF, every
+joint driven as a JointSim is. The ``joint_sim`` node wraps either.
+
+Importing the package does not import Pinocchio: :class:`ArmSim`,
+:class:`ArmJointSim` and :func:`arm_configs` load :mod:`.arm` on first use
+(PEP 562).
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+from ..lazy import lazy_names
+from .arms import ARMS, ArmJoint, ArmSpec, arm_spec
 from .friction import FrictionTable
 from .joint import JointSample, JointSim, JointSimConfig, parse_effects
 from .robot import RobotSim
 
-__all__ = ["FrictionTable", "JointSample", "JointSim", "JointSimConfig", "RobotSim", "parse_effects"]
+if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and readers
+    from .arm import ArmJointSim, ArmSim, arm_configs
+
+__all__ = ["ARMS", "ArmJoint", "ArmJointSim", "ArmSim", "ArmSpec", "FrictionTable", "JointSample", "JointSim",
+           "JointSimConfig", "RobotSim", "arm_configs", "arm_spec", "parse_effects"]
+
+#: The module of each name loaded on first use (it imports pinocchio).
+_LAZY: dict[str, str] = dict.fromkeys(("ArmJointSim", "ArmSim", "arm_configs"), "arm")
+
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, globals())

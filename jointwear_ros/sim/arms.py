@@ -10,7 +10,16 @@ what the URDF says (effort, velocity and position limits) and what the suite cho
   the reference set's Coulomb level (0.075 normalized at 40 degC, 0.08-0.16 over 10-280 rad/s motor
   side) is then about 4 % of the joint's effort limit (6-12 % at the top speed), the order the issue
   gives for published identifications of UR and Panda joints;
-- ``armature``: reflected rotor inertia, kg·m² at the joint (rotor inertia × gear²).
+- ``armature``: reflected rotor inertia, kg·m² at the joint (rotor inertia × gear²);
+- ``inertia``: the joint's nominal inertia, kg·m² at the joint (armature included): the geometric mean
+  of the smallest and largest diagonal entry ``M(q)_jj`` of Pinocchio's mass matrix over the test
+  windows (every joint within ±1.1 rad of ``home``, inside the URDF limits) and payloads 0-5 kg
+  (``test/test_sim_arm.py`` checks it against the model). The drive's velocity PI gains
+  (:attr:`ArmJoint.kp`, :attr:`ArmJoint.ki`) are sized from it: a critically damped loop of
+  bandwidth :data:`LOOP_BANDWIDTH` at the nominal inertia (joint side ``Kp = 2 ω J``,
+  ``Ki = ω² J``), so over the windows' inertia range (a factor 3-4 either way on the base
+  joints) the loop stays stable at 1 kHz (``Kp dt / M_jj`` <= 0.8) and at least half critically
+  damped.
 
 The suite's joint names (``joint_1`` ...) map onto the arm's joints in order: the i-th name of a
 node's ``joints`` drives the i-th joint of the arm. No URDF is read here (no Pinocchio import):
@@ -34,7 +43,14 @@ from pathlib import Path
 
 from ..errors import ParameterError
 
-__all__ = ["ARMS", "ArmJoint", "ArmSpec", "arm_spec", "robots_dir"]
+__all__ = ["ARMS", "ARM_DEFAULTS", "LOOP_BANDWIDTH", "ArmJoint", "ArmSpec", "arm_spec", "robots_dir"]
+
+#: Bandwidth of each joint's velocity loop at its nominal inertia, rad/s (critically damped there).
+LOOP_BANDWIDTH = 100.0
+
+#: The joint-simulation settings (fields of :class:`~jointwear_ros.sim.JointSimConfig`) an arm gives each
+#: of its joints by default (:meth:`ArmJoint.sim_defaults`): its drive, its test pose and its loop gains.
+ARM_DEFAULTS = ("gear_ratio", "torque_scale", "initial_position", "kp", "ki", "torque_limit")
 
 
 @dataclass(frozen=True)
@@ -49,6 +65,7 @@ class ArmJoint:
     home: float  #: test pose (window centre), rad
     armature: float  #: reflected rotor inertia, kg·m²
     gear_ratio: float = 100.0
+    inertia: float = 1.0  #: nominal joint-side inertia incl. armature, kg·m² (sizes the loop gains)
 
     @property
     def torque_scale(self) -> float:
@@ -59,6 +76,21 @@ class ArmJoint:
     def torque_limit(self) -> float:
         """The effort limit in normalized units (the drive saturates there)."""
         return self.effort / self.torque_scale
+
+    @property
+    def kp(self) -> float:
+        """Velocity-loop proportional gain, normalized torque per motor rad/s: ``2 ω J`` N·m per joint rad/s."""
+        return 2.0 * LOOP_BANDWIDTH * self.inertia / (self.gear_ratio * self.torque_scale)
+
+    @property
+    def ki(self) -> float:
+        """Velocity-loop integral gain, normalized torque per motor rad: ``ω² J`` N·m per joint rad."""
+        return LOOP_BANDWIDTH**2 * self.inertia / (self.gear_ratio * self.torque_scale)
+
+    def sim_defaults(self) -> dict[str, float]:
+        """The joint-simulation settings this joint gives by default (:data:`ARM_DEFAULTS`, by name)."""
+        return {"gear_ratio": self.gear_ratio, "torque_scale": self.torque_scale, "initial_position": self.home,
+                "kp": self.kp, "ki": self.ki, "torque_limit": self.torque_limit}
 
 
 @dataclass(frozen=True)
@@ -110,12 +142,12 @@ UR5 = ArmSpec(
     title="Universal Robots UR5",
     urdf="ur_description/urdf/ur5_robot.urdf",
     joints=(
-        ArmJoint("shoulder_pan_joint", -_TAU, _TAU, 150.0, 3.15, 0.0, 0.6),
-        ArmJoint("shoulder_lift_joint", -_TAU, _TAU, 150.0, 3.15, -1.3, 0.6),
-        ArmJoint("elbow_joint", -3.14159, 3.14159, 150.0, 3.15, 1.3, 0.6),
-        ArmJoint("wrist_1_joint", -_TAU, _TAU, 28.0, 3.2, -1.57, 0.1),
-        ArmJoint("wrist_2_joint", -_TAU, _TAU, 28.0, 3.2, -1.57, 0.1),
-        ArmJoint("wrist_3_joint", -_TAU, _TAU, 28.0, 3.2, 0.0, 0.1),
+        ArmJoint("shoulder_pan_joint", -_TAU, _TAU, 150.0, 3.15, 0.0, 0.6, inertia=3.1),
+        ArmJoint("shoulder_lift_joint", -_TAU, _TAU, 150.0, 3.15, -1.3, 0.6, inertia=4.5),
+        ArmJoint("elbow_joint", -3.14159, 3.14159, 150.0, 3.15, 1.3, 0.6, inertia=2.0),
+        ArmJoint("wrist_1_joint", -_TAU, _TAU, 28.0, 3.2, -1.57, 0.1, inertia=0.39),
+        ArmJoint("wrist_2_joint", -_TAU, _TAU, 28.0, 3.2, -1.57, 0.1, inertia=0.35),
+        ArmJoint("wrist_3_joint", -_TAU, _TAU, 28.0, 3.2, 0.0, 0.1, inertia=0.12),
     ),
     payload_joint="wrist_3_joint",
 )
@@ -127,13 +159,13 @@ PANDA = ArmSpec(
     title="Franka Emika Panda",
     urdf="panda_description/urdf/panda.urdf",
     joints=(
-        ArmJoint("panda_joint1", -2.8973, 2.8973, 87.0, 2.175, 0.0, 0.3),
-        ArmJoint("panda_joint2", -1.7628, 1.7628, 87.0, 2.175, 0.0, 0.3),
-        ArmJoint("panda_joint3", -2.8973, 2.8973, 87.0, 2.175, 0.0, 0.3),
-        ArmJoint("panda_joint4", -3.0718, -0.0698, 87.0, 2.175, -1.57, 0.3),
-        ArmJoint("panda_joint5", -2.8973, 2.8973, 12.0, 2.61, 0.0, 0.05),
-        ArmJoint("panda_joint6", -0.0175, 3.7525, 12.0, 2.61, 1.87, 0.05),
-        ArmJoint("panda_joint7", -2.8973, 2.8973, 12.0, 2.61, 0.785, 0.05),
+        ArmJoint("panda_joint1", -2.8973, 2.8973, 87.0, 2.175, 0.0, 0.3, inertia=1.8),
+        ArmJoint("panda_joint2", -1.7628, 1.7628, 87.0, 2.175, 0.0, 0.3, inertia=2.8),
+        ArmJoint("panda_joint3", -2.8973, 2.8973, 87.0, 2.175, 0.0, 0.3, inertia=1.4),
+        ArmJoint("panda_joint4", -3.0718, -0.0698, 87.0, 2.175, -1.57, 0.3, inertia=1.8),
+        ArmJoint("panda_joint5", -2.8973, 2.8973, 12.0, 2.61, 0.0, 0.05, inertia=0.14),
+        ArmJoint("panda_joint6", -0.0175, 3.7525, 12.0, 2.61, 1.87, 0.05, inertia=0.16),
+        ArmJoint("panda_joint7", -2.8973, 2.8973, 12.0, 2.61, 0.785, 0.05, inertia=0.057),
     ),
     locked=(("panda_finger_joint1", 0.04), ("panda_finger_joint2", 0.04)),
     payload_joint="panda_joint7",

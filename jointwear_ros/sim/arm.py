@@ -1,0 +1,416 @@
+"""A real arm as the simulated plant: Pinocchio's rigid-body dynamics behind one velocity drive per joint.
+
+:class:`ArmSim` has the interface of :class:`~jointwear_ros.sim.RobotSim` (the ``joint_sim`` node runs
+either), but its joints are coupled: the plant is the arm of an :class:`~jointwear_ros.sim.arms.ArmSpec`
+built from its URDF by Pinocchio, with the full configuration-dependent inertia, Coriolis and
+centrifugal torques and the gravity of the whole configuration and a payload (paper Eq. 2, joint side,
+N·m)::
+
+    M(q) q'' + C(q, q') q' + g(q) + tau_f(q') = tau_u
+    tau_u,j = u_j * torque_scale_j                     (the drive torque; u normalized, as JointSim's)
+    tau_f,j = (F_j(|q'_j| * gear_j, |g_j(q)| / torque_scale_j) + o_j) * torque_scale_j * sign(q'_j)
+
+The accelerations are Pinocchio's ``aba`` (articulated-body algorithm; ``model.armature``, each
+joint's reflected rotor inertia, adds to the diagonal of ``M``); the gravity of the friction's load is
+``computeGeneralizedGravity``. No rigid-body term is written here.
+
+Per joint, as :class:`~jointwear_ros.sim.JointSim` (each joint *is* one, :class:`ArmJointSim`, for
+its drive state, its friction and its noise): the velocity reference follows the command at most at
+``accel_limit``; the velocity PI on the motor side with anti-windup; saturation at ``torque_limit`` and
+never above the URDF effort limit; the friction ``F_j`` of the joint's own
+:class:`~jointwear_ros.sim.FrictionTable` (parameter set, wear, temperature, hidden effects) at its
+motor speed, with the load ``|g_j(q)|`` (the gravity torque of *that* joint in the current
+configuration, payload included: the paper's ``tau_m``); the per-sweep friction offset ``o_j``; the
+white effort noise. The effort published is ``(u + n) * torque_scale``: what a drive reports, not the
+link-side torque.
+
+Where JointSim's settings do not apply: ``inertia``, ``gravity_torque`` and ``gravity_angle`` of a
+:class:`~jointwear_ros.sim.JointSimConfig` are not used on the arm (its inertia and gravity are
+Pinocchio's, from the URDF). Each arm joint's defaults for ``gear_ratio``, ``torque_scale``,
+``initial_position`` (the test pose), ``kp``, ``ki`` and ``torque_limit`` come from its spec
+(:func:`arm_configs`; the gains are sized for its inertia, :mod:`jointwear_ros.sim.arms`). The drives
+start holding the arm (torque on, then brakes released): each integrator starts at the joint's gravity
+torque, so the arm does not sag at start.
+
+The arm's limits: a command is clamped to the URDF velocity limit; near a position limit the drive
+lowers the velocity reference towards it to ``sqrt(2 a d)`` (``d`` the distance left, ``a`` the
+``accel_limit``), so a joint commanded into its limit stops there, and a joint that still reaches it
+stops dead (an end stop).
+
+**Stick band with coupling.** A joint whose motor speed is inside ``stick_speed`` is held (Karnopp, as
+JointSim's) while the torque needed to hold it is within its breakaway friction. On the arm that
+torque depends on the other joints: it is ``RNEA(q, q', a)_j``, ``a`` the other joints' accelerations
+of the previous step and 0 for the joints in the band, so the push of an accelerating joint on a held
+one is seen. A held joint gets exactly that torque from friction; its acceleration and velocity are
+set to 0. A joint that breaks away gets the breakaway friction against its net torque. A moving joint
+whose velocity would change sign within one step stops at 0 instead (friction cannot reverse a
+motion); the stick test of the next step decides. Away from 0 (the sweeps, where friction is
+observed) the friction is the model's kinetic friction, exactly.
+
+Integration: semi-implicit Euler at ``physics_rate`` (velocity first, position with the new velocity);
+:meth:`ArmSim.step` splits a longer ``dt`` into equal sub-steps no longer than ``1 / physics_rate``.
+Cost: about 35 µs per step for six joints (``bench/bench_arm_sim.py``).
+
+>>> from jointwear_ros.sim.arms import arm_spec
+>>> ur5 = arm_spec("ur5")
+>>> names = ["joint_1", "joint_2", "joint_3", "joint_4", "joint_5", "joint_6"]
+>>> arm = ArmSim(ur5, names, arm_configs(ur5, names), seeds=range(6))
+>>> arm.set_commands([0.2, 0.0, 0.0, 0.0, 0.0, 0.0])
+>>> arm.step(1.0)
+>>> pos, vel, eff = arm.sample()
+>>> round(arm.time, 3), round(vel[0], 3), vel[1], round(arm.gravity()[1])
+(1.0, 0.2, 0.0, -27)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from ..errors import ParameterError
+from .arms import ArmJoint, ArmSpec
+from .joint import JointSim, JointSimConfig
+
+__all__ = ["ArmJointSim", "ArmSim", "arm_configs"]
+
+Array = npt.NDArray[np.float64]
+
+#: the deceleration of a joint nearing its position limit when its accel_limit is 0 (none), joint rad/s^2
+_LIMIT_DECEL = 8.0
+
+
+def arm_configs(spec: ArmSpec, names: Sequence[str], **settings: Any) -> list[JointSimConfig]:
+    """One :class:`JointSimConfig` per name of ``names`` (the i-th drives the arm's i-th joint): the arm
+    joint's defaults (:meth:`~jointwear_ros.sim.arms.ArmJoint.sim_defaults`), then ``settings`` (the same
+    for every joint, e.g. ``wear=20.0``; per joint, ``dataclasses.replace`` the result)."""
+    return [JointSimConfig(**{**j.sim_defaults(), **settings}) for j in spec.for_names(names)]
+
+
+class ArmJointSim(JointSim):
+    """One joint of an :class:`ArmSim`: its drive state, friction table, per-sweep offset and noise are
+    :class:`JointSim`'s; its dynamics are the arm's (it is stepped by :meth:`ArmSim.step` only)."""
+
+    def __init__(self, arm: ArmSim, index: int, joint: ArmJoint, config: JointSimConfig, seed: int) -> None:
+        super().__init__(config, seed=seed)
+        self.arm = arm
+        self.arm_index = index
+        #: the arm joint it drives (URDF name, limits)
+        self.arm_joint = joint
+
+    def gravity(self, position: float | None = None) -> float:
+        """This joint's gravity torque in the arm's current configuration, payload included, normalized.
+        ``position`` is not used: on an arm, a joint's gravity depends on every joint."""
+        return float(self.arm.gravity()[self.arm_index]) / self.config.torque_scale
+
+    def step(self, dt: float) -> None:
+        """Not on its own: the joints of an arm move together (:meth:`ArmSim.step`)."""
+        raise TypeError("a joint of an ArmSim moves with its arm: call ArmSim.step")
+
+
+class ArmSim:
+    """A real arm (Pinocchio forward dynamics) behind one velocity command array (see the module docstring).
+
+    Parameters
+    ----------
+    spec
+        The arm (:func:`~jointwear_ros.sim.arms.arm_spec`).
+    names
+        The suite's joint names, in command-array order: the i-th drives the arm's i-th joint (at most
+        as many as the arm has). The arm's other joints, and ``spec.locked`` (the Panda's fingers), are
+        locked (Pinocchio's reduced model) at their ``home`` (``spec.locked``: their locked position).
+    configs
+        One :class:`JointSimConfig` per joint (:func:`arm_configs` gives the arm's defaults).
+    seeds
+        One noise seed per joint.
+    payload
+        Point mass at ``spec.payload_offset`` in the body of ``spec.payload_joint``, kg (:meth:`set_payload`).
+    physics_rate
+        Integration rate, Hz: the longest sub-step is ``1 / physics_rate``.
+    """
+
+    def __init__(self, spec: ArmSpec, names: Sequence[str], configs: Sequence[JointSimConfig],
+                 seeds: Iterable[int], payload: float = 0.0, physics_rate: float = 1000.0) -> None:
+        names = [str(n) for n in names]
+        seed_list = [int(s) for s in seeds]
+        if not names:
+            raise ParameterError("arm sim: give at least one joint name")
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup or any(not n for n in names):
+            raise ParameterError(f"arm sim: joint names must be non-empty and unique, got {names}")
+        self.arm_joints: tuple[ArmJoint, ...] = spec.for_names(names)
+        if not (len(configs) == len(names) == len(seed_list)):
+            raise ParameterError(f"arm sim: {len(names)} joint names need as many configs and seeds, got "
+                                 f"{len(configs)} and {len(seed_list)}")
+        if not (math.isfinite(physics_rate) and physics_rate > 0):
+            raise ParameterError(f"arm sim: physics_rate must be a finite number of Hz > 0, got {physics_rate}")
+        self.spec = spec
+        self.names: tuple[str, ...] = tuple(names)
+        self.index = {n: i for i, n in enumerate(self.names)}
+        self.physics_rate = float(physics_rate)
+        #: per joint: URDF position limits (rad), velocity limit (rad/s), effort limit (normalized)
+        self._limits = [(aj.lower, aj.upper, aj.velocity, aj.torque_limit) for aj in self.arm_joints]
+        for aj, cfg, name in zip(self.arm_joints, configs, names, strict=True):
+            if not aj.lower <= cfg.initial_position <= aj.upper:
+                raise ParameterError(f"arm sim: {name} ({aj.name}) initial_position {cfg.initial_position:g} rad is "
+                                     f"outside the URDF limits [{aj.lower:g}, {aj.upper:g}]")
+        self.joints: tuple[ArmJointSim, ...] = tuple(
+            ArmJointSim(self, i, aj, cfg, seed)
+            for i, (aj, cfg, seed) in enumerate(zip(self.arm_joints, configs, seed_list, strict=True)))
+        self._full = pin.buildModelFromUrdf(str(spec.urdf_path()))
+        for aj in self.arm_joints:
+            if not self._full.existJointName(aj.name):
+                raise ParameterError(f"arm {spec.name}: joint {aj.name} is not in {spec.urdf}")
+        self._payload_id = int(self._full.getJointId(spec.payload_joint)) if spec.payload_joint else 0
+        self._payload_body = self._full.inertias[self._payload_id].copy() if self._payload_id else None
+        n = len(names)
+        self._q: Array = np.array([c.initial_position for c in configs], dtype=float)
+        self._v: Array = np.zeros(n)
+        self._a: Array = np.zeros(n)
+        self._tau: Array = np.zeros(n)
+        self._g: Array = np.zeros(n)
+        self._g_at: Array | None = None
+        self.time = 0.0
+        self.payload = 0.0
+        self.model: Any = None
+        self.data: Any = None
+        self.set_payload(payload)
+        # the drives start holding the arm (torque on, then the brakes released): no sag at start
+        for j, g in zip(self.joints, self.gravity().tolist(), strict=True):
+            lim = min(j.config.torque_limit, j.arm_joint.torque_limit)
+            j.torque = j._integral = max(-lim, min(lim, g / j.config.torque_scale))
+        self._sync()
+
+    # -- the model -----------------------------------------------------------
+    def _build(self, payload: float) -> None:
+        """The reduced model: the driven joints free, the others locked; the payload in its body."""
+        full = self._full
+        if self._payload_body is not None:
+            point = pin.Inertia(float(payload), np.array(self.spec.payload_offset, dtype=float), np.zeros((3, 3)))
+            full.inertias[self._payload_id] = self._payload_body + point
+        driven = {aj.name for aj in self.arm_joints}
+        positions = {**{j.name: j.home for j in self.spec.joints}, **dict(self.spec.locked)}
+        q_lock = pin.neutral(full)
+        lock: list[int] = []
+        for jid in range(1, full.njoints):
+            name = full.names[jid]
+            if name in driven:
+                continue
+            if full.joints[jid].nq != 1:
+                raise ParameterError(f"arm {self.spec.name}: joint {name} is not a 1-DoF joint; cannot lock it")
+            q_lock[full.joints[jid].idx_q] = positions.get(name, 0.0)
+            lock.append(jid)
+        model = pin.buildReducedModel(full, lock, q_lock) if lock else full.copy()
+        order = [model.names[j] for j in range(1, model.njoints)]
+        if order != [aj.name for aj in self.arm_joints] or model.nv != len(self.arm_joints):
+            raise ParameterError(f"arm {self.spec.name}: the model's joints {order} are not the arm's "
+                                 f"{[aj.name for aj in self.arm_joints]}")
+        model.armature = np.array([aj.armature for aj in self.arm_joints], dtype=float)
+        self.model = model
+        self.data = model.createData()
+        self._g_at = None
+
+    def set_payload(self, kg: float) -> None:
+        """Set the payload now (kg, at ``spec.payload_offset`` in the body of ``spec.payload_joint``); the
+        state (positions, speeds, integrators) is kept: the arm sags until its drives catch it."""
+        kg = float(kg)
+        if not (math.isfinite(kg) and kg >= 0.0):
+            raise ParameterError(f"arm sim: payload must be a finite mass >= 0 kg, got {kg}")
+        if kg and self._payload_body is None:
+            raise ParameterError(f"arm {self.spec.name} has no payload mount (payload_joint)")
+        self._build(kg)
+        self.payload = kg
+
+    # -- the RobotSim interface ------------------------------------------------
+    def __len__(self) -> int:
+        return len(self.joints)
+
+    def __getitem__(self, name: str) -> ArmJointSim:
+        """The joint called ``name`` (``KeyError`` if there is none)."""
+        return self.joints[self.index[name]]
+
+    @property
+    def commands(self) -> tuple[float, ...]:
+        """The velocity commands being followed, joint side rad/s, in joint order (as given, before the
+        URDF velocity limit)."""
+        return tuple(j.command for j in self.joints)
+
+    def set_commands(self, velocities: Sequence[float]) -> None:
+        """Set every joint's velocity command (joint rad/s, joint order); all or none (a wrong length or
+        a non-finite value raises :class:`ParameterError` and changes nothing). The drive clamps each to
+        the joint's URDF velocity limit."""
+        v = [float(x) for x in velocities]
+        if len(v) != len(self.joints):
+            raise ParameterError(f"command has {len(v)} value(s), the arm has {len(self.joints)} driven joint(s) "
+                                 f"({', '.join(self.names)})")
+        bad = [f"data[{i}] = {x}" for i, x in enumerate(v) if not math.isfinite(x)]
+        if bad:
+            raise ParameterError(f"command not finite: {', '.join(bad)}")
+        for j, x in zip(self.joints, v, strict=True):
+            j.set_command(x)
+
+    def stop(self) -> None:
+        """Command zero velocity on every joint."""
+        for j in self.joints:
+            j.set_command(0.0)
+
+    def reconfigure(self, name: str, config: JointSimConfig) -> None:
+        """Apply new settings to one joint now (see :meth:`JointSim.reconfigure`: wear, temperature,
+        gains, noise ...; its ``inertia`` and gravity settings have no effect on the arm)."""
+        self[name].reconfigure(config)
+
+    # -- the model's torques -------------------------------------------------
+    def gravity(self) -> Array:
+        """Gravity torque of every driven joint in the current configuration, payload included, N·m
+        (joint side; what a motor holds at rest: the paper's ``tau_m``)."""
+        if self._g_at is None or not np.array_equal(self._g_at, self._q):
+            self._g = np.array(pin.computeGeneralizedGravity(self.model, self.data, self._q), dtype=float)
+            self._g_at = self._q.copy()
+        return self._g.copy()
+
+    def inverse_dynamics(self, q: Sequence[float], v: Sequence[float], a: Sequence[float] | None = None) -> Array:
+        """``M(q) a + C(q, v) v + g(q)`` (armature included, the current payload), N·m: Pinocchio's RNEA."""
+        qa = np.asarray(q, dtype=float)
+        va = np.asarray(v, dtype=float)
+        aa = np.zeros_like(va) if a is None else np.asarray(a, dtype=float)
+        return np.array(pin.rnea(self.model, self.data, qa, va, aa), dtype=float)
+
+    def true_friction(self, name: str, velocity: float | None = None,
+                      positions: Sequence[float] | None = None) -> float:
+        """Noise-free model friction of joint ``name``, N·m (joint side): at ``velocity`` (joint rad/s;
+        default: its current one) with the load of the configuration ``positions`` (default: the current
+        one), at the current time; the per-sweep offset not included."""
+        j = self[name]
+        i = j.arm_index
+        cfg = j.config
+        vj = float(self._v[i]) if velocity is None else float(velocity)
+        if positions is None:
+            q, g = self._q, self.gravity()
+        else:
+            q = np.asarray(positions, dtype=float)
+            g = np.array(pin.computeGeneralizedGravity(self.model, self.data, q), dtype=float)
+        load = abs(float(g[i])) / cfg.torque_scale
+        f = j.friction.exact(np.array([vj * cfg.gear_ratio]), load, float(q[i]), self.time)
+        return float(f[0]) * cfg.torque_scale
+
+    # -- physics -------------------------------------------------------------
+    def step(self, dt: float) -> None:
+        """Advance the arm by ``dt`` seconds, in equal sub-steps of at most ``1 / physics_rate``."""
+        n = max(1, math.ceil(dt * self.physics_rate - 1e-9))
+        h = dt / n
+        for _ in range(n):
+            self._substep(h)
+        self._sync()
+
+    def _substep(self, h: float) -> None:
+        model, data = self.model, self.data
+        q, v = self._q, self._v
+        ql = q.tolist()
+        vl = v.tolist()
+        gl = pin.computeGeneralizedGravity(model, data, q).tolist()
+        t = self.time
+        tau = self._tau
+        limits = self._limits
+        us: list[float] = []
+        ffs: list[float] = []
+        band: list[int] = []
+        for i, j in enumerate(self.joints):
+            cfg = j.config
+            gr = cfg.gear_ratio
+            ts = cfg.torque_scale
+            lower, upper, lim_v, lim_u = limits[i]
+            vm = vl[i] * gr
+            # the drive's reference: the command within the velocity limit, ramped, slowed near a limit
+            cmd = j.command
+            cmd = lim_v if cmd > lim_v else (-lim_v if cmd < -lim_v else cmd)
+            acc = cfg.accel_limit if cfg.accel_limit > 0.0 else _LIMIT_DECEL
+            if cmd > 0.0:
+                room = upper - ql[i]
+                cmd = 0.0 if room <= 0.0 else min(cmd, math.sqrt(2.0 * acc * room))
+            elif cmd < 0.0:
+                room = ql[i] - lower
+                cmd = 0.0 if room <= 0.0 else max(cmd, -math.sqrt(2.0 * acc * room))
+            target = cmd * gr
+            ref = j.reference
+            if cfg.accel_limit > 0.0 and ref != target:
+                dmax = cfg.accel_limit * gr * h
+                ref = min(target, ref + dmax) if target > ref else max(target, ref - dmax)
+            else:
+                ref = target
+            j.reference = ref
+            # the velocity PI, saturated at the torque limit (never above the URDF effort), anti-windup
+            e = ref - vm
+            u_raw = cfg.kp * e + j._integral
+            lim = cfg.torque_limit if cfg.torque_limit < lim_u else lim_u
+            u = lim if u_raw > lim else (-lim if u_raw < -lim else u_raw)
+            if u == u_raw or (u_raw > lim and e < 0.0) or (u_raw < -lim and e > 0.0):
+                j._integral += cfg.ki * e * h
+            j.torque = u
+            ff = j.friction(vm, gl[i] / ts, ql[i], t) + j.offset
+            if ff < 0.0:
+                ff = 0.0
+            us.append(u * ts)
+            ffs.append(ff * ts)
+            if abs(vm) < cfg.stick_speed:
+                band.append(i)
+            else:
+                tau[i] = (u - math.copysign(ff, vm)) * ts
+        held: list[int] = []
+        if band:
+            a_hold = self._a.copy()
+            a_hold[band] = 0.0
+            need = pin.rnea(model, data, q, v, a_hold).tolist()
+            for i in band:
+                net = us[i] - need[i]
+                if abs(net) <= ffs[i]:
+                    tau[i] = need[i]
+                    held.append(i)
+                else:
+                    tau[i] = us[i] - math.copysign(ffs[i], net)
+        a = np.array(pin.aba(model, data, q, v, tau), dtype=float)
+        if held:
+            a[held] = 0.0
+        v_new = v + a * h
+        if held:
+            v_new[held] = 0.0
+        flip = (v_new * v) < 0.0
+        if flip.any():
+            v_new[flip] = 0.0
+        q_new = q + v_new * h
+        for i, (lower, upper, _, _) in enumerate(limits):  # the end stops
+            if not lower <= q_new[i] <= upper:
+                q_new[i] = upper if q_new[i] > upper else lower
+                v_new[i] = 0.0
+        self._a = (v_new - v) / h
+        self._v = v_new
+        self._q = q_new
+        self.time = t + h
+
+    def _sync(self) -> None:
+        """Copy the arm's state into each joint (position, motor speed, time): what they sample."""
+        ql = self._q.tolist()
+        vl = self._v.tolist()
+        for i, j in enumerate(self.joints):
+            j.position = ql[i]
+            j.speed = vl[i] * j.config.gear_ratio
+            j.time = self.time
+
+    def sample(self) -> tuple[list[float], list[float], list[float]]:
+        """Positions (rad), velocities (rad/s) and efforts (N·m: the drive torque with noise), joint side,
+        in joint order."""
+        eff = [(j.torque + j._noise()) * j.config.torque_scale for j in self.joints]
+        return self._q.tolist(), self._v.tolist(), eff
+
+    @property
+    def positions(self) -> Array:
+        """Joint positions, rad (a copy)."""
+        return self._q.copy()
+
+    @property
+    def velocities(self) -> Array:
+        """Joint velocities, rad/s (a copy)."""
+        return self._v.copy()
