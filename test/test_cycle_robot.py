@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import math
 from dataclasses import replace
 
@@ -140,8 +142,10 @@ def test_a_robot_cycle_tests_each_joint_in_turn_and_holds_the_others_still():
     log, commands, samples = _run(runner, sim)
     assert runner.state == CycleState.DONE and runner.message.startswith("done: 3 joints in ")
     assert log == [(j, s, k) for k, j in enumerate(JOINTS) for s in (CycleState.RUNNING, CycleState.DONE)]
-    assert all(sum(1 for v in c if v != 0.0) <= 1 for c in commands)
-    movers = [next(i for i, v in enumerate(c) if v != 0.0) for c in commands if any(c)]
+    # one joint moves at a time; the held ones get at most their small hold correction (back to where they are held)
+    cap = 0.2 * CONFIGS["joint_1"].approach_speed
+    assert all(sum(1 for v in c if abs(v) > cap + 1e-12) <= 1 for c in commands)
+    movers = [next(i for i, v in enumerate(c) if abs(v) > cap) for c in commands if any(abs(v) > cap for v in c)]
     assert movers == sorted(movers) and set(movers) == {0, 1, 2}
     assert commands[-1] == [0.0, 0.0, 0.0]
     assert all(r.state == CycleState.DONE and r.speeds_done == 2 for r in runner.results.values())
@@ -334,5 +338,7 @@ def test_a_held_joint_drifting_slowly_beyond_the_tolerance_fails_the_cycle(joint
     drift = 4.0 * HOLD  # rad per second from t = 0.2 s
     _run(runner, sim, hook=lambda s, readings: _push(joint, 0.2, position=lambda p: p + drift * (s.time - 0.2))(
         s, readings))
-    assert runner.state == CycleState.FAILED and f"held joint {joint} moved" in runner.message, runner.message
+    # the hold correction pulls the joint back (the reading drifts on): the drift shows as the net correction
+    assert runner.state == CycleState.FAILED, runner.message
+    assert re.search(rf"held joint {joint} (moved|keeps being pushed away)", runner.message), runner.message
     assert sim.time < 0.2 + 1.5 * HOLD / drift + 0.1  # tripped as the drift passed the tolerance

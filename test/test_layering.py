@@ -46,6 +46,7 @@ RANK: dict[str, int] = {
     "sim": 6,
     "commission": 7, "monitor": 7, "trend": 7,
     "io": 8,
+    "simcell": 8,
     "replay": 9,
     "history": 10,
     "fleet": 11, "serve": 11, "nodes": 11,
@@ -54,7 +55,8 @@ RANK: dict[str, int] = {
 }
 
 CORES = ("model", "estimation", "workbench", "commission", "data", "sim", "cycle", "observer", "monitor", "trend",
-         "types", "units", "errors", "fmt", "contract", "resources", "condition", "observation", "settings", "lazy")
+         "types", "units", "errors", "fmt", "contract", "resources", "condition", "observation", "settings", "lazy",
+         "simcell")
 ROS = ("rclpy", "rcl_interfaces", "std_msgs", "std_srvs", "sensor_msgs", "diagnostic_msgs", "rosgraph_msgs",
        "builtin_interfaces", "jointwear_msgs", "launch", "launch_ros")
 #: The workbench's rendering side: the sentences, the text and Markdown reports, the HTML page. The workbench's

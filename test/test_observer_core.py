@@ -459,3 +459,28 @@ def test_statuses_seconds_late_in_a_burst_change_nothing(cycle, lag):
     short = FrictionObserverCore(replace(CFG, idle_keep_seconds=2.0))
     obs2, rej2 = _feed_events(short, _events_statuses_in_a_burst(cycle, lag), cycle)
     assert len(obs2) < len(reference.observations) and len(rej2) > len(reference.rejections)
+
+
+def test_a_torque_slope_along_the_window_both_directions_share_is_no_scatter_of_tau_f():
+    """On an arm's shoulder gravity changes by several N·m across the window; it cancels in (u+ - u-)/2 over the
+    same positions. Batch means cut along the window read it as noise (tau_f_std 50x the torque noise on the
+    UR5's shoulder) unless the straight line over position comes out first."""
+    from jointwear_ros.observer.segmentation import measure_segment
+    from jointwear_ros.observer.types import SpeedSegment
+
+    rng = np.random.default_rng(5)
+    cfg = ObserverConfig(joint_name="j", gear_ratio=100.0, torque_scale=75.0)
+    w, half, n = 0.4, 0.1, 200  # joint rad/s, rad, samples per pass
+    x = np.linspace(-half, half, n)
+    t_f = np.arange(n) * (2 * half / w / n)
+    t_b = t_f + 2.0
+    pos = np.concatenate([x, x[::-1]])
+    vel = np.concatenate([np.full(n, w), np.full(n, -w)])
+    slope = 60.0  # N·m per rad: gravity across the window
+    friction, noise = 6.0, 0.05
+    eff = slope * pos + friction * np.sign(vel) + rng.normal(0.0, noise, 2 * n)
+    seg = SpeedSegment(cycle_id=1, speed_index=0, speed=w * 100.0, window_center=0.0, window_half_width=half,
+                       t_start=-1.0, t_end=10.0)
+    o = measure_segment(np.concatenate([t_f, t_b]), pos, vel, eff, seg, cfg)
+    assert abs(o.tau_f * 75.0 - friction) < 5 * noise / np.sqrt(n)
+    assert o.tau_f_std * 75.0 < 3 * noise / np.sqrt(n)  # the noise's share, not the slope's (12 N·m span)

@@ -84,7 +84,8 @@ def _matched(sim: ArmSim, rec: dict, c: np.ndarray, start: np.ndarray, points: i
     up = np.array([np.interp(grid, sf, uf[:, i]) for i in cols]).T
     um = np.array([np.interp(grid, sb, ub[:, i]) for i in cols]).T
     q = np.array([(np.interp(grid, sf, qf[:, i]) + np.interp(grid, sb, qb[:, i])) / 2 for i in cols]).T
-    friction = np.array([[sim.true_friction(n, abs(ci), qk) for n, ci in zip(sim.names, c, strict=True)] for qk in q])
+    friction = np.array([[sim.true_friction(n, abs(ci), qk, c) for n, ci in zip(sim.names, c, strict=True)]
+                         for qk in q])
     bias = np.array([sim.inverse_dynamics(qk, c) for qk in q])
     return np.sign(c) * (up - um) / 2, (up + um) / 2, friction, bias
 
@@ -235,8 +236,8 @@ def test_with_noise_each_joints_reversed_sweep_estimate_is_its_friction_within_t
 
 def test_a_payload_moves_the_sum_by_its_gravity_and_the_difference_only_by_the_friction_models_load_term():
     """0 -> 3 kg between two sweeps on the same line: (u+ + u-)/2 moves by the payload's RNEA torque; (u+ - u-)/2
-    moves by what the true friction moves with the new load |g_j(q)| (ref-2011r's load term), within the noise,
-    so not at all on the base joint (vertical axis: no gravity torque)."""
+    moves by what the true friction moves with the new load |g_j(q) + C_j(q, v) v| (ref-2011r's load term), within
+    the noise, so hardly on the base joint (vertical axis: no gravity torque, only the coupling's)."""
     sim, c, start = _line_sim("ur5", seed=3)
     d0, s0, f0, b0 = _matched(sim, _sweep(sim, c), c, start)
     sim.set_payload(3.0)

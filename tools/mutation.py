@@ -324,7 +324,8 @@ MUTANTS: tuple[Mutant, ...] = (
     # -- the observer --------------------------------------------------------------------------
     Mutant("observer_std_under_reported", "the observer reports tau_f_std 30 % too small",
            "jointwear_ros/observer/segmentation.py", "measure_segment",
-           expr("0.5 * math.hypot(ses[1], ses[-1])", "0.35 * math.hypot(ses[1], ses[-1])"),
+           expr("0.5 * math.hypot(ses[1], ses[-1], _coverage_bias(slopes, centres))",
+                "0.35 * math.hypot(ses[1], ses[-1], _coverage_bias(slopes, centres))"),
            ("test/test_observer_core.py",), select="matches_scatter", fast=True),
     Mutant("observer_memory_trim_disabled", "the observer never trims its joint-state buffer",
            "jointwear_ros/observer/core.py", "FrictionObserverCore._trim",

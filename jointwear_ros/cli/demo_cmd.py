@@ -60,10 +60,6 @@ DEFAULT_ARM = "ur5"
 ARM_CHOICES = ("ur5", "panda", "none")
 #: Largest payload of the demo arm, kg (joint_sim's range).
 MAX_PAYLOAD = 20.0
-#: How far the test cycle may take a joint of an arm from its test pose, rad (inside the URDF's limits).
-ARM_SWEEP_RANGE = 1.6
-#: The test cycle's effort limit on an arm: this fraction of the URDF's effort limit (the drive saturates there).
-ARM_EFFORT_FRACTION = 0.95
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -358,6 +354,8 @@ def run_demo(
             if temps is not None:
                 sim_params[f"{j}.temperature"] = temps[i]
         if arm is not None:
+            from ..simcell import arm_cell_parameters
+
             for node, values in arm_cell_parameters(arm, names, payload).items():
                 params[node].update(values)
         if sweep is not None:
@@ -446,33 +444,6 @@ def _per_joint(value: float | Sequence[float], names: Sequence[str], what: str) 
     if len(values) != len(names):
         raise CellError(f"{len(values)} {what} values for {len(names)} joints ({', '.join(names)})")
     return values
-
-
-def arm_cell_parameters(arm: str, names: Sequence[str], payload: float = 0.0) -> dict[str, dict[str, Any]]:
-    """The node parameters that put the cell on arm ``arm``: joint_sim simulates it (``arm``, ``payload``; each
-    joint's drive from the arm's spec), test_cycle sweeps each joint around the arm's test pose inside its URDF
-    limits (``ARM_SWEEP_RANGE`` at most) below its effort limit, friction_observer scales each joint's effort
-    by the arm's torque scale. The i-th of ``names`` is the arm's i-th joint.
-
-    >>> p = arm_cell_parameters("ur5", ["joint_1", "joint_2"])
-    >>> p["joint_sim"]["arm"], p["test_cycle"]["joint_2.position"], p["friction_observer"]["joint_2.torque_scale"]
-    ('ur5', -1.3, 75.0)
-    >>> p["test_cycle"]["joint_2.joint_limits"], p["test_cycle"]["joint_2.effort_limit"]
-    ([-2.9, 0.3], 142.5)
-    """
-    from ..sim.arms import arm_spec
-
-    spec = arm_spec(arm)
-    out: dict[str, dict[str, Any]] = {"joint_sim": {"arm": spec.name, "payload": float(payload)},
-                                      "test_cycle": {}, "friction_observer": {}}
-    for name, j in zip(names, spec.for_names(names), strict=False):
-        lo = max(j.lower + 0.05, j.home - ARM_SWEEP_RANGE)
-        hi = min(j.upper - 0.05, j.home + ARM_SWEEP_RANGE)
-        out["test_cycle"].update({f"{name}.gear_ratio": j.gear_ratio, f"{name}.position": j.home,
-                                  f"{name}.joint_limits": [round(lo, 4), round(hi, 4)],
-                                  f"{name}.effort_limit": round(ARM_EFFORT_FRACTION * j.effort, 4)})
-        out["friction_observer"].update({f"{name}.gear_ratio": j.gear_ratio, f"{name}.torque_scale": j.torque_scale})
-    return out
 
 
 def _param_value(text: str) -> Any:

@@ -7,11 +7,14 @@ per joint, one after another, and a watchdog over **every** joint it drives:
 
 - the joint under test: its own runner's watchdog (stale or non-finite state,
   limits, effort, speed at the window start, moves that do not finish);
-- every other joint (held at zero velocity): a state older than its
+- every other joint (held: commanded back toward where it is held, :meth:`RobotCycleRunner._hold_correction`,
+  zero where it stands there): a state older than its
   ``state_timeout``, a non-finite reading, a position outside its
-  ``joint_limits``, ``|effort|`` above its ``effort_limit``, or a move of more
+  ``joint_limits``, ``|effort|`` above its ``effort_limit``, a move of more
   than ``hold_tolerance`` from where the cycle found it (a joint tested earlier
-  in the cycle: from where its test left it).
+  in the cycle: from where its test left it), or corrections that have moved
+  it back more than ``hold_tolerance`` in all (net: a push that comes and goes
+  cancels; a steady one, a creeping brake or a drifting sensor, adds up).
 
 Any trip stops the robot cycle: state FAILED, zero for every joint, the reason
 in the message, with the joints that were not tested named.
@@ -141,6 +144,11 @@ class JointOutcome:
     speeds_total: int = 0
 
 
+#: Gain of a held joint's correction toward where it is held, 1/s (the line cycle's ``LINE_GAIN``: a time
+#: constant of 0.2 s, far below a velocity loop's bandwidth).
+HOLD_GAIN = 5.0
+
+
 class RobotCycleRunner:
     """Runs one robot cycle at a time (see the module docstring).
 
@@ -172,6 +180,9 @@ class RobotCycleRunner:
         self.fault_joint = ""  # the joint whose reading tripped the last watchdog stop
         self._between = False  # a joint just finished (its DONE is the status); the next starts on the next update
         self._hold: dict[str, float] = {}
+        self._hold_cmd: dict[str, float] = {}  # the held joints' corrections toward where they are held
+        self._pushed: dict[str, float] = {}  # the distance each held joint's corrections moved it, net, rad
+        self._t_last: float | None = None
         self._t_start = 0.0
 
     # -- control -------------------------------------------------------------
@@ -207,6 +218,9 @@ class RobotCycleRunner:
         self.fault_joint = ""
         self._between = False
         self._hold = {j: float(p) for j, p in (positions or {}).items() if math.isfinite(p)}
+        self._hold_cmd = {}
+        self._pushed = {}
+        self._t_last = None
         self._t_start = now
         for j in plan.joints:
             self.results[j] = JointOutcome(self.cycle_id, CycleState.IDLE, f"waiting in cycle {cycle_id}", 0,
@@ -220,6 +234,8 @@ class RobotCycleRunner:
         self.runner.start(self.plan.plans[self.index], self.cycle_id, now)
         self.message = self.runner.message
         self._hold.pop(j, None)  # moving now; its reference is set again where its test leaves it
+        self._hold_cmd.pop(j, None)
+        self._pushed.pop(j, None)
         self.results[j] = JointOutcome(self.cycle_id, CycleState.RUNNING, self.runner.message, 0,
                                       len(self.plan.plans[self.index].speeds))
 
@@ -266,8 +282,11 @@ class RobotCycleRunner:
     # -- status --------------------------------------------------------------
     @property
     def commands(self) -> dict[str, float]:
-        """The velocity command of every driven joint (0 but for the joint under test while it moves)."""
+        """The velocity command of every driven joint: the joint under test's while it moves; each held joint's
+        hold correction (:data:`HOLD_GAIN`), 0 for a joint where it was found (and for every joint when idle)."""
         out = dict.fromkeys(self.names, 0.0)
+        if self.running:
+            out.update(self._hold_cmd)
         if self.running and not self._between and self.runner is not None and self.runner.running:
             out[self.joint_name] = self.runner.command
         return out
@@ -316,6 +335,16 @@ class RobotCycleRunner:
             if reason is not None:
                 self.fail(f"watchdog: {reason}", j)
                 return self.commands
+            if self._t_last is not None and j in self._hold_cmd:  # what the last correction did since
+                self._pushed[j] = self._pushed.get(j, 0.0) + self._hold_cmd[j] * (now - self._t_last)
+                if abs(self._pushed[j]) > self.hold_tolerance:
+                    self.fail(f"watchdog: held joint {j} keeps being pushed away: its hold correction moved it "
+                              f"{self._pushed[j]:+.3f} rad in all (hold_tolerance {self.hold_tolerance:g} rad); "
+                              "something pushes it steadily (a creeping brake, a drifting position sensor, a "
+                              "coupling its drive cannot hold)", j)
+                    return self.commands
+            self._hold_cmd[j] = self._hold_correction(j, readings.get(j))
+        self._t_last = now
         if self._between:
             self._between = False
             self.index += 1
@@ -346,6 +375,19 @@ class RobotCycleRunner:
                 self.fault_joint = j
             self._stop(runner.state, runner.message)
         return self.commands
+
+    def _hold_correction(self, j: str, r: JointReading | None) -> float:
+        """A held joint's command: back toward where it is held, ``HOLD_GAIN`` × the distance, at most a fifth of
+        its ``approach_speed``. On a coupled arm a joint under test pushes the others (inertia, Coriolis); a
+        velocity loop at zero lets them creep, and a held joint that stands elsewhere in the reverse sweep than
+        in the forward one changes the tested joint's gravity between the two: (u+ - u-)/2 is then no longer
+        its friction (measured on the UR5's elbow at 1.6 rad/s: 20 % off without the correction,
+        bench/bench_arm_cycle.py)."""
+        ref = self._hold.get(j)
+        if r is None or ref is None or not math.isfinite(r.position):
+            return 0.0
+        cap = 0.2 * self.configs[j].approach_speed
+        return max(-cap, min(cap, HOLD_GAIN * (ref - r.position)))
 
     def _hold_watchdog(self, j: str, now: float, r: JointReading | None, wall_age: float | None) -> str | None:
         cfg = self.configs[j]

@@ -20,8 +20,11 @@ effort N·m) and the stamps [t_start, t_end) of one speed of a test cycle:
    ``tau_f = (u+ - u-) / 2`` (Eq. 5), ``tau_m = |(u+ + u-) / 2|``.
 
 The standard error of each mean is a batch-means estimate: the at-speed
-samples in stamp order are cut into ``n_batches`` contiguous batches and
-``se = std(batch means, ddof=1) / sqrt(n_batches)``. Torque noise in a
+samples in stamp order, less their straight line over position (the torque
+both directions share along the window: gravity, the arm's coupling; it
+cancels in the difference), are cut into ``n_batches`` contiguous batches and
+``se = std(batch means, ddof=1) / sqrt(n_batches)``; what the shared slope
+adds when the two directions' samples centre apart is added in quadrature. Torque noise in a
 closed velocity loop is autocorrelated, so the naive ``std / sqrt(n)``
 would understate it; batch means stay valid as long as a batch is longer
 than the correlation time. ``tau_f_std = sqrt(se+^2 + se-^2) / 2``.
@@ -63,6 +66,27 @@ def batch_means_se(values: Array, n_batches: int) -> float:
     m = n // nb
     means = values[: nb * m].reshape(nb, m).mean(axis=1)
     return float(means.std(ddof=1) / math.sqrt(nb))
+
+
+def _detrend(x: Array, u: Array) -> tuple[float, Array]:
+    """The slope of ``u`` over position ``x`` (least squares) and ``u`` without that straight line.
+
+    Inside a window the torque also changes with position by what both directions share (gravity, and on
+    an arm the velocity-quadratic coupling along the line): it cancels in ``(u+ - u-)/2`` over the same
+    positions, so it is no scatter of the mean; left in, batch means cut along the window would read it as
+    noise (on an arm's shoulder 50 times the torque noise)."""
+    span = float(np.ptp(x)) if x.size else 0.0
+    if x.size < 3 or not span > 0:
+        return 0.0, u
+    xc = x - x.mean()
+    slope = float(np.dot(xc, u - u.mean()) / np.dot(xc, xc))
+    return slope, u - slope * xc
+
+
+def _coverage_bias(slopes: dict[int, float], centres: dict[int, float]) -> float:
+    """What the shared slope adds to ``u+ - u-`` when the two directions' samples centre on different
+    positions (their means then see the slope at different places): ``|mean slope| * |x+ - x-|``."""
+    return abs(0.5 * (slopes[1] + slopes[-1])) * abs(centres[1] - centres[-1])
 
 
 def measure_segment(
@@ -124,6 +148,8 @@ def measure_segment(
     ses: dict[int, float] = {}
     counts: dict[int, int] = {}
     speeds: dict[int, float] = {}
+    slopes: dict[int, float] = {}
+    centres: dict[int, float] = {}
     last_stamp = -math.inf
     for d in (1, -1):
         name = _DIRECTION_NAMES[d]
@@ -166,7 +192,10 @@ def measure_segment(
             return reject(f"speed not constant in {name} window: std {v_std:.3g} rad/s > {std_limit:.3g} rad/s")
         u = effort[idx] / cfg.torque_scale  # in stamp order
         means[d] = float(u.mean())
-        ses[d] = batch_means_se(u, cfg.n_batches)
+        x = position[idx]
+        slopes[d], resid = _detrend(x, u)
+        centres[d] = float(x.mean())
+        ses[d] = batch_means_se(resid, cfg.n_batches)
         counts[d] = n_at
         speeds[d] = float(np.abs(vs).mean())
         last_stamp = max(last_stamp, float(stamps[idx[-1]]))
@@ -190,7 +219,7 @@ def measure_segment(
         cycle_id=int(segment.cycle_id),
         speed=0.5 * (speeds[1] + speeds[-1]),
         tau_f=tau_f,
-        tau_f_std=0.5 * math.hypot(ses[1], ses[-1]),
+        tau_f_std=0.5 * math.hypot(ses[1], ses[-1], _coverage_bias(slopes, centres)),
         tau_plus=u_plus,
         tau_minus=u_minus,
         load_torque=abs(0.5 * (u_plus + u_minus)),

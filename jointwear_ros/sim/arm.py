@@ -8,19 +8,23 @@ N·m)::
 
     M(q) q'' + C(q, q') q' + g(q) + tau_f(q') = tau_u
     tau_u,j = u_j * torque_scale_j                     (the drive torque; u normalized, as JointSim's)
-    tau_f,j = (F_j(|q'_j| * gear_j, |g_j(q)| / torque_scale_j) + o_j) * torque_scale_j * sign(q'_j)
+    tau_f,j = (F_j(|q'_j| * gear_j, |n_j(q, q')| / torque_scale_j) + o_j) * torque_scale_j * sign(q'_j)
+    n(q, q') = C(q, q') q' + g(q)                      (the torque the gear transmits at constant speed)
 
 The accelerations are Pinocchio's ``aba`` (articulated-body algorithm; ``model.armature``, each
-joint's reflected rotor inertia, adds to the diagonal of ``M``); the gravity of the friction's load is
-``computeGeneralizedGravity``. No rigid-body term is written here.
+joint's reflected rotor inertia, adds to the diagonal of ``M``); the friction's load ``n`` is
+``nonLinearEffects``. No rigid-body term is written here.
 
 Per joint, as :class:`~jointwear_ros.sim.JointSim` (each joint *is* one, :class:`ArmJointSim`, for
 its drive state, its friction and its noise): the velocity reference follows the command at most at
 ``accel_limit``; the velocity PI on the motor side with anti-windup; saturation at ``torque_limit`` and
 never above the URDF effort limit; the friction ``F_j`` of the joint's own
 :class:`~jointwear_ros.sim.FrictionTable` (parameter set, wear, temperature, hidden effects) at its
-motor speed, with the load ``|g_j(q)|`` (the gravity torque of *that* joint in the current
-configuration, payload included: the paper's ``tau_m``); the per-sweep friction offset ``o_j``; the
+motor speed, with the load ``|n_j(q, q')|``: the torque *that* joint's gear transmits at constant
+speed, gravity of the whole configuration and payload plus the Coriolis and centrifugal push of the
+other joints (the paper's ``tau_m``, a gravity torque on its one joint; a gear's friction grows with
+the torque it carries, whatever makes it). At constant speed it is what the observer's
+``(u+ + u-)/2`` measures, so the load column carries it; the per-sweep friction offset ``o_j``; the
 white effort noise. The effort published is ``(u + n) * torque_scale``: what a drive reports, not the
 link-side torque.
 
@@ -280,20 +284,26 @@ class ArmSim:
         return np.array(pin.rnea(self.model, self.data, qa, va, aa), dtype=float)
 
     def true_friction(self, name: str, velocity: float | None = None,
-                      positions: Sequence[float] | None = None) -> float:
+                      positions: Sequence[float] | None = None, velocities: Sequence[float] | None = None) -> float:
         """Noise-free model friction of joint ``name``, N·m (joint side): at ``velocity`` (joint rad/s;
-        default: its current one) with the load of the configuration ``positions`` (default: the current
-        one), at the current time; the per-sweep offset not included."""
+        default: its current one) with the load ``|C(q, v) v + g(q)|`` of the configuration ``positions``
+        and every joint's ``velocities`` (defaults: the current ones; with ``positions`` given, the other
+        joints at rest unless ``velocities`` says otherwise), at the current time; the per-sweep offset not
+        included."""
         j = self[name]
         i = j.arm_index
         cfg = j.config
         vj = float(self._v[i]) if velocity is None else float(velocity)
-        if positions is None:
-            q, g = self._q, self.gravity()
+        q = self._q if positions is None else np.asarray(positions, dtype=float)
+        if velocities is not None:
+            vv = np.asarray(velocities, dtype=float)
+        elif positions is None:
+            vv = self._v.copy()
         else:
-            q = np.asarray(positions, dtype=float)
-            g = np.array(pin.computeGeneralizedGravity(self.model, self.data, q), dtype=float)
-        load = abs(float(g[i])) / cfg.torque_scale
+            vv = np.zeros_like(self._v)
+            vv[i] = vj
+        n = np.array(pin.nonLinearEffects(self.model, self.data, q, vv), dtype=float)
+        load = abs(float(n[i])) / cfg.torque_scale
         f = j.friction.exact(np.array([vj * cfg.gear_ratio]), load, float(q[i]), self.time)
         return float(f[0]) * cfg.torque_scale
 
@@ -311,7 +321,7 @@ class ArmSim:
         q, v = self._q, self._v
         ql = q.tolist()
         vl = v.tolist()
-        gl = pin.computeGeneralizedGravity(model, data, q).tolist()
+        gl = pin.nonLinearEffects(model, data, q, v).tolist()  # the friction's load: g(q) + C(q, v) v
         t = self.time
         tau = self._tau
         limits = self._limits
@@ -350,7 +360,7 @@ class ArmSim:
             if u == u_raw or (u_raw > lim and e < 0.0) or (u_raw < -lim and e > 0.0):
                 j._integral += cfg.ki * e * h
             j.torque = u
-            ff = j.friction(vm, gl[i] / ts, ql[i], t) + j.offset
+            ff = j.friction(vm, abs(gl[i]) / ts, ql[i], t) + j.offset
             if ff < 0.0:
                 ff = 0.0
             us.append(u * ts)

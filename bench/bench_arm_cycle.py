@@ -1,0 +1,122 @@
+"""Every joint at once on a real arm, against one joint after another: cell time, estimate std, coupling.
+
+The pure closed loop of the cell, no ROS: the arm (``ArmSim``, Pinocchio forward dynamics of the UR5 or
+the Panda, every joint with the reference friction set, its own wear, temperature unknown to the
+estimator) at 1 kHz physics sampled at 500 Hz; the test cycle at 100 Hz, either the line cycle
+(``LineCycleRunner``, every joint at once) or the robot cycle (``RobotCycleRunner``, one joint after
+another, the others held); one ``FrictionObserverCore`` and one ``WearMonitor`` (the ``joint`` method, as
+config/wear_estimator.yaml) per joint, fed as the nodes feed them. The cycle settings per joint are the
+demo's (``jointwear demo --joints N``: the arm's test pose, limits and drive sizing).
+
+Prints, per arm:
+
+1. cell time: planned and simulated, one after another vs at once, and their ratio;
+2. each joint's wear estimate and its std for both cycles (mean over seeds) and the std ratio
+   (at once / one after another; the issue asks for <= 1.2), and how many estimates lie within 3 std;
+3. the coupling residual (noise off): each joint's observed tau_f against the model's truth (the
+   simulator's friction at that speed and the load of the arm's configuration and velocities where the joint
+   crossed its window centre, per-sweep offset off), worst over the speeds, in % of tau_f, for both cycles;
+4. a payload change 0 -> 3 kg between two cycles at once: each joint's wear shift against its std.
+
+Measures; asserts nothing. ``--quick``: the UR5 only, one seed. Figures of a run on this machine are in
+docs/arm.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from jointwear_ros.sim.arm import ArmSim, arm_configs  # noqa: E402
+from jointwear_ros.sim.arms import arm_spec  # noqa: E402
+from jointwear_ros.simcell import cycle_settings, run_cycle  # noqa: E402
+
+WEARS = (12.0, 20.0, 26.0, 31.0, 39.0, 46.0, 15.0)
+TEMPERATURES = (40.0, 38.0, 44.0, 36.0, 42.0, 41.0, 39.0)
+
+
+def run(arm: str, n: int, together: bool, seed: int, noise: bool = True, payload: float = 0.0) -> dict[str, Any]:
+    """One cycle on the arm (``jointwear_ros.simcell.run_cycle``) and each observation's truth."""
+    spec = arm_spec(arm)
+    names = [f"joint_{i}" for i in range(1, n + 1)]
+    cycles, observers = cycle_settings(arm, names)
+    quiet = {} if noise else {"noise_std": 0.0, "effort_noise_std": 0.0}
+    sims = [replace(c, wear=WEARS[i], temperature=TEMPERATURES[i], **quiet)
+            for i, c in enumerate(arm_configs(spec, names))]
+    sim = ArmSim(spec, names, sims, seeds=[seed * 100 + i for i in range(n)], payload=payload)
+    r = run_cycle(sim, cycles, observers, together=together, seed=seed)
+    truth = {j: [sim.true_friction(j, abs(r.crossings[j, round(o.speed)][1][i]), *r.crossings[j, round(o.speed)])
+                 / observers[j].torque_scale for o in r.observations[j]] for i, j in enumerate(names)}
+    return {"state": r.state.name, "message": r.message, "planned": r.planned, "cell": r.cell_seconds,
+            "obs": r.observations, "truth": truth, "estimates": r.estimates, "names": names}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="the UR5 only, one seed")
+    ap.add_argument("--seeds", type=int, default=3)
+    args = ap.parse_args()
+    arms = [("ur5", 6)] if args.quick else [("ur5", 6), ("panda", 7)]
+    seeds = range(1, 2 if args.quick else args.seeds + 1)
+    for arm, n in arms:
+        spec = arm_spec(arm)
+        print(f"== {spec.title}: {n} joints, default speeds, temperature unknown to the estimator ==")
+        t_wall = time.perf_counter()
+        runs: dict[bool, list[dict[str, Any]]] = {True: [], False: []}
+        for together in (False, True):
+            for s in seeds:
+                runs[together].append(run(arm, n, together, s))
+        seq, line = runs[False][0], runs[True][0]
+        print(f"1. cell time: one after another {seq['planned']:.1f} s planned, {seq['cell']:.1f} s simulated; "
+              f"at once {line['planned']:.1f} s planned, {line['cell']:.1f} s simulated; ratio "
+              f"{line['cell'] / seq['cell']:.2f} ({seq['state']}, {line['state']})")
+        names = line["names"]
+        print("2. wear estimates (mean over seeds):")
+        print(f"   {'joint':8} {'true':>5} {'one after another':>20} {'at once':>20} {'std ratio':>9}")
+        within = {False: 0, True: 0}
+        total = 0
+        for i, j in enumerate(names):
+            row = []
+            stds = {}
+            for together in (False, True):
+                e = np.array([r["estimates"][j] for r in runs[together]])
+                stds[together] = float(np.nanmean(e[:, 1]))
+                row.append(f"{np.nanmean(e[:, 0]):6.2f} ± {stds[together]:5.2f}")
+                within[together] += int(np.sum(np.abs(e[:, 0] - WEARS[i]) <= 3 * e[:, 1]))
+            total += len(seeds)
+            print(f"   {j:8} {WEARS[i]:5.1f} {row[0]:>20} {row[1]:>20} {stds[True] / stds[False]:9.2f}")
+        print(f"   within 3 std: one after another {within[False]}/{total}, at once {within[True]}/{total}")
+        print("3. coupling residual, noise off: |observed - model truth| / tau_f, worst over the speeds:")
+        quiet = {together: run(arm, n, together, 1, noise=False) for together in (False, True)}
+        print(f"   {'joint':8} {'one after another':>18} {'at once':>10} {'at once vs one after another':>30}")
+        for j in names:
+            worst = {}
+            for together in (False, True):
+                q = quiet[together]
+                worst[together] = max((abs(o.tau_f - t) / t for o, t in zip(q["obs"][j], q["truth"][j], strict=True)),
+                                      default=math.nan)
+            pair = [abs(a.tau_f - b.tau_f) / b.tau_f
+                    for a, b in zip(quiet[True]["obs"][j], quiet[False]["obs"][j], strict=False)]
+            print(f"   {j:8} {100 * worst[False]:17.2f}% {100 * worst[True]:9.2f}% {100 * max(pair, default=math.nan):29.2f}%")
+        print("4. payload 0 -> 3 kg between two cycles at once (same seed): wear shift / std:")
+        loaded = run(arm, n, True, 1, payload=3.0)
+        shifts = []
+        for j in names:
+            (w0, s0), (w3, s3) = line["estimates"][j], loaded["estimates"][j]
+            shifts.append(f"{j} {w3 - w0:+.2f} ({(w3 - w0) / max(s0, s3):+.2f} std)")
+        print("   " + "; ".join(shifts))
+        print(f"   ({time.perf_counter() - t_wall:.0f} s wall)\n")
+
+
+if __name__ == "__main__":
+    main()
