@@ -32,6 +32,14 @@ Time: with ``publish_clock`` the simulator is the graph's clock source and
 advances at wall time × ``real_time_factor`` (stamps and ``/clock`` are sim
 time, starting at the wall-clock time of start-up); without it, it follows the
 node clock (``use_sim_time`` honoured) and ``real_time_factor`` is ignored.
+**Lockstep** (``lockstep``, with ``publish_clock``): while a controller streams
+velocity commands, sim time runs at most ``lockstep_lead`` ahead of the newest
+one, so a controller starved of CPU on a loaded machine slows the clock instead
+of falling behind it (its commands would act late in sim time and bend the
+constant-speed sweeps); when no command came for ``lockstep_grace`` wall
+seconds the controller counts as gone and the clock runs free again
+(``command_timeout`` then brings the joints to rest). ``lockstep_holds`` in the
+diagnostics counts the ticks the clock waited.
 
 Unlike a real forward command controller, which holds the last command forever,
 the simulator brings every joint to rest when no command has arrived for
@@ -112,6 +120,13 @@ _NODE: tuple[ParamDecl, ...] = (
     ParamDecl("tick_period", 0.005, "wall-clock period of the stepping timer, s", 1e-4, 1.0, read_only=True, unit="s"),
     ParamDecl("max_lag", 0.1, "largest sim-time backlog stepped in one tick, s (beyond: the sim slows)", 1e-3, 10.0,
               unit="s"),
+    ParamDecl("lockstep", True, "with publish_clock: while a controller streams velocity commands, sim time runs at "
+              "most lockstep_lead ahead of its newest command (a starved controller slows the clock, it does not "
+              "fall behind it)"),
+    ParamDecl("lockstep_lead", 0.05, "how far sim time may run ahead of the newest velocity command, s (sim)",
+              1e-3, 10.0, unit="s"),
+    ParamDecl("lockstep_grace", 0.5, "wall s without a command after which the controller counts as gone and the "
+              "clock runs free again (command_timeout then stops the joints)", 0.01, 60.0, unit="s"),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
               read_only=True, unit="s"),
     ParamDecl("arm", "", "simulated arm: '' (independent joints) or " + ", ".join(ARMS) + "; the i-th of joints "
@@ -192,6 +207,12 @@ class JointSimNode(Node):
         self.samples_published = 0
         self._bad_reported = dict.fromkeys(self.joints, 0)
         self._last_command_time: float | None = None
+        self._last_command_wall = -math.inf
+        self.lockstep = bool(p["lockstep"])
+        self.lockstep_lead = float(p["lockstep_lead"])
+        self.lockstep_grace = float(p["lockstep_grace"])
+        #: ticks at which the clock waited for a late controller
+        self.lockstep_holds = 0
         self._timed_out = True
         self._next_temperature = 0.0
 
@@ -252,6 +273,7 @@ class JointSimNode(Node):
             stat.summary(DiagnosticLevel.OK, f"simulating {joint} at wear {cfg.wear:g}, {cfg.temperature:g} degC")
         stat.extend([("wear", f"{cfg.wear:g}"), ("temperature", f"{cfg.temperature:g}"),
                      ("sim_time", f"{self.sim.time:.3f}"), ("samples_published", str(self.samples_published)),
+                     ("lockstep_holds", str(self.lockstep_holds)),
                      ("bad_commands", str(self.bad_commands))])
 
     def _on_parameters(self, changes: dict[str, object]) -> str | None:
@@ -286,6 +308,12 @@ class JointSimNode(Node):
             self.command_timeout = float(changes["command_timeout"])  # type: ignore[arg-type]
         if "max_lag" in changes:
             self.max_lag = float(changes["max_lag"])  # type: ignore[arg-type]
+        if "lockstep" in changes:
+            self.lockstep = bool(changes["lockstep"])
+        if "lockstep_lead" in changes:
+            self.lockstep_lead = float(changes["lockstep_lead"])  # type: ignore[arg-type]
+        if "lockstep_grace" in changes:
+            self.lockstep_grace = float(changes["lockstep_grace"])  # type: ignore[arg-type]
         if "temperature_rate" in changes:
             self.temperature_period = 1.0 / float(changes["temperature_rate"])  # type: ignore[arg-type]
         if "real_time_factor" in changes:
@@ -324,6 +352,7 @@ class JointSimNode(Node):
                 data[i] = math.copysign(self.max_velocity[i], v)
         self.sim.set_commands(data)
         self._last_command_time = self.sim.time
+        self._last_command_wall = time.monotonic()
         self._timed_out = False
 
     # -- stepping ------------------------------------------------------------
@@ -332,8 +361,25 @@ class JointSimNode(Node):
             return (time.monotonic() - self._wall0) * self.rtf
         return self.get_clock().now().nanoseconds * 1e-9 - self.epoch
 
+    def _lockstep_limit(self) -> float | None:
+        """The sim time the clock may reach now under lockstep (None: it runs free): ``lockstep_lead`` past the
+        newest command while a controller streams (its last command less than ``lockstep_grace`` wall s ago)."""
+        if not (self.lockstep and self.publish_clock) or self._last_command_time is None or self._timed_out:
+            return None
+        if time.monotonic() - self._last_command_wall > self.lockstep_grace:
+            return None
+        return self._last_command_time + self.lockstep_lead
+
     def _tick(self) -> None:
         target = self._target_time()
+        hold = self._lockstep_limit()
+        if hold is not None and target > max(hold, self.sim.time):
+            # the controller is late (a starved process): hold the clock for it instead of running away;
+            # sim time resumes from here (sim.time = (now - wall0) * rtf stays continuous)
+            held = max(hold, self.sim.time)
+            self._wall0 += (target - held) / self.rtf
+            self.lockstep_holds += 1
+            target = held
         lag = target - self.sim.time
         if lag > self.max_lag:
             # behind (loaded machine): step at most max_lag, the sim runs slower than asked
