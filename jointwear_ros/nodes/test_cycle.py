@@ -69,6 +69,7 @@ joints, joints_done, last_fault, refused_requests, commands_sent).
 from __future__ import annotations
 
 import math
+import sys
 import time
 from collections.abc import Mapping, Sequence
 from functools import partial
@@ -77,6 +78,7 @@ from typing import Any
 from jointwear_msgs.msg import TestCycleStatus
 from jointwear_msgs.srv import RunTestCycle
 from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -604,8 +606,22 @@ class TestCycleNode(Node):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    """Console entry point ``test_cycle``."""
-    return run_node(TestCycleNode, args)
+    """Console entry point ``test_cycle``: exit status 2 with one line on stderr for a bad start-up setting (an
+    unknown ``arm``, more joints than the arm has, a value out of range)."""
+    refused: list[str] = []
+
+    def factory() -> TestCycleNode:
+        try:
+            return TestCycleNode()
+        except ParameterError as exc:  # bad input: one line, not a traceback
+            refused.append(str(exc))
+            raise ExternalShutdownException from None
+
+    rc = run_node(factory, args)
+    if refused:
+        print(f"test_cycle: {refused[0].removeprefix('test_cycle: ')}", file=sys.stderr)
+        return 2
+    return rc
 
 
 if __name__ == "__main__":  # pragma: no cover
