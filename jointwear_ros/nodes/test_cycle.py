@@ -31,7 +31,13 @@ forever) and sends zero for every joint on finish, abort, error, watchdog trip
 and node exit.
 
 Safety: ``motion_enabled`` must be true to move a real joint; a simulated cell
-is marked with ``simulator: true``. The watchdog (see
+is marked with ``simulator: true``. With ``arm`` (read-only; an arm of
+:mod:`jointwear_ros.sim.arms`, e.g. ``ur5``) every planned cycle is checked against
+the arm's model before anything moves (:func:`jointwear_ros.sim.collision.check_plan`:
+each step's approach and sweep, no two links and no link and the table closer than
+1 cm): a path that comes closer is refused (``BAD_REQUEST``) with the step, the links
+and the configuration; an accepted plan says its closest approach. Empty (the
+default): no check. The watchdog (see
 :mod:`jointwear_ros.cycle.runner` and :mod:`jointwear_ros.cycle.robot`: every
 driven joint is watched, a held joint may not move more than ``hold_tolerance``)
 runs in node time (``use_sim_time``
@@ -63,6 +69,7 @@ joints, joints_done, last_fault, refused_requests, commands_sent).
 from __future__ import annotations
 
 import math
+import sys
 import time
 from collections.abc import Mapping, Sequence
 from functools import partial
@@ -71,6 +78,7 @@ from typing import Any
 from jointwear_msgs.msg import TestCycleStatus
 from jointwear_msgs.srv import RunTestCycle
 from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -90,6 +98,7 @@ from ..cycle import (
 )
 from ..errors import JointwearError, ParameterError
 from ..settings import declarations, from_mapping, node_declarations
+from ..sim.arms import arm_spec
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level
 from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, wait_acked
@@ -117,6 +126,9 @@ _NODE_TAIL: tuple[ParamDecl, ...] = (
     ParamDecl("sweep", "sequential", "how a request of several joints runs: sequential (one joint after another, "
               "the others held) or simultaneous (every joint at once along one straight line in joint space and "
               "back); read at each request"),
+    ParamDecl("arm", "", "the arm of jointwear_ros.sim.arms (ur5, panda) whose model every planned cycle is checked "
+              "against before anything moves (self-collision and the table, 1 cm clearance; the i-th of joints is "
+              "the arm's i-th joint); empty: no check (a robot whose model the node does not know)", read_only=True),
     ParamDecl("command_rate", 100.0, "velocity command rate while running, Hz (node time)", 1.0, 10000.0,
               read_only=True, unit="Hz"),
     ParamDecl("status_rate", 10.0, "periodic status rate, Hz (node time)", 0.1, 1000.0, read_only=True, unit="Hz"),
@@ -177,6 +189,14 @@ class TestCycleNode(Node):
         bad = _check_sweep(p["sweep"])
         if bad is not None:
             raise ParameterError(f"test_cycle: {bad}")
+        #: the arm's collision check of every plan (None: ``arm`` empty, no check); built once, at start-up
+        self.collision: Any = None
+        arm = str(p["arm"]).strip()
+        if arm:
+            arm_spec(arm).for_names(self.joints)  # an unknown arm or too many joints: one line, before the model
+            from ..sim.collision import collision_checker  # Pinocchio: imported only by a node that checks
+
+            self.collision = collision_checker(arm, len(self.joints))
         self.sequential = RobotCycleRunner(self.configs, self.hold_tolerance)
         self.line = LineCycleRunner(self.configs, self.hold_tolerance)
         self.line.results = self.sequential.results  # one outcome per joint, whichever sweep tested it last
@@ -334,6 +354,13 @@ class TestCycleNode(Node):
         else:
             plan = plan_robot_cycle(self.configs, joints, speeds, positions, here, self.max_duration)
             summary, duration = plan.summary(), plan.duration
+        if self.collision is not None:  # every move of the plan against the arm's model, before anything moves
+            from ..sim.collision import check_plan
+
+            clear = check_plan(self.collision, line if at_once else plan, self.configs, self.joints, here)
+            c = clear.contact
+            summary += (f"; path clear of the {self.collision.spec.name}'s links and the table (closest: {c.first} "
+                        f"and {c.second}, {100 * c.distance:.1f} cm, {clear.step})")
         if not req.dry_run:
             self._check_states(now)
         if req.dry_run:
@@ -579,8 +606,22 @@ class TestCycleNode(Node):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    """Console entry point ``test_cycle``."""
-    return run_node(TestCycleNode, args)
+    """Console entry point ``test_cycle``: exit status 2 with one line on stderr for a bad start-up setting (an
+    unknown ``arm``, more joints than the arm has, a value out of range)."""
+    refused: list[str] = []
+
+    def factory() -> TestCycleNode:
+        try:
+            return TestCycleNode()
+        except ParameterError as exc:  # bad input: one line, not a traceback
+            refused.append(str(exc))
+            raise ExternalShutdownException from None
+
+    rc = run_node(factory, args)
+    if refused:
+        print(f"test_cycle: {refused[0].removeprefix('test_cycle: ')}", file=sys.stderr)
+        return 2
+    return rc
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -7,10 +7,14 @@ the paper's ``sigma_e``. :class:`RobotSim` runs N of them on one clock behind
 one command array. :class:`ArmSim` is a real arm (:mod:`.arms`: a UR5, a Panda)
 with the same interface: Pinocchio's rigid-body dynamics of its URDF, every
 joint driven as a JointSim is. The ``joint_sim`` node wraps either.
+:class:`CollisionChecker` (:mod:`.collision`) is an arm's self-collision and table
+check from its URDF's collision meshes; :func:`check_plan` checks a planned test
+cycle with it before anything moves.
 
 Importing the package does not import Pinocchio: :class:`ArmSim`,
-:class:`ArmJointSim` and :func:`arm_configs` load :mod:`.arm` on first use
-(PEP 562).
+:class:`ArmJointSim` and :func:`arm_configs` load :mod:`.arm`, and
+:class:`CollisionChecker`, :func:`collision_checker` and :func:`check_plan`
+load :mod:`.collision`, on first use (PEP 562).
 """
 
 from __future__ import annotations
@@ -25,11 +29,14 @@ from .robot import RobotSim
 
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and readers
     from .arm import ArmJointSim, ArmSim, arm_configs
+    from .collision import CollisionChecker, check_plan, collision_checker
 
-__all__ = ["ARMS", "ArmJoint", "ArmJointSim", "ArmSim", "ArmSpec", "FrictionTable", "JointSample", "JointSim",
-           "JointSimConfig", "RobotSim", "arm_configs", "arm_spec", "parse_effects"]
+__all__ = ["ARMS", "ArmJoint", "ArmJointSim", "ArmSim", "ArmSpec", "CollisionChecker", "FrictionTable", "JointSample",
+           "JointSim", "JointSimConfig", "RobotSim", "arm_configs", "arm_spec", "check_plan", "collision_checker",
+           "parse_effects"]
 
-#: The module of each name loaded on first use (it imports pinocchio).
-_LAZY: dict[str, str] = dict.fromkeys(("ArmJointSim", "ArmSim", "arm_configs"), "arm")
+#: The module of each name loaded on first use (each imports pinocchio).
+_LAZY: dict[str, str] = {**dict.fromkeys(("ArmJointSim", "ArmSim", "arm_configs"), "arm"),
+                         **dict.fromkeys(("CollisionChecker", "check_plan", "collision_checker"), "collision")}
 
 __getattr__, __dir__ = lazy_names(__name__, _LAZY, globals())

@@ -106,6 +106,8 @@ class ArmSpec:
     #: the joint whose body carries the payload, and the payload's centre in that body's frame, m
     payload_joint: str = ""
     payload_offset: tuple[float, float, float] = (0.0, 0.0, 0.05)
+    #: the SRDF beside the URDF (relative to ``robots/``): the link pairs that never meet (collision check)
+    srdf: str = ""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -116,6 +118,16 @@ class ArmSpec:
         path = robots_dir() / self.urdf
         if not path.is_file():
             raise ParameterError(f"arm {self.name}: URDF {path} not found; install example-robot-data "
+                                 "(pip install example-robot-data, in requirements.txt)")
+        return path
+
+    def srdf_path(self) -> Path | None:
+        """The SRDF file (None when the arm names none; a one-line :class:`ParameterError` when it is missing)."""
+        if not self.srdf:
+            return None
+        path = robots_dir() / self.srdf
+        if not path.is_file():
+            raise ParameterError(f"arm {self.name}: SRDF {path} not found; install example-robot-data "
                                  "(pip install example-robot-data, in requirements.txt)")
         return path
 
@@ -135,8 +147,10 @@ def robots_dir() -> Path:
 _TAU = 6.283185307179586
 
 #: Universal Robots UR5 (example-robot-data ``ur_description/urdf/ur5_robot.urdf``). Test pose: the upper
-#: arm 1.3 rad up from horizontal, the forearm folded 1.3 rad, the wrist level: every joint sweeps about
-#: ±1.1 rad around it inside the URDF limits, and the shoulder and elbow carry gravity.
+#: arm 1.3 rad up from horizontal, the forearm 1.0 rad up (elbow 0.3), the wrist pitched 0.7 rad forward:
+#: every joint sweeps about ±1.1 rad around it inside the URDF limits, one after another clear of the arm
+#: and the table (:mod:`jointwear_ros.sim.collision`, 1 cm; the forearm level, elbow 1.3, took the wrist into
+#: the table), and the shoulder and elbow carry gravity (20 and 8.5 N·m; 3 kg at the flange: 10.8 and 7.5).
 UR5 = ArmSpec(
     name="ur5",
     title="Universal Robots UR5",
@@ -144,32 +158,36 @@ UR5 = ArmSpec(
     joints=(
         ArmJoint("shoulder_pan_joint", -_TAU, _TAU, 150.0, 3.15, 0.0, 0.6, inertia=3.1),
         ArmJoint("shoulder_lift_joint", -_TAU, _TAU, 150.0, 3.15, -1.3, 0.6, inertia=4.5),
-        ArmJoint("elbow_joint", -3.14159, 3.14159, 150.0, 3.15, 1.3, 0.6, inertia=2.0),
-        ArmJoint("wrist_1_joint", -_TAU, _TAU, 28.0, 3.2, -1.57, 0.1, inertia=0.39),
-        ArmJoint("wrist_2_joint", -_TAU, _TAU, 28.0, 3.2, -1.57, 0.1, inertia=0.35),
+        ArmJoint("elbow_joint", -3.14159, 3.14159, 150.0, 3.15, 0.3, 0.6, inertia=2.0),
+        ArmJoint("wrist_1_joint", -_TAU, _TAU, 28.0, 3.2, 0.7, 0.1, inertia=0.39),
+        ArmJoint("wrist_2_joint", -_TAU, _TAU, 28.0, 3.2, 0.0, 0.1, inertia=0.35),
         ArmJoint("wrist_3_joint", -_TAU, _TAU, 28.0, 3.2, 0.0, 0.1, inertia=0.12),
     ),
     payload_joint="wrist_3_joint",
+    srdf="ur_description/srdf/ur5.srdf",
 )
 
 #: Franka Emika Panda (example-robot-data ``panda_description/urdf/panda.urdf``), fingers locked open.
-#: Test pose: upper arm upright, forearm horizontal (joint 4 at -1.57), wrist bent (joint 6 at 1.87).
+#: Test pose: upper arm 0.3 rad back from upright, forearm near horizontal (joint 4 at -1.65), wrist bent
+#: (joint 6 at 2.5): each sweep clear of the arm and the table (with the upper arm upright and joint 6 at 1.87
+#: the fingers reached the table leaning forward), the shoulder and elbow loaded (17.8 and 20.5 N·m).
 PANDA = ArmSpec(
     name="panda",
     title="Franka Emika Panda",
     urdf="panda_description/urdf/panda.urdf",
     joints=(
         ArmJoint("panda_joint1", -2.8973, 2.8973, 87.0, 2.175, 0.0, 0.3, inertia=1.8),
-        ArmJoint("panda_joint2", -1.7628, 1.7628, 87.0, 2.175, 0.0, 0.3, inertia=2.8),
+        ArmJoint("panda_joint2", -1.7628, 1.7628, 87.0, 2.175, -0.3, 0.3, inertia=2.8),
         ArmJoint("panda_joint3", -2.8973, 2.8973, 87.0, 2.175, 0.0, 0.3, inertia=1.4),
-        ArmJoint("panda_joint4", -3.0718, -0.0698, 87.0, 2.175, -1.57, 0.3, inertia=1.8),
+        ArmJoint("panda_joint4", -3.0718, -0.0698, 87.0, 2.175, -1.65, 0.3, inertia=1.8),
         ArmJoint("panda_joint5", -2.8973, 2.8973, 12.0, 2.61, 0.0, 0.05, inertia=0.14),
-        ArmJoint("panda_joint6", -0.0175, 3.7525, 12.0, 2.61, 1.87, 0.05, inertia=0.16),
+        ArmJoint("panda_joint6", -0.0175, 3.7525, 12.0, 2.61, 2.5, 0.05, inertia=0.16),
         ArmJoint("panda_joint7", -2.8973, 2.8973, 12.0, 2.61, 0.785, 0.05, inertia=0.057),
     ),
     locked=(("panda_finger_joint1", 0.04), ("panda_finger_joint2", 0.04)),
     payload_joint="panda_joint7",
     payload_offset=(0.0, 0.0, 0.15),
+    srdf="panda_description/srdf/panda.srdf",
 )
 
 #: The arms by name (the ``arm`` parameter of ``joint_sim``; ``jointwear demo --arm``).
