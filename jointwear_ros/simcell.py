@@ -42,22 +42,30 @@ __all__ = ["ARM_EFFORT_FRACTION", "ARM_SWEEP_RANGE", "CellRun", "arm_cell_parame
 ARM_SWEEP_RANGE = 1.6
 #: The test cycle's effort limit on an arm: this fraction of the URDF's effort limit (the drive saturates there).
 ARM_EFFORT_FRACTION = 0.95
+#: The test cycle's acceleration (joint rad/s^2) and time at speed before a window (s) on an arm: shorter run-ups
+#: than the independent joints' defaults (4, 0.3), so every joint at once at 160 rad/s (motor) stays clear of the
+#: UR5's own links and the table (its run-ups otherwise take the wrist to the table from any loaded pose,
+#: test/test_arm_collision.py); well inside what the arms' drives do.
+ARM_ACCELERATION = 8.0
+ARM_STEADY_TIME = 0.2
 
 
 def arm_cell_parameters(arm: str, names: Sequence[str], payload: float = 0.0) -> dict[str, dict[str, Any]]:
     """The node parameters that put the cell on arm ``arm``: joint_sim simulates it (``arm``, ``payload``; each
     joint's drive from the arm's spec), test_cycle sweeps each joint around the arm's test pose inside its URDF
-    limits (``ARM_SWEEP_RANGE`` at most) below its effort limit, friction_observer scales each joint's effort
-    by the arm's torque scale. The i-th of ``names`` is the arm's i-th joint."""
+    limits (``ARM_SWEEP_RANGE`` at most) below its effort limit, at ``ARM_ACCELERATION`` and ``ARM_STEADY_TIME``,
+    and checks every planned path against the arm's links and the table (``arm``), friction_observer scales
+    each joint's effort by the arm's torque scale. The i-th of ``names`` is the arm's i-th joint."""
     spec = arm_spec(arm)
     out: dict[str, dict[str, Any]] = {"joint_sim": {"arm": spec.name, "payload": float(payload)},
-                                      "test_cycle": {}, "friction_observer": {}}
+                                      "test_cycle": {"arm": spec.name}, "friction_observer": {}}
     for name, j in zip(names, spec.for_names(names), strict=False):
         lo = max(j.lower + 0.05, j.home - ARM_SWEEP_RANGE)
         hi = min(j.upper - 0.05, j.home + ARM_SWEEP_RANGE)
         out["test_cycle"].update({f"{name}.gear_ratio": j.gear_ratio, f"{name}.position": j.home,
                                   f"{name}.joint_limits": [round(lo, 4), round(hi, 4)],
-                                  f"{name}.effort_limit": round(ARM_EFFORT_FRACTION * j.effort, 4)})
+                                  f"{name}.effort_limit": round(ARM_EFFORT_FRACTION * j.effort, 4),
+                                  f"{name}.acceleration": ARM_ACCELERATION, f"{name}.steady_time": ARM_STEADY_TIME})
         out["friction_observer"].update({f"{name}.gear_ratio": j.gear_ratio, f"{name}.torque_scale": j.torque_scale})
     return out
 
@@ -68,9 +76,9 @@ def cycle_settings(arm: str, names: Sequence[str], **cycle: Any) -> tuple[dict[s
     settings for every joint, e.g. ``speeds``) and :class:`ObserverConfig`."""
     params = arm_cell_parameters(arm, names)
     tc, fo = params["test_cycle"], params["friction_observer"]
-    cycles = {j: CycleConfig(joint_name=j, gear_ratio=tc[f"{j}.gear_ratio"], position=tc[f"{j}.position"],
-                             joint_limits=tuple(tc[f"{j}.joint_limits"]), effort_limit=tc[f"{j}.effort_limit"],
-                             **cycle) for j in names}
+    own = ("gear_ratio", "position", "effort_limit", "acceleration", "steady_time")
+    cycles = {j: CycleConfig(joint_name=j, joint_limits=tuple(tc[f"{j}.joint_limits"]),
+                             **{**{k: tc[f"{j}.{k}"] for k in own}, **cycle}) for j in names}
     observers = {j: ObserverConfig(joint_name=j, gear_ratio=fo[f"{j}.gear_ratio"],
                                    torque_scale=fo[f"{j}.torque_scale"]) for j in names}
     return cycles, observers

@@ -87,8 +87,9 @@ def test_the_default_cycles_clear_the_arm_and_the_table(arm, together):
 def test_on_the_ur5_every_joint_at_once_clears_up_to_120_rad_s_and_at_160_with_a_faster_run_up():
     """At 160 rad/s every joint runs ±1.11 rad at once (window, run-up at 4 rad/s² and 0.3 s steady, stopping
     allowance): the forearm and wrist pitch 2.2 and 3.3 rad along the line and reach the table from any pose that
-    loads the shoulder and elbow. The steps up to 120 rad/s clear; 160 does at 8 rad/s², 0.2 s steady."""
-    checker, names, cycles, here = _cell("ur5")
+    loads the shoulder and elbow. The steps up to 120 rad/s clear; 160 does at 8 rad/s², 0.2 s steady, the arm
+    cell's settings (simcell.ARM_ACCELERATION, ARM_STEADY_TIME)."""
+    checker, names, cycles, here = _cell("ur5", acceleration=4.0, steady_time=0.3)
     slower = plan_line_cycle(cycles, speeds=DEFAULT_SPEEDS[:-1], start_positions=here)
     assert check_plan(checker, slower, cycles, names, here).contact.margin > 0.0
     with pytest.raises(CycleRequestError, match=r"^step 8 \(160 rad/s\), sweep: wrist_1_link comes within .* of the "
@@ -96,12 +97,13 @@ def test_on_the_ur5_every_joint_at_once_clears_up_to_120_rad_s_and_at_160_with_a
                        r"centres$") as exc:
         check_plan(checker, plan_line_cycle(cycles, start_positions=here), cycles, names, here)
     assert exc.value.reason == RefusalReason.BAD_REQUEST
-    checker, names, cycles, here = _cell("ur5", acceleration=8.0, steady_time=0.2)
+    checker, names, cycles, here = _cell("ur5")  # the arm cell's own settings
+    assert (cycles["joint_1"].acceleration, cycles["joint_1"].steady_time) == (8.0, 0.2)
     assert check_plan(checker, plan_line_cycle(cycles, start_positions=here), cycles, names, here).contact.margin > 0.0
 
 
 def test_a_request_whose_path_would_collide_is_refused_before_anything_moves_naming_step_links_and_configuration():
-    checker, names, cycles, here = _cell("ur5")
+    checker, names, cycles, here = _cell("ur5", acceleration=4.0, steady_time=0.3)
     # the shoulder's window moved down to -0.4 rad (inside its limits [-2.9, 0.3]): the wrist reaches the table
     plan = plan_robot_cycle(cycles, ["joint_2"], [40.0], [-0.4], here)
     with pytest.raises(CycleRequestError, match=r"^joint_2, speed #1 \(40 rad/s\): wrist_\d_link (goes .* into|comes "

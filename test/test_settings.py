@@ -57,7 +57,7 @@ def test_the_test_cycle_node_declares_exactly_the_cycle_settings_and_its_own():
     cycle = settings_of(CycleConfig)
     own = [d.name for d in test_cycle.PARAMETERS if d.name not in cycle]
     assert own == ["joint_name", "joints", "command_topic", "joint_states_topic", "state_timeout_wall",
-                   "hold_tolerance", "sweep", "command_rate", "status_rate", "first_cycle_id", "motion_enabled",
+                   "hold_tolerance", "sweep", "arm", "command_rate", "status_rate", "first_cycle_id", "motion_enabled",
                    "simulator", "diagnostics_period"]
     assert test_cycle.PER_JOINT == per_joint(CycleConfig)
     # not parameters: set by the node (joint_name, control_period = 1 / command_rate) or fixed

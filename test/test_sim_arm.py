@@ -177,14 +177,14 @@ def test_a_payload_set_while_holding_sags_the_arm_until_its_drives_catch_it():
     _spec, sim = _model("ur5")
     q0 = sim.positions
     sim.step(0.5)
-    sim.set_payload(3.0)
+    sim.set_payload(5.0)  # at the test pose 3 kg stays within the shoulder's static friction: it would not sag
     sag = 0.0
     for _ in range(2000):
         sim.step(DT)
         sag = max(sag, float(np.abs(sim.positions - q0).max()))
     assert 1e-4 < sag < 0.02  # it moved, and not far
     assert np.abs(sim.positions - q0).max() < 2e-3  # and is back, within the breakaway band
-    assert sim.gravity()[1] < _model("ur5")[1].gravity()[1] - 10.0  # 3 kg pull on the shoulder
+    assert sim.gravity()[1] < _model("ur5")[1].gravity()[1] - 10.0  # 5 kg pull on the shoulder
 
 
 @pytest.mark.parametrize("name", list(ARMS))
@@ -247,7 +247,7 @@ def test_a_payload_moves_the_sum_by_its_gravity_and_the_difference_only_by_the_f
     white = np.array([j.config.effort_noise_std * j.config.torque_scale for j in sim.joints]) / np.sqrt(40)
     moved = (s3 - s0).mean(axis=0)
     assert np.abs(moved - (b3 - b0).mean(axis=0)).max() < (4 * white + 4 * sigma).max()
-    assert moved[1] < -10.0 and moved[2] < -10.0  # the shoulder and elbow carry 3 kg
+    assert moved[1] < -10.0 and moved[2] < -5.0  # the shoulder and elbow carry 3 kg (11 and 7.5 N·m)
     change = (d3 - d0).mean(axis=0) - (f3 - f0).mean(axis=0)
     assert (np.abs(change) < 4 * np.sqrt(2) * sigma).all(), (change, sigma)
     assert abs((d3 - d0).mean(axis=0)[0]) < 4 * np.sqrt(2) * sigma[0]

@@ -63,7 +63,7 @@ Cost: about 35 µs per step for six joints (``bench/bench_arm_sim.py``).
 >>> arm.step(1.0)
 >>> pos, vel, eff = arm.sample()
 >>> round(arm.time, 3), round(vel[0], 3), vel[1], round(arm.gravity()[1])
-(1.0, 0.2, 0.0, -27)
+(1.0, 0.2, 0.0, -20)
 """
 
 from __future__ import annotations
