@@ -17,7 +17,7 @@ Prints, per arm:
    simulator's friction at that speed and the load of the arm's configuration and velocities where the joint
    crossed its window centre, per-sweep offset off), worst over the speeds, in % of tau_f, for both cycles;
 4. a payload change (0 -> 3 kg on the UR5, 2 kg on the Panda) between two cycles at once: each joint's wear
-   shift against its std.
+   shift against its std, noise off, and with noise as the mean over the seeds with its standard error.
 
 Measures; asserts nothing. ``--quick``: the UR5 only, one seed. Figures of a run on this machine are in
 docs/arm.md.
@@ -58,7 +58,7 @@ def run(arm: str, n: int, together: bool, seed: int, noise: bool = True, payload
             for i, c in enumerate(arm_configs(spec, names))]
     sim = ArmSim(spec, names, sims, seeds=[seed * 100 + i for i in range(n)], payload=payload)
     r = run_cycle(sim, cycles, observers, together=together, seed=seed)
-    truth = {j: [sim.true_friction(j, abs(r.crossings[j, round(o.speed)][1][i]), *r.crossings[j, round(o.speed)])
+    truth = {j: [sim.true_friction(j, abs(r.crossing(j, o.speed)[1][i]), *r.crossing(j, o.speed))
                  / observers[j].torque_scale for o in r.observations[j]] for i, j in enumerate(names)}
     return {"state": r.state.name, "message": r.message, "planned": r.planned, "cell": r.cell_seconds,
             "obs": r.observations, "truth": truth, "estimates": r.estimates, "names": names}
@@ -105,7 +105,7 @@ def main() -> None:
         print(f"   within 3 std: one after another {within[False]}/{total}, at once {within[True]}/{total}")
         print("3. coupling residual, noise off: |observed - model truth| / tau_f, worst over the speeds:")
         quiet = {together: run(arm, n, together, 1, noise=False) for together in (False, True)}
-        print(f"   {'joint':8} {'one after another':>18} {'at once':>10} {'at once vs one after another':>30}")
+        print(f"   {'joint':8} {'one after another':>18} {'at once':>10} {'the two cycles apart (other poses)':>36}")
         for j in names:
             worst = {}
             for together in (False, True):
@@ -114,18 +114,25 @@ def main() -> None:
                                       default=math.nan)
             pair = [abs(a.tau_f - b.tau_f) / b.tau_f
                     for a, b in zip(quiet[True]["obs"][j], quiet[False]["obs"][j], strict=False)]
-            print(f"   {j:8} {100 * worst[False]:17.2f}% {100 * worst[True]:9.2f}% {100 * max(pair, default=math.nan):29.2f}%")
+            print(f"   {j:8} {100 * worst[False]:17.2f}% {100 * worst[True]:9.2f}% {100 * max(pair, default=math.nan):35.2f}%")
         kg = PAYLOAD[arm]
-        print(f"4. payload 0 -> {kg:g} kg between two cycles at once (same seed; noise on, so the two cycles also "
-              "differ by their noise): wear shift / std:")
-        loaded = run(arm, n, True, 1, payload=kg)
-        if loaded["state"] != "DONE":
-            print(f"   {loaded['state']}: {loaded['message']}")
-        shifts = []
+        print(f"4. payload 0 -> {kg:g} kg between two cycles at once: each joint's wear shift against its std, noise off "
+              "(the payload's own effect) and with noise over the seeds (mean shift ± its standard error: a bias "
+              "would stand out of it; two noisy cycles also differ by their noise):")
+        quiet_loaded = run(arm, n, True, 1, noise=False, payload=kg)
+        noisy = [run(arm, n, True, s, payload=kg) for s in seeds]
+        for r in [quiet_loaded, *noisy]:
+            if r["state"] != "DONE":
+                print(f"   {r['state']}: {r['message']}")
+        print(f"   {'joint':8} {'noise off':>18} {'with noise, mean over seeds':>30}")
         for j in names:
-            (w0, s0), (w3, s3) = line["estimates"][j], loaded["estimates"][j]
-            shifts.append(f"{j} {w3 - w0:+.2f} ({(w3 - w0) / max(s0, s3):+.2f} std)")
-        print("   " + "; ".join(shifts))
+            (w0, s0), (w3, s3) = quiet[True]["estimates"][j], quiet_loaded["estimates"][j]
+            d = np.array([b["estimates"][j][0] - a["estimates"][j][0] for a, b in zip(runs[True], noisy, strict=True)])
+            sd = np.array([max(a["estimates"][j][1], b["estimates"][j][1])
+                           for a, b in zip(runs[True], noisy, strict=True)])
+            se = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.nan
+            print(f"   {j:8} {w3 - w0:+7.2f} ({(w3 - w0) / max(s0, s3):+.2f} std) "
+                  f"{float(d.mean()):+12.2f} ± {se:.2f} ({float(d.mean()) / float(sd.mean()):+.2f} std)")
         print(f"   ({time.perf_counter() - t_wall:.0f} s wall)\n")
 
 

@@ -99,6 +99,14 @@ class CellRun:
     estimates: dict[str, tuple[float, float]]
     crossings: dict[tuple[str, int], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
+    def crossing(self, joint: str, speed: float) -> tuple[np.ndarray, np.ndarray]:
+        """Where the arm stood (q, v) when ``joint`` crossed its window centre forward at the commanded motor speed
+        nearest ``speed`` (an observation's speed is the measured one); ``KeyError`` if it never did."""
+        keys = [k for k in self.crossings if k[0] == joint]
+        if not keys:
+            raise KeyError(f"{joint} never crossed its window centre sweeping forward")
+        return self.crossings[min(keys, key=lambda k: abs(k[1] - speed))]
+
 
 def run_cycle(sim: Any, cycles: Mapping[str, CycleConfig], observers: Mapping[str, ObserverConfig], *,
               together: bool = True, seed: int = 0, method: str = "joint", cycle_id: int = 1,

@@ -36,7 +36,7 @@ def _errors(sim: ArmSim, run, observers) -> dict[str, list[float]]:
     for i, j in enumerate(sim.names):
         out[j] = []
         for o in run.observations[j]:
-            q, v = run.crossings[j, round(o.speed)]
+            q, v = run.crossing(j, o.speed)
             truth = sim.true_friction(j, abs(v[i]), q, v) / observers[j].torque_scale
             out[j].append(abs(o.tau_f - truth) / truth)
     return out
