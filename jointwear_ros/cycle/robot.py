@@ -147,6 +147,11 @@ class JointOutcome:
 #: Gain of a held joint's correction toward where it is held, 1/s (the line cycle's ``LINE_GAIN``: a time
 #: constant of 0.2 s, far below a velocity loop's bandwidth).
 HOLD_GAIN = 5.0
+#: Within this fraction of ``hold_tolerance`` of where it is held a held joint gets no correction: a joint that
+#: static friction holds a little off would creep under a tiny command, its drive winding up until it breaks
+#: away (stick-slip; on the Panda, whose joints 1 and 3 are nearly coaxial at its test pose, joint 3's friction
+#: then loaded joint 1's sweep).
+HOLD_DEADBAND = 0.1
 
 
 class RobotCycleRunner:
@@ -387,7 +392,11 @@ class RobotCycleRunner:
         if r is None or ref is None or not math.isfinite(r.position):
             return 0.0
         cap = 0.2 * self.configs[j].approach_speed
-        return max(-cap, min(cap, HOLD_GAIN * (ref - r.position)))
+        err = ref - r.position
+        band = HOLD_DEADBAND * self.hold_tolerance
+        if abs(err) <= band:  # where static friction holds it: a creeping command would only wind its drive up
+            return 0.0
+        return max(-cap, min(cap, HOLD_GAIN * (err - math.copysign(band, err))))
 
     def _hold_watchdog(self, j: str, now: float, r: JointReading | None, wall_age: float | None) -> str | None:
         cfg = self.configs[j]
