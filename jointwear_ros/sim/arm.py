@@ -43,17 +43,23 @@ stops dead (an end stop).
 
 **Stick band with coupling.** A joint whose motor speed is inside ``stick_speed`` is held (Karnopp, as
 JointSim's) while the torque needed to hold it is within its breakaway friction. On the arm that
-torque depends on the other joints: it is ``RNEA(q, q', a)_j``, ``a`` the other joints' accelerations
-of the previous step and 0 for the joints in the band, so the push of an accelerating joint on a held
-one is seen. A held joint gets exactly that torque from friction; its acceleration and velocity are
-set to 0. A joint that breaks away gets the breakaway friction against its net torque. A moving joint
-whose velocity would change sign within one step stops at 0 instead (friction cannot reverse a
-motion); the stick test of the next step decides. Away from 0 (the sweeps, where friction is
-observed) the friction is the model's kinetic friction, exactly.
+torque depends on the other joints, and it is solved within the step (:meth:`ArmSim._stick`): with the
+joints in the band at rest (acceleration 0), the others' accelerations follow from
+``M_FF a_F = tau_F - n_F`` (``M`` Pinocchio's ``crba``, armature included) and a held joint needs
+``M_hF a_F + n_h``; the joint whose drive misses that by most beyond its breakaway friction breaks away
+(the breakaway friction against its net torque) and the rest are solved again, until every joint still
+held can be held. So the push of an accelerating joint on a held one is the push of that same step. (With
+the other joints' accelerations of the *previous* step, two strongly coupled joints chattered: on the
+Panda, whose joints 1 and 3 are nearly coaxial at its test pose, ``M[0, 2]`` 1.05 against ``M[0, 0]`` 1.14
+kg·m², joint 1 swinging ±7 rad/s² every step while joint 3 stuck, its drive torque at constant speed 2.5
+times its friction.) A held joint gets exactly the torque it needs from friction; its acceleration and
+velocity are 0. A moving joint whose velocity would change sign within one step stops at 0 instead
+(friction cannot reverse a motion); the stick test of the next step decides. Away from 0 (the sweeps,
+where friction is observed) the friction is the model's kinetic friction, exactly.
 
 Integration: semi-implicit Euler at ``physics_rate`` (velocity first, position with the new velocity);
 :meth:`ArmSim.step` splits a longer ``dt`` into equal sub-steps no longer than ``1 / physics_rate``.
-Cost: about 35 µs per step for six joints (``bench/bench_arm_sim.py``).
+Cost: about 35-60 µs per step for six or seven joints (``bench/bench_arm_sim.py``).
 
 >>> from jointwear_ros.sim.arms import arm_spec
 >>> ur5 = arm_spec("ur5")
@@ -174,7 +180,6 @@ class ArmSim:
         n = len(names)
         self._q: Array = np.array([c.initial_position for c in configs], dtype=float)
         self._v: Array = np.zeros(n)
-        self._a: Array = np.zeros(n)
         self._tau: Array = np.zeros(n)
         self._g: Array = np.zeros(n)
         self._g_at: Array | None = None
@@ -371,19 +376,9 @@ class ArmSim:
                 tau[i] = (u - math.copysign(ff, vm)) * ts
         held: list[int] = []
         if band:
-            a_hold = self._a.copy()
-            a_hold[band] = 0.0
-            need = pin.rnea(model, data, q, v, a_hold).tolist()
-            for i in band:
-                net = us[i] - need[i]
-                if abs(net) <= ffs[i]:
-                    tau[i] = need[i]
-                    held.append(i)
-                else:
-                    tau[i] = us[i] - math.copysign(ffs[i], net)
-        a = np.array(pin.aba(model, data, q, v, tau), dtype=float)
-        if held:
-            a[held] = 0.0
+            a, held = self._stick(q, gl, us, ffs, band, tau)
+        else:
+            a = np.array(pin.aba(model, data, q, v, tau), dtype=float)
         v_new = v + a * h
         if held:
             v_new[held] = 0.0
@@ -395,10 +390,52 @@ class ArmSim:
             if not lower <= q_new[i] <= upper:
                 q_new[i] = upper if q_new[i] > upper else lower
                 v_new[i] = 0.0
-        self._a = (v_new - v) / h
         self._v = v_new
         self._q = q_new
         self.time = t + h
+
+    def _stick(self, q: Array, nle: list[float], us: list[float], ffs: list[float], band: list[int],
+               tau: Array) -> tuple[Array, list[int]]:
+        """The stick band with coupling, solved in the step: the accelerations and the joints held.
+
+        Every joint of ``band`` starts held (acceleration 0); the others' accelerations solve
+        ``M_FF a_F = tau_F - n_F``, and a held joint needs ``M_hF a_F + n_h`` from its drive and friction
+        together. Where the drive's torque ``us`` misses that by more than the breakaway friction ``ffs``,
+        the joint that misses most breaks away (the breakaway friction against its net torque, in ``tau``)
+        and the rest are solved again, until every joint still held is held. ``tau`` gets each held
+        joint's torque (what it needs)."""
+        n = len(us)
+        held = list(band)
+        upper: list[list[float]] | None = None  # M(q), upper triangle (crba's; armature included)
+
+        def m(i: int, k: int) -> float:
+            assert upper is not None
+            return upper[i][k] if i <= k else upper[k][i]
+
+        while True:
+            free = [i for i in range(n) if i not in held]
+            af: list[float] = []
+            if free:
+                if upper is None:
+                    upper = pin.crba(self.model, self.data, q).tolist()
+                r = [float(tau[i]) - nle[i] for i in free]
+                if len(free) == 1:
+                    af = [r[0] / m(free[0], free[0])]
+                else:
+                    af = np.linalg.solve(np.array([[m(i, k) for k in free] for i in free]), r).tolist()
+            need = [nle[i] + sum(m(i, k) * ak for k, ak in zip(free, af, strict=True)) for i in held]
+            worst, excess = -1, 0.0
+            for k, i in enumerate(held):
+                over = abs(us[i] - need[k]) - ffs[i]
+                if over > excess:
+                    worst, excess = k, over
+            if worst < 0:
+                tau[held] = need
+                a = np.zeros(n)
+                a[free] = af
+                return a, held
+            i = held.pop(worst)
+            tau[i] = us[i] - math.copysign(ffs[i], us[i] - need[worst])
 
     def _sync(self) -> None:
         """Copy the arm's state into each joint (position, motor speed, time): what they sample."""
