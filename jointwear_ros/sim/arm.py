@@ -59,7 +59,8 @@ where friction is observed) the friction is the model's kinetic friction, exactl
 
 Integration: semi-implicit Euler at ``physics_rate`` (velocity first, position with the new velocity);
 :meth:`ArmSim.step` splits a longer ``dt`` into equal sub-steps no longer than ``1 / physics_rate``.
-Cost: about 35-60 µs per step for six or seven joints (``bench/bench_arm_sim.py``).
+Cost: about 30-45 µs per step for six or seven joints all moving or all held (``bench/bench_arm_sim.py``),
+40-90 µs while some are held and others move (the band solved with the inertia matrix).
 
 >>> from jointwear_ros.sim.arms import arm_spec
 >>> ur5 = arm_spec("ur5")
