@@ -680,6 +680,9 @@ def _fixed(x: float | None, digits: int) -> str:
 COMMISSION_REAL_TIME_FACTOR = 3.0
 #: Default wall seconds one cycle of the commissioning demo may take.
 COMMISSION_CYCLE_TIMEOUT = 900.0
+#: What the joints of an arm run in the simulator during commissioning (said in the output).
+_ARM_SET_NOTE = ("every joint runs ref-2011r in the simulator, sized by its torque scale (effort / 2, gear 100); "
+                 "commissioning identifies each joint's own model from its baseline")
 
 
 @dataclass
@@ -696,6 +699,9 @@ class CycleRecord:
     observations: list[dict[str, Any]] = field(default_factory=list)
     live: dict[str, dict[str, Any]] = field(default_factory=dict)
     bag: str | None = None
+    #: on an arm: the cycle's payload (kg) and window centres (rad)
+    payload: float | None = None
+    positions: dict[str, float] = field(default_factory=dict)
 
     @property
     def usable(self) -> bool:
@@ -725,6 +731,25 @@ class CommissionedJoint:
     baseline_cycles: list[int] = field(default_factory=list)
     commission: dict[str, Any] = field(default_factory=dict)
     error: str = ""
+    #: on an arm: the planned load span of the baseline (normalized gravity, smallest and largest) and whether
+    #: commissioning identified the load dependence (False: fixed at 0, the priors say why)
+    load_span: tuple[float, float] | None = None
+    #: why the joint's load dependence cannot be identified on the arm ("" when it can)
+    unloaded: str = ""
+
+    @property
+    def load_identified(self) -> bool | None:
+        """Whether the commissioned set has its load terms (None: not commissioned): False when commissioning
+        fixed the load sensitivities at 0 because the load hardly changed (its prior says so)."""
+        if not self.commission:
+            return None
+        return not self.load_note
+
+    @property
+    def load_note(self) -> str:
+        """Why the joint's load dependence was not identified (the plan's reason, or commissioning's prior), ""
+        when it was."""
+        return self.unloaded or next((p for p in self.commission.get("priors", []) if "load" in p), "")
 
     @property
     def z(self) -> float | None:
@@ -747,7 +772,9 @@ class CommissionedJoint:
                 "live_std": self.live_std, "baseline_cycles": self.baseline_cycles,
                 "wear_calibration": c.get("wear_calibration"), "verdict": c.get("verdict"),
                 "converged": c.get("converged"), "cv_rmse": c.get("cv_rmse"), "noise_floor": c.get("noise_floor"),
-                "commission_warnings": c.get("warnings", []), "error": self.error or None}
+                "commission_warnings": c.get("warnings", []), "error": self.error or None,
+                "load_span": list(self.load_span) if self.load_span is not None else None,
+                "load_identified": self.load_identified, "load_note": self.load_note or None}
 
 
 @dataclass
@@ -760,6 +787,11 @@ class CommissionDemoResult:
     sets_dir: str
     bags: list[str]
     logs: str
+    #: the simulated arm ("": independent joints) and how its joints were swept
+    arm: str = ""
+    sweep: str = "sequential"
+    #: the plan run (commission.demo.PlannedCycle), one per planned cycle
+    plan: list[Any] = field(default_factory=list)
 
     @property
     def cell_seconds(self) -> float:
@@ -772,11 +804,15 @@ class CommissionDemoResult:
 
     def as_dict(self) -> dict[str, Any]:
         return {
+            "arm": self.arm or None,
+            "sweep": self.sweep,
+            "simulated_set": _ARM_SET_NOTE if self.arm else None,
             "commissioned": [j.as_dict() for j in self.joints],
             "skipped_cycles": [c.skipped_dict() for c in self.skipped],
             "cycles": [{"cycle_id": c.cycle_id, "stage": c.stage, "state": c.state,
                         "cell_seconds": _finite_or_none(c.cell_seconds), "observations": len(c.observations),
-                        "bag": c.bag}
+                        "bag": c.bag, **({"payload": c.payload} if c.payload is not None else {}),
+                        **({"positions": c.positions} if c.positions else {})}
                        for c in self.cycles],
             "speeds": self.speeds,
             "real_time_factor": self.real_time_factor,
@@ -955,6 +991,103 @@ def run_commission_demo(
                                 [float(s) for s in speeds or []], str(setdir), bags, str(logdir))
 
 
+def run_commission_in_process(
+    arm: str,
+    joints: int,
+    out: Path,
+    speeds: Sequence[float] | None = None,
+    baseline_cycles: int = 6,
+    test_wear: Sequence[float] = (10.0, 30.0, 40.0),
+    wear_calibration: str | None = None,
+    overload: bool = True,
+    seed: int = 0,
+) -> CommissionDemoResult:
+    """The commissioning run of ``jointwear demo --commission --arm ARM`` in one process, without ROS: the same
+    plan (:func:`~jointwear_ros.commission.demo.plan_arm_commissioning`) on one
+    :class:`~jointwear_ros.sim.arm.ArmSim` kept from cycle to cycle (payload and temperatures set between cycles,
+    the arm settling 1 s under its new payload), each cycle :func:`~jointwear_ros.simcell.run_cycle` (every joint
+    at once) with the cycle's window centres, then the same commissioning and test estimates as the demo's
+    (sets in ``OUT/sets``). The observations' temperature is the simulated joint's (the demo's temperature
+    topic); the test cycle's estimate leaves it out. A failed cycle is skipped by name, as in the demo."""
+    from dataclasses import replace
+
+    from ..commission.demo import ARM_LOADING, arm_joints, plan_arm_commissioning
+    from ..sim.arm import ArmSim, arm_configs
+    from ..sim.arms import arm_spec
+    from ..simcell import cycle_settings, run_cycle
+
+    t_start = time.monotonic()
+    setdir = out / "sets"
+    setdir.mkdir(parents=True, exist_ok=True)
+    spec = arm_spec(arm)
+    names = robot_joint_names(joints)
+    setups = arm_joints(spec.name, names)
+    plan = plan_arm_commissioning(spec.name, setups, baseline_cycles, test_wear, overload)
+    speeds = list(speeds or ARM_LOADING[spec.name].speeds or _config_value("test_cycle", "speeds", []))
+    cycles, observers = cycle_settings(spec.name, names, speeds=tuple(float(v) for v in speeds))
+    sim = ArmSim(spec, names, arm_configs(spec, names), seeds=[seed * 100 + i for i in range(len(names))])
+    records: list[CycleRecord] = []
+    results: list[CommissionedJoint] = []
+    for pc in plan:
+        if pc.stage == "test" and not results:
+            results = _commission_joints(setups, records, setdir, wear_calibration, plan)
+        sim.set_payload(float(pc.payload or 0.0))
+        for jn, st in pc.settings.items():
+            sim.reconfigure(jn, replace(sim[jn].config, temperature=st.temperature, wear=st.wear))
+        cyc = {jn: replace(cycles[jn], position=float(st.position if st.position is not None else cycles[jn].position))
+               for jn, st in pc.settings.items()}
+        for attempt in (0, 1):
+            _jog_sim(sim, {jn: c.position for jn, c in cyc.items()})  # as the demo's operator jogs after a stop
+            sim.step(1.0)
+            run = run_cycle(sim, cyc, observers, together=True, seed=seed, cycle_id=len(records) + 1)
+            done = run.state == CycleState.DONE
+            rec = CycleRecord(len(records) + 1, pc.stage, "DONE" if done else CycleState(run.state).name,
+                              cell_seconds=run.cell_seconds, payload=pc.payload,
+                              positions={jn: c.position for jn, c in cyc.items()})
+            for jn in names:
+                for o in run.observations[jn]:
+                    d = o.to_dict()
+                    d["time"] = d.pop("stamp")
+                    if not math.isfinite(d["temperature"]):  # the demo's temperature topic
+                        d["temperature"] = pc.settings[jn].temperature
+                    rec.observations.append(d)
+            records.append(rec)
+            sim.stop()
+            if done:
+                break
+            rec.reason = run.message
+            rec.joint = next((jn for jn in names if f"joint {jn}:" in run.message), "")
+            _progress(f"{pc.stage} cycle {rec.cycle_id} {rec.state} at {rec.joint}: {rec.reason}; skipped"
+                      + ("" if pc.stage == "overload" or attempt else ", running it again"))
+            if pc.stage == "overload":
+                break
+    if not results:
+        results = _commission_joints(setups, records, setdir, wear_calibration, plan)
+    test_settings = next(pc for pc in plan if pc.stage == "test").settings
+    for res in results:
+        res.true_wear = test_settings[res.joint].wear
+    _estimate_tests(results, [r for r in records if r.usable and r.stage == "test"])
+    return CommissionDemoResult(results, records, time.monotonic() - t_start, math.inf, [float(v) for v in speeds],
+                                str(setdir), [], "", arm=spec.name, sweep="simultaneous", plan=plan)
+
+
+def _jog_sim(sim: Any, targets: dict[str, float], speed: float = 0.3, tolerance: float = 0.03,
+             timeout: float = 60.0) -> None:
+    """Move the simulated arm to ``targets`` (rad) as :meth:`Operator.jog_to` jogs the live one: every 20 ms a
+    velocity command of at most ``speed`` rad/s, slowing near the target, until each joint is within
+    ``tolerance``."""
+    end = sim.time + timeout
+    while sim.time < end:
+        pos = sim.sample()[0]
+        err = [targets[j] - pos[i] for i, j in enumerate(sim.names)]
+        cmd = [0.0 if abs(e) < tolerance else max(-speed, min(speed, 2.0 * e)) for e in err]
+        if not any(cmd):
+            break
+        sim.set_commands(cmd)
+        sim.step(0.02)
+    sim.stop()
+
+
 def _sort_bags(bags: Sequence[Path], records: Sequence[CycleRecord], bagdir: Path) -> list[Path]:
     """Move each cycle's bag (the recorder splits by cycle: ``..._cycle<id>``) into ``bagdir/baseline``,
     ``bagdir/test`` or ``bagdir/skipped`` (a cycle that did not end DONE), so that ``jointwear commission
@@ -997,20 +1130,28 @@ def _live_estimates(op: Operator, children: Sequence[Child], rec: CycleRecord, n
 
 
 def _commission_joints(setups: Sequence[Any], records: Sequence[CycleRecord], setdir: Path,
-                       wear_calibration: str | None) -> list[CommissionedJoint]:
+                       wear_calibration: str | None, plan: Sequence[Any] = ()) -> list[CommissionedJoint]:
     """Commission every joint on the observations of its baseline cycles that ended DONE; write each set to
-    ``setdir/<joint>.yaml``. A joint that cannot be commissioned gets the reason in ``error``."""
+    ``setdir/<joint>.yaml``. A joint that cannot be commissioned gets the reason in ``error``. On an arm
+    (``plan``: the arm's plan), each joint gets its planned load span, and a joint whose load hardly changes
+    (:func:`~jointwear_ros.commission.demo.unloaded_joints`) is commissioned without the load column, saying why."""
     import yaml
 
     from ..commission import commission
-    from ..commission.demo import observation_table
+    from ..commission.demo import load_span, observation_table, unloaded_joints
     from ..estimation import set_frame_table
     from ..model import ParameterSet, SetUnits, parameter_set_document
 
     baseline = [r for r in records if r.usable and r.stage in ("baseline", "overload")]
+    unloaded = unloaded_joints(plan) if plan else {}
     out: list[CommissionedJoint] = []
     for j in setups:
         res = CommissionedJoint(j.name, j.params, j.frame, math.nan)
+        if plan:
+            res.load_span = tuple(round(x, 4) for x in load_span(plan, j.name))  # type: ignore[assignment]
+            res.unloaded = unloaded.get(j.name, "")
+            if res.unloaded:
+                _progress(res.unloaded)
         out.append(res)
         rows = [o for r in baseline for o in r.observations if o["joint_name"] == j.name]
         res.baseline_cycles = sorted({int(o["cycle_id"]) for o in rows})
@@ -1018,7 +1159,7 @@ def _commission_joints(setups: Sequence[Any], records: Sequence[CycleRecord], se
         _progress(f"commissioning {j.name} ({j.params}, {j.frame}) on {len(rows)} observations of "
                   f"{len(res.baseline_cycles)} baseline cycles")
         try:
-            table = observation_table(rows, f"{j.name} baseline")
+            table = observation_table(rows, f"{j.name} baseline", load=not res.unloaded)
             # the suite's units (motor side, normalized) to the set's, as `commission --gear-ratio` does for bags
             table = set_frame_table(table, ParameterSet("x", "", {}, units=units))
             kw: dict[str, Any] = {} if wear_calibration is None else {"wear_calibration": wear_calibration}
