@@ -106,12 +106,15 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="with --arm: payload at the flange, kg (default 0)")
     c = p.add_argument_group(
         "commissioning (--commission)",
-        "Simulate a robot whose joints use the shipped non-reference sets (arm6-base, cobot-j3, arm6-wrist), record "
-        "baseline cycles at w = 0 while the joints warm up and their windows change load, skip any cycle that "
-        "failed, commission every joint, run a cycle at other wear levels and print each joint's estimate with "
-        "its commissioned set against ref-2011r's (docs/nodes-bag-demo.md).")
+        "Simulate the arm (or, with --arm none, a robot whose joints use the shipped non-reference sets arm6-base, "
+        "cobot-j3, arm6-wrist), record baseline cycles at w = 0 while the joints warm up and their load changes "
+        "(on the arm: payload and pose), skip any cycle that failed, commission every joint, run a cycle at other "
+        "wear levels and print each joint's estimate with its commissioned set against ref-2011r's "
+        "(docs/nodes-bag-demo.md).")
     c.add_argument("--commission", action="store_true",
-                   help="run the commissioning demo (with --joints N: N joints, default 6)")
+                   help="run the commissioning demo (with --joints N: N joints, default 6) on the arm (--arm, default "
+                        f"{DEFAULT_ARM}; none: independent joints on the shipped sets), every joint at once unless "
+                        "--sweep sequential; on an arm the payload and pose change the load between cycles")
     c.add_argument("--baseline-cycles", type=int, default=6, metavar="K",
                    help=f"baseline cycles at w = 0 over the warm-up (default 6; at least {MIN_BASELINE_CYCLES})")
     c.add_argument("--test-wear", default="10,30,40",
@@ -120,7 +123,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="wear calibration of the commissioned sets: paper | relative | FILE (default: "
                         "commissioning's default)")
     c.add_argument("--no-overload", action="store_true",
-                   help="leave out the cycle whose first joint carries a load beyond test_cycle's effort limit "
+                   help="leave out the cycle that takes a joint beyond test_cycle's effort limit (on an arm: an "
+                        "overload payload; independent joints: the first joint's window load) "
                         "(by default it runs first, fails, and is skipped by name)")
     p.set_defaults(func=cmd_demo)
 
@@ -833,8 +837,9 @@ def _observation_dict(o: Any) -> dict[str, Any]:
 
 
 def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequence[float], names: Sequence[str],
-               timeout: float) -> CycleRecord:
-    """Start one robot cycle, follow it to its end, wait for its observations; what happened."""
+               timeout: float, together: bool = False) -> CycleRecord:
+    """Start one robot cycle, follow it to its end, wait for its observations; what happened. ``together``: every
+    joint is swept at once (one progress line per speed step, not per joint)."""
     cycle_id, _ = op.start_cycle(speeds, children)
     _progress(f"{stage} cycle {cycle_id} accepted")
     shown: list[tuple[Any, ...] | None] = [None]
@@ -843,11 +848,12 @@ def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequ
         st = op.status
         if st is None or st.cycle_id != cycle_id:
             return
-        key = (st.joint_name, st.state, st.speeds_done)
+        key = (st.state, st.speeds_done) if together else (st.joint_name, st.state, st.speeds_done)
         if key != shown[0]:
             shown[0] = key
             extra = f": {st.message}" if st.state in (CycleState.ABORTED, CycleState.FAILED) and st.message else ""
-            where = f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else ""
+            where = (f"{len(names)} joints at once " if together else
+                     f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else "")
             _progress(f"{stage} cycle {cycle_id} {where}{st.state_name}, speeds done "
                       f"{st.speeds_done}/{st.speeds_total}{extra}")
 
@@ -857,7 +863,9 @@ def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequ
                     and st.state in (CycleState.ABORTED, CycleState.FAILED)), None)
     rec = CycleRecord(cycle_id, stage, "DONE" if stopped is None else stopped.state_name)
     if stopped is not None:
-        rec.joint, rec.reason = stopped.joint_name, stopped.message or "no reason given"
+        rec.reason = stopped.message or "no reason given"
+        # on a line cycle every joint's status carries the stop: the joint is the one its reason names
+        rec.joint = _named_joint(rec.reason, names) or stopped.joint_name
     else:
         try:  # every speed of every joint observed (the observer may trail the cycle's end on a loaded machine)
             op.spin_until(lambda: all(op.observer_done(cycle_id, j) for j in op.joints_started(cycle_id)), 60.0,
@@ -867,6 +875,13 @@ def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequ
     rec.cell_seconds = op.cell_seconds(cycle_id)
     rec.observations = [_observation_dict(o) for o in op.observations if o.cycle_id == cycle_id]
     return rec
+
+
+def _named_joint(reason: str, names: Sequence[str]) -> str:
+    """The joint a watchdog's reason names (``watchdog: joint joint_2: |effort| ...``, ``watchdog: joint_1 0.03
+    rad off the line ...``), "" if none."""
+    head = reason.removeprefix("watchdog: ").removeprefix("joint ")
+    return next((j for j in names if head.startswith((f"{j}:", f"{j} "))), "")
 
 
 def run_commission_demo(
@@ -881,8 +896,17 @@ def run_commission_demo(
     cycle_timeout: float = COMMISSION_CYCLE_TIMEOUT,
     domain_id: int | None = None,
     overrides: dict[str, dict[str, Any]] | None = None,
+    arm: str | None = None,
+    sweep: str | None = None,
 ) -> CommissionDemoResult:
     """Commission a simulated robot of ``joints`` joints end to end (see ``jointwear demo --help``).
+
+    ``arm`` (``ur5``, ``panda``): the cell on that arm (:func:`~jointwear_ros.simcell.arm_cell_parameters`), every
+    joint on ``ref-2011r`` sized by its torque scale, commissioned in the joint frame; the plan is
+    :func:`~jointwear_ros.commission.demo.plan_arm_commissioning`: between cycles the operator sets joint_sim's
+    ``payload`` and each joint's temperature and wear, and test_cycle's window centres (``<joint>.position``), then
+    jogs the arm to them. ``sweep`` is test_cycle's (``None``: every joint at once on an arm, else its config).
+    ``arm=None``: the independent-joint robot on the shipped sets, each window's gravity set per cycle.
 
     One cell (the five nodes of the demo) runs every cycle of :func:`~jointwear_ros.commission.demo.
     plan_commissioning`; between cycles the operator sets joint_sim's per-joint temperature, gravity and wear
@@ -894,7 +918,14 @@ def run_commission_demo(
     (:func:`~jointwear_ros.commission.estimate_cycles`, joint estimator). The live wear_estimator is switched to
     the commissioned sets before the test cycle; its estimates are reported as ``live_estimate``.
     """
-    from ..commission.demo import demo_joints, plan_commissioning
+    from ..commission.demo import (
+        ARM_APPROACH_SPEED,
+        ARM_LOADING,
+        arm_joints,
+        demo_joints,
+        plan_arm_commissioning,
+        plan_commissioning,
+    )
     from ..io.bags import find_bags
     from ..nodes.runtime import loopback_env
 
@@ -906,8 +937,14 @@ def run_commission_demo(
         d.mkdir(parents=True, exist_ok=True)
     bags_before = set(find_bags(bagdir))
     names = robot_joint_names(joints)
-    setups = demo_joints(names)
-    plan = plan_commissioning(setups, baseline_cycles, test_wear, overload)
+    if arm is not None:
+        setups = arm_joints(arm, names)
+        plan = plan_arm_commissioning(arm, setups, baseline_cycles, test_wear, overload)
+        speeds = list(speeds or ARM_LOADING[arm].speeds or [])
+        sweep = sweep or ("simultaneous" if len(names) > 1 else None)
+    else:
+        setups = demo_joints(names)
+        plan = plan_commissioning(setups, baseline_cycles, test_wear, overload)
     first = plan[0].settings
     rtf_grace = max(float(real_time_factor), 1.0)
     sim: dict[str, Any] = {"use_sim_time": False, "publish_clock": True, "real_time_factor": float(real_time_factor),
@@ -917,16 +954,30 @@ def run_commission_demo(
     obs: dict[str, Any] = {"use_sim_time": True, "temperature_topic": "/joint_temperature"}
     for j in setups:
         s = first[j.name]
-        sim.update({f"{j.name}.params": j.params, f"{j.name}.gear_ratio": j.gear_ratio,
-                    f"{j.name}.torque_scale": j.torque_scale, f"{j.name}.temperature": s.temperature,
-                    f"{j.name}.gravity_torque": s.gravity_torque, f"{j.name}.wear": s.wear})
-        cyc.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.effort_limit": j.effort_limit})
-        obs.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.torque_scale": j.torque_scale})
+        sim.update({f"{j.name}.params": j.params, f"{j.name}.temperature": s.temperature, f"{j.name}.wear": s.wear})
+        if arm is None:  # on an arm, the arm gives each joint its drive, pose and effort limit (below)
+            sim.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.torque_scale": j.torque_scale,
+                        f"{j.name}.gravity_torque": s.gravity_torque})
+            cyc.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.effort_limit": j.effort_limit})
+            obs.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.torque_scale": j.torque_scale})
     params: dict[str, dict[str, Any]] = {
         "recorder": {"use_sim_time": True, "output_dir": str(bagdir.resolve()), "split": "cycle"},
         "joint_sim": sim, "test_cycle": cyc, "friction_observer": obs,
         "wear_estimator": {"use_sim_time": True, "done_timeout": _config_done_timeout() * float(real_time_factor)},
     }
+    if arm is not None:
+        from ..simcell import arm_cell_parameters
+
+        for node, values in arm_cell_parameters(arm, names, float(plan[0].payload or 0.0)).items():
+            params[node].update(values)
+        for j in setups:
+            cyc[f"{j.name}.approach_speed"] = ARM_APPROACH_SPEED
+            if first[j.name].position is not None:
+                cyc[f"{j.name}.position"] = first[j.name].position
+    if sweep is not None:
+        cyc["sweep"] = sweep
+    together = len(names) > 1 and (cyc.get("sweep") or _config_value("test_cycle", "sweep", "sequential")) \
+        == "simultaneous"
     for node in _JOINT_NODES:
         params[node]["joints"] = list(names)
     for node, values in (overrides or {}).items():
@@ -937,33 +988,45 @@ def run_commission_demo(
     results: list[CommissionedJoint] = []
     try:
         _progress(f"ROS_DOMAIN_ID={domain_id}, loopback only; logs in {logdir}; "
-                  + ", ".join(f"{j.name} {j.params}" for j in setups))
+                  + (f"on the {arm} arm, {_ARM_SET_NOTE}" if arm else ", ".join(f"{j.name} {j.params}" for j in setups)))
         op = _start_cell(children, params, env, logdir, names, domain_id)
         _progress(f"graph connected after {time.monotonic() - t_start:.1f} s")
         n_plan = len(plan)
         jog = False
         for k, pc in enumerate(plan):
             if pc.stage == "test" and not results:
-                results = _commission_joints(setups, records, setdir, wear_calibration)
+                results = _commission_joints(setups, records, setdir, wear_calibration, plan if arm else ())
                 _switch_estimator(op, children, results)
             live: dict[str, Any] = {}
             for jn, st in pc.settings.items():
-                live.update({f"{jn}.temperature": st.temperature, f"{jn}.gravity_torque": st.gravity_torque,
-                             f"{jn}.wear": st.wear})
+                live.update({f"{jn}.temperature": st.temperature, f"{jn}.wear": st.wear})
+                if arm is None:
+                    live[f"{jn}.gravity_torque"] = st.gravity_torque
+            if arm is not None:
+                live["payload"] = float(pc.payload or 0.0)
+                op.set_parameters("test_cycle", {f"{jn}.position": st.position for jn, st in pc.settings.items()},
+                                  children)
             op.set_parameters("joint_sim", live, children)
-            _progress(f"cycle {k + 1} of {n_plan} ({pc.stage}): " + ", ".join(
-                f"{jn} {st.temperature:.1f} degC, load {st.gravity_torque:g}"
-                + (f", wear {st.wear:g}" if st.wear else "") for jn, st in pc.settings.items()))
+            centres = ({jn: float(st.position) for jn, st in pc.settings.items() if st.position is not None}
+                       if arm else {jn: _window_centre(jn) for jn in names})
+            _progress(f"cycle {k + 1} of {n_plan} ({pc.stage})"
+                      + (f", payload {pc.payload:g} kg: " if pc.payload is not None else ": ") + ", ".join(
+                          f"{jn} {st.temperature:.1f} degC, load {st.gravity_torque:g}"
+                          + (f" at {st.position:g} rad" if st.position is not None else "")
+                          + (f", wear {st.wear:g}" if st.wear else "") for jn, st in pc.settings.items()))
             for attempt in (0, 1):
-                if jog:
-                    # as an operator would after a stop, with the next window's load: jog the joints back to
-                    # their windows (test_cycle refuses to start a joint that overran a limit)
+                if jog or arm is not None:
+                    # as an operator would after a stop, with the next window's load (and on an arm before every
+                    # cycle, to its new pose): jog the joints to their windows (test_cycle refuses to start a
+                    # joint that overran a limit)
                     try:
-                        op.jog_to({jn: _window_centre(jn) for jn in names}, children)
+                        op.jog_to(centres, children)
                     except CellError as exc:
                         _progress(f"{exc}; test_cycle will approach the windows itself")
                     jog = False
-                rec = _run_cycle(op, children, pc.stage, speeds or [], names, cycle_timeout)
+                rec = _run_cycle(op, children, pc.stage, speeds or [], names, cycle_timeout, together)
+                rec.payload = pc.payload
+                rec.positions = centres if arm else {}
                 records.append(rec)
                 if rec.usable:
                     break
@@ -981,14 +1044,16 @@ def run_commission_demo(
         if children:
             _stop_cell(children)
     if not results:  # the run ended before its test cycle
-        results = _commission_joints(setups, records, setdir, wear_calibration)
+        results = _commission_joints(setups, records, setdir, wear_calibration, plan if arm else ())
     test_settings = next(pc for pc in plan if pc.stage == "test").settings
     for res in results:
         res.true_wear = test_settings[res.joint].wear
     _estimate_tests(results, [r for r in records if r.usable and r.stage == "test"])
     bags = [str(b) for b in _sort_bags([b for b in find_bags(bagdir) if b not in bags_before], records, bagdir)]
     return CommissionDemoResult(results, records, time.monotonic() - t_start, float(real_time_factor),
-                                [float(s) for s in speeds or []], str(setdir), bags, str(logdir))
+                                [float(s) for s in speeds or []], str(setdir), bags, str(logdir), arm=arm or "",
+                                sweep=str(cyc.get("sweep") or _config_value("test_cycle", "sweep", "sequential")),
+                                plan=plan)
 
 
 def run_commission_in_process(
@@ -1011,7 +1076,7 @@ def run_commission_in_process(
     topic); the test cycle's estimate leaves it out. A failed cycle is skipped by name, as in the demo."""
     from dataclasses import replace
 
-    from ..commission.demo import ARM_LOADING, arm_joints, plan_arm_commissioning
+    from ..commission.demo import ARM_APPROACH_SPEED, ARM_LOADING, arm_joints, plan_arm_commissioning
     from ..sim.arm import ArmSim, arm_configs
     from ..sim.arms import arm_spec
     from ..simcell import cycle_settings, run_cycle
@@ -1024,7 +1089,8 @@ def run_commission_in_process(
     setups = arm_joints(spec.name, names)
     plan = plan_arm_commissioning(spec.name, setups, baseline_cycles, test_wear, overload)
     speeds = list(speeds or ARM_LOADING[spec.name].speeds or _config_value("test_cycle", "speeds", []))
-    cycles, observers = cycle_settings(spec.name, names, speeds=tuple(float(v) for v in speeds))
+    cycles, observers = cycle_settings(spec.name, names, speeds=tuple(float(v) for v in speeds),
+                                       approach_speed=ARM_APPROACH_SPEED)
     sim = ArmSim(spec, names, arm_configs(spec, names), seeds=[seed * 100 + i for i in range(len(names))])
     records: list[CycleRecord] = []
     results: list[CommissionedJoint] = []
@@ -1056,7 +1122,7 @@ def run_commission_in_process(
             if done:
                 break
             rec.reason = run.message
-            rec.joint = next((jn for jn in names if f"joint {jn}:" in run.message), "")
+            rec.joint = _named_joint(run.message, names)
             _progress(f"{pc.stage} cycle {rec.cycle_id} {rec.state} at {rec.joint}: {rec.reason}; skipped"
                       + ("" if pc.stage == "overload" or attempt else ", running it again"))
             if pc.stage == "overload":
@@ -1239,6 +1305,11 @@ def cmd_demo_commission(args: argparse.Namespace) -> int:
         if value is not None:
             raise UsageError(f"{flag}: the commissioning demo sets it per cycle (use --test-wear for the test cycle)")
     n = _int_arg(args.joints if args.joints is not None else 6, "--joints", 1, MAX_DEMO_JOINTS)
+    if args.payload is not None:
+        raise UsageError("--payload: the commissioning demo sets the payload per cycle (0 up to the arm's "
+                         "commissioning payload, and one overload)")
+    arm, _ = _arm_args(args, n)
+    sweep = args.sweep or ("simultaneous" if arm is not None and n > 1 else None)
     k = _int_arg(args.baseline_cycles, "--baseline-cycles", MIN_BASELINE_CYCLES, 40)
     test_wear = parse_float_list(args.test_wear, "--test-wear") if "," in args.test_wear else [
         parse_float(args.test_wear, "--test-wear")]
@@ -1268,7 +1339,7 @@ def cmd_demo_commission(args: argparse.Namespace) -> int:
         raise UsageError("--set NODE.joints: the demo sets the joints of every node from --joints N")
     check_output_dir(args.out, "--out")
     res = run_commission_demo(n, Path(args.out), speeds, k, test_wear, wc, not args.no_overload, rtf, timeout,
-                              args.domain_id, overrides)
+                              args.domain_id, overrides, arm=arm, sweep=sweep)
     import contextlib
     import io
 
@@ -1302,12 +1373,22 @@ def _print_commission(res: CommissionDemoResult) -> None:
     rows = []
     for j in res.joints:
         c = j.commission
-        rows.append([j.joint, j.params, f"{j.true_wear:g}", _pm(j.estimate, j.std), _z(j.z),
-                     _pm(j.reference_estimate, j.reference_std), _z(j.reference_z), c.get("verdict", ""),
-                     str(len(j.baseline_cycles))])
-    print(f"commissioned {len(res.joints)} joint(s); test cycle at unknown temperature, joint estimator")
+        row = [j.joint, j.params, f"{j.true_wear:g}", _pm(j.estimate, j.std), _z(j.z),
+               _pm(j.reference_estimate, j.reference_std), _z(j.reference_z), c.get("verdict", ""),
+               str(len(j.baseline_cycles))]
+        if res.arm:
+            span = f"{j.load_span[0]:.2f}-{j.load_span[1]:.2f}" if j.load_span else ""
+            row.append(f"{span} {'identified' if j.load_identified else 'not identified'}".strip())
+        rows.append(row)
+    on = f" on the {res.arm} arm, {len(res.joints)} joints swept {res.sweep}ly" if res.arm else ""
+    print(f"commissioned {len(res.joints)} joint(s){on}; test cycle at unknown temperature, joint estimator")
+    if res.arm:
+        print(f"({_ARM_SET_NOTE}; the load changed by payload and pose between cycles)")
     print(format_table(["joint", "simulated", "true w", "commissioned", "z", "ref-2011r (before)", "z ref",
-                        "verdict", "cycles"], rows))
+                        "verdict", "cycles"] + (["load (planned), its terms"] if res.arm else []), rows))
+    for j in res.joints:
+        if res.arm and j.load_note:
+            print(f"{j.joint}: load not identified: {j.load_note.removeprefix(j.joint + ': ')}")
     for r in res.skipped:
         print(f"skipped {r.stage} cycle {r.cycle_id}: {r.state} at {r.joint} (test_cycle: {r.reason})")
     for j in res.joints:

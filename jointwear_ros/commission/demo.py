@@ -41,6 +41,7 @@ from ..types import ObservationTable
 from .names import MIN_BASELINE_CYCLES
 
 __all__ = [
+    "ARM_APPROACH_SPEED",
     "ARM_LOADING",
     "ARM_SET",
     "DEMO_SETS",
@@ -240,15 +241,21 @@ class ArmLoading:
     reach: float = 1.3
 
 
-#: The loading of each arm (measured with ``simcell.run_cycle``, every joint at once, 20-48 degC): the UR5 carries
-#: 0-5 kg on test_cycle's 8 speeds (10-160 rad/s); 15 kg trips the shoulder (joint 2) as it accelerates. The
+#: The loading of each arm (measured with ``simcell.run_cycle`` and the ROS demo, every joint at once, 20-48 degC):
+#: the UR5 carries 0-4 kg on test_cycle's 8 speeds (10-160 rad/s), its shoulder (joint 2) shifted up and its elbow
+#: folded (at 5 kg and the shoulder 0.25 rad nearer horizontal the live cell tripped the shoulder at 143-145 N·m >
+#: 142.5); 15 kg trips the shoulder as it accelerates. The
 #: Panda's top speed 160 rad/s tripped its shoulder (joint 2, 83 N·m > 82.65) at 1 kg and 120 rad/s its wrist
 #: (joint 6, 11.6 N·m > 11.4) at 2 kg: its run stops at 120 rad/s and 1.5 kg; 5 kg trips joint 6.
 ARM_LOADING: dict[str, ArmLoading] = {
-    "ur5": ArmLoading(payload=5.0, overload_payload=15.0),
+    "ur5": ArmLoading(payload=4.0, overload_payload=15.0, pose_signs=(1.0, -1.0, 1.0, 1.0, -1.0, 1.0)),
     "panda": ArmLoading(payload=1.5, overload_payload=5.0, speeds=(10.0, 20.0, 30.0, 40.0, 60.0, 80.0), pose_step=0.4,
                         pose_signs=(1.0, -1.0, 1.0, -1.0, 1.0, 1.0, 1.0), test_pose=0.5, reach=0.9),
 }
+#: test_cycle's approach speed on an arm during commissioning, joint rad/s (its default 0.5): with a payload the
+#: shoulder lags the other joints on the approach line, and the live cell (3x and 2x real time) tripped its
+#: ``hold_tolerance`` (0.020-0.027 rad off the line) at 3.4 kg; half the speed halves the lag.
+ARM_APPROACH_SPEED = 0.25
 #: The parameter set every joint of an arm runs in the sim (``joint_sim``'s default, sized by each joint's torque
 #: scale = effort / 2 and gear 100): commissioning identifies each joint's own model from its baseline all the same.
 ARM_SET = "ref-2011r"
