@@ -235,6 +235,9 @@ class ArmLoading:
     pose_signs: tuple[float, ...] | None = None
     #: the test cycle's shift from the test pose, as a share of ``pose_step`` in each joint's ``pose_signs``
     test_pose: float = 0.0
+    #: per joint, a shift every cycle takes beside its own (share of ``pose_step`` in ``pose_signs``; None: none):
+    #: the Panda's shoulder stays leaning back
+    pose_offset: tuple[float, ...] | None = None
     #: how far each joint's test window reaches either side of its centre at the run's top speed, rad (window,
     #: run-up, stopping allowance; about 1.2 rad at 160 rad/s, gear 100, 4 rad/s^2; 0.6 at 80 rad/s): a centre
     #: is shifted only as far as its window stays inside the cell's joint limits
@@ -246,11 +249,14 @@ class ArmLoading:
 #: folded (at 5 kg and the shoulder 0.25 rad nearer horizontal the live cell tripped the shoulder at 143-145 N·m >
 #: 142.5); 15 kg trips the shoulder as it accelerates. The
 #: Panda's top speed 160 rad/s tripped its shoulder (joint 2, 83 N·m > 82.65) at 1 kg and 120 rad/s its wrist
-#: (joint 6, 11.6 N·m > 11.4) at 2 kg: its run stops at 120 rad/s and 1.5 kg; 5 kg trips joint 6.
+#: (joint 6, 11.6 N·m > 11.4) at 2 kg: its run stops at 80 rad/s and 1.5 kg, its shoulder leaning back 0.4-0.8 rad,
+#: its elbow folding and its wrist (joint 6) bending back (the live cell, at the test pose leaning 0.2 rad back, still tripped the
+#: shoulder at 87 N·m > 82.65 braking at the sweep's end); 5 kg trips joint 6.
 ARM_LOADING: dict[str, ArmLoading] = {
     "ur5": ArmLoading(payload=4.0, overload_payload=15.0, pose_signs=(1.0, -1.0, 1.0, 1.0, -1.0, 1.0)),
     "panda": ArmLoading(payload=1.5, overload_payload=5.0, speeds=(10.0, 20.0, 30.0, 40.0, 60.0, 80.0), pose_step=0.4,
-                        pose_signs=(1.0, -1.0, 1.0, -1.0, 1.0, 1.0, 1.0), test_pose=0.5, reach=0.9),
+                        pose_signs=(1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0), test_pose=0.5, reach=0.9,
+                        pose_offset=(0.0, 1.0)),
 }
 #: test_cycle's approach speed on an arm during commissioning, joint rad/s (its default 0.5): with a payload the
 #: shoulder lags the other joints on the approach line, and the live cell (3x and 2x real time) tripped its
@@ -311,9 +317,9 @@ def plan_arm_commissioning(arm: str, joints: Sequence[JointSetup], baseline_cycl
     >>> js = arm_joints("ur5", [f"joint_{i}" for i in range(1, 7)])
     >>> plan = plan_arm_commissioning("ur5", js, baseline_cycles=4)
     >>> [(c.stage, c.payload) for c in plan]
-    [('overload', 15.0), ('baseline', 0.0), ('baseline', 5.0), ('baseline', 2.5), ('baseline', 4.25), ('test', 2.5)]
+    [('overload', 15.0), ('baseline', 0.0), ('baseline', 4.0), ('baseline', 2.0), ('baseline', 3.4), ('test', 2.0)]
     >>> plan[0].overloaded, [round(load_span(plan, j.name)[1], 2) for j in js]
-    ('joint_2', [0.0, 0.99, 0.56, 0.5, 0.04, 0.05])
+    ('joint_2', [0.0, 0.56, 0.49, 0.4, 0.03, 0.04])
     >>> sorted(unloaded_joints(plan))  # the base joint's axis is vertical: no gravity load in any pose
     ['joint_1']
     """
@@ -369,7 +375,7 @@ def _centres(home: Mapping[str, float], allowed: Mapping[str, tuple[float, float
     for i, n in enumerate(home):
         signs = loading.pose_signs
         shift = share * loading.pose_step * (-1) ** i if signs is None else \
-            abs(share) * loading.pose_step * (signs[i] if i < len(signs) else 0.0)
+            (_nth(loading.pose_offset, i) + abs(share)) * loading.pose_step * _nth(signs, i)
         out[n] = min(max(home[n] + shift, allowed[n][0]), allowed[n][1])
     return out
 
@@ -389,6 +395,11 @@ def unloaded_joints(plan: Sequence[PlannedCycle]) -> dict[str, str]:
                       "passes through it, so its load dependence cannot be identified; commissioned without the load "
                       "column (only the speed's Coriolis push loads it)")
     return out
+
+
+def _nth(values: Sequence[float] | None, i: int) -> float:
+    """``values[i]``, 0 beyond its end or without values."""
+    return float(values[i]) if values is not None and i < len(values) else 0.0
 
 
 def load_span(plan: Sequence[PlannedCycle], joint: str) -> tuple[float, float]:
