@@ -13,7 +13,7 @@ import pytest
 
 from jointwear_ros.cli.demo_cmd import run_commission_in_process
 
-SPEEDS = {"ur5": (10.0, 20.0, 40.0, 80.0, 160.0), "panda": (10.0, 20.0, 40.0, 60.0, 80.0)}
+SPEEDS = {"ur5": (10.0, 20.0, 40.0, 80.0, 120.0), "panda": (10.0, 20.0, 40.0, 60.0, 80.0)}
 OVERLOADED = {"ur5": "joint_2", "panda": "joint_6"}
 
 

@@ -253,7 +253,8 @@ class ArmLoading:
 #: its elbow folding and its wrist (joint 6) bending back (the live cell, at the test pose leaning 0.2 rad back, still tripped the
 #: shoulder at 87 N·m > 82.65 braking at the sweep's end); 5 kg trips joint 6.
 ARM_LOADING: dict[str, ArmLoading] = {
-    "ur5": ArmLoading(payload=4.0, overload_payload=15.0, pose_signs=(1.0, -1.0, 1.0, 1.0, -1.0, 1.0)),
+    "ur5": ArmLoading(payload=4.0, overload_payload=15.0, speeds=(10.0, 20.0, 30.0, 40.0, 50.0, 80.0, 120.0),
+                      pose_signs=(1.0, -1.0, 1.0, 1.0, -1.0, 1.0)),
     "panda": ArmLoading(payload=1.5, overload_payload=5.0, speeds=(10.0, 20.0, 30.0, 40.0, 60.0, 80.0), pose_step=0.4,
                         pose_signs=(1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0), test_pose=0.5, reach=0.9,
                         pose_offset=(0.0, 1.0)),
