@@ -1033,7 +1033,7 @@ def run_commission_demo(
                     # cycle, to its new pose): jog the joints to their windows (test_cycle refuses to start a
                     # joint that overran a limit)
                     try:
-                        op.jog_to(centres, children, tolerance=0.01 if arm else 0.03)
+                        op.jog_to(centres, children)
                     except CellError as exc:
                         _progress(f"{exc}; test_cycle will approach the windows itself")
                     if arm is not None:
@@ -1121,7 +1121,7 @@ def run_commission_in_process(
         cyc = {jn: replace(cycles[jn], position=float(st.position if st.position is not None else cycles[jn].position))
                for jn, st in pc.settings.items()}
         for attempt in (0, 1):
-            _jog_sim(sim, {jn: c.position for jn, c in cyc.items()}, tolerance=0.01)  # as the demo's operator
+            _jog_sim(sim, {jn: c.position for jn, c in cyc.items()})  # as the demo's operator
             sim.step(ARM_SETTLE_SECONDS)
             run = run_cycle(sim, cyc, observers, together=True, seed=seed, cycle_id=len(records) + 1)
             done = run.state == CycleState.DONE
@@ -1219,12 +1219,11 @@ def _commission_joints(setups: Sequence[Any], records: Sequence[CycleRecord], se
     ``setdir/<joint>.yaml``. A joint that cannot be commissioned gets the reason in ``error``. On an arm
     (``plan``: the arm's plan), each joint gets its planned load span, and a joint whose load hardly changes
     (:func:`~jointwear_ros.commission.demo.unloaded_joints`) is commissioned without the load column, saying why."""
-    import yaml
 
     from ..commission import commission
     from ..commission.demo import load_span, observation_table, unloaded_joints
     from ..estimation import set_frame_table
-    from ..model import ParameterSet, SetUnits, parameter_set_document
+    from ..model import ParameterSet, SetUnits
 
     baseline = [r for r in records if r.usable and r.stage in ("baseline", "overload")]
     unloaded = unloaded_joints(plan) if plan else {}
@@ -1242,25 +1241,58 @@ def _commission_joints(setups: Sequence[Any], records: Sequence[CycleRecord], se
         units = SetUnits("joint", j.gear_ratio, j.torque_scale) if j.joint_side else SetUnits()
         _progress(f"commissioning {j.name} ({j.params}, {j.frame}) on {len(rows)} observations of "
                   f"{len(res.baseline_cycles)} baseline cycles")
+        kw: dict[str, Any] = {} if wear_calibration is None else {"wear_calibration": wear_calibration}
+        path = setdir / f"{j.name}.yaml"
         try:
             table = observation_table(rows, f"{j.name} baseline", load=not res.unloaded)
             # the suite's units (motor side, normalized) to the set's, as `commission --gear-ratio` does for bags
             table = set_frame_table(table, ParameterSet("x", "", {}, units=units))
-            kw: dict[str, Any] = {} if wear_calibration is None else {"wear_calibration": wear_calibration}
             cr = commission(table, joint=j.name, robot="demo", units=units,
                             sources=[f"cycle {c}" for c in res.baseline_cycles], **kw)
+            _write_set(path, cr, j.name)
+            if plan and not res.unloaded and not _set_loads(path):
+                # on an arm: loads that changed too little to determine the load terms (an infinite variance:
+                # the set would not load); commissioned again without the load column, saying so
+                why = _set_loads(path, reason=True)
+                lo, hi = res.load_span or (math.nan, math.nan)
+                res.unloaded = (f"{j.name}: its baseline's loads ({lo:.3f}-{hi:.3f} planned) did not determine its "
+                                f"load terms ({why}); commissioned without the load column")
+                _progress(res.unloaded)
+                table = set_frame_table(observation_table(rows, f"{j.name} baseline", load=False),
+                                        ParameterSet("x", "", {}, units=units))
+                cr = commission(table, joint=j.name, robot="demo", units=units,
+                                sources=[f"cycle {c}" for c in res.baseline_cycles], **kw)
+                _write_set(path, cr, j.name)
         except JointwearError as exc:
             res.error = f"commissioning {j.name} failed: {exc}"
             _progress(res.error)
             continue
-        path = setdir / f"{j.name}.yaml"
-        path.write_text(yaml.safe_dump(parameter_set_document(cr.parameter_set(j.name)), sort_keys=False,
-                                       allow_unicode=True), encoding="utf-8")
         res.parameter_set = str(path)
         res.commission = cr.to_dict(str(path))
         _progress(f"{j.name}: wrote {path} (verdict {cr.verdict}, CV RMSE {cr.cv_rmse:.3g}, wear calibration "
                   f"{cr.wear.label})")
     return out
+
+
+def _write_set(path: Path, cr: Any, joint: str) -> None:
+    """Write a commissioning result's set to ``path``."""
+    import yaml
+
+    from ..model import parameter_set_document
+
+    path.write_text(yaml.safe_dump(parameter_set_document(cr.parameter_set(joint)), sort_keys=False,
+                                   allow_unicode=True), encoding="utf-8")
+
+
+def _set_loads(path: Path, reason: bool = False) -> Any:
+    """Whether the set at ``path`` loads (``reason``: why not, "" when it does)."""
+    from ..model import load_parameter_set_info
+
+    try:
+        load_parameter_set_info(str(path))
+    except JointwearError as exc:
+        return str(exc).removeprefix(f"{path}: ") if reason else False
+    return "" if reason else True
 
 
 def _switch_estimator(op: Operator, children: Sequence[Child], joints: Sequence[CommissionedJoint]) -> None:
