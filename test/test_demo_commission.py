@@ -1,4 +1,5 @@
-"""``jointwear demo --commission`` on a real graph, small: one joint (``cobot-j3``), four baseline cycles.
+"""``jointwear demo --commission --arm none`` on a real graph, small: one independent joint (``cobot-j3``), four
+baseline cycles (the default runs on the UR5: ``test_commission_arm*.py`` and docs/nodes-bag-demo.md).
 
 The five node processes of the demo run one cycle that fails on purpose (its window's gravity load trips
 test_cycle's effort limit), four baseline cycles at w = 0 while the joint warms up and its window load
@@ -38,7 +39,8 @@ def run(tmp_path_factory, ros_domain_of_the_module):
     out = tmp_path_factory.mktemp("commission")
     domain = os.environ.get("JOINTWEAR_TEST_DOMAIN") or str(ros_domain_of_the_module)
     proc = subprocess.run(
-        [sys.executable, "-m", "jointwear_ros", "demo", "--commission", "--joints", "1", "--baseline-cycles", "4",
+        [sys.executable, "-m", "jointwear_ros", "demo", "--commission", "--arm", "none", "--joints", "1",
+         "--baseline-cycles", "4",
          "--speeds", SPEEDS, "--test-wear", "10", "--wear-calibration", "paper",
          "--json", "--out", str(out / "demo"), "--domain-id", domain],
         capture_output=True, text=True, timeout=240)

@@ -106,12 +106,15 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="with --arm: payload at the flange, kg (default 0)")
     c = p.add_argument_group(
         "commissioning (--commission)",
-        "Simulate a robot whose joints use the shipped non-reference sets (arm6-base, cobot-j3, arm6-wrist), record "
-        "baseline cycles at w = 0 while the joints warm up and their windows change load, skip any cycle that "
-        "failed, commission every joint, run a cycle at other wear levels and print each joint's estimate with "
-        "its commissioned set against ref-2011r's (docs/nodes-bag-demo.md).")
+        "Simulate the arm (or, with --arm none, a robot whose joints use the shipped non-reference sets arm6-base, "
+        "cobot-j3, arm6-wrist), record baseline cycles at w = 0 while the joints warm up and their load changes "
+        "(on the arm: payload and pose), skip any cycle that failed, commission every joint, run a cycle at other "
+        "wear levels and print each joint's estimate with its commissioned set against ref-2011r's "
+        "(docs/nodes-bag-demo.md).")
     c.add_argument("--commission", action="store_true",
-                   help="run the commissioning demo (with --joints N: N joints, default 6)")
+                   help="run the commissioning demo (with --joints N: N joints, default 6) on the arm (--arm, default "
+                        f"{DEFAULT_ARM}; none: independent joints on the shipped sets), every joint at once unless "
+                        "--sweep sequential; on an arm the payload and pose change the load between cycles")
     c.add_argument("--baseline-cycles", type=int, default=6, metavar="K",
                    help=f"baseline cycles at w = 0 over the warm-up (default 6; at least {MIN_BASELINE_CYCLES})")
     c.add_argument("--test-wear", default="10,30,40",
@@ -120,7 +123,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="wear calibration of the commissioned sets: paper | relative | FILE (default: "
                         "commissioning's default)")
     c.add_argument("--no-overload", action="store_true",
-                   help="leave out the cycle whose first joint carries a load beyond test_cycle's effort limit "
+                   help="leave out the cycle that takes a joint beyond test_cycle's effort limit (on an arm: an "
+                        "overload payload; independent joints: the first joint's window load) "
                         "(by default it runs first, fails, and is skipped by name)")
     p.set_defaults(func=cmd_demo)
 
@@ -678,8 +682,16 @@ def _fixed(x: float | None, digits: int) -> str:
 
 #: Default real-time factor of the commissioning demo (sim seconds per wall second).
 COMMISSION_REAL_TIME_FACTOR = 3.0
+#: Default real-time factor of the commissioning demo on an arm: at 3x, with another job on the 2 cores, the live
+#: UR5's joints lagged off the approach line (hold_tolerance) in 5 of 9 cycles; the runs measured ran at 2x.
+ARM_COMMISSION_REAL_TIME_FACTOR = 2.0
+#: Sim seconds the arm settles after a jog, before a commissioning cycle starts.
+ARM_SETTLE_SECONDS = 2.0
 #: Default wall seconds one cycle of the commissioning demo may take.
 COMMISSION_CYCLE_TIMEOUT = 900.0
+#: What the joints of an arm run in the simulator during commissioning (said in the output).
+_ARM_SET_NOTE = ("every joint runs ref-2011r in the simulator, sized by its torque scale (effort / 2, gear 100); "
+                 "commissioning identifies each joint's own model from its baseline")
 
 
 @dataclass
@@ -696,6 +708,9 @@ class CycleRecord:
     observations: list[dict[str, Any]] = field(default_factory=list)
     live: dict[str, dict[str, Any]] = field(default_factory=dict)
     bag: str | None = None
+    #: on an arm: the cycle's payload (kg) and window centres (rad)
+    payload: float | None = None
+    positions: dict[str, float] = field(default_factory=dict)
 
     @property
     def usable(self) -> bool:
@@ -725,6 +740,25 @@ class CommissionedJoint:
     baseline_cycles: list[int] = field(default_factory=list)
     commission: dict[str, Any] = field(default_factory=dict)
     error: str = ""
+    #: on an arm: the planned load span of the baseline (normalized gravity, smallest and largest) and whether
+    #: commissioning identified the load dependence (False: fixed at 0, the priors say why)
+    load_span: tuple[float, float] | None = None
+    #: why the joint's load dependence cannot be identified on the arm ("" when it can)
+    unloaded: str = ""
+
+    @property
+    def load_identified(self) -> bool | None:
+        """Whether the commissioned set has its load terms (None: not commissioned): False when commissioning
+        fixed the load sensitivities at 0 because the load hardly changed (its prior says so)."""
+        if not self.commission:
+            return None
+        return not self.load_note
+
+    @property
+    def load_note(self) -> str:
+        """Why the joint's load dependence was not identified (the plan's reason, or commissioning's prior), ""
+        when it was."""
+        return self.unloaded or next((p for p in self.commission.get("priors", []) if "load" in p), "")
 
     @property
     def z(self) -> float | None:
@@ -747,7 +781,9 @@ class CommissionedJoint:
                 "live_std": self.live_std, "baseline_cycles": self.baseline_cycles,
                 "wear_calibration": c.get("wear_calibration"), "verdict": c.get("verdict"),
                 "converged": c.get("converged"), "cv_rmse": c.get("cv_rmse"), "noise_floor": c.get("noise_floor"),
-                "commission_warnings": c.get("warnings", []), "error": self.error or None}
+                "commission_warnings": c.get("warnings", []), "error": self.error or None,
+                "load_span": list(self.load_span) if self.load_span is not None else None,
+                "load_identified": self.load_identified, "load_note": self.load_note or None}
 
 
 @dataclass
@@ -760,6 +796,11 @@ class CommissionDemoResult:
     sets_dir: str
     bags: list[str]
     logs: str
+    #: the simulated arm ("": independent joints) and how its joints were swept
+    arm: str = ""
+    sweep: str = "sequential"
+    #: the plan run (commission.demo.PlannedCycle), one per planned cycle
+    plan: list[Any] = field(default_factory=list)
 
     @property
     def cell_seconds(self) -> float:
@@ -772,11 +813,15 @@ class CommissionDemoResult:
 
     def as_dict(self) -> dict[str, Any]:
         return {
+            "arm": self.arm or None,
+            "sweep": self.sweep,
+            "simulated_set": _ARM_SET_NOTE if self.arm else None,
             "commissioned": [j.as_dict() for j in self.joints],
             "skipped_cycles": [c.skipped_dict() for c in self.skipped],
             "cycles": [{"cycle_id": c.cycle_id, "stage": c.stage, "state": c.state,
                         "cell_seconds": _finite_or_none(c.cell_seconds), "observations": len(c.observations),
-                        "bag": c.bag}
+                        "bag": c.bag, **({"payload": c.payload} if c.payload is not None else {}),
+                        **({"positions": c.positions} if c.positions else {})}
                        for c in self.cycles],
             "speeds": self.speeds,
             "real_time_factor": self.real_time_factor,
@@ -797,8 +842,9 @@ def _observation_dict(o: Any) -> dict[str, Any]:
 
 
 def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequence[float], names: Sequence[str],
-               timeout: float) -> CycleRecord:
-    """Start one robot cycle, follow it to its end, wait for its observations; what happened."""
+               timeout: float, together: bool = False) -> CycleRecord:
+    """Start one robot cycle, follow it to its end, wait for its observations; what happened. ``together``: every
+    joint is swept at once (one progress line per speed step, not per joint)."""
     cycle_id, _ = op.start_cycle(speeds, children)
     _progress(f"{stage} cycle {cycle_id} accepted")
     shown: list[tuple[Any, ...] | None] = [None]
@@ -807,11 +853,12 @@ def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequ
         st = op.status
         if st is None or st.cycle_id != cycle_id:
             return
-        key = (st.joint_name, st.state, st.speeds_done)
+        key = (st.state, st.speeds_done) if together else (st.joint_name, st.state, st.speeds_done)
         if key != shown[0]:
             shown[0] = key
             extra = f": {st.message}" if st.state in (CycleState.ABORTED, CycleState.FAILED) and st.message else ""
-            where = f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else ""
+            where = (f"{len(names)} joints at once " if together else
+                     f"{st.joint_name} ({st.joints_done + 1} of {len(st.joints)}) " if len(names) > 1 else "")
             _progress(f"{stage} cycle {cycle_id} {where}{st.state_name}, speeds done "
                       f"{st.speeds_done}/{st.speeds_total}{extra}")
 
@@ -821,7 +868,9 @@ def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequ
                     and st.state in (CycleState.ABORTED, CycleState.FAILED)), None)
     rec = CycleRecord(cycle_id, stage, "DONE" if stopped is None else stopped.state_name)
     if stopped is not None:
-        rec.joint, rec.reason = stopped.joint_name, stopped.message or "no reason given"
+        rec.reason = stopped.message or "no reason given"
+        # on a line cycle every joint's status carries the stop: the joint is the one its reason names
+        rec.joint = _named_joint(rec.reason, names) or stopped.joint_name
     else:
         try:  # every speed of every joint observed (the observer may trail the cycle's end on a loaded machine)
             op.spin_until(lambda: all(op.observer_done(cycle_id, j) for j in op.joints_started(cycle_id)), 60.0,
@@ -831,6 +880,19 @@ def _run_cycle(op: Operator, children: Sequence[Child], stage: str, speeds: Sequ
     rec.cell_seconds = op.cell_seconds(cycle_id)
     rec.observations = [_observation_dict(o) for o in op.observations if o.cycle_id == cycle_id]
     return rec
+
+
+def _named_joint(reason: str, names: Sequence[str]) -> str:
+    """The joint a watchdog's reason names first (``watchdog: joint joint_2: |effort| ...``, ``watchdog: reverse
+    move not finished ...: joint_5 at -2.205 rad``), "" if none.
+
+    >>> _named_joint("watchdog: reverse move not finished after 6.1 s: joint_5 at -2.2 rad", ["joint_1", "joint_5"])
+    'joint_5'
+    """
+    import re
+
+    found = [(m.start(), j) for j in names if (m := re.search(rf"(?<![\w.]){re.escape(j)}(?![\w.])", reason))]
+    return min(found)[1] if found else ""
 
 
 def run_commission_demo(
@@ -845,8 +907,17 @@ def run_commission_demo(
     cycle_timeout: float = COMMISSION_CYCLE_TIMEOUT,
     domain_id: int | None = None,
     overrides: dict[str, dict[str, Any]] | None = None,
+    arm: str | None = None,
+    sweep: str | None = None,
 ) -> CommissionDemoResult:
     """Commission a simulated robot of ``joints`` joints end to end (see ``jointwear demo --help``).
+
+    ``arm`` (``ur5``, ``panda``): the cell on that arm (:func:`~jointwear_ros.simcell.arm_cell_parameters`), every
+    joint on ``ref-2011r`` sized by its torque scale, commissioned in the joint frame; the plan is
+    :func:`~jointwear_ros.commission.demo.plan_arm_commissioning`: between cycles the operator sets joint_sim's
+    ``payload`` and each joint's temperature and wear, and test_cycle's window centres (``<joint>.position``), then
+    jogs the arm to them. ``sweep`` is test_cycle's (``None``: every joint at once on an arm, else its config).
+    ``arm=None``: the independent-joint robot on the shipped sets, each window's gravity set per cycle.
 
     One cell (the five nodes of the demo) runs every cycle of :func:`~jointwear_ros.commission.demo.
     plan_commissioning`; between cycles the operator sets joint_sim's per-joint temperature, gravity and wear
@@ -858,7 +929,14 @@ def run_commission_demo(
     (:func:`~jointwear_ros.commission.estimate_cycles`, joint estimator). The live wear_estimator is switched to
     the commissioned sets before the test cycle; its estimates are reported as ``live_estimate``.
     """
-    from ..commission.demo import demo_joints, plan_commissioning
+    from ..commission.demo import (
+        ARM_APPROACH_SPEED,
+        ARM_LOADING,
+        arm_joints,
+        demo_joints,
+        plan_arm_commissioning,
+        plan_commissioning,
+    )
     from ..io.bags import find_bags
     from ..nodes.runtime import loopback_env
 
@@ -870,8 +948,14 @@ def run_commission_demo(
         d.mkdir(parents=True, exist_ok=True)
     bags_before = set(find_bags(bagdir))
     names = robot_joint_names(joints)
-    setups = demo_joints(names)
-    plan = plan_commissioning(setups, baseline_cycles, test_wear, overload)
+    if arm is not None:
+        setups = arm_joints(arm, names)
+        plan = plan_arm_commissioning(arm, setups, baseline_cycles, test_wear, overload)
+        speeds = list(speeds or ARM_LOADING[arm].speeds or [])
+        sweep = sweep or ("simultaneous" if len(names) > 1 else None)
+    else:
+        setups = demo_joints(names)
+        plan = plan_commissioning(setups, baseline_cycles, test_wear, overload)
     first = plan[0].settings
     rtf_grace = max(float(real_time_factor), 1.0)
     sim: dict[str, Any] = {"use_sim_time": False, "publish_clock": True, "real_time_factor": float(real_time_factor),
@@ -881,16 +965,32 @@ def run_commission_demo(
     obs: dict[str, Any] = {"use_sim_time": True, "temperature_topic": "/joint_temperature"}
     for j in setups:
         s = first[j.name]
-        sim.update({f"{j.name}.params": j.params, f"{j.name}.gear_ratio": j.gear_ratio,
-                    f"{j.name}.torque_scale": j.torque_scale, f"{j.name}.temperature": s.temperature,
-                    f"{j.name}.gravity_torque": s.gravity_torque, f"{j.name}.wear": s.wear})
-        cyc.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.effort_limit": j.effort_limit})
-        obs.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.torque_scale": j.torque_scale})
+        sim.update({f"{j.name}.params": j.params, f"{j.name}.temperature": s.temperature, f"{j.name}.wear": s.wear})
+        if arm is None:  # on an arm, the arm gives each joint its drive, pose and effort limit (below)
+            sim.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.torque_scale": j.torque_scale,
+                        f"{j.name}.gravity_torque": s.gravity_torque})
+            cyc.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.effort_limit": j.effort_limit})
+            obs.update({f"{j.name}.gear_ratio": j.gear_ratio, f"{j.name}.torque_scale": j.torque_scale})
     params: dict[str, dict[str, Any]] = {
         "recorder": {"use_sim_time": True, "output_dir": str(bagdir.resolve()), "split": "cycle"},
         "joint_sim": sim, "test_cycle": cyc, "friction_observer": obs,
         "wear_estimator": {"use_sim_time": True, "done_timeout": _config_done_timeout() * float(real_time_factor)},
     }
+    if arm is not None:
+        from ..simcell import arm_cell_parameters
+
+        for node, values in arm_cell_parameters(arm, names, float(plan[0].payload or 0.0)).items():
+            params[node].update(values)
+        for j in setups:
+            cyc[f"{j.name}.approach_speed"] = ARM_APPROACH_SPEED
+            if speeds:  # test_cycle checks a new window centre against its configured speeds
+                cyc[f"{j.name}.speeds"] = [float(v) for v in speeds]
+            if first[j.name].position is not None:
+                cyc[f"{j.name}.position"] = first[j.name].position
+    if sweep is not None:
+        cyc["sweep"] = sweep
+    together = len(names) > 1 and (cyc.get("sweep") or _config_value("test_cycle", "sweep", "sequential")) \
+        == "simultaneous"
     for node in _JOINT_NODES:
         params[node]["joints"] = list(names)
     for node, values in (overrides or {}).items():
@@ -901,33 +1001,50 @@ def run_commission_demo(
     results: list[CommissionedJoint] = []
     try:
         _progress(f"ROS_DOMAIN_ID={domain_id}, loopback only; logs in {logdir}; "
-                  + ", ".join(f"{j.name} {j.params}" for j in setups))
+                  + (f"on the {arm} arm, {_ARM_SET_NOTE}" if arm else ", ".join(f"{j.name} {j.params}" for j in setups)))
         op = _start_cell(children, params, env, logdir, names, domain_id)
         _progress(f"graph connected after {time.monotonic() - t_start:.1f} s")
         n_plan = len(plan)
         jog = False
         for k, pc in enumerate(plan):
             if pc.stage == "test" and not results:
-                results = _commission_joints(setups, records, setdir, wear_calibration)
+                results = _commission_joints(setups, records, setdir, wear_calibration, plan if arm else ())
                 _switch_estimator(op, children, results)
             live: dict[str, Any] = {}
             for jn, st in pc.settings.items():
-                live.update({f"{jn}.temperature": st.temperature, f"{jn}.gravity_torque": st.gravity_torque,
-                             f"{jn}.wear": st.wear})
+                live.update({f"{jn}.temperature": st.temperature, f"{jn}.wear": st.wear})
+                if arm is None:
+                    live[f"{jn}.gravity_torque"] = st.gravity_torque
+            if arm is not None:
+                live["payload"] = float(pc.payload or 0.0)
+                op.set_parameters("test_cycle", {f"{jn}.position": st.position for jn, st in pc.settings.items()},
+                                  children)
             op.set_parameters("joint_sim", live, children)
-            _progress(f"cycle {k + 1} of {n_plan} ({pc.stage}): " + ", ".join(
-                f"{jn} {st.temperature:.1f} degC, load {st.gravity_torque:g}"
-                + (f", wear {st.wear:g}" if st.wear else "") for jn, st in pc.settings.items()))
+            centres = ({jn: float(st.position) for jn, st in pc.settings.items() if st.position is not None}
+                       if arm else {jn: _window_centre(jn) for jn in names})
+            _progress(f"cycle {k + 1} of {n_plan} ({pc.stage})"
+                      + (f", payload {pc.payload:g} kg: " if pc.payload is not None else ": ") + ", ".join(
+                          f"{jn} {st.temperature:.1f} degC, load {st.gravity_torque:g}"
+                          + (f" at {st.position:g} rad" if st.position is not None else "")
+                          + (f", wear {st.wear:g}" if st.wear else "") for jn, st in pc.settings.items()))
             for attempt in (0, 1):
-                if jog:
-                    # as an operator would after a stop, with the next window's load: jog the joints back to
-                    # their windows (test_cycle refuses to start a joint that overran a limit)
+                if jog or arm is not None:
+                    # as an operator would after a stop, with the next window's load (and on an arm before every
+                    # cycle, to its new pose): jog the joints to their windows (test_cycle refuses to start a
+                    # joint that overran a limit)
                     try:
-                        op.jog_to({jn: _window_centre(jn) for jn in names}, children)
+                        op.jog_to(centres, children)
                     except CellError as exc:
                         _progress(f"{exc}; test_cycle will approach the windows itself")
+                    if arm is not None:
+                        # the drives settle at the new pose and payload before test_cycle takes the arm's
+                        # positions as its approach's origin (a shoulder still settling from a payload change
+                        # ran 0.023-0.029 rad off the approach line, over hold_tolerance)
+                        time.sleep(ARM_SETTLE_SECONDS / float(real_time_factor))
                     jog = False
-                rec = _run_cycle(op, children, pc.stage, speeds or [], names, cycle_timeout)
+                rec = _run_cycle(op, children, pc.stage, speeds or [], names, cycle_timeout, together)
+                rec.payload = pc.payload
+                rec.positions = centres if arm else {}
                 records.append(rec)
                 if rec.usable:
                     break
@@ -945,14 +1062,114 @@ def run_commission_demo(
         if children:
             _stop_cell(children)
     if not results:  # the run ended before its test cycle
-        results = _commission_joints(setups, records, setdir, wear_calibration)
+        results = _commission_joints(setups, records, setdir, wear_calibration, plan if arm else ())
     test_settings = next(pc for pc in plan if pc.stage == "test").settings
     for res in results:
         res.true_wear = test_settings[res.joint].wear
     _estimate_tests(results, [r for r in records if r.usable and r.stage == "test"])
     bags = [str(b) for b in _sort_bags([b for b in find_bags(bagdir) if b not in bags_before], records, bagdir)]
     return CommissionDemoResult(results, records, time.monotonic() - t_start, float(real_time_factor),
-                                [float(s) for s in speeds or []], str(setdir), bags, str(logdir))
+                                [float(s) for s in speeds or []], str(setdir), bags, str(logdir), arm=arm or "",
+                                sweep=str(cyc.get("sweep") or _config_value("test_cycle", "sweep", "sequential")),
+                                plan=plan)
+
+
+def run_commission_in_process(
+    arm: str,
+    joints: int,
+    out: Path,
+    speeds: Sequence[float] | None = None,
+    baseline_cycles: int = 6,
+    test_wear: Sequence[float] = (10.0, 30.0, 40.0),
+    wear_calibration: str | None = None,
+    overload: bool = True,
+    seed: int = 0,
+) -> CommissionDemoResult:
+    """The commissioning run of ``jointwear demo --commission --arm ARM`` in one process, without ROS: the same
+    plan (:func:`~jointwear_ros.commission.demo.plan_arm_commissioning`) on one
+    :class:`~jointwear_ros.sim.arm.ArmSim` kept from cycle to cycle (payload and temperatures set between cycles,
+    the arm settling 1 s under its new payload), each cycle :func:`~jointwear_ros.simcell.run_cycle` (every joint
+    at once) with the cycle's window centres, then the same commissioning and test estimates as the demo's
+    (sets in ``OUT/sets``). The observations' temperature is the simulated joint's (the demo's temperature
+    topic); the test cycle's estimate leaves it out. A failed cycle is skipped by name, as in the demo."""
+    from dataclasses import replace
+
+    from ..commission.demo import ARM_APPROACH_SPEED, ARM_LOADING, arm_joints, plan_arm_commissioning
+    from ..sim.arm import ArmSim, arm_configs
+    from ..sim.arms import arm_spec
+    from ..simcell import cycle_settings, run_cycle
+
+    t_start = time.monotonic()
+    setdir = out / "sets"
+    setdir.mkdir(parents=True, exist_ok=True)
+    spec = arm_spec(arm)
+    names = robot_joint_names(joints)
+    setups = arm_joints(spec.name, names)
+    plan = plan_arm_commissioning(spec.name, setups, baseline_cycles, test_wear, overload)
+    speeds = list(speeds or ARM_LOADING[spec.name].speeds or _config_value("test_cycle", "speeds", []))
+    cycles, observers = cycle_settings(spec.name, names, speeds=tuple(float(v) for v in speeds),
+                                       approach_speed=ARM_APPROACH_SPEED)
+    sim = ArmSim(spec, names, arm_configs(spec, names), seeds=[seed * 100 + i for i in range(len(names))])
+    records: list[CycleRecord] = []
+    results: list[CommissionedJoint] = []
+    for pc in plan:
+        if pc.stage == "test" and not results:
+            results = _commission_joints(setups, records, setdir, wear_calibration, plan)
+        sim.set_payload(float(pc.payload or 0.0))
+        for jn, st in pc.settings.items():
+            sim.reconfigure(jn, replace(sim[jn].config, temperature=st.temperature, wear=st.wear))
+        cyc = {jn: replace(cycles[jn], position=float(st.position if st.position is not None else cycles[jn].position))
+               for jn, st in pc.settings.items()}
+        for attempt in (0, 1):
+            _jog_sim(sim, {jn: c.position for jn, c in cyc.items()})  # as the demo's operator
+            sim.step(ARM_SETTLE_SECONDS)
+            run = run_cycle(sim, cyc, observers, together=True, seed=seed, cycle_id=len(records) + 1)
+            done = run.state == CycleState.DONE
+            rec = CycleRecord(len(records) + 1, pc.stage, "DONE" if done else CycleState(run.state).name,
+                              cell_seconds=run.cell_seconds, payload=pc.payload,
+                              positions={jn: c.position for jn, c in cyc.items()})
+            for jn in names:
+                for o in run.observations[jn]:
+                    d = o.to_dict()
+                    d["time"] = d.pop("stamp")
+                    if not math.isfinite(d["temperature"]):  # the demo's temperature topic
+                        d["temperature"] = pc.settings[jn].temperature
+                    rec.observations.append(d)
+            records.append(rec)
+            sim.stop()
+            if done:
+                break
+            rec.reason = run.message
+            rec.joint = _named_joint(run.message, names)
+            _progress(f"{pc.stage} cycle {rec.cycle_id} {rec.state} at {rec.joint}: {rec.reason}; skipped"
+                      + ("" if pc.stage == "overload" or attempt else ", running it again"))
+            if pc.stage == "overload":
+                break
+    if not results:
+        results = _commission_joints(setups, records, setdir, wear_calibration, plan)
+    test_settings = next(pc for pc in plan if pc.stage == "test").settings
+    for res in results:
+        res.true_wear = test_settings[res.joint].wear
+    _estimate_tests(results, [r for r in records if r.usable and r.stage == "test"])
+    return CommissionDemoResult(results, records, time.monotonic() - t_start, math.inf, [float(v) for v in speeds],
+                                str(setdir), [], "", arm=spec.name, sweep="simultaneous", plan=plan)
+
+
+def _jog_sim(sim: Any, targets: dict[str, float], speed: float = 0.3, tolerance: float = 0.03,
+             timeout: float = 60.0) -> None:
+    """Move the simulated arm to ``targets`` (rad) as :meth:`Operator.jog_to` jogs the live one: every 20 ms a
+    velocity command of at most ``speed`` rad/s, slowing near the target, until each joint is within
+    ``tolerance``."""
+    end = sim.time + timeout
+    while sim.time < end:
+        pos = sim.sample()[0]
+        err = [targets[j] - pos[i] for i, j in enumerate(sim.names)]
+        cmd = [0.0 if abs(e) < tolerance else max(-speed, min(speed, 2.0 * e)) for e in err]
+        if not any(cmd):
+            break
+        sim.set_commands(cmd)
+        sim.step(0.02)
+    sim.stop()
 
 
 def _sort_bags(bags: Sequence[Path], records: Sequence[CycleRecord], bagdir: Path) -> list[Path]:
@@ -997,45 +1214,85 @@ def _live_estimates(op: Operator, children: Sequence[Child], rec: CycleRecord, n
 
 
 def _commission_joints(setups: Sequence[Any], records: Sequence[CycleRecord], setdir: Path,
-                       wear_calibration: str | None) -> list[CommissionedJoint]:
+                       wear_calibration: str | None, plan: Sequence[Any] = ()) -> list[CommissionedJoint]:
     """Commission every joint on the observations of its baseline cycles that ended DONE; write each set to
-    ``setdir/<joint>.yaml``. A joint that cannot be commissioned gets the reason in ``error``."""
-    import yaml
+    ``setdir/<joint>.yaml``. A joint that cannot be commissioned gets the reason in ``error``. On an arm
+    (``plan``: the arm's plan), each joint gets its planned load span, and a joint whose load hardly changes
+    (:func:`~jointwear_ros.commission.demo.unloaded_joints`) is commissioned without the load column, saying why."""
 
     from ..commission import commission
-    from ..commission.demo import observation_table
+    from ..commission.demo import load_span, observation_table, unloaded_joints
     from ..estimation import set_frame_table
-    from ..model import ParameterSet, SetUnits, parameter_set_document
+    from ..model import ParameterSet, SetUnits
 
     baseline = [r for r in records if r.usable and r.stage in ("baseline", "overload")]
+    unloaded = unloaded_joints(plan) if plan else {}
     out: list[CommissionedJoint] = []
     for j in setups:
         res = CommissionedJoint(j.name, j.params, j.frame, math.nan)
+        if plan:
+            res.load_span = tuple(round(x, 4) for x in load_span(plan, j.name))  # type: ignore[assignment]
+            res.unloaded = unloaded.get(j.name, "")
+            if res.unloaded:
+                _progress(res.unloaded)
         out.append(res)
         rows = [o for r in baseline for o in r.observations if o["joint_name"] == j.name]
         res.baseline_cycles = sorted({int(o["cycle_id"]) for o in rows})
         units = SetUnits("joint", j.gear_ratio, j.torque_scale) if j.joint_side else SetUnits()
         _progress(f"commissioning {j.name} ({j.params}, {j.frame}) on {len(rows)} observations of "
                   f"{len(res.baseline_cycles)} baseline cycles")
+        kw: dict[str, Any] = {} if wear_calibration is None else {"wear_calibration": wear_calibration}
+        path = setdir / f"{j.name}.yaml"
         try:
-            table = observation_table(rows, f"{j.name} baseline")
+            table = observation_table(rows, f"{j.name} baseline", load=not res.unloaded)
             # the suite's units (motor side, normalized) to the set's, as `commission --gear-ratio` does for bags
             table = set_frame_table(table, ParameterSet("x", "", {}, units=units))
-            kw: dict[str, Any] = {} if wear_calibration is None else {"wear_calibration": wear_calibration}
             cr = commission(table, joint=j.name, robot="demo", units=units,
                             sources=[f"cycle {c}" for c in res.baseline_cycles], **kw)
+            _write_set(path, cr, j.name)
+            if plan and not res.unloaded and not _set_loads(path):
+                # on an arm: loads that changed too little to determine the load terms (an infinite variance:
+                # the set would not load); commissioned again without the load column, saying so
+                why = _set_loads(path, reason=True)
+                lo, hi = res.load_span or (math.nan, math.nan)
+                res.unloaded = (f"{j.name}: its baseline's loads ({lo:.3f}-{hi:.3f} planned) did not determine its "
+                                f"load terms ({why}); commissioned without the load column")
+                _progress(res.unloaded)
+                table = set_frame_table(observation_table(rows, f"{j.name} baseline", load=False),
+                                        ParameterSet("x", "", {}, units=units))
+                cr = commission(table, joint=j.name, robot="demo", units=units,
+                                sources=[f"cycle {c}" for c in res.baseline_cycles], **kw)
+                _write_set(path, cr, j.name)
         except JointwearError as exc:
             res.error = f"commissioning {j.name} failed: {exc}"
             _progress(res.error)
             continue
-        path = setdir / f"{j.name}.yaml"
-        path.write_text(yaml.safe_dump(parameter_set_document(cr.parameter_set(j.name)), sort_keys=False,
-                                       allow_unicode=True), encoding="utf-8")
         res.parameter_set = str(path)
         res.commission = cr.to_dict(str(path))
         _progress(f"{j.name}: wrote {path} (verdict {cr.verdict}, CV RMSE {cr.cv_rmse:.3g}, wear calibration "
                   f"{cr.wear.label})")
     return out
+
+
+def _write_set(path: Path, cr: Any, joint: str) -> None:
+    """Write a commissioning result's set to ``path``."""
+    import yaml
+
+    from ..model import parameter_set_document
+
+    path.write_text(yaml.safe_dump(parameter_set_document(cr.parameter_set(joint)), sort_keys=False,
+                                   allow_unicode=True), encoding="utf-8")
+
+
+def _set_loads(path: Path, reason: bool = False) -> Any:
+    """Whether the set at ``path`` loads (``reason``: why not, "" when it does)."""
+    from ..model import load_parameter_set_info
+
+    try:
+        load_parameter_set_info(str(path))
+    except JointwearError as exc:
+        return str(exc).removeprefix(f"{path}: ") if reason else False
+    return "" if reason else True
 
 
 def _switch_estimator(op: Operator, children: Sequence[Child], joints: Sequence[CommissionedJoint]) -> None:
@@ -1098,6 +1355,11 @@ def cmd_demo_commission(args: argparse.Namespace) -> int:
         if value is not None:
             raise UsageError(f"{flag}: the commissioning demo sets it per cycle (use --test-wear for the test cycle)")
     n = _int_arg(args.joints if args.joints is not None else 6, "--joints", 1, MAX_DEMO_JOINTS)
+    if args.payload is not None:
+        raise UsageError("--payload: the commissioning demo sets the payload per cycle (0 up to the arm's "
+                         "commissioning payload, and one overload)")
+    arm, _ = _arm_args(args, n)
+    sweep = args.sweep or ("simultaneous" if arm is not None and n > 1 else None)
     k = _int_arg(args.baseline_cycles, "--baseline-cycles", MIN_BASELINE_CYCLES, 40)
     test_wear = parse_float_list(args.test_wear, "--test-wear") if "," in args.test_wear else [
         parse_float(args.test_wear, "--test-wear")]
@@ -1111,7 +1373,7 @@ def cmd_demo_commission(args: argparse.Namespace) -> int:
         if len(set(speeds)) < 5:
             raise UsageError(f"--speeds: {len(set(speeds))} distinct speed(s); commissioning needs at least 5")
     rtf = (parse_float(args.real_time_factor, "--real-time-factor") if args.real_time_factor is not None
-           else COMMISSION_REAL_TIME_FACTOR)
+           else ARM_COMMISSION_REAL_TIME_FACTOR if arm is not None else COMMISSION_REAL_TIME_FACTOR)
     if not 0.01 <= rtf <= 100.0:
         raise UsageError(f"--real-time-factor: {rtf:g} is outside 0.01-100")
     timeout = parse_float(args.timeout, "--timeout") if args.timeout is not None else COMMISSION_CYCLE_TIMEOUT
@@ -1127,7 +1389,7 @@ def cmd_demo_commission(args: argparse.Namespace) -> int:
         raise UsageError("--set NODE.joints: the demo sets the joints of every node from --joints N")
     check_output_dir(args.out, "--out")
     res = run_commission_demo(n, Path(args.out), speeds, k, test_wear, wc, not args.no_overload, rtf, timeout,
-                              args.domain_id, overrides)
+                              args.domain_id, overrides, arm=arm, sweep=sweep)
     import contextlib
     import io
 
@@ -1161,12 +1423,22 @@ def _print_commission(res: CommissionDemoResult) -> None:
     rows = []
     for j in res.joints:
         c = j.commission
-        rows.append([j.joint, j.params, f"{j.true_wear:g}", _pm(j.estimate, j.std), _z(j.z),
-                     _pm(j.reference_estimate, j.reference_std), _z(j.reference_z), c.get("verdict", ""),
-                     str(len(j.baseline_cycles))])
-    print(f"commissioned {len(res.joints)} joint(s); test cycle at unknown temperature, joint estimator")
+        row = [j.joint, j.params, f"{j.true_wear:g}", _pm(j.estimate, j.std), _z(j.z),
+               _pm(j.reference_estimate, j.reference_std), _z(j.reference_z), c.get("verdict", ""),
+               str(len(j.baseline_cycles))]
+        if res.arm:
+            span = f"{j.load_span[0]:.2f}-{j.load_span[1]:.2f}" if j.load_span else ""
+            row.append(f"{span} {'identified' if j.load_identified else 'not identified'}".strip())
+        rows.append(row)
+    on = f" on the {res.arm} arm, {len(res.joints)} joints swept {res.sweep}ly" if res.arm else ""
+    print(f"commissioned {len(res.joints)} joint(s){on}; test cycle at unknown temperature, joint estimator")
+    if res.arm:
+        print(f"({_ARM_SET_NOTE}; the load changed by payload and pose between cycles)")
     print(format_table(["joint", "simulated", "true w", "commissioned", "z", "ref-2011r (before)", "z ref",
-                        "verdict", "cycles"], rows))
+                        "verdict", "cycles"] + (["load (planned), its terms"] if res.arm else []), rows))
+    for j in res.joints:
+        if res.arm and j.load_note:
+            print(f"{j.joint}: load not identified: {j.load_note.removeprefix(j.joint + ': ')}")
     for r in res.skipped:
         print(f"skipped {r.stage} cycle {r.cycle_id}: {r.state} at {r.joint} (test_cycle: {r.reason})")
     for j in res.joints:
