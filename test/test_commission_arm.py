@@ -28,7 +28,7 @@ from jointwear_ros.sim.arms import arm_spec
 #: the joints of each arm whose gravity load the payload and pose change (shoulder, elbow, a wrist), and the
 #: joints with no gravity load in any pose (a vertical axis, or the payload on the axis)
 LOADED = {"ur5": ("joint_2", "joint_3", "joint_4"), "panda": ("joint_2", "joint_4", "joint_6")}
-UNLOADED = {"ur5": {"joint_1"}, "panda": {"joint_1", "joint_7"}}
+UNLOADED = {"ur5": {"joint_1", "joint_5"}, "panda": {"joint_1", "joint_7"}}  # vertical axes, loads through the axis
 
 
 def _plan(arm: str, k: int = 6):
@@ -75,15 +75,17 @@ def test_joints_whose_load_hardly_changes_are_named_with_the_reason(arm):
 
 
 @pytest.mark.parametrize("arm", ["ur5", "panda"])
-def test_the_overload_cycle_carries_a_payload_held_at_rest_near_one_joints_effort_limit(arm):
+def test_the_overload_cycle_carries_a_payload_held_at_rest_below_one_joints_effort_limit(arm):
     _, plan = _plan(arm)
     first = plan[0]
     assert first.stage == "overload" and first.payload == ARM_LOADING[arm].overload_payload
     assert first.payload > max(c.payload for c in plan if c.stage == "baseline")
     j = first.overloaded
-    # test_cycle's effort limit is 95 % of the URDF's: 1.9 torque scales; the drive saturates at 2.0
+    # test_cycle's effort limit is 95 % of the URDF's: 1.9 torque scales; the drive saturates at 2.0. Held at rest the
+    # payload stays below it (the arm is not overloaded standing still); moving, gravity, the acceleration and the
+    # friction take that joint over it (test_commission_arm_run.py: the cycle fails there and is skipped by name)
     load = abs(first.settings[j].gravity_torque)
-    assert 0.75 * 1.9 < load < 2.0, (j, load)
+    assert 0.5 * 1.9 < load < 1.9, (j, load)
     assert load > max(abs(c.settings[j].gravity_torque) for c in plan if c.stage == "baseline")
     assert {c.stage for c in _plan_without_overload(arm)} == {"baseline", "test"}
 
