@@ -120,8 +120,8 @@ NOT_HERE = (
     ("postgresql://", "a PostgreSQL server at the documented host"),
     ("tcp://", "a running Dask scheduler"),
     ("--publish", "a live ROS graph to play onto (tests/test_replay.py covers it)"),
-    ("demo --commission", "about 10 min of wall time (measured in docs/nodes-bag-demo.md); "
-                          "test_demo_commission.py runs it on one joint"),
+    ("demo --commission", "4-10 min of wall time (measured in docs/nodes-bag-demo.md); test_demo_commission.py "
+                          "runs it on one joint, test_commission_arm_run.py its plan on both arms in one process"),
     ("'archive/", "a plant's bag archive (the other fleet lines run on the demo bags)"),
     ("from-timeseries log.csv", "the user's own recorded time series (test_timeseries.py converts CSVs)"),
     ("from-timeseries BAG", "a bag in which that joint swept at constant speeds; the README's last demo is a "
