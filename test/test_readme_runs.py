@@ -197,7 +197,7 @@ def readme_walk(tmp_path_factory) -> ReadmeWalk:
 def test_the_readme_walk_runs_most_commands_and_says_why_it_leaves_the_others():
     left_out = [(line, cmd, why) for _, line, cmd, why in WALK if why is not None]
     assert len(RUNS) >= 25, RUNS
-    assert len(left_out) <= 7, left_out
+    assert len(left_out) <= 8, left_out
 
 
 @pytest.mark.slow
