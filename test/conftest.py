@@ -73,6 +73,18 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_cli_cycle.py": (
         "test_default_candidates_give_a_cycle_the_test_cycle_node_accepts",
     ),
+    "test_commission_arm_run.py": (  # two commissioning runs on the arms in one process: 48 s of module setup
+        "test_each_joint_commissioned_on_the_arm_estimates_its_test_wear_within_3_std",
+        "test_the_pandas_base_joint_commissioned_without_a_load_column_is_within_3_std",
+        "test_the_overload_payload_fails_its_cycle_at_the_effort_limit_and_it_is_skipped_by_name",
+        "test_a_joint_whose_load_hardly_changes_says_so_and_the_loaded_joints_identify_theirs",
+    ),
+    "test_cycle_arm.py": (  # whole test cycles on the simulated arms, 4-6 s each
+        "test_every_joint_at_once_on_the_arm_observes_each_joints_friction_in_a_fraction_of_the_cell_time",
+        "test_one_after_another_on_the_arm_the_held_joints_are_held_so_each_observation_is_its_friction",
+        "test_one_after_another_on_the_panda_each_observation_is_its_friction_with_joint_3_nearly_coaxial_to_1",
+        "test_a_payload_between_two_cycles_moves_the_load_column_and_not_the_wear_estimates",
+    ),
     "test_cli_faults.py": (
         "test_design_never_prints_a_bound_below_the_known_temperature_bound",
         "test_the_real_process_prints_one_line_and_verbose_adds_the_traceback",
