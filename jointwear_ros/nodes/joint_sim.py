@@ -125,7 +125,7 @@ _NODE: tuple[ParamDecl, ...] = (
               "fall behind it)"),
     ParamDecl("lockstep_lead", 0.05, "how far sim time may run ahead of the newest velocity command, s (sim)",
               1e-3, 10.0, unit="s"),
-    ParamDecl("lockstep_grace", 0.5, "wall s without a command after which the controller counts as gone and the "
+    ParamDecl("lockstep_grace", 5.0, "wall s without a command after which the controller counts as gone and the "
               "clock runs free again (command_timeout then stops the joints)", 0.01, 60.0, unit="s"),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
               read_only=True, unit="s"),
