@@ -69,14 +69,12 @@ samples_published, bad_commands.
 from __future__ import annotations
 
 import math
-import sys
 import time
 from collections.abc import Mapping, Sequence
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -90,7 +88,7 @@ from ..sim import JointSimConfig, RobotSim, arm_spec, parse_effects
 from ..sim.arms import ARM_DEFAULTS, ARMS
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level
-from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, seconds_to_stamp
+from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node_refusing, seconds_to_stamp
 
 if TYPE_CHECKING:
     from ..sim import ArmSim
@@ -435,21 +433,7 @@ class JointSimNode(Node):
 def main(args: Sequence[str] | None = None) -> int:
     """Console entry point ``joint_sim``: exit status 2 with one line on stderr for a bad start-up setting
     (an unknown arm, more joints than the arm has, a value out of range)."""
-    refused: list[str] = []
-
-    def factory() -> JointSimNode:
-        try:
-            return JointSimNode()
-        except ParameterError as exc:  # bad input: one line, not a traceback
-            refused.append(str(exc))
-            raise ExternalShutdownException from None
-
-    rc = run_node(factory, args)
-    if refused:
-        print(f"joint_sim: {refused[0]}", file=sys.stderr)
-        return 2
-    return rc
-
+    return run_node_refusing("joint_sim", JointSimNode, args)
 
 if __name__ == "__main__":  # pragma: no cover
     raise SystemExit(main())

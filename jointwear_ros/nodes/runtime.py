@@ -46,6 +46,7 @@ __all__ = [
     "on_parameter_change",
     "overridable_qos",
     "run_node",
+    "run_node_refusing",
     "seconds_to_stamp",
     "signals_held",
     "subscribe_reporting_loss",
@@ -333,6 +334,28 @@ def wait_acked(publishers: Sequence[Any], seconds: float = 0.5) -> None:
 def context_ok(executor: SingleThreadedExecutor | MultiThreadedExecutor) -> bool:
     """True while the executor's context is valid (not shut down)."""
     return bool(executor.context.ok())
+
+
+def run_node_refusing(name: str, make: Callable[[], Node], args: Sequence[str] | None = None) -> int:
+    """:func:`run_node` for a node whose constructor checks its start-up settings: a
+    :class:`~jointwear_ros.errors.ParameterError` there (an unknown arm, more joints than the arm has, a value
+    out of range) is one line on stderr (``<name>: <reason>``) and exit status 2, not a traceback."""
+    from ..errors import ParameterError
+
+    refused: list[str] = []
+
+    def factory() -> Node:
+        try:
+            return make()
+        except ParameterError as exc:
+            refused.append(str(exc))
+            raise ExternalShutdownException from None
+
+    rc = run_node(factory, args)
+    if refused:
+        print(f"{name}: {refused[0].removeprefix(name + ': ')}", file=sys.stderr)
+        return 2
+    return rc
 
 
 def run_node(

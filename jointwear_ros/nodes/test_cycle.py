@@ -69,7 +69,6 @@ joints, joints_done, last_fault, refused_requests, commands_sent).
 from __future__ import annotations
 
 import math
-import sys
 import time
 from collections.abc import Mapping, Sequence
 from functools import partial
@@ -78,7 +77,6 @@ from typing import Any
 from jointwear_msgs.msg import TestCycleStatus
 from jointwear_msgs.srv import RunTestCycle
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -101,7 +99,7 @@ from ..settings import declarations, from_mapping, node_declarations
 from ..sim.arms import arm_spec
 from .diagnostics import Status, Updater
 from .joints import declare_robot, propagate_node_level
-from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node, wait_acked
+from .runtime import ParamDecl, on_parameter_change, overridable_qos, run_node_refusing, wait_acked
 
 __all__ = ["LIVE_PARAMETERS", "PARAMETERS", "PER_JOINT", "TestCycleNode", "main", "parameters"]
 
@@ -608,21 +606,7 @@ class TestCycleNode(Node):
 def main(args: Sequence[str] | None = None) -> int:
     """Console entry point ``test_cycle``: exit status 2 with one line on stderr for a bad start-up setting (an
     unknown ``arm``, more joints than the arm has, a value out of range)."""
-    refused: list[str] = []
-
-    def factory() -> TestCycleNode:
-        try:
-            return TestCycleNode()
-        except ParameterError as exc:  # bad input: one line, not a traceback
-            refused.append(str(exc))
-            raise ExternalShutdownException from None
-
-    rc = run_node(factory, args)
-    if refused:
-        print(f"test_cycle: {refused[0].removeprefix('test_cycle: ')}", file=sys.stderr)
-        return 2
-    return rc
-
+    return run_node_refusing("test_cycle", TestCycleNode, args)
 
 if __name__ == "__main__":  # pragma: no cover
     raise SystemExit(main())
