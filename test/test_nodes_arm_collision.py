@@ -19,6 +19,7 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 
 from jointwear_ros.contract import RefusalReason  # noqa: E402
+from jointwear_ros.nodes.cell import run_until_accepted  # noqa: E402
 from jointwear_ros.simcell import arm_cell_parameters  # noqa: E402
 
 pytestmark = pytest.mark.ros
@@ -38,7 +39,9 @@ class Operator(GraphClient):
         self.run_client = self.node.create_client(RunTestCycle, "/test_cycle/run")
 
     def run(self, **fields) -> RunTestCycle.Response:
-        return self.call(self.run_client, RunTestCycle.Request(**fields), 30.0)
+        """Ask as an operator does: a retryable refusal (test_cycle has not seen a joint state yet) is asked again."""
+        return run_until_accepted(lambda: self.call(self.run_client, RunTestCycle.Request(**fields), 30.0),
+                                  lambda s: self.spin_until(lambda: False, s), 30.0, pause=0.5)
 
 
 def test_a_cycle_whose_path_would_hit_the_table_is_refused_before_anything_moves_and_a_clear_one_is_accepted(
