@@ -47,8 +47,8 @@ the shift index); the drive's per-sweep friction offset (:class:`~.joint.JointSi
 drawn at every change of a joint's direction, the effort noise at every sample, from per-joint generators
 seeded ``seed + i``: a run is deterministic for a seed.
 
-Cost: about 35-60 µs per physics step (1 kHz) plus the recording at 250 Hz: a few seconds of computation
-per simulated minute (``bench/bench_production_sim.py``). Memory: every sample is kept (6 joints at 250 Hz:
+Cost: about 80-90 µs per physics step at 1 kHz (the held flange joint sits in the drive's stick band, solved
+with the inertia matrix at every step), 5-6 CPU seconds per simulated minute (``bench/bench_production_sim.py``). Memory: every sample is kept (6 joints at 250 Hz:
 about 4 MB per simulated minute).
 """
 
