@@ -67,6 +67,8 @@ def test_pick_and_place_retraces_every_line_with_the_payload_one_way_only(runs: 
         assert np.allclose(back.velocity, -np.asarray(m.velocity))
         assert {m.payload, back.payload} == {0.0, 2.0}  # on one direction only
     assert len({round(max(np.abs(m.velocity)), 6) for m in cycle}) >= 2  # slow approaches, faster transfers
+    for m in cycle:  # the samples carry the payload of their move
+        assert np.all(run.payload[run.segment == m.index] == m.payload)
     tending = machine_tending(arm)
     lines = {(a, b) for a, b, _ in tending.lines()}
     assert not any((b, a) in lines for a, b in lines)  # the loop retraces nothing
@@ -110,6 +112,12 @@ def test_a_run_is_deterministic_for_a_seed_and_wear_changes_per_shift() -> None:
     assert a.wear == [(0.0,) * 6, (40.0,) * 6] and len(a.shift_start) == 2
     first, second = (next(m for m in a.moves if m.shift == s and m.to == "there") for s in (0, 1))
     assert all(f2 > f1 for f1, f2 in zip(first.true_friction[:4], second.true_friction[:4], strict=True))
+    # a shift by duration: cycles are started while less than that has passed; progress after each cycle
+    seen: list[tuple[int, int, float]] = []
+    d = run_production("ur5", _shuttle(), shifts=2, duration=3.0, seed=7, progress=lambda *p: seen.append(p))
+    cycle_time = a.shift_start[1] - a.shift_start[0]
+    assert [(s, c) for s, c, _ in seen] == [(0, 1), (0, 2), (1, 1), (1, 2)] and cycle_time < 3.0 < 2 * cycle_time
+    assert seen[-1][2] == d.t[-1] and d.shift_start[1] == seen[1][2]
 
 
 def test_the_recorded_bag_reads_back_with_the_same_samples(tmp_path: Path) -> None:
@@ -188,3 +196,16 @@ def test_bad_run_settings_give_one_clear_line(kwargs: dict[str, object], match: 
         production_program("palletize")
     with pytest.raises(InputDataError, match="is for arm ur5, not panda"):
         run_production("panda", _shuttle(), cycles=1)
+
+
+def test_a_move_too_short_to_reach_its_cruise_records_its_peak_speed() -> None:
+    home = tuple(j.home for j in arm_spec("ur5").joints)
+    near = (home[0] + 0.02, *home[1:])
+    program = ProductionProgram("jog", "ur5", {"home": home, "near": near}, "home", (),
+                                (Move("near", 1.0, dwell=0.1), Move("home", 1.0, dwell=0.1)))
+    run = run_production("ur5", program, cycles=1, seed=0)
+    out = run.moves[0]
+    peak = 0.02 * math.sqrt(program.acceleration / 0.02)  # a triangle: accelerate half way, decelerate
+    assert out.cruise[0] == out.cruise[1] and out.velocity[0] == pytest.approx(peak)
+    assert out.velocity[0] < arm_spec("ur5").joints[0].velocity
+    assert np.max(run.v[:, 0]) == pytest.approx(peak, rel=0.05)

@@ -48,8 +48,9 @@ drawn at every change of a joint's direction, the effort noise at every sample, 
 seeded ``seed + i``: a run is deterministic for a seed.
 
 Cost: about 80-90 µs per physics step at 1 kHz (the held flange joint sits in the drive's stick band, solved
-with the inertia matrix at every step), 5-6 CPU seconds per simulated minute (``bench/bench_production_sim.py``). Memory: every sample is kept (6 joints at 250 Hz:
-about 4 MB per simulated minute).
+with the inertia matrix at every step), 5-6 CPU seconds per simulated minute (``bench/bench_production_sim.py``).
+Memory: every sample is kept (6 joints at 250 Hz: about 3 MB of arrays per simulated minute, several times
+that in lists while the run goes).
 """
 
 from __future__ import annotations
@@ -119,15 +120,13 @@ class ProductionProgram:
     #: what the program holds still throughout, and why (documentation)
     held: tuple[str, ...] = ()
 
-    def lines(self, cycle_only: bool = False) -> list[tuple[str, str, Move]]:
+    def lines(self) -> list[tuple[str, str, Move]]:
         """``(from, to, move)`` of every move: the prologue from ``start``, then one cycle."""
         out: list[tuple[str, str, Move]] = []
         at = self.start
-        for m in (() if cycle_only else self.prologue) + self.cycle:
+        for m in self.prologue + self.cycle:
             out.append((at, m.to, m))
             at = m.to
-        if cycle_only and out:
-            out[0] = (self.cycle_start, out[0][1], out[0][2])
         return out
 
     @property
@@ -323,8 +322,9 @@ class MoveRecord:
     """One executed move: where it is in the run and the truth at its cruise.
 
     Times are simulated seconds: ``t_start`` (the reference starts), ``cruise`` (the reference's cruise
-    starts, ends), ``t_end`` (arrived). ``velocity``: each joint's cruise speed, joint side rad/s (0: the
-    move does not move it). ``true_friction``: each moving joint's model friction at its cruise speed at the
+    starts, ends; the same instant for a move too short to reach its cruise speed), ``t_end`` (arrived).
+    ``velocity``: each joint's cruise speed, joint side rad/s (0: the move does not move it; a move too
+    short to reach its cruise: its peak). ``true_friction``: each moving joint's model friction at its cruise speed at the
     line's midpoint (every joint at its cruise speed; :meth:`~.arm.ArmSim.true_friction`, N·m, the current
     wear and temperature, the payload carried), NaN for a joint the move does not move; ``temperature``:
     each joint's there, degC."""
@@ -546,9 +546,9 @@ def run_production(arm: str | ArmSpec, program: ProductionProgram, *, shifts: in
         q0 = np.asarray(program.waypoints[frm], dtype=float)
         target = np.asarray(program.waypoints[m.to], dtype=float)
         d, lam_v, lam_a = cruise(program, frm, m, spec)
-        w = d * lam_v
         if lam_v > 0:
             _, _, ta, total = _trap(0.0, lam_v, lam_a)
+            w = d * min(lam_v, lam_a * ta)  # a move too short to reach its cruise: its peak (no cruise window)
             t0 = sim.time
             cruise_t = (t0 + ta, t0 + total - ta)
             seg = len(moves)
