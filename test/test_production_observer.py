@@ -301,3 +301,18 @@ def test_random_samples_raise_nothing_but_input_data_error(data: st.DataObject) 
                 assert "\n" not in str(exc)
     shift = obs.end_shift(1)
     assert isinstance(shift, ProductionShift)
+
+
+def test_a_pass_waits_pair_horizon_for_its_reverse_partner_then_gives_up() -> None:
+    # forward at 0.5 rad/s, then (the arm stopped 100 s, no samples) the same path in reverse
+    t = np.arange(0.0, 4.0, 0.004)
+    v = np.where((t > 0.2) & (t < 3.8), 0.5, 0.0)
+    q = np.concatenate(([0.0], np.cumsum(v[:-1]) * 0.004))
+    tt = np.concatenate((t, t + 104.0))
+    vv = np.concatenate((v, -v))
+    qq = np.concatenate((q, q[-1] - q))
+    uu = np.sign(vv) * 20.0 + 5.0
+    waits = observe_production(tt, qq, vv, uu, config=ProductionConfig(pair_horizon=200.0))
+    assert waits.kinds == ("paired",) and waits.observations[0].tau_f == pytest.approx(0.2)
+    gives_up = observe_production(tt, qq, vv, uu, config=ProductionConfig(pair_horizon=50.0))
+    assert gives_up.observations == () and gives_up.joints["joint_1"].rejected == {"no reverse partner": 2}

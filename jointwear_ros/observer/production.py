@@ -22,20 +22,25 @@ of the shift, pairs what it saw into friction observations in the suite's units 
    the pair gives ``tau_f = sum w_b d_b / sum w_b``, ``d_b = (u+_b - u-_b) / 2`` (less half the
    gravity difference of the two bins' mean configurations when ``gravity`` is given), weights
    ``w_b = 2 n+ n- / (n+ + n-)``; its standard error is the larger of the bins' scatter (batch means
-   with the bins as batches) and the samples' own (within-bin variances). Partners are chosen greedily,
-   most matched samples first; each segment is in one pair at most.
+   with the bins as batches) and the samples' own (within-bin variances). A segment is paired when it
+   ends, with the waiting segment of the other direction that matches it over the most samples; one that
+   finds none waits ``pair_horizon`` seconds (or to the end of the shift) for a later partner. Each
+   segment is in one pair at most; what is kept of it while it waits is its bins, so the memory is
+   bounded by the segments of ``pair_horizon``.
 3. **Load check.** With ``gravity`` or ``rigid_body`` given, ``(u+_b + u-_b) / 2`` must be the model's
-   torque of the configuration (``rigid_body(q, v, 0)``, else ``gravity(q)``) within
-   ``load_tolerance + 4 se``; a pair that is not (a payload carried one way only) is rejected with
+   torque of the configuration (``rigid_body(q, v, 0)`` within ``load_tolerance``, else ``gravity(q)``
+   within ``load_tolerance_gravity``, which must also hold the coupling torque ``C(q, v) v``), plus
+   4 standard errors; a pair that is not (a payload carried one way only) is rejected with
    ``load mismatch``.
-4. **Model-based.** With ``rigid_body`` given, a segment in no pair (and in no rejected pair) gives
+4. **Model-based.** With ``rigid_body`` given, a segment that found no partner gives
    ``d * (u - rigid_body(q, v, 0) / torque_scale)`` over its bins (kind ``model``). A segment is never
    used twice.
 5. **Per shift.** One observation per joint, kind and speed level (speeds within ``speed_match`` of the
    level's slowest): the inverse-variance weighted mean of its pairs; its std the within-pair one
-   ``1 / sqrt(sum 1/se_i^2)``, or, with ``min_pairs_scatter`` pairs or more, the pairs' weighted
-   scatter when that is larger (what varies between passes, a per-pass friction offset, is seen only
-   there).
+   ``1 / sqrt(sum 1/se_i^2)``, or the pairs' scatter over ``sqrt(pairs)`` when that is larger (what varies
+   from pass to pass, a per-pass friction offset, shows only there). The scatter of one pair about its
+   level's mean is pooled over the joint's levels, once ``min_pairs_scatter`` pairs are in levels of two
+   or more.
 
 Every joint's counts say how many passes it made, how many were paired, used model-based, or rejected
 and why (:data:`REASONS`), the speeds it held and whether it ever moved at an informative speed.
@@ -145,6 +150,9 @@ class ProductionConfig:
                                             range=(0.0, 1e6), per_joint=True)
     min_pairs_scatter: int = setting(3, description="pairs of a speed level from which their scatter is used "
                                      "as the std", range=(2, 1_000_000), per_joint=True)
+    pair_horizon: float = setting(600.0, description="a constant-speed segment waits this long for its reverse "
+                                  "partner, then is model-based or rejected (bounds the memory)", unit="s",
+                                  range=(0.0, 1e6), per_joint=True)
     configuration_tolerance: float = setting(0.01, description="every joint's mean position must match within "
                                              "this between a forward and a reverse bin (the whole arm)", unit="rad",
                                              range=(0.0, 10.0))
@@ -243,7 +251,8 @@ class _Segment:
         self.s_speed2 = 0.0
         self.bins: dict[int, _Bin] = {}
         self.speed = 0.0
-        self.used = False
+        self.summary: _Bins | None = None
+        self.mismatch = False
 
     def add(self, t: float, q: Array, v: Array, u: float, temp: float, vm: float, key: int) -> None:
         self.t1 = t
@@ -276,19 +285,36 @@ class _Motion:
 
 
 class _Bins:
-    """A segment's bins as arrays (sorted by bin key)."""
+    """A finished segment's bins as arrays (sorted by bin key): what is kept of it once its samples are gone."""
 
-    def __init__(self, seg: _Segment, keys: list[int] | None = None) -> None:
-        ks = sorted(seg.bins) if keys is None else keys
+    def __init__(self, keys: list[int], n: Array, q: Array, v: Array, u: Array, var: Array, st: Array,
+                 nt: Array) -> None:
+        self.keys = keys
+        self.index = {k: i for i, k in enumerate(keys)}
+        self.n, self.q, self.v, self.u, self.var, self.st_b, self.nt_b = n, q, v, u, var, st, nt
+
+    @classmethod
+    def of(cls, seg: _Segment) -> _Bins:
+        ks = sorted(seg.bins)
         bs = [seg.bins[k] for k in ks]
-        self.keys = ks
-        self.n = np.array([b.n for b in bs], dtype=float)
-        self.q = np.array([b.sq / b.n for b in bs]).reshape(len(bs), -1)
-        self.v = np.array([b.sv / b.n for b in bs]).reshape(len(bs), -1)
-        self.u = np.array([b.su / b.n for b in bs])
-        self.var = np.array([max(b.su2 / b.n - (b.su / b.n) ** 2, 0.0) for b in bs])
-        self.st = float(sum(b.st for b in bs))
-        self.nt = int(sum(b.nt for b in bs))
+        return cls(ks, np.array([b.n for b in bs], dtype=float),
+                   np.array([b.sq / b.n for b in bs]).reshape(len(bs), -1),
+                   np.array([b.sv / b.n for b in bs]).reshape(len(bs), -1),
+                   np.array([b.su / b.n for b in bs]),
+                   np.array([max(b.su2 / b.n - (b.su / b.n) ** 2, 0.0) for b in bs]),
+                   np.array([b.st for b in bs]), np.array([b.nt for b in bs], dtype=float))
+
+    def take(self, keys: list[int]) -> _Bins:
+        i = np.array([self.index[k] for k in keys], dtype=int)
+        return _Bins(keys, self.n[i], self.q[i], self.v[i], self.u[i], self.var[i], self.st_b[i], self.nt_b[i])
+
+    @property
+    def st(self) -> float:
+        return float(self.st_b.sum())
+
+    @property
+    def nt(self) -> int:
+        return int(self.nt_b.sum())
 
 
 def _scatter_se(d: Array, w: Array) -> float:
@@ -376,7 +402,11 @@ class ProductionObserver:
     # -- state -------------------------------------------------------------
     def _reset_shift(self) -> None:
         nj = len(self.names)
-        self._segs: list[list[_Segment]] = [[] for _ in range(nj)]
+        self._pending: list[list[_Segment]] = [[] for _ in range(nj)]
+        self._results: list[_Result] = []
+        self._paired = [0] * nj
+        self._model_n = [0] * nj
+        self._informative = [False] * nj
         self._cur: list[_Segment | None] = [None] * nj
         self._motion: list[_Motion | None] = [None] * nj
         self._passes = [0] * nj
@@ -547,7 +577,11 @@ class ProductionObserver:
         elif seg.speed < cfg.min_speed:
             self._rejected[j]["below min speed"] += 1
         else:
-            self._segs[j].append(seg)
+            seg.summary = _Bins.of(seg)
+            seg.bins = {}
+            self._informative[j] = True
+            self._expire(j, seg.t0 - cfg.pair_horizon)
+            self._offer(j, seg)
 
     def _end_motion(self, j: int, cut: bool) -> None:
         if self._cur[j] is not None:
@@ -572,19 +606,17 @@ class ProductionObserver:
             raise InputDataError(f"production observer: shift id {shift_id!r} is not an integer") from None
         self._flush(gap=True)
         t_end = self._last_t if stamp is None else _finite_float(stamp, "shift end stamp")
-        results: list[_Result] = []
         counts: dict[str, JointShiftCounts] = {}
         for j, name in enumerate(self.names):
-            paired, model, res = self._pair_joint(j)
-            results.extend(res)
+            self._expire(j, math.inf)
             cfg = self.configs[j]
             levels = _levels(sorted(self._levels[j]), cfg.speed_match)
-            informative = any(s >= cfg.min_speed for s in levels) and any(
-                seg.speed >= cfg.min_speed for seg in self._segs[j])
+            informative = self._informative[j]
             note = "" if informative else (
                 f"{name}: never moved at a constant speed >= {cfg.min_speed:g} rad/s motor in this shift")
-            counts[name] = JointShiftCounts(name, self._passes[j], paired, model, dict(sorted(self._rejected[j].items())),
-                                            tuple(levels), informative, note)
+            counts[name] = JointShiftCounts(name, self._passes[j], self._paired[j], self._model_n[j],
+                                            dict(sorted(self._rejected[j].items())), tuple(levels), informative, note)
+        results = self._results
         passes = tuple(self._observation(r, sid) for r in results)
         pooled = self._pool(results)
         shift = ProductionShift(
@@ -610,58 +642,63 @@ class ProductionObserver:
             return self._model(self._rigid_body, q, z, z)
         return None
 
-    def _pair_joint(self, j: int) -> tuple[int, int, list[_Result]]:
+    def _offer(self, j: int, seg: _Segment) -> None:
+        """A finished constant-speed segment: paired now with the pending segment of the other direction at
+        its speed that matches it over the most samples (ties: the latest), else kept pending."""
         cfg = self.configs[j]
         tol = self._arm.configuration_tolerance
-        segs = self._segs[j]
-        fw = [s for s in segs if s.sign > 0]
-        rv = [s for s in segs if s.sign < 0]
-        mismatch: set[int] = set()
-        cands: list[tuple[float, float, int, int, list[int]]] = []
-        for a, sf in enumerate(fw):
-            for b, sr in enumerate(rv):
-                if abs(sf.speed - sr.speed) > cfg.speed_match * max(sf.speed, sr.speed):
-                    continue
-                common = [k for k in sorted(sf.bins) if k in sr.bins and sf.bins[k].n >= cfg.min_bin_samples
-                          and sr.bins[k].n >= cfg.min_bin_samples]
-                if not common:
-                    continue
-                matched = [k for k in common if float(np.max(np.abs(
-                    sf.bins[k].sq / sf.bins[k].n - sr.bins[k].sq / sr.bins[k].n))) <= tol]
-                if len(matched) < cfg.min_bins:
-                    mismatch.update((id(sf), id(sr)))
-                    continue
-                weight = float(sum(2.0 * sf.bins[k].n * sr.bins[k].n / (sf.bins[k].n + sr.bins[k].n) for k in matched))
-                cands.append((-weight, abs(0.5 * (sf.t0 + sf.t1) - 0.5 * (sr.t0 + sr.t1)), a, b, matched))
-        cands.sort(key=lambda c: (c[0], c[1], c[2], c[3]))
-        results: list[_Result] = []
-        paired = 0
-        for _, _, a, b, matched in cands:
-            sf, sr = fw[a], rv[b]
-            if sf.used or sr.used:
+        a = seg.summary
+        assert a is not None
+        best: tuple[float, int, list[int]] | None = None
+        for i, other in enumerate(self._pending[j]):
+            b = other.summary
+            assert b is not None
+            if other.sign == seg.sign or abs(other.speed - seg.speed) > cfg.speed_match * max(other.speed, seg.speed):
                 continue
-            sf.used = sr.used = True
-            r = self._pair(j, sf, sr, matched)
-            if r is None:
-                self._rejected[j]["load mismatch"] += 2
+            common = [k for k in a.keys if k in b.index and a.n[a.index[k]] >= cfg.min_bin_samples
+                      and b.n[b.index[k]] >= cfg.min_bin_samples]
+            if not common:
                 continue
-            paired += 2
-            results.append(r)
-        model = 0
-        for seg in segs:
-            if seg.used:
+            matched = [k for k in common
+                       if float(np.max(np.abs(a.q[a.index[k]] - b.q[b.index[k]]))) <= tol]
+            if len(matched) < cfg.min_bins:
+                seg.mismatch = other.mismatch = True
                 continue
-            if self._rigid_body is not None:
-                results.append(self._model_based(j, seg))
-                model += 1
+            na = a.n[[a.index[k] for k in matched]]
+            nb = b.n[[b.index[k] for k in matched]]
+            weight = float(np.sum(2.0 * na * nb / (na + nb)))
+            if best is None or weight >= best[0]:
+                best = (weight, i, matched)
+        if best is None:
+            self._pending[j].append(seg)
+            return
+        other = self._pending[j].pop(best[1])
+        fw, rv = (seg, other) if seg.sign > 0 else (other, seg)
+        r = self._pair(j, fw, rv, best[2])
+        if r is None:
+            self._rejected[j]["load mismatch"] += 2
+        else:
+            self._paired[j] += 2
+            self._results.append(r)
+
+    def _expire(self, j: int, before: float) -> None:
+        """Pending segments that ended before ``before`` will find no partner: model-based, or rejected."""
+        keep: list[_Segment] = []
+        for seg in self._pending[j]:
+            if seg.t1 >= before:
+                keep.append(seg)
+            elif self._rigid_body is not None:
+                self._results.append(self._model_based(j, seg))
+                self._model_n[j] += 1
             else:
-                self._rejected[j]["configuration mismatch" if id(seg) in mismatch else "no reverse partner"] += 1
-        return paired, model, results
+                self._rejected[j]["configuration mismatch" if seg.mismatch else "no reverse partner"] += 1
+        self._pending[j] = keep
 
     def _pair(self, j: int, sf: _Segment, sr: _Segment, keys: list[int]) -> _Result | None:
         cfg = self.configs[j]
         scale = float(self._scale[j])
-        f, r = _Bins(sf, keys), _Bins(sr, keys)
+        assert sf.summary is not None and sr.summary is not None
+        f, r = sf.summary.take(keys), sr.summary.take(keys)
         w = 2.0 * f.n * r.n / (f.n + r.n)
         d = 0.5 * (f.u - r.u)
         m = 0.5 * (f.u + r.u)
@@ -704,7 +741,8 @@ class ProductionObserver:
     def _model_based(self, j: int, seg: _Segment) -> _Result:
         assert self._rigid_body is not None
         scale = float(self._scale[j])
-        b = _Bins(seg)
+        b = seg.summary
+        assert b is not None
         z = np.zeros(len(self.names))
         model = np.array([self._model(self._rigid_body, qb, vb, z)[j] for qb, vb in zip(b.q, b.v, strict=True)]) / scale
         fr = seg.sign * (b.u - model)
