@@ -148,8 +148,9 @@ class ProductionConfig:
     load_tolerance_gravity: float = setting(0.02, description="the same with gravity only (the coupling torque "
                                             "C(q, v) v is not in the model and counts against it), normalized",
                                             range=(0.0, 1e6), per_joint=True)
-    min_pairs_scatter: int = setting(3, description="pairs of a speed level from which their scatter is used "
-                                     "as the std", range=(2, 1_000_000), per_joint=True)
+    min_pairs_scatter: int = setting(3, description="pairs (in speed levels of two or more) from which their "
+                                     "scatter, pooled over the joint's levels, may set the std", range=(2, 1_000_000),
+                                     per_joint=True)
     pair_horizon: float = setting(600.0, description="a constant-speed segment waits this long for its reverse "
                                   "partner, then is model-based or rejected (bounds the memory)", unit="s",
                                   range=(0.0, 1e6), per_joint=True)
