@@ -231,6 +231,7 @@ def test_streaming_batch_and_chunked_give_the_same_shift_bit_for_bit(line, gravi
     live = ProductionObserver(NAMES, CONFIGS, gravity=gravity)
     for k in range(t.size):
         live.add(float(t[k]), q[k].tolist(), v[k].tolist(), u[k].tolist(), temps[k].tolist())
+    assert live.waiting == 0  # every pass found its partner as it ended: nothing kept but the pairs
     streamed = live.end_shift(3)
     assert batch.observations and all(math.isfinite(o.temperature) for o in batch.observations)
     for chunk in (1, 7, 1000):

@@ -418,6 +418,11 @@ class ProductionObserver:
         self._t0 = math.nan
         self._n = 0
 
+    @property
+    def waiting(self) -> int:
+        """Constant-speed segments waiting for their reverse partner (each kept as its bins: the memory)."""
+        return sum(len(p) for p in self._pending)
+
     # -- input -------------------------------------------------------------
     def add(self, stamp: float, positions: Sequence[float] | Array, velocities: Sequence[float] | Array,
             efforts: Sequence[float] | Array, temperatures: Sequence[float] | Array | None = None) -> None:
