@@ -41,7 +41,7 @@ def _program(speeds: tuple[float, ...] = (0.3, 0.6), reps: int = 3, payload_forw
     all joints on one trapezoid (they reach cruise together), sampled at RATE. ``payload_forward`` kg is carried
     on the forward passes only; ``offset`` = (joint, rad) moves that joint away before each reverse pass and back
     after it."""
-    arm = ArmSim(UR5, NAMES, arm_configs(UR5, NAMES), seeds=range(seed, seed + 6))
+    arm = ArmSim(UR5, NAMES, arm_configs(UR5, NAMES), seeds=range(seed, seed + len(NAMES)))
     dt = 0.001
     every = round(1.0 / (RATE * dt))
     rows: list[tuple[float, list[float], list[float], list[float]]] = []
@@ -67,7 +67,7 @@ def _program(speeds: tuple[float, ...] = (0.3, 0.6), reps: int = 3, payload_forw
 
     def shift_joint(sign: float) -> None:
         assert offset is not None
-        cmd = np.zeros(6)
+        cmd = np.zeros(len(NAMES))
         cmd[offset[0]] = 0.2 * sign
         arm.set_commands(cmd.tolist())
         for _ in range(round(offset[1] / 0.2 / dt)):
