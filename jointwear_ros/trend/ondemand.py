@@ -76,7 +76,7 @@ class OnDemandConfig:
                                            "90 % lower bound of the time to alarm is within this many days",
                                            unit="days", range=(0.0, 3650.0))
     min_interval_nights: int = setting(7, description="nights after a dedicated test cycle before the next is "
-                                       "asked for, unless the production estimate would raise the level",
+                                       "asked for, unless a production estimate grown beyond that cycle's would raise the level",
                                        unit="nights", range=(0, 3650))
     allow_service_call: bool = setting(False, description="ask by calling /test_cycle/run; false: publish a "
                                        "status an operator acts on")
@@ -234,7 +234,7 @@ class OnDemandPolicy:
                                 f"{cfg.crossing_horizon_days:g}")
         if quiet >= cfg.max_quiet_shifts:
             return "quiet", (f"{joint}: no informative production motion for {quiet} shifts "
-                             f"(at most {cfg.max_quiet_shifts})")
+                             f"(the cycle is asked for after {cfg.max_quiet_shifts})")
         if est is None:
             return "none", f"{joint}: production cannot tell this shift; {quiet} quiet shift(s) so far"
         w, s = est
