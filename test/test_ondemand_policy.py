@@ -168,3 +168,35 @@ def test_a_joint_name_is_one_printable_line(joint: object) -> None:
     with pytest.raises(InputDataError, match="joint name"):
         OnDemandPolicy().decide(joint, (10.0, 1.0), None, quiet_shifts=0,  # type: ignore[arg-type]
                                 last_cycle_time=None, now=NOW)
+
+
+wear = st.floats(-50.0, 150.0)
+stds = st.floats(0.0, 50.0)
+estimates = st.one_of(st.none(), st.tuples(wear, stds),
+                      st.tuples(st.sampled_from([math.nan, math.inf, -math.inf]), stds))
+good_forecasts = st.one_of(st.none(), st.builds(forecast_of, st.one_of(st.none(), st.floats(0, 4000)),
+                                                st.one_of(st.none(), st.floats(0, 4000)),
+                                                st.one_of(st.none(), st.floats(0, 4000)), st.booleans(),
+                                                st.booleans(), st.floats(0, 3650)))
+
+
+@SETTINGS
+@given(estimate=estimates, forecast=good_forecasts, quiet=st.integers(0, 10_000),
+       ago=st.one_of(st.none(), st.floats(0.0, 400.0)), cycle=st.one_of(st.none(), st.tuples(wear, stds)))
+def test_policy_decides_every_well_formed_input_and_asks_only_for_a_reason(
+        estimate: tuple[float, float] | None, forecast: object, quiet: int, ago: float | None,
+        cycle: tuple[float, float] | None) -> None:
+    d = decide(estimate, forecast, quiet=quiet, last=ago, cycle=cycle)
+    finite = estimate is not None and all(math.isfinite(x) for x in estimate)
+    if d.kind == "straddle":
+        assert finite
+        assert estimate is not None
+        lo, hi = estimate[0] - 1.645 * estimate[1], estimate[0] + 1.645 * estimate[1]
+        assert any(lo < thr <= hi for thr in (WARN, ALARM))
+    if d.kind == "quiet":
+        assert quiet >= OnDemandConfig().max_quiet_shifts
+    if d.ask and ago is not None and cycle is not None:
+        assert cycle[0] < ALARM  # a cycle that gave ERROR ends the asks
+    if ago is None and d.kind != "none":
+        assert d.ask  # never tested: nothing holds an ask back
+    assert d.reason.startswith("joint_2: ") and "\n" not in d.reason
