@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 TREND = ROOT / "jointwear_ros" / "trend"
 #: the trend package's modules by role, each importing only those before it (trend/__init__.py says so)
 ORDER = ("config", "members", "filters", "alarm", "states", "prior", "segments", "analysis", "families",
-         "backtest", "report")
+         "backtest", "report", "ondemand", "year")
 
 
 def test_the_nodes_trend_parameters_are_the_configs_settings_under_their_parameter_names():

@@ -5,7 +5,8 @@ settings), ``members`` (the bank's models and the prior they start from), ``filt
 filters, closed-form regressions), ``alarm`` (time to alarm, forecast band), ``states`` (the model-averaged
 trend after each estimate, the forecast's levels), ``prior`` (the fleet as a prior), ``segments`` (segments
 and revisions), ``analysis`` (:func:`analyze_joint`: one joint's trend); above them ``backtest``, ``families``
-and ``report``.
+and ``report``; ``ondemand`` (:class:`OnDemandPolicy`: the test cycle on demand) and ``year`` (:func:`simulate_year`:
+a simulated year of production estimates against a nightly cycle).
 """
 
 from __future__ import annotations
@@ -15,21 +16,28 @@ from .analysis import TrendResult, analyze_joint
 from .config import DAY, TrendConfig
 from .filters import FilterOutput, filter_bank, kalman_llt, rts_smooth
 from .members import Component, Member, RatePrior, bank_members
+from .ondemand import Decision, OnDemandConfig, OnDemandPolicy
 from .prior import SiblingFit, fleet_prior, pool_prior, sibling_fit, type2_weights
 from .segments import collapse_revisions, current_segment, last_segment
 from .states import TrendStates, trend_states
+from .year import WearPath, YearResult, simulate_year
 
 __all__ = [
     "DAY",
     "Component",
+    "Decision",
     "FilterOutput",
     "Member",
+    "OnDemandConfig",
+    "OnDemandPolicy",
     "RatePrior",
     "SiblingFit",
     "TimeToAlarm",
     "TrendConfig",
     "TrendResult",
     "TrendStates",
+    "WearPath",
+    "YearResult",
     "analyze_joint",
     "bank_members",
     "collapse_revisions",
@@ -44,6 +52,7 @@ __all__ = [
     "pool_prior",
     "rts_smooth",
     "sibling_fit",
+    "simulate_year",
     "trend_states",
     "type2_weights",
 ]
