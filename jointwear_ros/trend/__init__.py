@@ -16,7 +16,7 @@ from .analysis import TrendResult, analyze_joint
 from .config import DAY, TrendConfig
 from .filters import FilterOutput, filter_bank, kalman_llt, rts_smooth
 from .members import Component, Member, RatePrior, bank_members
-from .ondemand import Decision, OnDemandConfig, OnDemandPolicy
+from .ondemand import Decision, OnDemandConfig, OnDemandLedger, OnDemandPolicy
 from .prior import SiblingFit, fleet_prior, pool_prior, sibling_fit, type2_weights
 from .segments import collapse_revisions, current_segment, last_segment
 from .states import TrendStates, trend_states
@@ -29,6 +29,7 @@ __all__ = [
     "FilterOutput",
     "Member",
     "OnDemandConfig",
+    "OnDemandLedger",
     "OnDemandPolicy",
     "RatePrior",
     "SiblingFit",

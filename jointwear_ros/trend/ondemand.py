@@ -49,7 +49,7 @@ from ..errors import InputDataError
 from ..settings import check_ranges, setting
 from .config import DAY
 
-__all__ = ["ASK_KINDS", "Decision", "OnDemandConfig", "OnDemandPolicy"]
+__all__ = ["ASK_KINDS", "Decision", "OnDemandConfig", "OnDemandLedger", "OnDemandPolicy"]
 
 #: the kinds of a :class:`Decision`: the three reasons to ask, and ``none``
 ASK_KINDS = ("straddle", "crossing", "quiet", "none")
@@ -250,3 +250,93 @@ def _nights(days: float) -> str:
 def _days(x: float | None) -> str:
     return "unbounded" if x is None or not math.isfinite(x) else f"{x:.0f} days"
 
+
+
+@dataclass
+class _JointMemory:
+    estimate: tuple[float, float] | None = None
+    estimate_time: float = math.nan
+    quiet: int = 0
+    forecast: Forecast | None = None
+    cycle_time: float | None = None
+    cycle_estimate: tuple[float, float] | None = None
+    asked: Decision | None = None
+
+
+class OnDemandLedger:
+    """What :meth:`OnDemandPolicy.decide` needs per joint, kept from the stream a cell publishes (pure).
+
+    The ``cycle_on_demand`` node feeds it the wear estimates of both sources, the production shifts' ends and the
+    trend's forecasts, and asks it after each production shift; a replay of the same stream gives the same
+    decisions. Per joint it keeps the newest production estimate (a "cannot tell" one, NaN, keeps the quiet count
+    going), the shifts since the joint's last informative estimate, the newest forecast and the last dedicated
+    cycle's time and estimate (a dedicated cycle resets the quiet count: it informed the level).
+
+    >>> led = OnDemandLedger(OnDemandPolicy())
+    >>> led.production_estimate("joint_2", 33.1, 2.4, stamp=3600.0).ask
+    True
+    >>> led.test_cycle_estimate("joint_2", 31.0, 0.9, stamp=7200.0)
+    >>> led.production_estimate("joint_2", 33.5, 2.4, stamp=10800.0).reason.endswith("which decided WARN")
+    True
+    """
+
+    def __init__(self, policy: OnDemandPolicy) -> None:
+        self.policy = policy
+        self._joints: dict[str, _JointMemory] = {}
+
+    def _joint(self, joint: str) -> _JointMemory:
+        if not isinstance(joint, str) or not joint or not joint.isprintable():
+            raise InputDataError(f"joint = {joint!r}: a joint name (one printable line) is needed")
+        return self._joints.setdefault(joint, _JointMemory())
+
+    @property
+    def joints(self) -> tuple[str, ...]:
+        return tuple(self._joints)
+
+    def last_decision(self, joint: str) -> Decision | None:
+        """The newest decision made for ``joint`` (None: none yet)."""
+        m = self._joints.get(joint)
+        return None if m is None else m.asked
+
+    def forecast(self, joint: str, forecast: Forecast | None) -> None:
+        """The joint's newest trend forecast (None: no trend)."""
+        if forecast is not None and not isinstance(forecast, Forecast):
+            raise InputDataError(f"{joint}: forecast = {forecast!r}: a condition.Forecast or None is needed")
+        self._joint(joint).forecast = forecast
+
+    def test_cycle_estimate(self, joint: str, wear: float, std: float, *, stamp: float) -> None:
+        """A dedicated test cycle's estimate of ``joint`` at ``stamp`` (s): the last cycle, and the joint informed
+        (an estimate that is not finite still counts as a cycle run, not as information)."""
+        m = self._joint(joint)
+        t = _time("stamp", stamp)
+        m.cycle_time = t if m.cycle_time is None else max(m.cycle_time, t)
+        est = self.policy._estimate(joint, (float(wear), float(std)), "test cycle estimate")
+        if est is not None:
+            m.cycle_estimate = est
+            m.quiet = 0
+
+    def production_estimate(self, joint: str, wear: float, std: float, *, stamp: float) -> Decision:
+        """A production shift's estimate of ``joint`` (NaN wear or std: the shift could not tell): the decision."""
+        m = self._joint(joint)
+        t = _time("stamp", stamp)
+        est = self.policy._estimate(joint, (float(wear), float(std)), "production estimate")
+        if est is None:
+            m.quiet += 1
+        else:
+            m.estimate, m.estimate_time, m.quiet = est, t, 0
+        return self._decide(joint, m, t)
+
+    def quiet_shift(self, joint: str, *, stamp: float) -> Decision:
+        """A production shift that ended without an informative observation of ``joint``: the decision."""
+        m = self._joint(joint)
+        t = _time("stamp", stamp)
+        m.quiet += 1
+        return self._decide(joint, m, t)
+
+    def _decide(self, joint: str, m: _JointMemory, now: float) -> Decision:
+        cycle_time = None if m.cycle_time is None else min(m.cycle_time, now)
+        est = m.estimate if m.quiet == 0 else None
+        d = self.policy.decide(joint, est, m.forecast, quiet_shifts=m.quiet, last_cycle_time=cycle_time, now=now,
+                               last_cycle_estimate=m.cycle_estimate)
+        m.asked = d
+        return d
