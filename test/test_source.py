@@ -183,7 +183,6 @@ def test_trend_shows_each_estimates_source_in_its_table_json_and_figure(two_sour
 def test_serve_shows_the_sources_on_the_page_in_the_api_and_in_metrics(two_source_db):
     sys.path.insert(0, str(ROOT / "tools"))
     from plant_screenshot import start_serve, stop
-
     from test_serve import api, get
 
     proc, base = start_serve(two_source_db, "--stale-days", "100000")
@@ -253,7 +252,7 @@ def test_replay_of_a_bag_with_production_status_gives_the_live_production_estima
     from jointwear_ros.replay import replay_bag
     from jointwear_ros.resources import config_path
 
-    path, _, tc_result, msgs, store = _synthetic(tmp_path_factory)
+    _, _, tc_result, msgs, store = _synthetic(tmp_path_factory)
     T = store.types
     t_start = 200.0
     prod = [_obs(1, v, 40.0, source="production", stamp=t_start + 10.0 * (i + 1)) for i, v in

@@ -11,11 +11,11 @@ from conftest import spin_until  # noqa: E402
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus, WearEstimate  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
+from test_source import _obs  # noqa: E402
 
 from jointwear_ros import contract  # noqa: E402
 from jointwear_ros.nodes.friction_observer import high_rate_qos  # noqa: E402
 from jointwear_ros.nodes.wear_estimator import WearEstimatorNode  # noqa: E402
-from test_source import _obs  # noqa: E402
 
 pytestmark = pytest.mark.ros
 

@@ -119,9 +119,9 @@ class _PlantCollector:
                 for name, s in v.sources:
                     ks = [*k, name]
                     fams["src_n"].add_metric(ks, float(s.estimates))
-                    for key, x in (("src_last", s.newest_time), ("src_wear", s.wear), ("src_std", s.wear_std)):
-                        if math.isfinite(x):
-                            fams[key].add_metric(ks, x)
+                    for skey, sx in (("src_last", s.newest_time), ("src_wear", s.wear), ("src_std", s.wear_std)):
+                        if math.isfinite(sx):
+                            fams[skey].add_metric(ks, sx)
                 if v.refused:
                     continue
                 fams["n"].add_metric(k, float(v.estimates))

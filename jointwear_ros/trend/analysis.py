@@ -143,7 +143,8 @@ def analyze_joint(
     trend, and a production shift is never taken for a revision of the test cycle with the same id."""
     cfg = cfg or TrendConfig()
     if sources is not None:
-        cycle_ids = revision_keys(np.zeros(len(times), int) if cycle_ids is None else cycle_ids, sources)
+        cycle_ids = revision_keys(np.zeros(len(times), int) if cycle_ids is None else cycle_ids,
+                                  sources).tolist()
     t, w, s, total, seg_start, segs = current_segment(times, wear, wear_std, cycle_ids, maintenance_times, cfg,
                                              f"{robot}/{joint}")
     ev = _segment_evidence(times, cycle_ids, maintenance_times, evidence, cfg)

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputDataError
 from .config import Array, TrendConfig
@@ -20,7 +21,7 @@ from .config import Array, TrendConfig
 __all__ = ["collapse_revisions", "current_segment", "last_segment", "revision_keys"]
 
 
-def revision_keys(cycle_ids: Any, sources: Any = None) -> Array:
+def revision_keys(cycle_ids: Any, sources: Any = None) -> npt.NDArray[np.int64]:
     """The cycle ids :func:`collapse_revisions` tells apart, with each estimate's source: a test cycle keeps its
     id, a production shift ``s`` becomes ``-s`` (0 stays 0, never collapsed), so a production shift and a test
     cycle of the same id are never taken for revisions of each other. ``sources`` None: all test cycles.
