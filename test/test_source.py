@@ -290,3 +290,10 @@ def test_replay_of_a_bag_with_production_status_gives_the_live_production_estima
     assert cmp_["estimates"]["paired"] == cmp_["estimates"]["matched"] == 2 and not cmp_["estimates"]["differ"]
     assert cmp_["observations"]["matched"] == 3 and not cmp_["observations"]["not_replayed"]
     assert np.isfinite(cmp_["estimates"]["max_abs_diff"])
+    # the fleet re-analysis of the bag: one record per (source, cycle), each with its source for the history
+    from jointwear_ros.fleet.reanalysis import reprocess_bag
+
+    out = reprocess_bag(bag, params="ref-2011r", method=str(_monitor_config().method))
+    assert not out.error and sorted((r["cycle_id"], r["cycle_source"]) for r in out.records) == [
+        (1, "production"), (1, "test_cycle")]
+    assert {r["cycle_source"]: EstimateRecord(**r).wear for r in out.records}["production"] == results[0].result.wear
