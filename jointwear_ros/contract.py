@@ -22,6 +22,8 @@ nodes, the bag reader, replay, the recorder and the CLI share them.
 ...                  joints=("joint_1", "joint_2"), joints_done=1)
 >>> st.ended, st.robot_cycle_over, st.in_cycle(3, "joint_2")
 (True, True, True)
+>>> Source.parse(""), Source.parse("production"), Source.PRODUCTION == "production"
+(<Source.TEST_CYCLE: 'test_cycle'>, <Source.PRODUCTION: 'production'>, True)
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from dataclasses import dataclass, fields
 from functools import cache
 from typing import Any, TypeVar
 
+from .errors import InputDataError
 from .observation import FrictionObservationData
 
 M = TypeVar("M")
@@ -44,12 +47,14 @@ __all__ = [
     "CycleStatus",
     "DiagnosticLevel",
     "RefusalReason",
+    "Source",
     "level_name",
     "level_rank",
     "observation_from_msg",
     "observation_to_msg",
     "robot_cycle_over",
     "seconds_to_stamp_fields",
+    "source_of",
     "stamp_to_seconds",
     "status_from_msg",
     "status_to_msg",
@@ -70,6 +75,43 @@ class _Contract(enum.IntEnum):
 
 
 E = TypeVar("E", bound=_Contract)
+
+
+class Source(enum.StrEnum):
+    """Where a friction observation or a wear estimate comes from: the ``source`` field of
+    ``FrictionObservation`` and ``WearEstimate``, the history's ``source`` column, the surfaces' label.
+
+    ``TEST_CYCLE``: the dedicated test cycle (its ``cycle_id`` is the cycle's); ``PRODUCTION``: the robot's
+    own program (its ``cycle_id`` is the production shift's). A test cycle and a shift with the same id are
+    different things: every consumer keys by (source, cycle_id). An empty value (a bag or a database from
+    before the field) is a test cycle's. Being a ``str``, a member compares equal to its value.
+    """
+
+    TEST_CYCLE = "test_cycle"
+    PRODUCTION = "production"
+
+    @classmethod
+    def parse(cls, value: object) -> Source:
+        """``value`` as a :class:`Source`: ``""``/``None`` is ``TEST_CYCLE``; anything else not of the vocabulary
+        raises :class:`~jointwear_ros.errors.InputDataError` naming it and the two values."""
+        text = "" if value is None else str(value).strip()
+        if not text:
+            return cls.TEST_CYCLE
+        try:
+            return cls(text)
+        except ValueError:
+            raise InputDataError(f"source {text!r} is neither {cls.TEST_CYCLE.value!r} nor "
+                                 f"{cls.PRODUCTION.value!r}") from None
+
+
+def source_of(value: object) -> str:
+    """The source's value as plain text (``"test_cycle"`` or ``"production"``; empty: ``"test_cycle"``), for a
+    message field, a column or a label (:meth:`Source.parse`, the same error for a value outside the vocabulary).
+
+    >>> source_of(None), source_of(Source.PRODUCTION)
+    ('test_cycle', 'production')
+    """
+    return Source.parse(value).value
 
 
 class CycleState(_Contract):
@@ -282,15 +324,25 @@ def _obs_fields() -> tuple[str, ...]:
 
 
 _INT_FIELDS = {"cycle_id", "samples_plus", "samples_minus"}
+#: text fields of ``FrictionObservation``
+_STR_FIELDS = {"joint_name", "source"}
 
+
+def _obs_value(name: str, raw: Any) -> Any:
+    if name == "source":
+        return source_of(raw)
+    return str(raw) if name in _STR_FIELDS else (int(raw) if name in _INT_FIELDS else float(raw))
 
 
 def observation_from_msg(msg: Any) -> FrictionObservationData:
-    """A ``FrictionObservation`` message (rclpy or rosbags) -> :class:`FrictionObservationData`."""
+    """A ``FrictionObservation`` message (rclpy or rosbags) -> :class:`FrictionObservationData`.
+
+    A message without ``source`` (a bag recorded before the field) or with it empty is a test cycle's; a source
+    outside the vocabulary raises :class:`~jointwear_ros.errors.InputDataError`.
+    """
     values: dict[str, Any] = {"stamp": stamp_to_seconds(msg.header.stamp)}
     for name in _obs_fields():
-        raw = getattr(msg, name)
-        values[name] = str(raw) if name == "joint_name" else (int(raw) if name in _INT_FIELDS else float(raw))
+        values[name] = _obs_value(name, getattr(msg, name, "") if name == "source" else getattr(msg, name))
     return FrictionObservationData(**values)
 
 
@@ -299,6 +351,5 @@ def observation_to_msg(obs: FrictionObservationData, msg_type: Callable[[], M]) 
     msg: Any = msg_type()
     msg.header.stamp.sec, msg.header.stamp.nanosec = seconds_to_stamp_fields(obs.stamp)
     for name in _obs_fields():
-        value = getattr(obs, name)
-        setattr(msg, name, str(value) if name == "joint_name" else (int(value) if name in _INT_FIELDS else float(value)))
+        setattr(msg, name, _obs_value(name, getattr(obs, name)))
     return msg  # type: ignore[no-any-return]

@@ -9,6 +9,14 @@ JointState split by name, each status to its ``joint_name``'s cores, each temper
 recorded, per (joint, cycle). ``jointwear replay``, ``jointwear history import --reestimate``
 and the fleet re-analysis use it; the live nodes never do.
 
+**Production.** The estimator's production input replays like live: each ``/production/status``
+(the production observer's per-joint RUNNING → DONE of a shift, the estimator's
+``production_status_topic``) goes to the monitor as a production shift's status, and each recorded
+``FrictionObservation`` whose ``source`` is ``production`` to the monitor at its log time, as the live
+estimator heard it; the estimates are keyed and compared by (joint, source, cycle id). The production
+observations are the recorded ones (this replay re-derives only the test cycle's observations from
+``/joint_states``), so they are not among the compared observations.
+
 **Which joints.** The joints the live observer served, from the bag's ``/parameter_events``
 (its ``joints``, or its ``joint_name`` when it ran one joint); when the bag has no recorded
 parameters (or they are ignored), every joint named by the bag's test-cycle statuses; when
@@ -24,7 +32,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .contract import observation_from_msg, stamp_to_seconds, status_from_msg
+from .contract import Source, observation_from_msg, stamp_to_seconds, status_from_msg
 from .errors import InputDataError, ParameterError
 from .io.bags import (
     ESTIMATE_TYPE,
@@ -69,6 +77,9 @@ class ReplayResult:
 
     #: the joints replayed (each through its own cores), in order
     joints: list[str] = field(default_factory=list)
+    #: production statuses (``/production/status``) and recorded production observations fed to the monitor
+    production_statuses: int = 0
+    production_observations: int = 0
     #: where the settings came from: ``observer``/``estimator`` ("recorded" in the bag, or "config" files),
     #: ``method``/``params`` and their ``method_from``/``params_from`` ("given", "recorded",
     #: "recorded estimates": the method the live estimates name, "config")
@@ -82,8 +93,10 @@ class ReplayResult:
             s.get("estimator") == "recorded" or (s.get("method_from") == "given" and s.get("params_from") == "given"))
 
     def comparison(self, joint: str | None = None) -> dict[str, Any]:
-        """Replayed vs recorded, like with like: observations matched by (joint, cycle_id, speed), estimates by
-        (joint, cycle_id) and compared only when made by the same method.
+        """Replayed vs recorded, like with like: observations matched by (joint, source, cycle_id, speed),
+        estimates by (joint, source, cycle_id) and compared only when made by the same method (a test cycle and
+        a production shift of the same id are different cycles; recorded production observations are the
+        replay's input, not compared).
 
         ``joint`` restricts it to one joint. A cycle re-estimated after a late
         observation has several results on each side; the newest of each is
@@ -105,11 +118,15 @@ class ReplayResult:
         numeric = ("tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position",
                    "samples_plus", "samples_minus")
         est_fields = ("wear", "wear_std", "wear_low", "wear_high")
-        rec_obs = [o for o in self.recorded_observations if joint is None or jn(o["joint_name"]) == joint]
+        def src(d: dict[str, Any]) -> str:
+            return str(d.get("source", "")) or Source.TEST_CYCLE.value
+
+        rec_obs = [o for o in self.recorded_observations if (joint is None or jn(o["joint_name"]) == joint)
+                   and src(o) == Source.TEST_CYCLE]
         rec_est = [e for e in self.recorded_estimates if joint is None or jn(e["joint_name"]) == joint]
         observations = [o for o in self.observations if joint is None or o.joint_name == joint]
         cycles = [c for c in self.cycles if joint is None or c.joint_name == joint]
-        rec = {(jn(o["joint_name"]), int(o["cycle_id"]), round(float(o["speed"]), 9)): o for o in rec_obs}
+        rec = {(jn(o["joint_name"]), src(o), int(o["cycle_id"]), round(float(o["speed"]), 9)): o for o in rec_obs}
 
         def diff(a: Any, b: Any) -> float:
             a, b = float(a), float(b)
@@ -125,7 +142,7 @@ class ReplayResult:
         paired, matched, missing, differ = 0, 0, [], []
         o_by_field = dict.fromkeys(numeric, 0.0)
         for o in observations:
-            r = rec.get((o.joint_name, int(o.cycle_id), round(float(o.speed), 9)))
+            r = rec.get((o.joint_name, o.source, int(o.cycle_id), round(float(o.speed), 9)))
             if r is None:
                 missing.append(f"{o.joint_name} cycle {o.cycle_id} speed {o.speed:g}")
                 continue
@@ -137,10 +154,11 @@ class ReplayResult:
                 matched += 1
             else:
                 differ.append(f"{o.joint_name} cycle {o.cycle_id} speed {o.speed:g}")
-        replayed_keys = {(o.joint_name, int(o.cycle_id), round(float(o.speed), 9)) for o in observations}
-        not_replayed = [f"{k[0]} cycle {k[1]} speed {k[2]:g}" for k in rec if k not in replayed_keys]
-        est = {(jn(e["joint_name"]), int(e["cycle_id"])): e for e in rec_est}  # the newest per joint and cycle
-        newest = {(c.joint_name, int(c.cycle_id)): c for c in cycles if c.result is not None}
+        replayed_keys = {(o.joint_name, o.source, int(o.cycle_id), round(float(o.speed), 9)) for o in observations}
+        not_replayed = [f"{k[0]} cycle {k[2]} speed {k[3]:g}" for k in rec if k not in replayed_keys]
+        # the newest per joint, source and cycle
+        est = {(jn(e["joint_name"]), src(e), int(e["cycle_id"])): e for e in rec_est}
+        newest = {(c.joint_name, c.source, int(c.cycle_id)): c for c in cycles if c.result is not None}
         e_paired, e_matched, e_differ, other = 0, 0, [], []
         e_by_field = dict.fromkeys(est_fields, 0.0)
         for key, c in newest.items():
@@ -149,7 +167,7 @@ class ReplayResult:
                 continue
             rec_method = str(e.get("method", "") or c.result.method)
             if str(c.result.method) != rec_method:  # another estimator: a different quantity, not a reproduction
-                other.append({"joint": key[0], "cycle_id": key[1], "replayed_method": str(c.result.method),
+                other.append({"joint": key[0], "source": key[1], "cycle_id": key[2], "replayed_method": str(c.result.method),
                               "recorded_method": rec_method, "replayed_wear": float(c.result.wear),
                               "recorded_wear": float(e["wear"]),
                               "wear_diff": float(c.result.wear) - float(e["wear"])})
@@ -161,7 +179,8 @@ class ReplayResult:
             if same(pairs):
                 e_matched += 1
             else:
-                e_differ.append(f"{key[0]} cycle {key[1]}: replayed {float(c.result.wear):.2f} "
+                what = f"production shift {key[2]}" if key[1] == Source.PRODUCTION else f"cycle {key[2]}"
+                e_differ.append(f"{key[0]} {what}: replayed {float(c.result.wear):.2f} "
                                 f"± {float(c.result.wear_std):.2f}, recorded {float(e['wear']):.2f} "
                                 f"± {float(e['wear_std']):.2f} ({c.result.method} both)")
         return {
@@ -177,7 +196,7 @@ class ReplayResult:
                 "revisions": sum(getattr(c, "revision", 0) > 0 for c in cycles), "paired": e_paired,
                 "matched": e_matched, "differ": e_differ, "max_abs_diff": e_by_field["wear"] if e_paired else None,
                 "max_abs_diff_by_field": e_by_field if e_paired else None,
-                "compared": ("the newest estimate per (joint, cycle) of the same method: " + ", ".join(est_fields)
+                "compared": ("the newest estimate per (joint, source, cycle) of the same method: " + ", ".join(est_fields)
                              + "; max_abs_diff is the wear's"),
                 "other_method": other,
             },
@@ -223,6 +242,7 @@ def replay_bag(
     use_recorded_params: bool = True,
     joint_states_topic: str = "",
     status_topic: str = "",
+    production_status_topic: str = "",
     temperature_topic: str | None = None,
     observations_topic: str = "",
     estimate_topic: str = "",
@@ -282,7 +302,11 @@ def replay_bag(
     observations_topic = observations_topic or str(obs_params.get("observations_topic",
                                                                   "/jointwear/friction_observations"))
     estimate_topic = estimate_topic or str(mon_params.get("estimate_topic", "/jointwear/wear_estimate"))
-    named = [] if rec_obs else _status_joints([m.msg for m in bag.messages(STATUS_TYPE, [status_topic], keep=True)])
+    production_status_topic = production_status_topic or str(mon_params.get("production_status_topic",
+                                                                             "/production/status"))
+    named = [] if rec_obs else _status_joints([m.msg for m in bag.messages(STATUS_TYPE, [status_topic], keep=True)]
+                                              + [m.msg for m in bag.messages(STATUS_TYPE, [production_status_topic],
+                                                                             keep=True)])
     joints = _served_joints(rec_obs, obs_params, named)
     obs_tree, mon_tree = nest(obs_params), nest(mon_params)
     try:
@@ -298,7 +322,7 @@ def replay_bag(
     cycles: list[Any] = []
     recorded_obs: list[dict[str, Any]] = []
     recorded_est: list[dict[str, Any]] = []
-    samples = n_statuses = 0
+    samples = n_statuses = n_prod_statuses = n_prod_obs = 0
     now = -math.inf
 
     def take(out: ObserverOutput) -> None:
@@ -310,7 +334,8 @@ def replay_bag(
 
     seen_js = False
     for i, (topic, msgtype, log_time, _raw) in enumerate(bag.records):
-        if topic not in (joint_states_topic, status_topic, temperature_topic, observations_topic, estimate_topic):
+        if topic not in (joint_states_topic, status_topic, temperature_topic, observations_topic, estimate_topic,
+                         production_status_topic):
             continue
         now = max(now, log_time * 1e-9)
         if topic == joint_states_topic and msgtype == JOINT_STATE_TYPE:
@@ -330,6 +355,10 @@ def replay_bag(
                 continue  # a joint the live node did not serve: ignored there too
             take(routed.output)
             cycles.extend(monitor.on_status(st, now) or [])
+        elif topic == production_status_topic and msgtype == STATUS_TYPE:
+            # the production observer's shift status: to the estimator only (the test-cycle observer never sees it)
+            n_prod_statuses += 1
+            cycles.extend(monitor.on_status(status_from_msg(bag.message(i).msg), now, Source.PRODUCTION) or [])
         elif temperature_topic and topic == temperature_topic and msgtype == TEMPERATURE_TYPE:
             msg = bag.message(i).msg
             t, c = temperature_value(msg)
@@ -337,7 +366,16 @@ def replay_bag(
             if routed is not None:
                 take(routed.output)
         elif topic == observations_topic and msgtype == OBSERVATION_TYPE:
-            recorded_obs.append(asdict(observation_from_msg(bag.message(i).msg)))
+            msg = bag.message(i).msg
+            try:
+                rec_o = observation_from_msg(msg)
+            except InputDataError:  # a source outside the vocabulary: the live estimator drops it too
+                rec_o = None
+            if rec_o is not None:
+                recorded_obs.append(asdict(rec_o))
+                if rec_o.source == Source.PRODUCTION:  # the estimator's production input, as live
+                    n_prod_obs += 1
+                    cycles.extend(monitor.add(rec_o, now) or [])
         elif topic == estimate_topic and msgtype == ESTIMATE_TYPE:
             msg = bag.message(i).msg
             d = estimate_fields(msg)
@@ -359,4 +397,5 @@ def replay_bag(
         recorded_observations=recorded_obs, recorded_estimates=recorded_est, samples=samples,
         statuses=n_statuses, observer_params=obs_params, monitor_params=mon_params,
         messages_lost=bag.messages_lost(), joints=joints, settings=settings,
+        production_statuses=n_prod_statuses, production_observations=n_prod_obs,
     )

@@ -240,7 +240,7 @@ def _bag_with_temperature_topic(table: ObservationTable, path: Path, joint: str)
         fields = {f: float(table[f][i]) for f in ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus",
                                                    "load_torque", "position")}
         msgs.append((t, 0, Obs(header=Header(stamp=Time(sec=int(t), nanosec=int((t % 1) * 1e9)), frame_id=""),
-                               joint_name=joint, cycle_id=int(table["cycle"][i]), samples_plus=0, samples_minus=0,
+                               joint_name=joint, cycle_id=int(table["cycle"][i]), samples_plus=0, samples_minus=0, source="",
                                temperature=math.nan, **fields)))
     msgs.sort(key=lambda m: m[0])
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:

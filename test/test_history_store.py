@@ -110,13 +110,15 @@ def test_schema_migrates_forward_from_version_one_and_is_left_alone_when_current
         s.add_estimates(_records(3))
         with s.engine.begin() as conn:  # as version 1 was written before estimates had an evidence column
             conn.execute(text("ALTER TABLE estimates DROP COLUMN evidence"))
-    with pytest.raises(HistoryError, match="schema version 1, this software needs 5"):
+            conn.execute(text("ALTER TABLE estimates DROP COLUMN cycle_source"))
+    with pytest.raises(HistoryError, match="schema version 1, this software needs 6"):
         HistoryStore(db_url, create=False)
     with HistoryStore(db_url) as s:
-        assert s.schema_version() == SCHEMA_VERSION == 5
+        assert s.schema_version() == SCHEMA_VERSION == 6
         assert any(ix["name"] == "ix_estimates_joint_time" for ix in inspect(s.engine).get_indexes("estimates"))
         assert s.count() == 3  # data kept
         assert {r.evidence for r in s.estimates()} == {"complete"}  # rows from before: complete
+        assert {r.cycle_source for r in s.estimates()} == {"test_cycle"}  # and from test cycles
         assert s.migrate() == []
 
 

@@ -156,7 +156,7 @@ def test_finished_cycles_are_remembered_up_to_a_bound():
     mon.max_finished_cycles = 4
     for cid in range(1, 8):
         assert len(_run(mon, cid, 10.0, temperature=40.0)) == 1
-    assert len(mon._finished) <= 4 and 7 in mon._finished
+    assert len(mon._finished) <= 4 and ("test_cycle", 7) in mon._finished
 
 
 def test_aborted_cycle_without_observations_gives_no_level_and_names_the_cycles_reason():

@@ -52,7 +52,7 @@ def _estimate_msg(store, res):
                 temperature_estimate=r.temperature, speeds=np.array(r.speeds, dtype=float),
                 per_speed_wear=np.array(r.per_speed_wear, dtype=float), alarm_threshold=35.0,
                 alarm=bool(r.wear >= 35.0), level=int(res.level), evidence=res.evidence,
-                confirmation=res.confirmation))
+                confirmation=res.confirmation, source=res.source))
 
 
 def _write(path: Path, store, msgs, custom: dict[str, str] | None = None) -> None:

@@ -76,7 +76,7 @@ def _extra(store, observations, results):
                         wear_high=res.wear_high, temperature_estimate=res.temperature,
                         speeds=np.array(res.speeds, dtype=float), per_speed_wear=np.array(res.per_speed_wear, dtype=float),
                         alarm_threshold=35.0, alarm=bool(res.wear >= 35.0), level=0,
-                        evidence="complete", confirmation="confirmed")))
+                        evidence="complete", confirmation="confirmed", source=r.source)))
     return out
 
 

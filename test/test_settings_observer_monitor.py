@@ -56,7 +56,8 @@ def _node(name: str):
      ["joint_name", "joint_states_topic", "status_topic", "temperature_topic", "observations_topic", "poll_period",
       "diagnostics_period"], []),
     ("wear_estimator", MonitorConfig, MONITOR_SETTINGS,
-     ["joint_name", "hardware_id", "diagnostics_period", "observations_topic", "status_topic", "estimate_topic",
+     ["joint_name", "hardware_id", "diagnostics_period", "observations_topic", "status_topic", "production_status_topic",
+      "estimate_topic",
       "diagnostics_topic"], ["hardware_id"]),
 ])
 def test_the_node_declares_exactly_its_configs_settings_and_its_own(node, cls, names, own, own_per_joint):

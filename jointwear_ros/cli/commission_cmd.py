@@ -267,7 +267,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     for c, cond in zip(cycles, conditions(cycles, args.warn, args.alarm)):
         r = c.result
         infos.append(r.info)
-        rows.append({"source": c.source, "joint": c.joint, "cycle": c.cycle, "estimate": r.wear,
+        rows.append({"source": c.source, "joint": c.joint, "cycle": c.cycle, "cycle_source": c.cycle_source,
+                     "estimate": r.wear,
                      "std": r.wear_std, "temperature": r.temperature, "level": cond.level,
                      "evidence": cond.evidence, "confirmation": cond.confirmation,
                      "level_wear": cond.level_wear if math.isfinite(cond.level_wear) else None,
@@ -289,14 +290,18 @@ def cmd_estimate(args: argparse.Namespace) -> int:
           f"{pset.wear_calibration}), method {args.method}")
     if verdict in ("found", "unexplained"):
         print(f"note: the set was commissioned against a workbench verdict '{verdict}': its model may miss an effect")
-    print(f"{'joint':<10} {'cycle':>6} {'wear':>7} {'std':>6} {'T':>6} {'cal':>3} {'level':<5} note")
+    # a column for where each estimate's observations came from once a production shift is among them
+    two = any(row["cycle_source"] == "production" for row in rows)
+    print(f"{'joint':<10} {'cycle':>6} " + (f"{'from':<10} " if two else "")
+          + f"{'wear':>7} {'std':>6} {'T':>6} {'cal':>3} {'level':<5} note")
     for row in rows:
         t = "-" if not math.isfinite(row["temperature"]) else f"{row['temperature']:.1f}"
         note = {"insufficient": "too few speeds for a level: the level before stands",
                 "unconfirmed": "far from the joint's standing estimate: held until the next cycle",
                 "step": "a step, confirmed by two cycles", "outlier": "not confirmed by the next cycle"}
         why = note.get(row["evidence"] if row["evidence"] == "insufficient" else row["confirmation"], "")
-        print(f"{row['joint'] or '-':<10} {row['cycle']:>6} {row['estimate']:>7.2f} {row['std']:>6.2f} {t:>6} "
+        src = f"{row['cycle_source']:<10} " if two else ""
+        print(f"{row['joint'] or '-':<10} {row['cycle']:>6} {src}{row['estimate']:>7.2f} {row['std']:>6.2f} {t:>6} "
               f"{'yes' if row['calibrated'] else 'no':>3} {row['level']:<5} {why}".rstrip())
     uncal = [r for r in rows if not r["calibrated"]]
     if uncal:

@@ -136,6 +136,7 @@ def _reestimate_table(path: Path, args: argparse.Namespace) -> tuple[list[Any], 
             wear_std=float(c.result.wear_std), hardware_id=f"{args.robot}/{c.joint}",
             temperature=float(c.result.temperature), method=c.result.method, params=pset.name,
             software_version=__version__, bag=path.name, analysis_version=version, source="table",
+            cycle_source=c.cycle_source,
         ).check(f"{path}: cycle {c.cycle} of {c.joint}"))
     return out, version
 

@@ -80,6 +80,7 @@ def replay_summary(result: Any) -> dict[str, Any]:
         return {
             "joint": c.joint_name,
             "cycle_id": c.cycle_id,
+            "source": getattr(c, "source", "test_cycle"),
             "wear": None if c.result is None else
             {"estimate": c.result.wear, "std": c.result.wear_std, "method": c.result.method,
              "low": c.result.wear_low, "high": c.result.wear_high, "temperature": c.result.temperature},
@@ -191,7 +192,8 @@ def _print_replay(result: Any) -> None:
     for c in summary["cycles"]:
         w = c["wear"]
         est = "no estimate" if w is None else f"wear {w['estimate']:.2f} ± {w['std']:.2f} ({w['method']})"
-        print(f"{c['joint']} cycle {c['cycle_id']}: {est}, level {c['diagnostic_level']}: {c['message']}")
+        what = "production shift" if c["source"] == "production" else "cycle"
+        print(f"{c['joint']} {what} {c['cycle_id']}: {est}, level {c['diagnostic_level']}: {c['message']}")
     print("settings: " + settings_line(result.settings))
     cmp_ = summary["comparison"]
     for line in comparison_lines(cmp_):

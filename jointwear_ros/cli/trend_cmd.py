@@ -21,6 +21,7 @@ import argparse
 import math
 import re
 from pathlib import Path
+from typing import Any
 
 from . import UsageError
 from .common import format_table, parse_float, print_json
@@ -81,6 +82,18 @@ def versions_line(shown: str, why: str, present: dict[str, int]) -> str:
             + (f"; also in the store: {', '.join(others)}: --analysis-version V shows one" if others else ""))
 
 
+#: how the table names the sources (the JSON and the history use the full names)
+_SHORT = {"test_cycle": "test", "production": "prod"}
+
+
+def _sources(recs: Any) -> Any:
+    """The newest estimate's source and the per-source summaries of a joint's records."""
+    from ..serve.core import source_summary
+
+    return source_summary([x.time for x in recs], [x.wear for x in recs], [x.wear_std for x in recs],
+                          [x.cycle_source for x in recs])
+
+
 def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
 
@@ -126,7 +139,7 @@ def cmd_trend(args: argparse.Namespace) -> int:
         r = analyze_joint([x.time for x in recs], [x.wear for x in recs], [x.wear_std for x in recs],
                           cycle_ids=[x.cycle_id for x in recs], maintenance_times=[e.time for e in events],
                           cfg=cfg, robot=key[0], joint=key[1], smooth=draw, prior=priors.get(key),
-                          evidence=[x.evidence for x in recs])
+                          evidence=[x.evidence for x in recs], sources=[x.cycle_source for x in recs])
         results.append(r)
         raw[key] = (recs, events)
     now = time.time()
@@ -138,7 +151,7 @@ def cmd_trend(args: argparse.Namespace) -> int:
             recs, events = raw[(r.robot, r.joint)]
             name = f"trend_{_safe(r.robot)}_{_safe(r.joint)}.png"
             plot_trend(Path(out_dir) / name, r, cfg, [x.time for x in recs], [x.wear for x in recs],
-                       [x.wear_std for x in recs], [e.time for e in events])
+                       [x.wear_std for x in recs], [e.time for e in events], sources=[x.cycle_source for x in recs])
             if out_dir == args.html:
                 images[(r.robot, r.joint)] = name
     if args.html is not None:
@@ -151,11 +164,14 @@ def cmd_trend(args: argparse.Namespace) -> int:
         for r in results:
             v = views[(r.robot, r.joint)]
             newest = max(raw[(r.robot, r.joint)][0], key=lambda x: x.time)
+            _, per_source = _sources(raw[(r.robot, r.joint)][0])
             rows_json.append({**r.as_dict(), "level": v.level_name, "trend_level": r.level_name,
                               "newest_time": v.time, "age_days": v.age_days,
                               "refused": n_refused.get((r.robot, r.joint), 0),
                               "parameter_set": newest.params or None,
-                              "wear_scale_calibrated": calibrated_of(newest.params)})
+                              "wear_scale_calibrated": calibrated_of(newest.params),
+                              "newest_source": newest.cycle_source,
+                              "sources": {name: s.as_api() for name, s in per_source}})
         print_json({"joints": rows_json, "refused": refused, "analysis_version": args.analysis_version,
                     "analysis_version_why": why,
                     "analysis_versions": [{"name": v, "estimates": n} for v, n in present.items()]})
@@ -169,12 +185,15 @@ def cmd_trend(args: argparse.Namespace) -> int:
     rows = []
     for r in sorted(results, key=rank_key):
         fin = math.isfinite(r.wear)
+        newest_source, per_source = _sources(raw[(r.robot, r.joint)][0])
         rows.append([r.robot, r.joint, views[(r.robot, r.joint)].level_name, r.estimates,
                      f"{r.wear:.1f} ± {r.wear_std:.1f}" if fin else "-",
                      f"{r.rate_per_day:+.3f}" if math.isfinite(r.rate_per_day) else "-",
-                     time_to_alarm_text(r, "-")])
+                     time_to_alarm_text(r, "-"), newest_source,
+                     " ".join(f"{_SHORT.get(name, name)} {s.estimates}" for name, s in per_source)])
     if rows:
-        print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)"], rows))
+        print(format_table(["robot", "joint", "level", "n", "wear", "rate/day", "days to alarm (90 %)", "newest from",
+                            "estimates by source"], rows))
     print(versions_line(args.analysis_version, why, present))
     for f in refused:
         what = (f"maintenance {f.get('kind')} at {f.get('time')}" if f.get("source") == "maintenance"

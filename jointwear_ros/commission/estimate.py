@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -32,6 +33,8 @@ class CycleEstimate:
     result: WearResult
     #: ``complete`` or ``insufficient`` (fewer distinct speeds than a level needs, :mod:`jointwear_ros.condition`)
     evidence: str = "complete"
+    #: ``test_cycle`` or ``production`` (a production shift's observations: the table's ``production`` column)
+    cycle_source: str = "test_cycle"
 
 
 @dataclass(frozen=True)
@@ -71,16 +74,35 @@ def conditions(cycles: Sequence[CycleEstimate], warn: float, alarm: float) -> li
 def estimate_cycles(tables: Iterable[tuple[str, str, ObservationTable]], pset: ParameterSet, method: str = "joint",
                     seed: int = 0) -> list[CycleEstimate]:
     """``(source, joint, table)`` -> one :class:`CycleEstimate` per ``cycle`` of each table (all rows one cycle
-    when there is no ``cycle`` column); a table without ``temperature`` has an unknown temperature."""
+    when there is no ``cycle`` column); a table without ``temperature`` has an unknown temperature. A table
+    with the ``production`` column (:mod:`jointwear_ros.io.tables`) has test cycles and production shifts:
+    each (source, cycle) is one estimate, never the two mixed."""
     est = make_estimator(method, params=pset, seed=seed)
     out = []
-    for source, joint, table in tables:
-        groups = table.groups("cycle") if "cycle" in table else [(0.0, table)]
-        for cyc, t in groups:
-            res = est.estimate(ObservationTable(dict(t.columns), source=f"{source} [{joint}] cycle {cyc:g}"))
-            stamp = float(max(t["time"])) if "time" in t else math.nan
-            t_known = "temperature" in t and bool(np.all(np.isfinite(t["temperature"])))
-            n_speeds = len(set(np.round(np.asarray(t["speed"], float), 9).tolist()))
-            ev = evidence_of(n_speeds, 0, False, t_known)
-            out.append(CycleEstimate(str(source), joint, int(cyc), stamp, res, ev))
+    for source, joint, whole in tables:
+        by_source = whole.groups(_PRODUCTION) if _PRODUCTION in whole else [(0.0, whole)]
+        for prod, table in by_source:
+            cycle_source = "production" if prod == 1.0 else "test_cycle"
+            table = ObservationTable({k: v for k, v in table.columns.items() if k != _PRODUCTION},
+                                     source=table.source, units=table.units)
+            out.extend(_estimate_table(est, source, joint, table, cycle_source))
+    return out
+
+
+#: the table column that marks a production shift's observations (io.tables.PRODUCTION_COLUMN)
+_PRODUCTION = "production"
+
+
+def _estimate_table(est: Any, source: str, joint: str, table: ObservationTable,
+                    cycle_source: str) -> list[CycleEstimate]:
+    out = []
+    what = "production shift" if cycle_source == "production" else "cycle"
+    groups = table.groups("cycle") if "cycle" in table else [(0.0, table)]
+    for cyc, t in groups:
+        res = est.estimate(ObservationTable(dict(t.columns), source=f"{source} [{joint}] {what} {cyc:g}"))
+        stamp = float(max(t["time"])) if "time" in t else math.nan
+        t_known = "temperature" in t and bool(np.all(np.isfinite(t["temperature"])))
+        n_speeds = len(set(np.round(np.asarray(t["speed"], float), 9).tolist()))
+        ev = evidence_of(n_speeds, 0, False, t_known)
+        out.append(CycleEstimate(str(source), joint, int(cyc), stamp, res, ev, cycle_source))
     return out

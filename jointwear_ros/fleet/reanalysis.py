@@ -246,10 +246,11 @@ def reprocess_bag(
         p_name = str(rep.monitor_params.get("params", params or ""))
         # the newest result per (joint, cycle): a revision replaces its cycle's first estimate, wherever
         # the other joints' results of a robot cycle came in between
-        newest: dict[tuple[str, int], Any] = {}
+        newest: dict[tuple[str, str, int], Any] = {}
         for c in rep.cycles:
             if c.result is not None:
-                newest[(str(c.joint_name), int(c.cycle_id))] = c
+                # a production shift and the test cycle of its id are two estimates
+                newest[(str(c.joint_name), str(c.source), int(c.cycle_id))] = c
         for c in newest.values():
             r = c.result
             wear, std = _finite_or_nan(r.wear), _finite_or_nan(r.wear_std)
@@ -262,7 +263,7 @@ def reprocess_bag(
                 "cycle_id": int(c.cycle_id), "time": float(c.stamp), "wear": wear, "wear_std": std,
                 "temperature": _finite_or_nan(r.temperature), "method": str(r.method), "params": p_name,
                 "software_version": software_version, "bag": path, "analysis_version": v, "source": "reprocess",
-                "evidence": c.evidence,
+                "evidence": c.evidence, "cycle_source": str(c.source),
             })
         out.observations = len(rep.observations)
         out.rejections = len(rep.rejections)

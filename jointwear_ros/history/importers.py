@@ -29,7 +29,8 @@ __all__ = ["CSV_COLUMNS", "estimates_from_bag", "estimates_from_csv", "parse_tim
 
 REQUIRED = ("robot", "joint", "time", "wear", "wear_std")
 CSV_COLUMNS = ("robot", "joint", "time", "time_ns", "cycle_id", "wear", "wear_std", "temperature", "method",
-               "params", "hardware_id", "software_version", "bag", "analysis_version", "source", "evidence")
+               "params", "hardware_id", "software_version", "bag", "analysis_version", "source", "evidence",
+               "cycle_source")
 
 
 def parse_time(text: str, where: str = "time") -> float:
@@ -79,6 +80,17 @@ def _evidence(text: str | None, where: str) -> str:
     return v
 
 
+def _cycle_source(text: str | None, where: str) -> str:
+    """An optional ``cycle_source`` cell: ``test_cycle`` (the default: a table from before the column) or
+    ``production`` (:class:`jointwear_ros.contract.Source`)."""
+    from ..contract import source_of
+
+    try:
+        return source_of((text or "").strip().lower())
+    except InputDataError as exc:
+        raise InputDataError(f"{where}: cycle_source: {exc} (or leave it empty)") from None
+
+
 def estimates_from_csv(path: str | os.PathLike[str], *, robot: str | None = None) -> list[EstimateRecord]:
     """The estimates of a CSV table (see the module docstring); ``robot`` fills an absent robot column."""
     p = Path(path)
@@ -120,6 +132,7 @@ def estimates_from_csv(path: str | os.PathLike[str], *, robot: str | None = None
                     bag=(row.get("bag") or "").strip(),
                     analysis_version=(row.get("analysis_version") or "").strip() or LIVE,
                     source="csv", evidence=_evidence(row.get("evidence"), where),
+                    cycle_source=_cycle_source(row.get("cycle_source"), where),
                 )
                 out.append(rec.check(where))
     except UnicodeDecodeError:
@@ -157,6 +170,7 @@ def estimates_from_bag(path: str | os.PathLike[str], *, robot: str, params: str 
             temperature=float(m.msg.temperature_estimate), method=str(m.msg.method), params=params,
             software_version="", bag=p.name, analysis_version=LIVE, source="bag", received=m.log_time * 1e-9,
             evidence=str(getattr(m.msg, "evidence", "") or "complete"),  # a bag from before the field: complete
+            cycle_source=_cycle_source(getattr(m.msg, "source", ""), f"{p}: WearEstimate"),  # before: test_cycle
         ).check(f"{p}: WearEstimate at log time {m.log_time} ns"))
     if out and not params:
         recorded = recorded_node_params(events, "wear_estimator").get("params")
@@ -201,7 +215,7 @@ def reestimate_bag(path: str | os.PathLike[str], *, robot: str, observer_params:
             hardware_id=(hardware_id or str(res.monitor_params.get(f"{c.joint_name}.hardware_id", "") or "")
                          or f"{robot}/{c.joint_name}"), temperature=float(c.result.temperature),
             method=str(c.result.method), params=used_params, software_version=__version__, bag=p.name,
-            analysis_version=version, source="bag", evidence=c.evidence,
+            analysis_version=version, source="bag", evidence=c.evidence, cycle_source=c.source,
         ).check(f"{p}: re-estimated cycle {c.cycle_id}"))
     return out, version
 
@@ -227,7 +241,7 @@ def write_csv(records: Iterable[EstimateRecord], path: str | os.PathLike[str]) -
                 w.writerow([r.robot, r.joint, iso, r.time_ns, r.cycle_id, repr(float(r.wear)),
                             repr(float(r.wear_std)), "" if math.isnan(r.temperature) else repr(float(r.temperature)),
                             r.method, r.params, r.hardware_id, r.software_version, r.bag, r.analysis_version,
-                            r.source, r.evidence])
+                            r.source, r.evidence, r.cycle_source])
         tmp.replace(p)
     except BaseException:  # a failure (or Ctrl-C) midway: no .part left behind, the old table untouched
         tmp.unlink(missing_ok=True)

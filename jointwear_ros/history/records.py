@@ -44,6 +44,10 @@ class EstimateRecord:
     #: ``complete`` or ``partial`` (a FAILED/ABORTED cycle or one that missed speeds:
     #: :mod:`jointwear_ros.condition`); an estimate from too few speeds carries no level and is not stored
     evidence: str = "complete"
+    #: where the estimate's observations came from: ``test_cycle`` (the dedicated cycle; ``cycle_id`` its id)
+    #: or ``production`` (a production shift; ``cycle_id`` the shift's): the WearEstimate's ``source``
+    #: (:class:`jointwear_ros.contract.Source`). Not ``source``, which says how the row entered the history.
+    cycle_source: str = "test_cycle"
     #: when the estimate was received or recorded (a bag's log time), seconds since the epoch; NaN when
     #: unknown. Not stored: the screening compares it with ``time`` to detect a jumped clock.
     received: float = math.nan
@@ -68,6 +72,8 @@ class EstimateRecord:
             raise InputDataError(f"{where}: time = {self.time!r} is not seconds since the epoch")
         if self.cycle_id < 0 or self.cycle_id >= 2**31:
             raise InputDataError(f"{where}: cycle_id = {self.cycle_id!r} must be in [0, 2^31)")
+        if self.cycle_source not in ("test_cycle", "production"):
+            raise InputDataError(f"{where}: cycle_source = {self.cycle_source!r} must be 'test_cycle' or 'production'")
         return self
 
 

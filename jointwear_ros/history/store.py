@@ -16,7 +16,9 @@ Tables
     estimated), method, params (parameter set), software_version, bag (where
     it was read from; ``""`` live), analysis_version (``"live"`` for the
     estimates the cell made; a re-estimation with another model writes its
-    own version), source (``live``, ``bag``, ``csv``), inserted_ns.
+    own version), source (``live``, ``bag``, ``csv``: how the row entered the history), inserted_ns,
+    evidence, cycle_source (``test_cycle`` or ``production``: the WearEstimate's ``source``, where the
+    estimate's observations came from; ``cycle_id`` is then the test cycle's or the production shift's).
     **Identity** ``UNIQUE (robot, joint, analysis_version, cycle_id, time_ns)``:
     the cycle id alone is not (a restarted test_cycle counts from 1 again),
     the time stamp makes it so; the bag is not part of it, so the estimates a
@@ -36,7 +38,8 @@ Tables
     the fleet ledger: one row per analysis version and bag fingerprint a re-analysis has done
     (:mod:`jointwear_ros.fleet.ledger` reads and writes it through :meth:`HistoryStore.bags_done` and
     :meth:`HistoryStore.mark_bags_done`; schema version 4 creates it).
-    Schema version 5 adds ``estimates.evidence`` (``complete``/``partial``).
+    Schema version 5 adds ``estimates.evidence`` (``complete``/``partial``), version 6
+    ``estimates.cycle_source`` (rows stored before it are ``test_cycle``: production estimates did not exist).
 ``schema_version``
     one row per applied migration (version, applied_ns). :data:`MIGRATIONS`
     are forward only; :meth:`HistoryStore.migrate` applies the missing ones
@@ -57,7 +60,7 @@ relies on when it is killed.
 >>> [r.wear for r in s.estimates(robot="robot_1", joint="joint_1")]
 [10.0]
 >>> s.schema_version()
-5
+6
 >>> r = s.write_estimates([EstimateRecord("robot_1", "joint_1", cycle_id=2, time=1.7e9, wear=1e300, wear_std=0.8)])
 >>> r.added, [f.reason for f in r.refused], [x["wear"] for x in s.refused()]
 (0, ['wear_out_of_range'], ['1e+300'])
@@ -130,6 +133,7 @@ estimates_t = Table(
     Column("source", String(20), nullable=False, default="live"),
     Column("inserted_ns", BigInteger, nullable=False),
     Column("evidence", String(20), nullable=False, server_default="complete"),
+    Column("cycle_source", String(20), nullable=False, server_default="test_cycle"),
     UniqueConstraint("robot", "joint", "analysis_version", "cycle_id", "time_ns", name="uq_estimate_identity"),
 )
 
@@ -236,8 +240,15 @@ def _m5(conn: Connection) -> None:
         conn.execute(text("ALTER TABLE estimates ADD COLUMN evidence VARCHAR(20) NOT NULL DEFAULT 'complete'"))
 
 
+def _m6(conn: Connection) -> None:
+    """Version 6: ``estimates.cycle_source`` (``test_cycle``/``production``, :class:`jointwear_ros.contract.Source`);
+    rows stored before it are ``test_cycle`` (a store created at version 1 by this code has the column already)."""
+    if "cycle_source" not in {c["name"] for c in inspect(conn).get_columns("estimates")}:
+        conn.execute(text("ALTER TABLE estimates ADD COLUMN cycle_source VARCHAR(20) NOT NULL DEFAULT 'test_cycle'"))
+
+
 #: forward migrations, version -> function; applied in order, each in its own transaction
-MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2, 3: _m3, 4: _m4, 5: _m5}
+MIGRATIONS: dict[int, Callable[[Connection], None]] = {1: _m1, 2: _m2, 3: _m3, 4: _m4, 5: _m5, 6: _m6}
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
@@ -669,5 +680,6 @@ def _record(r: Any) -> EstimateRecord:
         temperature=math.nan if t is None else float(t), method=r["method"], params=r["params"],
         software_version=r["software_version"], bag=r["bag"], analysis_version=r["analysis_version"],
         source=r["source"], evidence=r.get("evidence") or "complete",
+        cycle_source=r.get("cycle_source") or "test_cycle",
     )
 

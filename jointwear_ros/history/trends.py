@@ -99,6 +99,6 @@ def trends_from_store(store: HistoryStore, cfg: TrendConfig | None = None, *, ro
             [r.time for r in recs], [r.wear for r in recs], [r.wear_std for r in recs],
             cycle_ids=[r.cycle_id for r in recs], maintenance_times=[e.time for e in events],
             cfg=cfg, robot=rb, joint=jt, smooth=smooth, prior=priors.get((rb, jt)),
-            evidence=[r.evidence for r in recs],
+            evidence=[r.evidence for r in recs], sources=[r.cycle_source for r in recs],
         ))
     return out

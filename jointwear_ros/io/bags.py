@@ -24,7 +24,7 @@ from typing import Any
 from rosbags.typesys import get_types_from_msg
 from rosbags.typesys.store import Typestore
 
-from ..contract import stamp_to_seconds
+from ..contract import Source, stamp_to_seconds
 from ..errors import InputDataError
 from .metadata import metadata_problem
 from .typestore import jointwear_typestore
@@ -590,9 +590,13 @@ def temperature_value(msg: Any) -> tuple[float, float]:
 
 
 def message_fields(msg: Any, names: Sequence[str]) -> dict[str, Any]:
-    """The named fields of a message as plain Python values (arrays as float lists)."""
+    """The named fields of a message as plain Python values (arrays as float lists; ``source`` absent or empty:
+    ``test_cycle``)."""
     out: dict[str, Any] = {}
     for n in names:
+        if n == "source":  # absent in a bag recorded before the field, empty when unset: a test cycle's
+            out[n] = str(getattr(msg, n, "")) or Source.TEST_CYCLE.value
+            continue
         v = getattr(msg, n)
         if hasattr(v, "tolist"):
             v = [float(x) for x in v.tolist()]
@@ -610,11 +614,11 @@ def message_fields(msg: Any, names: Sequence[str]) -> dict[str, Any]:
 
 OBSERVATION_FIELDS = (
     "joint_name", "cycle_id", "speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus",
-    "load_torque", "temperature", "position", "samples_plus", "samples_minus",
+    "load_torque", "temperature", "position", "samples_plus", "samples_minus", "source",
 )
 ESTIMATE_FIELDS = (
     "joint_name", "cycle_id", "method", "wear", "wear_std", "wear_low", "wear_high",
-    "temperature_estimate", "speeds", "per_speed_wear", "alarm_threshold", "alarm",
+    "temperature_estimate", "speeds", "per_speed_wear", "alarm_threshold", "alarm", "source",
 )
 
 

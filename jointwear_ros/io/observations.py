@@ -9,7 +9,8 @@ observation of the same cycle (the window ends at the message stamp), or the
 latest temperature before the stamp when none falls inside.
 
 A CSV table may have a ``joint`` column (text): its rows are split by joint; a
-table without one is ``default_joint``'s.
+table without one is ``default_joint``'s. A production shift's observations (``source`` ``production``)
+carry the ``production`` column (:mod:`jointwear_ros.io.tables`: in CSV the text column ``source``).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from ..errors import InputDataError
 from ..types import ObservationTable
 from ..units import SUITE_UNITS
 from .bags import read_messages, stamp_seconds
-from .tables import read_csv
+from .tables import PRODUCTION_COLUMN, production_of, read_csv
 
 __all__ = ["TEMPERATURE_TOPIC", "read_observations"]
 
@@ -100,8 +101,9 @@ def _read_bag(p: Path, temperature_topic: str) -> dict[str, ObservationTable]:
                     (stamp_seconds(msg.header), float(msg.temperature)))
             continue
         j = str(msg.joint_name)
-        d = data.setdefault(j, {k: [] for k in ("cycle", "time", *_FIELDS)})
+        d = data.setdefault(j, {k: [] for k in ("cycle", "time", *_FIELDS, PRODUCTION_COLUMN)})
         d["cycle"].append(float(msg.cycle_id))
+        d[PRODUCTION_COLUMN].append(production_of(getattr(msg, "source", "")))
         d["time"].append(stamp_seconds(msg.header))
         for f in _FIELDS:
             v = float(getattr(msg, f))
@@ -116,6 +118,8 @@ def _read_bag(p: Path, temperature_topic: str) -> dict[str, ObservationTable]:
         cols = {k: np.asarray(v, dtype=float) for k, v in d.items()}
         _fill_temperature(cols, temps.get(j, []))
         cols = {k: v for k, v in cols.items() if k in ("speed", "tau_f") or not np.all(np.isnan(v))}
+        if not cols[PRODUCTION_COLUMN].any():  # only test cycles: the table as it always was
+            del cols[PRODUCTION_COLUMN]
         out[j] = ObservationTable(cols, source=f"{p} [{j}]", units=SUITE_UNITS)
     return out
 

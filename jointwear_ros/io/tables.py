@@ -13,6 +13,12 @@ column rather than fill it with blanks or NaN: NaN is refused in optional
 columns too); a column in which no cell is a number (a joint name, a comment)
 is ignored, unless it is one of the standard columns.
 
+**Source.** An observation of a production shift (``FrictionObservation.source`` ``production``, see
+:class:`~jointwear_ros.contract.Source`) is marked by the numeric column ``production`` (1; 0: a test
+cycle's), present only when some row is one; in CSV it is the text column ``source`` (``test_cycle`` or
+``production``; optional on read, absent or empty: ``test_cycle``), which :func:`write_csv` writes back.
+A table's cycles are then (``production``, ``cycle``) pairs: shift 3 and test cycle 3 are two cycles.
+
 Both readers refuse physically impossible values (:func:`check_physical`): a
 negative speed (the model is for the speed magnitude), a negative
 ``tau_f_std``, a temperature below absolute zero.
@@ -55,6 +61,7 @@ __all__ = [
     "ABSOLUTE_ZERO",
     "DEFAULT_OBSERVATION_TOPIC",
     "FRICTION_OBSERVATION_TYPE",
+    "PRODUCTION_COLUMN",
     "check_physical",
     "read_bag",
     "read_csv",
@@ -193,6 +200,11 @@ def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
             )
     cols: dict[str, Array] = {}
     for j, name in enumerate(header):
+        if name == "source":  # test_cycle / production (text): the production column when some row is one
+            prod = _production_cells([fields[j] for _, fields in rows], src, [ln for ln, _ in rows])
+            if prod.any():
+                cols[PRODUCTION_COLUMN] = prod
+            continue
         values = [_parse_cell(fields[j]) for _, fields in rows]
         if name not in OBSERVATION_COLUMNS and all(v is None for v in values) and any(f[j] for _, f in rows):
             continue  # a text column (joint name, note): not data for the model
@@ -209,6 +221,28 @@ def read_csv(path: str | os.PathLike[str]) -> ObservationTable:
         cols[name] = np.asarray(values, dtype=float)
     check_physical(cols, src, lambda i: f"row {i + 1} (line {rows[i][0]})", units=units)
     return ObservationTable(cols, source=src, units=units)
+
+
+#: the numeric column that marks a production shift's observation (1.0; 0.0 a test cycle's)
+PRODUCTION_COLUMN = "production"
+
+
+def _production_cells(cells: Sequence[str], src: str, lines: Sequence[int]) -> Array:
+    """A CSV ``source`` column as the ``production`` column (1.0 production, 0.0 test_cycle or empty)."""
+    out = np.zeros(len(cells), dtype=float)
+    for r, (cell, lineno) in enumerate(zip(cells, lines), start=1):
+        v = cell.strip().lower()
+        if v == "production":
+            out[r - 1] = 1.0
+        elif v not in ("", "test_cycle"):
+            raise InputDataError(f"{src}: column 'source', row {r} (line {lineno}): {cell!r} is neither "
+                                 "'test_cycle' nor 'production' (or leave it empty)")
+    return out
+
+
+def production_of(source: object) -> float:
+    """A message's ``source`` as the ``production`` column's value (absent or empty: a test cycle's, 0.0)."""
+    return 1.0 if str(source or "") == "production" else 0.0
 
 
 def _bag_dir(p: Path) -> Path:
@@ -234,7 +268,7 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
     src = str(p)
     store = jointwear_typestore()
     fields = ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position")
-    data: dict[str, list[float]] = {k: [] for k in ("cycle", "time", *fields)}
+    data: dict[str, list[float]] = {k: [] for k in ("cycle", "time", *fields, PRODUCTION_COLUMN)}
     try:
         with AnyReader([_bag_dir(p)], default_typestore=store) as reader:
             conns = [c for c in reader.connections if c.msgtype == FRICTION_OBSERVATION_TYPE
@@ -249,6 +283,7 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
                 msg: Any = reader.deserialize(raw, conn.msgtype)
                 data["cycle"].append(float(msg.cycle_id))
                 data["time"].append(stamp_to_seconds(msg.header))
+                data[PRODUCTION_COLUMN].append(production_of(getattr(msg, "source", "")))
                 for f in fields:
                     val = float(getattr(msg, f))
                     if (f in _REQUIRED and not math.isfinite(val)) or math.isinf(val):
@@ -265,6 +300,8 @@ def read_bag(path: str | os.PathLike[str], topic: str | None = None) -> Observat
     cols = {k: np.asarray(v, dtype=float) for k, v in data.items()}
     # a field that is NaN in every message was not measured: leave the column out
     cols = {k: v for k, v in cols.items() if k in _REQUIRED or not np.all(np.isnan(v))}
+    if not cols[PRODUCTION_COLUMN].any():  # only test cycles: the table as it always was
+        del cols[PRODUCTION_COLUMN]
     check_physical(cols, src, lambda i: f"row {i + 1} (message {i + 1})")
     return ObservationTable(cols, source=src, units=SUITE_UNITS)
 
@@ -278,11 +315,16 @@ def write_csv(table: ObservationTable, path: str | os.PathLike[str], *,
     """Write ``table`` as CSV, atomically (a temporary file, then rename).
 
     ``text_columns`` (name -> one string per row, e.g. ``joint``) are written
-    after the numeric columns; :func:`read_csv` skips them again.
+    after the numeric columns; :func:`read_csv` skips them again. The ``production`` column is written as the
+    text column ``source`` (``test_cycle``/``production``), which :func:`read_csv` reads back.
     """
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     texts = dict(text_columns or {})
+    if PRODUCTION_COLUMN in table:
+        texts["source"] = ["production" if v else "test_cycle" for v in table[PRODUCTION_COLUMN]]
+        table = ObservationTable({k: v for k, v in table.columns.items() if k != PRODUCTION_COLUMN},
+                                 source=table.source, units=table.units)
     for name, vals in texts.items():
         if len(vals) != len(table) or name in table:
             raise InputDataError(f"text column {name!r}: {len(vals)} values for {len(table)} rows, or a numeric "
@@ -331,6 +373,7 @@ def write_bag(
     col = {k: table.get(k, math.nan) for k in
            ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position")}
     cyc = table.get("cycle", 0.0)
+    prod = table.get(PRODUCTION_COLUMN, 0.0)
     tim = table["time"] if "time" in table else np.arange(n, dtype=float)
     src = table.source or "observations"
     for name, values in (("speed", col["speed"]), ("tau_f", col["tau_f"]), ("time", tim)):
@@ -355,6 +398,7 @@ def write_bag(
                     cycle_id=int(cyc[i]) if math.isfinite(cyc[i]) else 0,
                     samples_plus=0,
                     samples_minus=0,
+                    source="production" if prod[i] else "test_cycle",
                     **{k: float(v[i]) for k, v in col.items()},
                 )
                 writer.write(conn, sec * 1_000_000_000 + nsec, store.serialize_cdr(msg, FRICTION_OBSERVATION_TYPE))

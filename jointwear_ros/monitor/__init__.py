@@ -1,4 +1,4 @@
-"""The wear monitor: a test cycle's friction observations → wear estimate → diagnostic level.
+"""The wear monitor: a test cycle's (or a production shift's) friction observations → wear estimate → diagnostic level.
 
 Pure; no ROS import. :class:`RobotMonitor` holds one :class:`WearMonitor` per joint and routes the
 observations and statuses to them; the wear_estimator node and the offline replay share it.
@@ -7,10 +7,12 @@ observations and statuses to them; the wear_estimator node and the offline repla
 from __future__ import annotations
 
 from .core import (
+    CycleKey,
     CycleResult,
     EstimatorFactory,
     MonitorConfig,
     WearMonitor,
+    cycle_label,
     cycle_seed,
     diagnostic_level,
     observations_table,
@@ -20,11 +22,13 @@ from .validation import PLAUSIBLE_TEMPERATURE, screen_observation
 
 __all__ = [
     "PLAUSIBLE_TEMPERATURE",
+    "CycleKey",
     "CycleResult",
     "EstimatorFactory",
     "MonitorConfig",
     "RobotMonitor",
     "WearMonitor",
+    "cycle_label",
     "cycle_seed",
     "diagnostic_level",
     "observations_table",

@@ -20,6 +20,15 @@ from 1 again): the old record is dropped and the new cycle starts afresh.
 :attr:`WearMonitor.last` is the newest result of the most recently *started*
 estimate, so a revision of an older cycle does not replace a newer cycle's
 status.
+**Sources.** Observations come from the dedicated test cycle (``source`` ``test_cycle``) or from production
+(``production``: the robot's own program, ``cycle_id`` the shift id); :class:`~jointwear_ros.contract.Source`
+names them. Cycles are keyed by (source, cycle id): production shift 3 and test cycle 3 never mix, each
+result estimates one source's observations only and says which (``CycleResult.source``, the ``source``
+diagnostic value). A production shift is a unit like a test cycle: its status (``on_status(...,
+source=Source.PRODUCTION)``, the production observer's RUNNING then DONE with ``speeds_total`` = the shift's
+observations of the joint) completes it, or its timeouts do. The joint's level stands on its recent estimates
+of both sources (the confirmation compares an estimate with the standing one whatever its source). An
+observation whose source is outside the vocabulary is dropped with the reason.
 Measured temperatures are used when present and ``use_measured_temperature``
 is true; otherwise the temperature column is dropped and the estimator treats
 T as unknown (Eq. 11).
@@ -60,7 +69,7 @@ from typing import Any
 import numpy as np
 
 from ..condition import INSUFFICIENT, Standing, condition_level, evidence_of, min_speeds, standing
-from ..contract import ENDED_STATES, CycleState, CycleStatus, DiagnosticLevel, level_name
+from ..contract import ENDED_STATES, CycleState, CycleStatus, DiagnosticLevel, Source, level_name
 from ..errors import InputDataError, JointwearError, ParameterError
 from ..estimation import ESTIMATORS, make_estimator
 from ..model.paramsets import load_parameter_set_info
@@ -69,8 +78,8 @@ from ..settings import check_ranges, setting
 from ..types import ObservationTable, WearEstimator, WearResult
 from .validation import screen_observation
 
-__all__ = ["CycleResult", "EstimatorFactory", "MonitorConfig", "WearMonitor",
-           "cycle_seed", "diagnostic_level", "observations_table", "parse_estimator_options"]
+__all__ = ["CycleKey", "CycleResult", "EstimatorFactory", "MonitorConfig", "WearMonitor",
+           "cycle_label", "cycle_seed", "diagnostic_level", "observations_table", "parse_estimator_options"]
 
 def parse_estimator_options(value: Any) -> dict[str, Any]:
     """The ``estimator_options`` setting as the estimator takes it: a mapping as it is, a JSON object string
@@ -192,6 +201,8 @@ class CycleResult:
     #: the estimate the level stands on (NaN: none)
     standing_wear: float = math.nan
     standing_wear_std: float = math.nan
+    #: where the estimate's observations come from: ``test_cycle`` or ``production`` (``cycle_id`` the shift id)
+    source: str = Source.TEST_CYCLE.value
 
     @property
     def level_name(self) -> str:
@@ -222,9 +233,27 @@ def diagnostic_level(wear: float, wear_std: float, warn_threshold: float, alarm_
     return DiagnosticLevel.STALE if lv is None else lv
 
 
-def cycle_seed(seed: int, cycle_id: int) -> int:
-    """A per-cycle seed from the configured seed and the cycle id (stable across runs)."""
-    return int(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, int(cycle_id) & 0xFFFFFFFF]).generate_state(1)[0])
+def cycle_seed(seed: int, cycle_id: int, source: str = Source.TEST_CYCLE) -> int:
+    """A per-cycle seed from the configured seed, the cycle id and the source (stable across runs; a test
+    cycle's is the seed it always had, a production shift's differs from the test cycle of the same id)."""
+    entropy = [int(seed) & 0xFFFFFFFF, int(cycle_id) & 0xFFFFFFFF]
+    if Source.parse(source) is Source.PRODUCTION:
+        entropy.append(1)
+    return int(np.random.SeedSequence(entropy).generate_state(1)[0])
+
+
+#: a cycle's key in the monitor: (source, cycle id)
+CycleKey = tuple[str, int]
+
+
+def cycle_label(key: CycleKey) -> str:
+    """How messages name a cycle: ``cycle 3`` (a test cycle) or ``production shift 3``.
+
+    >>> cycle_label(("test_cycle", 3)), cycle_label(("production", 3))
+    ('cycle 3', 'production shift 3')
+    """
+    source, cid = key
+    return f"production shift {cid}" if source == Source.PRODUCTION else f"cycle {cid}"
 
 
 def observations_table(observations: list[FrictionObservationData] | tuple[FrictionObservationData, ...],
@@ -299,16 +328,17 @@ class WearMonitor:
     def __init__(self, config: MonitorConfig | None = None, estimator_factory: EstimatorFactory | None = None) -> None:
         self.config = config if config is not None else MonitorConfig()
         self._factory = estimator_factory or self._default_factory
-        self._cycles: dict[int, _Cycle] = {}
-        #: estimated cycles, kept so that a late observation can revise their estimate
-        self._finished: dict[int, _Cycle] = {}
+        #: open cycles by (source, cycle id)
+        self._cycles: dict[CycleKey, _Cycle] = {}
+        #: estimated cycles by (source, cycle id), kept so that a late observation can revise their estimate
+        self._finished: dict[CycleKey, _Cycle] = {}
         self.max_finished_cycles = 1000
         self._order = 0
         self._last_order = 0
         self.last: CycleResult | None = None
-        #: the joint's recent estimates that carry a level (cycle id -> order, stamp, wear, std, evidence),
-        #: the confirmation's memory (:data:`CONFIRM_MEMORY`)
-        self._recent: dict[int, tuple[int, float, float, float, str]] = {}
+        #: the joint's recent estimates that carry a level ((source, cycle id) -> order, stamp, wear, std,
+        #: evidence), of both sources, the confirmation's memory (:data:`CONFIRM_MEMORY`)
+        self._recent: dict[CycleKey, tuple[int, float, float, float, str]] = {}
         #: notes on ignored or corrected inputs, newest last (the last ``max_notes`` are kept)
         self.ignored: list[str] = []
         #: notes made in all (``ignored`` is bounded: a flood of bad messages must not grow memory)
@@ -362,48 +392,58 @@ class WearMonitor:
         if o.joint_name and o.joint_name != self.config.joint_name:
             return []
         cid = int(o.cycle_id)
+        try:
+            key: CycleKey = (Source.parse(o.source).value, cid)
+        except JointwearError as exc:
+            self.rejected_count += 1
+            self._note(f"observation of cycle {cid}: {exc}; dropped")
+            return []
         kept, why = screen_observation(o, self.valid_ranges, use_temperature=self.config.use_measured_temperature)
         if why:
-            self._note(f"observation of cycle {cid}: {why}")
-        done = self._finished.get(cid)
+            self._note(f"observation of {cycle_label(key)}: {why}")
+        done = self._finished.get(key)
         if kept is None:
             self.rejected_count += 1
             if done is None:
-                cyc = self._cycles.setdefault(cid, _Cycle())
+                cyc = self._cycles.setdefault(key, _Cycle())
                 cyc.reject(why)
                 cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
                 if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
-                    return [self._finish(cid, t_rx)]
+                    return [self._finish(key, t_rx)]
             return []
         if done is not None:
-            return self._revise(cid, done, kept, t_rx, why)
-        cyc = self._cycles.setdefault(cid, _Cycle())
+            return self._revise(key, done, kept, t_rx, why)
+        cyc = self._cycles.setdefault(key, _Cycle())
         cyc.observations.append(kept)
         if why:
             cyc.unknown_temperature(why)
         cyc.last_obs = t_rx if not math.isfinite(cyc.last_obs) else max(cyc.last_obs, t_rx)
         if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
-            return [self._finish(cid, t_rx)]
+            return [self._finish(key, t_rx)]
         return []
 
-    def on_status(self, status: CycleStatus, now: float) -> list[CycleResult]:
+    def on_status(self, status: CycleStatus, now: float, source: str = Source.TEST_CYCLE) -> list[CycleResult]:
         """A ``TestCycleStatus`` heard at ``now``: learns ``speeds_total``, starts the timeout on DONE/ABORTED/FAILED.
 
         ``now`` is on the clock :meth:`poll` is given (the node passes its clock at receipt, a replay the log
         time; the status's own ``stamp`` is not used). A status of another joint (a non-empty ``joint_name``) is
-        ignored.
+        ignored. ``source`` is the stream's: ``test_cycle`` (``/test_cycle/status``) or ``production``
+        (``/production/status``: its ``cycle_id`` is the shift's, ``speeds_total`` the shift's observations of
+        the joint).
         """
         if status.joint_name and status.joint_name != self.config.joint_name:
             return []
         cid, state, speeds_total, stamp = int(status.cycle_id), int(status.state), int(status.speeds_total), float(now)
+        key: CycleKey = (Source.parse(source).value, cid)
         message = status.message
-        if cid in self._finished and state == CycleState.RUNNING:
-            del self._finished[cid]  # the id is reused by a new cycle (test_cycle restarted)
-            self._note(f"cycle {cid} RUNNING again: a new cycle reuses the id of an estimated one "
-                                "(test_cycle restarted?); the new cycle is estimated on its own")
-        if cid == 0 or cid in self._finished:
+        if key in self._finished and state == CycleState.RUNNING:
+            del self._finished[key]  # the id is reused by a new cycle (test_cycle restarted)
+            self._note(f"{cycle_label(key)} RUNNING again: a new cycle reuses the id of an estimated one "
+                       f"({'the production observer' if key[0] == Source.PRODUCTION else 'test_cycle'} restarted?); "
+                       "the new cycle is estimated on its own")
+        if cid == 0 or key in self._finished:
             return []
-        cyc = self._cycles.setdefault(cid, _Cycle())
+        cyc = self._cycles.setdefault(key, _Cycle())
         if speeds_total > 0:
             cyc.speeds_total = int(speeds_total)
         if state in ENDED_STATES and not math.isfinite(cyc.ended_at):
@@ -411,41 +451,43 @@ class WearMonitor:
             cyc.end_state = state
             cyc.end_message = str(message)
         if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
-            return [self._finish(cid, stamp)]
+            return [self._finish(key, stamp)]
         return self.poll(stamp)
 
     def poll(self, now: float) -> list[CycleResult]:
         """Estimate the cycles whose timeout has passed at ``now`` (same clock as the stamps)."""
         cfg = self.config
-        due: list[int] = []
-        for cid, cyc in self._cycles.items():
+        due: list[CycleKey] = []
+        for key, cyc in self._cycles.items():
             if math.isfinite(cyc.ended_at):
                 if now >= cyc.ended_at + cfg.done_timeout:
-                    due.append(cid)
+                    due.append(key)
             elif math.isfinite(cyc.last_obs) and now >= cyc.last_obs + cfg.idle_timeout:
-                due.append(cid)
-        return [self._finish(cid, now) for cid in sorted(due)]
+                due.append(key)
+        # by cycle id, a test cycle before the production shift of the same id
+        return [self._finish(key, now) for key in sorted(due, key=lambda k: (k[1], k[0] != Source.TEST_CYCLE))]
 
     # -- estimation ---------------------------------------------------------------------
-    def _finish(self, cid: int, stamp: float) -> CycleResult:
-        cyc = self._cycles.pop(cid)
+    def _finish(self, key: CycleKey, stamp: float) -> CycleResult:
+        cyc = self._cycles.pop(key)
         self._order += 1
         cyc.order = self._order
-        self._finished[cid] = cyc
-        if len(self._finished) > self.max_finished_cycles:  # bounded memory: forget the oldest
-            for old in sorted(self._finished)[: max(len(self._finished) - self.max_finished_cycles // 2, 1)]:
+        self._finished[key] = cyc
+        if len(self._finished) > self.max_finished_cycles:  # bounded memory: forget the oldest (by cycle id)
+            by_id = sorted(self._finished, key=lambda k: (k[1], k[0]))
+            for old in by_id[: max(len(self._finished) - self.max_finished_cycles // 2, 1)]:
                 del self._finished[old]
-        return self._estimate(cid, cyc, stamp)
+        return self._estimate(key, cyc, stamp)
 
-    def _revise(self, cid: int, cyc: _Cycle, o: FrictionObservationData, stamp: float,
+    def _revise(self, key: CycleKey, cyc: _Cycle, o: FrictionObservationData, stamp: float,
                 why: str = "") -> list[CycleResult]:
         if any(p.speed == o.speed and p.stamp == o.stamp for p in cyc.observations):
-            self._note(f"observation of cycle {cid} at {o.speed:g} rad/s received twice; the repeat is ignored")
+            self._note(f"observation of {cycle_label(key)} at {o.speed:g} rad/s received twice; the repeat is ignored")
             return []
         if cyc.speeds_total > 0 and cyc.heard >= cyc.speeds_total:
             self._note(
-                f"observation of cycle {cid} at {o.speed:g} rad/s came after its estimate, which already has all "
-                f"{cyc.speeds_total} speeds; ignored"
+                f"observation of {cycle_label(key)} at {o.speed:g} rad/s came after its estimate, which already has "
+                f"all {cyc.speeds_total} speeds; ignored"
             )
             return []
         cyc.observations.append(o)
@@ -453,11 +495,13 @@ class WearMonitor:
             cyc.unknown_temperature(why)
         cyc.revision += 1
         cyc.late.append(float(o.speed))
-        return [self._estimate(cid, cyc, stamp)]
+        return [self._estimate(key, cyc, stamp)]
 
 
-    def _estimate(self, cid: int, cyc: _Cycle, stamp: float) -> CycleResult:
+    def _estimate(self, key: CycleKey, cyc: _Cycle, stamp: float) -> CycleResult:
         cfg = self.config
+        src, cid = key
+        label = cycle_label(key)
         # in stamp order, however they arrived: a revision with a late observation equals the estimate
         # made with every observation on time (replay = live whatever the timing)
         obs = tuple(sorted(cyc.observations, key=lambda o: (o.stamp, o.speed)))
@@ -465,7 +509,7 @@ class WearMonitor:
         if cyc.speeds_total > 0 and len(obs) < cyc.speeds_total:
             partial = f"; {len(obs)} of {cyc.speeds_total} speeds observed"
         failed = cyc.end_state in (CycleState.ABORTED, CycleState.FAILED)
-        ended = f" (cycle {CycleState(cyc.end_state).name})" if failed else ""
+        ended = f" ({'shift' if src == Source.PRODUCTION else 'cycle'} {CycleState(cyc.end_state).name})" if failed else ""
         if cyc.revision:
             partial += (f"; revision {cyc.revision}: re-estimated with late observation(s) at "
                         + ", ".join(f"{v:g}" for v in cyc.late) + " rad/s")
@@ -478,16 +522,17 @@ class WearMonitor:
             partial += (f"; {cyc.n_temperature_unknown} temperature(s) used as unknown: "
                         + _reasons(cyc.temperature_unknown, cyc.n_temperature_unknown))
         extra = {"rejected": tuple(cyc.rejected), "temperature_unknown": tuple(cyc.temperature_unknown)}
-        base: list[tuple[str, str]] = [("cycle_id", str(cid)), ("n_observations", str(len(obs))),
+        base: list[tuple[str, str]] = [("cycle_id", str(cid)), ("source", src), ("n_observations", str(len(obs))),
                                        ("method", cfg.method), ("warn_threshold", f"{cfg.warn_threshold:g}"),
                                        ("alarm_threshold", f"{cfg.alarm_threshold:g}")]
         why_cycle = ""
         if failed:
-            why_cycle = f"; test_cycle: {cyc.end_message}" if cyc.end_message else "; test_cycle gave no reason"
+            who = "production" if src == Source.PRODUCTION else "test_cycle"
+            why_cycle = f"; {who}: {cyc.end_message}" if cyc.end_message else f"; {who} gave no reason"
         # order by speed so the estimate does not depend on the arrival order of observations
         obs_s = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
         table = observations_table(obs_s, use_temperature=cfg.use_measured_temperature,
-                                   noise_std=cfg.observation_noise_std, source=f"cycle {cid}")
+                                   noise_std=cfg.observation_noise_std, source=f"{label}")
         speeds = len({float(o.speed) for o in obs})
         t_known = bool(len(obs)) and bool(np.all(np.isfinite(table.get("temperature"))))
         need = max(min_speeds(t_known), int(cfg.min_observations))
@@ -500,26 +545,26 @@ class WearMonitor:
                 what = (f"{speeds} speed(s) observed; a wear level needs {need} "
                         f"({'temperature measured' if t_known else 'temperature unknown: the wear and the temperature together'})"
                         f"{why_cycle}")
-            return self._no_level(cid, cyc, stamp, f"cycle {cid}{ended}: no wear level from this cycle, {what}{partial}",
+            return self._no_level(key, cyc, stamp, f"{label}{ended}: no wear level from this cycle, {what}{partial}",
                                   tuple(base + rev), obs, "none" if not obs else INSUFFICIENT, extra)
         try:
-            est = self._factory(cfg.method, cycle_seed(cfg.seed, cid))
+            est = self._factory(cfg.method, cycle_seed(cfg.seed, cid, src))
             res = est.estimate(table)
         except JointwearError as exc:
-            return self._no_level(cid, cyc, stamp, f"cycle {cid}{ended}: wear estimation failed: {exc}{partial}",
+            return self._no_level(key, cyc, stamp, f"{label}{ended}: wear estimation failed: {exc}{partial}",
                                   tuple(base + rev), obs, "none", extra)
-        self._recent[cid] = (cyc.order, float(stamp), float(res.wear), float(res.wear_std), evidence)
+        self._recent[key] = (cyc.order, float(stamp), float(res.wear), float(res.wear_std), evidence)
         for old in sorted(self._recent, key=lambda c: self._recent[c][0])[:-CONFIRM_MEMORY]:
             del self._recent[old]
-        st, own = self._standing(cid)
+        st, own = self._standing(key)
         level = DiagnosticLevel.STALE if st.level is None else st.level
-        tag = f"cycle {cid}{ended}{partial}"
+        tag = f"{label}{ended}{partial}"
         if evidence == "partial":
             tag += f"; partial: {speeds} of {max(cyc.speeds_total, speeds)} speeds{why_cycle}"
         msg = f"{st.reason} ({tag})" if own == "confirmed" else f"{st.reason}; this cycle: {res.wear:.1f} ± {res.wear_std:.1f} ({tag})"
         values = [("wear", f"{res.wear:.3f}"), ("wear_std", f"{res.wear_std:.3f}"),
                   ("wear_low", f"{res.wear_low:.3f}"), ("wear_high", f"{res.wear_high:.3f}"),
-                  ("method", res.method), ("cycle_id", str(cid)),
+                  ("method", res.method), ("cycle_id", str(cid)), ("source", src),
                   ("temperature_estimate", f"{res.temperature:.2f}"), ("n_observations", str(len(obs))),
                   ("speeds", ", ".join(f"{s:g}" for s in res.speeds)),
                   ("warn_threshold", f"{cfg.warn_threshold:g}"), ("alarm_threshold", f"{cfg.alarm_threshold:g}"),
@@ -540,22 +585,23 @@ class WearMonitor:
         return self._store(CycleResult(cid, cfg.joint_name, stamp, res, int(level), msg, tuple(values + rev), obs,
                                        cfg.alarm_threshold, cyc.revision, **extra, evidence=evidence,
                                        confirmation=own, stale=own == "unconfirmed",
-                                       standing_wear=st.wear, standing_wear_std=st.wear_std), cyc.order)
+                                       standing_wear=st.wear, standing_wear_std=st.wear_std, source=src), cyc.order)
 
-    def _standing(self, cid: int | None = None) -> tuple[Standing, str]:
-        """The joint's condition over its recent estimates, and the confirmation of cycle ``cid``'s."""
+    def _standing(self, key: CycleKey | None = None) -> tuple[Standing, str]:
+        """The joint's condition over its recent estimates (both sources), and the confirmation of cycle ``key``'s."""
         cfg = self.config
         ids = sorted(self._recent, key=lambda c: self._recent[c][0])
         rows = [self._recent[c] for c in ids]
         st = standing([r[2] for r in rows], [r[3] for r in rows], [r[1] / 86400.0 for r in rows],
                       [r[4] for r in rows], cfg.warn_threshold, cfg.alarm_threshold)
-        own = st.statuses[ids.index(cid)] if cid is not None and cid in self._recent else "none"
+        own = st.statuses[ids.index(key)] if key is not None and key in self._recent else "none"
         return st, own
 
-    def _no_level(self, cid: int, cyc: _Cycle, stamp: float, what: str, values: tuple[tuple[str, str], ...],
+    def _no_level(self, key: CycleKey, cyc: _Cycle, stamp: float, what: str, values: tuple[tuple[str, str], ...],
                   obs: tuple[FrictionObservationData, ...], evidence: str, extra: dict[str, Any]) -> CycleResult:
         """A cycle that gives no level: the joint's last level stands, marked stale (STALE when there is none)."""
         cfg = self.config
+        src, cid = key
         st, _ = self._standing()
         if st.level is None:
             level, msg = DiagnosticLevel.STALE, f"{what}; the joint has no wear level yet"
@@ -565,7 +611,7 @@ class WearMonitor:
         return self._store(CycleResult(cid, cfg.joint_name, stamp, None, int(level), msg, vals, obs,
                                        cfg.alarm_threshold, cyc.revision, **extra, evidence=evidence,
                                        confirmation="none", stale=True, standing_wear=st.wear,
-                                       standing_wear_std=st.wear_std), cyc.order)
+                                       standing_wear_std=st.wear_std, source=src), cyc.order)
 
     def _store(self, result: CycleResult, order: int) -> CycleResult:
         if order >= self._last_order:  # a revision of an older cycle does not replace a newer one
@@ -573,5 +619,6 @@ class WearMonitor:
         return result
 
     @property
-    def open_cycles(self) -> tuple[int, ...]:
+    def open_cycles(self) -> tuple[CycleKey, ...]:
+        """The (source, cycle id) of the cycles not estimated yet."""
         return tuple(sorted(self._cycles))

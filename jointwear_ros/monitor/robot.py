@@ -2,7 +2,7 @@
 
 The ``wear_estimator`` node and the offline replay both feed a :class:`RobotMonitor`: an
 observation goes to the monitor of its ``joint_name``, a cycle status to the monitor of its
-``joint_name`` (a robot cycle tests its joints one after another under one cycle id: each joint's
+``joint_name`` with its source (a robot cycle tests its joints one after another under one cycle id: each joint's
 monitor sees the RUNNING -> DONE stream of a one-joint cycle); an empty name means the joint of a
 one-joint setup, a joint not served is not routed (None: the caller counts and logs it). Timeouts
 run on the caller's clock (``now``). Pure; no ROS import.
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from ..contract import CycleStatus
+from ..contract import CycleStatus, Source
 from ..observer.types import FrictionObservationData
 from .core import CycleResult, EstimatorFactory, MonitorConfig, WearMonitor
 
@@ -42,12 +42,13 @@ class RobotMonitor:
             return None
         return self.monitors[j].add(observation, now=now)
 
-    def on_status(self, status: CycleStatus, now: float) -> list[CycleResult] | None:
-        """A cycle status, to its joint's monitor at ``now`` (None: a joint not served)."""
+    def on_status(self, status: CycleStatus, now: float, source: str = Source.TEST_CYCLE) -> list[CycleResult] | None:
+        """A cycle status of ``source`` (``/test_cycle/status``: test_cycle; ``/production/status``: production),
+        to its joint's monitor at ``now`` (None: a joint not served)."""
         j = self.route(status.joint_name)
         if j is None:
             return None
-        return self.monitors[j].on_status(status, now)
+        return self.monitors[j].on_status(status, now, source)
 
     def poll(self, now: float) -> list[CycleResult]:
         """Every joint's timeouts at ``now``."""

@@ -1,4 +1,4 @@
-"""wear_estimator: FrictionObservation per cycle → WearEstimate and /diagnostics, per joint.
+"""wear_estimator: FrictionObservation per cycle (or production shift) → WearEstimate and /diagnostics, per joint.
 
 A thin rclpy adapter over :class:`~jointwear_ros.monitor.RobotMonitor` (the
 same per-joint monitors and routing the offline replay runs), one
@@ -32,6 +32,14 @@ joint's wear scale is calibrated; false for a commissioned joint without wear da
 or status of a joint not served is ignored, counted (``ignored_messages``) and
 logged (throttled).
 
+**Sources.** ``observations_topic`` carries the observations of both sources, told apart by their
+``source`` field (``test_cycle`` or ``production``); ``status_topic`` (``/test_cycle/status``) is the test
+cycle's status stream, ``production_status_topic`` (``/production/status``, the same ``TestCycleStatus``
+type) the production observer's: per joint a RUNNING then DONE with ``speeds_total`` the number of that
+joint's observations in the shift and the shift id as ``cycle_id``. A production shift is estimated as a
+unit like a test cycle, keyed apart from it (shift 3 and test cycle 3 never mix), and its ``WearEstimate``
+says ``source: production``.
+
 Run-time parameter changes (``ros2 param set``) of the estimator settings
 (thresholds, method, parameter set, timeouts, ...) are checked and apply from
 the next estimate: ``<joint>.<setting>`` to that joint only; a node-level
@@ -58,7 +66,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ..contract import DiagnosticLevel, observation_from_msg, status_from_msg
+from ..contract import DiagnosticLevel, Source, observation_from_msg, status_from_msg
 from ..errors import JointwearError, ParameterError
 from ..estimation import wear_scale
 from ..model import load_parameter_set_info
@@ -88,7 +96,9 @@ _NODE_HEAD: tuple[ParamDecl, ...] = (
 _NODE_TAIL: tuple[ParamDecl, ...] = (
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications", 0.01, 60.0, read_only=True),
     ParamDecl("observations_topic", "/jointwear/friction_observations", "FrictionObservation input", read_only=True),
-    ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus input", read_only=True),
+    ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus input (the test cycle's)", read_only=True),
+    ParamDecl("production_status_topic", "/production/status",
+              "TestCycleStatus input of the production observer (a shift per cycle_id)", read_only=True),
     ParamDecl("estimate_topic", "/jointwear/wear_estimate", "WearEstimate output", read_only=True),
     ParamDecl("diagnostics_topic", "/diagnostics", "DiagnosticArray output", read_only=True),
 )
@@ -142,6 +152,7 @@ def estimate_to_msg(r: CycleResult) -> WearEstimate:
     m.level = int(r.level)
     m.evidence = r.evidence
     m.confirmation = r.confirmation
+    m.source = str(r.source)
     return m
 
 
@@ -196,6 +207,8 @@ class WearEstimatorNode(Node):
                                  qos_overriding_options=overridable_qos())
         self.create_subscription(TestCycleStatus, str(p["status_topic"]), self._on_status, reliable,
                                  qos_overriding_options=overridable_qos())
+        self.create_subscription(TestCycleStatus, str(p["production_status_topic"]), self._on_production_status,
+                                 reliable, qos_overriding_options=overridable_qos())
         self.create_timer(float(p["diagnostics_period"]), self._on_timer, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.add_pre_set_parameters_callback(propagate_node_level(LIVE_PARAMETERS, self.joints))
         on_parameter_change(self, self._on_parameters,
@@ -274,7 +287,7 @@ class WearEstimatorNode(Node):
     def _on_observation(self, msg: FrictionObservation) -> None:
         try:
             obs = observation_from_msg(msg)
-        except (TypeError, ValueError) as exc:  # pragma: no cover - typed message fields
+        except (TypeError, ValueError, JointwearError) as exc:  # a source outside the vocabulary
             self.ignored_messages += 1
             self.get_logger().warning(f"FrictionObservation skipped: {exc}")
             return
@@ -290,17 +303,20 @@ class WearEstimatorNode(Node):
         if monitor.rejected_count > dropped or (notes and "used as unknown" not in notes[-1]):
             self.ignored_messages += 1  # dropped (screening), a repeat, or beyond the cycle's speeds
 
-    def _on_status(self, msg: TestCycleStatus) -> None:
+    def _on_status(self, msg: TestCycleStatus, source: Source = Source.TEST_CYCLE) -> None:
         st = status_from_msg(msg)
-        ch = self._served("TestCycleStatus", st.joint_name)
+        ch = self._served("TestCycleStatus" if source is Source.TEST_CYCLE else "production status", st.joint_name)
         if ch is None:
             return
         # timeouts run on this node's clock at receipt, whatever clock stamped the messages
         monitor = ch.monitor
         before = monitor.notes_total
-        self._handle(self.robot_monitor.on_status(st, self._now()) or [])
+        self._handle(self.robot_monitor.on_status(st, self._now(), source) or [])
         for note in monitor.notes_since(before):
             self.get_logger().warning(f"{ch.name}: {note}")
+
+    def _on_production_status(self, msg: TestCycleStatus) -> None:
+        self._on_status(msg, Source.PRODUCTION)
 
     def _on_timer(self) -> None:
         self._handle(self.robot_monitor.poll(self._now()))

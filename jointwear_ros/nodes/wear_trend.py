@@ -75,7 +75,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .. import __version__
-from ..contract import DiagnosticLevel, stamp_to_seconds
+from ..contract import DiagnosticLevel, source_of, stamp_to_seconds
 from ..errors import JointwearError
 from ..history import LIVE, EstimateRecord, HistoryStore, MaintenanceEvent, backend_for, screened_history
 from ..history.outbox import Outbox, SpoolPaths, same_disk
@@ -288,12 +288,18 @@ class WearTrendNode(Node):
         t = stamp_to_seconds(msg.header.stamp)
         if t <= 0:
             t = self._now()
+        try:
+            cycle_source = source_of(getattr(msg, "source", ""))  # empty (an older estimator): a test cycle's
+        except JointwearError as exc:
+            self.rejected += 1
+            self.get_logger().warning(f"WearEstimate of {joint!r} cycle {msg.cycle_id} ignored: {exc}")
+            return
         rec = EstimateRecord(
             robot=self.robot, joint=joint, cycle_id=int(msg.cycle_id), time=t, wear=float(msg.wear),
             wear_std=float(msg.wear_std), hardware_id=str(self.params["hardware_id"]) or f"{self.robot}/{joint}",
             temperature=float(msg.temperature_estimate), method=str(msg.method), params=str(self.params["params"]),
             software_version=__version__, bag="", analysis_version=LIVE, source="live",
-            evidence=str(getattr(msg, "evidence", "") or "complete"),
+            evidence=str(getattr(msg, "evidence", "") or "complete"), cycle_source=cycle_source,
         )
         f = screen_record(rec, now=self._now(), cfg=self.screen_cfg, not_before=self._newest.get(joint))
         if f is not None and f.reason == "clock_jump" and self._stored_already(rec):

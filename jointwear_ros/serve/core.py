@@ -33,12 +33,14 @@ from ..trend import DAY, TrendConfig, TrendResult, analyze_joint
 __all__ = [
     "JointHistory",
     "JointView",
+    "SourceSummary",
     "analyze_plant",
     "joint_view",
     "level_counts",
     "plant_level",
     "rank_views",
     "refused_view",
+    "source_summary",
 ]
 
 
@@ -58,6 +60,8 @@ class JointHistory:
     params: str = ""
     #: each estimate's evidence (``complete``/``partial``); None: all complete
     evidence: Sequence[str] | None = None
+    #: each estimate's source (``test_cycle``/``production``, the WearEstimate's); None: all test cycles
+    sources: Sequence[str] | None = None
 
 
 @dataclass(frozen=True)
@@ -93,6 +97,10 @@ class JointView:
     level_wear_std: float = math.nan
     evidence: str = ""
     confirmation: str = ""
+    #: the newest estimate's source (``test_cycle``/``production``; "" unknown) and, per source, its estimates
+    #: (:func:`source_summary`: count, newest time, wear and std)
+    newest_source: str = ""
+    sources: tuple[tuple[str, SourceSummary], ...] = ()
 
     @property
     def level_name(self) -> str:
@@ -115,7 +123,49 @@ class JointView:
             "alarm_expected": self.alarm_expected, "forecast": self.forecast or None,
             "level_wear": num(self.level_wear), "level_wear_std": num(self.level_wear_std),
             "evidence": self.evidence or None, "newest_estimate": self.confirmation or None,
+            "newest_source": self.newest_source or None,
+            "sources": {name: s.as_api() for name, s in self.sources},
         }
+
+
+@dataclass(frozen=True)
+class SourceSummary:
+    """One source's estimates of a joint: how many, the newest's time (s since the epoch), wear and std."""
+
+    estimates: int
+    newest_time: float
+    wear: float
+    wear_std: float
+
+    def as_api(self) -> dict[str, Any]:
+        def num(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        return {"estimates": self.estimates, "newest_time": num(self.newest_time), "wear": num(self.wear),
+                "wear_std": num(self.wear_std)}
+
+
+def source_summary(times: Sequence[float], wear: Sequence[float], wear_std: Sequence[float],
+                   sources: Sequence[str] | None) -> tuple[str, tuple[tuple[str, SourceSummary], ...]]:
+    """The newest estimate's source and, per source present (test_cycle first), its :class:`SourceSummary`.
+
+    >>> newest, per = source_summary([1.0, 2.0, 3.0], [10.0, 11.0, 12.0], [1.0, 2.0, 1.5],
+    ...                              ["test_cycle", "production", "test_cycle"])
+    >>> newest, [(name, s.estimates, s.wear) for name, s in per]
+    ('test_cycle', [('test_cycle', 2, 12.0), ('production', 1, 11.0)])
+    """
+    src = list(sources) if sources is not None else ["test_cycle"] * len(times)
+    if not len(times):
+        return "", ()
+    newest = max(range(len(times)), key=lambda i: float(times[i]))
+    out: list[tuple[str, SourceSummary]] = []
+    for name in ("test_cycle", "production", *sorted(set(src) - {"test_cycle", "production"})):
+        idx = [i for i, s in enumerate(src) if s == name]
+        if not idx:
+            continue
+        k = max(idx, key=lambda i: float(times[i]))
+        out.append((name, SourceSummary(len(idx), float(times[k]), float(wear[k]), float(wear_std[k]))))
+    return src[newest], tuple(out)
 
 
 def joint_view(r: TrendResult, newest_time: float, now: float, stale_days: float) -> JointView:
@@ -153,12 +203,14 @@ def analyze_plant(histories: Iterable[JointHistory], cfg: TrendConfig, now: floa
         try:
             r = analyze_joint(h.times, h.wear, h.wear_std, cycle_ids=h.cycle_ids,
                               maintenance_times=h.maintenance_times, cfg=cfg, robot=h.robot, joint=h.joint,
-                              smooth=smooth, evidence=h.evidence)
+                              smooth=smooth, evidence=h.evidence, sources=h.sources)
         except InputDataError as exc:
             out.append((refused_view(h.robot, h.joint, str(exc), newest, now, len(h.times)), None))
             continue
         view = joint_view(r, newest, now, stale_days)
-        out.append((replace(view, calibrated=calibrated_of(h.params)), r))
+        newest_source, per_source = source_summary(h.times, h.wear, h.wear_std, h.sources)
+        out.append((replace(view, calibrated=calibrated_of(h.params), newest_source=newest_source,
+                            sources=per_source), r))
     return out
 
 

@@ -34,7 +34,7 @@ from ..errors import JointwearError, one_line
 from ..history import LIVE, SCHEMA_VERSION, EstimateRecord, HistoryError, HistoryStore
 from ..history.trends import screened_history
 from ..trend import TrendConfig, TrendResult
-from .core import JointHistory, JointView, analyze_plant, joint_view, refused_view
+from .core import JointHistory, JointView, analyze_plant, joint_view, refused_view, source_summary
 
 __all__ = ["Snapshot", "StoreWatcher", "open_readonly"]
 
@@ -177,7 +177,8 @@ class StoreWatcher:
             items.append(JointHistory(rb, jt, [r.time for r in recs], [r.wear for r in recs],
                                       [r.wear_std for r in recs], [r.cycle_id for r in recs],
                                       [e.time for e in events], params=recs[-1].params if recs else "",
-                                      evidence=[r.evidence for r in recs]))
+                                      evidence=[r.evidence for r in recs],
+                                      sources=[r.cycle_source for r in recs]))
         out = {}
         for h, (view, r) in zip(items, analyze_plant(items, self.cfg, now, self.stale_days, smooth=False)):
             recs, events = hist[(h.robot, h.joint)]
@@ -193,7 +194,10 @@ class StoreWatcher:
                 v = refused_view(rb, jt, d.refused, d.newest_time, now, len(d.records))
             else:
                 v = joint_view(d.result, d.newest_time, now, self.stale_days)
-            views.append(replace(v, rows_refused=d.rows_refused))
+            recs = d.records
+            newest_source, per_source = source_summary([r.time for r in recs], [r.wear for r in recs],
+                                                       [r.wear_std for r in recs], [r.cycle_source for r in recs])
+            views.append(replace(v, rows_refused=d.rows_refused, newest_source=newest_source, sources=per_source))
         return tuple(views)
 
     def _publish(self, snap: Snapshot) -> None:

@@ -91,6 +91,15 @@ class _PlantCollector:
                                       "Time stamp of the joint's newest estimate", labels=lab),
             "n": GaugeMetricFamily("jointwear_joint_estimates", "Estimates in the joint's current segment",
                                    labels=lab),
+            "src_n": GaugeMetricFamily("jointwear_joint_source_estimates", "Estimates of the joint in the history "
+                                       "per source: test_cycle (the dedicated cycle) or production (the robot's own "
+                                       "program)", labels=[*lab, "source"]),
+            "src_last": GaugeMetricFamily("jointwear_joint_source_last_estimate_timestamp_seconds",
+                                          "Time stamp of the joint's newest estimate per source", labels=[*lab, "source"]),
+            "src_wear": GaugeMetricFamily("jointwear_joint_source_wear", "The joint's newest estimate per source, "
+                                          "0-100 (not the trend level: jointwear_joint_wear)", labels=[*lab, "source"]),
+            "src_std": GaugeMetricFamily("jointwear_joint_source_wear_std", "Standard deviation of the newest "
+                                         "estimate per source", labels=[*lab, "source"]),
             "refused": GaugeMetricFamily("jointwear_joint_estimates_refused", "Estimates of the joint refused: by the "
                                          "history's screening (impossible values, bad times), or the whole history "
                                          "when the trend cannot use it", labels=lab),
@@ -107,6 +116,12 @@ class _PlantCollector:
                 if math.isfinite(v.time):
                     fams["age"].add_metric(k, max(0.0, now - v.time))
                     fams["last"].add_metric(k, v.time)
+                for name, s in v.sources:
+                    ks = [*k, name]
+                    fams["src_n"].add_metric(ks, float(s.estimates))
+                    for skey, sx in (("src_last", s.newest_time), ("src_wear", s.wear), ("src_std", s.wear_std)):
+                        if math.isfinite(sx):
+                            fams[skey].add_metric(ks, sx)
                 if v.refused:
                     continue
                 fams["n"].add_metric(k, float(v.estimates))
@@ -207,8 +222,8 @@ _TABLE = """{% macro table(views) %}
 <td><span class="lv lv-{{ v.level_name }}">{{ v.level_name }}</span>{% if v.confirmation == "unconfirmed" %} <span class="muted">(newest held)</span>{% endif %}{% if v.evidence == "partial" %} <span class="muted">(partial cycle)</span>{% endif %}</td>
 <td>{% if v.alarm_expected %}<span class="fc">alarm expected</span>{% else %}<span class="muted">–</span>{% endif %}</td>
 <td class="num wear">{{ wear(v) }}</td><td class="num">{{ num(v.rate_per_day, "%+.3f") }}</td>
-<td class="num tta">{{ tta(v) }}</td><td>{{ ts(v.time) }} <span class="muted">({{ num(v.age_days, "%.1f") }} d ago)</span></td>
-<td class="num">{{ v.estimates }}</td><td>{{ v.message }}</td></tr>
+<td class="num tta">{{ tta(v) }}</td><td class="last" data-newest-source="{{ v.newest_source }}">{{ ts(v.time) }} <span class="muted">({{ num(v.age_days, "%.1f") }} d ago{% if v.newest_source %}, from {{ "production" if v.newest_source == "production" else "a test cycle" }}{% endif %})</span></td>
+<td class="num">{{ v.estimates }}{% if v.sources|length > 1 %} <span class="muted">({% for name, s in v.sources %}{{ s.estimates }} {{ "production" if name == "production" else "test cycle" }}{% if not loop.last %}, {% endif %}{% endfor %})</span>{% endif %}</td><td>{{ v.message }}</td></tr>
 {% endfor %}</table>{% endmacro %}"""
 
 _PLANT = """{% extends "base" %}{% from "table" import table %}{% block body %}
@@ -235,8 +250,8 @@ _JOINT = """{% extends "base" %}{% from "table" import table %}{% block body %}
  alt="wear history and trend of {{ view.robot }} {{ view.joint }}"
  onload="this.dataset.drawn = this.naturalWidth + 'x' + this.naturalHeight" onerror="this.dataset.drawn = 'error'">{% endif %}
 <h2>Newest estimates</h2>
-<table id="estimates"><tr><th>time (UTC)</th><th>cycle</th><th>wear</th><th>std</th><th>method</th><th>source</th></tr>
-{% for e in recent %}<tr><td>{{ ts(e.time) }}</td><td class="num">{{ e.cycle_id }}</td>
+<table id="estimates"><tr><th>time (UTC)</th><th>estimated from</th><th>cycle / shift</th><th>wear</th><th>std</th><th>method</th><th>source</th></tr>
+{% for e in recent %}<tr><td>{{ ts(e.time) }}</td><td data-cycle-source="{{ e.cycle_source }}">{{ "production" if e.cycle_source == "production" else "test cycle" }}</td><td class="num">{{ e.cycle_id }}</td>
 <td class="num">{{ "%.2f"|format(e.wear) }}</td><td class="num">{{ "%.2f"|format(e.wear_std) }}</td>
 <td>{{ e.method }}</td><td>{{ e.source }}</td></tr>{% endfor %}</table>
 {% if maintenance %}<p>Maintenance: {% for t in maintenance %}{{ ts(t) }} {% endfor %}</p>{% endif %}
@@ -316,7 +331,7 @@ class _Plots:
 
         def draw(path: Path) -> None:
             plot_trend(path, result, self.watcher.cfg, [r.time for r in recs], [r.wear for r in recs],
-                       [r.wear_std for r in recs], d.maintenance_times)
+                       [r.wear_std for r in recs], d.maintenance_times, sources=[r.cycle_source for r in recs])
 
         return self.get(("joint", snap.loads, robot, joint), draw)
 

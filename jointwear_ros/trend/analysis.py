@@ -43,7 +43,7 @@ from .alarm import TimeToAlarm
 from .config import DAY, Array, TrendConfig
 from .filters import FilterOutput, kalman_llt, rts_smooth
 from .members import Component, Member, RatePrior, bank_members
-from .segments import collapse_revisions, current_segment, last_segment
+from .segments import collapse_revisions, current_segment, last_segment, revision_keys
 from .states import trend_states, unbounded_reason
 
 __all__ = ["TrendResult", "analyze_joint"]
@@ -135,10 +135,16 @@ def analyze_joint(
     smooth: bool = False,
     prior: RatePrior | None = None,
     evidence: Sequence[str] | None = None,
+    sources: Sequence[str] | None = None,
 ) -> TrendResult:
     """The trend of one joint from its estimates (times in seconds since the epoch); ``prior``: a fleet prior;
-    ``evidence``: each estimate's (``complete``, ``partial``, ``insufficient``; default complete)."""
+    ``evidence``: each estimate's (``complete``, ``partial``, ``insufficient``; default complete); ``sources``:
+    each estimate's (``test_cycle``, ``production``; default test_cycle): the estimates of both sources make one
+    trend, and a production shift is never taken for a revision of the test cycle with the same id."""
     cfg = cfg or TrendConfig()
+    if sources is not None:
+        cycle_ids = revision_keys(np.zeros(len(times), int) if cycle_ids is None else cycle_ids,
+                                  sources).tolist()
     t, w, s, total, seg_start, segs = current_segment(times, wear, wear_std, cycle_ids, maintenance_times, cfg,
                                              f"{robot}/{joint}")
     ev = _segment_evidence(times, cycle_ids, maintenance_times, evidence, cfg)

@@ -107,7 +107,8 @@ def _window(r: TrendResult, cfg: TrendConfig, t: Array, maintenance_times: Seque
 
 
 def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence[float],
-               all_wear: Sequence[float], all_std: Sequence[float], maintenance_times: Sequence[float] = ()) -> Path:
+               all_wear: Sequence[float], all_std: Sequence[float], maintenance_times: Sequence[float] = (),
+               sources: Sequence[str] | None = None) -> Path:
     """One joint's history and trend as a PNG: left the estimates, the fit, the forecast and the alarm-time
     interval; right the weights of the bank's models (what the interval is made of).
 
@@ -115,6 +116,8 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
     forecast only when there is a time to alarm, the models' weights only when there is a trend. The axes
     are limited to the data and the useful part of the forecast (:func:`_window`; wear from
     :func:`~jointwear_ros.plots.wear_limits`, the forecast clipped to it), the legend sits outside the plot.
+    ``sources`` (each estimate's ``test_cycle`` or ``production``; None: all test cycles) draws the production
+    estimates with their own marker and legend entry once there are any.
     """
     import matplotlib.dates as mdates
 
@@ -139,8 +142,20 @@ def plot_trend(path: Path, r: TrendResult, cfg: TrendConfig, all_times: Sequence
     ylim = wear_limits(np.concatenate([wear[shown], np.clip(wear[shown] - 2 * std[shown], -5.0, None),
                                        np.clip(wear[shown] + 2 * std[shown], None, 105.0)]), cfg.alarm)
     hidden = int(np.sum(t < x0))
-    ax.errorbar(_dt(t), wear, yerr=2 * std, fmt="o", ms=2.5, lw=0.6, color="0.35", ecolor="0.7",
-                label="estimates ± 2 std" + (f" ({hidden} older ones left of the plot)" if hidden else ""))
+    older = f" ({hidden} older ones left of the plot)" if hidden else ""
+    prod = (np.asarray([s == "production" for s in sources], dtype=bool) if sources is not None
+            else np.zeros(t.size, dtype=bool))
+    if prod.any():  # two sources: each its marker and legend entry
+        tc = ~prod
+        if tc.any():
+            ax.errorbar(_dt(t[tc]), wear[tc], yerr=2 * std[tc], fmt="o", ms=2.5, lw=0.6, color="0.35", ecolor="0.7",
+                        label="test-cycle estimates ± 2 std" + older)
+            older = ""
+        ax.errorbar(_dt(t[prod]), wear[prod], yerr=2 * std[prod], fmt="^", ms=3.0, lw=0.6, color="tab:brown",
+                    ecolor="burlywood", mfc="none", label="production estimates ± 2 std" + older)
+    else:
+        ax.errorbar(_dt(t), wear, yerr=2 * std, fmt="o", ms=2.5, lw=0.6, color="0.35", ecolor="0.7",
+                    label="estimates ± 2 std" + older)
     for i, m in enumerate(maintenance_times):
         ax.axvline(_dt(np.array([m]))[0], color="tab:green", ls=":", lw=1.2, label="maintenance" if i == 0 else None)
     if r.step_probability >= 0.5 and math.isfinite(r.step_time):

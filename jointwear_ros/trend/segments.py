@@ -13,11 +13,29 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputDataError
 from .config import Array, TrendConfig
 
-__all__ = ["collapse_revisions", "current_segment", "last_segment"]
+__all__ = ["collapse_revisions", "current_segment", "last_segment", "revision_keys"]
+
+
+def revision_keys(cycle_ids: Any, sources: Any = None) -> npt.NDArray[np.int64]:
+    """The cycle ids :func:`collapse_revisions` tells apart, with each estimate's source: a test cycle keeps its
+    id, a production shift ``s`` becomes ``-s`` (0 stays 0, never collapsed), so a production shift and a test
+    cycle of the same id are never taken for revisions of each other. ``sources`` None: all test cycles.
+
+    >>> revision_keys([3, 3, 0], ["test_cycle", "production", "production"]).tolist()
+    [3, -3, 0]
+    """
+    c = np.asarray(cycle_ids, dtype=np.int64).reshape(-1)
+    if sources is None:
+        return c
+    prod = np.asarray([str(s) == "production" for s in sources], dtype=bool)
+    if prod.size != c.size:
+        raise InputDataError(f"sources has {prod.size} entries for {c.size} cycle ids")
+    return np.where(prod, -c, c)
 
 
 def collapse_revisions(times: Array, cycle_ids: Array, window_s: float) -> Array:

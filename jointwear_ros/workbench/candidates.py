@@ -48,7 +48,7 @@ __all__ = [
 ]
 
 #: Columns never used as a candidate's variable: the response, its parts and ids.
-NON_CANDIDATE_COLUMNS = frozenset({"speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "cycle"})
+NON_CANDIDATE_COLUMNS = frozenset({"speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "cycle", "production"})
 
 # generic candidates that would only repeat a paper term (load_torque >= 0)
 _DUPLICATES = {"lin(load_torque)": "load_coulomb", "x_stribeck(load_torque)": "load_stribeck"}
