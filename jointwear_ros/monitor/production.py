@@ -1,0 +1,103 @@
+"""Wear per joint from a shift of production observations, through the live wear monitor.
+
+:func:`estimate_shift` turns a :class:`~jointwear_ros.observer.production.ProductionShift` into one estimate
+per joint (:class:`ShiftEstimate`) by the path the live ``wear_estimator`` takes: one :class:`~.core.WearMonitor`
+per joint is fed the shift's observations of that joint (:meth:`~.core.WearMonitor.add`, in the shift's order)
+and then a DONE :class:`~jointwear_ros.contract.CycleStatus` of cycle ``shift_id`` with ``speeds_total`` = that
+joint's number of observations (:meth:`~.core.WearMonitor.on_status`): the status completes the cycle, as the
+test cycle's DONE does, so an offline estimate and a live one cannot differ (tested bit for bit).
+
+A joint gets an explicit *cannot tell* instead of a number (``wear`` NaN, ``reason`` set) when it never moved
+at an informative speed in the shift (the observer's note), when none of its passes gave an observation
+(the reasons the observer counted), or when the monitor gives no level (too few speeds for the estimator:
+:func:`~jointwear_ros.condition.min_speeds`, 3 with the temperature unknown, 1 with it measured; a failed
+estimation). Pure; no ROS import.
+
+>>> from jointwear_ros.observer.production import JointShiftCounts, ProductionShift
+>>> shift = ProductionShift(1, 0.0, 60.0, 100, (), (), {"joint_6": JointShiftCounts(
+...     "joint_6", note="joint_6: never moved at a constant speed >= 10 rad/s motor in this shift")})
+>>> est = estimate_shift(shift)
+>>> est["joint_6"].told, est["joint_6"].reason
+(False, 'joint_6: never moved at a constant speed >= 10 rad/s motor in this shift')
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+from ..contract import CycleState, CycleStatus
+from ..observer.production import ProductionShift
+from .core import CycleResult, EstimatorFactory, MonitorConfig, WearMonitor
+
+__all__ = ["ShiftEstimate", "estimate_shift"]
+
+
+@dataclass(frozen=True)
+class ShiftEstimate:
+    """One joint's production estimate of a shift: ``wear`` and ``wear_std`` (NaN when it cannot tell, and
+    ``reason`` says why), the monitor's :class:`~.core.CycleResult` (None when no observation reached it),
+    the observations used and the observer's pass counts (paired, model, rejected)."""
+
+    joint_name: str
+    shift_id: int
+    wear: float
+    wear_std: float
+    reason: str
+    result: CycleResult | None
+    n_observations: int
+    paired: int
+    model: int
+    rejected: int
+
+    @property
+    def told(self) -> bool:
+        """The shift gave this joint a wear estimate (else :attr:`reason` says why not)."""
+        return math.isfinite(self.wear)
+
+
+def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, MonitorConfig] | None = None, *,
+                   estimator_factory: EstimatorFactory | None = None,
+                   monitors: Mapping[str, WearMonitor] | None = None) -> dict[str, ShiftEstimate]:
+    """Each joint's wear from ``shift`` (module docstring), keyed by joint name in the shift's order.
+
+    ``config``: one :class:`~.core.MonitorConfig` for every joint (its ``joint_name`` replaced by each
+    joint's), or one per joint; default ``MonitorConfig(method="joint")``, the estimator the dedicated
+    cycle on the arm uses (:func:`jointwear_ros.simcell.run_cycle`); ``use_measured_temperature`` decides
+    whether a temperature sensor's readings are used. ``monitors``: the joints' running monitors (a live
+    wear_estimator's), fed in place, so their confirmation memory carries over from shift to shift;
+    default a fresh monitor per joint."""
+    out: dict[str, ShiftEstimate] = {}
+    sid = int(shift.shift_id)
+    for name, counts in shift.joints.items():
+        obs = [o for o in shift.observations if o.joint_name == name]
+        common = dict(joint_name=name, shift_id=sid, n_observations=len(obs), paired=counts.paired,
+                      model=counts.model, rejected=counts.rejected_total)
+        if not counts.informative or not obs:
+            why = counts.note or (f"{name}: no friction observation from its {counts.passes} passes in this shift"
+                                  + (" (" + ", ".join(f"{k} {v}" for k, v in sorted(counts.rejected.items())) + ")"
+                                     if counts.rejected else ""))
+            out[name] = ShiftEstimate(wear=math.nan, wear_std=math.nan, reason=why, result=None, **common)
+            continue
+        if monitors is not None and name in monitors:
+            mon = monitors[name]
+        else:
+            cfg = config.get(name) if isinstance(config, Mapping) else config
+            cfg = replace(cfg or MonitorConfig(method="joint"), joint_name=name)
+            mon = WearMonitor(cfg, estimator_factory)
+        results: list[CycleResult] = []
+        for o in obs:
+            results += mon.add(o, o.stamp)
+        status = CycleStatus(cycle_id=sid, state=CycleState.DONE, speeds_total=len(obs), joint_name=name,
+                             stamp=shift.t_end)
+        results += mon.on_status(status, shift.t_end)
+        mine = [r for r in results if r.cycle_id == sid]
+        res = mine[-1] if mine else None
+        if res is None or res.result is None:
+            why = f"{name}: " + (res.message if res is not None else "the monitor gave no result for the shift")
+            out[name] = ShiftEstimate(wear=math.nan, wear_std=math.nan, reason=why, result=res, **common)
+        else:
+            out[name] = ShiftEstimate(wear=float(res.result.wear), wear_std=float(res.result.wear_std), reason="",
+                                      result=res, **common)
+    return out
