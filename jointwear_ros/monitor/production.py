@@ -28,7 +28,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from ..contract import CycleState, CycleStatus
-from ..observer.production import ProductionShift
+from ..observer.production import JointShiftCounts, ProductionShift
 from .core import CycleResult, EstimatorFactory, MonitorConfig, WearMonitor
 
 __all__ = ["ShiftEstimate", "estimate_shift"]
@@ -57,6 +57,11 @@ class ShiftEstimate:
         return math.isfinite(self.wear)
 
 
+def _estimate(name: str, sid: int, wear: float, std: float, reason: str, result: CycleResult | None, n: int,
+              counts: JointShiftCounts) -> ShiftEstimate:
+    return ShiftEstimate(name, sid, wear, std, reason, result, n, counts.paired, counts.model, counts.rejected_total)
+
+
 def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, MonitorConfig] | None = None, *,
                    estimator_factory: EstimatorFactory | None = None,
                    monitors: Mapping[str, WearMonitor] | None = None) -> dict[str, ShiftEstimate]:
@@ -72,13 +77,12 @@ def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, 
     sid = int(shift.shift_id)
     for name, counts in shift.joints.items():
         obs = [o for o in shift.observations if o.joint_name == name]
-        common = dict(joint_name=name, shift_id=sid, n_observations=len(obs), paired=counts.paired,
-                      model=counts.model, rejected=counts.rejected_total)
+
         if not counts.informative or not obs:
             why = counts.note or (f"{name}: no friction observation from its {counts.passes} passes in this shift"
                                   + (" (" + ", ".join(f"{k} {v}" for k, v in sorted(counts.rejected.items())) + ")"
                                      if counts.rejected else ""))
-            out[name] = ShiftEstimate(wear=math.nan, wear_std=math.nan, reason=why, result=None, **common)
+            out[name] = _estimate(name, sid, math.nan, math.nan, why, None, len(obs), counts)
             continue
         if monitors is not None and name in monitors:
             mon = monitors[name]
@@ -96,8 +100,8 @@ def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, 
         res = mine[-1] if mine else None
         if res is None or res.result is None:
             why = f"{name}: " + (res.message if res is not None else "the monitor gave no result for the shift")
-            out[name] = ShiftEstimate(wear=math.nan, wear_std=math.nan, reason=why, result=res, **common)
+            out[name] = _estimate(name, sid, math.nan, math.nan, why, res, len(obs), counts)
         else:
-            out[name] = ShiftEstimate(wear=float(res.result.wear), wear_std=float(res.result.wear_std), reason="",
-                                      result=res, **common)
+            out[name] = _estimate(name, sid, float(res.result.wear), float(res.result.wear_std), "", res, len(obs),
+                                  counts)
     return out

@@ -754,11 +754,13 @@ class ProductionObserver:
         corr_m = np.zeros_like(d)
         if self._payload_gravity is not None or self._payload_rigid_body is not None:
             fit = self._payload_fit(j, f, r, w)
-            if fit is False:
+            if isinstance(fit, bool):  # a payload shows, but not which pass carried it
                 return None
             if fit is not None:
-                dm, corr_d, corr_m = fit
+                dm, corr_d, corr_m, (add_f, add_r) = fit
                 d = d - corr_d
+                if g_f is not None and g_r is not None:  # the load each pass carried: the payload's gravity too
+                    load = 0.5 * (np.abs(g_f + add_f) + np.abs(g_r + add_r))
                 kind = "paired+payload"
                 self._payload_kg[j].append(dm)
         tau = float(np.dot(w, d) / w.sum())
@@ -790,9 +792,10 @@ class ProductionObserver:
             position=float(np.dot(w, 0.5 * (f.q[:, j] + r.q[:, j])) / w.sum()),
             n_plus=int(f.n.sum()), n_minus=int(r.n.sum()), st=f.st + r.st, nt=f.nt + r.nt, t_end=max(sf.t1, sr.t1))
 
-    def _payload_fit(self, j: int, f: _Bins, r: _Bins, w: Array) -> tuple[float, Array, Array] | None | bool:
+    def _payload_fit(self, j: int, f: _Bins, r: _Bins, w: Array
+                     ) -> tuple[float, Array, Array, tuple[Array, Array]] | bool | None:
         """The payload difference of a pair (module docstring, "Payload"): ``(dm kg, correction of joint j's
-        d_b, of its (u+ + u-)/2 per bin, normalized)``; None when no payload difference shows (the pair as it
+        d_b, of its (u+ + u-)/2 per bin, the payload's gravity on joint j in each pass, normalized)``; None when no payload difference shows (the pair as it
         is); False when one shows but which pass carried it cannot be told (the pair is a load mismatch)."""
         cfg = self.configs[j]
         nj = len(self.names)
@@ -842,7 +845,10 @@ class ProductionObserver:
             dm = math.copysign(self._payload_mass, dm)
         sj = float(scale[j])
         corr_d = (0.5 * dm * p_f[:, j] if forward else -0.5 * dm * p_r[:, j]) / sj
-        return (fitted if forward else -fitted), corr_d, 0.5 * fitted * p[:, j] / sj
+        add = dm * (p_f[:, j] if forward else p_r[:, j]) / sj  # the carried payload's gravity on joint j
+        zero = np.zeros_like(add)
+        return ((fitted if forward else -fitted), corr_d, 0.5 * fitted * p[:, j] / sj,
+                (add, zero) if forward else (zero, add))
 
     def _model_based(self, j: int, seg: _Segment) -> _Result:
         assert self._rigid_body is not None
