@@ -94,8 +94,10 @@ def main() -> None:
     for s, sh in enumerate(shifts):
         with_t = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=True))
         without = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=False))
+        pp = estimate_shift(sh, MonitorConfig(method="joint"), per_pass=True)
+        pp0 = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=False), per_pass=True)
         for i, n in enumerate(names):
-            e, e0 = with_t[n], without[n]
+            e, e0, p, p0 = with_t[n], without[n], pp[n], pp0[n]
             w_true = run.wear[s][i]
             d_std = ded.estimates[n][1]
             c = sh.joints[n]
@@ -107,6 +109,12 @@ def main() -> None:
                 "dedicated_estimate": ded.estimates[n][0], "dedicated_std": d_std,
                 "no_sensor_estimate": e0.wear if e0.told else None, "no_sensor_std": e0.wear_std if e0.told else None,
                 "no_sensor_z": (e0.wear - w_true) / e0.wear_std if e0.told else None,
+                "no_sensor_ratio": e0.wear_std / d_std if e0.told and math.isfinite(d_std) else None,
+                "per_pass_z": (p.wear - w_true) / p.wear_std if p.told else None,
+                "per_pass_std": p.wear_std if p.told else None,
+                "per_pass_ratio": p.wear_std / d_std if p.told and math.isfinite(d_std) else None,
+                "per_pass_no_sensor_z": (p0.wear - w_true) / p0.wear_std if p0.told else None,
+                "per_pass_no_sensor_ratio": p0.wear_std / d_std if p0.told and math.isfinite(d_std) else None,
                 "passes": c.passes, "paired": c.paired, "payload_corrected": len(c.payload_kg),
                 "rejected": dict(c.rejected), "reason": e.reason, "no_sensor_reason": e0.reason})
     out = {"arm": arm, "shifts": args.shifts, "cycles": args.cycles, "payload": PAYLOAD, "rows": rows,
@@ -122,14 +130,21 @@ def main() -> None:
     print(f"UR5 pick-and-place, {args.shifts} shift(s) x {args.cycles} cycles, {PAYLOAD:g} kg one way, speed "
           f"override {' '.join(f'{x:g}' for x in args.override)} cycle by cycle; "
           f"production {t_prod:.0f} CPU s; dedicated cycle {ded.state.name}")
-    print(f"{'shift':>5} {'joint':8} {'true':>5} {'est':>6} {'std':>5} {'z':>6} {'ratio':>5} {'ded std':>7} "
-          f"{'noT z':>6} {'pass':>4} {'pair':>4} {'+pl':>3} {'rej':>3}  cannot tell")
+    print("levels: one observation per speed level; per pass: one per pair (estimate_shift per_pass); "
+          "noT: the temperature not given to the estimator (as the dedicated cycle's)")
+    print(f"{'':20} {'':>6} {'levels, T measured':>19} {'levels noT':>13} {'per pass, T':>19} {'per pass noT':>13}")
+    print(f"{'shift':>5} {'joint':8} {'true':>5} {'ded std':>7} {'est':>6} {'std':>5} {'z':>6} {'ratio':>5} "
+          f"{'z':>6} {'ratio':>5} {'std':>5} {'z':>6} {'ratio':>5} {'z':>6} {'ratio':>5} "
+          f"{'pass':>4} {'pair':>4} {'+pl':>3} {'rej':>3}  cannot tell (levels, T)")
     for r in rows:
-        print(f"{r['shift']:>5} {r['joint']:8} {r['true_wear']:5.1f} {f(r['estimate'], '6.1f'):>6} "
-              f"{f(r['std'], '5.2f'):>5} {f(r['z'], '+6.2f'):>6} {f(r['ratio'], '5.2f'):>5} "
-              f"{f(r['dedicated_std'], '7.2f'):>7} {f(r['no_sensor_z'], '+6.2f'):>6} {r['passes']:4d} {r['paired']:4d} "
+        print(f"{r['shift']:>5} {r['joint']:8} {r['true_wear']:5.1f} {f(r['dedicated_std'], '7.2f'):>7} "
+              f"{f(r['estimate'], '6.1f'):>6} {f(r['std'], '5.2f'):>5} {f(r['z'], '+6.2f'):>6} {f(r['ratio'], '5.2f'):>5} "
+              f"{f(r['no_sensor_z'], '+6.2f'):>6} {f(r['no_sensor_ratio'], '5.2f'):>5} "
+              f"{f(r['per_pass_std'], '5.2f'):>5} {f(r['per_pass_z'], '+6.2f'):>6} {f(r['per_pass_ratio'], '5.2f'):>5} "
+              f"{f(r['per_pass_no_sensor_z'], '+6.2f'):>6} {f(r['per_pass_no_sensor_ratio'], '5.2f'):>5} "
+              f"{r['passes']:4d} {r['paired']:4d} "
               f"{r['payload_corrected']:3d} {sum(v for k, v in r['rejected'].items() if k != 'held still'):3d}  "
-              f"{r['reason'][:70]}")
+              f"{r['reason'][:60]}")
 
 
 if __name__ == "__main__":

@@ -169,3 +169,23 @@ def test_the_speed_override_scales_each_cycles_cruise_and_refuses_a_speed_past_t
         run_production(ARM, prog, cycles=1, speed_override=(4.0,))
     with pytest.raises(InputDataError, match="speed_override"):
         run_production(ARM, replace(prog), cycles=1, speed_override=(0.0,))
+
+
+def test_per_pass_weighs_each_pair_as_a_sweep_within_3_std_and_tighter_than_one_observation_per_level(run, shifts):
+    for s, sh in enumerate(shifts):
+        levels = estimate_shift(sh, MonitorConfig(method="joint"))
+        passes = estimate_shift(sh, MonitorConfig(method="joint"), per_pass=True)
+        for joint in MOVED:
+            e = passes[joint]
+            truth = WEARS[s][run.names.index(joint)]
+            assert e.told and abs(e.wear - truth) < 3.0 * e.wear_std, (s, joint, e.wear, e.wear_std, truth)
+            assert e.n_observations > levels[joint].n_observations
+        for joint in LOADED:
+            assert passes[joint].wear_std < 0.8 * levels[joint].wear_std
+
+
+def test_per_pass_without_a_temperature_sensor_counts_speed_levels_not_pairs(shifts):
+    est = estimate_shift(shifts[0], MonitorConfig(method="joint", use_measured_temperature=False), per_pass=True)
+    for joint in MOVED:  # 1-2 levels each, several pairs per level: still cannot tell
+        assert not est[joint].told and est[joint].n_observations >= 2
+        assert "speed level(s)" in est[joint].reason and "needs 3" in est[joint].reason

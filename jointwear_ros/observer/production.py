@@ -32,6 +32,17 @@ of the shift, pairs what it saw into friction observations in the suite's units 
    within ``load_tolerance_gravity``, which must also hold the coupling torque ``C(q, v) v``), plus
    4 standard errors; a pair that is not (a payload carried one way only) is rejected with
    ``load mismatch``.
+3b. **Payload.** With a payload model as well (``payload_gravity(q)``, or ``payload_rigid_body(q, v, a)``
+   that also holds the payload's coupling torque: N·m per kg at the flange, the arm's model with 1 kg less
+   without), a pair's payload difference ``dm`` is fitted to the load the model leaves,
+   ``(u+ + u-)/2 - model = dm/2 * p`` by least squares over every joint and matched bin (N·m, bins weighted
+   ``w_b``). When ``|dm|`` is at least ``payload_min`` and 4 of its standard errors, the pass that carried it
+   is the one whose correction leaves less variation along the path in every joint's ``(u+ - u-)/2``
+   (``payload_decision`` times less; else the pair is a ``load mismatch``: which pass carried it cannot be
+   told), and ``d_b`` loses that pass's ``dm * p / 2`` (``payload_mass``, the part's known mass, replaces the
+   fitted ``|dm|`` in the correction: the fit also takes up the friction's own load dependence). The pair is
+   of kind ``paired+payload``, its load the mean of the two passes' (the carried payload's gravity
+   included), the fitted ``dm`` in the joint's counts (``payload_kg``); the load check is then the fit.
 4. **Model-based.** With ``rigid_body`` given, a segment that found no partner gives
    ``d * (u - rigid_body(q, v, 0) / torque_scale)`` over its bins (kind ``model``). A segment is never
    used twice.
