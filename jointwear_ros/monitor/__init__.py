@@ -17,6 +17,7 @@ from .core import (
     diagnostic_level,
     observations_table,
 )
+from .production import ShiftEstimate, estimate_shift
 from .robot import RobotMonitor
 from .validation import PLAUSIBLE_TEMPERATURE, screen_observation
 
@@ -27,10 +28,12 @@ __all__ = [
     "EstimatorFactory",
     "MonitorConfig",
     "RobotMonitor",
+    "ShiftEstimate",
     "WearMonitor",
     "cycle_label",
     "cycle_seed",
     "diagnostic_level",
+    "estimate_shift",
     "observations_table",
     "screen_observation",
 ]

@@ -32,6 +32,17 @@ of the shift, pairs what it saw into friction observations in the suite's units 
    within ``load_tolerance_gravity``, which must also hold the coupling torque ``C(q, v) v``), plus
    4 standard errors; a pair that is not (a payload carried one way only) is rejected with
    ``load mismatch``.
+3b. **Payload.** With a payload model as well (``payload_gravity(q)``, or ``payload_rigid_body(q, v, a)``
+   that also holds the payload's coupling torque: N·m per kg at the flange, the arm's model with 1 kg less
+   without), a pair's payload difference ``dm`` is fitted to the load the model leaves,
+   ``(u+ + u-)/2 - model = dm/2 * p`` by least squares over every joint and matched bin (N·m, bins weighted
+   ``w_b``). When ``|dm|`` is at least ``payload_min`` and 4 of its standard errors, the pass that carried it
+   is the one whose correction leaves less variation along the path in every joint's ``(u+ - u-)/2``
+   (``payload_decision`` times less; else the pair is a ``load mismatch``: which pass carried it cannot be
+   told), and ``d_b`` loses that pass's ``dm * p / 2`` (``payload_mass``, the part's known mass, replaces the
+   fitted ``|dm|`` in the correction: the fit also takes up the friction's own load dependence). The pair is
+   of kind ``paired+payload``, its load the mean of the two passes' (the carried payload's gravity
+   included), the fitted ``dm`` in the joint's counts (``payload_kg``); the load check is then the fit.
 4. **Model-based.** With ``rigid_body`` given, a segment that found no partner gives
    ``d * (u - rigid_body(q, v, 0) / torque_scale)`` over its bins (kind ``model``). A segment is never
    used twice.
@@ -91,8 +102,9 @@ GravityFn = Callable[[Array], Sequence[float] | Array]
 #: ``rigid_body(q, v, a) -> N·m per joint``: inverse dynamics (e.g. Pinocchio's RNEA)
 RigidBodyFn = Callable[[Array, Array, Array], Sequence[float] | Array]
 
-#: The kinds of observation: a forward and reverse pair (Eq. 5), or u - tau_model of an unpaired segment.
-KINDS = ("paired", "model")
+#: The kinds of observation: a forward and reverse pair (Eq. 5); one corrected for a payload carried one way
+#: (the payload difference fitted with the arm's model); u - tau_model of an unpaired segment.
+KINDS = ("paired", "paired+payload", "model")
 #: The reasons a pass (or, for ``held still``, a motion of the arm) gave no observation.
 REASONS = (
     "acceleration",            # a motion with no sample at constant speed
@@ -151,6 +163,13 @@ class ProductionConfig:
     min_pairs_scatter: int = setting(3, description="pairs (in speed levels of two or more) from which their "
                                      "scatter, pooled over the joint's levels, may set the std", range=(2, 1_000_000),
                                      per_joint=True)
+    payload_min: float = setting(0.05, description="with a payload model: a pair's fitted payload difference "
+                                 "smaller than this (or than 4 of its standard errors) is none", unit="kg",
+                                 range=(0.0, 1e6), per_joint=True)
+    payload_decision: float = setting(3.0, description="with a payload model: the pass that carried the payload is "
+                                      "the one whose correction leaves this many times less variation along the path "
+                                      "in (u+ - u-)/2 than the other's; else the pair is a load mismatch",
+                                      range=(1.0, 1e6), per_joint=True)
     pair_horizon: float = setting(600.0, description="a constant-speed segment waits this long for its reverse "
                                   "partner, then is model-based or rejected (bounds the memory)", unit="s",
                                   range=(0.0, 1e6), per_joint=True)
@@ -187,6 +206,9 @@ class JointShiftCounts:
     speed_levels: tuple[float, ...] = ()
     informative: bool = False
     note: str = ""
+    #: the payload difference (kg) fitted to each pair corrected for it (kind ``paired+payload``, counted in
+    #: ``paired``): positive when the forward pass carried more than the model's payload, negative the reverse
+    payload_kg: tuple[float, ...] = ()
 
     @property
     def rejected_total(self) -> int:
@@ -219,6 +241,9 @@ class ProductionShift:
             why = ", ".join(f"{k} {v}" for k, v in sorted(c.rejected.items()))
             line = f"{c.joint_name}: {c.passes} passes, {c.paired} paired, {c.model} model, " \
                    f"{c.rejected_total} rejected" + (f" ({why})" if why else "")
+            if c.payload_kg:
+                line += f"; {len(c.payload_kg)} pair(s) corrected for a payload of " \
+                        f"{float(np.mean(np.abs(c.payload_kg))):.2f} kg one way"
             lines.append(line + (f"; {c.note}" if c.note else ""))
         return "\n".join(lines)
 
@@ -227,12 +252,13 @@ class ProductionShift:
 
 
 class _Bin:
-    __slots__ = ("n", "nt", "sq", "st", "su", "su2", "sv")
+    __slots__ = ("n", "nt", "sq", "st", "su", "su2", "sua", "sv")
 
     def __init__(self, n_joints: int) -> None:
         self.n = 0
         self.sq = np.zeros(n_joints)
         self.sv = np.zeros(n_joints)
+        self.sua = np.zeros(n_joints)  # every joint's normalized torque (the payload fit)
         self.su = 0.0
         self.su2 = 0.0
         self.st = 0.0
@@ -255,7 +281,8 @@ class _Segment:
         self.summary: _Bins | None = None
         self.mismatch = False
 
-    def add(self, t: float, q: Array, v: Array, u: float, temp: float, vm: float, key: int) -> None:
+    def add(self, t: float, q: Array, v: Array, u_all: Array, temp: float, vm: float, key: int) -> None:
+        u = float(u_all[self.joint])
         self.t1 = t
         self.n += 1
         self.s_speed += vm
@@ -266,6 +293,7 @@ class _Segment:
         b.n += 1
         b.sq += q
         b.sv += v
+        b.sua += u_all
         b.su += u
         b.su2 += u * u
         if temp == temp:  # not NaN
@@ -289,10 +317,11 @@ class _Bins:
     """A finished segment's bins as arrays (sorted by bin key): what is kept of it once its samples are gone."""
 
     def __init__(self, keys: list[int], n: Array, q: Array, v: Array, u: Array, var: Array, st: Array,
-                 nt: Array) -> None:
+                 nt: Array, ua: Array) -> None:
         self.keys = keys
         self.index = {k: i for i, k in enumerate(keys)}
         self.n, self.q, self.v, self.u, self.var, self.st_b, self.nt_b = n, q, v, u, var, st, nt
+        self.ua = ua  # every joint's mean normalized torque per bin
 
     @classmethod
     def of(cls, seg: _Segment) -> _Bins:
@@ -303,11 +332,13 @@ class _Bins:
                    np.array([b.sv / b.n for b in bs]).reshape(len(bs), -1),
                    np.array([b.su / b.n for b in bs]),
                    np.array([max(b.su2 / b.n - (b.su / b.n) ** 2, 0.0) for b in bs]),
-                   np.array([b.st for b in bs]), np.array([b.nt for b in bs], dtype=float))
+                   np.array([b.st for b in bs]), np.array([b.nt for b in bs], dtype=float),
+                   np.array([b.sua / b.n for b in bs]).reshape(len(bs), -1))
 
     def take(self, keys: list[int]) -> _Bins:
         i = np.array([self.index[k] for k in keys], dtype=int)
-        return _Bins(keys, self.n[i], self.q[i], self.v[i], self.u[i], self.var[i], self.st_b[i], self.nt_b[i])
+        return _Bins(keys, self.n[i], self.q[i], self.v[i], self.u[i], self.var[i], self.st_b[i], self.nt_b[i],
+                     self.ua[i])
 
     @property
     def st(self) -> float:
@@ -366,7 +397,9 @@ class ProductionObserver:
     """
 
     def __init__(self, joint_names: Sequence[str], config: ProductionConfig | Sequence[ProductionConfig] | None = None,
-                 *, gravity: GravityFn | None = None, rigid_body: RigidBodyFn | None = None) -> None:
+                 *, gravity: GravityFn | None = None, rigid_body: RigidBodyFn | None = None,
+                 payload_gravity: GravityFn | None = None, payload_rigid_body: RigidBodyFn | None = None,
+                 payload_mass: float | None = None) -> None:
         names = [str(n) for n in joint_names]
         if not names or len(set(names)) != len(names) or any(not n for n in names):
             raise InputDataError(f"production observer: joint names must be non-empty and unique, got {names}")
@@ -386,6 +419,17 @@ class ProductionObserver:
         self._arm = configs[0]
         self._gravity = gravity
         self._rigid_body = rigid_body
+        if (payload_gravity is not None or payload_rigid_body is not None) and gravity is None and rigid_body is None:
+            raise InputDataError("production observer: a payload model (payload_gravity or payload_rigid_body) needs "
+                                 "the arm's model too (gravity or rigid_body): the payload is fitted to the load "
+                                 "the model does not explain")
+        self._payload_gravity = payload_gravity
+        self._payload_rigid_body = payload_rigid_body
+        if payload_mass is not None and not (math.isfinite(float(payload_mass)) and float(payload_mass) > 0):
+            raise InputDataError(f"production observer: payload_mass must be a mass > 0 kg, got {payload_mass!r}")
+        self._payload_mass = None if payload_mass is None else float(payload_mass)
+        #: per joint: the payload differences (kg) fitted to its corrected pairs, in the order paired
+        self._payload_kg: list[list[float]] = []
         nj = len(names)
         self._gear = np.array([c.gear_ratio for c in configs])
         self._scale = np.array([c.torque_scale for c in configs])
@@ -406,6 +450,7 @@ class ProductionObserver:
         self._pending: list[list[_Segment]] = [[] for _ in range(nj)]
         self._results: list[_Result] = []
         self._paired = [0] * nj
+        self._payload_kg = [[] for _ in range(nj)]
         self._model_n = [0] * nj
         self._informative = [False] * nj
         self._cur: list[_Segment | None] = [None] * nj
@@ -549,7 +594,7 @@ class ProductionObserver:
             if steady[j]:
                 if seg is None:
                     seg = self._cur[j] = _Segment(j, sign, t)
-                seg.add(t, q, v, float(un[j]), float(temp[j]), float(vm_all[j]),
+                seg.add(t, q, v, un, float(temp[j]), float(vm_all[j]),
                         math.floor(float(q[j]) / self._bin[j]))
             elif seg is not None:
                 self._end_segment(j, cut=False)
@@ -621,7 +666,8 @@ class ProductionObserver:
             note = "" if informative else (
                 f"{name}: never moved at a constant speed >= {cfg.min_speed:g} rad/s motor in this shift")
             counts[name] = JointShiftCounts(name, self._passes[j], self._paired[j], self._model_n[j],
-                                            dict(sorted(self._rejected[j].items())), tuple(levels), informative, note)
+                                            dict(sorted(self._rejected[j].items())), tuple(levels), informative, note,
+                                            tuple(self._payload_kg[j]))
         results = self._results
         passes = tuple(self._observation(r, sid) for r in results)
         pooled = self._pool(results)
@@ -715,6 +761,19 @@ class ProductionObserver:
             g_r = np.array([self._gravity_at(qb)[j] for qb in r.q]) / scale  # type: ignore[index]
             d = d - 0.5 * (g_f - g_r)
             load = np.abs(0.5 * (g_f + g_r))
+        kind = "paired"
+        corr_m = np.zeros_like(d)
+        if self._payload_gravity is not None or self._payload_rigid_body is not None:
+            fit = self._payload_fit(j, f, r, w)
+            if isinstance(fit, bool):  # a payload shows, but not which pass carried it
+                return None
+            if fit is not None:
+                dm, corr_d, corr_m, (add_f, add_r) = fit
+                d = d - corr_d
+                if g_f is not None and g_r is not None:  # the load each pass carried: the payload's gravity too
+                    load = 0.5 * (np.abs(g_f + add_f) + np.abs(g_r + add_r))
+                kind = "paired+payload"
+                self._payload_kg[j].append(dm)
         tau = float(np.dot(w, d) / w.sum())
         # the samples' own standard error: within-bin variances, both directions
         se_own = 0.5 * math.sqrt(float(np.dot(f.n, f.var)) / f.n.sum() ** 2 + float(np.dot(r.n, r.var)) / r.n.sum() ** 2)
@@ -730,19 +789,77 @@ class ProductionObserver:
                 expected = expected / scale
             else:
                 expected = 0.5 * (g_f + g_r)
-            resid = m - expected
+            resid = m - expected - corr_m
             off = float(np.dot(w, resid) / w.sum())
             se_m = _scatter_se(resid, w)
             se_m = max(se_own, se_m) if math.isfinite(se_m) else se_own
             tol = cfg.load_tolerance if self._rigid_body is not None else cfg.load_tolerance_gravity
-            if abs(off) > tol + 4.0 * se_m:
+            if kind == "paired" and abs(off) > tol + 4.0 * se_m:
                 return None
         return _Result(
-            joint=j, kind="paired", speed=0.5 * (sf.speed + sr.speed), tau_f=tau, se=se,
+            joint=j, kind=kind, speed=0.5 * (sf.speed + sr.speed), tau_f=tau, se=se,
             u_plus=float(np.dot(w, f.u) / w.sum()), u_minus=float(np.dot(w, r.u) / w.sum()),
             load=float(np.dot(w, load) / w.sum()),
             position=float(np.dot(w, 0.5 * (f.q[:, j] + r.q[:, j])) / w.sum()),
             n_plus=int(f.n.sum()), n_minus=int(r.n.sum()), st=f.st + r.st, nt=f.nt + r.nt, t_end=max(sf.t1, sr.t1))
+
+    def _payload_fit(self, j: int, f: _Bins, r: _Bins, w: Array
+                     ) -> tuple[float, Array, Array, tuple[Array, Array]] | bool | None:
+        """The payload difference of a pair (module docstring, "Payload"): ``(dm kg, correction of joint j's
+        d_b, of its (u+ + u-)/2 per bin, the payload's gravity on joint j in each pass, normalized)``; None when no payload difference shows (the pair as it
+        is); False when one shows but which pass carried it cannot be told (the pair is a load mismatch)."""
+        cfg = self.configs[j]
+        nj = len(self.names)
+        z = np.zeros(nj)
+        scale = self._scale
+
+        def model(b: _Bins) -> Array:
+            if self._rigid_body is not None:
+                return np.array([self._model(self._rigid_body, qb, vb, z) for qb, vb in zip(b.q, b.v, strict=True)])
+            assert self._gravity is not None
+            return np.array([self._model(self._gravity, qb) for qb in b.q])
+
+        def per_kg(b: _Bins) -> Array:
+            if self._payload_rigid_body is not None:
+                return np.array([self._model(self._payload_rigid_body, qb, vb, z)
+                                 for qb, vb in zip(b.q, b.v, strict=True)])
+            assert self._payload_gravity is not None
+            return np.array([self._model(self._payload_gravity, qb) for qb in b.q])
+
+        e_f, e_r, p_f, p_r = model(f), model(r), per_kg(f), per_kg(r)
+        # the load the model leaves, N·m: (u+ + u-)/2 - model = dm/2 * p (whichever pass carried dm)
+        s = 0.5 * (f.ua + r.ua) * scale - 0.5 * (e_f + e_r)
+        p = 0.5 * (p_f + p_r)
+        ww = np.broadcast_to(w[:, None], s.shape)
+        den = float(np.sum(ww * p * p))
+        if not den > 0.0 or s.size < 2:
+            return None
+        dm = 2.0 * float(np.sum(ww * s * p)) / den
+        res = s - 0.5 * dm * p
+        se_dm = 2.0 * math.sqrt(float(np.sum(ww * res * res)) / (s.size - 1) / den)
+        if abs(dm) < max(cfg.payload_min, 4.0 * se_dm):
+            return None
+        # which pass carried it: friction is one number per joint at a constant speed, so the wrong pass leaves
+        # dm * p's variation along the path in every joint's (u+ - u-)/2 (normalized, about each joint's mean)
+        dd = (0.5 * (f.ua - r.ua) * scale - 0.5 * (e_f - e_r)) / scale
+        sse = []
+        for corr in (0.5 * dm * p_f / scale, -0.5 * dm * p_r / scale):
+            tau = dd - corr
+            mean = np.sum(ww * tau, axis=0) / np.sum(ww, axis=0)
+            sse.append(float(np.sum(ww * (tau - mean) ** 2)))
+        lo, hi = min(sse), max(sse)
+        if not hi >= cfg.payload_decision * lo or hi == lo:
+            return False
+        forward = sse[0] < sse[1]
+        fitted = dm
+        if self._payload_mass is not None:
+            dm = math.copysign(self._payload_mass, dm)
+        sj = float(scale[j])
+        corr_d = (0.5 * dm * p_f[:, j] if forward else -0.5 * dm * p_r[:, j]) / sj
+        add = dm * (p_f[:, j] if forward else p_r[:, j]) / sj  # the carried payload's gravity on joint j
+        zero = np.zeros_like(add)
+        return ((fitted if forward else -fitted), corr_d, 0.5 * fitted * p[:, j] / sj,
+                (add, zero) if forward else (zero, add))
 
     def _model_based(self, j: int, seg: _Segment) -> _Result:
         assert self._rigid_body is not None
@@ -847,7 +964,9 @@ def _finite_float(x: object, what: str) -> float:
 def observe_production(
     t: Sequence[float] | Array, q: Array, v: Array, u: Array, temps: Array | None = None, *,
     joint_names: Sequence[str] | None = None, config: ProductionConfig | Sequence[ProductionConfig] | None = None,
-    gravity: GravityFn | None = None, rigid_body: RigidBodyFn | None = None, shift_id: int = 1,
+    gravity: GravityFn | None = None, rigid_body: RigidBodyFn | None = None,
+    payload_gravity: GravityFn | None = None, payload_rigid_body: RigidBodyFn | None = None,
+    payload_mass: float | None = None, shift_id: int = 1,
     chunk: int | None = None,
 ) -> ProductionShift:
     """One shift of recorded samples (rows: stamps; columns: joints; rad, rad/s, N·m, degC) → its
@@ -860,7 +979,8 @@ def observe_production(
     if qa.ndim != 2:
         raise InputDataError(f"production observer: positions have shape {qa.shape}; expected (samples, joints)")
     names = list(joint_names) if joint_names is not None else [f"joint_{i + 1}" for i in range(qa.shape[1])]
-    obs = ProductionObserver(names, config, gravity=gravity, rigid_body=rigid_body)
+    obs = ProductionObserver(names, config, gravity=gravity, rigid_body=rigid_body, payload_gravity=payload_gravity,
+                             payload_rigid_body=payload_rigid_body, payload_mass=payload_mass)
     ta = np.asarray(t, dtype=float).reshape(-1)
 
     def cols(a: Array | None) -> Array | None:

@@ -443,6 +443,7 @@ def run_production(arm: str | ArmSpec, program: ProductionProgram, *, shifts: in
                    duration: float | None = None, wear: WearSpec = 0.0, temperature: float | Sequence[float] = 40.0,
                    heating: SelfHeating | None = None, payload: float | None = None, seed: int = 0,
                    sample_rate: float = 250.0, physics_rate: float = 1000.0, check_collisions: bool = True,
+                   speed_override: Sequence[float] = (1.0,),
                    progress: Callable[[int, int, float], None] | None = None) -> ProductionRun:
     """Run ``program`` on ``arm`` for ``shifts`` shifts of ``cycles`` program cycles each (or cycles started
     while less than ``duration`` simulated seconds of the shift have passed; give one of the two).
@@ -451,7 +452,10 @@ def run_production(arm: str | ArmSpec, program: ProductionProgram, *, shifts: in
     index 0 ...); ``temperature``: each joint's start temperature, degC, from which ``heating``
     (:class:`SelfHeating`; default: its defaults) drifts; ``payload``: kg a pick takes (default: the
     program's); ``seed``: the joints' noise seeds are ``seed + i``; ``sample_rate``: samples recorded (and
-    commands sent) per second; ``physics_rate``: the arm's integration rate. ``progress(shift, cycle,
+    commands sent) per second; ``physics_rate``: the arm's integration rate. ``speed_override``: the program's
+    speed override cycle by cycle (an operator's override or a product mix): cycle ``c`` (1, 2, ... counted over
+    the whole run) runs every move's cruise speed times ``speed_override[(c - 1) % len]``; the prologue runs at
+    1. ``progress(shift, cycle,
     sim_time)`` is called after each cycle. Returns a :class:`ProductionRun`; bad input is one
     :class:`InputDataError` line.
     """
@@ -478,6 +482,14 @@ def run_production(arm: str | ArmSpec, program: ProductionProgram, *, shifts: in
     kg = program.payload if payload is None else float(payload)
     if not (math.isfinite(kg) and kg >= 0):
         raise InputDataError(f"production run: payload must be >= 0 kg, got {payload}")
+    override = [float(x) for x in speed_override]
+    if not override or not all(math.isfinite(x) and x > 0 for x in override):
+        raise InputDataError(f"production run: speed_override must be factors > 0, got {list(speed_override)!r}")
+    for m in program.cycle:
+        if not m.absolute and m.speed * max(override) > 1.0:
+            raise InputDataError(f"production run: speed_override {max(override):g} takes move "
+                                 f"{m.label or m.to!r} to {m.speed * max(override):g} of the velocity limits "
+                                 "(at most 1)")
     t_start = _per_joint(temperature, n, "temperature", -50.0, 200.0)
     wear0 = _wear_of(wear, 0, n)
 
@@ -504,6 +516,7 @@ def run_production(arm: str | ArmSpec, program: ProductionProgram, *, shifts: in
     wear_log: list[tuple[float, ...]] = []
     shift_start: list[float] = []
     seg = -1
+    done_cycles = 0
 
     def set_friction(w: Array | None) -> None:
         for i, name in enumerate(names):
@@ -541,8 +554,10 @@ def run_production(arm: str | ArmSpec, program: ProductionProgram, *, shifts: in
         for _ in range(max(0, round(seconds * sample_rate))):
             tick(zero)
 
-    def do_move(shift: int, cycle: int, k: int, frm: str, m: Move) -> None:
+    def do_move(shift: int, cycle: int, k: int, frm: str, m: Move, factor: float = 1.0) -> None:
         nonlocal seg
+        if factor != 1.0:
+            m = replace(m, speed=m.speed * factor)
         q0 = np.asarray(program.waypoints[frm], dtype=float)
         target = np.asarray(program.waypoints[m.to], dtype=float)
         d, lam_v, lam_a = cruise(program, frm, m, spec)
@@ -600,9 +615,11 @@ def run_production(arm: str | ArmSpec, program: ProductionProgram, *, shifts: in
         c = 0
         while (cycles is not None and c < cycles) or (duration is not None and sim.time - shift_start[-1] < duration):
             c += 1
+            factor = override[done_cycles % len(override)]
+            done_cycles += 1
             at = program.cycle_start
             for k, m in enumerate(program.cycle):
-                do_move(shift, c, len(program.prologue) + k, at, m)
+                do_move(shift, c, len(program.prologue) + k, at, m, factor)
                 at = m.to
             if progress is not None:
                 progress(shift, c, sim.time)
@@ -614,6 +631,6 @@ def run_production(arm: str | ArmSpec, program: ProductionProgram, *, shifts: in
         temperature=np.asarray(temps), payload=np.asarray(loads), segment=np.asarray(segs, dtype=np.int64),
         moves=moves, wear=wear_log, shift_start=shift_start,
         settings={"seed": seed, "sample_rate": sample_rate, "physics_rate": physics_rate, "payload": kg,
-                  "shifts": shifts, "cycles": cycles, "duration": duration,
+                  "shifts": shifts, "cycles": cycles, "duration": duration, "speed_override": override,
                   "temperature": t_start.tolist(), "heating": {"rise": heat.rise, "time_constant": heat.time_constant,
                                                                "update_period": heat.update_period}})

@@ -1,0 +1,134 @@
+"""Wear per joint from a shift of production observations, through the live wear monitor.
+
+:func:`estimate_shift` turns a :class:`~jointwear_ros.observer.production.ProductionShift` into one estimate
+per joint (:class:`ShiftEstimate`) by the path the live ``wear_estimator`` takes: one :class:`~.core.WearMonitor`
+per joint is fed the shift's observations of that joint (:meth:`~.core.WearMonitor.add`, in the shift's order)
+and then a DONE :class:`~jointwear_ros.contract.CycleStatus` of cycle ``shift_id`` with ``speeds_total`` = that
+joint's number of observations (:meth:`~.core.WearMonitor.on_status`): the status completes the cycle, as the
+test cycle's DONE does, so an offline estimate and a live one cannot differ (tested bit for bit).
+
+A joint gets an explicit *cannot tell* instead of a number (``wear`` NaN, ``reason`` set) when it never moved
+at an informative speed in the shift (the observer's note), when none of its passes gave an observation
+(the reasons the observer counted), or when the monitor gives no level (too few speeds for the estimator:
+:func:`~jointwear_ros.condition.min_speeds`, 3 with the temperature unknown, 1 with it measured; a failed
+estimation). Pure; no ROS import.
+
+>>> from jointwear_ros.observer.production import JointShiftCounts, ProductionShift
+>>> shift = ProductionShift(1, 0.0, 60.0, 100, (), (), {"joint_6": JointShiftCounts(
+...     "joint_6", note="joint_6: never moved at a constant speed >= 10 rad/s motor in this shift")})
+>>> est = estimate_shift(shift)
+>>> est["joint_6"].told, est["joint_6"].reason
+(False, 'joint_6: never moved at a constant speed >= 10 rad/s motor in this shift')
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+from ..condition import min_speeds
+from ..contract import CycleState, CycleStatus
+from ..observer.production import JointShiftCounts, ProductionShift
+from .core import CycleResult, EstimatorFactory, MonitorConfig, WearMonitor
+
+__all__ = ["ShiftEstimate", "estimate_shift"]
+
+
+@dataclass(frozen=True)
+class ShiftEstimate:
+    """One joint's production estimate of a shift: ``wear`` and ``wear_std`` (NaN when it cannot tell, and
+    ``reason`` says why), the monitor's :class:`~.core.CycleResult` (None when no observation reached it),
+    the observations used and the observer's pass counts (paired, model, rejected)."""
+
+    joint_name: str
+    shift_id: int
+    wear: float
+    wear_std: float
+    reason: str
+    result: CycleResult | None
+    n_observations: int
+    paired: int
+    model: int
+    rejected: int
+
+    @property
+    def told(self) -> bool:
+        """The shift gave this joint a wear estimate (else :attr:`reason` says why not)."""
+        return math.isfinite(self.wear)
+
+
+def _levels(speeds: list[float], match: float) -> int:
+    """How many speed levels sorted ``speeds`` make (a new level past ``match`` x the level's slowest)."""
+    first: list[float] = []
+    for v in speeds:
+        if not first or v - first[-1] > match * first[-1]:
+            first.append(v)
+    return len(first)
+
+
+def _estimate(name: str, sid: int, wear: float, std: float, reason: str, result: CycleResult | None, n: int,
+              counts: JointShiftCounts) -> ShiftEstimate:
+    return ShiftEstimate(name, sid, wear, std, reason, result, n, counts.paired, counts.model, counts.rejected_total)
+
+
+def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, MonitorConfig] | None = None, *,
+                   per_pass: bool = False, speed_match: float = 0.05,
+                   estimator_factory: EstimatorFactory | None = None,
+                   monitors: Mapping[str, WearMonitor] | None = None) -> dict[str, ShiftEstimate]:
+    """Each joint's wear from ``shift`` (module docstring), keyed by joint name in the shift's order.
+
+    ``config``: one :class:`~.core.MonitorConfig` for every joint (its ``joint_name`` replaced by each
+    joint's), or one per joint; default ``MonitorConfig(method="joint")``, the estimator the dedicated
+    cycle on the arm uses (:func:`jointwear_ros.simcell.run_cycle`); ``use_measured_temperature`` decides
+    whether a temperature sensor's readings are used. ``monitors``: the joints' running monitors (a live
+    wear_estimator's), fed in place, so their confirmation memory carries over from shift to shift;
+    default a fresh monitor per joint.
+
+    ``per_pass``: feed each pair's own observation (``shift.passes``) instead of one per speed level: the
+    monitor adds its sweep-to-sweep scatter (``observation_noise_std``) to each, as to each sweep of a test
+    cycle, so N pairs of a level weigh as N sweeps (a pooled level weighs as one). The pairs of one level have
+    nearly the same speed, so the estimator's need of distinct speeds (3 with the temperature unknown, 1 with
+    it measured) is checked here on the speed levels (pairs within ``speed_match`` x the speed of the level's
+    slowest), before the monitor would count each pair's speed as its own."""
+    out: dict[str, ShiftEstimate] = {}
+    sid = int(shift.shift_id)
+    for name, counts in shift.joints.items():
+        obs = [o for o in (shift.passes if per_pass else shift.observations) if o.joint_name == name]
+
+        if not counts.informative or not obs:
+            why = counts.note or (f"{name}: no friction observation from its {counts.passes} passes in this shift"
+                                  + (" (" + ", ".join(f"{k} {v}" for k, v in sorted(counts.rejected.items())) + ")"
+                                     if counts.rejected else ""))
+            out[name] = _estimate(name, sid, math.nan, math.nan, why, None, len(obs), counts)
+            continue
+        if monitors is not None and name in monitors:
+            mon = monitors[name]
+        else:
+            cfg = config.get(name) if isinstance(config, Mapping) else config
+            cfg = replace(cfg or MonitorConfig(method="joint"), joint_name=name)
+            mon = WearMonitor(cfg, estimator_factory)
+        if per_pass:
+            t_known = mon.config.use_measured_temperature and all(math.isfinite(o.temperature) for o in obs)
+            levels = _levels(sorted(o.speed for o in obs), speed_match)
+            if levels < min_speeds(t_known):
+                what = "temperature measured" if t_known else "temperature unknown: the wear and the temperature together"
+                why = (f"{name}: {levels} speed level(s) in this shift's {len(obs)} pairs; a wear level needs "
+                       f"{min_speeds(t_known)} ({what})")
+                out[name] = _estimate(name, sid, math.nan, math.nan, why, None, len(obs), counts)
+                continue
+        results: list[CycleResult] = []
+        for o in obs:
+            results += mon.add(o, o.stamp)
+        status = CycleStatus(cycle_id=sid, state=CycleState.DONE, speeds_total=len(obs), joint_name=name,
+                             stamp=shift.t_end)
+        results += mon.on_status(status, shift.t_end)
+        mine = [r for r in results if r.cycle_id == sid]
+        res = mine[-1] if mine else None
+        if res is None or res.result is None:
+            why = f"{name}: " + (res.message if res is not None else "the monitor gave no result for the shift")
+            out[name] = _estimate(name, sid, math.nan, math.nan, why, res, len(obs), counts)
+        else:
+            out[name] = _estimate(name, sid, float(res.result.wear), float(res.result.wear_std), "", res, len(obs),
+                                  counts)
+    return out
