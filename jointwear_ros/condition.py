@@ -54,7 +54,7 @@ Pure Python; no ROS, no numpy.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 from .contract import DiagnosticLevel
@@ -64,6 +64,7 @@ __all__ = [
     "COMPLETE",
     "INSUFFICIENT",
     "PARTIAL",
+    "SPEED_LEVEL_MATCH",
     "WARN",
     "Z_ONE_SIDED",
     "ConfirmConfig",
@@ -77,6 +78,7 @@ __all__ = [
     "forecast_of",
     "min_speeds",
     "plant_level",
+    "speed_levels",
     "standing",
 ]
 
@@ -140,6 +142,26 @@ def min_speeds(temperature_known: bool) -> int:
     there, docs/levels.md): commission the joint's own set.
     """
     return 1 if temperature_known else 3
+
+
+#: Observations whose speeds lie within this fraction of a level's slowest count as one speed level
+#: (:func:`speed_levels`): a production shift observes a cruise speed many times, each pass at its own
+#: measured speed; a test cycle's planned speeds are far further apart.
+SPEED_LEVEL_MATCH = 0.05
+
+
+def speed_levels(speeds: Iterable[float], match: float = SPEED_LEVEL_MATCH) -> int:
+    """How many distinct speed levels ``speeds`` make: sorted, a new level begins past ``match`` x the current
+    level's slowest speed. The count :func:`min_speeds` and :func:`evidence_of` are about.
+
+    >>> speed_levels([40.0, 10.0, 10.1, 20.0, 40.4, 10.05]), speed_levels([]), speed_levels([5.0, 5.0])
+    (3, 0, 1)
+    """
+    first: list[float] = []
+    for v in sorted(float(x) for x in speeds):
+        if not first or v - first[-1] > match * abs(first[-1]):
+            first.append(v)
+    return len(first)
 
 
 def evidence_of(speeds_observed: int, speeds_planned: int, ended_badly: bool, temperature_known: bool) -> str:

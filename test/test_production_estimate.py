@@ -137,7 +137,7 @@ def test_estimate_shift_equals_a_wear_monitor_fed_the_same_observations_bit_for_
         for o in obs:
             out += mon.add(o, o.stamp)
         out += mon.on_status(CycleStatus(cycle_id=sh.shift_id, state=CycleState.DONE, speeds_total=len(obs),
-                                         joint_name=joint), sh.t_end)
+                                         joint_name=joint), sh.t_end, source="production")
         assert len(out) == 1 and out[0].result is not None
         got = est[joint].result
         assert got is not None and got.result is not None

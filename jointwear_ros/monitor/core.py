@@ -68,7 +68,7 @@ from typing import Any
 
 import numpy as np
 
-from ..condition import INSUFFICIENT, Standing, condition_level, evidence_of, min_speeds, standing
+from ..condition import INSUFFICIENT, Standing, condition_level, evidence_of, min_speeds, speed_levels, standing
 from ..contract import ENDED_STATES, CycleState, CycleStatus, DiagnosticLevel, Source, level_name
 from ..errors import InputDataError, JointwearError, ParameterError
 from ..estimation import ESTIMATORS, make_estimator
@@ -533,16 +533,19 @@ class WearMonitor:
         obs_s = tuple(sorted(obs, key=lambda o: (o.speed, o.stamp)))
         table = observations_table(obs_s, use_temperature=cfg.use_measured_temperature,
                                    noise_std=cfg.observation_noise_std, source=f"{label}")
-        speeds = len({float(o.speed) for o in obs})
+        # distinct speed levels (a shift observes a cruise speed pass after pass, each at its measured speed)
+        speeds = speed_levels(o.speed for o in obs)
         t_known = bool(len(obs)) and bool(np.all(np.isfinite(table.get("temperature"))))
         need = max(min_speeds(t_known), int(cfg.min_observations))
-        evidence = evidence_of(speeds, cyc.speeds_total, failed, t_known)
+        # a test cycle plans its speeds; a production shift plans none (its speeds_total counts observations)
+        planned = 0 if src == Source.PRODUCTION else cyc.speeds_total
+        evidence = evidence_of(speeds, planned, failed, t_known)
         if speeds < need:
             if not obs:
                 what = (f"no usable friction observation{why_cycle}" if failed else
                         "no usable friction observation (see the friction_observer log for rejected windows)")
             else:
-                what = (f"{speeds} speed(s) observed; a wear level needs {need} "
+                what = (f"{speeds} speed{' level' if src == Source.PRODUCTION else ''}(s) observed; a wear level needs {need} "
                         f"({'temperature measured' if t_known else 'temperature unknown: the wear and the temperature together'})"
                         f"{why_cycle}")
             return self._no_level(key, cyc, stamp, f"{label}{ended}: no wear level from this cycle, {what}{partial}",

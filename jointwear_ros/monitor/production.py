@@ -27,8 +27,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
-from ..condition import min_speeds
-from ..contract import CycleState, CycleStatus
+from ..contract import CycleState, CycleStatus, Source
 from ..observer.production import JointShiftCounts, ProductionShift
 from .core import CycleResult, EstimatorFactory, MonitorConfig, WearMonitor
 
@@ -58,22 +57,13 @@ class ShiftEstimate:
         return math.isfinite(self.wear)
 
 
-def _levels(speeds: list[float], match: float) -> int:
-    """How many speed levels sorted ``speeds`` make (a new level past ``match`` x the level's slowest)."""
-    first: list[float] = []
-    for v in speeds:
-        if not first or v - first[-1] > match * first[-1]:
-            first.append(v)
-    return len(first)
-
-
 def _estimate(name: str, sid: int, wear: float, std: float, reason: str, result: CycleResult | None, n: int,
               counts: JointShiftCounts) -> ShiftEstimate:
     return ShiftEstimate(name, sid, wear, std, reason, result, n, counts.paired, counts.model, counts.rejected_total)
 
 
 def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, MonitorConfig] | None = None, *,
-                   per_pass: bool = False, speed_match: float = 0.05,
+                   per_pass: bool = False,
                    estimator_factory: EstimatorFactory | None = None,
                    monitors: Mapping[str, WearMonitor] | None = None) -> dict[str, ShiftEstimate]:
     """Each joint's wear from ``shift`` (module docstring), keyed by joint name in the shift's order.
@@ -88,9 +78,9 @@ def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, 
     ``per_pass``: feed each pair's own observation (``shift.passes``) instead of one per speed level: the
     monitor adds its sweep-to-sweep scatter (``observation_noise_std``) to each, as to each sweep of a test
     cycle, so N pairs of a level weigh as N sweeps (a pooled level weighs as one). The pairs of one level have
-    nearly the same speed, so the estimator's need of distinct speeds (3 with the temperature unknown, 1 with
-    it measured) is checked here on the speed levels (pairs within ``speed_match`` x the speed of the level's
-    slowest), before the monitor would count each pair's speed as its own."""
+    nearly the same speed: the monitor counts speed levels (:func:`~jointwear_ros.condition.speed_levels`), not
+    observations, against the estimator's need of distinct speeds (3 with the temperature unknown, 1 with it
+    measured), live as here."""
     out: dict[str, ShiftEstimate] = {}
     sid = int(shift.shift_id)
     for name, counts in shift.joints.items():
@@ -108,21 +98,12 @@ def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, 
             cfg = config.get(name) if isinstance(config, Mapping) else config
             cfg = replace(cfg or MonitorConfig(method="joint"), joint_name=name)
             mon = WearMonitor(cfg, estimator_factory)
-        if per_pass:
-            t_known = mon.config.use_measured_temperature and all(math.isfinite(o.temperature) for o in obs)
-            levels = _levels(sorted(o.speed for o in obs), speed_match)
-            if levels < min_speeds(t_known):
-                what = "temperature measured" if t_known else "temperature unknown: the wear and the temperature together"
-                why = (f"{name}: {levels} speed level(s) in this shift's {len(obs)} pairs; a wear level needs "
-                       f"{min_speeds(t_known)} ({what})")
-                out[name] = _estimate(name, sid, math.nan, math.nan, why, None, len(obs), counts)
-                continue
         results: list[CycleResult] = []
         for o in obs:
             results += mon.add(o, o.stamp)
         status = CycleStatus(cycle_id=sid, state=CycleState.DONE, speeds_total=len(obs), joint_name=name,
                              stamp=shift.t_end)
-        results += mon.on_status(status, shift.t_end)
+        results += mon.on_status(status, shift.t_end, source=Source.PRODUCTION)
         mine = [r for r in results if r.cycle_id == sid]
         res = mine[-1] if mine else None
         if res is None or res.result is None:

@@ -82,6 +82,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from ..contract import Source
 from ..errors import InputDataError
 from ..settings import check_ranges, setting
 from .types import FrictionObservationData
@@ -902,7 +903,7 @@ class ProductionObserver:
             stamp=r.t_end, joint_name=self.names[r.joint], cycle_id=shift_id, speed=r.speed, tau_f=r.tau_f,
             tau_f_std=r.se, tau_plus=r.u_plus, tau_minus=r.u_minus, load_torque=r.load,
             temperature=r.st / r.nt if r.nt else math.nan, position=r.position, samples_plus=r.n_plus,
-            samples_minus=r.n_minus)
+            samples_minus=r.n_minus, source=Source.PRODUCTION.value)
 
 
 def _between_pairs(groups: list[list[_Result]], cfg: ProductionConfig) -> float:
