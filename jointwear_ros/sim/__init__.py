@@ -14,7 +14,8 @@ cycle with it before anything moves.
 Importing the package does not import Pinocchio: :class:`ArmSim`,
 :class:`ArmJointSim` and :func:`arm_configs` load :mod:`.arm`, and
 :class:`CollisionChecker`, :func:`collision_checker` and :func:`check_plan`
-load :mod:`.collision`, on first use (PEP 562).
+load :mod:`.collision`, and the simulated production (:func:`run_production`, its programs: :mod:`.production`)
+loads its module, on first use (PEP 562).
 """
 
 from __future__ import annotations
@@ -30,13 +31,28 @@ from .robot import RobotSim
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and readers
     from .arm import ArmJointSim, ArmSim, arm_configs
     from .collision import CollisionChecker, check_plan, collision_checker
+    from .production import (
+        Move,
+        ProductionProgram,
+        ProductionRun,
+        SelfHeating,
+        check_program,
+        machine_tending,
+        pick_and_place,
+        production_program,
+        run_production,
+    )
 
 __all__ = ["ARMS", "ArmJoint", "ArmJointSim", "ArmSim", "ArmSpec", "CollisionChecker", "FrictionTable", "JointSample",
-           "JointSim", "JointSimConfig", "RobotSim", "arm_configs", "arm_spec", "check_plan", "collision_checker",
-           "parse_effects"]
+           "JointSim", "JointSimConfig", "Move", "ProductionProgram", "ProductionRun", "RobotSim", "SelfHeating",
+           "arm_configs", "arm_spec", "check_plan", "check_program", "collision_checker", "machine_tending",
+           "parse_effects", "pick_and_place", "production_program", "run_production"]
 
 #: The module of each name loaded on first use (each imports pinocchio).
 _LAZY: dict[str, str] = {**dict.fromkeys(("ArmJointSim", "ArmSim", "arm_configs"), "arm"),
-                         **dict.fromkeys(("CollisionChecker", "check_plan", "collision_checker"), "collision")}
+                         **dict.fromkeys(("CollisionChecker", "check_plan", "collision_checker"), "collision"),
+                 **dict.fromkeys(("Move", "ProductionProgram", "ProductionRun", "SelfHeating", "check_program",
+                                  "machine_tending", "pick_and_place", "production_program", "run_production"),
+                                 "production")}
 
 __getattr__, __dir__ = lazy_names(__name__, _LAZY, globals())
