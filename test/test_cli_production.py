@@ -115,7 +115,7 @@ def test_from_production_of_a_non_bag_or_a_bag_without_joint_states_is_one_line_
     (["--payload", "-1"], "--payload: -1 must be a mass >= 0 kg"),
     (["--out", "obs.txt"], "must end in .csv"),
 ])
-def test_from_production_bad_options_are_one_line_and_exit_2(bag, args, message, capsys):
-    rc, _out, err = _run(capsys, ["data", "from-production", str(bag), *args])
+def test_from_production_bad_options_are_one_line_and_exit_2(args, message, capsys, tmp_path):
+    rc, _out, err = _run(capsys, ["data", "from-production", str(tmp_path), *args])  # the options come first
     lines = err.strip().splitlines()
     assert rc == 2 and len(lines) == 1 and message in lines[0], err

@@ -121,12 +121,12 @@ def _back_and_forth(n_cycles: int = 6) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
 
 def test_production_shifts_equal_observe_production_of_each_shifts_samples_bit_for_bit():
-    t, q, v, u = _back_and_forth()
+    t, q, v, u = _back_and_forth(3)
     temps = 40.0 + t[:, None] / 100.0
     cfg = ProductionConfig(gear_ratio=100.0, torque_scale=100.0)
     samples = ProductionSamples(("joint_1",), t, q, v, u, temps)
-    shifts = production_shifts(samples, cfg, clock=ShiftClock(seconds=16.0))
-    period = 1 + np.floor(t / 16.0).astype(int)
+    shifts = production_shifts(samples, cfg, clock=ShiftClock(seconds=8.0))
+    period = 1 + np.floor(t / 8.0).astype(int)
     assert [s.shift_id for s in shifts] == sorted(set(period.tolist())) and len(shifts) == 3
     for s in shifts:
         sel = period == s.shift_id

@@ -201,7 +201,7 @@ class ProductionObserverNode(Node):
         self._bad_in_shift = 0
         self._bad_last = ""
         self.lost_messages: Counter[str] = Counter()
-        self.cpu_seconds = 0.0  # CPU time spent in the JointState callbacks (process time)
+        self.cpu_seconds = 0.0  # CPU time spent in the JointState callbacks (process time; rclpy's own not counted)
 
         self.obs_pub = self.create_publisher(FrictionObservation, str(p["observations_topic"]), _reliable(1000),
                                              qos_overriding_options=overridable_qos())
@@ -356,7 +356,8 @@ class ProductionObserverNode(Node):
         bad = sum(self.bad_messages.values())
         stat.extend([("shift", str(self.clock.current or 0)), ("samples", str(self.samples)),
                      ("shift_samples", str(self.shift_samples)), ("bad_messages", str(bad)),
-                     ("lost_messages", str(sum(self.lost_messages.values())))])
+                     ("lost_messages", str(sum(self.lost_messages.values()))),
+                     ("cpu_us_per_sample", f"{1e6 * self.cpu_seconds / self.samples:.0f}" if self.samples else "")])
         stat.extend((f"bad_{k.replace(' ', '_')}", str(v)) for k, v in sorted(self.bad_messages.items()))
         last = self.shifts[-1] if self.shifts else None
         if last is None:
