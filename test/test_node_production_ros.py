@@ -202,3 +202,20 @@ def test_bad_messages_are_counted_and_skipped_and_the_status_warns_with_the_reas
         observer.close()
     assert code == 0, out[-3000:]
     assert "message skipped (lengths): position has 5 value(s) for 6 name(s)" in out
+
+
+@pytest.mark.parametrize(("params", "line"), [
+    ({"arm": "kuka"}, "production_observer: unknown arm 'kuka'; known arms: ur5, panda"),
+    ({"shift_seconds": 0.0}, "production_observer: Invalid parameter value (0.0) for parameter. Reason: Parameter "
+                             "shift_seconds out of range Min: 0.001, Max: 1000000000.0, value: 0.0: shift_seconds"),
+    ({"joint_3.min_samples": 1}, "production_observer: joint_3: min_samples=1: outside the declared range [2, 1000000]"),
+])
+def test_a_start_up_setting_that_cannot_work_is_one_line_and_exit_status_2(params, line):
+    observer = NodeProcess("production_observer", params)
+    try:
+        code = observer.proc.wait(60)
+        out = observer.output()
+    finally:
+        observer.close()
+    assert code == 2, out
+    assert [s for s in out.strip().splitlines() if not s.startswith("$ ")] == [line]

@@ -60,6 +60,7 @@ from typing import Any
 
 from jointwear_msgs.msg import FrictionObservation, TestCycleStatus
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
@@ -171,7 +172,10 @@ class ProductionObserverNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("production_observer", **kwargs)
-        p, self.joints, values = declare_robot(self, PARAMETERS, PER_JOINT, _arm_defaults)
+        try:
+            p, self.joints, values = declare_robot(self, PARAMETERS, PER_JOINT, _arm_defaults)
+        except (InvalidParameterValueException, InvalidParameterTypeException) as exc:  # out of range, wrong type
+            raise ParameterError(f"production_observer: {' '.join(str(exc).split())}") from None
         self.params = p
         configs = [production_config({**p, **values[j]}, j) for j in self.joints]
         arm = str(p["arm"] or "")
