@@ -23,10 +23,10 @@ come by then whatever the order the two topics are delivered in.
 
 **Shifts** (:class:`~jointwear_ros.io.production_bag.ShiftClock`): shift ``1 + floor((stamp -
 shift_origin) / shift_seconds)`` of the samples' stamps. The shift being observed ends when a sample of a
-later shift is processed; when the node's clock is past the shift's end and no message came for
-``shift_idle`` wall seconds (a robot that stopped: its last samples are processed first); or on the service
-``~/end_shift`` (``std_srvs/Trigger``: the operator's or the plant's shift change). A shift ended early
-leaves the rest of its period to the next id (ids always grow).
+later shift is processed; when the node's clock is past the shift's end and no JointState came for
+``shift_idle`` wall seconds (a driver that stopped publishing: its last samples are processed first); or
+on the service ``~/end_shift`` (``std_srvs/Trigger``: the operator's or the plant's shift change). A
+shift ended early leaves the rest of its period to the next id (ids always grow).
 
 **Bad messages** (a JointState lacking a joint, arrays whose lengths differ from ``name``, a NaN, no
 stamp, a stamp not after the previous one; a Temperature of a joint not served or not finite) are counted
@@ -99,7 +99,7 @@ _NODE_TAIL: tuple[ParamDecl, ...] = (
               read_only=True, unit="s"),
     ParamDecl("shift_origin", 0.0, "stamp (s of the epoch, or sim time) at which shift 1 starts", -1e12, 1e12,
               read_only=True, unit="s"),
-    ParamDecl("shift_idle", 60.0, "wall s without a message, once the shift's end time has passed, that end it "
+    ParamDecl("shift_idle", 60.0, "wall s without a JointState, once the shift's end time has passed, that end it "
               "(a robot that stopped)", 0.0, 1e7, read_only=True, unit="s"),
     ParamDecl("reorder_margin", 0.5, "s of stamps a JointState waits for the temperatures stamped up to it",
               0.0, 60.0, read_only=True, unit="s"),
@@ -272,7 +272,6 @@ class ProductionObserverNode(Node):
         self.cpu_seconds += time.process_time() - c0
 
     def _on_temperature(self, msg: Temperature) -> None:
-        self._last_rx = time.monotonic()
         joint = str(msg.header.frame_id)
         stamp = stamp_to_seconds(msg.header.stamp)
         if joint not in self.joints:
@@ -315,7 +314,7 @@ class ProductionObserverNode(Node):
         if self.clock.idle_due(now, silent, self._idle):
             sid = self.clock.end()
             assert sid is not None
-            self.get_logger().info(f"production shift {sid}: no message for {silent:.1f} s after its end time: "
+            self.get_logger().info(f"production shift {sid}: no JointState for {silent:.1f} s after its end time: "
                                    "the shift ends")
             self._finish(sid)
 
