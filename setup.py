@@ -38,6 +38,7 @@ setup(
             "wear_estimator = jointwear_ros.nodes.wear_estimator:main",
             "recorder = jointwear_ros.nodes.recorder:main",
             "wear_trend = jointwear_ros.nodes.wear_trend:main",
+            "production_observer = jointwear_ros.nodes.production_observer:main",
         ],
     },
 )

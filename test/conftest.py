@@ -103,6 +103,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_trend_plots_and_html_rank_the_joints_by_time_to_alarm",
         "test_a_bag_stamped_by_a_clock_starting_at_zero_is_refused_with_the_reason_and_kept",
     ),
+    "test_cli_production.py": ("test_from_production_json_gives_each_shifts_counts_and_observations_as_the_core_gives_them", "test_from_production_with_the_arm_adds_model_based_observations_and_prints_the_reasons"),  # a simulated production (3 s) and the core over it
     "test_cli_model.py": (
         "test_bad_arguments_give_one_line_error_and_exit_code_2",
     ),

@@ -119,6 +119,31 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ts.add_argument("--json", action="store_true", help="print a JSON summary")
     ts.set_defaults(func=cmd_from_timeseries)
 
+    pr = dsub.add_parser(
+        "from-production",
+        help="recorded production (/joint_states, /joint_temperature of bags) -> friction observations per shift",
+        description="The production observer offline (docs/nodes-production.md): the bags' joint states fed in "
+                    "stamp order to the same core and shift rule as the production_observer node: constant-speed "
+                    "passes of every joint, forward and reverse pairs at matched configurations (Eq. 5), "
+                    "model-based observations of unpaired passes with --arm. Prints per shift and joint the "
+                    "passes, paired, model and rejected counts with their reasons, and the observations. Settings: "
+                    "the node's (config/production_observer.yaml, or --params), the bag's recorded "
+                    "production_observer settings over them, then the options.",
+    )
+    pr.add_argument("bags", nargs="+", metavar="BAG", help="rosbag2 bags, in time order")
+    pr.add_argument("--arm", choices=("ur5", "panda"), default=None,
+                    help="the arm's model (load check, model-based observations); default: the recorded node's, "
+                         "else none")
+    pr.add_argument("--payload", default=None, help="kg at the arm's payload mount in its model (default 0)")
+    pr.add_argument("--shift-seconds", default=None, help="length of a shift, s (default 28800: 8 h)")
+    pr.add_argument("--shift-origin", default=None, help="stamp at which shift 1 starts, s (default 0)")
+    pr.add_argument("--params", default=None, metavar="YAML",
+                    help="the production_observer's parameter file (default: the package's)")
+    pr.add_argument("--out", default=None, metavar="OBS.csv",
+                    help="write the observations as an observation table (source production, cycle = shift)")
+    pr.add_argument("--json", action="store_true", help="print JSON")
+    pr.set_defaults(func=cmd_from_production)
+
     sh = dsub.add_parser("show", help="summary of an observation table (CSV or bag)")
     sh.add_argument("data", metavar="DATA")
     sh.add_argument("--topic", default=None, help="bag topic to read")
@@ -384,4 +409,124 @@ def cmd_from_timeseries(args: argparse.Namespace) -> int:
     show = [c for c in ("cycle", "speed", "tau_f", "tau_f_std", "load_torque", "temperature", "position",
                         "samples_plus", "samples_minus", "position_spread") if c in cols]
     print(format_table(show, [[cols[c][i] for c in show] for i in range(len(table))], floatfmt=".5g"))
+    return 0
+
+
+def _production_settings(args: argparse.Namespace, names: tuple[str, ...]) -> tuple[dict[str, object], list[str]]:
+    """The production_observer's parameter values for these bags (module docstring of the command)."""
+    from ..io.bags import recorded_settings
+    from .common import node_params
+
+    values: dict[str, object] = dict(node_params(args.params, "production_observer.yaml", "production_observer",
+                                                 "--params"))
+    settings = recorded_settings(args.bags[0])
+    rec = settings.get("production_observer")
+    used = []
+    if rec:
+        values.update(rec)
+        used.append("the recorded production_observer's")
+    for key, flag in (("payload", args.payload), ("shift_seconds", args.shift_seconds),
+                      ("shift_origin", args.shift_origin)):
+        if flag is not None:
+            values[key] = parse_float(flag, "--" + key.replace("_", "-"))
+    if args.arm is not None:
+        values["arm"] = args.arm
+    arm = str(values.get("arm") or "")
+    sim = settings.get("joint_sim", {})
+    if arm:
+        from ..sim.arms import arm_spec
+
+        arm_joints = arm_spec(arm).for_names(names)
+    for i, j in enumerate(names):
+        for key in ("gear_ratio", "torque_scale"):
+            if f"{j}.{key}" in values:
+                continue
+            if arm:
+                values[f"{j}.{key}"] = float(getattr(arm_joints[i], key))
+            elif f"{j}.{key}" in sim:
+                values[f"{j}.{key}"] = float(sim[f"{j}.{key}"])  # type: ignore[arg-type]
+                if "the recorded joint_sim's gear ratios and torque scales" not in used:
+                    used.append("the recorded joint_sim's gear ratios and torque scales")
+    return values, used
+
+
+def cmd_from_production(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..errors import InputDataError
+    from ..io.production_bag import ShiftClock, arm_rigid_body, production_shifts, read_production
+    from ..io.tables import PRODUCTION_COLUMN, write_csv
+    from ..observer import ProductionConfig
+    from ..settings import from_mapping
+    from ..types import ObservationTable
+
+    out = None
+    if args.out is not None:
+        out = Path(args.out)
+        if out.suffix.lower() != ".csv":
+            raise UsageError(f"--out: {out} must end in .csv (an observation table)")
+        check_output_file(out, "--out")
+    for flag, text in (("--payload", args.payload), ("--shift-seconds", args.shift_seconds)):
+        if text is not None and not parse_float(text, flag) >= (0.0 if flag == "--payload" else 1e-3):
+            raise UsageError(f"{flag}: {text} must be " + ("a mass >= 0 kg" if flag == "--payload" else
+                                                           "a positive number of seconds"))
+    samples = read_production(args.bags)
+    values, used = _production_settings(args, samples.names)
+    configs = [from_mapping(ProductionConfig, values, joint=j) for j in samples.names]
+    arm = str(values.get("arm") or "")
+    payload = float(values.get("payload", 0.0))  # type: ignore[arg-type]
+    clock = ShiftClock(float(values.get("shift_seconds", 8 * 3600.0)),  # type: ignore[arg-type]
+                       float(values.get("shift_origin", 0.0)))  # type: ignore[arg-type]
+    rigid = arm_rigid_body(arm, samples.names, payload) if arm else None
+    shifts = production_shifts(samples, configs, clock=clock, rigid_body=rigid)
+    rows = [(s.shift_id, o, k) for s in shifts for o, k in zip(s.observations, s.kinds, strict=True)]
+    if out is not None:
+        if not rows:
+            raise InputDataError(f"{', '.join(args.bags)}: no friction observation in any shift; {out} not written "
+                                 "(the counts say why: run without --out)")
+        obs = [o for _, o, _ in rows]
+        cols = {"cycle": np.array([float(s) for s, _, _ in rows]), "time": np.array([o.stamp for o in obs])}
+        for c in ("speed", "tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque", "temperature", "position",
+                  "samples_plus", "samples_minus"):
+            cols[c] = np.array([float(getattr(o, c)) for o in obs])
+        if not np.isfinite(cols["temperature"]).all():  # no NaN cells in a CSV: a temperature unknown somewhere
+            del cols["temperature"]
+        cols[PRODUCTION_COLUMN] = np.ones(len(obs))
+        write_csv(ObservationTable(cols, source=str(out)), out,
+                  text_columns={"joint": [o.joint_name for o in obs], "kind": [k for _, _, k in rows]})
+    summary = {
+        "bags": list(samples.bags), "joints": list(samples.names), "arm": arm or None, "payload": payload,
+        "shift_seconds": clock.seconds, "shift_origin": clock.origin, "settings_from": used,
+        "samples": int(samples.t.size), "skipped": samples.skipped, "temperature_readings": samples.temperature_readings,
+        "shifts": [{
+            "shift_id": s.shift_id, "t_start": s.t_start, "t_end": s.t_end, "samples": s.samples,
+            "observations": len(s.observations),
+            "joints": [{"joint": c.joint_name, "observations": sum(1 for o in s.observations
+                                                                   if o.joint_name == c.joint_name),
+                        "passes": c.passes, "paired": c.paired, "model": c.model, "rejected": c.rejected,
+                        "rejected_total": c.rejected_total, "speed_levels": list(c.speed_levels),
+                        "informative": c.informative, "note": c.note} for c in s.joints.values()],
+        } for s in shifts],
+        "observations": [{"shift_id": sid, "kind": k, **o.to_dict(), "source": "production"} for sid, o, k in rows],
+        "out": None if out is None else str(out),
+    }
+    if args.json:
+        print_json(summary)
+        return 0
+    skipped = ", ".join(f"{k} {v}" for k, v in samples.skipped.items())
+    print(f"# {samples.t.size} samples of {', '.join(samples.names)} from {len(samples.bags)} bag(s)"
+          + (f"; skipped: {skipped}" if skipped else "") + f"; arm model {arm or 'none'}"
+          + (f" with {payload:g} kg" if arm else "") + f"; shifts of {clock.seconds:g} s")
+    for s in shifts:
+        print(f"# shift {s.shift_id}: {s.t_start:.3f}-{s.t_end:.3f} s, {s.samples} samples, "
+              f"{len(s.observations)} observation(s)")
+        for line in s.summary().splitlines():
+            print(f"#   {line}")
+    if rows:
+        print(format_table(["shift", "joint", "kind", "speed", "tau_f", "tau_f_std", "load_torque", "temperature",
+                            "position", "samples_plus", "samples_minus"],
+                           [[sid, o.joint_name, k, o.speed, o.tau_f, o.tau_f_std, o.load_torque, o.temperature,
+                             o.position, o.samples_plus, o.samples_minus] for sid, o, k in rows], floatfmt=".5g"))
+    if out is not None:
+        print(f"# wrote {len(rows)} friction observations to {out}")
     return 0
