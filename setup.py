@@ -39,6 +39,7 @@ setup(
             "recorder = jointwear_ros.nodes.recorder:main",
             "wear_trend = jointwear_ros.nodes.wear_trend:main",
             "production_observer = jointwear_ros.nodes.production_observer:main",
+            "cycle_on_demand = jointwear_ros.nodes.cycle_on_demand:main",
         ],
     },
 )

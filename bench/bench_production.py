@@ -23,36 +23,18 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from jointwear_ros.monitor import MonitorConfig, estimate_shift  # noqa: E402
 from jointwear_ros.observer import ProductionConfig, ProductionObserver  # noqa: E402
-from jointwear_ros.sim.arm import ArmSim, arm_configs  # noqa: E402
+from jointwear_ros.sim.arm import ArmModel, ArmSim, arm_configs  # noqa: E402
 from jointwear_ros.sim.arms import arm_spec  # noqa: E402
 from jointwear_ros.sim.production import pick_and_place, run_production  # noqa: E402
 from jointwear_ros.simcell import cycle_settings, run_cycle  # noqa: E402
 
 WEAR = (5.0, 12.0, 20.0, 30.0, 45.0, 0.0)
 PAYLOAD = 2.0
-
-
-def arm_models(arm: str, names: list[str]) -> tuple[Any, Any]:
-    """``gravity(q)`` of the arm without payload and ``payload_rigid_body(q, v, a)`` per kg at the flange
-    (Pinocchio's RNEA with 1 kg less without: the payload's gravity and coupling torque)."""
-    spec = arm_spec(arm)
-    m0 = ArmSim(spec, names, arm_configs(spec, names), seeds=range(len(names)))
-    m1 = ArmSim(spec, names, arm_configs(spec, names), seeds=range(len(names)), payload=1.0)
-
-    def gravity(q: np.ndarray) -> np.ndarray:
-        return m0.inverse_dynamics(q, np.zeros(len(q)))
-
-    def payload_rigid_body(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
-        return m1.inverse_dynamics(q, v, a) - m0.inverse_dynamics(q, v, a)
-
-    return gravity, payload_rigid_body
 
 
 def main() -> None:
@@ -70,10 +52,8 @@ def main() -> None:
                          wear=list(WEAR), temperature=40.0, seed=args.seed,
                          speed_override=args.override)
     names = list(run.names)
-    gravity, payload_rigid_body = arm_models(arm, names)
     cfg = [ProductionConfig(gear_ratio=g, torque_scale=s) for g, s in zip(run.gear_ratio, run.torque_scale, strict=True)]
-    obs = ProductionObserver(names, cfg, gravity=gravity, payload_rigid_body=payload_rigid_body,
-                             payload_mass=PAYLOAD)
+    obs = ProductionObserver(names, cfg, **ArmModel(arm, names).observer_models(payload_mass=PAYLOAD))
     starts = [*run.shift_start[1:], math.inf]
     shifts = []
     k = 0
@@ -92,10 +72,10 @@ def main() -> None:
     ded = run_cycle(sim, cycles, observers, together=True, seed=args.seed)
     rows: list[dict[str, Any]] = []
     for s, sh in enumerate(shifts):
-        with_t = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=True))
-        without = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=False))
-        pp = estimate_shift(sh, MonitorConfig(method="joint"), per_pass=True)
-        pp0 = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=False), per_pass=True)
+        with_t = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=True), pooled=True)
+        without = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=False), pooled=True)
+        pp = estimate_shift(sh, MonitorConfig(method="joint"))
+        pp0 = estimate_shift(sh, MonitorConfig(method="joint", use_measured_temperature=False))
         for i, n in enumerate(names):
             e, e0, p, p0 = with_t[n], without[n], pp[n], pp0[n]
             w_true = run.wear[s][i]
@@ -130,7 +110,7 @@ def main() -> None:
     print(f"UR5 pick-and-place, {args.shifts} shift(s) x {args.cycles} cycles, {PAYLOAD:g} kg one way, speed "
           f"override {' '.join(f'{x:g}' for x in args.override)} cycle by cycle; "
           f"production {t_prod:.0f} CPU s; dedicated cycle {ded.state.name}")
-    print("levels: one observation per speed level; per pass: one per pair (estimate_shift per_pass); "
+    print("levels: one observation per speed level; per pass: one per pair (estimate_shift's default); "
           "noT: the temperature not given to the estimator (as the dedicated cycle's)")
     print(f"{'':20} {'':>6} {'levels, T measured':>19} {'levels noT':>13} {'per pass, T':>19} {'per pass noT':>13}")
     print(f"{'shift':>5} {'joint':8} {'true':>5} {'ded std':>7} {'est':>6} {'std':>5} {'z':>6} {'ratio':>5} "

@@ -85,8 +85,8 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_estimate_shift_is_within_3_std_for_the_moved_joints_at_two_wears_and_cannot_tell_for_the_held_one",
         "test_estimate_shift_equals_a_wear_monitor_fed_the_same_observations_bit_for_bit",
         "test_without_a_temperature_sensor_two_speed_levels_cannot_tell_and_say_why",
-        "test_per_pass_weighs_each_pair_as_a_sweep_within_3_std_and_tighter_than_one_observation_per_level",
-        "test_per_pass_without_a_temperature_sensor_counts_speed_levels_not_pairs",
+        "test_each_pair_weighs_as_a_sweep_within_3_std_and_tighter_than_one_observation_per_level",
+        "test_without_a_temperature_sensor_speed_levels_count_not_pairs",
     ),
     "test_cycle_arm.py": (  # whole test cycles on the simulated arms, 4-6 s each
         "test_every_joint_at_once_on_the_arm_observes_each_joints_friction_in_a_fraction_of_the_cell_time",

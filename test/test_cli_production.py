@@ -82,12 +82,18 @@ def test_from_production_json_gives_each_shifts_counts_and_observations_as_the_c
     assert all(np.all(t["production"] == 1.0) for t in tables.values())
 
 
-def test_from_production_with_the_arm_adds_model_based_observations_and_prints_the_reasons(bag, capsys):
+def test_from_production_with_the_arm_corrects_the_part_carried_one_way_and_prints_the_reasons(bag, capsys):
+    rc, text, err = _run(capsys, ["data", "from-production", str(bag)])
+    assert rc == 0, err
+    assert "paired+payload" not in text and "without the arm's model a part carried one way is not seen" in text
     rc, text, err = _run(capsys, ["data", "from-production", str(bag), "--arm", "ur5"])
     assert rc == 0, err
-    assert "arm model ur5 with 0 kg; shifts of 28800 s" in text
+    assert "arm model ur5, the part's mass fitted per pair; shifts of 28800 s" in text
     assert "# shift 1: " in text and "joint_6: 0 passes, 0 paired, 0 model, 0 rejected (held still" in text
-    assert " model " in text and " paired " in text  # both kinds in the table
+    assert " paired+payload " in text and "corrected for a payload of" in text
+    rc, text, err = _run(capsys, ["data", "from-production", str(bag), "--arm", "ur5", "--payload", "2"])
+    assert rc == 0, err
+    assert "arm model ur5, a part of 2 kg;" in text and " paired+payload " in text
 
 
 def _text(path):

@@ -20,9 +20,9 @@ from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
 from jointwear_ros.contract import CycleState, observation_from_msg, stamp_to_seconds  # noqa: E402
-from jointwear_ros.io.production_bag import arm_rigid_body  # noqa: E402
 from jointwear_ros.nodes.runtime import seconds_to_stamp  # noqa: E402
 from jointwear_ros.observer import ProductionConfig, observe_production  # noqa: E402
+from jointwear_ros.sim.arm import ArmModel  # noqa: E402
 from jointwear_ros.sim.arms import arm_spec  # noqa: E402
 from jointwear_ros.sim.production import pick_and_place, run_production  # noqa: E402
 
@@ -49,13 +49,13 @@ def _expected(run, t):
     reading = (idx // TEMP_EVERY) * TEMP_EVERY  # the sample whose stamp the latest reading carries
     temps = run.temperature[reading]
     configs = [ProductionConfig(gear_ratio=j.gear_ratio, torque_scale=j.torque_scale) for j in UR5.joints]
-    rigid = arm_rigid_body("ur5", NAMES)
+    models = ArmModel("ur5", NAMES).observer_models()  # what the node builds for arm ur5
     shift_of = 1 + np.floor(t / SHIFT).astype(int)
     out = {}
     for sid in np.unique(shift_of).tolist():
         sel = shift_of == sid
         out[sid] = observe_production(t[sel], run.q[sel], run.v[sel], run.effort[sel], temps[sel], joint_names=NAMES,
-                                      config=configs, rigid_body=rigid, shift_id=sid)
+                                      config=configs, shift_id=sid, **models)
     return out
 
 

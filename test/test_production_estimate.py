@@ -90,7 +90,7 @@ def _truth(run: ProductionRun, joint: str, speed: float, position: float, shift:
 def test_payload_corrected_pairs_on_the_loaded_joints_are_within_3_std_of_the_truth(run, shifts):
     for s, sh in enumerate(shifts):
         for joint in LOADED:
-            got = [(o, k) for o, k in zip(sh.observations, sh.kinds, strict=True) if o.joint_name == joint]
+            got = [(o, k) for o, k in zip(sh.levels, sh.level_kinds, strict=True) if o.joint_name == joint]
             assert got and all(k == "paired+payload" for _, k in got), (joint, [k for _, k in got])
             for o, _ in got:
                 z = (o.tau_f - _truth(run, joint, o.speed, o.position, s)) / o.tau_f_std
@@ -171,10 +171,10 @@ def test_the_speed_override_scales_each_cycles_cruise_and_refuses_a_speed_past_t
         run_production(ARM, replace(prog), cycles=1, speed_override=(0.0,))
 
 
-def test_per_pass_weighs_each_pair_as_a_sweep_within_3_std_and_tighter_than_one_observation_per_level(run, shifts):
+def test_each_pair_weighs_as_a_sweep_within_3_std_and_tighter_than_one_observation_per_level(run, shifts):
     for s, sh in enumerate(shifts):
-        levels = estimate_shift(sh, MonitorConfig(method="joint"))
-        passes = estimate_shift(sh, MonitorConfig(method="joint"), per_pass=True)
+        levels = estimate_shift(sh, MonitorConfig(method="joint"), pooled=True)
+        passes = estimate_shift(sh, MonitorConfig(method="joint"))
         for joint in MOVED:
             e = passes[joint]
             truth = WEARS[s][run.names.index(joint)]
@@ -184,8 +184,8 @@ def test_per_pass_weighs_each_pair_as_a_sweep_within_3_std_and_tighter_than_one_
             assert passes[joint].wear_std < 0.8 * levels[joint].wear_std
 
 
-def test_per_pass_without_a_temperature_sensor_counts_speed_levels_not_pairs(shifts):
-    est = estimate_shift(shifts[0], MonitorConfig(method="joint", use_measured_temperature=False), per_pass=True)
+def test_without_a_temperature_sensor_speed_levels_count_not_pairs(shifts):
+    est = estimate_shift(shifts[0], MonitorConfig(method="joint", use_measured_temperature=False))
     for joint in MOVED:  # 1-2 levels each, several pairs per level: still cannot tell
         assert not est[joint].told and est[joint].n_observations >= 2
         assert "speed level(s)" in est[joint].reason and "needs 3" in est[joint].reason

@@ -126,7 +126,7 @@ def test_production_observer_reads_every_moving_joints_friction_within_3_std(lin
     arm, t, q, v, u = line
     shift = observe_production(t, q, v, u, joint_names=NAMES, config=CONFIGS, gravity=gravity, shift_id=7)
     z = {}
-    for obs, kind in zip(shift.observations, shift.kinds, strict=True):
+    for obs, kind in zip(shift.levels, shift.level_kinds, strict=True):
         assert kind == "paired" and obs.cycle_id == 7
         truth = _truth(arm, q, v, obs.joint_name, obs.speed)
         z[(obs.joint_name, round(obs.speed))] = (obs.tau_f - truth) / obs.tau_f_std
@@ -138,7 +138,7 @@ def test_production_observer_reads_every_moving_joints_friction_within_3_std(lin
         assert (c.passes, c.paired, c.model, c.rejected_total, c.informative) == (12, 12, 0, 0, True)
         assert len(c.speed_levels) == 2
     # the load column is the gravity torque of the configuration: the shoulder lift carries it, the base not
-    load = {o.joint_name: o.load_torque for o in shift.observations}
+    load = {o.joint_name: o.load_torque for o in shift.levels}
     assert load["joint_2"] > 0.2 and load["joint_1"] < 1e-3
 
 
@@ -146,7 +146,7 @@ def test_production_observer_says_a_wrist_held_still_gave_nothing(line, gravity)
     _, t, q, v, u = line
     shift = observe_production(t, q, v, u, joint_names=NAMES, config=CONFIGS, gravity=gravity)
     wrist = shift.joints["joint_6"]
-    assert not [o for o in shift.observations if o.joint_name == "joint_6"]
+    assert not [o for o in shift.levels if o.joint_name == "joint_6"]
     assert wrist.passes == 0 and not wrist.informative and wrist.speed_levels == ()
     assert wrist.rejected == {"held still": 12}  # one for each motion of the others
     assert wrist.note == "joint_6: never moved at a constant speed >= 10 rad/s motor in this shift"
@@ -157,21 +157,21 @@ def test_production_observer_rejects_a_reverse_pass_at_another_configuration(gra
     # the last wrist moves 0.05 rad (5 x the configuration tolerance) before each reverse pass
     _, t, q, v, u = _program(speeds=(0.5,), reps=1, offset=(5, 0.05))
     shift = observe_production(t, q, v, u, joint_names=NAMES, config=CONFIGS, gravity=gravity)
-    assert shift.observations == ()
+    assert shift.levels == ()
     for name in NAMES[:5]:
         assert shift.joints[name].rejected["configuration mismatch"] == 2
         assert shift.joints[name].paired == 0
     # the same passes within the tolerance pair
     loose = [replace(c, configuration_tolerance=0.1) for c in CONFIGS]
     shift = observe_production(t, q, v, u, joint_names=NAMES, config=loose, gravity=gravity)
-    assert {o.joint_name for o in shift.observations} == set(NAMES[:5])
+    assert {o.joint_name for o in shift.levels} == set(NAMES[:5])
 
 
 def test_production_observer_leaves_the_accelerations_out(line, gravity) -> None:
     _, t, q, v, u = line
     shift = observe_production(t, q, v, u, joint_names=NAMES, config=CONFIGS, gravity=gravity)
     cruise = CRUISE * RATE  # samples at cruise in one pass
-    for obs in shift.passes:
+    for obs in shift.observations:
         assert 0.7 * cruise <= obs.samples_plus <= cruise and 0.7 * cruise <= obs.samples_minus <= cruise
     # a trapezoid whose inertial torque is 50 x its friction during the ramps: tau_f exact at cruise
     tt = np.arange(0.0, 10.0, 0.004)
@@ -181,12 +181,12 @@ def test_production_observer_leaves_the_accelerations_out(line, gravity) -> None
     pos = np.concatenate(([0.0], np.cumsum(vel[:-1]) * 0.004))
     eff = np.sign(vel) * 2.0 + 100.0 * acc + 10.0 * np.cos(pos)
     shift = observe_production(tt, pos, vel, eff)
-    (obs,) = shift.observations
+    (obs,) = shift.levels
     assert obs.tau_f == pytest.approx(0.02, abs=1e-5)  # 2 N·m / torque_scale 100 (ramps: 1.0)
     # a motion that only accelerates (a triangle): no constant speed, said so
     tri = np.clip(1.0 - np.abs(tt - 2.0), 0.0, None) - np.clip(1.0 - np.abs(tt - 6.0), 0.0, None)
     shift = observe_production(tt, np.cumsum(tri) * 0.004, tri, np.sign(tri) * 2.0)
-    assert shift.observations == () and shift.joints["joint_1"].rejected == {"acceleration": 2}
+    assert shift.levels == () and shift.joints["joint_1"].rejected == {"acceleration": 2}
     # a slow ramp within the acceleration limit: no constant speed either
     slow = np.where(tt < 8.0, 0.1 + 0.02 * tt, 0.0)
     shift = observe_production(tt, np.cumsum(slow) * 0.004, slow, np.full(tt.size, 2.0))
@@ -200,26 +200,26 @@ def test_a_payload_carried_one_way_biases_tau_f_and_the_pairing_rejects_it(gravi
     unchecked = observe_production(t, q, v, u, joint_names=NAMES, gravity=gravity,
                                    config=[replace(c, load_tolerance_gravity=1e6) for c in CONFIGS])
     for shift in (blind, unchecked):
-        for obs in shift.observations:
+        for obs in shift.levels:
             if obs.joint_name in ("joint_2", "joint_3"):
                 assert abs(obs.tau_f - _truth(arm, q, v, obs.joint_name, obs.speed)) > 20 * obs.tau_f_std
     checked = observe_production(t, q, v, u, joint_names=NAMES, config=CONFIGS, gravity=gravity)
     for name in ("joint_2", "joint_3"):
         assert checked.joints[name].rejected == {"load mismatch": 8}
-        assert not [o for o in checked.observations if o.joint_name == name]
+        assert not [o for o in checked.levels if o.joint_name == name]
 
 
 def test_model_based_observations_come_only_from_unpaired_segments(line, rigid_body) -> None:
     _, t, q, v, u = line
     paired = observe_production(t, q, v, u, joint_names=NAMES, config=CONFIGS, rigid_body=rigid_body)
-    assert set(paired.kinds) == {"paired"} and all(paired.joints[n].model == 0 for n in NAMES)
+    assert set(paired.level_kinds) == {"paired"} and all(paired.joints[n].model == 0 for n in NAMES)
     arm, t, q, v, u = _program(speeds=(0.5,), reps=2, offset=(5, 0.05))
     shift = observe_production(t, q, v, u, joint_names=NAMES, config=CONFIGS, rigid_body=rigid_body)
-    assert set(shift.kinds) == {"model"}
+    assert set(shift.level_kinds) == {"model"}
     for name in NAMES[:5]:
         c = shift.joints[name]
         assert (c.passes, c.paired, c.model, c.rejected_total) == (4, 0, 4, 0)
-        for obs in (o for o in shift.observations if o.joint_name == name):
+        for obs in (o for o in shift.levels if o.joint_name == name):
             truth = _truth(arm, q, v, name, obs.speed)
             assert abs(obs.tau_f - truth) <= 3.0 * obs.tau_f_std, (name, obs.tau_f, truth, obs.tau_f_std)
 
@@ -233,14 +233,14 @@ def test_streaming_batch_and_chunked_give_the_same_shift_bit_for_bit(line, gravi
         live.add(float(t[k]), q[k].tolist(), v[k].tolist(), u[k].tolist(), temps[k].tolist())
     assert live.waiting == 0  # every pass found its partner as it ended: nothing kept but the pairs
     streamed = live.end_shift(3)
-    assert batch.observations and all(math.isfinite(o.temperature) for o in batch.observations)
+    assert batch.levels and all(math.isfinite(o.temperature) for o in batch.levels)
     for chunk in (1, 7, 1000):
         chunked = observe_production(t, q, v, u, temps, joint_names=NAMES, config=CONFIGS, gravity=gravity,
                                      shift_id=3, chunk=chunk)
         assert repr(chunked) == repr(batch)
     assert repr(streamed) == repr(batch)
     # the next shift starts empty
-    assert live.end_shift(4).observations == ()
+    assert live.end_shift(4).levels == ()
 
 
 def test_production_observer_refuses_bad_samples_in_one_line_and_keeps_its_state() -> None:
@@ -314,6 +314,6 @@ def test_a_pass_waits_pair_horizon_for_its_reverse_partner_then_gives_up() -> No
     qq = np.concatenate((q, q[-1] - q))
     uu = np.sign(vv) * 20.0 + 5.0
     waits = observe_production(tt, qq, vv, uu, config=ProductionConfig(pair_horizon=200.0))
-    assert waits.kinds == ("paired",) and waits.observations[0].tau_f == pytest.approx(0.2)
+    assert waits.level_kinds == ("paired",) and waits.levels[0].tau_f == pytest.approx(0.2)
     gives_up = observe_production(tt, qq, vv, uu, config=ProductionConfig(pair_horizon=50.0))
-    assert gives_up.observations == () and gives_up.joints["joint_1"].rejected == {"no reverse partner": 2}
+    assert gives_up.levels == () and gives_up.joints["joint_1"].rejected == {"no reverse partner": 2}

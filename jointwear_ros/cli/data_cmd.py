@@ -134,7 +134,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     pr.add_argument("--arm", choices=("ur5", "panda"), default=None,
                     help="the arm's model (load check, model-based observations); default: the recorded node's, "
                          "else none")
-    pr.add_argument("--payload", default=None, help="kg at the arm's payload mount in its model (default 0)")
+    pr.add_argument("--payload", default=None, help="with --arm: kg of the part the program carries one way (default: "
+                    "fitted per pair)")
     pr.add_argument("--shift-seconds", default=None, help="length of a shift, s (default 28800: 8 h)")
     pr.add_argument("--shift-origin", default=None, help="stamp at which shift 1 starts, s (default 0)")
     pr.add_argument("--params", default=None, metavar="YAML",
@@ -454,10 +455,12 @@ def cmd_from_production(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..errors import InputDataError
-    from ..io.production_bag import ShiftClock, arm_rigid_body, production_shifts, read_production
+    from ..io.production_bag import ShiftClock, production_shifts, read_production
     from ..io.tables import PRODUCTION_COLUMN, write_csv
     from ..observer import ProductionConfig
+    from ..observer.production import NO_ARM_MODEL
     from ..settings import from_mapping
+    from ..sim.arm import ArmModel
     from ..types import ObservationTable
 
     out = None
@@ -477,8 +480,9 @@ def cmd_from_production(args: argparse.Namespace) -> int:
     payload = float(values.get("payload", 0.0))  # type: ignore[arg-type]
     clock = ShiftClock(float(values.get("shift_seconds", 8 * 3600.0)),  # type: ignore[arg-type]
                        float(values.get("shift_origin", 0.0)))  # type: ignore[arg-type]
-    rigid = arm_rigid_body(arm, samples.names, payload) if arm else None
-    shifts = production_shifts(samples, configs, clock=clock, rigid_body=rigid)
+    models = ArmModel(arm, samples.names).observer_models(
+        payload_mass=payload if payload > 0 else None, model_based=bool(values.get("model_based", False))) if arm else {}
+    shifts = production_shifts(samples, configs, clock=clock, models=models)
     rows = [(s.shift_id, o, k) for s in shifts for o, k in zip(s.observations, s.kinds, strict=True)]
     if out is not None:
         if not rows:
@@ -516,7 +520,11 @@ def cmd_from_production(args: argparse.Namespace) -> int:
     skipped = ", ".join(f"{k} {v}" for k, v in samples.skipped.items())
     print(f"# {samples.t.size} samples of {', '.join(samples.names)} from {len(samples.bags)} bag(s)"
           + (f"; skipped: {skipped}" if skipped else "") + f"; arm model {arm or 'none'}"
-          + (f" with {payload:g} kg" if arm else "") + f"; shifts of {clock.seconds:g} s")
+          + ((f", a part of {payload:g} kg" if payload > 0 else ", the part's mass fitted per pair")
+             + (", model-based observations" if models.get("rigid_body") else "") if arm else "")
+          + f"; shifts of {clock.seconds:g} s")
+    if not arm:
+        print(f"# {NO_ARM_MODEL}")
     for s in shifts:
         print(f"# shift {s.shift_id}: {s.t_start:.3f}-{s.t_end:.3f} s, {s.samples} samples, "
               f"{len(s.observations)} observation(s)")

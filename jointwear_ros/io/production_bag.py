@@ -24,9 +24,9 @@ with arrays whose lengths differ from ``name``, a non-finite value, no header st
 the previous sample's is skipped and counted by reason); each sample's temperatures are the latest
 ``/joint_temperature`` reading of each joint with a stamp at or before the sample's (NaN before the first).
 :class:`ShiftClock` is the node's shift rule, :func:`production_shifts` runs the samples through
-:class:`~jointwear_ros.observer.ProductionObserver` shift by shift with it, and :func:`arm_rigid_body` gives
-the arm's inverse dynamics (Pinocchio's RNEA with the URDF and a payload) for the model-based observations:
-the offline ``jointwear data from-production`` and the node share all four, so a replay equals the live run.
+:class:`~jointwear_ros.observer.ProductionObserver` shift by shift with it (with the arm's model,
+:class:`~jointwear_ros.sim.arm.ArmModel`, when one is given): the offline ``jointwear data from-production``
+and the node share all three, so a replay equals the live run.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ import json
 import math
 import os
 from collections import Counter
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -55,7 +55,7 @@ if TYPE_CHECKING:
     from ..sim.production import ProductionRun
 
 __all__ = ["JOINT_STATES_TOPIC", "TEMPERATURE_TOPIC", "TRUTH_KEY", "JointStateRows", "ProductionSamples", "ShiftClock",
-           "TemperatureTrack", "arm_rigid_body", "production_shifts", "production_truth", "read_production",
+           "TemperatureTrack", "production_shifts", "production_truth", "read_production",
            "record_production"]
 
 Array = npt.NDArray[np.float64]
@@ -375,14 +375,15 @@ def read_production(paths: Iterable[str | os.PathLike[str]], *, joints: Sequence
 
 
 def production_shifts(samples: ProductionSamples, config: ProductionConfig | Sequence[ProductionConfig] | None = None,
-                      *, clock: ShiftClock | None = None, gravity: Callable[..., Any] | None = None,
-                      rigid_body: Callable[..., Any] | None = None) -> list[ProductionShift]:
+                      *, clock: ShiftClock | None = None, models: Mapping[str, Any] | None = None
+                      ) -> list[ProductionShift]:
     """The samples through one :class:`~jointwear_ros.observer.ProductionObserver`, shift by shift by
-    ``clock`` (:class:`ShiftClock`; default 8 h shifts from 0 s); the last shift ends with the data."""
+    ``clock`` (:class:`ShiftClock`; default 8 h shifts from 0 s); the last shift ends with the data.
+    ``models``: the observer's arm-model keyword arguments (:meth:`~jointwear_ros.sim.arm.ArmModel.observer_models`)."""
     from ..observer.production import ProductionObserver
 
     clock = clock or ShiftClock()
-    obs = ProductionObserver(samples.names, config, gravity=gravity, rigid_body=rigid_body)
+    obs = ProductionObserver(samples.names, config, **dict(models or {}))
     out: list[ProductionShift] = []
     for k in range(samples.t.size):
         t = float(samples.t[k])
@@ -394,23 +395,3 @@ def production_shifts(samples: ProductionSamples, config: ProductionConfig | Seq
     if sid is not None:
         out.append(obs.end_shift(sid))
     return out
-
-
-def arm_rigid_body(arm: str, joints: Sequence[str], payload: float = 0.0) -> Callable[[Array, Array, Array], Array]:
-    """``rigid_body(q, v, a)``: the inverse dynamics (N·m, joint side) of arm ``arm`` (``ur5``, ``panda``:
-    :mod:`jointwear_ros.sim.arms`) whose first ``len(joints)`` joints are ``joints``, with ``payload`` kg at
-    its payload mount: Pinocchio's RNEA on the URDF, armature included (:meth:`~jointwear_ros.sim.arm.ArmSim.
-    inverse_dynamics`). One :class:`ParameterError` line for an unknown arm, too many joints or a bad payload."""
-    from ..sim.arm import ArmSim, arm_configs
-    from ..sim.arms import arm_spec
-
-    spec = arm_spec(arm)
-    names = [str(j) for j in joints]
-    if not (math.isfinite(payload) and payload >= 0):
-        raise ParameterError(f"payload must be a mass >= 0 kg, got {payload!r}")
-    model = ArmSim(spec, names, arm_configs(spec, names), seeds=range(len(names)), payload=float(payload))
-
-    def rigid_body(q: Any, v: Any, a: Any) -> Array:
-        return model.inverse_dynamics(q, v, a)
-
-    return rigid_body

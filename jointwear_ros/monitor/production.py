@@ -63,7 +63,7 @@ def _estimate(name: str, sid: int, wear: float, std: float, reason: str, result:
 
 
 def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, MonitorConfig] | None = None, *,
-                   per_pass: bool = False,
+                   pooled: bool = False,
                    estimator_factory: EstimatorFactory | None = None,
                    monitors: Mapping[str, WearMonitor] | None = None) -> dict[str, ShiftEstimate]:
     """Each joint's wear from ``shift`` (module docstring), keyed by joint name in the shift's order.
@@ -75,16 +75,17 @@ def estimate_shift(shift: ProductionShift, config: MonitorConfig | Mapping[str, 
     wear_estimator's), fed in place, so their confirmation memory carries over from shift to shift;
     default a fresh monitor per joint.
 
-    ``per_pass``: feed each pair's own observation (``shift.passes``) instead of one per speed level: the
+    The shift's ``observations`` are fed, each pair's own (what the production_observer node publishes): the
     monitor adds its sweep-to-sweep scatter (``observation_noise_std``) to each, as to each sweep of a test
-    cycle, so N pairs of a level weigh as N sweeps (a pooled level weighs as one). The pairs of one level have
+    cycle, so N pairs of a level weigh as N sweeps. ``pooled``: feed ``shift.levels`` instead, one per speed
+    level (each weighs as one sweep: a std about twice as large on the simulated UR5, docs/production.md). The pairs of one level have
     nearly the same speed: the monitor counts speed levels (:func:`~jointwear_ros.condition.speed_levels`), not
     observations, against the estimator's need of distinct speeds (3 with the temperature unknown, 1 with it
     measured), live as here."""
     out: dict[str, ShiftEstimate] = {}
     sid = int(shift.shift_id)
     for name, counts in shift.joints.items():
-        obs = [o for o in (shift.passes if per_pass else shift.observations) if o.joint_name == name]
+        obs = [o for o in (shift.levels if pooled else shift.observations) if o.joint_name == name]
 
         if not counts.informative or not obs:
             why = counts.note or (f"{name}: no friction observation from its {counts.passes} passes in this shift"

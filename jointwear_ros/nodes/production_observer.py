@@ -39,10 +39,13 @@ counts by reason and its note. OK normally, also for a joint the program did not
 so); WARN only while the shift being observed has had bad messages (the observer's own fault), with the
 latest reason. Never a wear level: that is the wear_estimator's.
 
-**Arm model** (optional): ``arm`` (``ur5``, ``panda``; empty: none) and ``payload`` kg give the observer
-the arm's inverse dynamics (Pinocchio's RNEA on its URDF, :func:`~jointwear_ros.io.production_bag.arm_rigid_body`)
-for the load check and the model-based observations of unpaired passes; each joint's ``gear_ratio`` and
-``torque_scale`` then default to the arm's (``<joint>.gear_ratio`` overrides).
+**Arm model** (optional): ``arm`` (``ur5``, ``panda``; empty: none) gives the observer the arm's rigid-body
+model (Pinocchio's RNEA on its URDF, :class:`~jointwear_ros.sim.arm.ArmModel`): the gravity of each
+configuration and the torque of a part at the flange, so a pair whose passes carried different loads (a part
+picked on one way, placed on the other) is corrected by the fitted payload (``payload`` kg when the part's mass
+is known from commissioning) instead of rejected as a load mismatch; with ``model_based`` also u - tau_model for
+passes without a reverse partner. Each joint's ``gear_ratio`` and ``torque_scale`` then default to the arm's
+(``<joint>.gear_ratio`` overrides).
 
 Parameters: ``config/production_observer.yaml``; every one is read at start-up (restart to change):
 the observations of a shift must come from one set of settings. See docs/nodes-production.md.
@@ -69,10 +72,11 @@ from std_srvs.srv import Trigger
 from .. import contract
 from ..contract import CycleState, CycleStatus, DiagnosticLevel, Source, stamp_to_seconds, status_to_msg
 from ..errors import JointwearError, ParameterError
-from ..io.production_bag import JointStateRows, ShiftClock, TemperatureTrack, arm_rigid_body
+from ..io.production_bag import JointStateRows, ShiftClock, TemperatureTrack
 from ..observer import FrictionObservationData, ProductionConfig, ProductionObserver
-from ..observer.production import ProductionShift
+from ..observer.production import NO_ARM_MODEL, ProductionShift
 from ..settings import from_mapping, node_declarations
+from ..sim.arm import ArmModel
 from .diagnostics import Status, Updater
 from .joints import declare_robot
 from .runtime import ParamDecl, overridable_qos, run_node_refusing, subscribe_reporting_loss, wait_acked
@@ -82,10 +86,12 @@ __all__ = ["PARAMETERS", "PER_JOINT", "ProductionObserverNode", "main", "product
 _NODE_HEAD: tuple[ParamDecl, ...] = (
     ParamDecl("joint_name", "joint_1", "joint observed when joints is empty (looked up by name in each JointState)",
               read_only=True),
-    ParamDecl("arm", "", "the arm's model for the load check and model-based observations: ur5, panda, or empty "
-              "(none: forward/reverse pairs only)", read_only=True),
-    ParamDecl("payload", 0.0, "kg at the arm's payload mount in its model (the payload identified at commissioning)",
-              0.0, 1000.0, read_only=True, unit="kg"),
+    ParamDecl("arm", "", "the arm's model (ur5, panda; empty: none): pairs whose load differs (a part carried one "
+              "way) are corrected for the payload's torque, else rejected as a load mismatch", read_only=True),
+    ParamDecl("payload", 0.0, "kg of the part the program carries on some passes (identified at commissioning; "
+              "0: fitted per pair from the load the arm's model leaves)", 0.0, 1000.0, read_only=True, unit="kg"),
+    ParamDecl("model_based", False, "with an arm: a pass without a reverse partner gives u - tau_model (the "
+              "arm's inverse dynamics, no part carried) as friction", read_only=True),
 )
 _NODE_TAIL: tuple[ParamDecl, ...] = (
     ParamDecl("joint_states_topic", "/joint_states", "sensor_msgs/JointState input (every joint)", read_only=True),
@@ -179,9 +185,11 @@ class ProductionObserverNode(Node):
         self.params = p
         configs = [production_config({**p, **values[j]}, j) for j in self.joints]
         arm = str(p["arm"] or "")
-        rigid_body = arm_rigid_body(arm, self.joints, float(p["payload"])) if arm else None
+        payload = float(p["payload"])
+        models = ArmModel(arm, self.joints).observer_models(
+            payload_mass=payload if payload > 0 else None, model_based=bool(p["model_based"])) if arm else {}
         try:
-            self.observer = ProductionObserver(self.joints, configs, rigid_body=rigid_body)
+            self.observer = ProductionObserver(self.joints, configs, **models)
         except JointwearError as exc:
             raise ParameterError(f"production_observer: {exc}") from None
         #: the shift rule (by the stamps)
@@ -229,9 +237,11 @@ class ProductionObserverNode(Node):
         self.get_logger().info(
             f"observing production of {', '.join(self.joints)} on {p['joint_states_topic']} (temperature "
             f"{p['temperature_topic'] or 'none'}); arm model {arm or 'none'}"
-            + (f" with {float(p['payload']):g} kg" if arm else "")
+            + ((f", a part of {payload:g} kg" if payload > 0 else ", the part's mass fitted per pair") if arm else "")
             + f"; shifts of {float(p['shift_seconds']):g} s from {float(p['shift_origin']):g} s; publishing "
             f"{p['observations_topic']} and {p['status_topic']}")
+        if not arm:
+            self.get_logger().warning(f"production_observer: {NO_ARM_MODEL}")
 
     # -- inputs -----------------------------------------------------------------------
     def _lost_callback(self, topic: str) -> Any:

@@ -146,9 +146,10 @@ def declare_parameters(node: Node, decls: Sequence[ParamDecl]) -> dict[str, Any]
 
 
 #: the jointwear nodes (each ``jointwear_ros.nodes.<name>`` declares its parameters once, in ``PARAMETERS``)
-NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator", "wear_trend", "recorder", "cycle_on_demand")
+NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator", "wear_trend", "recorder",
+         "production_observer", "cycle_on_demand")
 #: the nodes that serve a robot: a ``joints`` parameter and per-joint settings ``<joint>.<name>`` (nodes/joints.py)
-ROBOT_NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator")
+ROBOT_NODES = ("joint_sim", "test_cycle", "friction_observer", "wear_estimator", "production_observer")
 _USE_SIM_TIME = ParamDecl("use_sim_time", False, "rclpy's own: follow /clock")
 JOINTS_DESCRIPTION = ("joints served, in order (empty = the single joint joint_name); per-joint settings nest "
                       "under each name")

@@ -66,7 +66,7 @@ Pure numpy; no ROS import, no clock: a replay of the samples equals the live run
 >>> u = np.sign(v) * 20.0 + 5.0 + 40.0 * q       # friction 20 N·m, a load varying along the path
 >>> cfg = ProductionConfig(gear_ratio=100.0, torque_scale=100.0)
 >>> shift = observe_production(t, q, v, u, joint_names=["joint_1"], config=cfg)
->>> [(round(o.speed), round(o.tau_f, 4)) for o in shift.observations], shift.kinds
+>>> [(round(o.speed), round(o.tau_f, 4)) for o in shift.levels], shift.level_kinds
 ([(50, 0.2)], ('paired',))
 >>> shift.joints["joint_1"].passes, shift.joints["joint_1"].paired
 (2, 2)
@@ -87,8 +87,13 @@ from ..errors import InputDataError
 from ..settings import check_ranges, setting
 from .types import FrictionObservationData
 
+#: What an observer without the arm's model cannot see (said by the node at start-up and by the offline command).
+NO_ARM_MODEL = ("without the arm's model a part carried one way is not seen: its pairs' (u+ - u-)/2 holds the part's "
+                "torque on the joints it loads (give the arm)")
+
 __all__ = [
     "KINDS",
+    "NO_ARM_MODEL",
     "REASONS",
     "JointShiftCounts",
     "ProductionConfig",
@@ -220,9 +225,11 @@ class JointShiftCounts:
 class ProductionShift:
     """A shift's production observations and counts (:meth:`ProductionObserver.end_shift`).
 
-    ``observations`` (one per joint, kind and speed level, ``cycle_id`` the shift id) and ``kinds``
-    (:data:`KINDS`) are parallel; so are ``passes`` and ``pass_kinds``: each pair's (or model-based
-    segment's) own observation before pooling.
+    ``observations`` and ``kinds`` (:data:`KINDS`) are parallel: each pair's (or model-based segment's) own
+    observation, ``cycle_id`` the shift id: what the node publishes and the wear monitor estimates from (each pair
+    weighs as one sweep of a test cycle, with the sweep-to-sweep scatter the monitor adds to each). ``levels``
+    and ``level_kinds``: the same pooled to one per joint, kind and speed level (the inverse-variance mean, its
+    std never below the pairs' scatter), for reading a shift at a glance.
     """
 
     shift_id: int
@@ -232,8 +239,8 @@ class ProductionShift:
     observations: tuple[FrictionObservationData, ...]
     kinds: tuple[str, ...]
     joints: dict[str, JointShiftCounts]
-    passes: tuple[FrictionObservationData, ...] = ()
-    pass_kinds: tuple[str, ...] = ()
+    levels: tuple[FrictionObservationData, ...] = ()
+    level_kinds: tuple[str, ...] = ()
 
     def summary(self) -> str:
         """One line per joint: passes, paired, model, rejected by reason, or why it gave nothing."""
@@ -670,12 +677,12 @@ class ProductionObserver:
                                             dict(sorted(self._rejected[j].items())), tuple(levels), informative, note,
                                             tuple(self._payload_kg[j]))
         results = self._results
-        passes = tuple(self._observation(r, sid) for r in results)
         pooled = self._pool(results)
         shift = ProductionShift(
             shift_id=sid, t_start=self._t0, t_end=t_end, samples=self._n,
-            observations=tuple(self._observation(r, sid) for r in pooled), kinds=tuple(r.kind for r in pooled),
-            joints=counts, passes=passes, pass_kinds=tuple(r.kind for r in results))
+            observations=tuple(self._observation(r, sid) for r in results), kinds=tuple(r.kind for r in results),
+            joints=counts, levels=tuple(self._observation(r, sid) for r in pooled),
+            level_kinds=tuple(r.kind for r in pooled))
         self.shift_id = sid
         self._reset_shift()
         return shift

@@ -29,7 +29,7 @@ from .joint import JointSample, JointSim, JointSimConfig, parse_effects
 from .robot import RobotSim
 
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and readers
-    from .arm import ArmJointSim, ArmSim, arm_configs
+    from .arm import ArmJointSim, ArmModel, ArmSim, arm_configs
     from .collision import CollisionChecker, check_plan, collision_checker
     from .production import (
         Move,
@@ -43,13 +43,13 @@ if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and 
         run_production,
     )
 
-__all__ = ["ARMS", "ArmJoint", "ArmJointSim", "ArmSim", "ArmSpec", "CollisionChecker", "FrictionTable", "JointSample",
+__all__ = ["ARMS", "ArmJoint", "ArmJointSim", "ArmModel", "ArmSim", "ArmSpec", "CollisionChecker", "FrictionTable", "JointSample",
            "JointSim", "JointSimConfig", "Move", "ProductionProgram", "ProductionRun", "RobotSim", "SelfHeating",
            "arm_configs", "arm_spec", "check_plan", "check_program", "collision_checker", "machine_tending",
            "parse_effects", "pick_and_place", "production_program", "run_production"]
 
 #: The module of each name loaded on first use (each imports pinocchio).
-_LAZY: dict[str, str] = {**dict.fromkeys(("ArmJointSim", "ArmSim", "arm_configs"), "arm"),
+_LAZY: dict[str, str] = {**dict.fromkeys(("ArmJointSim", "ArmModel", "ArmSim", "arm_configs"), "arm"),
                          **dict.fromkeys(("CollisionChecker", "check_plan", "collision_checker"), "collision"),
                  **dict.fromkeys(("Move", "ProductionProgram", "ProductionRun", "SelfHeating", "check_program",
                                   "machine_tending", "pick_and_place", "production_program", "run_production"),

@@ -87,7 +87,7 @@ from ..errors import ParameterError
 from .arms import ArmJoint, ArmSpec
 from .joint import JointSim, JointSimConfig
 
-__all__ = ["ArmJointSim", "ArmSim", "arm_configs"]
+__all__ = ["ArmJointSim", "ArmModel", "ArmSim", "arm_configs"]
 
 Array = npt.NDArray[np.float64]
 
@@ -462,3 +462,56 @@ class ArmSim:
     def velocities(self) -> Array:
         """Joint velocities, rad/s (a copy)."""
         return self._v.copy()
+
+
+class ArmModel:
+    """An arm's rigid-body model as a friction observer uses it (Pinocchio's RNEA on the URDF, armature
+    included, :meth:`ArmSim.inverse_dynamics`), for the joints ``joints`` (the arm's first ``len(joints)``):
+
+    - :meth:`gravity` ``(q)``: the gravity torque of the configuration without a payload, N·m joint side;
+    - :meth:`rigid_body` ``(q, v, a)``: the whole inverse dynamics with ``payload`` kg at the payload mount;
+    - :meth:`payload_rigid_body` ``(q, v, a)``: what 1 kg at the payload mount adds (its gravity and its
+      Coriolis/centrifugal and inertial torque), the production observer's payload-aware pairing.
+
+    One :class:`~jointwear_ros.errors.ParameterError` line for an unknown arm, too many joints or a bad payload.
+
+    >>> m = ArmModel("ur5", [f"joint_{i}" for i in range(1, 7)])
+    >>> [round(float(x), 1) for x in m.gravity([0.0, -1.2, 1.4, -1.6, -1.57, 0.0])][:3]
+    [0.0, -31.3, -15.5]
+    """
+
+    def __init__(self, arm: str, joints: Sequence[str], payload: float = 0.0) -> None:
+        from .arms import arm_spec
+
+        if not (isinstance(payload, (int, float)) and math.isfinite(payload) and payload >= 0):
+            raise ParameterError(f"payload must be a mass >= 0 kg, got {payload!r}")
+        spec = arm_spec(arm)
+        self.arm = spec.name
+        self.joints = [str(j) for j in joints]
+        self.payload = float(payload)
+        cfgs = arm_configs(spec, self.joints)
+        seeds = range(len(self.joints))
+        self._bare = ArmSim(spec, self.joints, cfgs, seeds=seeds)
+        self._kg = ArmSim(spec, self.joints, cfgs, seeds=seeds, payload=1.0)
+        self._loaded = self._bare if self.payload == 0 else ArmSim(spec, self.joints, cfgs, seeds=seeds,
+                                                                  payload=self.payload)
+
+    def gravity(self, q: Sequence[float]) -> Array:
+        return self._bare.inverse_dynamics(q, [0.0] * len(q))
+
+    def rigid_body(self, q: Sequence[float], v: Sequence[float], a: Sequence[float] | None = None) -> Array:
+        return self._loaded.inverse_dynamics(q, v, a)
+
+    def payload_rigid_body(self, q: Sequence[float], v: Sequence[float], a: Sequence[float] | None = None) -> Array:
+        return self._kg.inverse_dynamics(q, v, a) - self._bare.inverse_dynamics(q, v, a)
+
+    def observer_models(self, *, payload_mass: float | None = None, model_based: bool = False) -> dict[str, Any]:
+        """The keyword arguments of :class:`~jointwear_ros.observer.ProductionObserver` this model gives: the
+        gravity and the payload's torque per kg always (pairs whose load differs are corrected, or rejected as
+        a load mismatch), ``payload_mass`` (the part's kg when known; None: fitted per pair), and with
+        ``model_based`` the inverse dynamics for u - tau_model of passes without a reverse partner."""
+        out: dict[str, Any] = {"gravity": self.gravity, "payload_rigid_body": self.payload_rigid_body,
+                               "payload_mass": payload_mass}
+        if model_based:
+            out["rigid_body"] = self.rigid_body
+        return out
