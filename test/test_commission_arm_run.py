@@ -14,7 +14,8 @@ from jointwear_ros.cli.demo_cmd import run_commission_in_process
 
 #: the run's speeds and baseline cycles: the UR5 short; the Panda its default plan (6 speeds, 6 cycles): on 5 speeds
 #: and 4 cycles, the arm jogged within 0.01 rad, its joint_4 read 2.85 ± 1.79 at true wear 10 (z -4.0; ref-2011r,
-#: the simulator's own model, 5.8 ± 2.6 on the same cycle: the observations of the Panda's elbow read low)
+#: the simulator's own model, 5.8 ± 2.6, z -1.6, on the same cycle: the rest is the set fitted on fewer cycles;
+#: noise-free, the elbow's observations read its truth within 0.2 sigma, docs/arm.md)
 PLAN = {"ur5": ((10.0, 20.0, 40.0, 80.0, 120.0), 4), "panda": (None, 6)}
 OVERLOADED = {"ur5": "joint_2", "panda": "joint_6"}
 
@@ -27,9 +28,12 @@ def run(request, tmp_path_factory):
     return arm, run_commission_in_process(arm, n, tmp_path_factory.mktemp(arm), speeds=speeds, baseline_cycles=k)
 
 
-#: Known to miss on the Panda's base joint (measured z = -3.1, estimate 3.1 ± 2.2 at true wear 10; the elbow reads
-#: low too, z = -2.1): its only load is the Coriolis push of the others and its set has no load column, but the test
-#: cycle at a baseline's own pose reads the same, so the cause is open (docs/arm.md).
+#: Known to miss on the Panda's base joint (seed 0: 3.13 ± 2.19 at true wear 10, z -3.14; the elbow reads low too,
+#: z -2.10). Measured (docs/arm.md): the plant, the observer and the commissioned set are right (a noise-free cycle
+#: reads the truth within 0.1 sigma; the set within 0.4 sigma of it); the test cycle's noise draw reads -2.09 sigma
+#: at the top speed, 80 rad/s, the only one with a lever on the unknown temperature: the estimate goes to 42.9 degC
+#: (true 38) and the weak wear-10 signal with it (told the temperature: z -0.82; ref-2011r on the same cycle z
+#: -2.78). 300 noise draws: z -0.64 ± 0.95, |z| > 3 in 0.7 %; nine seeds -3.14 to +0.47, seed 0 the worst.
 KNOWN_MISS = {("panda", "joint_1")}
 
 
@@ -45,7 +49,10 @@ def test_each_joint_commissioned_on_the_arm_estimates_its_test_wear_within_3_std
             assert abs(j.z) <= 3.0, (arm, j.joint, j.estimate, j.std, j.true_wear)
 
 
-@pytest.mark.xfail(strict=True, reason="the Panda's base joint reads low after commissioning (cause open, docs/arm.md)")
+@pytest.mark.xfail(strict=True, reason="seed 0's test cycle reads the Panda's base joint -2.09 sigma low at its top "
+                   "speed, which puts the unknown temperature at 42.9 degC (true 38) and the weak wear-10 estimate at "
+                   "3.1 (z -3.14; 0.7 % of noise draws; the posterior mean reads about half a std low with the "
+                   "temperature unknown): docs/arm.md")
 def test_the_pandas_base_joint_commissioned_without_a_load_column_is_within_3_std(run):
     arm, res = run
     if arm != "panda":
