@@ -126,6 +126,18 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="leave out the cycle that takes a joint beyond test_cycle's effort limit (on an arm: an "
                         "overload payload; independent joints: the first joint's window load) "
                         "(by default it runs first, fails, and is skipped by name)")
+    pr = p.add_argument_group(
+        "production (--production)",
+        "wear from the robot's own program, no test cycle: the arm (--arm, default ur5) runs its pick-and-place for "
+        "--shifts shifts of --cycles cycles at known wear (--wear, one per joint), a part of --payload kg (default 2) "
+        "carried one way; the cell's joint states are played onto the plant's nodes (production_observer, "
+        "wear_estimator, cycle_on_demand, recorder) at --real-time-factor (default 3); prints each joint's "
+        "production estimate against its true wear, the pass counts, the cycle requests and whether the replay "
+        "equals live (docs/production.md)")
+    pr.add_argument("--production", action="store_true", help="run the production demo (out/production by default)")
+    pr.add_argument("--shifts", type=int, default=2, metavar="N", help="production shifts (default 2)")
+    pr.add_argument("--cycles", type=int, default=3, metavar="K",
+                    help="pick-and-place cycles per shift (default 3: one of each product of the speed mix)")
     p.set_defaults(func=cmd_demo)
 
 
@@ -536,8 +548,14 @@ def _values_per_joint(text: str | None, flag: str, n: int | None, default: Seque
 def cmd_demo(args: argparse.Namespace) -> int:
     from ..model import load_parameter_set_info
 
+    if args.commission and args.production:
+        raise UsageError("--commission and --production are two demos: give one")
     if args.commission:
         return cmd_demo_commission(args)
+    if args.production:
+        from .demo_production import cmd_demo_production
+
+        return cmd_demo_production(args)
     n = args.joints
     if n is not None and not 1 <= n <= MAX_DEMO_JOINTS:
         raise UsageError(f"--joints: {n} is outside 1-{MAX_DEMO_JOINTS}")

@@ -279,7 +279,7 @@ def _publish(args: argparse.Namespace) -> int:
     check_bag(bag)  # a damaged bag is refused with the file and offset before anything is published
     try:
         import rclpy
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
         from rosgraph_msgs.msg import Clock
 
         from ..nodes.runtime import message_class
@@ -305,7 +305,10 @@ def _publish(args: argparse.Namespace) -> int:
                     continue
                 qos_list = getattr(c.ext, "offered_qos_profiles", []) or []
                 latched = any(getattr(q.durability, "name", "") == "TRANSIENT_LOCAL" for q in qos_list)
+                # KEEP_ALL: a message stays with the publisher until every reliable subscriber has it, so a
+                # subscriber that falls behind the playback is delayed, never loses one (KEEP_LAST would overwrite)
                 qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                                 history=HistoryPolicy.KEEP_LAST if latched else HistoryPolicy.KEEP_ALL,
                                  durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
                 pubs[c.id] = node.create_publisher(cls, c.topic, qos)
                 conns.append(c)

@@ -73,8 +73,11 @@ def _stamp(store: Any, ns: int) -> Any:
 
 
 def record_production(run: ProductionRun, path: str | os.PathLike[str], *, temperature_rate: float = 10.0,
-                      compression: str = "zstd") -> Path:
-    """Write ``run`` to a new bag directory ``path`` (it must not exist; module docstring). Returns the path."""
+                      compression: str = "zstd", start: float = 0.0) -> Path:
+    """Write ``run`` to a new bag directory ``path`` (it must not exist; module docstring). Returns the path.
+
+    ``start``: s added to every stamp (the run's time 0 as a time of day, e.g. the epoch seconds of the shift
+    start: a bag stamped from 0 looks like a clock that was never set)."""
     p = Path(path)
     if p.exists():
         raise InputDataError(f"{p}: exists; give a new bag directory")
@@ -95,7 +98,7 @@ def record_production(run: ProductionRun, path: str | os.PathLike[str], *, tempe
         params[f"{j}.gear_ratio"] = float(run.gear_ratio[i])
         params[f"{j}.torque_scale"] = float(run.torque_scale[i])
     custom = {NODE_PARAMS_KEY: json.dumps({"joint_sim": params}, sort_keys=True),
-              TRUTH_KEY: json.dumps(run.truth(), sort_keys=True)}
+              TRUTH_KEY: json.dumps({**run.truth(), "stamp_offset": float(start)}, sort_keys=True)}
     writer = McapBagWriter(p, compression=compression, fsync=False, custom_data=custom)
     try:
         def connect(topic: str, msgtype: str) -> int:
@@ -108,7 +111,9 @@ def record_production(run: ProductionRun, path: str | os.PathLike[str], *, tempe
         tm_c = connect(TEMPERATURE_TOPIC, TEMPERATURE_TYPE)
         period = 1.0 / temperature_rate
         next_temp = 0.0
-        stamps = np.rint(run.t * 1e9).astype(np.int64)
+        if not (math.isfinite(start) and start >= 0):
+            raise InputDataError(f"record production: start must be a time >= 0 s, got {start}")
+        stamps = np.rint((run.t + float(start)) * 1e9).astype(np.int64)
         for k in range(len(run.t)):
             ns = int(stamps[k])
             stamp = _stamp(store, ns)
