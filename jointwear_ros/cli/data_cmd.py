@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 from . import UsageError
@@ -413,25 +414,28 @@ def cmd_from_timeseries(args: argparse.Namespace) -> int:
     return 0
 
 
-def _production_settings(args: argparse.Namespace, names: tuple[str, ...]) -> tuple[dict[str, object], list[str]]:
-    """The production_observer's parameter values for these bags (module docstring of the command)."""
+def production_settings(bags: Sequence[str], names: tuple[str, ...], *, params: str | None = None,
+                        arm: str | None = None, payload: str | None = None, shift_seconds: str | None = None,
+                        shift_origin: str | None = None) -> tuple[dict[str, object], list[str]]:
+    """The production_observer's parameter values for these bags (module docstring of the command): the node's
+    file (or ``params``), the settings the node recorded in the first bag over them, then the options given
+    (as their text); and where they came from."""
     from ..io.bags import recorded_settings
     from .common import node_params
 
-    values: dict[str, object] = dict(node_params(args.params, "production_observer.yaml", "production_observer",
+    values: dict[str, object] = dict(node_params(params, "production_observer.yaml", "production_observer",
                                                  "--params"))
-    settings = recorded_settings(args.bags[0])
+    settings = recorded_settings(bags[0])
     rec = settings.get("production_observer")
     used = []
     if rec:
         values.update(rec)
         used.append("the recorded production_observer's")
-    for key, flag in (("payload", args.payload), ("shift_seconds", args.shift_seconds),
-                      ("shift_origin", args.shift_origin)):
+    for key, flag in (("payload", payload), ("shift_seconds", shift_seconds), ("shift_origin", shift_origin)):
         if flag is not None:
             values[key] = parse_float(flag, "--" + key.replace("_", "-"))
-    if args.arm is not None:
-        values["arm"] = args.arm
+    if arm is not None:
+        values["arm"] = arm
     arm = str(values.get("arm") or "")
     sim = settings.get("joint_sim", {})
     if arm:
@@ -474,7 +478,9 @@ def cmd_from_production(args: argparse.Namespace) -> int:
             raise UsageError(f"{flag}: {text} must be " + ("a mass >= 0 kg" if flag == "--payload" else
                                                            "a positive number of seconds"))
     samples = read_production(args.bags)
-    values, used = _production_settings(args, samples.names)
+    values, used = production_settings(args.bags, samples.names, params=args.params, arm=args.arm,
+                                       payload=args.payload, shift_seconds=args.shift_seconds,
+                                       shift_origin=args.shift_origin)
     configs = [from_mapping(ProductionConfig, values, joint=j) for j in samples.names]
     arm = str(values.get("arm") or "")
     payload = float(values.get("payload", 0.0))  # type: ignore[arg-type]

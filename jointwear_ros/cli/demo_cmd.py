@@ -555,7 +555,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if args.production:
         from .demo_production import cmd_demo_production
 
-        return cmd_demo_production(args)
+        _check_domain_id(args.domain_id)
+        return cmd_demo_production(args, _domain_id(args.domain_id))
     n = args.joints
     if n is not None and not 1 <= n <= MAX_DEMO_JOINTS:
         raise UsageError(f"--joints: {n} is outside 1-{MAX_DEMO_JOINTS}")

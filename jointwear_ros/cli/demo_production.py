@@ -150,9 +150,9 @@ def _same_observations(live: list[dict[str, Any]], offline: list[Any]) -> tuple[
 
 def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles: int = 3,
                         wear: list[float] | None = None, payload: float = 2.0, rate: float = 3.0,
-                        timeout: float = 300.0, domain_id: int | None = None, seed: int = 0) -> ProductionDemoResult:
-    """The production demo (module docstring)."""
-    from ..cli.data_cmd import _production_settings
+                        timeout: float = 300.0, domain_id: int, seed: int = 0) -> ProductionDemoResult:
+    """The production demo (module docstring) on ROS domain ``domain_id``."""
+    from ..contract import CycleState, level_name
     from ..io.bags import find_bags
     from ..io.params import node_params_from_yaml
     from ..io.production_bag import ShiftClock, production_shifts, read_production, record_production
@@ -165,7 +165,7 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     from ..sim.arm import ArmModel
     from ..sim.arms import arm_spec
     from ..sim.production import SelfHeating, pick_and_place, run_production
-    from .demo_cmd import _domain_id
+    from .data_cmd import production_settings
 
     t_wall = time.monotonic()
     spec = arm_spec(arm)
@@ -197,7 +197,7 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     shift_seconds = (float(run.shift_start[1] - run.shift_start[0]) if len(run.shift_start) > 1
                      else float(run.t[-1] - run.shift_start[0]) + 1.0)
     # 2. the plant's nodes, live, the bag played onto their graph
-    domain = _domain_id(domain_id)
+    domain = int(domain_id)
     env = loopback_env(domain)
     before = set(find_bags(bagdir))
     params: dict[str, dict[str, Any]] = {
@@ -263,7 +263,7 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
             shown = [0]
 
             def tick() -> None:
-                done = {s.cycle_id for s in statuses if s.state_name == "DONE"}
+                done = {s.cycle_id for s in statuses if s.state == CycleState.DONE}
                 if len(done) != shown[0]:
                     shown[0] = len(done)
                     _progress(f"production shift {max(done)} ended: its observations and estimates are out")
@@ -287,10 +287,10 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
         fut = end_client.call_async(Trigger.Request())
         op.spin_until(fut.done, 30.0, children, "the answer of /production_observer/end_shift")
         _progress(f"the operator ended the last shift: {fut.result().message}")
-        last = max(s.cycle_id for s in statuses if s.state_name == "RUNNING")
+        last = max(s.cycle_id for s in statuses if s.state == CycleState.RUNNING)
 
         def estimated() -> bool:
-            done = {s.joint_name: s for s in statuses if s.cycle_id == last and s.state_name == "DONE"}
+            done = {s.joint_name: s for s in statuses if s.cycle_id == last and s.state == CycleState.DONE}
             if set(done) != set(names):
                 return False
             got = {(e.joint_name, e.cycle_id) for e in op.estimates if e.source == "production"}
@@ -318,16 +318,15 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     recorded = str(bags[-1]) if bags else None
     # the newest production estimate per joint, and why a joint could not tell
     estimates: dict[str, tuple[int, float, float, str] | None] = {j: None for j in names}
-    level_names = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
     for e in estimates_msgs:
         if e.source == "production" and e.joint_name in estimates:
             old = estimates[e.joint_name]
             if old is None or e.cycle_id >= old[0]:
                 estimates[e.joint_name] = (int(e.cycle_id), float(e.wear), float(e.wear_std),
-                                           level_names.get(int(e.level), str(e.level)))
+                                           level_name(int(e.level)))
     reasons = {}
     for j in names:
-        done = [s for s in statuses if s.joint_name == j and s.state_name == "DONE"]
+        done = [s for s in statuses if s.joint_name == j and s.state == CycleState.DONE]
         if done and done[-1].speeds_total == 0:
             reasons[j] = done[-1].message
         elif estimates[j] is not None and not math.isfinite(estimates[j][1]):  # type: ignore[index]
@@ -336,9 +335,7 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     replay: dict[str, Any] = {}
     offline_shifts: list[Any] = []
     if recorded is not None and not failure:
-        ns = argparse.Namespace(params=None, bags=[recorded], payload=None, shift_seconds=None, shift_origin=None,
-                                arm=None)
-        values, _used = _production_settings(ns, tuple(names))
+        values, _used = production_settings([recorded], tuple(names))
         configs = [from_mapping(ProductionConfig, values, joint=j) for j in names]
         samples = read_production([recorded])  # the joint states as the plant recorded them
         mass = float(values.get("payload", 0.0))  # type: ignore[arg-type]
@@ -365,7 +362,7 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
         logs=str(logdir), failure=failure)
 
 
-def cmd_demo_production(args: argparse.Namespace) -> int:
+def cmd_demo_production(args: argparse.Namespace, domain_id: int) -> int:
     """``jointwear demo --production``: run it, print the summary (or ``--json``); exit 0, 1 when the live run
     failed or the replay differs from it."""
     from .common import parse_float, parse_float_list, print_json
@@ -394,7 +391,7 @@ def cmd_demo_production(args: argparse.Namespace) -> int:
         raise UsageError("--shifts 1-20 and --cycles 1-50 (each cycle is about 15 s of production)")
     res = run_production_demo(Path(args.out if args.out != "out/demo" else "out/production"), arm=arm,
                               shifts=args.shifts, cycles=args.cycles, wear=wear, payload=payload, rate=rate,
-                              timeout=timeout, domain_id=args.domain_id)
+                              timeout=timeout, domain_id=domain_id)
     rc = 1 if res.failure or not res.replay_equals_live else 0
     if args.json:
         print_json(res.as_dict())
