@@ -116,7 +116,7 @@ def _level(s) -> int:
 def test_five_cycles_through_one_graph_reach_diagnostics_with_the_right_level(ros_context):
     sim_time = {"use_sim_time": True}
     children = [
-        NodeProcess("joint_sim", {"publish_clock": True, "real_time_factor": 4.0, "wear": 10.0, **sim_time}),
+        NodeProcess("joint_sim", {"publish_clock": True, "real_time_factor": 3.0, "wear": 10.0, **sim_time}),
         NodeProcess("test_cycle", {"simulator": True, **sim_time}),
         NodeProcess("friction_observer", {"temperature_topic": "/joint_temperature", "observations_topic": RAW, **sim_time}),
         NodeProcess("wear_estimator", {"use_measured_temperature": True, "diagnostics_period": 0.5, **sim_time}),
