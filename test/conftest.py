@@ -87,6 +87,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_without_a_temperature_sensor_two_speed_levels_cannot_tell_and_say_why",
         "test_each_pair_weighs_as_a_sweep_within_3_std_and_tighter_than_one_observation_per_level",
         "test_without_a_temperature_sensor_speed_levels_count_not_pairs",
+        "test_the_speed_override_scales_each_cycles_cruise_and_refuses_a_speed_past_the_limits",
     ),
     "test_cycle_arm.py": (  # whole test cycles on the simulated arms, 4-6 s each
         "test_every_joint_at_once_on_the_arm_observes_each_joints_friction_in_a_fraction_of_the_cell_time",
@@ -103,7 +104,18 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_trend_plots_and_html_rank_the_joints_by_time_to_alarm",
         "test_a_bag_stamped_by_a_clock_starting_at_zero_is_refused_with_the_reason_and_kept",
     ),
-    "test_cli_production.py": ("test_from_production_json_gives_each_shifts_counts_and_observations_as_the_core_gives_them", "test_from_production_with_the_arm_adds_model_based_observations_and_prints_the_reasons"),  # a simulated production (3 s) and the core over it
+    "test_cli_production.py": (  # a simulated production (3 s) and the core over it
+        "test_from_production_json_gives_each_shifts_counts_and_observations_as_the_core_gives_them",
+        "test_from_production_with_the_arm_corrects_the_part_carried_one_way_and_prints_the_reasons",
+    ),
+    "test_production_observer.py": (  # the arm driven through a line and back, 1.3-3.2 s each
+        "test_random_samples_raise_nothing_but_input_data_error",
+        "test_streaming_batch_and_chunked_give_the_same_shift_bit_for_bit",
+        "test_a_payload_carried_one_way_biases_tau_f_and_the_pairing_rejects_it",
+        "test_model_based_observations_come_only_from_unpaired_segments",
+    ),
+    "test_production_sim.py": ("test_a_run_is_deterministic_for_a_seed_and_wear_changes_per_shift",),  # two runs
+    "test_source.py": ("test_estimate_json_gives_a_production_shift_and_the_test_cycle_of_its_id_apart",),  # 2.4 s
     "test_cli_model.py": (
         "test_bad_arguments_give_one_line_error_and_exit_code_2",
     ),
