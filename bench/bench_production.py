@@ -54,14 +54,7 @@ def main() -> None:
     names = list(run.names)
     cfg = [ProductionConfig(gear_ratio=g, torque_scale=s) for g, s in zip(run.gear_ratio, run.torque_scale, strict=True)]
     obs = ProductionObserver(names, cfg, **ArmModel(arm, names).observer_models(payload_mass=PAYLOAD))
-    starts = [*run.shift_start[1:], math.inf]
-    shifts = []
-    k = 0
-    for s, end in enumerate(starts):
-        while k < len(run.t) and run.t[k] < end:
-            obs.add(float(run.t[k]), run.q[k], run.v[k], run.effort[k], run.temperature[k])
-            k += 1
-        shifts.append(obs.end_shift(s + 1))
+    shifts = run.observe(obs)
     t_prod = time.process_time() - t0
     # the dedicated simultaneous cycle on the same arm at the same wear and start temperature
     spec = arm_spec(arm)

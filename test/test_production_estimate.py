@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 import pytest
@@ -15,7 +14,7 @@ from jointwear_ros.contract import CycleState, CycleStatus
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.monitor import MonitorConfig, WearMonitor, estimate_shift
 from jointwear_ros.observer import ProductionConfig, ProductionObserver, ProductionShift
-from jointwear_ros.sim.arm import ArmSim, arm_configs
+from jointwear_ros.sim.arm import ArmModel, ArmSim, arm_configs
 from jointwear_ros.sim.arms import arm_spec
 from jointwear_ros.sim.production import ProductionRun, pick_and_place, run_production
 
@@ -33,31 +32,14 @@ def run() -> ProductionRun:
                           temperature=40.0, seed=3)
 
 
-def _models(names: list[str]) -> tuple[Any, Any]:
-    spec = arm_spec(ARM)
-    m0 = ArmSim(spec, names, arm_configs(spec, names), seeds=range(len(names)))
-    m1 = ArmSim(spec, names, arm_configs(spec, names), seeds=range(len(names)), payload=1.0)
-    zero = np.zeros(len(names))
-    # per kg at the flange, the payload's coupling torque included: carried one way, C(q, v) v does not cancel
-    return (lambda q: m0.inverse_dynamics(q, zero),
-            lambda q, v, a: m1.inverse_dynamics(q, v, a) - m0.inverse_dynamics(q, v, a))
-
-
 def _observe(run: ProductionRun, payload_model: bool = True, mass: float | None = PAYLOAD) -> list[ProductionShift]:
     names = list(run.names)
-    gravity, per_kg = _models(names)
     cfg = [ProductionConfig(gear_ratio=g, torque_scale=s) for g, s in zip(run.gear_ratio, run.torque_scale, strict=True)]
-    kw: dict[str, Any] = {"payload_rigid_body": per_kg, "payload_mass": mass} if payload_model else {}
-    obs = ProductionObserver(names, cfg, gravity=gravity, **kw)
-    out = []
-    bounds = [*run.shift_start[1:], math.inf]
-    k = 0
-    for s, end in enumerate(bounds):
-        while k < len(run.t) and run.t[k] < end:
-            obs.add(float(run.t[k]), run.q[k], run.v[k], run.effort[k], run.temperature[k])
-            k += 1
-        out.append(obs.end_shift(s + 1))
-    return out
+    # the payload's torque per kg at the flange, its coupling torque included: carried one way, C(q, v) v does not cancel
+    models = ArmModel(ARM, names).observer_models(payload_mass=mass)
+    if not payload_model:
+        models = {"gravity": models["gravity"]}
+    return run.observe(ProductionObserver(names, cfg, **models))
 
 
 @pytest.fixture(scope="module")

@@ -385,6 +385,20 @@ class ProductionRun:
     def duration(self) -> float:
         return float(self.t[-1]) if len(self.t) else 0.0
 
+    def observe(self, observer: Any) -> list[Any]:
+        """Feed every sample to ``observer`` (a :class:`~jointwear_ros.observer.ProductionObserver` of this run's
+        joints) and end a shift at each of the run's shift starts: its :class:`~jointwear_ros.observer.production.
+        ProductionShift` per shift (ids 1, 2, ...), what a node that ended the shifts there would have published."""
+        out = []
+        bounds = [*self.shift_start[1:], math.inf]
+        k = 0
+        for s, end in enumerate(bounds):
+            while k < len(self.t) and self.t[k] < end:
+                observer.add(float(self.t[k]), self.q[k], self.v[k], self.effort[k], self.temperature[k])
+                k += 1
+            out.append(observer.end_shift(s + 1))
+        return out
+
     def truth(self) -> dict[str, Any]:
         """The truth as plain values (what :func:`~jointwear_ros.io.production_bag.record_production` stores)."""
         return {"arm": self.arm, "program": self.program.name, "joints": list(self.names),
