@@ -44,7 +44,8 @@ def demos(tmp_path_factory):
 def test_demo_estimates_the_true_wear_within_3_std_with_the_right_level(demos, wear):
     res = demos[wear]
     assert res.final_state == "DONE"
-    assert [round(o["speed"]) for o in res.observations] == SPEEDS
+    # the measured mean speed of each sweep: within 1 % of the plan (the velocity loop, not the plan, sets it)
+    assert [o["speed"] for o in res.observations] == pytest.approx(SPEEDS, rel=0.01)
     est = res.joints[0].estimate
     assert est["cycle_id"] == res.cycle_id
     assert abs(est["wear"] - wear) <= 3.0 * est["wear_std"], (est["wear"], est["wear_std"])

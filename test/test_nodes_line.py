@@ -62,8 +62,8 @@ def test_a_simultaneous_cycle_observes_every_joint_at_every_speed_in_about_one_j
             assert all(s.joints_done == k and list(s.joints) == JOINTS for s in own)
             end = op.joint_end(cid, j)
             assert end is not None and end.state == CycleState.DONE, (j, end)
-            obs = sorted(round(o.speed) for o in op.observations if o.cycle_id == cid and o.joint_name == j)
-            assert obs == [round(v) for v in SPEEDS], (j, obs)
+            obs = sorted(o.speed for o in op.observations if o.cycle_id == cid and o.joint_name == j)
+            assert obs == pytest.approx(sorted(SPEEDS), rel=0.01), (j, obs)  # measured speeds, within 1 % of the plan
             assert len(op.estimates_of(cid, j)[-1].speeds) == len(SPEEDS)
         # the robot cycle ended on the last joint's DONE, the first to end it
         assert next(s for s in mine if s.robot_cycle_over).joint_name == JOINTS[-1]

@@ -331,7 +331,8 @@ def _check_offline_equals_live(robot: Robot, cyc, cycle_id: int) -> None:
 def _check_cycle(robot: Robot, cycle_id: int, wears) -> None:
     for j, w, temp in zip(JOINTS, wears, TEMPERATURES):
         obs = [o for o in robot.observations if o.cycle_id == cycle_id and o.joint_name == j]
-        assert sorted(round(o.speed) for o in obs) == [round(s) for s in SPEEDS], (j, [o.speed for o in obs])
+        # measured mean speeds, within 1 % of the plan
+        assert sorted(o.speed for o in obs) == pytest.approx(sorted(SPEEDS), rel=0.01), (j, [o.speed for o in obs])
         # the temperature of the joint's own sensor (routed by frame_id), never another joint's
         assert all(o.temperature == pytest.approx(temp) for o in obs), (j, [o.temperature for o in obs])
         (est,) = [e for e in robot.estimates if e.cycle_id == cycle_id and e.joint_name == j]
