@@ -67,14 +67,15 @@ demo: env
 # miss a window (one of four measured runs failed two tests; docs/testing.md). Both tiers always run; the target
 # fails if either failed. Bytecode is kept (see test-fast).
 ROS_WORKERS ?= 1
-ROS_XDIST = $(if $(filter-out 1,$(ROS_WORKERS)),-n $(ROS_WORKERS) --dist loadfile,-p no:xdist)
+ROS_XDIST = $(if $(filter-out 1,$(ROS_WORKERS)),-n $(ROS_WORKERS) --dist loadfile --no-loadscope-reorder,-p no:xdist)
 test: env
 	bash tools/install_system_deps.sh
 	@$(TEST_DOMAINS); rc=0; \
 	echo "== tests without a ROS graph (2 workers)"; \
-	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m "not ros" -n 2 --dist loadfile test || rc=1; \
+	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m "not ros" -n 2 --dist loadfile --no-loadscope-reorder \
+	  --junitxml=out/test-results/first-tier.xml test || rc=1; \
 	echo "== process and graph tests (marker ros, $(ROS_WORKERS) worker(s))"; \
-	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m ros $(ROS_XDIST) test || rc=1; \
+	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m ros $(ROS_XDIST) --junitxml=out/test-results/ros-tier.xml test || rc=1; \
 	exit $$rc
 
 # The quick tier while you work (63 s on this 2-core machine; docs/testing.md):
@@ -87,7 +88,8 @@ test: env
 # __pycache__ whatever PYTHONDONTWRITEBYTECODE says: without it each worker rewrites and compiles
 # every module again on every run, a third of the tier's CPU time.
 test-fast: env
-	@$(TEST_DOMAINS); PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile test
+	@$(TEST_DOMAINS); PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m "not ros and not slow" -n 2 --dist loadfile \
+	  --no-loadscope-reorder test
 
 # The process and graph tests (marker ros: real nodes over DDS) N times in a row, each run on
 # fresh domains; run it before you stop after touching a node, the cell library or those tests.

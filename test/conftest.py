@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import itertools
+import json
 import os
 import random
 import re
@@ -396,6 +397,10 @@ def pytest_ignore_collect(collection_path, config):
         return None
 
 
+#: Each test file's measured seconds in ``make test`` (``tools/test_costs.py`` writes it from the run's JUnit reports).
+FILE_COSTS = Path(__file__).with_name("file_costs.json")
+
+
 @pytest.hookimpl(tryfirst=True)  # before -m and -k deselect: every test collected is seen
 def pytest_collection_modifyitems(config, items):
     listed = {(f, n) for f, names in SLOW_TESTS.items() for n in names}
@@ -415,6 +420,22 @@ def pytest_collection_modifyitems(config, items):
     if stale and whole_files:
         warnings.warn(pytest.PytestWarning(f"conftest.SLOW_TESTS names tests that are not there: {', '.join(stale)}"),
                       stacklevel=1)
+    _costliest_files_first(items)
+
+
+def _costliest_files_first(items) -> None:
+    """The costliest files first (:data:`FILE_COSTS`), each file's tests together and in their own order:
+    pytest-xdist's workers (``--dist loadfile --no-loadscope-reorder``) then take the long files before the
+    short ones, and neither waits at the end for one long file on the other (longest processing time first).
+    The order changes no result: a stale or missing cost changes only a file's place."""
+    try:
+        costs = json.loads(FILE_COSTS.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return
+    first_seen: dict[Path, int] = {}
+    for item in items:
+        first_seen.setdefault(item.path, len(first_seen))
+    items.sort(key=lambda item: (-float(costs.get(item.path.name, 0.0)), first_seen[item.path]))
 
 
 # --------------------------------------------------------------------------- a domain per test module
