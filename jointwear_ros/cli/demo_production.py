@@ -212,7 +212,7 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     op: Any = None
     statuses: list[Any] = []
     requests: list[dict[str, str]] = []
-    po_samples: dict[str, int] = {}
+    po_samples: dict[str, tuple[int, int, int]] = {}  # per joint: samples taken, held, lost (its diagnostics)
     failure = ""
     try:
         _progress(f"ROS_DOMAIN_ID={domain}, loopback only; logs in {logdir}")
@@ -242,8 +242,8 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
             for s in msg.status:
                 if s.name.startswith("production_observer: "):
                     v = {kv.key: kv.value for kv in s.values}
-                    if v.get("samples", "").isdigit():
-                        po_samples[s.name] = int(v["samples"])
+                    if all(v.get(k, "").isdigit() for k in ("samples", "held", "lost_messages")):
+                        po_samples[s.name] = (int(v["samples"]), int(v["held"]), int(v["lost_messages"]))
 
         op.node.create_subscription(DiagnosticArray, "/jointwear/cycle_request", on_request, latched)
         op.node.create_subscription(DiagnosticArray, "/diagnostics", on_diag, rel)
@@ -272,18 +272,20 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
         if player.returncode != 0:
             raise InputDataError(f"playing {prod_bag} failed (exit {player.returncode}); see {logdir / 'replay.log'}")
         # every joint state is sent; the observer holds the newest reorder_margin of them until end_shift flushes
-        # them: wait until its count stands still (its diagnostics say it every diagnostics_period)
-        steady = {"value": -1, "since": time.monotonic()}
+        # them: wait until each one is taken, held or reported lost (its diagnostics say so every
+        # diagnostics_period; a loaded observer works through its queue first), or the counts stood still 15 s
+        steady: dict[str, Any] = {"value": None, "since": time.monotonic()}
 
         def caught_up() -> bool:
-            now = min(po_samples.values()) if po_samples else -1
+            now = min(po_samples.values()) if po_samples else None
             if now != steady["value"]:
                 steady.update(value=now, since=time.monotonic())
-            return now > 0 and time.monotonic() - steady["since"] > 3.0
+            return now is not None and (sum(now) >= n_samples or time.monotonic() - steady["since"] > 15.0)
 
-        op.spin_until(caught_up, 120.0, children, f"production_observer to take the {n_samples} joint states")
-        _progress(f"production_observer took {steady['value']} of {n_samples} joint states (the newest are held "
-                  "for their temperatures until the shift ends)")
+        op.spin_until(caught_up, 180.0, children, f"production_observer to take the {n_samples} joint states")
+        taken, held, lost = steady["value"]
+        _progress(f"production_observer took {taken} of {n_samples} joint states, {held} held for their temperatures "
+                  f"until the shift ends" + (f", {lost} lost on the way" if lost else ""))
         fut = end_client.call_async(Trigger.Request())
         op.spin_until(fut.done, 30.0, children, "the answer of /production_observer/end_shift")
         _progress(f"the operator ended the last shift: {fut.result().message}")

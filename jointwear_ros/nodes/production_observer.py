@@ -219,7 +219,7 @@ class ProductionObserverNode(Node):
                                              qos_overriding_options=overridable_qos())
         self.status_pub = self.create_publisher(TestCycleStatus, str(p["status_topic"]), _reliable(100),
                                                 qos_overriding_options=overridable_qos())
-        qos = _reliable(1000)
+        qos = _reliable(10000)  # as the recorder's queue_depth: a starved observer keeps seconds of 1 kHz states
         subscribe_reporting_loss(self, JointState, str(p["joint_states_topic"]), self._on_joint_state, qos,
                                  self._lost_callback(str(p["joint_states_topic"])),
                                  qos_overriding_options=overridable_qos())
@@ -368,6 +368,7 @@ class ProductionObserverNode(Node):
     def _joint_health(self, joint: str, stat: Status) -> None:
         bad = sum(self.bad_messages.values())
         stat.extend([("shift", str(self.clock.current or 0)), ("samples", str(self.samples)),
+                     ("held", str(len(self._held))),
                      ("shift_samples", str(self.shift_samples)), ("bad_messages", str(bad)),
                      ("lost_messages", str(sum(self.lost_messages.values()))),
                      ("cpu_us_per_sample", f"{1e6 * self.cpu_seconds / self.samples:.0f}" if self.samples else "")])
