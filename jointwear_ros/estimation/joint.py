@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,7 +70,7 @@ from ._common import (
 from .crb import DEFAULT_CRB_PRIOR, temperature_nodes
 from .priors import TemperaturePrior, parse_temperature_prior
 
-__all__ = ["JointEstimator", "JointPosterior", "widen_interval"]
+__all__ = ["MODEL_STEP", "JointEstimator", "JointPosterior", "parameter_directions", "widen_interval"]
 
 Array = npt.NDArray[np.float64]
 Index = npt.NDArray[np.intp]
@@ -86,6 +86,11 @@ _REFINE = 16
 _KEEP_LOG = 25.0
 #: Largest cached model grid (floats); beyond it the fine pass evaluates the model on demand.
 _MAX_CACHE = 12_000_000
+#: The delta method's central-difference step along each principal axis of a set's covariance, in that axis's std
+#: (:meth:`JointEstimator.model_std`).
+MODEL_STEP = 0.02
+#: Two-sided 95 % of a normal: the interval's half-width of the model part.
+_Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True)
@@ -101,20 +106,23 @@ class JointPosterior:
     temperature_std: float
     temperature_map: float
     n_modes: int
+    #: the part of ``wear_std`` the unknown temperature adds (law of total variance: the std over T of the mean of
+    #: w given T); 0 with the temperature measured
+    wear_std_temperature: float = 0.0
 
 
 class _Grid:
     """Model values on (rows, T nodes, fine w grid) for one set of rows."""
 
     def __init__(self, model: Model, params: Parameters, speed: Array, load: Array, temps: Array,
-                 wgrid: Array) -> None:
+                 wgrid: Array, cache: bool = True) -> None:
         self.model, self.params = model, params
         self.speed, self.load, self.temps, self.w = speed, load, temps, wgrid
         self.coarse_idx = np.arange(0, wgrid.size, _REFINE)
         if self.coarse_idx[-1] != wgrid.size - 1:
             self.coarse_idx = np.append(self.coarse_idx, wgrid.size - 1)
         size = speed.size * temps.size * wgrid.size
-        self.full: Array | None = self._eval(wgrid) if size <= _MAX_CACHE else None
+        self.full: Array | None = self._eval(wgrid) if cache and size <= _MAX_CACHE else None
         self.coarse = self.full[:, :, self.coarse_idx] if self.full is not None else self._eval(wgrid[self.coarse_idx])
 
     def _eval(self, w: Array) -> Array:
@@ -154,6 +162,9 @@ class JointEstimator(SetModelBase):
         tau_m for tables without a ``load_torque`` column.
     use_temperature
         Use measured temperatures when rows have them.
+    model_uncertainty
+        Carry the set's parameter covariance (a commissioned set's ``covariance``) into the std
+        (default True; see :meth:`model_std`). A set without a covariance is unaffected.
     seed, rng
         Accepted for the common estimator interface; the estimator is deterministic.
     """
@@ -177,6 +188,7 @@ class JointEstimator(SetModelBase):
         n_temperature: int | None = None,
         default_load: float | None = None,
         use_temperature: bool = True,
+        model_uncertainty: bool = True,
         seed: int | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
@@ -198,6 +210,9 @@ class JointEstimator(SetModelBase):
         self.n_temperature = None if n_temperature is None else int(n_temperature)
         self.default_load = default_load
         self.use_temperature = use_temperature
+        self.model_uncertainty = bool(model_uncertainty)
+        self.model_directions = (parameter_directions(self.param_set, self.params, self.model.param_names)
+                                 if self.model_uncertainty else ())
         self._cache: OrderedDict[tuple[object, ...], _Grid] = OrderedDict()
 
     # -- grids ---------------------------------------------------------------
@@ -236,8 +251,9 @@ class JointEstimator(SetModelBase):
             return self._posterior_known(v, tm, y, sig, np.where(np.isfinite(temp), temp, np.nanmean(temp)))
         return self._posterior_unknown(v, tm, y, sig)
 
-    def _posterior_unknown(self, v: Array, tm: Array, y: Array, sig: Array) -> JointPosterior:
-        g = self._grid(v, tm, None)
+    def _posterior_unknown(self, v: Array, tm: Array, y: Array, sig: Array, grid: _Grid | None = None
+                           ) -> JointPosterior:
+        g = grid if grid is not None else self._grid(v, tm, None)
         nt = g.temps.size
         _, wq = self.prior.quadrature(nt)
         with np.errstate(divide="ignore"):
@@ -264,17 +280,22 @@ class JointEstimator(SetModelBase):
         tmn = float(pt @ g.temps)
         ts = math.sqrt(max(float(pt @ (g.temps - tmn) ** 2), 0.0))
         lo, hi = self._interval(w, pw)
+        # the unknown T's part of the std: var(w) = E_T[var(w | T)] + var_T(E[w | T])
+        on = pt > 0
+        mt = (p[on] @ w) / pt[on]
+        wst = math.sqrt(max(float(pt[on] @ (mt - wm) ** 2), 0.0))
         # joint MAP: the prior density (not the quadrature weight) at each node
         lmap = np.asarray(self.prior.logpdf(g.temps), dtype=float)[:, None] - chi
         it, iw = np.unravel_index(int(np.argmax(lmap)), lmap.shape)
         w_map, t_map = float(w[iw]), float(g.temps[it])
-        if self.point == "map":
+        if self.point == "map" and grid is None:
             w_map, t_map = self._polish(v, tm, y, sig, w_map, t_map)
-        return JointPosterior(wm, ws, lo, hi, w_map, tmn, ts, t_map, _count_modes(keep))
+        return JointPosterior(wm, ws, lo, hi, w_map, tmn, ts, t_map, _count_modes(keep), min(wst, ws))
 
-    def _posterior_known(self, v: Array, tm: Array, y: Array, sig: Array, temp: Array) -> JointPosterior:
-        f = self.model.evaluate(self.params, speed=v[:, None], load_torque=tm[:, None], temperature=temp[:, None],
-                                wear=self.w_grid[None, :])
+    def _posterior_known(self, v: Array, tm: Array, y: Array, sig: Array, temp: Array,
+                         params: Mapping[str, float] | None = None) -> JointPosterior:
+        f = self.model.evaluate(self.params if params is None else params, speed=v[:, None], load_torque=tm[:, None],
+                                temperature=temp[:, None], wear=self.w_grid[None, :])
         chi = np.sum(((y[:, None] - f) / sig[:, None]) ** 2, axis=0) * 0.5
         ll = -(chi - chi.min())
         p = np.exp(ll)
@@ -285,7 +306,7 @@ class JointEstimator(SetModelBase):
         lo, hi = self._interval(w, p)
         w_map = float(w[int(np.argmin(chi))])
         t = float(np.mean(temp))
-        if self.point == "map":
+        if self.point == "map" and params is None:
             w_map = self._polish_known(v, tm, y, sig, temp, w_map)
         modes = _count_modes(np.flatnonzero(ll[::_REFINE] >= -_KEEP_LOG))
         return JointPosterior(wm, ws, lo, hi, w_map, t, 0.0, t, modes)
@@ -380,6 +401,16 @@ class JointEstimator(SetModelBase):
         wear_std = max(post.wear_std, resolution) * scale
         low, high = post.wear_low, post.wear_high
         low, high = widen_interval(est, low, high, scale, self.wear_range)
+        extra: dict = {}
+        std_model = 0.0
+        if self.model_directions:
+            std_model = self.model_std(rows.speed, rows.load, rows.tau_f, rows.noise_std, temp)
+            extra = {"wear_std_posterior": wear_std, "wear_std_model": std_model,
+                     "model_uncertainty": f"the set's parameter covariance ({len(self.model_directions)} directions)"}
+            if std_model > 0:
+                low = max(self.wear_range[0], est - math.hypot(max(est - low, 0.0), _Z95 * std_model))
+                high = min(self.wear_range[1], est + math.hypot(max(high - est, 0.0), _Z95 * std_model))
+                wear_std = math.hypot(wear_std, std_model)
         return with_set_info(WearResult(
             wear=est,
             wear_std=wear_std,
@@ -390,8 +421,11 @@ class JointEstimator(SetModelBase):
             temperature_std=post.temperature_std,
             speeds=tuple(float(s) for s in rows.speed),
             per_speed_wear=tuple(float(w) for w in per_row),
+            wear_std_model=std_model,
             info={
                 "point": self.point,
+                "wear_std_temperature": post.wear_std_temperature * scale,
+                **extra,
                 "prior": self.prior.label if not known.any() else "measured",
                 "wear_mean": post.wear_mean,
                 "wear_map": post.wear_map,
@@ -403,6 +437,71 @@ class JointEstimator(SetModelBase):
                 **fit,
             },
         ), self.param_set)
+
+    def model_std(self, speed: Array, load: Array, tau_f: Array, noise_std: Array,
+                  temperature: Array | None = None) -> float:
+        """The std the set's parameter uncertainty adds to the estimate (the delta method).
+
+        ``var = g^T Sigma g`` with ``g`` the gradient of the point estimate (posterior mean, or the grid's
+        joint MAP) over the covariance's parameters, by central differences along each principal axis
+        of ``Sigma`` (:func:`parameter_directions`): the point is recomputed from the same rows with the
+        parameters moved by :data:`MODEL_STEP` of that axis's std either way (the step halved, up to four
+        times, while a moved set leaves a parameter's bounds or gives a non-finite friction), the same
+        temperature nodes, and ``var = sum_j ((w_j+ - w_j-) / (2 h_j))^2``. Costs two posteriors per
+        direction (the grid evaluated on the coarse w cells and the kept fine ones only): about 1-3 ms each.
+        """
+        v, tm, y, sig = speed, np.abs(load), tau_f, noise_std
+        nominal = self.params.valuesdict()
+        temps = None if temperature is None else np.where(np.isfinite(temperature), temperature,
+                                                           np.nanmean(temperature))
+        base = None if temps is not None else self._grid(v, tm, None)
+
+        def point(values: Mapping[str, float]) -> float:
+            if temps is not None:
+                pp = self._posterior_known(v, tm, y, sig, temps, params=values)
+            else:
+                assert base is not None
+                g = _Grid(self.model, values, v, tm, base.temps, self.w_grid, cache=False)  # type: ignore[arg-type]
+                pp = self._posterior_unknown(v, tm, y, sig, grid=g)
+            return pp.wear_map if self.point == "map" else pp.wear_mean
+
+        var = 0.0
+        for names, step in self.model_directions:
+            h = MODEL_STEP
+            for _ in range(5):
+                moved = []
+                for sgn in (1.0, -1.0):
+                    vals = dict(nominal)
+                    for n, d in zip(names, step):
+                        vals[n] = nominal[n] + sgn * h * d
+                    moved.append(vals)
+                if all(self._usable(vals, v, tm, temps, base) for vals in moved):
+                    break
+                h /= 2.0
+            else:
+                continue
+            wp, wn = point(moved[0]), point(moved[1])
+            if math.isfinite(wp) and math.isfinite(wn):
+                var += ((wp - wn) / (2.0 * h)) ** 2
+        return math.sqrt(var)
+
+    def _usable(self, values: Mapping[str, float], v: Array, tm: Array, temps: Array | None,
+                base: _Grid | None) -> bool:
+        """Moved parameters within their bounds, and a finite friction at the rows, over T and at w's ends."""
+        for n, x in values.items():
+            p = self.params[n]
+            if not (math.isfinite(x) and p.min <= x <= p.max):
+                return False
+        ends = self.w_grid[[0, -1]]
+        with np.errstate(all="ignore"):
+            if temps is not None:
+                f = self.model.evaluate(values, speed=v[:, None], load_torque=tm[:, None], temperature=temps[:, None],
+                                        wear=ends[None, :])
+            else:
+                assert base is not None
+                f = self.model.evaluate(values, speed=v[:, None, None], load_torque=tm[:, None, None],
+                                        temperature=base.temps[None, :, None], wear=ends[None, None, :])
+        return bool(np.all(np.isfinite(f)))
 
     def _fit_check(self, rows: Rows, wear: float, temps: Array, unknown_temperature: bool) -> dict:
         """How well the model at the estimate explains the rows, and what the estimate may not assume.
@@ -448,6 +547,44 @@ class JointEstimator(SetModelBase):
         f = self.model.evaluate(self.params, speed=rows.speed[:, None], load_torque=rows.load[:, None],
                                 temperature=temps[:, None], wear=self.w_grid[None, :])
         return np.asarray(self.w_grid[np.argmin((rows.tau_f[:, None] - f) ** 2, axis=1)], dtype=float)
+
+
+def parameter_directions(pset: ParameterSet | None, params: Parameters, names: Sequence[str] | None = None
+                         ) -> tuple[tuple[tuple[str, ...], tuple[float, ...]], ...]:
+    """The principal axes of a set's parameter covariance, each as ``(names, step)``: one std along it.
+
+    ``Sigma = V diag(lambda) V^T``; axis ``j`` moves the parameters by ``sqrt(lambda_j) V[:, j]``. Only the
+    covariance's parameters that ``params`` has (and ``names``, the model's, when given) count; axes with
+    ``lambda_j <= 1e-12 max(lambda)`` are left out. Empty for a set without a covariance (or none given).
+
+    >>> from jointwear_ros.model import load_parameter_set_info, paper_wear_model
+    >>> from dataclasses import replace
+    >>> ref = load_parameter_set_info("ref-2011r")
+    >>> parameter_directions(ref, paper_wear_model().make_params(ref.parameters()))
+    ()
+    >>> s = replace(ref, covariance=(("Fc0", "Fs0"), ((4e-8, 0.0), (0.0, 1e-8))))
+    >>> [(n, [round(x, 6) for x in d]) for n, d in parameter_directions(s, paper_wear_model().make_params(s.parameters()))]
+    [(('Fc0', 'Fs0'), [0.0, 0.0001]), (('Fc0', 'Fs0'), [0.0002, 0.0])]
+    """
+    if pset is None or pset.covariance is None:
+        return ()
+    all_names, mat = pset.covariance
+    keep = [i for i, n in enumerate(all_names) if n in params and (names is None or n in names)]
+    if not keep:
+        return ()
+    sigma = np.asarray(mat, dtype=float)[np.ix_(keep, keep)]
+    sigma = 0.5 * (sigma + sigma.T)
+    lam, vec = np.linalg.eigh(sigma)
+    if not (lam.size and np.all(np.isfinite(lam)) and lam.max() > 0):
+        return ()
+    kept = tuple(all_names[i] for i in keep)
+    out = []
+    for j in np.flatnonzero(lam > 1e-12 * lam.max()):
+        d = math.sqrt(float(lam[j])) * vec[:, j]
+        k = int(np.argmax(np.abs(d)))
+        d = d if d[k] >= 0 else -d  # a sign that does not depend on the solver
+        out.append((kept, tuple(float(x) for x in d)))
+    return tuple(out)
 
 
 def widen_interval(est: float, low: float, high: float, scale: float,
