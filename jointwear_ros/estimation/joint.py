@@ -20,7 +20,15 @@ not monotone in w for v > 0, so the posterior can have two modes); a fine pass
 - ``wear_std``, ``wear_low``/``wear_high``: posterior std and the central 95 %
   credible interval of the marginal posterior of w;
 - ``temperature``, ``temperature_std``: posterior mean and std of T;
-- ``per_speed_wear``: each row's own least-squares w at the estimated T.
+- ``per_speed_wear``: each row's own least-squares w at the estimated T;
+- ``wear_std_model``: what the set's own parameter uncertainty (a commissioned set's
+  ``covariance``) adds to ``wear_std`` (:meth:`JointEstimator.model_std`, the delta method; 0 for a
+  set without one); ``info`` names the parts (``wear_std_posterior``, ``wear_std_model``, and
+  ``wear_std_temperature``: the unknown temperature's part of the posterior std).
+
+With the temperature unknown, the posterior mean of a weak wear reads low (about -0.5 std at
+wear 10 with ``ref-2011r``); the median, the MAP, a profile over T and a Jeffreys prior were
+measured and none removes it without more estimates beyond 3 std elsewhere (docs/estimation-joint.md).
 
 Rows with a measured temperature (finite ``temperature`` column) fix T: with a
 measurement on every row each row uses its own; when only some rows have one,
