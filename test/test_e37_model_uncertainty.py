@@ -137,3 +137,12 @@ def test_the_cells_estimator_carries_a_commissioned_sets_covariance_through_the_
     r = make_estimator("joint", params=pset).estimate(_cycle(35.0, 40.0, 5, False))
     assert r.wear_std_model > 0.1 and r.info["wear_std_model"] == r.wear_std_model
     assert r.wear_std >= r.info["wear_std_posterior"]
+
+
+def test_a_covariance_with_a_non_finite_entry_is_left_out_and_the_result_says_so():
+    ref = load_parameter_set_info("ref-2011r")
+    bad = replace(ref, covariance=(("Fc0", "Fs0"), ((2.5e-7, math.nan), (math.nan, 1e-7))))
+    table = _cycle(35.0, 40.0, 5, False)
+    r, plain = JointEstimator(params=bad).estimate(table), JointEstimator(params=ref).estimate(table)
+    assert r.wear_std == plain.wear_std and r.wear_std_model == 0.0
+    assert "not in the std" in r.info["model_uncertainty"]

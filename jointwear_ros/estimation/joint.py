@@ -221,6 +221,11 @@ class JointEstimator(SetModelBase):
         self.model_uncertainty = bool(model_uncertainty)
         self.model_covariance = (parameter_covariance(self.param_set, self.params, self.model.param_names)
                                  if self.model_uncertainty else None)
+        self._covariance_note = ""
+        if self.model_uncertainty and self.model_covariance is None and self.param_set is not None \
+                and self.param_set.covariance is not None:
+            self._covariance_note = ("the set's covariance has no finite entries for the model's parameters: "
+                                     "its uncertainty is not in the std")
         self._cache: OrderedDict[tuple[object, ...], _Grid] = OrderedDict()
 
     # -- grids ---------------------------------------------------------------
@@ -414,7 +419,7 @@ class JointEstimator(SetModelBase):
         wear_std = max(post.wear_std, resolution) * scale
         low, high = post.wear_low, post.wear_high
         low, high = widen_interval(est, low, high, scale, self.wear_range)
-        extra: dict = {}
+        extra: dict = {"model_uncertainty": self._covariance_note} if self._covariance_note else {}
         std_model = 0.0
         if self.model_covariance is not None:
             std_model = self.model_std(rows.speed, rows.load, rows.tau_f, rows.noise_std, temp)
@@ -548,7 +553,10 @@ class JointEstimator(SetModelBase):
 def parameter_covariance(pset: ParameterSet | None, params: Parameters, names: Sequence[str] | None = None
                          ) -> tuple[tuple[str, ...], Array] | None:
     """A set's parameter covariance (symmetrized) over the parameters ``params`` has (and ``names``, the model's,
-    when given): ``(names, matrix)``, or None for a set without one."""
+    when given): ``(names, matrix)``, or None for a set without one (or with a non-finite entry among them).
+
+    A term of inputs other than speed, load, temperature and wear (a ripple of position) is a known offset to
+    the estimators, so its parameters are left out with ``names`` the core model's."""
     if pset is None or pset.covariance is None:
         return None
     all_names, mat = pset.covariance
@@ -556,6 +564,8 @@ def parameter_covariance(pset: ParameterSet | None, params: Parameters, names: S
     if not keep:
         return None
     sigma = np.asarray(mat, dtype=float)[np.ix_(keep, keep)]
+    if not np.all(np.isfinite(sigma)):
+        return None
     return tuple(all_names[i] for i in keep), 0.5 * (sigma + sigma.T)
 
 
