@@ -151,6 +151,8 @@ class WearResult:
     a credible interval, or mean +- 2 std). ``temperature`` is the temperature
     estimate (degC) or NaN when the estimator does not estimate it.
     ``per_speed_wear`` holds single-speed estimates aligned with ``speeds``.
+    ``wear_std_model`` is the part of ``wear_std`` that the parameter set's own
+    uncertainty adds (its covariance; 0 when the estimator does not carry it).
     """
 
     wear: float
@@ -163,6 +165,8 @@ class WearResult:
     speeds: tuple[float, ...] = ()
     per_speed_wear: tuple[float, ...] = ()
     info: Mapping[str, Any] = field(default_factory=dict)
+    #: the part of ``wear_std`` from the parameter set's own uncertainty (its covariance; 0 when not carried)
+    wear_std_model: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -175,6 +179,7 @@ class WearResult:
             "temperature_std": self.temperature_std,
             "speeds": list(self.speeds),
             "per_speed_wear": list(self.per_speed_wear),
+            "std_model": self.wear_std_model,
         }
 
 
