@@ -332,7 +332,23 @@ def test_the_live_monitor_takes_a_joint_side_set_by_path_and_screens_in_the_suit
     r = results[0].result
     assert r.wear == pytest.approx(30.0, abs=1.0) and r.info["parameter_set"] == "arm6-base"
     assert mon.rejected_count == 0
-    assert dict(results[0].values)["wear_calibration"] == "paper"  # /diagnostics names the calibration
+    values = dict(results[0].values)
+    assert values["wear_calibration"] == "paper"  # /diagnostics names the calibration
+    # what the std is made of: no unknown temperature here, and no covariance in the shipped set
+    assert float(values["wear_std_temperature"]) == 0 and "wear_std_model" not in values
+
+    # the same set with a covariance of its Coulomb level (1 N·m std): its part is in /diagnostics too
+    path.write_text(path.read_text() + "covariance:\n  names: [Fc0]\n  matrix: [[1.0]]\n")
+    mon = WearMonitor(MonitorConfig(joint_name="joint_1", method="joint", params=str(path)))
+    mon.on_status(CycleStatus(cycle_id=4, state=CycleState.RUNNING, speeds_total=len(speeds), joint_name="joint_1"), now=9.0)
+    for i, v in enumerate(speeds):
+        tau = float(m.evaluate(p, speed=v * sf, load_torque=0.1 * tf, temperature=40.0, wear=30.0)) / tf
+        results = mon.add(FrictionObservationData(
+            stamp=10.0 + i, joint_name="joint_1", cycle_id=4, speed=v, tau_f=tau, tau_f_std=3e-4,
+            tau_plus=0.1 + tau, tau_minus=0.1 - tau, load_torque=0.1, temperature=40.0, position=0.0,
+            samples_plus=500, samples_minus=500))
+    values = dict(results[0].values)
+    assert float(values["wear_std_model"]) > 0 and float(values["wear_std"]) > float(values["wear_std_model"])
 
 
 def test_wear_parameters_calibrated_from_a_table_of_known_wear(tmp_path):

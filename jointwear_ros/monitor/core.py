@@ -574,6 +574,9 @@ class WearMonitor:
                   ("evidence", evidence), ("confirmation", own),
                   ("level_wear", f"{st.wear:.3f}"), ("level_wear_std", f"{st.wear_std:.3f}")]
         values += [(k, str(res.info[k])) for k in ("parameter_set", "wear_calibration") if k in res.info]
+        # what the std is made of (the joint estimator): the set's parameter covariance, the unknown temperature
+        values += [(k, f"{float(res.info[k]):.3f}") for k in ("wear_std_model", "wear_std_temperature")
+                   if k in res.info]
         if "calibrated" in res.info:  # a prior wear scale (no wear data on the joint): its std is in wear_std
             values += [("calibrated", "true" if res.info["calibrated"] else "false"),
                        ("wear_std_noise", f"{float(res.info.get('wear_std_noise', res.wear_std)):.3f}"),
