@@ -11,6 +11,7 @@ and the guard are :mod:`.significance`'s.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import NamedTuple
@@ -19,7 +20,6 @@ import numpy as np
 import numpy.typing as npt
 from scipy import stats
 from scipy.interpolate import BSpline
-from scipy.signal import lombscargle
 
 from ..types import ObservationTable
 from .fit import group_folds
@@ -37,6 +37,7 @@ __all__ = [
     "ResidualSpace",
     "ScreenTest",
     "SmootherTest",
+    "lombscargle_many",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -131,11 +132,10 @@ class ResidualSpace:
     @staticmethod
     def rank_basis(xs: Array, nb: int = N_BASIS) -> Array:
         """Cubic B-splines of the rank of each row of ``xs`` (shape (R, n) -> (R, n, nb - 1))."""
-        rr, n = xs.shape
-        u = stats.rankdata(xs, axis=1) / n
-        knots = np.concatenate([[0.0] * 3, np.linspace(0.0, 1.0, nb - 2), [1.0] * 3])
-        dm = BSpline.design_matrix(np.clip(u.ravel(), 0.0, 1.0), knots, 3).toarray()
-        return dm.reshape(rr, n, nb)[:, :, 1:]  # type: ignore[no-any-return]
+        n = xs.shape[1]
+        # an average rank is a whole or a half number: the basis is looked up at twice the rank
+        twice = np.rint(2.0 * stats.rankdata(xs, axis=1)).astype(np.intp)
+        return _rank_splines(n, nb)[twice]  # type: ignore[no-any-return]
 
     def cv_sse(self, d: Array, return_pred: bool = False) -> Array:
         """Cross-validated SSE of the residual on each design ``d[k]`` (shape (R, n, p), ``z0`` first).
@@ -349,7 +349,7 @@ class PeriodogramTest:
     """Is the residual periodic in an angle-like column? (``periodogram``)
 
     Statistic: the peak of the normalised Lomb-Scargle periodogram
-    (:func:`scipy.signal.lombscargle`, floating mean) of the residual over angular frequencies
+    (:func:`scipy.signal.lombscargle`, floating mean; :func:`lombscargle_many`) of the residual over angular frequencies
     from half a period over the column's span up to :data:`W_MAX` per unit. p-value: from
     :data:`N_PERM_PERIODOGRAM` permutations of the residual; beyond their range the false-alarm
     probability ``1 - (1 - (1 - z)^((n - 3)/2))^M`` with the effective number of independent
@@ -372,13 +372,12 @@ class PeriodogramTest:
         if w.size < 2:
             return Outcome(self.name, 0.0, 1.0, 0.0), math.nan
 
-        def peak(y: Array) -> tuple[float, float]:
-            pw = lombscargle(x, y, w, normalize=True, floating_mean=True)
-            i = int(np.argmax(pw))
-            return float(w[i]), float(pw[i])
-
-        w_best, z = peak(s.r)
-        null = np.array([peak(s.r[s.rng.permutation(s.n)])[1] for _ in range(N_PERM_PERIODOGRAM)])
+        # the data and its permutations share x, so one periodogram of all of them (the trigonometry once)
+        ys = np.stack([s.r] + [s.r[s.rng.permutation(s.n)] for _ in range(N_PERM_PERIODOGRAM)])
+        pw = lombscargle_many(x, ys, w)
+        i = int(np.argmax(pw[0]))
+        w_best, z = float(w[i]), float(pw[0, i])
+        null = np.max(pw[1:], axis=1)
         e = (s.n - 3) / 2.0
 
         def single(zz: float) -> float:
@@ -510,6 +509,46 @@ class ScreenTest:
         xs = (x - x.mean()) / (float(np.std(x)) or 1.0)
         dx = np.concatenate([da, np.column_stack([xs, xs * s.low, xs * s.high])], axis=1)
         return Outcome(self.name, math.nan, s.nested(da[None], dx[None], noise))
+
+
+@functools.lru_cache(maxsize=64)
+def _rank_splines(n: int, nb: int) -> Array:
+    """Cubic B-splines (``nb`` of them, less the first) of u = (j / 2) / n, row j = 0 .. 2n: every rank's basis."""
+    u = np.arange(2 * n + 1) * 0.5 / n
+    knots = np.concatenate([[0.0] * 3, np.linspace(0.0, 1.0, nb - 2), [1.0] * 3])
+    table = BSpline.design_matrix(np.clip(u, 0.0, 1.0), knots, 3).toarray()[:, 1:]
+    table.setflags(write=False)
+    return table  # type: ignore[no-any-return]
+
+
+def lombscargle_many(x: Array, ys: Array, w: Array) -> Array:
+    """The normalised floating-mean Lomb-Scargle periodogram of each row of ``ys`` (shape (R, n) -> (R, len(w))).
+
+    :func:`scipy.signal.lombscargle` (``normalize=True, floating_mean=True``, equal weights) row by row, with
+    what depends only on ``x`` and ``w`` (the sines, cosines and the phase offset tau) computed once for all rows.
+    """
+    x = np.asarray(x, dtype=float).reshape(-1, 1)
+    ys = np.atleast_2d(np.asarray(ys, dtype=float))
+    n = x.shape[0]
+    wt = w.reshape(1, -1) * x
+    cos, sin = np.cos(wt), np.sin(wt)
+    c, s_ = cos.mean(axis=0), sin.mean(axis=0)
+    cc = np.mean(cos * cos, axis=0) - c * c
+    ss = 1.0 - np.mean(cos * cos, axis=0) - s_ * s_
+    cs = np.mean(cos * sin, axis=0) - c * s_
+    tau = 0.5 * np.arctan2(2.0 * cs, cc - ss)  # Zechmeister and Kuerster (2009), eq. 19
+    cos, sin = np.cos(wt - tau), np.sin(wt - tau)
+    c, s_ = cos.mean(axis=0), sin.mean(axis=0)
+    cc = np.mean(cos * cos, axis=0)
+    ss = 1.0 - cc - s_ * s_
+    cc = cc - c * c
+    eps = np.finfo(float).epsneg
+    cc, ss = np.maximum(cc, eps), np.maximum(ss, eps)
+    ym = ys.mean(axis=1, keepdims=True)
+    yc = ys @ cos / n - ym * c
+    ys_ = ys @ sin / n - ym * s_
+    yy = np.mean(ys * ys, axis=1, keepdims=True) - ym * ym
+    return (yc * yc / cc + ys_ * ys_ / ss) / yy  # type: ignore[no-any-return]
 
 
 def _r2(y: Array, yhat: Array) -> float:
