@@ -514,26 +514,14 @@ class Outcome:
                 "caught_by": self.caught_by, "seconds": round(self.seconds, 1), "detail": self.detail}
 
 
-def copy_tree(dst: Path, src_root: Path = ROOT) -> None:
-    """Copy what the tests need from ``src_root`` (a template's compiled package included, never the checkout's)."""
-    ignore = shutil.ignore_patterns(*(() if src_root != ROOT else ("__pycache__", "*.pyc")), ".pytest_cache",
-                                    ".hypothesis")
+def copy_tree(dst: Path) -> None:
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".pytest_cache", ".hypothesis")
     for name in COPY:
-        src = src_root / name
+        src = ROOT / name
         if src.is_dir():
             shutil.copytree(src, dst / name, ignore=ignore)
         elif src.is_file():
             shutil.copy2(src, dst / name)
-
-
-def compiled_template(dst: Path, python: str) -> Path:
-    """A copy of the tree with the package compiled once (each mutant's copy is made from it, so its test run
-    does not compile the whole package again). The byte code is checked against each source's hash, so the
-    mutated module is compiled anew from its mutated source; its cached byte code is removed as well."""
-    copy_tree(dst)
-    subprocess.run([python, "-m", "compileall", "-q", "--invalidation-mode", "checked-hash", str(dst / "jointwear_ros")],
-                   check=True, capture_output=True, timeout=600)
-    return dst
 
 
 def apply(m: Mutant, tree: Path) -> None:
@@ -547,18 +535,15 @@ def apply(m: Mutant, tree: Path) -> None:
         raise Stale(f"{m.path}: {exc}") from None
 
 
-def run_one(m: Mutant, python: str, timeout: float, template: Path | None = None) -> Outcome:
+def run_one(m: Mutant, python: str, timeout: float) -> Outcome:
     t0 = time.monotonic()
     with tempfile.TemporaryDirectory(prefix=f"mutation-{m.name}-") as tmp:
         tree = Path(tmp)
-        copy_tree(tree, template or ROOT)
+        copy_tree(tree)
         try:
             apply(m, tree)
         except Stale as exc:
             return Outcome(m.name, m.description, "STALE", [], time.monotonic() - t0, str(exc))
-        mutated = tree / m.path
-        for pyc in (mutated.parent / "__pycache__").glob(f"{mutated.stem}.*.pyc"):
-            pyc.unlink()
         env = dict(os.environ)
         env["PYTHONPATH"] = str(tree) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
         env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -627,17 +612,15 @@ def main(argv: list[str] | None = None) -> int:
                   flush=True)
 
     parallel = [m for m in chosen if m.fast] if args.jobs > 1 else []
-    with tempfile.TemporaryDirectory(prefix="mutation-template-") as tmp:
-        template = compiled_template(Path(tmp), args.python)
-        if parallel:
-            from concurrent.futures import ThreadPoolExecutor
+    if parallel:
+        from concurrent.futures import ThreadPoolExecutor
 
-            with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-                for o in pool.map(lambda m: run_one(m, args.python, args.timeout, template), parallel):
-                    report(o)
-        for m in chosen:
-            if m not in parallel:  # the ROS graphs of two at once would meet on a domain
-                report(run_one(m, args.python, args.timeout, template))
+        with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            for o in pool.map(lambda m: run_one(m, args.python, args.timeout), parallel):
+                report(o)
+    for m in chosen:
+        if m not in parallel:  # the ROS graphs of two at once would meet on a domain
+            report(run_one(m, args.python, args.timeout))
     caught = sum(o.status == "caught" for o in results)
     if args.json:
         print(json.dumps({"mutations": [o.to_dict() for o in results], "caught": caught, "total": len(results)},
