@@ -343,7 +343,7 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("observation_screening_off", "observations are not screened at all",
            "jointwear_ros/monitor/validation.py", "screen_observation",
            after("rng = dict(valid or {})", "return o, ''"),
-           ("test/test_monitor.py",), fast=True),
+           ("test/test_monitor.py",), select="impossible_temperature or non_physical or all_dropped", fast=True),
     Mutant("observation_temperature_bounds_widened", "the parameter set's temperature range is widened by 1 degC",
            "jointwear_ros/monitor/validation.py", "screen_observation",
            expr("lo <= t <= hi", "lo - 1.0 <= t <= hi + 1.0"),
