@@ -3,12 +3,18 @@ the documented JSON contracts (docs/workbench.md), reports, history, and one-lin
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import io
 import json
+import pickle
 import re
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from jointwear_ros.cli import main
@@ -40,10 +46,34 @@ def ripple_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def diagnosis(ripple_csv: Path) -> dict:
-    r = run_cli("model", "diagnose", str(ripple_csv), "--model", "paper", "--json")
-    assert r.returncode == 0, r.stderr
-    return json.loads(r.stdout)
+def one_diagnosis() -> Iterator[dict[bytes, object]]:
+    """The module's ``model diagnose`` runs of one table with one model and the same options compute the diagnosis
+    once: each test reads its own rendering (JSON, text, Markdown, HTML) of the same result, through the whole
+    command (reading, fitting, rendering). Different options or data are diagnosed anew."""
+    import jointwear_ros.workbench as wb
+
+    real, done = wb.diagnose, {}
+
+    def diagnose(table: ObservationTable, model: object, **kw: object):
+        key = hashlib.sha256(pickle.dumps(([(k, np.asarray(v).tobytes()) for k, v in table.columns.items()],
+                                           model.spec, [(n, p.value) for n, p in model.params.items()],
+                                           repr(sorted((k, v) for k, v in kw.items() if k != "progress"))))).digest()
+        if key not in done:
+            done[key] = real(table, model, **kw)
+        return done[key]
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(wb, "diagnose", diagnose)
+    yield done
+    mp.undo()
+
+
+@pytest.fixture(scope="module")
+def diagnosis(ripple_csv: Path, one_diagnosis) -> dict:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["model", "diagnose", str(ripple_csv), "--model", "paper", "--json"]) == 0
+    return json.loads(out.getvalue())
 
 
 # -- the JSON contracts -------------------------------------------------------------
@@ -123,7 +153,7 @@ def test_every_candidate_term_appended_to_the_spec_is_accepted_by_fit(diagnosis,
     assert json.loads(out)["cv_rmse"] < 1.3 * diagnosis["noise_floor"]["value"]
 
 
-def test_diagnose_table_names_the_effect_and_the_next_command(ripple_csv, capsys):
+def test_diagnose_table_names_the_effect_and_the_next_command(ripple_csv, one_diagnosis, capsys):
     rc, out, err = run_main(capsys, "model", "diagnose", str(ripple_csv), "--model", "paper", "--top", "3")
     assert rc == 0, err
     assert "Missing effect found: ripple(position, w0=" in out and "verdict: found" in out

@@ -46,10 +46,17 @@ def test_small_tables_and_few_valued_columns_give_a_verdict(tmp_path, capsys):
     assert rc == 0 and json.loads(out)["verdict"] in VERDICTS, err
 
 
+@pytest.fixture(scope="module")
+def clean_diagnosis():
+    """The clean table both outlier cases are planted in, and its diagnosis (the same for both)."""
+    t = synth_observations(n_cycles=40, seed=3)
+    return t, diagnose(t, "paper", n_bootstrap=0)
+
+
 @pytest.mark.parametrize("rows", [(37, 151), (150, 151)])
 @pytest.mark.slow
-def test_two_outliers_in_a_clean_table_are_named_and_never_found(rows):
-    t = synth_observations(n_cycles=40, seed=3)
+def test_two_outliers_in_a_clean_table_are_named_and_never_found(rows, clean_diagnosis):
+    t, clean = clean_diagnosis
     tau = np.array(t["tau_f"], dtype=float)
     tau[list(rows)] += 0.01  # about 7 noise std
     bad = _with(t, tau_f=tau)
@@ -58,7 +65,6 @@ def test_two_outliers_in_a_clean_table_are_named_and_never_found(rows):
     assert sorted(o.row for o in d.outliers) == sorted(rows)
     assert "outlying observation(s)" in diagnosis_summary(d) and f"row {rows[0]}" in diagnosis_summary(d)
     assert sorted(x["row"] for x in d.to_dict()["outliers"]) == sorted(rows)
-    clean = diagnose(t, "paper", n_bootstrap=0)
     assert clean.outliers == [] and clean.verdict == "nothing_missing"
 
 

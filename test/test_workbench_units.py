@@ -149,21 +149,27 @@ def test_data_scales_are_decades_of_the_papers_and_keep_paper_units_unchanged(cl
     assert s.factor("s/rad") == 1e4 and s.factor("degC") == 1.0 and s.factor("-", "Fctm") == 1.0
 
 
+@pytest.fixture(scope="module")
+def small_reference(clean_reference):
+    """The first 12 cycles of the clean reference, their fit and diagnosis: what every scaled copy is compared with."""
+    small = clean_reference.select(np.asarray(clean_reference["cycle"]) < 12)
+    base = fit_model(parse_spec("paper"), small, cv_folds=0)
+    return small, base, diagnose(small, base, n_bootstrap=0)
+
+
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(exp=st.integers(min_value=-3, max_value=4), mant=st.floats(min_value=1.0, max_value=9.9))
-def test_scaling_the_torque_by_k_scales_the_fit_by_k_with_the_same_verdict(clean_reference, exp, mant):
+def test_scaling_the_torque_by_k_scales_the_fit_by_k_with_the_same_verdict(small_reference, exp, mant):
     k = mant * 10.0**exp
-    small = clean_reference.select(np.asarray(clean_reference["cycle"]) < 12)
+    small, base, d0 = small_reference
     cols = {n: small[n].copy() for n in small.names}
     for c in ("tau_f", "tau_f_std", "tau_plus", "tau_minus", "load_torque"):
         cols[c] = cols[c] * k
     scaled = ObservationTable(cols, source=f"x{k:g}")
-    base = fit_model(parse_spec("paper"), small, cv_folds=0)
     fit = fit_model(parse_spec("paper"), scaled, cv_folds=0)
     assert fit.rmse == pytest.approx(base.rmse * k, rel=2e-2)
     assert fit.params["Fc0"].value == pytest.approx(base.params["Fc0"].value * k, rel=2e-2)
     assert fit.params["Fctm"].value == pytest.approx(base.params["Fctm"].value, rel=2e-2)
     assert fit.success == base.success and not fit.at_bound
-    d0 = diagnose(small, base, n_bootstrap=0)
     d1 = diagnose(scaled, fit, n_bootstrap=0)
     assert d1.verdict == d0.verdict == "nothing_missing"

@@ -11,21 +11,22 @@ and the guard are :mod:`.significance`'s.
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 from scipy import stats
 from scipy.interpolate import BSpline
-from scipy.signal import lombscargle
 
 from ..types import ObservationTable
 from .fit import group_folds
 from .significance import guarded, nested_test, permutation_p
 
 __all__ = [
+    "CHUNK",
     "N_BASIS",
     "N_PERM_PERIODOGRAM",
     "W_MAX",
@@ -37,6 +38,7 @@ __all__ = [
     "ResidualSpace",
     "ScreenTest",
     "SmootherTest",
+    "lombscargle_many",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -47,6 +49,9 @@ W_MAX = 100.0
 N_BASIS = 6
 #: Permutations of the periodogram (each costs a full periodogram).
 N_PERM_PERIODOGRAM = 39
+#: Permuted designs built and solved at once (a few MB: they stay in the cache; each is solved on its own,
+#: so the numbers do not depend on it).
+CHUNK = 16
 
 
 class Outcome(NamedTuple):
@@ -131,11 +136,10 @@ class ResidualSpace:
     @staticmethod
     def rank_basis(xs: Array, nb: int = N_BASIS) -> Array:
         """Cubic B-splines of the rank of each row of ``xs`` (shape (R, n) -> (R, n, nb - 1))."""
-        rr, n = xs.shape
-        u = stats.rankdata(xs, axis=1) / n
-        knots = np.concatenate([[0.0] * 3, np.linspace(0.0, 1.0, nb - 2), [1.0] * 3])
-        dm = BSpline.design_matrix(np.clip(u.ravel(), 0.0, 1.0), knots, 3).toarray()
-        return dm.reshape(rr, n, nb)[:, :, 1:]  # type: ignore[no-any-return]
+        n = xs.shape[1]
+        # an average rank is a whole or a half number: the basis is looked up at twice the rank
+        twice = np.rint(2.0 * stats.rankdata(xs, axis=1)).astype(np.intp)
+        return _rank_splines(n, nb)[twice]  # type: ignore[no-any-return]
 
     def cv_sse(self, d: Array, return_pred: bool = False) -> Array:
         """Cross-validated SSE of the residual on each design ``d[k]`` (shape (R, n, p), ``z0`` first).
@@ -276,10 +280,15 @@ class SmootherTest:
     def run(self, xs: Array, noise: float | None) -> tuple[Outcome, float, float]:
         """The outcome (share: the larger CV share), and the CV shares of the level and speed designs."""
         s = self.s
-        lvl, spd = s.designs(s.rank_basis(xs, s.basis_size(xs[0])))
+        b = s.rank_basis(xs, s.basis_size(xs[0]))
+        lvl, spd = s.designs(b[:1])
+        sse: tuple[list[Array], list[Array]] = ([], [])
+        for i in range(0, b.shape[0], CHUNK):
+            for out, d in zip(sse, s.designs(b[i:i + CHUNK])):
+                out.append(s.in_sse(d))
         zs = []
-        for d in (lvl, spd):
-            share = (s.sse0_in - s.in_sse(d)) / s.total
+        for part in sse:
+            share = (s.sse0_in - np.concatenate(part)) / s.total
             null = share[1:]
             sd = float(np.std(null, ddof=1)) if null.size > 1 else 1.0
             zs.append((share - float(np.mean(null)) if null.size else share) / (sd if sd > 0 else 1.0))
@@ -332,9 +341,15 @@ class ModulationTest:
         if k == 0 or not sd > 0:
             return Outcome(self.name, 0.0, 1.0, 0.0), ""
         z = (xs - xs.mean(axis=1, keepdims=True)) / sd
-        rr = xs.shape[0]
-        d = np.concatenate([np.broadcast_to(s.z0, (rr, s.n, s.q)), z[:, :, None] * self.comp[None]], axis=2)
-        share_in = (s.sse0_in - s.in_sse(d)) / s.total
+
+        def design(rows: slice) -> Array:
+            zr = z[rows]
+            return np.concatenate([np.broadcast_to(s.z0, (zr.shape[0], s.n, s.q)), zr[:, :, None] * self.comp[None]],
+                                  axis=2)
+
+        d = design(slice(0, 1))
+        sse = np.concatenate([s.in_sse(design(slice(i, i + CHUNK))) for i in range(0, xs.shape[0], CHUNK)])
+        share_in = (s.sse0_in - sse) / s.total
         p_perm = permutation_p(float(share_in[0]), share_in[1:])
         p = guarded(s.nested_on_nuisance(d[:1], noise), p_perm)
         share = s.cv_share(d[:1])
@@ -349,7 +364,7 @@ class PeriodogramTest:
     """Is the residual periodic in an angle-like column? (``periodogram``)
 
     Statistic: the peak of the normalised Lomb-Scargle periodogram
-    (:func:`scipy.signal.lombscargle`, floating mean) of the residual over angular frequencies
+    (:func:`scipy.signal.lombscargle`, floating mean; :func:`lombscargle_many`) of the residual over angular frequencies
     from half a period over the column's span up to :data:`W_MAX` per unit. p-value: from
     :data:`N_PERM_PERIODOGRAM` permutations of the residual; beyond their range the false-alarm
     probability ``1 - (1 - (1 - z)^((n - 3)/2))^M`` with the effective number of independent
@@ -372,13 +387,12 @@ class PeriodogramTest:
         if w.size < 2:
             return Outcome(self.name, 0.0, 1.0, 0.0), math.nan
 
-        def peak(y: Array) -> tuple[float, float]:
-            pw = lombscargle(x, y, w, normalize=True, floating_mean=True)
-            i = int(np.argmax(pw))
-            return float(w[i]), float(pw[i])
-
-        w_best, z = peak(s.r)
-        null = np.array([peak(s.r[s.rng.permutation(s.n)])[1] for _ in range(N_PERM_PERIODOGRAM)])
+        # the data and its permutations share x, so one periodogram of all of them (the trigonometry once)
+        ys = np.stack([s.r] + [s.r[s.rng.permutation(s.n)] for _ in range(N_PERM_PERIODOGRAM)])
+        pw = lombscargle_many(x, ys, w)
+        i = int(np.argmax(pw[0]))
+        w_best, z = float(w[i]), float(pw[0, i])
+        null = np.max(pw[1:], axis=1)
         e = (s.n - 3) / 2.0
 
         def single(zz: float) -> float:
@@ -457,36 +471,52 @@ class PairTest:
     def __init__(self, space: ResidualSpace) -> None:
         self.s = space
 
-    def _one(self, d_pair: Array, d_a: Array, noise: float | None) -> tuple[float, float]:
-        """(p-value, CV share) of the designs ``d_pair`` (row 0 the data, then permutations) nested on ``d_a``."""
+    def _one(self, design: Callable[[slice], Array], rr: int, d_a: Array, noise: float | None) -> tuple[float, float]:
+        """(p-value, CV share) of the designs ``design(rows)`` (row 0 the data, then permutations; ``rr`` in all)
+        nested on ``d_a``."""
         s = self.s
-        in_pair = (s.sse0_in - s.in_sse(d_pair)) / s.total
+        sse = np.concatenate([s.in_sse(design(slice(i, i + CHUNK))) for i in range(0, rr, CHUNK)])
+        in_pair = (s.sse0_in - sse) / s.total
         p_perm = permutation_p(float(in_pair[0]), in_pair[1:])
-        return guarded(s.nested(d_a, d_pair[:1], noise), p_perm), s.cv_share(d_pair[:1])
+        d0 = design(slice(0, 1))
+        return guarded(s.nested(d_a, d0, noise), p_perm), s.cv_share(d0)
 
     def run(self, xa: Array, xb: Array, screened: int, n_perm: int, noise: float | None) -> Outcome:
         s = self.s
         xbp = s.permuted(xb, n_perm)
         ba = s.rank_basis(xa[None, :], 4)
-        bb = s.rank_basis(xbp, 4)
-        rr = bb.shape[0]
-        z0 = np.broadcast_to(s.z0, (rr, s.n, s.q))
+        bb_all = s.rank_basis(xbp, 4)
+        rr = bb_all.shape[0]
         d_a = np.concatenate([s.z0[None], ba], axis=2)
-        xs = (xbp - xbp.mean(axis=1, keepdims=True)) / (float(np.std(xbp[0])) or 1.0)
+        xs_all = (xbp - xbp.mean(axis=1, keepdims=True)) / (float(np.std(xbp[0])) or 1.0)
         if screened > 1:  # the screened column enters as the screen had it: linear, times the speed shapes
-            lin = np.stack([xs, xs * s.low[None, :], xs * s.high[None, :]], axis=2)
-            p, share = self._one(np.concatenate([z0, np.broadcast_to(ba, (rr, s.n, ba.shape[2])), lin], axis=2),
-                                 d_a, noise)
+            def screened_design(rows: slice) -> Array:
+                xs = xs_all[rows]
+                m = xs.shape[0]
+                lin = np.stack([xs, xs * s.low[None, :], xs * s.high[None, :]], axis=2)
+                return np.concatenate([np.broadcast_to(s.z0, (m, s.n, s.q)),
+                                       np.broadcast_to(ba, (m, s.n, ba.shape[2])), lin], axis=2)
+
+            p, share = self._one(screened_design, rr, d_a, noise)
             return Outcome(self.name, math.nan, min(1.0, p * screened), share)
-        inter = (np.broadcast_to(ba, bb.shape)[:, :, :, None] * bb[:, :, None, :]).reshape(rr, s.n, -1)
-        d_full = np.concatenate([z0, np.broadcast_to(ba, bb.shape), bb,
-                                 inter, inter * s.low[None, :, None], inter * s.high[None, :, None]], axis=2)
         sa = (xa - xa.mean()) / (float(np.std(xa)) or 1.0)
-        lean = np.stack([xs, xs * sa[None, :]], axis=2)
-        d_lean = np.concatenate([z0, np.broadcast_to(ba, bb.shape), lean, lean * s.low[None, :, None],
-                                 lean * s.high[None, :, None]], axis=2)
-        p_full, share_full = self._one(d_full, d_a, noise)
-        p_lean, share_lean = self._one(d_lean, d_a, noise)
+
+        def full(rows: slice) -> Array:
+            bb = bb_all[rows]
+            m = bb.shape[0]
+            inter = (np.broadcast_to(ba, bb.shape)[:, :, :, None] * bb[:, :, None, :]).reshape(m, s.n, -1)
+            return np.concatenate([np.broadcast_to(s.z0, (m, s.n, s.q)), np.broadcast_to(ba, bb.shape), bb,
+                                   inter, inter * s.low[None, :, None], inter * s.high[None, :, None]], axis=2)
+
+        def lean(rows: slice) -> Array:
+            xs = xs_all[rows]
+            m = xs.shape[0]
+            ln = np.stack([xs, xs * sa[None, :]], axis=2)
+            return np.concatenate([np.broadcast_to(s.z0, (m, s.n, s.q)), np.broadcast_to(ba, (m, s.n, ba.shape[2])),
+                                   ln, ln * s.low[None, :, None], ln * s.high[None, :, None]], axis=2)
+
+        p_full, share_full = self._one(full, rr, d_a, noise)
+        p_lean, share_lean = self._one(lean, rr, d_a, noise)
         return Outcome(self.name, math.nan, min(1.0, 2.0 * min(p_full, p_lean)), max(share_full, share_lean))
 
 
@@ -510,6 +540,46 @@ class ScreenTest:
         xs = (x - x.mean()) / (float(np.std(x)) or 1.0)
         dx = np.concatenate([da, np.column_stack([xs, xs * s.low, xs * s.high])], axis=1)
         return Outcome(self.name, math.nan, s.nested(da[None], dx[None], noise))
+
+
+@functools.lru_cache(maxsize=64)
+def _rank_splines(n: int, nb: int) -> Array:
+    """Cubic B-splines (``nb`` of them, less the first) of u = (j / 2) / n, row j = 0 .. 2n: every rank's basis."""
+    u = np.arange(2 * n + 1) * 0.5 / n
+    knots = np.concatenate([[0.0] * 3, np.linspace(0.0, 1.0, nb - 2), [1.0] * 3])
+    table = BSpline.design_matrix(np.clip(u, 0.0, 1.0), knots, 3).toarray()[:, 1:]
+    table.setflags(write=False)
+    return table  # type: ignore[no-any-return]
+
+
+def lombscargle_many(x: Array, ys: Array, w: Array) -> Array:
+    """The normalised floating-mean Lomb-Scargle periodogram of each row of ``ys`` (shape (R, n) -> (R, len(w))).
+
+    :func:`scipy.signal.lombscargle` (``normalize=True, floating_mean=True``, equal weights) row by row, with
+    what depends only on ``x`` and ``w`` (the sines, cosines and the phase offset tau) computed once for all rows.
+    """
+    x = np.asarray(x, dtype=float).reshape(-1, 1)
+    ys = np.atleast_2d(np.asarray(ys, dtype=float))
+    n = x.shape[0]
+    wt = w.reshape(1, -1) * x
+    cos, sin = np.cos(wt), np.sin(wt)
+    c, s_ = cos.mean(axis=0), sin.mean(axis=0)
+    cc = np.mean(cos * cos, axis=0) - c * c
+    ss = 1.0 - np.mean(cos * cos, axis=0) - s_ * s_
+    cs = np.mean(cos * sin, axis=0) - c * s_
+    tau = 0.5 * np.arctan2(2.0 * cs, cc - ss)  # Zechmeister and Kuerster (2009), eq. 19
+    cos, sin = np.cos(wt - tau), np.sin(wt - tau)
+    c, s_ = cos.mean(axis=0), sin.mean(axis=0)
+    cc = np.mean(cos * cos, axis=0)
+    ss = 1.0 - cc - s_ * s_
+    cc = cc - c * c
+    eps = np.finfo(float).epsneg
+    cc, ss = np.maximum(cc, eps), np.maximum(ss, eps)
+    ym = ys.mean(axis=1, keepdims=True)
+    yc = ys @ cos / n - ym * c
+    ys_ = ys @ sin / n - ym * s_
+    yy = np.mean(ys * ys, axis=1, keepdims=True) - ym * ym
+    return (yc * yc / cc + ys_ * ys_ / ss) / yy  # type: ignore[no-any-return]
 
 
 def _r2(y: Array, yhat: Array) -> float:
