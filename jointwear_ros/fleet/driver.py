@@ -14,6 +14,7 @@ anywhere can simply be started again.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import math
 import os
@@ -245,7 +246,9 @@ def reprocess(
     """Re-analyse ``bags`` with parameter set ``params`` and ``method`` into ``store`` (a HistoryStore).
 
     ``client`` (a Dask Client) is used as is; else one is opened on ``scheduler`` or on a new
-    LocalCluster of ``workers`` processes, and closed at the end.
+    LocalCluster of ``workers`` processes, and closed at the end. One worker and no scheduler: the bags are
+    re-analysed in this process, one after another (a cluster of one worker process would only add its
+    start-up: seconds of CPU and wall).
     """
     from ..history import EstimateRecord
     from .ledger import done_fingerprints, ensure_ledger, mark_done
@@ -286,16 +289,17 @@ def reprocess(
     # code running when it came did with the KeyboardInterrupt); while the cluster starts it is held pending
     # (open_client), recorded as it is delivered at the end of that, and honoured once the cluster can be closed
     interrupted = _InterruptFlag.install()
+    here = client is None and not scheduler and workers == 1
     try:
-        if client is None:
+        if client is None and not here:
             interrupted.armed = False
             client, close = open_client(scheduler, workers)
     finally:
         interrupted.armed = True
     try:
         interrupted.check()
-        report.workers = _n_workers(client)
-        report.scheduler = str((getattr(client, "scheduler", None) and client.scheduler.address) or "")
+        report.workers = 1 if here else _n_workers(client)
+        report.scheduler = "" if here else str((getattr(client, "scheduler", None) and client.scheduler.address) or "")
         bar.ready(report.workers, len(todo))
     except BaseException:
         interrupted.restore()
@@ -316,26 +320,37 @@ def reprocess(
             mark_done(store, version, done_now)
         last_flush = time.perf_counter()
 
-    try:
+    task = functools.partial(reprocess_bag, params=params, method=method, version=version, observer_params=op,
+                             monitor_params=mp, software_version=software_version, robot=robot)
+
+    def outcomes() -> Iterator[tuple[str, BagOutcome | str]]:
+        """(bag, its outcome or why its task failed) as each bag is finished."""
+        if here:
+            for path, _fp in todo:
+                yield path, task(path)
+            return
         from dask.distributed import as_completed
 
-        futures = {}
-        for path, _fp in todo:
-            fut = client.submit(reprocess_bag, path, params=params, method=method, version=version,
-                                observer_params=op, monitor_params=mp, software_version=software_version,
-                                robot=robot, pure=False)
-            futures[fut] = path
+        futures = {client.submit(task, path, pure=False): path for path, _fp in todo}
         for fut in as_completed(list(futures)):
             interrupted.check()
             path = futures.pop(fut)
             if fut.status == "error":
                 task_exc = fut.exception()
-                failed.append({"bag": path, "error": f"{path}: the Dask task failed ({type(task_exc).__name__}: "
-                                                     f"{str(task_exc).splitlines()[0] if str(task_exc) else ''})"})
+                yield path, (f"{path}: the Dask task failed ({type(task_exc).__name__}: "
+                             f"{str(task_exc).splitlines()[0] if str(task_exc) else ''})")
+                continue
+            result: BagOutcome = fut.result()
+            fut.release()
+            yield path, result
+
+    try:
+        for path, outcome in outcomes():
+            interrupted.check()
+            if isinstance(outcome, str):
+                failed.append({"bag": path, "error": outcome})
                 bar.update(failed=1)
                 continue
-            outcome: BagOutcome = fut.result()
-            fut.release()
             if outcome.error is not None:
                 failed.append({"bag": path, "error": outcome.error})
                 bar.update(failed=1)
