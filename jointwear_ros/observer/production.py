@@ -532,6 +532,8 @@ class ProductionObserver:
         if a.size != len(self.names):
             raise InputDataError(f"production observer: {what} has {a.size} value(s); the arm has {len(self.names)} "
                                  f"joints ({', '.join(self.names)})")
+        if float(np.abs(a).max()) <= _LARGEST:  # every value finite and within range (NaN fails this): the usual case
+            return a
         bad = ~np.isfinite(a) if not allow_nan else np.isinf(a)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
