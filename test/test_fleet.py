@@ -231,6 +231,7 @@ def test_scheduler_that_is_not_there_is_a_one_line_error(fleet, tmp_path, capsys
                    "tcp://127.0.0.1:9", "--quiet"])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "cannot connect to a Dask scheduler" in err
+    assert "ConnectionRefusedError" in err  # nothing listens there: said at once, not after the client's timeout
 
 
 def test_progress_bar_counts_done_failed_and_skipped_bags():

@@ -130,6 +130,10 @@ def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Ca
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
+        refused = _refused(scheduler)
+        if refused is not None:
+            raise InputDataError(f"--scheduler {scheduler}: cannot connect to a Dask scheduler there "
+                                 f"({type(refused).__name__}: {refused.strerror or refused})")
         try:
             client = Client(scheduler, timeout="10s")
         except (OSError, TimeoutError) as exc:
@@ -149,6 +153,29 @@ def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Ca
         cluster.close()
 
     return client, close
+
+
+def _refused(scheduler: str) -> OSError | None:
+    """The error when nothing listens at a ``tcp://`` scheduler address (the connection refused: known at once,
+    where Dask's client retries for its whole timeout); None otherwise (another scheme, a host that does not
+    answer at all: Dask's own timeout decides)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    try:
+        u = urlsplit(scheduler if "://" in scheduler else "tcp://" + scheduler)
+        host, port = u.hostname, u.port
+    except ValueError:
+        return None
+    if u.scheme != "tcp" or not host or port is None:
+        return None
+    try:
+        with socket.create_connection((host, port), timeout=2.0):
+            return None
+    except ConnectionRefusedError as exc:
+        return exc
+    except OSError:
+        return None
 
 
 @contextlib.contextmanager
