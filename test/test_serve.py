@@ -6,7 +6,9 @@ A real server process (uvicorn) over a real store (an SQLite file and a real Pos
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import io
 import json
 import math
 import re
@@ -85,9 +87,14 @@ def wait_for(cond, timeout: float = 30.0, what: str = "condition"):
 
 
 def trend_json(db: str, *extra: str) -> dict[tuple[str, str], dict]:
-    r = subprocess.run([sys.executable, "-m", "jointwear_ros", "trend", "--db", db, "--json", *extra],
-                       capture_output=True, text=True, check=True, cwd=ROOT)
-    return {(j["robot"], j["joint"]): j for j in json.loads(r.stdout)["joints"]}
+    """``jointwear trend --db DB --json`` (the CLI in this process: a new interpreter per call cost more than the
+    trend of the plant)."""
+    from jointwear_ros.cli import main as cli_main
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert cli_main(["trend", "--db", db, "--json", *extra]) == 0
+    return {(j["robot"], j["joint"]): j for j in json.loads(out.getvalue())["joints"]}
 
 
 # ---------------------------------------------------------------------------- the pure level rule
