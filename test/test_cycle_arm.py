@@ -8,6 +8,7 @@ arm's configuration and velocities where the joint crossed its window centre.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import replace
 
 import numpy as np
@@ -42,6 +43,14 @@ def _errors(sim: ArmSim, run, observers) -> dict[str, list[float]]:
     return out
 
 
+@functools.cache
+def _one_after_another(arm: str, n: int):
+    """The default cell's cycle with the joints one after another (noise off: deterministic), run once for the
+    module: the baseline of the together test's cell time and the subject of the one-after-another tests."""
+    sim, cycles, observers = _cell(arm, n)
+    return sim, run_cycle(sim, cycles, observers, together=False), observers
+
+
 @pytest.mark.parametrize(("arm", "n"), [("ur5", 6), ("panda", 7)])
 def test_every_joint_at_once_on_the_arm_observes_each_joints_friction_in_a_fraction_of_the_cell_time(arm, n):
     sim, cycles, observers = _cell(arm, n)
@@ -51,7 +60,7 @@ def test_every_joint_at_once_on_the_arm_observes_each_joints_friction_in_a_fract
     for j, errs in errors.items():
         assert len(errs) == 2, (j, run.observations[j])
         assert max(errs) < 0.02, (j, errs)  # the coupling cancels: < 2 % of tau_f (the issue's bound), noise off
-    sequential = run_cycle(*_cell(arm, n), together=False)
+    _, sequential, _ = _one_after_another(arm, n)
     assert sequential.state == CycleState.DONE, sequential.message
     assert run.cell_seconds < 0.3 * sequential.cell_seconds, (run.cell_seconds, sequential.cell_seconds)
 
@@ -60,8 +69,7 @@ def test_one_after_another_on_the_arm_the_held_joints_are_held_so_each_observati
     """A velocity loop at zero lets a held joint creep under the tested joint's push; the shoulder held
     elsewhere in the reverse sweep than in the forward one changed the elbow's gravity between them: 20 %
     off at 1.6 rad/s before the hold correction (at the earlier test pose)."""
-    sim, cycles, observers = _cell("ur5", 6)
-    run = run_cycle(sim, cycles, observers, together=False)
+    sim, run, observers = _one_after_another("ur5", 6)
     assert run.state == CycleState.DONE, run.message
     errors = _errors(sim, run, observers)
     assert max(max(e) for e in errors.values()) < 0.02, errors
@@ -72,8 +80,7 @@ def test_one_after_another_on_the_panda_each_observation_is_its_friction_with_jo
     breakaway, and it sticks again while joint 1 sweeps. The simulator's stick band, solved with the other
     joints' accelerations of the previous step, chattered there and loaded joint 1's drive: 192, 155 and
     75 % off on joints 1, 2 and 4 (noise off, default speeds) before it was solved within the step."""
-    sim, cycles, observers = _cell("panda", 7, (40.0, 160.0))
-    run = run_cycle(sim, cycles, observers, together=False)
+    sim, run, observers = _one_after_another("panda", 7)  # the default speeds, 40 and 160
     assert run.state == CycleState.DONE, run.message
     errors = _errors(sim, run, observers)
     for j, errs in errors.items():

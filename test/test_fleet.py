@@ -231,6 +231,7 @@ def test_scheduler_that_is_not_there_is_a_one_line_error(fleet, tmp_path, capsys
                    "tcp://127.0.0.1:9", "--quiet"])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "cannot connect to a Dask scheduler" in err
+    assert "ConnectionRefusedError" in err  # nothing listens there: said at once, not after the client's timeout
 
 
 def test_progress_bar_counts_done_failed_and_skipped_bags():
@@ -251,3 +252,20 @@ def test_progress_bar_counts_done_failed_and_skipped_bags():
     quiet = io.StringIO()
     Progress(3, stream=quiet, enabled=False).update(done=3)
     assert quiet.getvalue() == ""
+
+
+@pytest.mark.slow  # the module's Dask cluster: not started in the quick tier for this test alone
+def test_one_worker_reanalyses_in_this_process_with_the_clusters_numbers(fleet, scheduler, tmp_path):
+    """``--workers 1`` starts no cluster (the bags in the command's own process) and gives what the cluster gives."""
+    from jointwear_ros.fleet import reprocess
+
+    _, _, bags, broken = fleet
+    chosen = [*bags[:3], broken]
+    with HistoryStore(f"sqlite:///{tmp_path / 'here.db'}") as a, HistoryStore(f"sqlite:///{tmp_path / 'dask.db'}") as b:
+        here = reprocess(chosen, a, workers=1)
+        there = reprocess(chosen, b, scheduler=scheduler)
+        rows = [[(r.robot, r.joint, r.cycle_id, r.time, r.wear, r.wear_std, r.bag) for r in s.estimates(
+            analysis_version=here.analysis_version)] for s in (a, b)]
+    assert (here.workers, here.scheduler) == (1, "") and (there.workers, there.scheduler) == (2, scheduler)
+    assert here.estimates == there.estimates == 3 and rows[0] == rows[1] and len(rows[0]) == 3
+    assert here.failed == there.failed and [f["bag"] for f in here.failed] == [str(broken.resolve())]

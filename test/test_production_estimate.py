@@ -47,20 +47,32 @@ def shifts(run: ProductionRun) -> list[ProductionShift]:
     return _observe(run)
 
 
+_SIMS: dict[tuple[int, int], ArmSim] = {}
+
+
+def _move_sim(run: ProductionRun, k: int) -> ArmSim:
+    """The arm as it was in move ``k`` of ``run`` (its shift's wear, the move's temperatures and payload), built once
+    per move: :meth:`ArmSim.true_friction` reads the model and changes no state, so one sim serves every query."""
+    key = (id(run), k)
+    if key not in _SIMS:
+        spec, names, m = arm_spec(ARM), list(run.names), run.moves[k]
+        cfgs = [replace(c, wear=w, temperature=t)
+                for c, w, t in zip(arm_configs(spec, names), run.wear[m.shift], m.temperature, strict=True)]
+        _SIMS[key] = ArmSim(spec, names, cfgs, seeds=range(len(names)), payload=m.payload)
+    return _SIMS[key]
+
+
 def _truth(run: ProductionRun, joint: str, speed: float, position: float, shift: int) -> float:
     """The true friction (normalized) where ``joint`` is at ``position`` on the lines of the cycle moves of
     ``shift`` at ``speed`` (within 5 %; both directions, each with the payload it carried), their mean."""
-    spec = arm_spec(ARM)
     names = list(run.names)
     j = names.index(joint)
     vals = []
-    for m in run.moves:
+    for k, m in enumerate(run.moves):
         v = abs(m.velocity[j]) * run.gear_ratio[j]
         if m.cycle == 0 or m.shift != shift or abs(v - speed) > 0.05 * speed:
             continue
-        cfgs = [replace(c, wear=w, temperature=t)
-                for c, w, t in zip(arm_configs(spec, names), run.wear[shift], m.temperature, strict=True)]
-        sim = ArmSim(spec, names, cfgs, seeds=range(len(names)), payload=m.payload)
+        sim = _move_sim(run, k)
         q0 = np.array(run.program.waypoints[m.frm])
         d = np.array(run.program.waypoints[m.to]) - q0
         q = q0 + (position - q0[j]) / d[j] * d

@@ -6,7 +6,9 @@ A real server process (uvicorn) over a real store (an SQLite file and a real Pos
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import io
 import json
 import math
 import re
@@ -85,9 +87,14 @@ def wait_for(cond, timeout: float = 30.0, what: str = "condition"):
 
 
 def trend_json(db: str, *extra: str) -> dict[tuple[str, str], dict]:
-    r = subprocess.run([sys.executable, "-m", "jointwear_ros", "trend", "--db", db, "--json", *extra],
-                       capture_output=True, text=True, check=True, cwd=ROOT)
-    return {(j["robot"], j["joint"]): j for j in json.loads(r.stdout)["joints"]}
+    """``jointwear trend --db DB --json`` (the CLI in this process: a new interpreter per call cost more than the
+    trend of the plant)."""
+    from jointwear_ros.cli import main as cli_main
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert cli_main(["trend", "--db", db, "--json", *extra]) == 0
+    return {(j["robot"], j["joint"]): j for j in json.loads(out.getvalue())["joints"]}
 
 
 # ---------------------------------------------------------------------------- the pure level rule
@@ -198,12 +205,13 @@ def test_page_api_metrics_and_trend_json_agree_on_every_joint_of_a_plant(plant_d
     from jointwear_ros.fleet.report import write_report
 
     with HistoryStore(plant_db) as store:
-        index = write_report(store, Path(plant_db).parent / "fleet_page", version="live")
+        # its table is what is compared (the plots: test_fleet.py); without them, 30 plots' CPU less
+        index = write_report(store, Path(plant_db).parent / "fleet_page", version="live", plots=False)
     fleet = index.read_text()
     rows_f = {(r, j): (lv, ex) for r, j, lv, ex in re.findall(
         r"<td class=l>(\w+)</td><td class=l><a href='#[^']*'>(\w+)</a></td><td class=l data-level='(\w+)'>\w+</td>"
         r"<td class=l data-alarm-expected='(\w+)'>", fleet)}
-    assert set(rows_f) == set(expected)
+    assert set(rows_f) == set(expected) and "<img src='img/" not in fleet
     for key in expected:
         assert rows_f[key] == (tj[key]["level"], "true" if tj[key]["alarm_expected"] else "false"), key
     counts = {name: float(sum(1 for k in tj if tj[k]["level"] == name)) for name in ("OK", "WARN", "ERROR", "STALE")}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
@@ -116,6 +117,27 @@ def fleet():
     return make_fleet(n_joints=40, days=240, seed=11)
 
 
+class _Backtests(Sequence):
+    """The fleet's nightly backtests (default config), each joint's run once for the module and shared by the
+    tests that score them (the quick flat-joint test runs only the flat joints')."""
+
+    def __init__(self, joints):
+        self.joints, self.runs = joints, {}
+
+    def __len__(self):
+        return len(self.joints)
+
+    def __getitem__(self, i):
+        if i not in self.runs:
+            self.runs[i] = backtest_joint(self.joints[i], TrendConfig(), EPOCH0)
+        return self.runs[i]
+
+
+@pytest.fixture(scope="module")
+def backtests(fleet):
+    return _Backtests(fleet)
+
+
 def test_fleet_has_the_estimators_calibrated_noise_and_known_truth(fleet):
     j = fleet[0]
     resid = np.concatenate([f.wear - f.true for f in fleet])
@@ -126,27 +148,26 @@ def test_fleet_has_the_estimators_calibrated_noise_and_known_truth(fleet):
 
 
 @pytest.mark.slow
-def test_interval_holds_the_true_time_to_alarm_for_most_growing_joints_and_is_narrower_than_it(fleet):
+def test_interval_holds_the_true_time_to_alarm_for_most_growing_joints_and_is_narrower_than_it(fleet, backtests):
     """Issue 13's acceptance: at the night each growing joint's true time to alarm reaches the horizon."""
     cfg = TrendConfig()
-    s = score_at_lead(fleet, cfg, EPOCH0, lead_days=cfg.horizon_days)
+    s = score_at_lead(fleet, cfg, EPOCH0, lead_days=cfg.horizon_days, backtests=backtests)
     assert s["joints"] >= 15
     assert s["coverage"] >= 0.80, s
     assert s["median_width_over_true"] <= 1.0, s
 
 
-def test_no_flat_joint_ever_warns(fleet):
-    cfg = TrendConfig()
-    flat = [j for j in fleet if j.profile == "flat"]
+def test_no_flat_joint_ever_warns(fleet, backtests):
+    flat = [i for i, j in enumerate(fleet) if j.profile == "flat"]
     assert len(flat) == 10
-    for j in flat:
-        b = backtest_joint(j, cfg, EPOCH0)
-        assert (b.level == 0).all(), (j.robot, j.joint, int((b.level > 0).sum()))
+    for i in flat:
+        b = backtests[i]
+        assert (b.level == 0).all(), (fleet[i].robot, fleet[i].joint, int((b.level > 0).sum()))
 
 
 @pytest.mark.slow
-def test_fleet_scores_are_in_their_targets(fleet):
-    s = score_fleet(fleet, TrendConfig(), EPOCH0, 240)
+def test_fleet_scores_are_in_their_targets(fleet, backtests):
+    s = score_fleet(fleet, TrendConfig(), EPOCH0, 240, backtests=backtests)
     assert s["coverage"] >= 0.85, s
     assert s["false_per_1000"] <= 1.0, s
     assert s["joints_missed"] == 0 and s["median_lead_days"] > 10.0, s

@@ -14,6 +14,7 @@ anywhere can simply be started again.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import math
 import os
@@ -129,6 +130,10 @@ def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Ca
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
+        refused = _refused(scheduler)
+        if refused is not None:
+            raise InputDataError(f"--scheduler {scheduler}: cannot connect to a Dask scheduler there "
+                                 f"({type(refused).__name__}: {refused.strerror or refused})")
         try:
             client = Client(scheduler, timeout="10s")
         except (OSError, TimeoutError) as exc:
@@ -148,6 +153,29 @@ def open_client(scheduler: str | None = None, workers: int = 2) -> tuple[Any, Ca
         cluster.close()
 
     return client, close
+
+
+def _refused(scheduler: str) -> OSError | None:
+    """The error when nothing listens at a ``tcp://`` scheduler address (the connection refused: known at once,
+    where Dask's client retries for its whole timeout); None otherwise (another scheme, a host that does not
+    answer at all: Dask's own timeout decides)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    try:
+        u = urlsplit(scheduler if "://" in scheduler else "tcp://" + scheduler)
+        host, port = u.hostname, u.port
+    except ValueError:
+        return None
+    if u.scheme != "tcp" or not host or port is None:
+        return None
+    try:
+        with socket.create_connection((host, port), timeout=2.0):
+            return None
+    except ConnectionRefusedError as exc:
+        return exc
+    except OSError:
+        return None
 
 
 @contextlib.contextmanager
@@ -245,7 +273,9 @@ def reprocess(
     """Re-analyse ``bags`` with parameter set ``params`` and ``method`` into ``store`` (a HistoryStore).
 
     ``client`` (a Dask Client) is used as is; else one is opened on ``scheduler`` or on a new
-    LocalCluster of ``workers`` processes, and closed at the end.
+    LocalCluster of ``workers`` processes, and closed at the end. One worker and no scheduler: the bags are
+    re-analysed in this process, one after another (a cluster of one worker process would only add its
+    start-up: seconds of CPU and wall).
     """
     from ..history import EstimateRecord
     from .ledger import done_fingerprints, ensure_ledger, mark_done
@@ -286,16 +316,17 @@ def reprocess(
     # code running when it came did with the KeyboardInterrupt); while the cluster starts it is held pending
     # (open_client), recorded as it is delivered at the end of that, and honoured once the cluster can be closed
     interrupted = _InterruptFlag.install()
+    here = client is None and not scheduler and workers == 1
     try:
-        if client is None:
+        if client is None and not here:
             interrupted.armed = False
             client, close = open_client(scheduler, workers)
     finally:
         interrupted.armed = True
     try:
         interrupted.check()
-        report.workers = _n_workers(client)
-        report.scheduler = str((getattr(client, "scheduler", None) and client.scheduler.address) or "")
+        report.workers = 1 if here else _n_workers(client)
+        report.scheduler = "" if here else str((getattr(client, "scheduler", None) and client.scheduler.address) or "")
         bar.ready(report.workers, len(todo))
     except BaseException:
         interrupted.restore()
@@ -316,26 +347,37 @@ def reprocess(
             mark_done(store, version, done_now)
         last_flush = time.perf_counter()
 
-    try:
+    task = functools.partial(reprocess_bag, params=params, method=method, version=version, observer_params=op,
+                             monitor_params=mp, software_version=software_version, robot=robot)
+
+    def outcomes() -> Iterator[tuple[str, BagOutcome | str]]:
+        """(bag, its outcome or why its task failed) as each bag is finished."""
+        if here:
+            for path, _fp in todo:
+                yield path, task(path)
+            return
         from dask.distributed import as_completed
 
-        futures = {}
-        for path, _fp in todo:
-            fut = client.submit(reprocess_bag, path, params=params, method=method, version=version,
-                                observer_params=op, monitor_params=mp, software_version=software_version,
-                                robot=robot, pure=False)
-            futures[fut] = path
+        futures = {client.submit(task, path, pure=False): path for path, _fp in todo}
         for fut in as_completed(list(futures)):
             interrupted.check()
             path = futures.pop(fut)
             if fut.status == "error":
                 task_exc = fut.exception()
-                failed.append({"bag": path, "error": f"{path}: the Dask task failed ({type(task_exc).__name__}: "
-                                                     f"{str(task_exc).splitlines()[0] if str(task_exc) else ''})"})
+                yield path, (f"{path}: the Dask task failed ({type(task_exc).__name__}: "
+                             f"{str(task_exc).splitlines()[0] if str(task_exc) else ''})")
+                continue
+            result: BagOutcome = fut.result()
+            fut.release()
+            yield path, result
+
+    try:
+        for path, outcome in outcomes():
+            interrupted.check()
+            if isinstance(outcome, str):
+                failed.append({"bag": path, "error": outcome})
                 bar.update(failed=1)
                 continue
-            outcome: BagOutcome = fut.result()
-            fut.release()
             if outcome.error is not None:
                 failed.append({"bag": path, "error": outcome.error})
                 bar.update(failed=1)

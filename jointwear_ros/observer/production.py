@@ -532,6 +532,8 @@ class ProductionObserver:
         if a.size != len(self.names):
             raise InputDataError(f"production observer: {what} has {a.size} value(s); the arm has {len(self.names)} "
                                  f"joints ({', '.join(self.names)})")
+        if float(np.abs(a).max()) <= _LARGEST:  # every value finite and within range (NaN fails this): the usual case
+            return a
         bad = ~np.isfinite(a) if not allow_nan else np.isinf(a)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
@@ -586,10 +588,12 @@ class ProductionObserver:
                 self._moved[j] = True
         elif self._arm_moving:
             self._end_arm_motion()
-        steady = acc <= self._max_accel
+        steady = (acc <= self._max_accel).tolist()
         un = u / self._scale
+        # Python scalars for the per-joint decisions (a numpy scalar per index costs more than the decision)
+        vl, ml, vml, ql, tl = v.tolist(), moving.tolist(), vm_all.tolist(), q.tolist(), temp.tolist()
         for j in range(len(self.names)):
-            sign = (1 if v[j] > 0 else -1) if moving[j] else 0
+            sign = (1 if vl[j] > 0 else -1) if ml[j] else 0
             motion = self._motion[j]
             if motion is not None and motion.sign != sign:
                 self._end_motion(j, cut=False)
@@ -602,8 +606,7 @@ class ProductionObserver:
             if steady[j]:
                 if seg is None:
                     seg = self._cur[j] = _Segment(j, sign, t)
-                seg.add(t, q, v, un, float(temp[j]), float(vm_all[j]),
-                        math.floor(float(q[j]) / self._bin[j]))
+                seg.add(t, q, v, un, tl[j], vml[j], math.floor(ql[j] / self._bin[j]))
             elif seg is not None:
                 self._end_segment(j, cut=False)
 

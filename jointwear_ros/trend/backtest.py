@@ -180,18 +180,19 @@ def score_fleet(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float, span_
 
 
 def score_at_lead(joints: Sequence[_Joint], cfg: TrendConfig, epoch0: float,
-                  lead_days: float = 60.0) -> dict[str, Any]:
+                  lead_days: float = 60.0, backtests: Sequence[NightlyBacktest] | None = None) -> dict[str, Any]:
     """Per growing joint, the trend at the first night its true time to alarm is at most ``lead_days``.
 
     Returns how many joints were scored, the fraction whose 90 % interval holds the true time to alarm
     (a night without an interval counts as a miss), and the median of width / true time to alarm.
+    ``backtests``: the joints' :func:`backtest_joint` results when already run.
     """
     hits = scored = 0
     ratios: list[float] = []
-    for j in joints:
+    for i, j in enumerate(joints):
         if j.profile == "flat":
             continue
-        b = backtest_joint(j, cfg, epoch0)
+        b = backtests[i] if backtests is not None else backtest_joint(j, cfg, epoch0)
         k = np.nonzero((b.true_tta <= lead_days) & (b.true_tta > 1.0) & (b.true_wear < cfg.alarm))[0]
         if len(k) == 0:
             continue

@@ -20,14 +20,16 @@ because all start from the same level and rate priors (:mod:`jointwear_ros.trend
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .config import Array, TrendConfig
 from .members import RatePrior, steady_basis
 
-__all__ = ["FilterOutput", "filter_bank", "kalman_llt", "logsumexp", "rts_smooth", "steady_at"]
+__all__ = ["FilterOutput", "filter_bank", "kalman_llt", "logsumexp", "rts_smooth", "steady_at", "steady_nights"]
 
 
 @dataclass(frozen=True)
@@ -158,38 +160,79 @@ def _regression_evidence(S: Array, ua: Array, upa: Array, cfg: TrendConfig, pr: 
 
 
 def steady_at(t: Array, y: Array, r: Array, n: int, efold: float, cfg: TrendConfig, pr: RatePrior,
-               keep: int = 3) -> tuple[float, list[tuple[float, Array, Array, int]]]:
+              keep: int = 3) -> tuple[float, list[tuple[float, Array, Array, int]]]:
     """One steady member at night ``n`` (estimates 0..n): its log evidence (summed over no step / a step
     before each estimate) and its components (posterior weight within the member, mean, cov, step index)."""
-    tt, yy, rr = t[: n + 1], y[: n + 1], r[: n + 1]
-    dt = tt - tt[-1]
+    return steady_nights(t, y, r, np.array([n]), efold, cfg, pr, keep)[0]
+
+
+#: nights x estimates of one block of :func:`steady_nights` (its arrays: about 40 of this many floats)
+_BLOCK = 40_000
+
+
+def steady_nights(t: Array, y: Array, r: Array, nights: NDArray[np.int_] | Sequence[int], efold: float, cfg: TrendConfig, pr: RatePrior,
+                  keep: int = 3) -> list[tuple[float, list[tuple[float, Array, Array, int]]]]:
+    """:func:`steady_at` at each of ``nights``, the same numbers: the sufficient statistics of every (night,
+    segment start) pair of a block of nights in one array (row b: night ``nights[b]``, column k: estimate k,
+    relative to that night; zero beyond it), so a whole history costs a few array operations per block."""
+    t, y, r = np.asarray(t, float), np.asarray(y, float), np.asarray(r, float)
+    ns_all = np.asarray(nights, int)
+    out: list[tuple[float, list[tuple[float, Array, Array, int]]]] = []
+    rows = max(1, _BLOCK // max(1, int(ns_all.max(initial=0)) + 1))
+    for b0 in range(0, len(ns_all), rows):
+        out += _steady_block(t, y, r, ns_all[b0:b0 + rows], efold, cfg, pr, keep)
+    return out
+
+
+def _steady_block(t: Array, y: Array, r: Array, ns: NDArray[np.int_], efold: float, cfg: TrendConfig, pr: RatePrior,
+                  keep: int) -> list[tuple[float, list[tuple[float, Array, Array, int]]]]:
+    L = int(ns.max()) + 1
+    tt, yy, rr = t[:L], y[:L], r[:L]
+    ks = np.arange(L)
+    mine = ks[None, :] <= ns[:, None]  # (B, L): estimate k is in night b's history
+    dt = np.where(mine, tt[None, :] - tt[ns][:, None], 0.0)
     u, up = steady_basis(dt, efold)
-    w = 1.0 / rr ** 2
-    P = np.zeros((7, n + 2))  # prefix sums of the sufficient statistics
+    w = np.where(mine, 1.0 / rr ** 2, 0.0)
+    P = np.zeros((7, len(ns), L + 1))  # per night, prefix sums of the sufficient statistics
     wu, wy = w * u, w * yy
-    for row, v in enumerate((w, wu, wu * u, wy, wu * yy, wy * yy, np.log(2 * math.pi * rr * rr))):
-        np.cumsum(v, out=P[row, 1:])
-    valid = -dt <= cfg.max_efolds * efold  # segment starts an accelerated shape may use
-    ks = np.arange(n + 1)
-    after = P[:, [n + 1]] - P[:, ks]
-    ev_a, mean_a, cov_a = _regression_evidence(after, u[ks], up[ks], cfg, pr)
-    ev_a = np.where(valid[ks], ev_a, -np.inf)
-    span = float(tt[-1] - tt[0])
+    logc = np.where(mine, np.log(2 * math.pi * rr * rr), 0.0)
+    for row, v in enumerate((w, wu, wu * u, wy, wu * yy, wy * yy, logc)):
+        np.cumsum(v, axis=1, out=P[row, :, 1:])
+    valid = (-dt <= cfg.max_efolds * efold) & mine  # segment starts an accelerated shape may use
+    B = np.arange(len(ns))
+    after = P[:, B, ns + 1][:, :, None] - P[:, :, :L]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ev_a, mean_a, cov_a = _regression_evidence(after, u, up, cfg, pr)
+        ev_b, _, _ = _regression_evidence(P[:, :, 1:L], np.repeat(u[:, :1], L - 1, 1), np.repeat(up[:, :1], L - 1, 1),
+                                          cfg, pr)
+    ev_a = np.where(valid, ev_a, -np.inf)
+    # the prior probability of no step (column 0) and of a step just before estimate k (column k), per night
     h = cfg.step_rate_per_day
-    logp = np.full(n + 1, -np.inf)
-    logp[0] = -h * span
-    if n >= 1 and span > 0 and h > 0:
-        ev_b, _, _ = _regression_evidence(P[:, ks[1:]], np.full(n, u[0]), np.full(n, up[0]), cfg, pr)
-        ev_b = np.where(valid[0], ev_b, -np.inf)
-        gaps = np.diff(tt) / span
-        with np.errstate(divide="ignore"):
-            logp[1:] = math.log(-math.expm1(-h * span)) + np.log(gaps) + ev_b
-    total = logp + ev_a
-    if not np.isfinite(total).any():
-        return -math.inf, []
-    lev = float(logsumexp(total))
-    post = np.exp(total - lev)
-    order = [0] + [int(k) for k in np.argsort(-post[1:])[:keep] + 1 if post[k] > 1e-4] if n >= 1 else [0]
-    order = [k for k in order if post[k] > 0]
-    tot = float(sum(post[k] for k in order))
-    return lev, [(float(post[k] / tot), mean_a[k], cov_a[k], k if k > 0 else -1) for k in order]
+    span = tt[ns] - tt[0]
+    logp = np.full((len(ns), L), -np.inf)
+    logp[:, 0] = -h * span
+    stepped = (ns >= 1) & (span > 0) & (h > 0)
+    if L > 1 and stepped.any():
+        with np.errstate(divide="ignore", invalid="ignore"):
+            gaps = np.diff(tt)[None, :] / np.where(stepped, span, 1.0)[:, None]
+            lp = np.log(-np.expm1(-h * np.where(stepped, span, 1.0)))[:, None] + np.log(gaps)
+        lp = lp + np.where(valid[:, :1], ev_b, -np.inf)
+        logp[:, 1:] = np.where(mine[:, 1:] & stepped[:, None], lp, -np.inf)
+    total = np.where(mine, logp + ev_a, -np.inf)
+    top = np.max(total, axis=1)
+    some = np.isfinite(top)
+    with np.errstate(invalid="ignore"):
+        lev = top + np.log(np.exp(total - np.where(some, top, 0.0)[:, None]).sum(axis=1))
+        post = np.exp(total - np.where(some, lev, 0.0)[:, None])
+    rank = np.argsort(-post[:, 1:], axis=1)[:, :keep] + 1 if L > 1 else np.zeros((len(ns), 0), int)
+    res: list[tuple[float, list[tuple[float, Array, Array, int]]]] = []
+    for b in range(len(ns)):
+        if not some[b]:
+            res.append((-math.inf, []))
+            continue
+        pb = post[b]
+        order = [k for k in [0, *(int(k) for k in rank[b] if pb[k] > 1e-4)] if pb[k] > 0]
+        tot = float(sum(pb[k] for k in order))
+        res.append((float(lev[b]), [(float(pb[k] / tot), mean_a[b, k].copy(), cov_a[b, k].copy(), k if k > 0 else -1)
+                                    for k in order]))
+    return res

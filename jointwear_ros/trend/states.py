@@ -22,10 +22,13 @@ from scipy.special import ndtr
 from ..contract import DiagnosticLevel
 from .alarm import crossing_curves, crossing_quantiles, forecast_basis, tau_grid
 from .config import Array, TrendConfig
-from .filters import filter_bank, logsumexp, steady_at
+from .filters import filter_bank, logsumexp, steady_nights
 from .members import Component, Member, RatePrior, bank_members
 
 __all__ = ["TrendStates", "trend_states", "unbounded_reason"]
+
+#: components per array operation of :func:`trend_states`' crossing curves (each a row of the tau grid)
+_CHUNK = 2048
 
 
 @dataclass(frozen=True)
@@ -70,18 +73,20 @@ def trend_states(t_days: Array, y: Array, r: Array, cfg: TrendConfig, rows: Arra
     M, N = len(members), len(idx)
     W = np.zeros((M, N))
     out = {k: np.zeros(N) for k in ("wear", "wvar", "rate", "rvar", "pg", "pgs", "step")}
-    qs = np.zeros((N, 3))
     reach = np.zeros((N, M))
     mixtures: list[list[Component]] = []
+    steady = {(si, i): steady_nights(t, y, r, idx, m.efold, cfg, p) for si, (p, _) in enumerate(sources)
+              for i, m in enumerate(members) if m.kind == "steady" and logprior[si, i] > -600}
+    by_member: list[list[tuple[int, Component]]] = [[] for _ in members]  # (row, component), rows ascending
     for j, n in enumerate(idx):
         lev = np.full((len(sources), M), -np.inf)
         # (source, member) -> [(weight, mean, cov, step)]
         comps_by: list[list[list[tuple[float, Array, Array, int]]]] = [[[] for _ in members] for _ in sources]
-        for si, ((p, _), bank) in enumerate(zip(sources, banks)):
+        for si, bank in enumerate(banks):
             for i, m in enumerate(members):
                 if m.kind == "steady":
-                    if logprior[si, i] > -600:
-                        lev[si, i], comps_by[si][i] = steady_at(t, y, r, int(n), m.efold, cfg, p)
+                    if (si, i) in steady:
+                        lev[si, i], comps_by[si][i] = steady[si, i][j]
                 else:
                     f = bank[adaptive.index(i)]
                     lev[si, i] = f.loglik[n]
@@ -92,7 +97,6 @@ def trend_states(t_days: Array, y: Array, r: Array, cfg: TrendConfig, rows: Arra
         W[:, j] = w
         comps = [Component(i, float(ws[si, i] * cw), mu, P, k) for si in range(len(sources)) for i in range(M)
                  if ws[si, i] > 1e-9 for (cw, mu, P, k) in comps_by[si][i]]
-        F = np.zeros(len(tau))
         wear = sum(c.weight * c.mean[0] for c in comps)
         rate = sum(c.weight * c.mean[1] for c in comps)
         out["wear"][j], out["rate"][j] = wear, rate
@@ -104,18 +108,29 @@ def trend_states(t_days: Array, y: Array, r: Array, cfg: TrendConfig, rows: Arra
         out["pgs"][j] = (sum(p for p, c in zip(pg, comps) if members[c.member].kind == "steady") / w_steady
                          if w_steady > 0 else math.nan)
         out["step"][j] = sum(c.weight for c in comps if c.step_at >= 0)
-        for i in range(M):
-            mine = [c for c in comps if c.member == i]
-            if not mine:
-                continue
-            Fi = crossing_curves(np.array([c.mean for c in mine]), np.array([c.cov for c in mine]), *bases[i], cfg.alarm)
-            cw = np.array([c.weight for c in mine])
-            Fm = cw @ Fi
-            F += Fm
-            reach[j, i] = Fm[-1] / cw.sum()
-        qs[j] = crossing_quantiles(F[None, :], tau)[0]
+        for c in comps:
+            by_member[c.member].append((j, c))
         if keep:
             mixtures.append(comps)
+    # the mixture's crossing CDF per row: each member's components of every row in one array operation
+    F = np.zeros((N, len(tau)))
+    for i, mine in enumerate(by_member):
+        for c0 in range(0, len(mine), _CHUNK):
+            part = mine[c0:c0 + _CHUNK]
+            row = np.array([j for j, _ in part])
+            cw = np.array([c.weight for _, c in part])
+            Fi = crossing_curves(np.array([c.mean for _, c in part]), np.array([c.cov for _, c in part]), *bases[i],
+                                 cfg.alarm)
+            starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
+            Fm = np.add.reduceat(cw[:, None] * Fi, starts, axis=0)
+            F[row[starts]] += Fm
+            reach[row[starts], i] += Fm[:, -1]
+    cw_member = np.zeros((N, M))
+    for i, mine in enumerate(by_member):
+        np.add.at(cw_member[:, i], [j for j, _ in mine], [c.weight for _, c in mine])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        reach = np.where(cw_member > 0, reach / np.where(cw_member > 0, cw_member, 1.0), 0.0)
+    qs = crossing_quantiles(F, tau) if N else np.zeros((0, 3))
     growth = (out["pg"] >= cfg.growth_probability) & (idx + 1 >= cfg.min_estimates)
     level = np.full(N, DiagnosticLevel.OK)
     level[growth & (qs[:, 0] <= cfg.horizon_days)] = DiagnosticLevel.WARN
