@@ -58,6 +58,13 @@ MARKERS = {
 #: with their figures and the scatter-over-seeds checks, as many as keep the quick tier at 85 % of
 #: the tests or more (docs/testing.md). ``make test`` runs them; so does ``-m slow``.
 SLOW_TESTS: dict[str, tuple[str, ...]] = {
+    "test_cycle_line.py": (
+        "test_the_observations_equal_the_one_at_a_time_cycles",
+        "test_six_joints_at_once_are_each_observed_at_every_speed_on_one_line_in_a_sixth_of_the_time",
+    ),
+    "test_estimate_model_uncertainty.py": (
+        "test_commissioned_sets_with_their_covariance_carried_are_calibrated_where_their_values_alone_are_not",
+    ),
     "test_bag_discovery_reprocess.py": (
         "test_a_bag_folder_without_metadata_is_a_failed_bag_not_left_out",
         "test_a_bag_without_recorded_settings_is_refused_unless_params_and_method_are_given",
@@ -205,7 +212,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_reprocess_bag_never_raises_for_broken_bags",
         "test_reprocess_bag_of_a_damaged_mcap_gives_an_error_or_records_never_an_exception",
         "test_reprocess_of_20_bags_gives_20_estimates_once_and_reports_the_broken_bag",
-        "test_scheduler_that_is_not_there_is_a_one_line_error",
+        "test_one_worker_reanalyses_in_this_process_with_the_clusters_numbers",
     ),
     "test_history_store.py": (
         "test_concurrent_writer_processes_lose_nothing_and_duplicate_nothing",

@@ -254,7 +254,6 @@ def test_progress_bar_counts_done_failed_and_skipped_bags():
     assert quiet.getvalue() == ""
 
 
-@pytest.mark.slow  # the module's Dask cluster: not started in the quick tier for this test alone
 def test_one_worker_reanalyses_in_this_process_with_the_clusters_numbers(fleet, scheduler, tmp_path):
     """``--workers 1`` starts no cluster (the bags in the command's own process) and gives what the cluster gives."""
     from jointwear_ros.fleet import reprocess

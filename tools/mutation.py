@@ -449,7 +449,7 @@ MUTANTS: tuple[Mutant, ...] = (
            expr("out['wear'] >= cfg.alarm", "out['wear'] > cfg.alarm"),
            ("test/test_trend_bank.py",), select="error_exactly", fast=True),
     Mutant("trend_no_step", "the steady members allow no unrecorded step (a reducer replaced unnoticed)",
-           "jointwear_ros/trend/filters.py", "steady_at",
+           "jointwear_ros/trend/filters.py", "_steady_block",
            stmts("h = cfg.step_rate_per_day", "h = 0.0"),
            ("test/test_trend_bank.py",), select="step_without_a_maintenance_event", fast=True),
     Mutant("trend_no_process_noise", "the adaptive members forecast without their process noise",

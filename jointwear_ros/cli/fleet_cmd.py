@@ -53,7 +53,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                                                  "the set's content, the method and the software version>)")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="an existing Dask scheduler (tcp://host:8786); default: a LocalCluster of --workers")
-    r.add_argument("--workers", default="2", metavar="N", help="LocalCluster worker processes (default 2)")
+    r.add_argument("--workers", default="2", metavar="N", help="worker processes of a Dask LocalCluster (default 2); 1 without --scheduler: the bags "
+                        "one after another in this process, no cluster")
     r.add_argument("--json", action="store_true",
                    help='print JSON {"bags", "estimates", "skipped", "failed": [{"bag", "error"}], '
                         '"analysis_version", "seconds", ...}')
