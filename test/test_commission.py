@@ -375,3 +375,22 @@ def test_the_bound_of_a_set_with_an_extra_term_is_the_bound_of_its_core_model(tm
     a = crb_multi_speed(None, path, speeds, 30.0)
     b = crb_multi_speed(None, "ref-2011r", speeds, 30.0)
     assert a == pytest.approx(b, rel=1e-12) and math.isfinite(a)
+
+
+def test_a_fitted_parameter_past_its_physical_bound_is_named_for_holding_in_a_bounded_frame_only():
+    """A fit that widened a data-scaled bound past the physical one (Fstm 147.7 where the loader takes [0, 10],
+    seen live) would write a set the loader refuses: commissioning holds such a parameter at its bound."""
+    from types import SimpleNamespace
+
+    from jointwear_ros.commission.core import _outside_physical_bounds
+    from jointwear_ros.model import SetUnits, paper_wear_model
+
+    m = paper_wear_model()
+    params = {n: SimpleNamespace(value=p.value) for n, p in m.make_params().items()}  # the defaults: in bounds
+    params["Fstm"] = SimpleNamespace(value=147.667)
+    fit = SimpleNamespace(free=list(m.param_names), params=params)
+    assert _outside_physical_bounds(m, fit, SetUnits()) == {"Fstm": (147.667, 10.0)}
+    joint_side = SetUnits(frame="joint", gear_ratio=100.0, torque_scale=50.0)
+    assert joint_side.joint_side and _outside_physical_bounds(m, fit, joint_side) == {}  # not bounded there
+    params["Fstm"] = SimpleNamespace(value=2.0)
+    assert _outside_physical_bounds(m, fit, SetUnits()) == {}

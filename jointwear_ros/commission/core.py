@@ -387,6 +387,21 @@ def _fit(m: Model, table: ObservationTable, scales: DataScales, fixed: dict[str,
     return fit_model(m, table, p0, fixed=hold, starts=starts, cv_folds=cv_folds, folds=folds)
 
 
+def _outside_physical_bounds(m: Model, fit: Any, units: SetUnits) -> dict[str, tuple[float, float]]:
+    """The fitted free parameters outside their terms' physical bounds, which the set loader refuses in a frame
+    it bounds (not the joint side): name -> (value, the nearest bound)."""
+    if units.joint_side:
+        return {}
+    specs = {sp.name: sp for t in m.terms for sp in t.params}
+    out: dict[str, tuple[float, float]] = {}
+    for n in fit.free:
+        sp = specs.get(n)
+        v = float(fit.params[n].value)
+        if sp is not None and math.isfinite(v) and not sp.min <= v <= sp.max:
+            out[n] = (v, float(min(max(v, sp.min), sp.max)))
+    return out
+
+
 def commission(
     table: ObservationTable,
     *,
@@ -442,6 +457,15 @@ def commission(
                             "it as w = 0 (as installed)")
     scales = DataScales.from_table(table)
     fit = _fit(m, table, scales, fixed, cv_folds, folds)
+    outside = _outside_physical_bounds(m, fit, units)
+    if outside:
+        # the fit widened a data-scaled bound past the terms' physical one (a parameter the data do not pin down):
+        # a set the loader would refuse; hold each such parameter at its physical bound and fit the rest again
+        for n, (value, bound) in outside.items():
+            warnings.append(f"parameter {n} = {value:.6g} is outside its physical bounds: held at {bound:g} (the data "
+                            "do not pin it down)")
+        fixed = {**fixed, **{n: bound for n, (_v, bound) in outside.items()}}
+        fit = _fit(m, table, scales, fixed, cv_folds, folds)
     verdict, suggestion, summary = "not run", None, "workbench diagnosis not run"
     carried, verdict_after = None, "not run"
     before, after = math.nan, math.nan
