@@ -59,7 +59,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="with --publish: before playing, wait until every played topic has at least N matched "
                         "subscribers (default 0: do not wait), at most --wait-timeout seconds")
     p.add_argument("--wait-timeout", default="60",
-                   help="with --wait-for-subscribers: give up after this many seconds, exit code 2 (default 60)")
+                   help="with --wait-for-subscribers: give up after this many seconds, exit code 2 (default 60); also how "
+                        "long the playback waits for a reliable subscriber that has stopped taking messages")
     p.add_argument("--rate", default="1.0", help="with --publish: playback speed factor (default 1 = recorded speed)")
     p.add_argument("--topics", default=None,
                    help="with --publish: comma list of topics to play (default: all but /clock, /rosout, "
@@ -279,8 +280,11 @@ def _publish(args: argparse.Namespace) -> int:
     check_bag(bag)  # a damaged bag is refused with the file and offset before anything is published
     try:
         import rclpy
+        from rclpy.impl.implementation_singleton import rclpy_implementation
         from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
         from rosgraph_msgs.msg import Clock
+
+        RCLError = rclpy_implementation.RCLError
 
         from ..nodes.runtime import message_class
     except ImportError as exc:
@@ -332,7 +336,7 @@ def _publish(args: argparse.Namespace) -> int:
                     msg.clock.sec, msg.clock.nanosec = divmod(int(t), 1_000_000_000)
                     clock_pub.publish(msg)
                     last_clock = t
-                pubs[conn.id].publish(bytes(raw))
+                _publish_waiting(pubs[conn.id], bytes(raw), conn.topic, wait_timeout, RCLError)
                 played += 1
             # reliable subscribers get the last messages before this process goes away
             from rclpy.duration import Duration
@@ -352,6 +356,33 @@ def _publish(args: argparse.Namespace) -> int:
         rclpy.try_shutdown()
     print(f"jointwear replay: published {played} messages", file=sys.stderr)
     return 0
+
+
+def _publish_waiting(pub: Any, data: bytes, topic: str, patience: float, rcl_error: type[Exception]) -> None:
+    """Publish ``data``; while a reliable subscriber is behind the playback, wait for it instead of failing.
+
+    A KEEP_ALL publisher keeps each message until every reliable subscriber has it; when a slow
+    subscriber (a loaded machine) lets that history fill, the middleware blocks the write for its
+    blocking time and then refuses it ("Failed to publish: cannot publish data"), with the message
+    not written. It is sent again once the subscribers have taken some (``wait_for_all_acked``), so
+    none is lost and none is sent twice; a subscriber that takes nothing for ``patience`` s is an
+    InputDataError naming the topic.
+    """
+    from rclpy.duration import Duration
+
+    give_up: float | None = None
+    while True:
+        try:
+            pub.publish(data)
+            return
+        except rcl_error as exc:
+            now = time.monotonic()
+            give_up = now + patience if give_up is None else give_up
+            if now > give_up:
+                raise InputDataError(
+                    f"{topic}: a subscriber took no message for {patience:g} s, the playback cannot go on "
+                    f"({str(exc).splitlines()[0]}); raise --wait-timeout or check the consumers") from None
+            pub.wait_for_all_acked(Duration(seconds=0.2))
 
 
 def _wait_for_subscribers(pubs: dict[str, Any], n: int, timeout: float) -> None:
