@@ -284,8 +284,11 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
 
         op.spin_until(caught_up, 180.0, children, f"production_observer to take the {n_samples} joint states")
         taken, held, lost = steady["value"]
+        unheard = n_samples - taken - held - lost  # dropped from its full queue, which no counter sees
         _progress(f"production_observer took {taken} of {n_samples} joint states, {held} held for their temperatures "
-                  f"until the shift ends" + (f", {lost} lost on the way" if lost else ""))
+                  f"until the shift ends" + (f", {lost} lost on the way" if lost else "")
+                  + (f"; {unheard} never reached it (its queue overflowed while it was behind: CPU starved?)"
+                     if unheard > 0 else ""))
         fut = end_client.call_async(Trigger.Request())
         op.spin_until(fut.done, 30.0, children, "the answer of /production_observer/end_shift")
         _progress(f"the operator ended the last shift: {fut.result().message}")
