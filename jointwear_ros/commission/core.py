@@ -402,6 +402,31 @@ def _outside_physical_bounds(m: Model, fit: Any, units: SetUnits) -> dict[str, t
     return out
 
 
+def _fit_within_physical_bounds(m: Model, table: ObservationTable, scales: DataScales, fixed: dict[str, float],
+                                cv_folds: int, folds: np.ndarray | None, units: SetUnits,
+                                warm: Parameters | None = None) -> tuple[Any, dict[str, float], list[str]]:
+    """:func:`_fit`, then every free parameter past its physical bound (:func:`_outside_physical_bounds`) held at
+    that bound and the rest fitted again, until none is: the one way commissioning fits, so no fit it keeps (the
+    nominal one, or the refit with a found effect carried) writes a set the loader refuses.
+
+    The data-scaled bounds, widened, can let a parameter the data do not pin down walk past the terms' physical
+    one (``Fstm`` 147.7 against [0, 10] on the first fit, seen live; ``vstm`` 555 against [0.1, 500] on the refit
+    with a low-speed effect carried). Returns the fit, ``fixed`` with the held parameters added, and one note per
+    held parameter (for the warnings).
+    """
+    fit = _fit(m, table, scales, fixed, cv_folds, folds, warm=warm)
+    notes: list[str] = []
+    outside = _outside_physical_bounds(m, fit, units)
+    while outside:  # each round holds at least one more free parameter: it ends
+        for n, (value, bound) in outside.items():
+            notes.append(f"parameter {n} = {value:.6g} is outside its physical bounds: held at {bound:g} (the data "
+                         "do not pin it down)")
+        fixed = {**fixed, **{n: bound for n, (_v, bound) in outside.items()}}
+        fit = _fit(m, table, scales, fixed, cv_folds, folds, warm=warm)
+        outside = _outside_physical_bounds(m, fit, units)
+    return fit, fixed, notes
+
+
 def commission(
     table: ObservationTable,
     *,
@@ -456,16 +481,8 @@ def commission(
             warnings.append(f"{where}: the baseline holds wear levels up to {np.nanmax(w):g}; commissioning treats "
                             "it as w = 0 (as installed)")
     scales = DataScales.from_table(table)
-    fit = _fit(m, table, scales, fixed, cv_folds, folds)
-    outside = _outside_physical_bounds(m, fit, units)
-    if outside:
-        # the fit widened a data-scaled bound past the terms' physical one (a parameter the data do not pin down):
-        # a set the loader would refuse; hold each such parameter at its physical bound and fit the rest again
-        for n, (value, bound) in outside.items():
-            warnings.append(f"parameter {n} = {value:.6g} is outside its physical bounds: held at {bound:g} (the data "
-                            "do not pin it down)")
-        fixed = {**fixed, **{n: bound for n, (_v, bound) in outside.items()}}
-        fit = _fit(m, table, scales, fixed, cv_folds, folds)
+    fit, fixed, held = _fit_within_physical_bounds(m, table, scales, fixed, cv_folds, folds, units)
+    warnings.extend(held)
     verdict, suggestion, summary = "not run", None, "workbench diagnosis not run"
     carried, verdict_after = None, "not run"
     before, after = math.nan, math.nan
@@ -481,12 +498,14 @@ def commission(
             if carry_found and not model_explicit:
                 try:
                     m2 = parse_spec(f"{m.spec} + {suggestion}")
-                    fit2 = _fit(m2, table, scales, fixed, cv_folds, folds, warm=d.best.fit.params)
+                    fit2, fixed2, held2 = _fit_within_physical_bounds(m2, table, scales, fixed, cv_folds, folds,
+                                                                      units, warm=d.best.fit.params)
                 except InputDataError:
                     fit2 = None
                 after = fit2.cv_rmse if fit2 is not None else math.nan
                 if fit2 is not None and math.isfinite(after) and after < before:
-                    carried, m, fit = suggestion, m2, fit2
+                    carried, m, fit, fixed = suggestion, m2, fit2, fixed2
+                    warnings.extend(held2)
                     d2 = diagnose(table, fit, cv_folds=cv_folds, n_bootstrap=0)
                     verdict_after, nf = d2.verdict, d2.noise
                     warnings.append(f"the workbench finds an effect the nominal model misses on the baseline: "

@@ -12,7 +12,12 @@ speed and torque scales (:mod:`jointwear_ros.model.scaling`), so a joint
 recorded in N·m at a few rad/s is fitted in its own numbers. A parameter that
 ends on a bound made by that scaling has the bound widened tenfold and the
 fit resumed (twice at most); a parameter still on a bound is named in
-``at_bound`` and the fit is then not ``success`` (converged).
+``at_bound`` and the fit is then not ``success`` (converged). A bound the
+scaling left at its term's own number (data at the paper's scale, a table not
+declared joint side) is the term's physical bound, the one a parameter set in
+the paper's frame is held to: a parameter the widening let past it keeps the
+data's value but is named in ``outside_physical`` (and the message), and the
+fit is then not ``success`` either.
 
 Starting values: the given parameters (a parameter set, or each term's
 physically sensible default); the parameters the model is linear in are then
@@ -52,7 +57,7 @@ from ..model import Model, Parameters
 from ..model.scaling import BoundHit, DataScales, on_bound, scale_parameters
 from ..types import ObservationTable
 
-__all__ = ["FitResult", "fit_model", "group_folds", "information_criteria", "model_inputs"]
+__all__ = ["FitResult", "fit_model", "group_folds", "information_criteria", "model_inputs", "physical_bound_names"]
 
 Array = npt.NDArray[np.float64]
 
@@ -83,6 +88,8 @@ class FitResult:
     cv_residuals: Array | None = field(default=None, repr=False)
     at_bound: list[BoundHit] = field(default_factory=list)
     scales: DataScales | None = field(default=None, repr=False)
+    #: Free parameters past their terms' physical bounds (see :func:`fit_model`): name -> (min, max).
+    outside_physical: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     @property
     def spec(self) -> str:
@@ -101,7 +108,8 @@ class FitResult:
 
         ``params`` and ``parameters`` are the same table (``parameters`` adds
         each one's bounds and whether it ended on one); ``at_bound`` lists the
-        parameters on a bound, ``converged`` is ``success``.
+        parameters on a bound, ``outside_physical`` those past their terms'
+        physical bounds, ``converged`` is ``success``.
         """
         hits = {h.name: h for h in self.at_bound}
         return {
@@ -138,6 +146,8 @@ class FitResult:
             },
             "converged": self.success,
             "at_bound": [h.to_dict() for h in self.at_bound],
+            "outside_physical": [{"name": n, "value": float(self.params[n].value), "min": lo, "max": hi}
+                                 for n, (lo, hi) in self.outside_physical.items()],
             "scales": None if self.scales is None else self.scales.to_dict(),
             "correlations": {
                 a: {b: float(self.correlations[i, j]) for j, b in enumerate(self.free) if j != i}
@@ -373,7 +383,9 @@ def fit_model(
     physical
         Physical signs hold (default): the speed-only Stribeck amplitude ``Fs`` and viscous coefficient
         ``Fv`` are at least 0 (a fit that ends below refits with the bound at 0), and a fit whose Stribeck or viscous term (:data:`SIGNED_TERMS`) is negative
-        at the data is not called converged (the message names it).
+        at the data is not called converged (the message names it). And a parameter whose bounds were
+        its term's physical ones (:func:`physical_bound_names`) that ends past them (a widened bound) is
+        named in ``outside_physical`` and the message, and the fit is not called converged.
 
     Returns
     -------
@@ -387,6 +399,7 @@ def fit_model(
     auto: set[str] = set()
     if sc is not None:
         p0, auto = scale_parameters(model, p0, sc)
+    bounded = physical_bound_names(model, p0, auto, table) if physical else frozenset()
     if physical and not _clipped:
         res = fit_model(model, table, params, fixed=fixed, starts=starts, n_starts=n_starts, cv_folds=cv_folds,
                         folds=folds, cv_max_nfev=cv_max_nfev, max_nfev=max_nfev, scales=scales, rescale=rescale,
@@ -492,6 +505,12 @@ def fit_model(
     if hits:
         success = False
         message = f"{message}; ended on a bound: {'; '.join(str(h) for h in hits)}"
+    outside = _outside_physical(model, out_params, prob.free, bounded)
+    if outside:
+        success = False
+        message = (f"{message}; outside its physical bounds (a widened bound let it past; a set in the paper's frame "
+                   "cannot hold it): " + "; ".join(f"{nm} = {out_params[nm].value:.6g} outside [{lo:g}, {hi:g}]"
+                               for nm, (lo, hi) in outside.items()))
     if physical and n:
         bad = _negative_terms(model, out_params, x)
         if bad:
@@ -510,7 +529,37 @@ def fit_model(
         model=model, params=out_params, success=success, message=str(message), n=n, n_free=k, ssr=ssr,
         rmse=rmse, cv_rmse=cv_rmse, aic=aic, bic=bic, free=list(prob.free), correlations=corr,
         residuals=resid, fitted=resid + y, nfev=nfev, cv_residuals=cv_res, at_bound=hits, scales=sc,
+        outside_physical=outside,
     )
+
+
+def physical_bound_names(model: Model, params: Parameters, auto: set[str], table: ObservationTable
+                         ) -> frozenset[str]:
+    """The parameters of ``auto`` (bounds from the terms) whose bounds are still their terms' own numbers, in a
+    table not declared joint side: the terms' physical bounds, which a set in the paper's frame is held to
+    (the set loader refuses a value past them). A fit may still widen them, but names a parameter it leaves
+    past them (:attr:`FitResult.outside_physical`) and is then not converged.
+
+    Data off the paper's scale have their bounds scaled to the data's numbers (those may be widened), and a
+    joint-side table is not held to the normalized frame's bounds (nor is a set in the joint frame).
+    """
+    units = getattr(table, "units", None)
+    if units is not None and getattr(units, "joint_side", False):
+        return frozenset()
+    specs = {sp.name: sp for t in model.terms for sp in t.params}
+    return frozenset(n for n in auto if n in specs and n in params
+                     and (params[n].min, params[n].max) == (specs[n].min, specs[n].max))
+
+
+def _outside_physical(model: Model, params: Parameters, free: Sequence[str], physical: frozenset[str]
+                      ) -> dict[str, tuple[float, float]]:
+    """The free parameters of ``physical`` (:func:`physical_bound_names`) past their terms' bounds: name -> (min, max)."""
+    specs = {sp.name: sp for t in model.terms for sp in t.params}
+    out: dict[str, tuple[float, float]] = {}
+    for nm in free:
+        if nm in physical and not specs[nm].min <= params[nm].value <= specs[nm].max:
+            out[nm] = (float(specs[nm].min), float(specs[nm].max))
+    return out
 
 
 def _widen_bounds(

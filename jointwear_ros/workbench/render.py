@@ -127,10 +127,13 @@ def fit_text(table: ObservationTable, fit: FitResult) -> str:
         out.append(f"# solver: {fit.message}")
     out += [f"# on a bound (not converged): {h}; its stderr means nothing, the data may not identify it"
             for h in fit.at_bound]
+    out += [f"# outside its physical bounds (not converged): {n} = {fit.params[n].value:.6g} outside [{lo:g}, {hi:g}]"
+            "; a widened bound let it past, a set in the paper's frame cannot hold it" for n, (lo, hi) in fit.outside_physical.items()]
     out.append("")
     hits = {h.name: h for h in fit.at_bound}
     rows = [[n, f"{p.value:.6g}", "fixed" if not p.vary else f"{p.stderr:.3g}" if p.stderr is not None else "-", p.unit,
-             f"{hits[n].side} {hits[n].bound:.6g}" if n in hits else ""]
+             f"{hits[n].side} {hits[n].bound:.6g}" if n in hits else
+             "outside [{:g}, {:g}]".format(*fit.outside_physical[n]) if n in fit.outside_physical else ""]
             for n, p in fit.params.items()]
     out.append(format_table(["parameter", "value", "stderr", "unit", "on bound"], rows))
     strong = [(a, b, fit.correlation(a, b)) for i, a in enumerate(fit.free) for b in fit.free[i + 1:]]
