@@ -1,5 +1,6 @@
 """The demo cell's fixed costs: what a node and the demo load before they are needed, and the order the cell
-stops in (no DDS here: the imports run in a fresh interpreter, the stop on plain child processes)."""
+stops in (the imports run in a fresh interpreter, the stop on plain child processes), and when the cell is ready
+for a cycle (over DDS)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import sys
 import textwrap
 import time
 from pathlib import Path
+
+import pytest
 
 from jointwear_ros.cli import demo_cmd
 from jointwear_ros.nodes.cell import Child
@@ -121,3 +124,43 @@ def test_the_cell_stops_the_producers_then_the_recorder_and_the_clock_source_tog
     # together: joint_sim is not left for after the recorder has closed its bag
     assert at("joint_sim", "signalled") < at("recorder", "exited")
 
+
+
+@pytest.mark.ros
+def test_the_cell_is_not_ready_until_each_sim_time_node_stamps_on_its_clock(ros_context, ros_domain_of_the_module):
+    # the graph shows a node's /clock subscription before it matched: an observer still without /clock lost a
+    # cycle's first window; a node's /diagnostics stamped after 0 shows its clock runs
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from jointwear_ros.nodes.cell import Operator, ready_conditions
+
+    op = Operator("joint_1", ros_domain_of_the_module)
+    node = rclpy.create_node("demo38_cell", context=ros_context)
+    pub = node.create_publisher(DiagnosticArray, "/diagnostics",
+                                QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+
+    def spin_until(predicate, what: str) -> None:
+        end = time.monotonic() + 30.0
+        while not predicate():
+            assert time.monotonic() < end, f"timed out waiting for {what}"
+            op.ex.spin_once(timeout_sec=0.05)
+
+    def send(sec: int) -> None:
+        arr = DiagnosticArray(status=[DiagnosticStatus(name="friction_observer: joint_1", hardware_id="joint_1")])
+        arr.header.stamp.sec = sec
+        pub.publish(arr)
+
+    try:
+        missing = ready_conditions(op, clocked=("friction_observer",))
+        spin_until(lambda: pub.get_subscription_count() > 0, "the operator's /diagnostics subscription")
+        send(0)  # before /clock: a sim-time node stamps 0
+        spin_until(lambda: op._heard >= 1, "the status stamped 0")
+        assert "/clock -> friction_observer (no /diagnostics stamped on it yet)" in missing()
+        send(1795000000)
+        spin_until(lambda: op._heard >= 2, "the status stamped on the clock")
+        assert not [m for m in missing() if m.startswith("/clock ->")], missing()
+    finally:
+        node.destroy_node()
+        op.close()

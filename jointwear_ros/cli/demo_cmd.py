@@ -247,8 +247,9 @@ DEMO_POLL_PERIOD = 0.1
 def _stop_cell(children: list[Child], heard: float | None = None) -> None:
     """Stop the cell's nodes: the producers first (each waits until the recorder acknowledged its last
     messages), then the recorder and the clock source (joint_sim) together, not before :data:`RECORDER_GRACE`
-    s after the operator heard the run's results (``heard``, ``time.monotonic()``; None: at once). No
-    node on sim time is left to need /clock then: the recorder's shutdown waits on the wall clock."""
+    s after the operator heard the run's results (``heard``, ``time.monotonic()``; None: at once). The
+    recorder, on sim time, needs no /clock to stop: it closes its bag and waits for acknowledgements on the
+    wall clock."""
     _progress("stopping the nodes")
     stop_children([c for c in children if c.name not in ("joint_sim", "recorder")], progress=_progress)
     if heard is not None:
