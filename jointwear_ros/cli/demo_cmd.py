@@ -235,13 +235,27 @@ def _start_cell(children: list[Child], params: dict[str, Any], env: dict[str, st
     return op
 
 
-def _stop_cell(children: list[Child]) -> None:
+#: Wall seconds the recorder runs on after the operator heard a run's last result (its estimates and
+#: diagnostics): the recorder takes them off its queue by then. The producers stop meanwhile.
+RECORDER_GRACE = 0.5
+#: friction_observer's ``poll_period`` in a demo cell (s, wall; config 0.5): after DONE the clock stands
+#: (lockstep) and the last speed is processed at the first poll after ``poll_grace`` s of silence; a
+#: shorter period only ends that wait sooner (the same samples, the same observation).
+DEMO_POLL_PERIOD = 0.1
+
+
+def _stop_cell(children: list[Child], heard: float | None = None) -> None:
     """Stop the cell's nodes: the producers first (each waits until the recorder acknowledged its last
-    messages), then the recorder, the clock source (joint_sim) last: sim-time nodes need /clock."""
+    messages), then the recorder and the clock source (joint_sim) together, not before :data:`RECORDER_GRACE`
+    s after the operator heard the run's results (``heard``, ``time.monotonic()``; None: at once). The
+    recorder, on sim time, needs no /clock to stop: it closes its bag and waits for acknowledgements on the
+    wall clock."""
     _progress("stopping the nodes")
     stop_children([c for c in children if c.name not in ("joint_sim", "recorder")], progress=_progress)
-    stop_children([c for c in children if c.name == "recorder"], progress=_progress)
-    stop_children([c for c in children if c.name == "joint_sim"], progress=_progress)
+    if heard is not None:
+        time.sleep(max(0.0, heard + RECORDER_GRACE - time.monotonic()))
+    stop_children([c for c in children if c.name in ("recorder", "joint_sim")], progress=_progress)
+
 
 def _finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
@@ -342,7 +356,7 @@ def run_demo(
         "joint_sim": sim_params,
         "test_cycle": {"use_sim_time": True, "simulator": True,
                        "state_timeout": float(_config_value("test_cycle", "state_timeout", 0.25)) * rtf_grace},
-        "friction_observer": {"use_sim_time": True},
+        "friction_observer": {"use_sim_time": True, "poll_period": DEMO_POLL_PERIOD},
         # The last speed's observation comes just after DONE; done_timeout runs in sim time,
         # so scale it to keep the config's grace in wall seconds on a loaded machine.
         "wear_estimator": {"use_sim_time": True, "done_timeout": _config_done_timeout() * float(real_time_factor),
@@ -380,6 +394,7 @@ def run_demo(
             params[node].update(values)
     children: list[Child] = []
     op: Operator | None = None
+    heard: float | None = None
     per_joint: list[JointReport] = []
     observations: list[dict[str, Any]] = []
     cycle_id = 0
@@ -434,12 +449,12 @@ def run_demo(
                        + (f" at {final.joint_name}" if final.joint_name else "")
                        + (f": {final.message}" if final.message else " (no reason given)"))
         cell_seconds = op.cell_seconds(cycle_id)
-        time.sleep(0.5)  # the recorder gets the estimate and diagnostics too
+        heard = time.monotonic()  # the recorder gets the estimate and diagnostics too: _stop_cell
     finally:
         if op is not None:
             op.close()
         if children:
-            _stop_cell(children)
+            _stop_cell(children, heard)
     bags = [b for b in find_bags(bagdir) if b not in bags_before]
     bag = str(bags[-1]) if bags else None
     if bag is None:
@@ -546,8 +561,6 @@ def _values_per_joint(text: str | None, flag: str, n: int | None, default: Seque
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from ..model import load_parameter_set_info
-
     if args.commission and args.production:
         raise UsageError("--commission and --production are two demos: give one")
     if args.commission:
@@ -577,15 +590,20 @@ def cmd_demo(args: argparse.Namespace) -> int:
     temperatures = (_values_per_joint(args.temperature, "--temperature", n, ()) if args.temperature is not None
                     else None)
     _check_domain_id(args.domain_id)
-    check_method(args.method, "--method")
+    if args.method is not None:  # the estimators (scipy) load only to check a method given
+        check_method(args.method, "--method")
     arm, payload = _arm_args(args, n)
     overrides = parse_overrides(args.set)
     check_overrides(overrides)
-    info = load_parameter_set_info(_sim_parameter_set(overrides))
-    for flag, value in ([("--temperature", t) for t in temperatures or []]
-                        + [("--set joint_sim.temperature", overrides.get("joint_sim", {}).get("temperature"))]):
-        if value is None:
-            continue
+    checks = [(flag, value) for flag, value in [("--temperature", t) for t in temperatures or []]
+              + [("--set joint_sim.temperature", overrides.get("joint_sim", {}).get("temperature"))]
+              if value is not None]
+    info: Any = None
+    if checks or "params" in overrides.get("joint_sim", {}):  # the model (numpy) loads only to check these
+        from ..model import load_parameter_set_info
+
+        info = load_parameter_set_info(_sim_parameter_set(overrides))
+    for flag, value in checks:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise UsageError(f"{flag}: {value!r} is not a number")
         try:
@@ -642,8 +660,6 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def _arm_args(args: argparse.Namespace, n: int | None) -> tuple[str | None, float]:
     """``--arm`` and ``--payload`` checked against ``--joints``: the arm (``None``: independent joints) and kg."""
-    from ..sim.arms import arm_spec
-
     if n is None:
         given = [f for f, v in (("--arm", args.arm), ("--sweep", args.sweep), ("--payload", args.payload))
                  if v is not None]
@@ -659,6 +675,8 @@ def _arm_args(args: argparse.Namespace, n: int | None) -> tuple[str | None, floa
         if args.payload is not None:
             raise UsageError("--payload needs an arm (--arm ur5 or panda); independent joints carry none")
         return None, 0.0
+    from ..sim.arms import arm_spec  # the simulator's package (numpy, the model): for an arm only
+
     spec = arm_spec(name)
     if n > len(spec.joints):
         raise UsageError(f"--joints: {n} joints, but the {spec.title} (--arm {name}) has {len(spec.joints)}")
@@ -981,7 +999,8 @@ def run_commission_demo(
                            "command_timeout": float(_config_value("joint_sim", "command_timeout", 0.5)) * rtf_grace}
     cyc: dict[str, Any] = {"use_sim_time": True, "simulator": True,
                            "state_timeout": float(_config_value("test_cycle", "state_timeout", 0.25)) * rtf_grace}
-    obs: dict[str, Any] = {"use_sim_time": True, "temperature_topic": "/joint_temperature"}
+    obs: dict[str, Any] = {"use_sim_time": True, "temperature_topic": "/joint_temperature",
+                           "poll_period": DEMO_POLL_PERIOD}
     for j in setups:
         s = first[j.name]
         sim.update({f"{j.name}.params": j.params, f"{j.name}.temperature": s.temperature, f"{j.name}.wear": s.wear})
@@ -1016,6 +1035,7 @@ def run_commission_demo(
         params[node].update(values)
     children: list[Child] = []
     op: Operator | None = None
+    heard: float | None = None
     records: list[CycleRecord] = []
     results: list[CommissionedJoint] = []
     try:
@@ -1074,12 +1094,12 @@ def run_commission_demo(
                     break
             if pc.stage == "test" and records[-1].usable:
                 _live_estimates(op, children, records[-1], names)
-        time.sleep(0.5)
+        heard = time.monotonic()
     finally:
         if op is not None:
             op.close()
         if children:
-            _stop_cell(children)
+            _stop_cell(children, heard)
     if not results:  # the run ended before its test cycle
         results = _commission_joints(setups, records, setdir, wear_calibration, plan if arm else ())
     test_settings = next(pc for pc in plan if pc.stage == "test").settings

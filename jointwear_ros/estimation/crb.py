@@ -56,12 +56,11 @@ from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
-from scipy.stats import norm, qmc
 
 from ..errors import InputDataError
 from ..model import Model, Parameters
 from ._common import DEFAULT_NOISE_STD, check_noise_std, resolve_model
-from .priors import TemperaturePrior, parse_temperature_prior, uniform_prior
+from .priors import TemperaturePrior, parse_temperature_prior
 
 __all__ = [
     "CRB_METHODS",
@@ -81,8 +80,9 @@ Array = npt.NDArray[np.float64]
 
 #: Methods accepted by the bound functions.
 CRB_METHODS = ("quadrature", "monte-carlo")
-#: The default temperature prior of the bound (the joint estimator's default): U(25, 55) degC.
-DEFAULT_CRB_PRIOR = uniform_prior(25.0, 55.0)
+#: The default temperature prior of the bound (the joint estimator's default): U(25, 55) degC, as its spec
+#: (parsed on use: a frozen scipy.stats law built at import would load scipy.stats with this module).
+DEFAULT_CRB_PRIOR = "uniform:25:55"
 
 _MAX_NODES = 1536
 _MIN_NODES = 48
@@ -326,6 +326,8 @@ def _shared_qmc(m: Model, p: Parameters, vs: Array, tm: float, w: float, sig: fl
                 f: Array, a: Array, logpi: Array, n_points: int, seed: int, n_scrambles: int = 8
                 ) -> tuple[float, float]:
     """E[score^2] over (T, e_1..e_K) by scrambled Sobol points; stderr from independent scrambles."""
+    from scipy.stats import norm, qmc  # on use: scipy.stats is most of a node's start-up
+
     k = vs.size
     per = max(16, int(2 ** math.ceil(math.log2(max(16, n_points // n_scrambles)))))
     means = np.empty(n_scrambles)

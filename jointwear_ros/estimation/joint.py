@@ -58,7 +58,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import minimize
 from scipy.special import logsumexp
 
 from ..errors import InputDataError
@@ -348,6 +347,8 @@ class JointEstimator(SetModelBase):
         return lo, hi
 
     def _polish(self, v: Array, tm: Array, y: Array, sig: Array, w0: float, t0: float) -> tuple[float, float]:
+        from scipy.optimize import minimize  # on use: it costs a node's start-up 0.2 s
+
         t_lo, t_hi = self.prior.support(1.0 - 1e-9)
 
         def cost(x: Array) -> float:
@@ -361,6 +362,8 @@ class JointEstimator(SetModelBase):
         return w0, t0
 
     def _polish_known(self, v: Array, tm: Array, y: Array, sig: Array, temp: Array, w0: float) -> float:
+        from scipy.optimize import minimize
+
         def cost(x: Array) -> float:
             f = self.model.evaluate(self.params, speed=v, load_torque=tm, temperature=temp, wear=x[0])
             return float(0.5 * np.sum(((y - f) / sig) ** 2))

@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats
 from scipy.special import roots_legendre
 
 from ..errors import InputDataError
@@ -112,6 +111,8 @@ def uniform_prior(lo: float, hi: float) -> TemperaturePrior:
         raise InputDataError(f"uniform temperature range [{lo!r}, {hi!r}] must be finite with high > low")
     if lo < ABSOLUTE_ZERO:
         raise InputDataError(f"uniform temperature range [{lo:g}, {hi:g}] reaches below absolute zero ({ABSOLUTE_ZERO} degC)")
+    from scipy import stats  # on use: scipy.stats costs most of a node's start-up (wear_estimator)
+
     return TemperaturePrior(stats.uniform(loc=lo, scale=hi - lo), f"uniform:{lo:g}:{hi:g}", "uniform", (lo, hi))
 
 
@@ -128,6 +129,8 @@ def normal_prior(mean: float, std: float) -> TemperaturePrior:
     if mean - _NORMAL_REACH * std < ABSOLUTE_ZERO:
         raise InputDataError(f"normal temperature N({mean:g}, {std:g}^2) reaches below absolute zero "
                              f"({ABSOLUTE_ZERO} degC)")
+    from scipy import stats
+
     return TemperaturePrior(stats.norm(loc=mean, scale=std), f"normal:{mean:g}:{std:g}", "normal", (mean, std))
 
 

@@ -55,7 +55,6 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from importlib import metadata
 from typing import ClassVar, TypeVar
 
 import numpy as np
@@ -200,6 +199,8 @@ def shape_class(name: str) -> type[CandidateTerm] | None:
     """The shape registered as ``name``, else the one an installed package offers under that name (None: none)."""
     if name in SHAPES:
         return SHAPES[name]
+    from importlib import metadata  # on use: it costs every node importing the model 0.1-0.2 s
+
     try:
         eps = [ep for ep in metadata.entry_points(group=SHAPE_ENTRY_POINT_GROUP) if ep.name == name]
     except Exception:

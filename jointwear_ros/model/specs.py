@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import importlib
 import re
-from importlib import metadata
 from typing import Any
 
 from ..errors import ModelError
@@ -163,6 +162,8 @@ def _load_class(target: str, what: str) -> Term:
 
 
 def _entry_point(name: str) -> str | None:
+    from importlib import metadata  # on use: it costs every node importing the model 0.1-0.2 s
+
     try:
         eps = metadata.entry_points(group=ENTRY_POINT_GROUP)
     except Exception:

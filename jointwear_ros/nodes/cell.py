@@ -326,6 +326,8 @@ class Operator:
         #: the newest ``friction_observer: <joint>`` status of each joint (its per-cycle counts)
         self.observer_status: dict[str, Any] = {}
         self._observer_names = {f"friction_observer: {j}": j for j in self.joints}
+        #: the nodes heard on /diagnostics with a stamp after 0: their clock runs (a sim-time node has /clock)
+        self.clocked: set[str] = set()
         qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.observations: list[Any] = []
         self.estimates: list[Any] = []
@@ -356,7 +358,10 @@ class Operator:
 
     def _on_diag(self, msg: Any) -> None:
         self._heard += 1
+        stamped = msg.header.stamp.sec > 0 or msg.header.stamp.nanosec > 0
         for st in msg.status:
+            if stamped:
+                self.clocked.add(str(st.name).split(":", 1)[0])
             if st.name in self._diag_names:
                 self.diagnostics.append((self._heard, st))
             elif st.name in self._observer_names:
@@ -639,7 +644,16 @@ class Operator:
             self.rclpy.try_shutdown(context=self.ctx)
 
 
-def ready_conditions(op: Operator) -> Callable[[], list[str]]:
+#: the cell's nodes on sim time: each must have heard /clock before a cycle starts (a node without it stamps
+#: and times its messages at 0; an observer without it lost a cycle's first window)
+SIM_TIME_NODES = ("recorder", "test_cycle", "friction_observer", "wear_estimator")
+
+
+def ready_conditions(op: Operator, clocked: Sequence[str] = SIM_TIME_NODES) -> Callable[[], list[str]]:
+    """What the cell still lacks before a cycle can start (empty: ready): each topic's subscribers and the
+    ``/test_cycle/run`` service on the graph, and each node of ``clocked`` heard on /diagnostics with a stamp
+    after 0 (its clock runs: a sim-time node has /clock; the graph shows a subscription, not that it
+    matched)."""
     needs = {
         "/joint_states": {"test_cycle", "friction_observer", "recorder"},
         "/test_cycle/status": {"friction_observer", "recorder"},
@@ -657,6 +671,9 @@ def ready_conditions(op: Operator) -> Callable[[], list[str]]:
                 out.append(f"{topic} <- {', '.join(sorted(lack))}")
         if not op.client.service_is_ready():
             out.append("/test_cycle/run")
+        lack_clock = [n for n in clocked if n not in op.clocked]
+        if lack_clock:
+            out.append(f"/clock -> {', '.join(lack_clock)} (no /diagnostics stamped on it yet)")
         return out
 
     return missing

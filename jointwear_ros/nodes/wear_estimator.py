@@ -221,6 +221,17 @@ class WearEstimatorNode(Node):
                 f"measured temperature {'used' if cfg.use_measured_temperature else 'ignored'}"
             )
         self.health.update()
+        # the estimates' numerical modules load once the node spins, not while it starts: a cell waits for this
+        # node's subscriptions before it starts a cycle, and for its estimate after DONE, not during the cycle
+        self._warm_timer = self.create_timer(0.0, self._warm_up, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def _warm_up(self) -> None:
+        """Load what an estimate imports on use (scipy.stats, scipy.optimize: about 0.7 s of CPU), once."""
+        import importlib
+
+        self._warm_timer.cancel()
+        for module in ("scipy.stats", "scipy.optimize"):
+            importlib.import_module(module)
 
     @staticmethod
     def _idle_values(cfg: MonitorConfig) -> list[tuple[str, str]]:
