@@ -32,6 +32,7 @@ class Controller(GraphClient):
         self.clock: list[float] = []
         self.sent_at: list[float] = []  # sim time of each command sent
         self.sending = True
+        self.command = [0.2] + [0.0] * 5  # joint_sim's six joints (its config)
         self.node.create_subscription(Clock, "/clock", self._on_clock,
                                       QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
         self.pub = self.node.create_publisher(Float64MultiArray, "/velocity_controller/commands", 10)
@@ -40,7 +41,7 @@ class Controller(GraphClient):
         t = msg.clock.sec + msg.clock.nanosec * 1e-9
         self.clock.append(t)
         if self.sending and (not self.sent_at or t - self.sent_at[-1] >= 0.01):
-            self.pub.publish(Float64MultiArray(data=[0.2] + [0.0] * 5))  # joint_sim's six joints (its config)
+            self.pub.publish(Float64MultiArray(data=list(self.command)))
             self.sent_at.append(t)
 
     def pause(self, wall: float) -> tuple[float, float]:
@@ -75,6 +76,27 @@ def test_sim_time_waits_for_a_late_controller_and_runs_free_when_it_is_gone(ros_
         assert ctl.clock[-1] > newest + 0.4  # the clock resumed with them
         last, newest = ctl.pause(1.5)  # longer than lockstep_grace: the controller is gone
         assert newest - last > 1.0, (last, newest)  # free again (0.5 s wall held at most, then 4x)
+    finally:
+        ctl.close()
+        sim.stop()
+
+
+def test_a_controller_that_commanded_every_joint_to_rest_does_not_hold_the_clock(ros_context):
+    """test_cycle sends zero at DONE and stops; the next cycle, requested within the grace, needs joint states (its
+    stale check) and sim time (its first command): a held clock gave neither, and every second commissioning
+    cycle failed its wall-clock watchdog (no joint state for 3.03 s)."""
+    sim = NodeProcess("joint_sim", {"publish_clock": True, "real_time_factor": RTF, "lockstep": True,
+                                    "command_timeout": 2.0, "lockstep_lead": 0.05, "lockstep_grace": 5.0})
+    ctl = Controller(ros_context, [sim])
+    try:
+        ctl.spin_until(lambda: len(ctl.sent_at) >= 100, 60.0, "100 commands")
+        last, newest = ctl.pause(0.3)
+        assert newest - last <= 0.05 + 0.011 + 0.05, (last, newest)  # moving: held (as above)
+        n = len(ctl.sent_at)
+        ctl.command = [0.0] * 6  # the stop
+        ctl.spin_until(lambda: len(ctl.sent_at) >= n + 20, 30.0, "the zero commands")
+        last, newest = ctl.pause(1.0)  # well within the 5 s grace
+        assert newest - last > 2.0, (last, newest)  # free: 1 wall s is 4 sim s at 4x
     finally:
         ctl.close()
         sim.stop()

@@ -38,7 +38,9 @@ one, so a controller starved of CPU on a loaded machine slows the clock instead
 of falling behind it (its commands would act late in sim time and bend the
 constant-speed sweeps); when no command came for ``lockstep_grace`` wall
 seconds the controller counts as gone and the clock runs free again
-(``command_timeout`` then brings the joints to rest). ``lockstep_holds`` in the
+(``command_timeout`` then brings the joints to rest). A command of zero for
+every joint (the controller's stop) releases the clock at once: nothing is swept, and the joint
+states keep coming for the controller's next request. ``lockstep_holds`` in the
 diagnostics counts the ticks the clock waited.
 
 Unlike a real forward command controller, which holds the last command forever,
@@ -363,6 +365,12 @@ class JointSimNode(Node):
         """The sim time the clock may reach now under lockstep (None: it runs free): ``lockstep_lead`` past the
         newest command while a controller streams (its last command less than ``lockstep_grace`` wall s ago)."""
         if not (self.lockstep and self.publish_clock) or self._last_command_time is None or self._timed_out:
+            return None
+        if not any(c != 0.0 for c in self.sim.commands):
+            # every joint commanded to rest (test_cycle's zero at DONE, abort or a watchdog trip): no sweep to
+            # keep straight, and a held clock would publish no joint state, so a cycle requested within the
+            # grace found its state stale and, on sim time, sent no first command to release it (its wall
+            # watchdog then failed every second commissioning cycle)
             return None
         if time.monotonic() - self._last_command_wall > self.lockstep_grace:
             return None
