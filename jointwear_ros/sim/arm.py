@@ -165,6 +165,11 @@ class ArmSim:
         self.physics_rate = float(physics_rate)
         #: per joint: URDF position limits (rad), velocity limit (rad/s), effort limit (normalized)
         self._limits = [(aj.lower, aj.upper, aj.velocity, aj.torque_limit) for aj in self.arm_joints]
+        self._lower: Array = np.array([aj.lower for aj in self.arm_joints], dtype=float)
+        self._upper: Array = np.array([aj.upper for aj in self.arm_joints], dtype=float)
+        #: the drive constants of :meth:`_substep` and the (config, friction) of each joint they were taken from
+        self._drive_key: list[tuple[Any, Any]] | None = None
+        self._drive_list: list[tuple[Any, ...]] = []
         for aj, cfg, name in zip(self.arm_joints, configs, names, strict=True):
             if not aj.lower <= cfg.initial_position <= aj.upper:
                 raise ParameterError(f"arm sim: {name} ({aj.name}) initial_position {cfg.initial_position:g} rad is "
@@ -314,36 +319,64 @@ class ArmSim:
         return float(f[0]) * cfg.torque_scale
 
     # -- physics -------------------------------------------------------------
+    def _drives(self) -> list[tuple[Any, ...]]:
+        """Each joint's drive constants for :meth:`_substep`, from its current config and friction table (kept
+        while neither changed: :meth:`JointSim.reconfigure` replaces them)."""
+        key = [(j.config, j.friction) for j in self.joints]
+        if self._drive_key is None or any(a is not c or b is not f for (a, b), (c, f) in zip(self._drive_key, key,
+                                                                                             strict=True)):
+            drives = []
+            for j, (lower, upper, lim_v, lim_u) in zip(self.joints, self._limits, strict=True):
+                cfg = j.config
+                drives.append((cfg.gear_ratio, cfg.torque_scale, lower, upper, lim_v,
+                               cfg.accel_limit if cfg.accel_limit > 0.0 else _LIMIT_DECEL, cfg.accel_limit,
+                               cfg.kp, cfg.ki, cfg.torque_limit if cfg.torque_limit < lim_u else lim_u,
+                               cfg.stick_speed, j.friction))
+            self._drive_list = drives
+            self._drive_key = key
+        return self._drive_list
+
     def step(self, dt: float) -> None:
         """Advance the arm by ``dt`` seconds, in equal sub-steps of at most ``1 / physics_rate``."""
         n = max(1, math.ceil(dt * self.physics_rate - 1e-9))
         h = dt / n
+        joints = self.joints
+        drives = self._drives()
+        # the drives' state, in lists for the sub-steps, written back after them
+        cmds = [j.command for j in joints]
+        refs = [j.reference for j in joints]
+        ints = [j._integral for j in joints]
+        offs = [j.offset for j in joints]
+        us = [0.0] * len(joints)
         for _ in range(n):
-            self._substep(h)
+            self._substep(h, drives, cmds, refs, ints, offs, us)
+        for j, ref, i, u in zip(joints, refs, ints, us, strict=True):
+            j.reference = ref
+            j._integral = i
+            j.torque = u
         self._sync()
 
-    def _substep(self, h: float) -> None:
+    def _substep(self, h: float, drives: list[tuple[Any, ...]], cmds: list[float], refs: list[float],
+                 ints: list[float], offs: list[float], torques: list[float]) -> None:
+        """One semi-implicit Euler step of ``h`` s; ``refs``, ``ints`` and ``torques`` (each drive's velocity
+        reference, integrator and torque ``u``) are updated in place."""
         model, data = self.model, self.data
         q, v = self._q, self._v
         ql = q.tolist()
         vl = v.tolist()
         gl = pin.nonLinearEffects(model, data, q, v).tolist()  # the friction's load: g(q) + C(q, v) v
         t = self.time
-        tau = self._tau
-        limits = self._limits
+        n = len(drives)
+        taul = [0.0] * n
         us: list[float] = []
         ffs: list[float] = []
         band: list[int] = []
-        for i, j in enumerate(self.joints):
-            cfg = j.config
-            gr = cfg.gear_ratio
-            ts = cfg.torque_scale
-            lower, upper, lim_v, lim_u = limits[i]
+        for i in range(n):
+            gr, ts, lower, upper, lim_v, acc, accel_limit, kp, ki, lim, stick_speed, friction = drives[i]
             vm = vl[i] * gr
             # the drive's reference: the command within the velocity limit, ramped, slowed near a limit
-            cmd = j.command
+            cmd = cmds[i]
             cmd = lim_v if cmd > lim_v else (-lim_v if cmd < -lim_v else cmd)
-            acc = cfg.accel_limit if cfg.accel_limit > 0.0 else _LIMIT_DECEL
             if cmd > 0.0:
                 room = upper - ql[i]
                 cmd = 0.0 if room <= 0.0 else min(cmd, math.sqrt(2.0 * acc * room))
@@ -351,35 +384,35 @@ class ArmSim:
                 room = ql[i] - lower
                 cmd = 0.0 if room <= 0.0 else max(cmd, -math.sqrt(2.0 * acc * room))
             target = cmd * gr
-            ref = j.reference
-            if cfg.accel_limit > 0.0 and ref != target:
-                dmax = cfg.accel_limit * gr * h
+            ref = refs[i]
+            if accel_limit > 0.0 and ref != target:
+                dmax = accel_limit * gr * h
                 ref = min(target, ref + dmax) if target > ref else max(target, ref - dmax)
             else:
                 ref = target
-            j.reference = ref
+            refs[i] = ref
             # the velocity PI, saturated at the torque limit (never above the URDF effort), anti-windup
             e = ref - vm
-            u_raw = cfg.kp * e + j._integral
-            lim = cfg.torque_limit if cfg.torque_limit < lim_u else lim_u
+            u_raw = kp * e + ints[i]
             u = lim if u_raw > lim else (-lim if u_raw < -lim else u_raw)
             if u == u_raw or (u_raw > lim and e < 0.0) or (u_raw < -lim and e > 0.0):
-                j._integral += cfg.ki * e * h
-            j.torque = u
-            ff = j.friction(vm, abs(gl[i]) / ts, ql[i], t) + j.offset
+                ints[i] += ki * e * h
+            torques[i] = u
+            ff = friction(vm, abs(gl[i]) / ts, ql[i], t) + offs[i]
             if ff < 0.0:
                 ff = 0.0
             us.append(u * ts)
             ffs.append(ff * ts)
-            if abs(vm) < cfg.stick_speed:
+            if abs(vm) < stick_speed:
                 band.append(i)
             else:
-                tau[i] = (u - math.copysign(ff, vm)) * ts
+                taul[i] = (u - math.copysign(ff, vm)) * ts
+        tau = self._tau = np.array(taul)
         held: list[int] = []
         if band:
             a, held = self._stick(q, gl, us, ffs, band, tau)
         else:
-            a = np.array(pin.aba(model, data, q, v, tau), dtype=float)
+            a = pin.aba(model, data, q, v, tau)
         v_new = v + a * h
         if held:
             v_new[held] = 0.0
@@ -387,10 +420,11 @@ class ArmSim:
         if flip.any():
             v_new[flip] = 0.0
         q_new = q + v_new * h
-        for i, (lower, upper, _, _) in enumerate(limits):  # the end stops
-            if not lower <= q_new[i] <= upper:
-                q_new[i] = upper if q_new[i] > upper else lower
-                v_new[i] = 0.0
+        if not ((self._lower <= q_new) & (q_new <= self._upper)).all():  # the end stops
+            for i, (lower, upper, _, _) in enumerate(self._limits):
+                if not lower <= q_new[i] <= upper:
+                    q_new[i] = upper if q_new[i] > upper else lower
+                    v_new[i] = 0.0
         self._v = v_new
         self._q = q_new
         self.time = t + h
