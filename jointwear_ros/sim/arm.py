@@ -165,10 +165,8 @@ class ArmSim:
         self.physics_rate = float(physics_rate)
         #: per joint: URDF position limits (rad), velocity limit (rad/s), effort limit (normalized)
         self._limits = [(aj.lower, aj.upper, aj.velocity, aj.torque_limit) for aj in self.arm_joints]
-        self._lower: Array = np.array([aj.lower for aj in self.arm_joints], dtype=float)
-        self._upper: Array = np.array([aj.upper for aj in self.arm_joints], dtype=float)
         #: the drive constants of :meth:`_substep` and the (config, friction) of each joint they were taken from
-        self._drive_key: list[tuple[Any, Any]] | None = None
+        self._drive_key: list[Any] = []
         self._drive_list: list[tuple[Any, ...]] = []
         for aj, cfg, name in zip(self.arm_joints, configs, names, strict=True):
             if not aj.lower <= cfg.initial_position <= aj.upper:
@@ -322,16 +320,15 @@ class ArmSim:
     def _drives(self) -> list[tuple[Any, ...]]:
         """Each joint's drive constants for :meth:`_substep`, from its current config and friction table (kept
         while neither changed: :meth:`JointSim.reconfigure` replaces them)."""
-        key = [(j.config, j.friction) for j in self.joints]
-        if self._drive_key is None or any(a is not c or b is not f for (a, b), (c, f) in zip(self._drive_key, key,
-                                                                                             strict=True)):
+        key = [j.config for j in self.joints] + [j.friction for j in self.joints]
+        if key != self._drive_key:  # the same objects (or equal configs): the same constants
             drives = []
             for j, (lower, upper, lim_v, lim_u) in zip(self.joints, self._limits, strict=True):
                 cfg = j.config
                 drives.append((cfg.gear_ratio, cfg.torque_scale, lower, upper, lim_v,
                                cfg.accel_limit if cfg.accel_limit > 0.0 else _LIMIT_DECEL, cfg.accel_limit,
                                cfg.kp, cfg.ki, cfg.torque_limit if cfg.torque_limit < lim_u else lim_u,
-                               cfg.stick_speed, j.friction))
+                               cfg.stick_speed, j.friction, j.friction.speed_tables()))
             self._drive_list = drives
             self._drive_key = key
         return self._drive_list
@@ -368,11 +365,11 @@ class ArmSim:
         t = self.time
         n = len(drives)
         taul = [0.0] * n
-        us: list[float] = []
-        ffs: list[float] = []
+        us = [0.0] * n
+        ffs = [0.0] * n
         band: list[int] = []
         for i in range(n):
-            gr, ts, lower, upper, lim_v, acc, accel_limit, kp, ki, lim, stick_speed, friction = drives[i]
+            gr, ts, lower, upper, lim_v, acc, accel_limit, kp, ki, lim, stick_speed, friction, tables = drives[i]
             vm = vl[i] * gr
             # the drive's reference: the command within the velocity limit, ramped, slowed near a limit
             cmd = cmds[i]
@@ -398,11 +395,23 @@ class ArmSim:
             if u == u_raw or (u_raw > lim and e < 0.0) or (u_raw < -lim and e > 0.0):
                 ints[i] += ki * e * h
             torques[i] = u
-            ff = friction(vm, abs(gl[i]) / ts, ql[i], t) + offs[i]
+            if tables is None:
+                ff = friction(vm, abs(gl[i]) / ts, ql[i], t) + offs[i]
+            else:  # FrictionTable.__call__ without position and time effects, inline (it runs most in the sim)
+                ta, tb, inv_step, last = tables
+                x = abs(vm) * inv_step
+                k = int(x)
+                if k > last:
+                    k, f = last, 1.0
+                else:
+                    f = x - k
+                a0 = ta[k]
+                b0 = tb[k]
+                ff = (a0 + f * (ta[k + 1] - a0) + abs(gl[i]) / ts * (b0 + f * (tb[k + 1] - b0)) + 0.0) + offs[i]
             if ff < 0.0:
                 ff = 0.0
-            us.append(u * ts)
-            ffs.append(ff * ts)
+            us[i] = u * ts
+            ffs[i] = ff * ts
             if abs(vm) < stick_speed:
                 band.append(i)
             else:
@@ -411,22 +420,28 @@ class ArmSim:
         held: list[int] = []
         if band:
             a, held = self._stick(q, gl, us, ffs, band, tau)
+            al = a.tolist()
         else:
-            a = pin.aba(model, data, q, v, tau)
-        v_new = v + a * h
-        if held:
-            v_new[held] = 0.0
-        flip = (v_new * v) < 0.0
-        if flip.any():
-            v_new[flip] = 0.0
-        q_new = q + v_new * h
-        if not ((self._lower <= q_new) & (q_new <= self._upper)).all():  # the end stops
-            for i, (lower, upper, _, _) in enumerate(self._limits):
-                if not lower <= q_new[i] <= upper:
-                    q_new[i] = upper if q_new[i] > upper else lower
-                    v_new[i] = 0.0
-        self._v = v_new
-        self._q = q_new
+            al = pin.aba(model, data, q, v, tau).tolist()
+        # semi-implicit Euler joint by joint (the same float operations as on the arrays): a held joint and one
+        # whose velocity would change sign stop at 0; a joint past a position limit stops at it (the end stops)
+        vn = [0.0] * n
+        qn = [0.0] * n
+        limits = self._limits
+        for i in range(n):
+            vi = vl[i]
+            x = 0.0 if i in held else vi + al[i] * h
+            if x * vi < 0.0:
+                x = 0.0
+            y = ql[i] + x * h
+            lower, upper = limits[i][0], limits[i][1]
+            if not lower <= y <= upper:
+                y = upper if y > upper else lower
+                x = 0.0
+            vn[i] = x
+            qn[i] = y
+        self._v = np.array(vn)
+        self._q = np.array(qn)
         self.time = t + h
 
     def _stick(self, q: Array, nle: list[float], us: list[float], ffs: list[float], band: list[int],

@@ -157,6 +157,14 @@ class FrictionTable:
         self._p_last = len(self._p) - 1
         self._p_zero = len(self._p) > 1 and all(x == 0.0 and math.copysign(1.0, x) > 0.0 for x in self._p)
 
+    def speed_tables(self) -> tuple[list[float], list[float], float, int] | None:
+        """``(A, B, 1 / speed_step, last)`` when the friction is ``A(|v|) + |tau_m| * B(|v|)`` alone (no position or
+        time effect), for a caller that interpolates them itself as :meth:`__call__` does and adds ``+0.0`` (what
+        the empty position and time terms add); ``last`` is the last interval's index. None otherwise."""
+        if (self._p_zero or self._p_last == 0) and self._k_time == 0.0:
+            return self._a, self._b, self._inv_step, self._a_last
+        return None
+
     def _model(self, v: Array, load: float | Array) -> Array:
         inputs: dict[str, object] = {"speed": v * self._sf, "load_torque": np.asarray(load) * self._tf,
                                      "temperature": self.temperature}
