@@ -419,8 +419,7 @@ class ArmSim:
         tau = self._tau = np.array(taul)
         held: list[int] = []
         if band:
-            a, held = self._stick(q, gl, us, ffs, band, tau)
-            al = a.tolist()
+            al, held = self._stick(q, gl, us, ffs, band, tau)
         else:
             al = pin.aba(model, data, q, v, tau).tolist()
         # semi-implicit Euler joint by joint (the same float operations as on the arrays): a held joint and one
@@ -445,7 +444,7 @@ class ArmSim:
         self.time = t + h
 
     def _stick(self, q: Array, nle: list[float], us: list[float], ffs: list[float], band: list[int],
-               tau: Array) -> tuple[Array, list[int]]:
+               tau: Array) -> tuple[list[float], list[int]]:
         """The stick band with coupling, solved in the step: the accelerations and the joints held.
 
         Every joint of ``band`` starts held (acceleration 0); the others' accelerations solve
@@ -456,24 +455,21 @@ class ArmSim:
         joint's torque (what it needs)."""
         n = len(us)
         held = list(band)
-        upper: list[list[float]] | None = None  # M(q), upper triangle (crba's; armature included)
-
-        def m(i: int, k: int) -> float:
-            assert upper is not None
-            return upper[i][k] if i <= k else upper[k][i]
+        mm: list[list[float]] = []  # M(q): crba's upper triangle mirrored (armature included), when first needed
 
         while True:
             free = [i for i in range(n) if i not in held]
             af: list[float] = []
             if free:
-                if upper is None:
-                    upper = pin.crba(self.model, self.data, q).tolist()
+                if not mm:
+                    up = pin.crba(self.model, self.data, q).tolist()
+                    mm = [[up[i][k] if i <= k else up[k][i] for k in range(n)] for i in range(n)]
                 r = [float(tau[i]) - nle[i] for i in free]
                 if len(free) == 1:
-                    af = [r[0] / m(free[0], free[0])]
+                    af = [r[0] / mm[free[0]][free[0]]]
                 else:
-                    af = np.linalg.solve(np.array([[m(i, k) for k in free] for i in free]), r).tolist()
-            need = [nle[i] + sum(m(i, k) * ak for k, ak in zip(free, af, strict=True)) for i in held]
+                    af = np.linalg.solve(np.array([[mm[i][k] for k in free] for i in free]), r).tolist()
+            need = [nle[i] + sum(mm[i][k] * ak for k, ak in zip(free, af, strict=True)) for i in held]
             worst, excess = -1, 0.0
             for k, i in enumerate(held):
                 over = abs(us[i] - need[k]) - ffs[i]
@@ -481,8 +477,9 @@ class ArmSim:
                     worst, excess = k, over
             if worst < 0:
                 tau[held] = need
-                a = np.zeros(n)
-                a[free] = af
+                a = [0.0] * n
+                for i, ai in zip(free, af, strict=True):
+                    a[i] = ai
                 return a, held
             i = held.pop(worst)
             tau[i] = us[i] - math.copysign(ffs[i], us[i] - need[worst])
@@ -499,7 +496,15 @@ class ArmSim:
     def sample(self) -> tuple[list[float], list[float], list[float]]:
         """Positions (rad), velocities (rad/s) and efforts (N·m: the drive torque with noise), joint side,
         in joint order."""
-        eff = [(j.torque + j._noise()) * j.config.torque_scale for j in self.joints]
+        eff = []
+        for j in self.joints:
+            k = j._wi
+            if k < len(j._white):  # JointSim._noise's next draw, without the call
+                j._wi = k + 1
+                w = j._white[k]
+            else:
+                w = j._noise()
+            eff.append((j.torque + w) * j.config.torque_scale)
         return self._q.tolist(), self._v.tolist(), eff
 
     @property
