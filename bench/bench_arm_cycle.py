@@ -21,6 +21,19 @@ Prints, per arm:
 
 Measures; asserts nothing. ``--quick``: the UR5 only, one seed. Figures of a run on this machine are in
 docs/arm.md.
+
+``--cost``: only what one cycle costs: one ``run_cycle`` of every joint at once (default speeds, noise on, seed 1)
+on the UR5 (6 joints) and the Panda (7), each run ``--repeat`` times (default 3), the median wall
+(``time.perf_counter``) and CPU (``time.process_time``) seconds, the arm's build included. Measured here (2 cores
+shared with two other agents' work, 2026-11-27; one such cycle, base and changed code alternately, five times
+each), before and after the arm's step was made cheaper (issue 29, item 6; the same floats):
+
+    arm      CPU s before (median, min)  after (median, min)
+    ur5                    2.76, 2.20           2.68, 2.05
+    panda                  2.81, 2.51           2.63, 2.23
+
+The arm's own step (``ArmSim.step``) is about a quarter cheaper; the rest of a cycle is mostly the wear monitor's
+estimates, the observers and the cycle runner. On a loaded machine single runs scatter by 20 %.
 """
 
 from __future__ import annotations
@@ -65,11 +78,32 @@ def run(arm: str, n: int, together: bool, seed: int, noise: bool = True, payload
             "obs": r.observations, "truth": truth, "estimates": r.estimates, "names": names}
 
 
+def cost(repeat: int) -> None:
+    """``--cost``: the median wall and CPU seconds of one cycle at once on each arm."""
+    print(f"one run_cycle, every joint at once, default speeds, noise on (median of {repeat}):")
+    print(f"   {'arm':6} {'joints':>6} {'wall s':>7} {'CPU s':>6} {'sim s':>6}")
+    for arm, n in (("ur5", 6), ("panda", 7)):
+        walls, cpus = [], []
+        simulated = math.nan
+        for _ in range(repeat):
+            w0, c0 = time.perf_counter(), time.process_time()
+            r = run(arm, n, True, 1)
+            walls.append(time.perf_counter() - w0)
+            cpus.append(time.process_time() - c0)
+            simulated = r["cell"]
+        print(f"   {arm:6} {n:6d} {float(np.median(walls)):7.2f} {float(np.median(cpus)):6.2f} {simulated:6.1f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="the UR5 only, one seed")
     ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--cost", action="store_true", help="only the wall and CPU seconds of one cycle on each arm")
+    ap.add_argument("--repeat", type=int, default=3, help="--cost: runs per arm (the median is printed)")
     args = ap.parse_args()
+    if args.cost:
+        cost(max(1, args.repeat))
+        return
     arms = [("ur5", 6)] if args.quick else [("ur5", 6), ("panda", 7)]
     seeds = range(1, 2 if args.quick else args.seeds + 1)
     for arm, n in arms:

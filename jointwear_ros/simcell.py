@@ -148,6 +148,7 @@ def run_cycle(sim: Any, cycles: Mapping[str, CycleConfig], observers: Mapping[st
             for r in monitors[st.joint_name].on_status(st, now):
                 results[st.joint_name] = r
 
+    on_joint_state = [cores[j].on_joint_state for j in names]
     runner.start(plan, cycle_id, sim.time, home)
     t0 = sim.time
     last = sim.sample()[0]
@@ -162,8 +163,11 @@ def run_cycle(sim: Any, cycles: Mapping[str, CycleConfig], observers: Mapping[st
         sim.step(dt)
         k += 1
         pos, vel, eff = sim.sample()
+        now = sim.time
         for i, j in enumerate(names):
-            take(j, cores[j].on_joint_state(sim.time, pos[i], vel[i], eff[i]), sim.time)
+            out = on_joint_state[i](now, pos[i], vel[i], eff[i])
+            if out.observations:
+                take(j, out, now)
             if j in forward and last[i] < centre[j] <= pos[i]:
                 crossed.setdefault((j, round(forward[j])), (np.array(pos, dtype=float), np.array(vel, dtype=float)))
         last = pos

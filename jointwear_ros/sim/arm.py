@@ -94,6 +94,23 @@ Array = npt.NDArray[np.float64]
 #: the deceleration of a joint nearing its position limit when its accel_limit is 0 (none), joint rad/s^2
 _LIMIT_DECEL = 8.0
 
+try:  # the LAPACK solve numpy.linalg.solve calls, without its checks (about 5 µs of each stick-band step)
+    from numpy.linalg import _umath_linalg
+
+    _SOLVE1: Any = _umath_linalg.solve1
+except (ImportError, AttributeError):  # another numpy: its public solve (the same routine)
+    _SOLVE1 = None
+
+
+def _solve(a: list[list[float]], b: list[float]) -> list[float]:
+    """``numpy.linalg.solve(a, b)`` (the same floats): its LAPACK routine called directly; a result that is not
+    finite (a singular ``a``) goes through ``numpy.linalg.solve``, which raises ``LinAlgError``."""
+    if _SOLVE1 is not None:
+        x = _SOLVE1(np.array(a), np.array(b), signature="dd->d").tolist()
+        if all(math.isfinite(v) for v in x):
+            return x
+    return np.linalg.solve(np.array(a), np.array(b)).tolist()
+
 
 def arm_configs(spec: ArmSpec, names: Sequence[str], **settings: Any) -> list[JointSimConfig]:
     """One :class:`JointSimConfig` per name of ``names`` (the i-th drives the arm's i-th joint): the arm
@@ -165,6 +182,9 @@ class ArmSim:
         self.physics_rate = float(physics_rate)
         #: per joint: URDF position limits (rad), velocity limit (rad/s), effort limit (normalized)
         self._limits = [(aj.lower, aj.upper, aj.velocity, aj.torque_limit) for aj in self.arm_joints]
+        #: the drive constants of :meth:`_substep` and the (config, friction) of each joint they were taken from
+        self._drive_key: list[Any] = []
+        self._drive_list: list[tuple[Any, ...]] = []
         for aj, cfg, name in zip(self.arm_joints, configs, names, strict=True):
             if not aj.lower <= cfg.initial_position <= aj.upper:
                 raise ParameterError(f"arm sim: {name} ({aj.name}) initial_position {cfg.initial_position:g} rad is "
@@ -314,36 +334,63 @@ class ArmSim:
         return float(f[0]) * cfg.torque_scale
 
     # -- physics -------------------------------------------------------------
+    def _drives(self) -> list[tuple[Any, ...]]:
+        """Each joint's drive constants for :meth:`_substep`, from its current config and friction table (kept
+        while neither changed: :meth:`JointSim.reconfigure` replaces them)."""
+        key = [j.config for j in self.joints] + [j.friction for j in self.joints]
+        if key != self._drive_key:  # the same objects (or equal configs): the same constants
+            drives = []
+            for j, (lower, upper, lim_v, lim_u) in zip(self.joints, self._limits, strict=True):
+                cfg = j.config
+                drives.append((cfg.gear_ratio, cfg.torque_scale, lower, upper, lim_v,
+                               cfg.accel_limit if cfg.accel_limit > 0.0 else _LIMIT_DECEL, cfg.accel_limit,
+                               cfg.kp, cfg.ki, cfg.torque_limit if cfg.torque_limit < lim_u else lim_u,
+                               cfg.stick_speed, j.friction, j.friction.speed_tables()))
+            self._drive_list = drives
+            self._drive_key = key
+        return self._drive_list
+
     def step(self, dt: float) -> None:
         """Advance the arm by ``dt`` seconds, in equal sub-steps of at most ``1 / physics_rate``."""
         n = max(1, math.ceil(dt * self.physics_rate - 1e-9))
         h = dt / n
+        joints = self.joints
+        drives = self._drives()
+        # the drives' state, in lists for the sub-steps, written back after them
+        cmds = [j.command for j in joints]
+        refs = [j.reference for j in joints]
+        ints = [j._integral for j in joints]
+        offs = [j.offset for j in joints]
+        us = [0.0] * len(joints)
         for _ in range(n):
-            self._substep(h)
+            self._substep(h, drives, cmds, refs, ints, offs, us)
+        for j, ref, i, u in zip(joints, refs, ints, us, strict=True):
+            j.reference = ref
+            j._integral = i
+            j.torque = u
         self._sync()
 
-    def _substep(self, h: float) -> None:
+    def _substep(self, h: float, drives: list[tuple[Any, ...]], cmds: list[float], refs: list[float],
+                 ints: list[float], offs: list[float], torques: list[float]) -> None:
+        """One semi-implicit Euler step of ``h`` s; ``refs``, ``ints`` and ``torques`` (each drive's velocity
+        reference, integrator and torque ``u``) are updated in place."""
         model, data = self.model, self.data
         q, v = self._q, self._v
         ql = q.tolist()
         vl = v.tolist()
         gl = pin.nonLinearEffects(model, data, q, v).tolist()  # the friction's load: g(q) + C(q, v) v
         t = self.time
-        tau = self._tau
-        limits = self._limits
-        us: list[float] = []
-        ffs: list[float] = []
+        n = len(drives)
+        taul = [0.0] * n
+        us = [0.0] * n
+        ffs = [0.0] * n
         band: list[int] = []
-        for i, j in enumerate(self.joints):
-            cfg = j.config
-            gr = cfg.gear_ratio
-            ts = cfg.torque_scale
-            lower, upper, lim_v, lim_u = limits[i]
+        for i in range(n):
+            gr, ts, lower, upper, lim_v, acc, accel_limit, kp, ki, lim, stick_speed, friction, tables = drives[i]
             vm = vl[i] * gr
             # the drive's reference: the command within the velocity limit, ramped, slowed near a limit
-            cmd = j.command
+            cmd = cmds[i]
             cmd = lim_v if cmd > lim_v else (-lim_v if cmd < -lim_v else cmd)
-            acc = cfg.accel_limit if cfg.accel_limit > 0.0 else _LIMIT_DECEL
             if cmd > 0.0:
                 room = upper - ql[i]
                 cmd = 0.0 if room <= 0.0 else min(cmd, math.sqrt(2.0 * acc * room))
@@ -351,52 +398,70 @@ class ArmSim:
                 room = ql[i] - lower
                 cmd = 0.0 if room <= 0.0 else max(cmd, -math.sqrt(2.0 * acc * room))
             target = cmd * gr
-            ref = j.reference
-            if cfg.accel_limit > 0.0 and ref != target:
-                dmax = cfg.accel_limit * gr * h
+            ref = refs[i]
+            if accel_limit > 0.0 and ref != target:
+                dmax = accel_limit * gr * h
                 ref = min(target, ref + dmax) if target > ref else max(target, ref - dmax)
             else:
                 ref = target
-            j.reference = ref
+            refs[i] = ref
             # the velocity PI, saturated at the torque limit (never above the URDF effort), anti-windup
             e = ref - vm
-            u_raw = cfg.kp * e + j._integral
-            lim = cfg.torque_limit if cfg.torque_limit < lim_u else lim_u
+            u_raw = kp * e + ints[i]
             u = lim if u_raw > lim else (-lim if u_raw < -lim else u_raw)
             if u == u_raw or (u_raw > lim and e < 0.0) or (u_raw < -lim and e > 0.0):
-                j._integral += cfg.ki * e * h
-            j.torque = u
-            ff = j.friction(vm, abs(gl[i]) / ts, ql[i], t) + j.offset
+                ints[i] += ki * e * h
+            torques[i] = u
+            if tables is None:
+                ff = friction(vm, abs(gl[i]) / ts, ql[i], t) + offs[i]
+            else:  # FrictionTable.__call__ without position and time effects, inline (it runs most in the sim)
+                ta, tb, inv_step, last = tables
+                x = abs(vm) * inv_step
+                k = int(x)
+                if k > last:
+                    k, f = last, 1.0
+                else:
+                    f = x - k
+                a0 = ta[k]
+                b0 = tb[k]
+                ff = (a0 + f * (ta[k + 1] - a0) + abs(gl[i]) / ts * (b0 + f * (tb[k + 1] - b0)) + 0.0) + offs[i]
             if ff < 0.0:
                 ff = 0.0
-            us.append(u * ts)
-            ffs.append(ff * ts)
-            if abs(vm) < cfg.stick_speed:
+            us[i] = u * ts
+            ffs[i] = ff * ts
+            if abs(vm) < stick_speed:
                 band.append(i)
             else:
-                tau[i] = (u - math.copysign(ff, vm)) * ts
+                taul[i] = (u - math.copysign(ff, vm)) * ts
+        tau = self._tau = np.array(taul)
         held: list[int] = []
         if band:
-            a, held = self._stick(q, gl, us, ffs, band, tau)
+            al, held = self._stick(q, gl, us, ffs, band, tau)
         else:
-            a = np.array(pin.aba(model, data, q, v, tau), dtype=float)
-        v_new = v + a * h
-        if held:
-            v_new[held] = 0.0
-        flip = (v_new * v) < 0.0
-        if flip.any():
-            v_new[flip] = 0.0
-        q_new = q + v_new * h
-        for i, (lower, upper, _, _) in enumerate(limits):  # the end stops
-            if not lower <= q_new[i] <= upper:
-                q_new[i] = upper if q_new[i] > upper else lower
-                v_new[i] = 0.0
-        self._v = v_new
-        self._q = q_new
+            al = pin.aba(model, data, q, v, tau).tolist()
+        # semi-implicit Euler joint by joint (the same float operations as on the arrays): a held joint and one
+        # whose velocity would change sign stop at 0; a joint past a position limit stops at it (the end stops)
+        vn = [0.0] * n
+        qn = [0.0] * n
+        limits = self._limits
+        for i in range(n):
+            vi = vl[i]
+            x = 0.0 if i in held else vi + al[i] * h
+            if x * vi < 0.0:
+                x = 0.0
+            y = ql[i] + x * h
+            lower, upper = limits[i][0], limits[i][1]
+            if not lower <= y <= upper:
+                y = upper if y > upper else lower
+                x = 0.0
+            vn[i] = x
+            qn[i] = y
+        self._v = np.array(vn)
+        self._q = np.array(qn)
         self.time = t + h
 
     def _stick(self, q: Array, nle: list[float], us: list[float], ffs: list[float], band: list[int],
-               tau: Array) -> tuple[Array, list[int]]:
+               tau: Array) -> tuple[list[float], list[int]]:
         """The stick band with coupling, solved in the step: the accelerations and the joints held.
 
         Every joint of ``band`` starts held (acceleration 0); the others' accelerations solve
@@ -407,24 +472,21 @@ class ArmSim:
         joint's torque (what it needs)."""
         n = len(us)
         held = list(band)
-        upper: list[list[float]] | None = None  # M(q), upper triangle (crba's; armature included)
-
-        def m(i: int, k: int) -> float:
-            assert upper is not None
-            return upper[i][k] if i <= k else upper[k][i]
+        mm: list[list[float]] = []  # M(q): crba's upper triangle mirrored (armature included), when first needed
 
         while True:
             free = [i for i in range(n) if i not in held]
             af: list[float] = []
             if free:
-                if upper is None:
-                    upper = pin.crba(self.model, self.data, q).tolist()
+                if not mm:
+                    up = pin.crba(self.model, self.data, q).tolist()
+                    mm = [[up[i][k] if i <= k else up[k][i] for k in range(n)] for i in range(n)]
                 r = [float(tau[i]) - nle[i] for i in free]
                 if len(free) == 1:
-                    af = [r[0] / m(free[0], free[0])]
+                    af = [r[0] / mm[free[0]][free[0]]]
                 else:
-                    af = np.linalg.solve(np.array([[m(i, k) for k in free] for i in free]), r).tolist()
-            need = [nle[i] + sum(m(i, k) * ak for k, ak in zip(free, af, strict=True)) for i in held]
+                    af = _solve([[mm[i][k] for k in free] for i in free], r)
+            need = [nle[i] + sum(mm[i][k] * ak for k, ak in zip(free, af, strict=True)) for i in held]
             worst, excess = -1, 0.0
             for k, i in enumerate(held):
                 over = abs(us[i] - need[k]) - ffs[i]
@@ -432,8 +494,9 @@ class ArmSim:
                     worst, excess = k, over
             if worst < 0:
                 tau[held] = need
-                a = np.zeros(n)
-                a[free] = af
+                a = [0.0] * n
+                for i, ai in zip(free, af, strict=True):
+                    a[i] = ai
                 return a, held
             i = held.pop(worst)
             tau[i] = us[i] - math.copysign(ffs[i], us[i] - need[worst])
@@ -450,7 +513,15 @@ class ArmSim:
     def sample(self) -> tuple[list[float], list[float], list[float]]:
         """Positions (rad), velocities (rad/s) and efforts (N·m: the drive torque with noise), joint side,
         in joint order."""
-        eff = [(j.torque + j._noise()) * j.config.torque_scale for j in self.joints]
+        eff = []
+        for j in self.joints:
+            k = j._wi
+            if k < len(j._white):  # JointSim._noise's next draw, without the call
+                j._wi = k + 1
+                w = j._white[k]
+            else:
+                w = j._noise()
+            eff.append((j.torque + w) * j.config.torque_scale)
         return self._q.tolist(), self._v.tolist(), eff
 
     @property

@@ -150,6 +150,20 @@ class FrictionTable:
         self._k_time = float(k_time)
         self._inv_step = 1.0 / self.speed_step
         self._inv_pstep = 1.0 / self._pstep
+        # per-call constants of __call__ (it runs once per joint and physics step): the last interpolation
+        # interval of each table, and whether the position table is all +0.0 (no position effect: its
+        # interpolation adds exactly +0.0, done as one addition)
+        self._a_last = len(self._a) - 2
+        self._p_last = len(self._p) - 1
+        self._p_zero = len(self._p) > 1 and not (np.any(ptab) or np.any(np.signbit(ptab)))
+
+    def speed_tables(self) -> tuple[list[float], list[float], float, int] | None:
+        """``(A, B, 1 / speed_step, last)`` when the friction is ``A(|v|) + |tau_m| * B(|v|)`` alone (no position or
+        time effect), for a caller that interpolates them itself as :meth:`__call__` does and adds ``+0.0`` (what
+        the empty position and time terms add); ``last`` is the last interval's index. None otherwise."""
+        if (self._p_zero or self._p_last == 0) and self._k_time == 0.0:
+            return self._a, self._b, self._inv_step, self._a_last
+        return None
 
     def _model(self, v: Array, load: float | Array) -> Array:
         inputs: dict[str, object] = {"speed": v * self._sf, "load_torque": np.asarray(load) * self._tf,
@@ -172,23 +186,28 @@ class FrictionTable:
         """Friction magnitude (normalized) at ``|speed|`` (motor rad/s), ``|load_torque|``, position, time."""
         x = abs(speed) * self._inv_step
         i = int(x)
-        if i >= len(self._a) - 1:
-            i, f = len(self._a) - 2, 1.0
+        if i > self._a_last:
+            i, f = self._a_last, 1.0
         else:
             f = x - i
-        a0 = self._a[i]
-        b0 = self._b[i]
-        val = a0 + f * (self._a[i + 1] - a0) + abs(load_torque) * (b0 + f * (self._b[i + 1] - b0))
-        if len(self._p) > 1:
+        ta = self._a
+        tb = self._b
+        a0 = ta[i]
+        b0 = tb[i]
+        val = a0 + f * (ta[i + 1] - a0) + abs(load_torque) * (b0 + f * (tb[i + 1] - b0))
+        if self._p_zero:
+            val += 0.0  # what interpolating the all-zero position table adds
+        elif self._p_last > 0:
+            tp = self._p
             y = (position - self._p0) * self._inv_pstep
             if y <= 0.0:
-                val += self._p[0]
-            elif y >= len(self._p) - 1:
-                val += self._p[-1]
+                val += tp[0]
+            elif y >= self._p_last:
+                val += tp[-1]
             else:
                 j = int(y)
-                p0 = self._p[j]
-                val += p0 + (y - j) * (self._p[j + 1] - p0)
+                p0 = tp[j]
+                val += p0 + (y - j) * (tp[j + 1] - p0)
         return val + self._k_time * time
 
     def exact(self, speed: Array, load_torque: Array | float, position: Array | float = 0.0, time: Array | float = 0.0) -> Array:
