@@ -94,23 +94,6 @@ Array = npt.NDArray[np.float64]
 #: the deceleration of a joint nearing its position limit when its accel_limit is 0 (none), joint rad/s^2
 _LIMIT_DECEL = 8.0
 
-try:  # the LAPACK solve numpy.linalg.solve calls, without its checks (about 5 µs of each stick-band step)
-    from numpy.linalg import _umath_linalg
-
-    _SOLVE1: Any = _umath_linalg.solve1
-except (ImportError, AttributeError):  # another numpy: its public solve (the same routine)
-    _SOLVE1 = None
-
-
-def _solve(a: list[list[float]], b: list[float]) -> list[float]:
-    """``numpy.linalg.solve(a, b)`` (the same floats): its LAPACK routine called directly; a result that is not
-    finite (a singular ``a``) goes through ``numpy.linalg.solve``, which raises ``LinAlgError``."""
-    if _SOLVE1 is not None:
-        x = _SOLVE1(np.array(a), np.array(b), signature="dd->d").tolist()
-        if all(math.isfinite(v) for v in x):
-            return x
-    return np.linalg.solve(np.array(a), np.array(b)).tolist()
-
 
 def arm_configs(spec: ArmSpec, names: Sequence[str], **settings: Any) -> list[JointSimConfig]:
     """One :class:`JointSimConfig` per name of ``names`` (the i-th drives the arm's i-th joint): the arm
@@ -485,7 +468,7 @@ class ArmSim:
                 if len(free) == 1:
                     af = [r[0] / mm[free[0]][free[0]]]
                 else:
-                    af = _solve([[mm[i][k] for k in free] for i in free], r)
+                    af = np.linalg.solve(np.array([[mm[i][k] for k in free] for i in free]), r).tolist()
             need = [nle[i] + sum(mm[i][k] * ak for k, ak in zip(free, af, strict=True)) for i in held]
             worst, excess = -1, 0.0
             for k, i in enumerate(held):

@@ -155,7 +155,7 @@ class FrictionTable:
         # interpolation adds exactly +0.0, done as one addition)
         self._a_last = len(self._a) - 2
         self._p_last = len(self._p) - 1
-        self._p_zero = len(self._p) > 1 and not (np.any(ptab) or np.any(np.signbit(ptab)))
+        self._p_zero = len(self._p) > 1 and all(x == 0.0 and math.copysign(1.0, x) > 0.0 for x in self._p)
 
     def speed_tables(self) -> tuple[list[float], list[float], float, int] | None:
         """``(A, B, 1 / speed_step, last)`` when the friction is ``A(|v|) + |tau_m| * B(|v|)`` alone (no position or
