@@ -226,17 +226,18 @@ def reprocess_bag(
             overrides["params"] = params
         if method is not None:
             overrides["method"] = method
-        rep = replay_bag(path, observer_params, monitor_params, use_recorded_params=use_recorded_params,
-                         overrides=overrides or None)
+        from ..io.bags import recorded_settings, settings_memo
+
+        with settings_memo():  # the replay's one pass over the bag gives the trend node's settings too
+            rep = replay_bag(path, observer_params, monitor_params, use_recorded_params=use_recorded_params,
+                             overrides=overrides or None)
+            trend_params = recorded_settings(path).get("wear_trend", {}) if use_recorded_params else {}
         if not rep.settings_recorded:
             missing = [f"--{k}" for k in ("params", "method") if rep.settings.get(f"{k}_from") != "given"]
             out.error = (f"{path}: the bag does not hold the wear estimator's recorded settings (recorded before "
                          f"jointwear recorded them, or by a recorder started after the nodes); give "
                          f"{' and '.join(missing)} to re-analyse it with those (nothing is guessed)")
             return out
-        from ..io.bags import recorded_settings
-
-        trend_params = recorded_settings(path).get("wear_trend", {}) if use_recorded_params else {}
         robot_, hw = bag_identity(rep.monitor_params, path, trend_params)
         robot_from = "given" if robot else "recorded" if (
             trend_params.get("robot") or rep.monitor_params.get("robot") or rep.monitor_params.get("hardware_id")

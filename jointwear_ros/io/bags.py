@@ -13,10 +13,13 @@ wear monitor take, keeping the ``.msg`` field names.
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -62,6 +65,7 @@ __all__ = [
     "read_bag_once",
     "read_messages",
     "recorded_settings",
+    "settings_memo",
     "stamp_seconds",
     "temperature_value",
 ]
@@ -167,7 +171,7 @@ def _check_metadata(meta: Path) -> None:
     import yaml
 
     try:
-        doc = yaml.safe_load(meta.read_text(encoding="utf-8", errors="replace"))
+        doc = _metadata_doc(meta.read_text(encoding="utf-8", errors="replace"))
     except (yaml.YAMLError, OSError) as exc:
         raise InputDataError(f"{meta}: not readable YAML ({str(exc).splitlines()[0]}); "
                              f"`jointwear bag recover {meta.parent}` rebuilds it from the .mcap") from None
@@ -179,6 +183,33 @@ def _check_metadata(meta: Path) -> None:
     problem = metadata_problem(info)
     if problem:
         raise InputDataError(f"{meta}: {problem}; `jointwear bag recover {meta.parent}` rebuilds it from the .mcap")
+
+
+#: parsed metadata.yaml documents by their text (a bag is checked, replayed and its settings read: one parse)
+_METADATA_DOCS: dict[str, Any] = {}
+_METADATA_DOCS_MAX = 64
+
+
+def _metadata_doc(text: str) -> Any:
+    """``yaml.safe_load(text)``, parsed once per text (the bag's readers each look at its metadata.yaml).
+
+    Keyed by the content, so an edited file is parsed again; a copy is returned, so no caller changes another's
+    document. Raises what ``yaml.safe_load`` raises (nothing is kept for a text that does not parse).
+    """
+    import yaml
+
+    doc = _METADATA_DOCS.get(text)
+    if doc is None and text not in _METADATA_DOCS:
+        doc = yaml.safe_load(text)
+        if len(_METADATA_DOCS) >= _METADATA_DOCS_MAX:
+            _METADATA_DOCS.clear()
+        _METADATA_DOCS[text] = doc
+    return copy.deepcopy(doc)
+
+
+def _metadata_info(meta: Path) -> Any:
+    """The ``rosbag2_bagfile_information`` of ``meta`` (as ``(yaml.safe_load(text) or {}).get(...)``)."""
+    return (_metadata_doc(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
 
 
 @dataclass(frozen=True)
@@ -290,7 +321,12 @@ class BagPass:
 
     def settings(self) -> dict[str, dict[str, Any]]:
         """Every node's recorded parameters (:func:`recorded_settings`), from this pass."""
-        return _settings(self.path, self.custom_data, [m.msg for m in self.messages(PARAMETER_EVENT_TYPE, ["/parameter_events"])])
+        out = _settings(self.path, self.custom_data,
+                        [m.msg for m in self.messages(PARAMETER_EVENT_TYPE, ["/parameter_events"])])
+        memo = _SETTINGS_MEMO.get()
+        if memo is not None:
+            memo[str(self.path)] = copy.deepcopy(out)
+        return out
 
     def messages_lost(self) -> dict[str, int]:
         """Per topic, messages the recorder was told were lost while recording (:func:`messages_lost`)."""
@@ -367,9 +403,7 @@ def bag_info(path: str | os.PathLike[str], check: bool = True) -> BagInfo:
             storage, version, lost = "unknown", 0, {}
             meta = p / "metadata.yaml" if p.is_dir() else None
             if meta is not None and meta.is_file():
-                import yaml
-
-                info = (yaml.safe_load(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
+                info = _metadata_info(meta)
                 storage = str(info.get("storage_identifier", "unknown"))
                 version = int(info.get("version", 0))
                 lost = messages_lost(info.get("custom_data"))
@@ -398,7 +432,7 @@ def bag_messages_lost(p: Path) -> dict[str, int]:
     import yaml
 
     try:
-        info = (yaml.safe_load(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
+        info = _metadata_info(meta)
     except (yaml.YAMLError, OSError, AttributeError):
         return {}  # the reader reports a broken metadata.yaml
     return messages_lost(info.get("custom_data") if isinstance(info, dict) else None)
@@ -412,7 +446,7 @@ def bag_custom_data(p: Path) -> dict[str, Any]:
     import yaml
 
     try:
-        info = (yaml.safe_load(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
+        info = _metadata_info(meta)
     except (yaml.YAMLError, OSError, AttributeError):
         return {}
     custom = info.get("custom_data") if isinstance(info, dict) else None
@@ -429,7 +463,27 @@ def recorded_settings(path: str | os.PathLike[str]) -> dict[str, dict[str, Any]]
     changes seen while recording) apply over it. A node absent from both is absent here.
     """
     p = check_bag_path(Path(path))
+    memo = _SETTINGS_MEMO.get()
+    if memo is not None and str(p) in memo:
+        return copy.deepcopy(memo[str(p)])
     return _settings(p, bag_custom_data(p), [m.msg for m in read_messages(p, topics=["/parameter_events"])])
+
+
+#: the settings one-pass reads found, by bag path, while :func:`settings_memo` is open (else None)
+_SETTINGS_MEMO: ContextVar[dict[str, dict[str, dict[str, Any]]] | None] = ContextVar("settings_memo", default=None)
+
+
+@contextmanager
+def settings_memo() -> Iterator[None]:
+    """Within it, :func:`recorded_settings` of a bag a one-pass read (:meth:`BagPass.settings`) already took
+    the settings of gives those (a copy) instead of opening the bag again: for one piece of work that reads a
+    bag's settings twice while the bag stays as it is (a re-analysis: the replay, then the trend node's
+    identity)."""
+    token = _SETTINGS_MEMO.set({})
+    try:
+        yield
+    finally:
+        _SETTINGS_MEMO.reset(token)
 
 
 def _settings(p: Path, custom_data: dict[str, Any], events: list[Any]) -> dict[str, dict[str, Any]]:

@@ -204,6 +204,7 @@ def residual_dependence(
     noise: float | None = None,
     tangent: Array | None = None,
     components: Mapping[str, Array] | None = None,
+    memo: dict[Any, Any] | None = None,
 ) -> list[VariableDependence]:
     """Rank columns (and pairs) by how much of the residual they explain, model-free; best first.
 
@@ -235,6 +236,10 @@ def residual_dependence(
     components
         The fitted model's terms (name -> contribution per row): each column is
         also tested as a factor of them (``x * term``, the *modulation* test).
+    memo
+        A dict shared by rankings of the same residual (same table, folds, seed, tangent and components)
+        against different noise floors: what comes before the noise floor is computed once
+        (:class:`~.residual_tests.ResidualSpace`); the result is the same as without it.
 
     Returns
     -------
@@ -242,7 +247,7 @@ def residual_dependence(
         Significant ones first, then by explained share.
     """
     cols = list(columns) if columns is not None else candidate_variables(table)
-    space = ResidualSpace(table, residuals, folds, seed, tangent)
+    space = ResidualSpace(table, residuals, folds, seed, tangent, memo=memo)
     smoother, modulation = SmootherTest(space), ModulationTest(space, components)
     periodogram, changepoint = PeriodogramTest(space), ChangepointTest(space)
     if space.total <= 0 or not cols:

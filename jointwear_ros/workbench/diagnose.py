@@ -467,8 +467,10 @@ def diagnose(
     noise = noise_test(table, base.residuals, base.n_free, alpha=alpha / 2)
     nf = noise.value
     outliers = find_outliers(table, base.residuals, alpha=alpha)  # before any shape is fitted
+    tangent, components = _tangent(base, table), _components(base, table)
+    memo: dict[Any, Any] = {}  # the ranking against the scatter between sweeps below redoes only the nested tests
     variables = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed, noise=nf,
-                                    tangent=_tangent(base, table), components=_components(base, table))
+                                    tangent=tangent, components=components, memo=memo)
     if not noise.consistent:
         # a scatter between sweeps that tau_f_std cannot see is noise, when no column explains the residual
         # against that larger floor either (a missing effect of a column stays significant against it)
@@ -477,8 +479,7 @@ def diagnose(
             again = variables
             if any(v.significant for v in variables):
                 again = residual_dependence(table, base.residuals, folds=folds, alpha=alpha / 2, seed=seed,
-                                            noise=between.value, tangent=_tangent(base, table),
-                                            components=_components(base, table))
+                                            noise=between.value, tangent=tangent, components=components, memo=memo)
             if not any(v.significant for v in again):
                 noise, nf, variables = between, between.value, again
     if mode not in ("guided", "full"):

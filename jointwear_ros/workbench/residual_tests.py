@@ -12,9 +12,10 @@ and the guard are :mod:`.significance`'s.
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
-from collections.abc import Callable, Mapping
-from typing import NamedTuple
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -42,6 +43,7 @@ __all__ = [
 ]
 
 Array = npt.NDArray[np.float64]
+_T = TypeVar("_T")
 
 #: Largest angular frequency of the periodogram, per unit of the column (rad^-1 for an angle).
 W_MAX = 100.0
@@ -72,10 +74,16 @@ class ResidualSpace:
     space: testing a column on top of it is the score (Lagrange multiplier) test of an omitted effect
     in nonlinear least squares, the first-order gain of refitting the model with the effect added.
     Permutations come from one seeded generator, so a ranking is deterministic.
+
+    ``memo`` (a dict, optional) keeps what the tests compute before the noise floor enters (the permuted
+    designs' sums of squares, the cross-validated shares), keyed by this space's residual, nuisance space,
+    folds and seed and by the test's inputs: a second ranking of the same residual against another noise
+    floor (:func:`~jointwear_ros.workbench.diagnose.diagnose` tries the scatter between sweeps) then only
+    redoes the nested tests. The permutations are drawn as before, so the numbers are the same.
     """
 
     def __init__(self, table: ObservationTable, residuals: Array, folds: Array | None, seed: int,
-                 tangent: Array | None = None) -> None:
+                 tangent: Array | None = None, memo: dict[Any, Any] | None = None) -> None:
         n = len(table)
         self.n = n
         # what the model misses, data minus model (FitResult.residuals are model minus data)
@@ -106,6 +114,28 @@ class ResidualSpace:
         self.rng = np.random.default_rng(seed)
         self.sse0 = float(self.cv_sse(self.z0[None, :, :])[0])
         self.sse0_in = float(self.in_sse(self.z0[None, :, :])[0])
+        self.memo = memo
+        self._digest = b""
+        if memo is not None:
+            h = hashlib.blake2b(digest_size=20)
+            for a in (self.r, self.z0, np.asarray(self.folds, dtype=float), self.cycle):
+                h.update(np.ascontiguousarray(a, dtype=float).tobytes())
+            h.update(repr(seed).encode())
+            self._digest = h.digest()
+
+    def remembered(self, key: tuple[Any, ...], inputs: Sequence[Array], compute: Callable[[], _T]) -> _T:
+        """``compute()``, or what it gave before for the same ``key``, ``inputs`` and space (see ``memo``)."""
+        if self.memo is None:
+            return compute()
+        h = hashlib.blake2b(self._digest, digest_size=20)
+        for a in inputs:
+            a = np.ascontiguousarray(a, dtype=float)
+            h.update(repr(a.shape).encode())
+            h.update(a.tobytes())
+        k = (*key, h.digest())
+        if k not in self.memo:
+            self.memo[k] = compute()
+        return self.memo[k]  # type: ignore[no-any-return]
 
     # -- permutations ------------------------------------------------------------------
     def cycle_level(self, x: Array) -> bool:
@@ -192,15 +222,29 @@ class ResidualSpace:
 
     def nested(self, d_small: Array, d_large: Array, noise: float | None) -> float:
         """p-value of the nested test (:func:`~.significance.nested_test`) of design ``d_large[0]`` on ``d_small``."""
+        return self.nested_p(self.nested_sums(d_small, d_large), noise)
+
+    def nested_sums(self, d_small: Array, d_large: Array) -> tuple[float, float, int, int]:
+        """What the nested test of ``d_large[0]`` on ``d_small`` takes before the noise floor: the two sums of
+        squares and the degrees of freedom (added, left)."""
         sse_small = float(self.in_sse(d_small[:1])[0])
         sse = float(self.in_sse(d_large[:1])[0])
-        k = d_large.shape[2] - d_small.shape[2]
-        return nested_test(sse_small - sse, sse, k, self.n - d_large.shape[2], noise).p_value
+        return sse_small, sse, d_large.shape[2] - d_small.shape[2], self.n - d_large.shape[2]
+
+    def on_nuisance_sums(self, d: Array) -> tuple[float, float, int, int]:
+        """:meth:`nested_sums` of design ``d[0]`` against the nuisance space alone."""
+        sse = float(self.in_sse(d[:1])[0])
+        return self.sse0_in, sse, d.shape[2] - self.q, self.n - d.shape[2]
+
+    @staticmethod
+    def nested_p(sums: tuple[float, float, int, int], noise: float | None) -> float:
+        """The nested test's p-value from :meth:`nested_sums` and the noise floor."""
+        sse_small, sse, k, dof = sums
+        return nested_test(sse_small - sse, sse, k, dof, noise).p_value
 
     def nested_on_nuisance(self, d: Array, noise: float | None) -> float:
         """p-value of the nested test of design ``d[0]`` against the nuisance space alone."""
-        sse = float(self.in_sse(d[:1])[0])
-        return nested_test(self.sse0_in - sse, sse, d.shape[2] - self.q, self.n - d.shape[2], noise).p_value
+        return self.nested_p(self.on_nuisance_sums(d), noise)
 
     def designs(self, b: Array) -> tuple[Array, Array]:
         """The nuisance space plus basis ``b`` (level), and plus ``b`` times the speed shapes too (speed)."""
@@ -280,6 +324,14 @@ class SmootherTest:
     def run(self, xs: Array, noise: float | None) -> tuple[Outcome, float, float]:
         """The outcome (share: the larger CV share), and the CV shares of the level and speed designs."""
         s = self.s
+        stat, cv_lvl, cv_spd, sums_lvl, sums_spd = s.remembered((self.name,), (xs,), lambda: self._sums(xs))
+        p_perm = permutation_p(float(stat[0]), stat[1:])
+        p_f = min(1.0, 2.0 * min(s.nested_p(sums_lvl, noise), s.nested_p(sums_spd, noise)))
+        return Outcome(self.name, float(stat[0]), guarded(p_f, p_perm), max(cv_lvl, cv_spd)), cv_lvl, cv_spd
+
+    def _sums(self, xs: Array) -> tuple[Array, float, float, tuple[float, float, int, int], tuple[float, float, int, int]]:
+        """What :meth:`run` computes before the noise floor enters."""
+        s = self.s
         b = s.rank_basis(xs, s.basis_size(xs[0]))
         lvl, spd = s.designs(b[:1])
         sse: tuple[list[Array], list[Array]] = ([], [])
@@ -295,9 +347,7 @@ class SmootherTest:
         stat = np.maximum(zs[0], zs[1])
         cv_lvl = s.cv_share(lvl[:1])
         cv_spd = s.cv_share(spd[:1])
-        p_perm = permutation_p(float(stat[0]), stat[1:])
-        p_f = min(1.0, 2.0 * min(s.nested_on_nuisance(lvl[:1], noise), s.nested_on_nuisance(spd[:1], noise)))
-        return Outcome(self.name, float(stat[0]), guarded(p_f, p_perm), max(cv_lvl, cv_spd)), cv_lvl, cv_spd
+        return stat, cv_lvl, cv_spd, s.on_nuisance_sums(lvl[:1]), s.on_nuisance_sums(spd[:1])
 
 
 class ModulationTest:
@@ -340,6 +390,14 @@ class ModulationTest:
         sd = float(np.std(xs[0]))
         if k == 0 or not sd > 0:
             return Outcome(self.name, 0.0, 1.0, 0.0), ""
+        share_in0, p_perm, sums, share, j = s.remembered((self.name,), (xs, self.comp), lambda: self._sums(xs, sd))
+        p = guarded(s.nested_p(sums, noise), p_perm)
+        return Outcome(self.name, share_in0, p, share), self.names[j] if self.varies[j] else ""
+
+    def _sums(self, xs: Array, sd: float) -> tuple[float, float, tuple[float, float, int, int], float, int]:
+        """What :meth:`run` computes before the noise floor enters."""
+        s = self.s
+        k = self.comp.shape[1]
         z = (xs - xs.mean(axis=1, keepdims=True)) / sd
 
         def design(rows: slice) -> Array:
@@ -351,13 +409,13 @@ class ModulationTest:
         sse = np.concatenate([s.in_sse(design(slice(i, i + CHUNK))) for i in range(0, xs.shape[0], CHUNK)])
         share_in = (s.sse0_in - sse) / s.total
         p_perm = permutation_p(float(share_in[0]), share_in[1:])
-        p = guarded(s.nested_on_nuisance(d[:1], noise), p_perm)
+        sums = s.on_nuisance_sums(d[:1])
         share = s.cv_share(d[:1])
         # the term it scales: the one whose product alone explains most (coefficients of collinear terms
         # do not say it)
         one = np.stack([np.concatenate([s.z0, (z[0] * self.comp[:, j])[:, None]], axis=1) for j in range(k)])
         j = int(np.argmin(s.in_sse(one)))
-        return Outcome(self.name, float(share_in[0]), p, share), self.names[j] if self.varies[j] else ""
+        return float(share_in[0]), p_perm, sums, share, j
 
 
 class PeriodogramTest:
@@ -471,19 +529,29 @@ class PairTest:
     def __init__(self, space: ResidualSpace) -> None:
         self.s = space
 
-    def _one(self, design: Callable[[slice], Array], rr: int, d_a: Array, noise: float | None) -> tuple[float, float]:
-        """(p-value, CV share) of the designs ``design(rows)`` (row 0 the data, then permutations; ``rr`` in all)
-        nested on ``d_a``."""
+    def _one(self, design: Callable[[slice], Array], rr: int, d_a: Array
+             ) -> tuple[float, tuple[float, float, int, int], float]:
+        """(permutation p-value, nested sums, CV share) of the designs ``design(rows)`` (row 0 the data, then
+        permutations; ``rr`` in all) nested on ``d_a``: all but the noise floor."""
         s = self.s
         sse = np.concatenate([s.in_sse(design(slice(i, i + CHUNK))) for i in range(0, rr, CHUNK)])
         in_pair = (s.sse0_in - sse) / s.total
         p_perm = permutation_p(float(in_pair[0]), in_pair[1:])
         d0 = design(slice(0, 1))
-        return guarded(s.nested(d_a, d0, noise), p_perm), s.cv_share(d0)
+        return p_perm, s.nested_sums(d_a, d0), s.cv_share(d0)
 
     def run(self, xa: Array, xb: Array, screened: int, n_perm: int, noise: float | None) -> Outcome:
         s = self.s
         xbp = s.permuted(xb, n_perm)
+        parts = s.remembered((self.name, screened), (xa, xbp), lambda: self._parts(xa, xbp, screened))
+        ps = [guarded(s.nested_p(sums, noise), p_perm) for p_perm, sums, _ in parts]
+        if screened > 1:
+            return Outcome(self.name, math.nan, min(1.0, ps[0] * screened), parts[0][2])
+        return Outcome(self.name, math.nan, min(1.0, 2.0 * min(ps)), max(parts[0][2], parts[1][2]))
+
+    def _parts(self, xa: Array, xbp: Array, screened: int) -> list[tuple[float, tuple[float, float, int, int], float]]:
+        """:meth:`_one` of each design :meth:`run` tries (the screened one; else the full and the lean)."""
+        s = self.s
         ba = s.rank_basis(xa[None, :], 4)
         bb_all = s.rank_basis(xbp, 4)
         rr = bb_all.shape[0]
@@ -497,8 +565,7 @@ class PairTest:
                 return np.concatenate([np.broadcast_to(s.z0, (m, s.n, s.q)),
                                        np.broadcast_to(ba, (m, s.n, ba.shape[2])), lin], axis=2)
 
-            p, share = self._one(screened_design, rr, d_a, noise)
-            return Outcome(self.name, math.nan, min(1.0, p * screened), share)
+            return [self._one(screened_design, rr, d_a)]
         sa = (xa - xa.mean()) / (float(np.std(xa)) or 1.0)
 
         def full(rows: slice) -> Array:
@@ -515,9 +582,7 @@ class PairTest:
             return np.concatenate([np.broadcast_to(s.z0, (m, s.n, s.q)), np.broadcast_to(ba, (m, s.n, ba.shape[2])),
                                    ln, ln * s.low[None, :, None], ln * s.high[None, :, None]], axis=2)
 
-        p_full, share_full = self._one(full, rr, d_a, noise)
-        p_lean, share_lean = self._one(lean, rr, d_a, noise)
-        return Outcome(self.name, math.nan, min(1.0, 2.0 * min(p_full, p_lean)), max(share_full, share_lean))
+        return [self._one(full, rr, d_a), self._one(lean, rr, d_a)]
 
 
 class ScreenTest:
@@ -536,10 +601,15 @@ class ScreenTest:
 
     def run(self, a: Array, x: Array, noise: float | None) -> Outcome:
         s = self.s
+        return Outcome(self.name, math.nan, s.nested_p(s.remembered((self.name,), (a, x), lambda: self._sums(a, x)),
+                                                       noise))
+
+    def _sums(self, a: Array, x: Array) -> tuple[float, float, int, int]:
+        s = self.s
         da = np.concatenate([s.z0, s.rank_basis(a[None, :], 4)[0]], axis=1)
         xs = (x - x.mean()) / (float(np.std(x)) or 1.0)
         dx = np.concatenate([da, np.column_stack([xs, xs * s.low, xs * s.high])], axis=1)
-        return Outcome(self.name, math.nan, s.nested(da[None], dx[None], noise))
+        return s.nested_sums(da[None], dx[None])
 
 
 @functools.lru_cache(maxsize=64)
