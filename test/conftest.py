@@ -58,6 +58,14 @@ MARKERS = {
 #: with their figures and the scatter-over-seeds checks, as many as keep the quick tier at 85 % of
 #: the tests or more (docs/testing.md). ``make test`` runs them; so does ``-m slow``.
 SLOW_TESTS: dict[str, tuple[str, ...]] = {
+    "test_bounds38_commission.py": ("test_a_carried_effects_refit_past_a_physical_bound_is_held_there_and_its_set_loads",),
+    "test_speed38d_ranking_memo.py": (
+        "test_a_second_noise_floor_reuses_the_permuted_designs_and_gives_the_same_ranking",
+    ),
+    "test_demo38_startup.py": (
+        "test_the_joint_estimator_loads_scipy_stats_on_use_with_the_same_default_prior",
+        "test_the_cell_stops_the_producers_then_the_recorder_and_the_clock_source_together",
+    ),
     "test_cycle_line.py": (
         "test_the_observations_equal_the_one_at_a_time_cycles",
         "test_six_joints_at_once_are_each_observed_at_every_speed_on_one_line_in_a_sixth_of_the_time",
