@@ -409,7 +409,7 @@ def observation_to_msg(o: FrictionObservationData) -> FrictionObservation:
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``production_observer``."""
-    return run_node_refusing("production_observer", ProductionObserverNode, args, events=True)
+    return run_node_refusing("production_observer", ProductionObserverNode, args)
 
 
 if __name__ == "__main__":
