@@ -63,7 +63,7 @@ demo: env
 # each test file in one worker), then the process and graph tests (marker ros) one at a time by default.
 # ROS_WORKERS=2 runs that tier on two workers, each test file in one and each worker on every second ROS
 # domain of the run's block: about half the time (14 min in all on a fresh clone instead of 21), but of
-# four fresh-clone runs so, two failed a production test (docs/testing.md). Both tiers always run; the
+# four fresh-clone runs so, three failed (docs/testing.md). Both tiers always run; the
 # target fails if either failed. Bytecode is kept (see test-fast).
 ROS_WORKERS ?= 1
 ROS_XDIST = $(if $(filter-out 1,$(ROS_WORKERS)),-n $(ROS_WORKERS) --dist loadfile --no-loadscope-reorder,-p no:xdist)
