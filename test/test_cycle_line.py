@@ -361,3 +361,55 @@ def test_late_control_updates_keep_every_joint_within_its_stopping_allowance(lat
         allow = stop_allowance(1.6, configs[j])
         print(f"{j}: planned [{a:.3f}, {b:.3f}] rad, reached [{lo[j]:.3f}, {hi[j]:.3f}] rad")
         assert a - allow < lo[j] and hi[j] < b + allow
+
+
+@pytest.mark.parametrize("phase", [CyclePhase.FORWARD, CyclePhase.REVERSE])
+@pytest.mark.parametrize("jump", [0.3, 1.0, 3.0])
+def test_a_clock_that_jumps_at_a_sweeps_start_does_not_run_the_profile_on_without_the_arm(phase, jump):
+    """A starved controller on sim time: the simulator's clock ran on while every joint was commanded to rest
+    (a settle), so the sweep's first command reaches the arm ``jump`` s after the controller computed it and its
+    next update sees the clock that much later. The reference waits for the arm (``reference_holds``): every
+    joint's windows are still swept at constant speed, so every observation is kept and none is rejected (the
+    profile used to run on without the arm; its deceleration fell inside the windows: "speed not constant")."""
+    configs = _configs(THREE)
+    sim = _robot(THREE)
+    plan = plan_line_cycle(configs, speeds=[40.0, 160.0])
+    runner = LineCycleRunner(configs)
+    cores = {j: FrictionObserverCore(ObserverConfig(joint_name=j)) for j in THREE}
+    obs: dict[str, list] = {j: [] for j in THREE}
+    rej: dict[str, list] = {j: [] for j in THREE}
+
+    def step_and_observe():
+        sim.step(0.002)
+        pos, vel, eff = sim.sample()
+        for i, j in enumerate(THREE):
+            out = cores[j].on_joint_state(sim.time, pos[i], vel[i], eff[i])
+            obs[j] += out.observations
+            rej[j] += out.rejections
+
+    runner.start(plan, 1, sim.time, {j: r.position for j, r in _readings(sim).items()})
+    k, jumped, before = 0, False, None
+    while runner.running and sim.time < 60.0:
+        if k % 5 == 0:
+            cmd = runner.update(sim.time, _readings(sim))
+            now_phase = runner.statuses()[0].phase
+            if not jumped and now_phase == phase and before != phase:
+                jumped = True
+                for _ in range(round(jump / 0.002)):  # the arm at rest, the clock running
+                    step_and_observe()
+            before = now_phase
+            sim.set_commands([cmd[j] for j in THREE])
+            for s in runner.statuses():
+                out = cores[s.joint_name].on_status(replace(s, stamp=sim.time))
+                obs[s.joint_name] += out.observations
+                rej[s.joint_name] += out.rejections
+        step_and_observe()
+        k += 1
+    for j in THREE:
+        out = cores[j].flush()
+        obs[j] += out.observations
+        rej[j] += out.rejections
+    assert jumped and runner.state == CycleState.DONE, runner.message
+    assert runner.reference_holds >= 1
+    assert {j: len(obs[j]) for j in THREE} == dict.fromkeys(THREE, 2), rej
+    assert rej == {j: [] for j in THREE}

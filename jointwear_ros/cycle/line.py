@@ -68,6 +68,15 @@ command zero (as in the one-joint cycle); a sweep starts only when every joint s
 its ``approach_tolerance`` of the line's start, else the approach is repeated at half the
 speed (at most ``MAX_APPROACHES`` times).
 
+**The reference's clock** runs with the controller's clock, but by at most ``reference_step``
+(``control_period + reaction_time``, 0.11 s by default) per update, and never more than that behind
+the arm's progress along the line (the inverse of the trapezoid at ``λ*``). On sim time a starved
+controller can see the clock jump: the simulator ran on while every joint was commanded to rest,
+and the sweep's first command reached the arm late. A profile that ran on by the jump would
+decelerate inside the windows (the observer rejects "speed not constant"); it now waits for the
+arm. An arm that did move on through a stalled update (a real cell's clock) keeps the reference
+within ``reference_step`` of it, the travel the stopping allowance plans for.
+
 Watchdog over every moving joint (any trip: state FAILED, zero for every joint, the joint and
 the reason in the message): a state missing, stale (``state_timeout``, and in wall time when
 ``wall_ages`` are given) or not finite; a position outside ``joint_limits``; ``|effort|`` above
@@ -169,6 +178,32 @@ class LinePlan:
         return (f"{len(self.joints)} joints at once along one line, {len(self.steps)} speed step(s): "
                 + "; ".join(parts)
                 + f"; about {self.duration:.1f} s (one joint after another: {self.sequential_duration:.1f} s)")
+
+
+def trapezoid_time(position: float, length: float, cruise: float, accel: float) -> float:
+    """The time at which the rest-to-rest trapezoid of :func:`trapezoid` reaches ``position`` (0 at or before its
+    start, its duration at or past its end): the inverse of its position.
+
+    >>> [round(trapezoid_time(trapezoid(t, 2.0, 1.0, 2.0)[0], 2.0, 1.0, 2.0), 6) for t in (0.0, 0.25, 1.0, 2.3)]
+    [0.0, 0.25, 1.0, 2.3]
+    """
+    if length <= 0.0 or position <= 0.0:
+        return 0.0
+    if length >= cruise * cruise / accel:
+        ta, vp = cruise / accel, cruise
+        tc = length / cruise - cruise / accel
+    else:
+        ta = math.sqrt(length / accel)
+        vp, tc = accel * ta, 0.0
+    total = 2.0 * ta + tc
+    ramp = 0.5 * accel * ta * ta
+    if position >= length:
+        return total
+    if position < ramp:
+        return math.sqrt(2.0 * position / accel)
+    if position < length - ramp:
+        return ta + (position - ramp) / vp
+    return total - math.sqrt(2.0 * (length - position) / accel)
 
 
 def trapezoid(tau: float, length: float, cruise: float, accel: float) -> tuple[float, float]:
@@ -309,6 +344,14 @@ class _Move:
     planned: float
     phase: Phase
     checked: list[bool]  # window start checked, per joint
+    t_ref: float = math.nan  # when the reference started (shifted by the runner's reference clock), s
+    t_last: float = math.nan  # the previous update, s
+
+    def __post_init__(self) -> None:
+        if math.isnan(self.t_ref):
+            self.t_ref = self.t_start
+        if math.isnan(self.t_last):
+            self.t_last = self.t_start
 
     def target(self) -> list[float]:
         return [p + d * self.length for p, d in zip(self.origin, self.direction, strict=True)]
@@ -364,6 +407,9 @@ class LineCycleRunner:
         self._t_start = 0.0
         #: largest distance of any joint from the line of a sweep so far in this cycle, rad
         self.max_deviation = 0.0
+        #: updates that came more than reference_step after the one before (the reference waited), this cycle
+        self.reference_holds = 0
+        self.reference_step = max(c.control_period + c.reaction_time for c in self.configs.values())
 
     # -- control -------------------------------------------------------------
     @property
@@ -391,6 +437,9 @@ class LineCycleRunner:
             raise RuntimeError("a cycle is already running")
         self.plan = plan
         self._cfgs = [self.configs[j] for j in plan.joints]
+        #: the largest step of the reference's clock per update, s: an update late by the planned
+        #: reaction_time still advances it in full
+        self.reference_step = max(c.control_period + c.reaction_time for c in self._cfgs)
         self.cycle_id = int(cycle_id)
         self.state = CycleState.RUNNING
         self.phase = Phase.APPROACH
@@ -404,6 +453,7 @@ class LineCycleRunner:
         self._settling = False
         self._t_start = now
         self.max_deviation = 0.0
+        self.reference_holds = 0
         self._hold = {j: float(p) for j, p in (positions or {}).items()
                       if j not in plan.joints and math.isfinite(p)}
         self._note_results(CycleState.RUNNING, self.message)
@@ -581,10 +631,24 @@ class LineCycleRunner:
         plan = self.plan
         assert plan is not None
         cfgs = self._cfgs
-        tau = now - mv.t_start
         # distance from the line of the move (the nearest point: the projection of q)
         dd = sum(d * d for d in mv.direction)
         lam = sum((x - p) * d for x, p, d in zip(q, mv.origin, mv.direction, strict=True)) / dd
+        # the reference's clock: it runs with ``now`` but at most reference_step per update (a clock that jumped
+        # while the arm, commanded to rest, stood still must not run the profile on without the arm, else its
+        # deceleration falls inside the windows), and never more than reference_step behind the arm along the
+        # line (an arm that moved on through a stalled update is not commanded past its end: it stays within
+        # reference_step, as the stopping allowance plans)
+        gap = now - mv.t_last
+        if gap > self.reference_step:
+            mv.t_ref += gap - self.reference_step
+            self.reference_holds += 1
+        mv.t_last = now
+        tau = now - mv.t_ref
+        behind = trapezoid_time(lam, mv.length, mv.cruise, mv.accel) - self.reference_step
+        if behind > tau:
+            tau = behind
+            mv.t_ref = now - tau
         for i, j in enumerate(plan.joints):
             dev = abs(q[i] - mv.origin[i] - lam * mv.direction[i])
             if mv.phase != Phase.APPROACH:
@@ -619,10 +683,10 @@ class LineCycleRunner:
                 self._next_step()
                 return self._advance(now, q, v)
             limit = max(c.move_timeout_factor for c in cfgs) * mv.planned + 2.0
-            if tau > limit:
+            if now - mv.t_start > limit:
                 far = max(range(len(q)), key=lambda i: abs(target[i] - q[i]))
                 return self._trip(plan.joints[far], (
-                    f"{mv.phase.name.lower()} move not finished after {tau:.1f} s (planned {mv.planned:.1f} s): "
+                    f"{mv.phase.name.lower()} move not finished after {now - mv.t_start:.1f} s (planned {mv.planned:.1f} s): "
                     f"{plan.joints[far]} at {q[far]:.3f} rad, target {target[far]:.3f} rad"))
         # toward the nearest point of the line while the reference runs (a lag along the line is the same
         # for every joint and harmless), toward the target once it has ended
