@@ -19,6 +19,7 @@ setup(
         ("share/" + package_name + "/config/prometheus", glob("config/prometheus/*.yml")),
         ("share/" + package_name + "/config/grafana", glob("config/grafana/*.json")),
         ("share/" + package_name + "/config/foxglove", glob("config/foxglove/*")),
+        ("share/" + package_name + "/config/dds", glob("config/dds/*.xml")),
     ],
     install_requires=["setuptools", "numpy", "scipy", "pyyaml", "matplotlib", "mcap", "rosbags", "threadpoolctl",
                       "sqlalchemy>=2.0", "psycopg[binary]>=3.1"],

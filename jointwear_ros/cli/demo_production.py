@@ -157,7 +157,7 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     from ..io.params import node_params_from_yaml
     from ..io.production_bag import ShiftClock, production_shifts, read_production, record_production
     from ..nodes.cell import Operator, start_child, stop_children
-    from ..nodes.runtime import loopback_env
+    from ..nodes.runtime import deep_queue_env, loopback_env
     from ..observer import ProductionConfig
     from ..replay import replay_bag
     from ..resources import config_path
@@ -207,7 +207,8 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
                                 "shift_seconds": shift_seconds, "shift_origin": origin, "shift_idle": 3600.0,
                                 # the whole played production fits its queue: an observer the machine starves of
                                 # CPU falls behind and catches up, it drops nothing (3751 of 28205 joint states
-                                # were dropped from a 10000-deep queue with two test workers on two cores)
+                                # were dropped with two test workers on two cores); Fast DDS holds more than
+                                # 5000 only with deep_queue_env's profile
                                 "qos_overrides./joint_states.subscription.depth": max(10000, n_samples),
                                 "qos_overrides./joint_temperature.subscription.depth": max(10000, n_samples)},
         "cycle_on_demand": {"use_sim_time": True},
@@ -222,7 +223,8 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     try:
         _progress(f"ROS_DOMAIN_ID={domain}, loopback only; logs in {logdir}")
         for name in PRODUCTION_NODES:
-            children.append(start_child(name, params[name], env, logdir))
+            children.append(start_child(name, params[name], deep_queue_env(env) if name == "production_observer"
+                                        else env, logdir))
             _progress(f"started {name} (pid {children[-1].proc.pid})")
         op = Operator(names, domain, progress=_progress)
         from diagnostic_msgs.msg import DiagnosticArray

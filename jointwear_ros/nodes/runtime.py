@@ -76,6 +76,23 @@ def loopback_env(domain_id: int | None = None, base: Mapping[str, str] | None = 
     return env
 
 
+#: The Fast DDS variable naming a default XML profile (rmw_fastrtps_cpp, Fast DDS 2.x as in Jazzy).
+FASTDDS_PROFILES_VAR = "FASTRTPS_DEFAULT_PROFILES_FILE"
+
+
+def deep_queue_env(env: Mapping[str, str]) -> dict[str, str]:
+    """``env`` for a node whose subscriptions must queue more than 5000 samples: Fast DDS caps a DataReader
+    at 5000 (its ``max_samples``) whatever depth the subscription asks for, so the node gets
+    ``config/dds/deep_reader_queues.xml``, a default profile that lifts the readers' resource limits (a depth
+    is then the queue). An environment that names its own profile keeps it."""
+    from ..resources import config_path
+
+    out = dict(env)
+    if not out.get(FASTDDS_PROFILES_VAR):
+        out[FASTDDS_PROFILES_VAR] = str(config_path("dds/deep_reader_queues.xml"))
+    return out
+
+
 def _as_double(p: Parameter, declared: int) -> Parameter:
     """``p`` as a DOUBLE (DOUBLE_ARRAY) when it is an INTEGER (INTEGER_ARRAY) given for a parameter
     declared DOUBLE (DOUBLE_ARRAY): ``30`` where ``30.0`` is meant is what every user types."""
