@@ -36,6 +36,35 @@ def test_every_mutant_applies_to_the_current_source(m, tmp_path):
         assert (ROOT / t).is_file(), t
 
 
+@pytest.mark.parametrize("name", IN_SUITE)
+def test_each_mutant_the_suite_runs_names_the_tests_that_catch_it_and_they_exist(name):
+    """The suite's run (``--catchers``) runs only these node ids: each must name a test function of one of the
+    mutant's own test files (those the full run runs), or the run would check nothing."""
+    m = next(m for m in mutation.MUTANTS if m.name == name)
+    assert m.catchers, f"{name}: no catchers"
+    for nodeid in m.catchers:
+        assert nodeid.split("::")[0] in m.tests, nodeid
+        assert mutation.catcher_problem(ROOT, nodeid) == ""
+
+
+@pytest.mark.parametrize("nodeid, why", [
+    ("test/test_mutation.py::test_gone", "defines no test function 'test_gone'"),
+    ("test/test_nope.py::test_x", "does not exist"),
+    ("test/test_mutation.py::TestNone::test_x", "defines no test class 'TestNone'"),
+    ("test/test_mutation.py", "expected file.py::test_function"),
+    ("test/test_mutation.py::test_the_mutants_are_named_once_and_each_bug_is_planted_once[x]", "not one of its parameters"),
+    ("test/test_mutation.py::_an_example_helper", "not collected as a test"),
+])
+def test_a_catcher_that_names_no_test_function_is_refused_with_the_reason(nodeid, why):
+    assert why in mutation.catcher_problem(ROOT, nodeid)
+    assert mutation.catcher_problem(ROOT, "test/test_mutation.py::test_a_catcher_that_names_no_test_function_is_"
+                                          "refused_with_the_reason") == ""
+
+
+def _an_example_helper():
+    """Not a test (its name): a catcher naming it is refused."""
+
+
 def test_the_mutants_are_named_once_and_each_bug_is_planted_once():
     names = [m.name for m in mutation.MUTANTS]
     assert len(names) == len(set(names))
@@ -81,7 +110,7 @@ def test_a_mutant_whose_place_is_gone_or_ambiguous_is_stale_with_the_reason(wher
 @pytest.mark.slow
 def test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught():
     assert set(IN_SUITE) <= set(FAST)
-    r = subprocess.run([sys.executable, str(ROOT / "tools" / "mutation.py"), "--json", "--jobs", "2",
+    r = subprocess.run([sys.executable, str(ROOT / "tools" / "mutation.py"), "--json", "--jobs", "2", "--catchers",
                         *[a for n in IN_SUITE for a in ("--only", n)]],
                        capture_output=True, text=True, timeout=1800, cwd=ROOT)
     doc = json.loads(r.stdout)

@@ -11,10 +11,14 @@ is reported ``STALE`` with the reason (update the mutant). In a pattern, ``...``
 For every mutant the package, tests and config are copied to a temporary directory (the working
 tree is never touched), the change is made there, and the tests that must catch it run with the copy
 first on ``PYTHONPATH`` (also for the node processes the ROS tests start). A mutant the tests do not
-catch (``SURVIVED``) is a hole in the suite.
+catch (``SURVIVED``) is a hole in the suite. The full run runs a mutant's test files (``tests``, narrowed
+by ``select``); ``--catchers`` runs only the test functions known to catch it (``catchers``, node ids
+checked against the test files' syntax trees before the run: a renamed test is ``STALE``), which is what
+the suite's own check (test/test_mutation.py) runs.
 
     .venv/bin/python tools/mutation.py                  # every mutant, a table (minutes)
     .venv/bin/python tools/mutation.py --fast           # only those caught without a ROS graph
+    .venv/bin/python tools/mutation.py --catchers --only crawl_speeds_accepted
     .venv/bin/python tools/mutation.py --only alarm_forced_true --json
     .venv/bin/python tools/mutation.py --list
 
@@ -273,6 +277,9 @@ class Mutant:
     tests: tuple[str, ...]
     #: pytest -k expression narrowing ``tests`` to the ones that should catch it
     select: str = ""
+    #: node ids (``file::function``, in ``tests``) of the tests known to catch it: ``--catchers`` runs only
+    #: these (the suite's own check), the full run ``tests`` with ``select``
+    catchers: tuple[str, ...] = ()
     #: caught by tests without a ROS graph (seconds each; the suite runs these itself)
     fast: bool = False
 
@@ -286,7 +293,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("alarm_ge_to_gt_level", "the condition level's ERROR uses > instead of >= (w_hat = 35 gives no alarm)",
            "jointwear_ros/condition.py", "condition_level",
            expr("w >= alarm", "w > alarm"),
-           ("test/test_monitor.py", "test/test_condition.py"), fast=True),
+           ("test/test_monitor.py", "test/test_condition.py"), fast=True,
+           catchers=("test/test_monitor.py::test_levels_at_the_thresholds",)),
     Mutant("warn_bound_ignored", "the condition level ignores the estimate's uncertainty (an estimate that cannot "
                                  "rule the alarm out reads OK)",
            "jointwear_ros/condition.py", "condition_level",
@@ -326,11 +334,13 @@ MUTANTS: tuple[Mutant, ...] = (
            "jointwear_ros/observer/segmentation.py", "measure_segment",
            expr("0.5 * math.hypot(ses[1], ses[-1], _coverage_bias(slopes, centres))",
                 "0.35 * math.hypot(ses[1], ses[-1], _coverage_bias(slopes, centres))"),
-           ("test/test_observer_core.py",), select="matches_scatter", fast=True),
+           ("test/test_observer_core.py",), select="matches_scatter", fast=True,
+           catchers=("test/test_observer_core.py::test_tau_f_std_matches_scatter_over_seeds",)),
     Mutant("observer_memory_trim_disabled", "the observer never trims its joint-state buffer",
            "jointwear_ros/observer/core.py", "FrictionObserverCore._trim",
            expr("math.isfinite(latest)", "False"),
-           ("test/test_observer_core.py",), select="bounded", fast=True),
+           ("test/test_observer_core.py",), select="bounded", fast=True,
+           catchers=("test/test_observer_core.py::test_memory_stays_bounded_when_a_speed_never_ends",)),
     Mutant("observer_impossible_temperature", "the observer uses physically impossible temperature readings",
            "jointwear_ros/observer/core.py", "FrictionObserverCore.on_temperature",
            expr("math.isfinite(celsius) and lo <= celsius <= hi", "math.isfinite(celsius)"),
@@ -343,15 +353,18 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("observation_screening_off", "observations are not screened at all",
            "jointwear_ros/monitor/validation.py", "screen_observation",
            after("rng = dict(valid or {})", "return o, ''"),
-           ("test/test_monitor.py",), select="impossible_temperature or non_physical or all_dropped", fast=True),
+           ("test/test_monitor.py",), select="impossible_temperature or non_physical or all_dropped", fast=True,
+           catchers=("test/test_monitor.py::test_one_impossible_temperature_does_not_hide_the_alarm",)),
     Mutant("observation_temperature_bounds_widened", "the parameter set's temperature range is widened by 1 degC",
            "jointwear_ros/monitor/validation.py", "screen_observation",
            expr("lo <= t <= hi", "lo - 1.0 <= t <= hi + 1.0"),
-           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True),
+           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True,
+           catchers=("test/test_monitor_validation.py::test_the_temperature_bounds_hold_exactly_on_both_sides",)),
     Mutant("plausible_temperature_bound_widened", "the plausible temperature range is widened by 1 degC below",
            "jointwear_ros/monitor/validation.py", "screen_observation",
            expr("plo <= t <= phi", "plo - 1.0 <= t <= phi"),
-           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True),
+           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True,
+           catchers=("test/test_monitor_validation.py::test_the_temperature_bounds_hold_exactly_on_both_sides",)),
     # -- the test cycle ------------------------------------------------------------------------
     Mutant("motion_enabled_false_ignored", "motion_enabled := false at run time does not stop a running cycle",
            "jointwear_ros/nodes/test_cycle.py", "TestCycleNode._on_parameters",
@@ -364,19 +377,23 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("crawl_speeds_accepted", "speeds below min_speed are planned",
            "jointwear_ros/cycle/plan.py", "plan_cycle",
            expr("v < config.min_speed", "False"),
-           ("test/test_cycle_core.py",), select="crawl", fast=True),
+           ("test/test_cycle_core.py",), select="crawl", fast=True,
+           catchers=("test/test_cycle_core.py::test_plan_refuses_a_crawl_too_many_speeds_and_an_endless_cycle",)),
     Mutant("held_joints_not_watched", "the joints held while another is tested are not watched",
            "jointwear_ros/cycle/robot.py", "RobotCycleRunner.update",
            expr("self._hold_watchdog(j, now, readings.get(j), ages.get(j))", "None"),
-           ("test/test_cycle_robot.py",), select="held", fast=True),
+           ("test/test_cycle_robot.py",), select="held", fast=True,
+           catchers=("test/test_cycle_robot.py::test_a_fault_on_a_held_joint_fails_the_cycle_with_zero_for_all",)),
     Mutant("held_reference_follows_joint", "a held joint's reference follows the joint (a slow drift never trips)",
            "jointwear_ros/cycle/robot.py", "RobotCycleRunner._hold_watchdog",
            after("ref = self._hold.setdefault(j, r.position)", "self._hold[j] = r.position"),
-           ("test/test_cycle_robot.py",), select="drifting_slowly", fast=True),
+           ("test/test_cycle_robot.py",), select="drifting_slowly", fast=True,
+           catchers=("test/test_cycle_robot.py::test_a_held_joint_drifting_slowly_beyond_the_tolerance_fails_the_cycle",)),
     Mutant("held_movement_not_checked", "a held joint's movement is not checked",
            "jointwear_ros/cycle/robot.py", "RobotCycleRunner._hold_watchdog",
            expr("abs(r.position - ref) > self.hold_tolerance", "False"),
-           ("test/test_cycle_robot.py",), select="held", fast=True),
+           ("test/test_cycle_robot.py",), select="held", fast=True,
+           catchers=("test/test_cycle_robot.py::test_a_fault_on_a_held_joint_fails_the_cycle_with_zero_for_all",)),
     # -- the recorder and the history ----------------------------------------------------------
     Mutant("recorder_drops_every_1000th", "the recorder silently drops every 1000th message",
            "jointwear_ros/io/recording.py", "RecordingBag._write",
@@ -396,16 +413,19 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("history_whole_seconds", "the history stores times in whole seconds",
            "jointwear_ros/history/records.py", "EstimateRecord.time_ns",
            expr("round(self.time * 1e6) * 1000", "round(self.time) * 1_000_000_000"),
-           ("test/test_history_store.py",), select="to_the_microsecond and sqlite", fast=True),
+           ("test/test_history_store.py",), select="to_the_microsecond and sqlite", fast=True,
+           catchers=("test/test_history_store.py::test_times_are_stored_to_the_microsecond_and_read_back_exactly",)),
     Mutant("history_screening_off", "estimates go into the history unscreened",
            "jointwear_ros/history/screen.py", "screen_record",
            before("cfg = cfg or ScreenConfig()", "return None"),
-           ("test/test_cli_history.py",), select="bad_rows_never_hide", fast=True),
+           ("test/test_cli_history.py",), select="bad_rows_never_hide", fast=True,
+           catchers=("test/test_cli_history.py::test_bad_rows_never_hide_an_error_joint_and_each_is_reported_with_its_reason",)),
     # -- readers, estimators and the command line ----------------------------------------------
     Mutant("csv_nan_optional_column", "the CSV reader accepts NaN in an optional column",
            "jointwear_ros/io/tables.py", "read_csv",
            expr("not math.isfinite(v)", "not math.isfinite(v) and (name in _REQUIRED or not math.isnan(v))"),
-           ("test/test_properties_io.py", "test/test_io_tables.py"), select="csv or nan", fast=True),  # the catching file first
+           ("test/test_properties_io.py", "test/test_io_tables.py"), select="csv or nan", fast=True,
+           catchers=("test/test_properties_io.py::test_nan_in_every_optional_csv_column_is_refused_with_the_column_named",)),  # the catching file first
     Mutant("csv_accepts_negative_speed", "the table readers accept a negative speed",
            "jointwear_ros/io/tables.py", "check_physical",
            expr("v < 0", "v < -1e300", inside='("speed", lambda v: v < 0, ...)'),
@@ -414,7 +434,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("estimator_checks_off", "the estimators' own value checks (check_observation_values) are skipped",
            "jointwear_ros/estimation/_common.py", "prepare_rows",
            stmts("check_observation_values(table, temperature=use_temperature)", "pass"),
-           ("test/test_properties_estimators.py",), select="estimators_give", fast=True),
+           ("test/test_properties_estimators.py",), select="estimators_give", fast=True,
+           catchers=("test/test_properties_estimators.py::test_estimators_give_a_finite_estimate_or_the_projects_error",)),
     Mutant("model_accepts_non_finite", "the model evaluates NaN/inf inputs silently",
            "jointwear_ros/model/model.py", "Model._inputs",
            expr("not np.isfinite(a).all()", "False"),
@@ -430,7 +451,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("cli_method_unchecked", "replay and demo start without checking --method",
            "jointwear_ros/cli/common.py", "check_method",
            expr("method is not None and str(method).strip().lower() not in ...", "False"),
-           ("test/test_cli_faults.py",), select="method", fast=True),
+           ("test/test_cli_faults.py",), select="method", fast=True,
+           catchers=("test/test_cli_faults.py::test_replay_with_an_unknown_method_exits_2",)),
     # -- the trend: time to alarm -----------------------------------------------------------------
     Mutant("trend_evidence_ignored", "the model bank ignores each member's evidence (prior weights only)",
            "jointwear_ros/trend/states.py", "trend_states",
@@ -535,8 +557,45 @@ def apply(m: Mutant, tree: Path) -> None:
         raise Stale(f"{m.path}: {exc}") from None
 
 
-def run_one(m: Mutant, python: str, timeout: float) -> Outcome:
+def catcher_problem(root: Path, nodeid: str) -> str:
+    """Why the node id ``nodeid`` does not name a test function of ``root``'s suite ("" when it does).
+
+    Read from the file's syntax tree (the test module is not imported): ``test/file.py::test_name`` or
+    ``test/file.py::TestClass::test_name``, a function (all its parameters: ``-x`` stops at the first that
+    fails), not one of its parameters.
+    """
+    path, _, rest = nodeid.partition("::")
+    names = rest.split("::") if rest else []
+    if not names or not all(names):
+        return f"{nodeid!r}: expected file.py::test_function"
+    if "[" in names[-1]:
+        return f"{nodeid!r}: name the test function, not one of its parameters"
+    f = root / path
+    if not f.is_file():
+        return f"{nodeid!r}: {path} does not exist"
+    scope: list[ast.stmt] = ast.parse(f.read_text(encoding="utf-8")).body
+    for i, name in enumerate(names):
+        last = i == len(names) - 1
+        kinds = (ast.FunctionDef, ast.AsyncFunctionDef) if last else (ast.ClassDef,)
+        found = [n for n in scope if isinstance(n, kinds) and n.name == name]
+        if len(found) != 1:
+            what = "test function" if last else "test class"
+            return f"{nodeid!r}: {path} defines no {what} {name!r}" if not found else \
+                f"{nodeid!r}: {path} defines {name!r} {len(found)} times"
+        if not name.startswith("test" if last else "Test"):
+            return f"{nodeid!r}: {name!r} is not collected as a test (its name)"
+        scope = getattr(found[0], "body", [])
+    return ""
+
+
+def run_one(m: Mutant, python: str, timeout: float, *, catchers: bool = False) -> Outcome:
+    """Plant ``m`` in a copy and run its tests there (``catchers``: only the tests known to catch it, if given)."""
     t0 = time.monotonic()
+    catchers = catchers and bool(m.catchers)  # a mutant without catchers runs its test files
+    for nodeid in m.catchers if catchers else ():
+        why = catcher_problem(ROOT, nodeid)
+        if why:
+            return Outcome(m.name, m.description, "STALE", [], time.monotonic() - t0, why)
     with tempfile.TemporaryDirectory(prefix=f"mutation-{m.name}-") as tmp:
         tree = Path(tmp)
         copy_tree(tree)
@@ -548,8 +607,8 @@ def run_one(m: Mutant, python: str, timeout: float) -> Outcome:
         env["PYTHONPATH"] = str(tree) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
         env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         env.setdefault("MPLBACKEND", "Agg")
-        sel = ["-k", m.select] if m.select else []
-        cmd = [python, "-m", "pytest", "-q", "-x", "-rf", "-p", "no:cacheprovider", *sel, *m.tests]
+        which = list(m.catchers) if catchers else (["-k", m.select] if m.select else []) + list(m.tests)
+        cmd = [python, "-m", "pytest", "-q", "-x", "-rf", "-p", "no:cacheprovider", *which]
         try:
             r = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, timeout=timeout)
         except subprocess.TimeoutExpired:
@@ -586,6 +645,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true", help="print JSON")
     ap.add_argument("--only", action="append", default=[], metavar="NAME", help="run only this mutant (repeatable)")
     ap.add_argument("--fast", action="store_true", help="only the mutants caught without a ROS graph")
+    ap.add_argument("--catchers", action="store_true",
+                    help="run only the tests known to catch each mutant (its catchers; the suite's check) instead "
+                         "of its test files, where given")
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default 900)")
     ap.add_argument("--python", default=sys.executable, help="interpreter with the test dependencies")
@@ -616,11 +678,12 @@ def main(argv: list[str] | None = None) -> int:
         from concurrent.futures import ThreadPoolExecutor
 
         with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-            for o in pool.map(lambda m: run_one(m, args.python, args.timeout), parallel):
+            for o in pool.map(lambda m: run_one(m, args.python, args.timeout, catchers=args.catchers),
+                                   parallel):
                 report(o)
     for m in chosen:
         if m not in parallel:  # the ROS graphs of two at once would meet on a domain
-            report(run_one(m, args.python, args.timeout))
+            report(run_one(m, args.python, args.timeout, catchers=args.catchers))
     caught = sum(o.status == "caught" for o in results)
     if args.json:
         print(json.dumps({"mutations": [o.to_dict() for o in results], "caught": caught, "total": len(results)},
