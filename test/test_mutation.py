@@ -61,6 +61,13 @@ def test_a_catcher_that_names_no_test_function_is_refused_with_the_reason(nodeid
                                           "refused_with_the_reason") == ""
 
 
+def test_mutants_are_not_forked_from_a_process_that_already_imported_the_package():
+    """A fork would test the package it has instead of the mutated copy: where it is imported (here: conftest
+    imports it), the mutants run in new interpreters."""
+    assert "jointwear_ros" in sys.modules
+    assert mutation.preload() is False
+
+
 def _an_example_helper():
     """Not a test (its name): a catcher naming it is refused."""
 
