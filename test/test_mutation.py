@@ -1,6 +1,7 @@
 """The planted-bug check (tools/mutation.py): every mutant still finds its place in the source, the
-placing is by name and syntax (not text), and the mutants caught without a ROS graph are caught.
-The full run, ROS-level mutants included, is ``make mutation``."""
+placing is by name and syntax (not text), and the mutants caught without a ROS graph are caught, each
+by the tests named as its catchers (which must exist). The full run, ROS-level mutants and whole test
+files, is ``make mutation``."""
 
 from __future__ import annotations
 
@@ -123,7 +124,9 @@ def test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught():
     doc = json.loads(r.stdout)
     got = {d["mutation"]: d for d in doc["mutations"]}
     assert set(got) == set(IN_SUITE)
+    catchers = {m.name: m.catchers for m in mutation.MUTANTS}
     for n in IN_SUITE:
         assert got[n]["status"] == "caught", got[n]
         assert got[n]["caught_by"], got[n]
+        assert got[n]["caught_by"][0].partition("[")[0] in catchers[n], got[n]  # by the tests named for it
     assert r.returncode == 0, r.stderr
