@@ -11,10 +11,17 @@ is reported ``STALE`` with the reason (update the mutant). In a pattern, ``...``
 For every mutant the package, tests and config are copied to a temporary directory (the working
 tree is never touched), the change is made there, and the tests that must catch it run with the copy
 first on ``PYTHONPATH`` (also for the node processes the ROS tests start). A mutant the tests do not
-catch (``SURVIVED``) is a hole in the suite.
+catch (``SURVIVED``) is a hole in the suite. A mutant caught without a ROS graph runs its tests in a fork
+of this process once it has loaded pytest, its plugins, numpy, scipy.stats and yaml (never the package: the fork
+imports the copy's, and says so if its tests imported another; ``--no-fork``: a new interpreter each, as
+the ROS-level ones always do). The full run runs a mutant's test files (``tests``, narrowed
+by ``select``); ``--catchers`` runs only the test functions known to catch it (``catchers``, node ids
+checked against the test files' syntax trees before the run: a renamed test is ``STALE``), which is what
+the suite's own check (test/test_mutation.py) runs.
 
     .venv/bin/python tools/mutation.py                  # every mutant, a table (minutes)
     .venv/bin/python tools/mutation.py --fast           # only those caught without a ROS graph
+    .venv/bin/python tools/mutation.py --catchers --only crawl_speeds_accepted
     .venv/bin/python tools/mutation.py --only alarm_forced_true --json
     .venv/bin/python tools/mutation.py --list
 
@@ -30,10 +37,12 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -273,6 +282,9 @@ class Mutant:
     tests: tuple[str, ...]
     #: pytest -k expression narrowing ``tests`` to the ones that should catch it
     select: str = ""
+    #: node ids (``file::function``, in ``tests``) of the tests known to catch it: ``--catchers`` runs only
+    #: these (the suite's own check), the full run ``tests`` with ``select``
+    catchers: tuple[str, ...] = ()
     #: caught by tests without a ROS graph (seconds each; the suite runs these itself)
     fast: bool = False
 
@@ -286,7 +298,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("alarm_ge_to_gt_level", "the condition level's ERROR uses > instead of >= (w_hat = 35 gives no alarm)",
            "jointwear_ros/condition.py", "condition_level",
            expr("w >= alarm", "w > alarm"),
-           ("test/test_monitor.py", "test/test_condition.py"), fast=True),
+           ("test/test_monitor.py", "test/test_condition.py"), fast=True,
+           catchers=("test/test_monitor.py::test_levels_at_the_thresholds",)),
     Mutant("warn_bound_ignored", "the condition level ignores the estimate's uncertainty (an estimate that cannot "
                                  "rule the alarm out reads OK)",
            "jointwear_ros/condition.py", "condition_level",
@@ -326,11 +339,13 @@ MUTANTS: tuple[Mutant, ...] = (
            "jointwear_ros/observer/segmentation.py", "measure_segment",
            expr("0.5 * math.hypot(ses[1], ses[-1], _coverage_bias(slopes, centres))",
                 "0.35 * math.hypot(ses[1], ses[-1], _coverage_bias(slopes, centres))"),
-           ("test/test_observer_core.py",), select="matches_scatter", fast=True),
+           ("test/test_observer_core.py",), select="matches_scatter", fast=True,
+           catchers=("test/test_observer_core.py::test_tau_f_std_matches_scatter_over_seeds",)),
     Mutant("observer_memory_trim_disabled", "the observer never trims its joint-state buffer",
            "jointwear_ros/observer/core.py", "FrictionObserverCore._trim",
            expr("math.isfinite(latest)", "False"),
-           ("test/test_observer_core.py",), select="bounded", fast=True),
+           ("test/test_observer_core.py",), select="bounded", fast=True,
+           catchers=("test/test_observer_core.py::test_memory_stays_bounded_when_a_speed_never_ends",)),
     Mutant("observer_impossible_temperature", "the observer uses physically impossible temperature readings",
            "jointwear_ros/observer/core.py", "FrictionObserverCore.on_temperature",
            expr("math.isfinite(celsius) and lo <= celsius <= hi", "math.isfinite(celsius)"),
@@ -343,15 +358,18 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("observation_screening_off", "observations are not screened at all",
            "jointwear_ros/monitor/validation.py", "screen_observation",
            after("rng = dict(valid or {})", "return o, ''"),
-           ("test/test_monitor.py",), select="impossible_temperature or non_physical or all_dropped", fast=True),
+           ("test/test_monitor.py",), select="impossible_temperature or non_physical or all_dropped", fast=True,
+           catchers=("test/test_monitor.py::test_one_impossible_temperature_does_not_hide_the_alarm",)),
     Mutant("observation_temperature_bounds_widened", "the parameter set's temperature range is widened by 1 degC",
            "jointwear_ros/monitor/validation.py", "screen_observation",
            expr("lo <= t <= hi", "lo - 1.0 <= t <= hi + 1.0"),
-           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True),
+           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True,
+           catchers=("test/test_monitor_validation.py::test_the_temperature_bounds_hold_exactly_on_both_sides",)),
     Mutant("plausible_temperature_bound_widened", "the plausible temperature range is widened by 1 degC below",
            "jointwear_ros/monitor/validation.py", "screen_observation",
            expr("plo <= t <= phi", "plo - 1.0 <= t <= phi"),
-           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True),
+           ("test/test_monitor_validation.py",), select="bounds_hold_exactly", fast=True,
+           catchers=("test/test_monitor_validation.py::test_the_temperature_bounds_hold_exactly_on_both_sides",)),
     # -- the test cycle ------------------------------------------------------------------------
     Mutant("motion_enabled_false_ignored", "motion_enabled := false at run time does not stop a running cycle",
            "jointwear_ros/nodes/test_cycle.py", "TestCycleNode._on_parameters",
@@ -364,19 +382,23 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("crawl_speeds_accepted", "speeds below min_speed are planned",
            "jointwear_ros/cycle/plan.py", "plan_cycle",
            expr("v < config.min_speed", "False"),
-           ("test/test_cycle_core.py",), select="crawl", fast=True),
+           ("test/test_cycle_core.py",), select="crawl", fast=True,
+           catchers=("test/test_cycle_core.py::test_plan_refuses_a_crawl_too_many_speeds_and_an_endless_cycle",)),
     Mutant("held_joints_not_watched", "the joints held while another is tested are not watched",
            "jointwear_ros/cycle/robot.py", "RobotCycleRunner.update",
            expr("self._hold_watchdog(j, now, readings.get(j), ages.get(j))", "None"),
-           ("test/test_cycle_robot.py",), select="held", fast=True),
+           ("test/test_cycle_robot.py",), select="held", fast=True,
+           catchers=("test/test_cycle_robot.py::test_a_fault_on_a_held_joint_fails_the_cycle_with_zero_for_all",)),
     Mutant("held_reference_follows_joint", "a held joint's reference follows the joint (a slow drift never trips)",
            "jointwear_ros/cycle/robot.py", "RobotCycleRunner._hold_watchdog",
            after("ref = self._hold.setdefault(j, r.position)", "self._hold[j] = r.position"),
-           ("test/test_cycle_robot.py",), select="drifting_slowly", fast=True),
+           ("test/test_cycle_robot.py",), select="drifting_slowly", fast=True,
+           catchers=("test/test_cycle_robot.py::test_a_held_joint_drifting_slowly_beyond_the_tolerance_fails_the_cycle",)),
     Mutant("held_movement_not_checked", "a held joint's movement is not checked",
            "jointwear_ros/cycle/robot.py", "RobotCycleRunner._hold_watchdog",
            expr("abs(r.position - ref) > self.hold_tolerance", "False"),
-           ("test/test_cycle_robot.py",), select="held", fast=True),
+           ("test/test_cycle_robot.py",), select="held", fast=True,
+           catchers=("test/test_cycle_robot.py::test_a_fault_on_a_held_joint_fails_the_cycle_with_zero_for_all",)),
     # -- the recorder and the history ----------------------------------------------------------
     Mutant("recorder_drops_every_1000th", "the recorder silently drops every 1000th message",
            "jointwear_ros/io/recording.py", "RecordingBag._write",
@@ -396,16 +418,19 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("history_whole_seconds", "the history stores times in whole seconds",
            "jointwear_ros/history/records.py", "EstimateRecord.time_ns",
            expr("round(self.time * 1e6) * 1000", "round(self.time) * 1_000_000_000"),
-           ("test/test_history_store.py",), select="to_the_microsecond and sqlite", fast=True),
+           ("test/test_history_store.py",), select="to_the_microsecond and sqlite", fast=True,
+           catchers=("test/test_history_store.py::test_times_are_stored_to_the_microsecond_and_read_back_exactly",)),
     Mutant("history_screening_off", "estimates go into the history unscreened",
            "jointwear_ros/history/screen.py", "screen_record",
            before("cfg = cfg or ScreenConfig()", "return None"),
-           ("test/test_cli_history.py",), select="bad_rows_never_hide", fast=True),
+           ("test/test_cli_history.py",), select="bad_rows_never_hide", fast=True,
+           catchers=("test/test_cli_history.py::test_bad_rows_never_hide_an_error_joint_and_each_is_reported_with_its_reason",)),
     # -- readers, estimators and the command line ----------------------------------------------
     Mutant("csv_nan_optional_column", "the CSV reader accepts NaN in an optional column",
            "jointwear_ros/io/tables.py", "read_csv",
            expr("not math.isfinite(v)", "not math.isfinite(v) and (name in _REQUIRED or not math.isnan(v))"),
-           ("test/test_properties_io.py", "test/test_io_tables.py"), select="csv or nan", fast=True),  # the catching file first
+           ("test/test_properties_io.py", "test/test_io_tables.py"), select="csv or nan", fast=True,
+           catchers=("test/test_properties_io.py::test_nan_in_every_optional_csv_column_is_refused_with_the_column_named",)),  # the catching file first
     Mutant("csv_accepts_negative_speed", "the table readers accept a negative speed",
            "jointwear_ros/io/tables.py", "check_physical",
            expr("v < 0", "v < -1e300", inside='("speed", lambda v: v < 0, ...)'),
@@ -414,7 +439,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("estimator_checks_off", "the estimators' own value checks (check_observation_values) are skipped",
            "jointwear_ros/estimation/_common.py", "prepare_rows",
            stmts("check_observation_values(table, temperature=use_temperature)", "pass"),
-           ("test/test_properties_estimators.py",), select="estimators_give", fast=True),
+           ("test/test_properties_estimators.py",), select="estimators_give", fast=True,
+           catchers=("test/test_properties_estimators.py::test_estimators_give_a_finite_estimate_or_the_projects_error",)),
     Mutant("model_accepts_non_finite", "the model evaluates NaN/inf inputs silently",
            "jointwear_ros/model/model.py", "Model._inputs",
            expr("not np.isfinite(a).all()", "False"),
@@ -430,7 +456,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("cli_method_unchecked", "replay and demo start without checking --method",
            "jointwear_ros/cli/common.py", "check_method",
            expr("method is not None and str(method).strip().lower() not in ...", "False"),
-           ("test/test_cli_faults.py",), select="method", fast=True),
+           ("test/test_cli_faults.py",), select="method", fast=True,
+           catchers=("test/test_cli_faults.py::test_replay_with_an_unknown_method_exits_2",)),
     # -- the trend: time to alarm -----------------------------------------------------------------
     Mutant("trend_evidence_ignored", "the model bank ignores each member's evidence (prior weights only)",
            "jointwear_ros/trend/states.py", "trend_states",
@@ -535,36 +562,242 @@ def apply(m: Mutant, tree: Path) -> None:
         raise Stale(f"{m.path}: {exc}") from None
 
 
-def run_one(m: Mutant, python: str, timeout: float) -> Outcome:
-    t0 = time.monotonic()
-    with tempfile.TemporaryDirectory(prefix=f"mutation-{m.name}-") as tmp:
-        tree = Path(tmp)
-        copy_tree(tree)
+def catcher_problem(root: Path, nodeid: str) -> str:
+    """Why the node id ``nodeid`` does not name a test function of ``root``'s suite ("" when it does).
+
+    Read from the file's syntax tree (the test module is not imported): ``test/file.py::test_name`` or
+    ``test/file.py::TestClass::test_name``, a function (all its parameters: ``-x`` stops at the first that
+    fails), not one of its parameters.
+    """
+    path, _, rest = nodeid.partition("::")
+    names = rest.split("::") if rest else []
+    if not names or not all(names):
+        return f"{nodeid!r}: expected file.py::test_function"
+    if "[" in names[-1]:
+        return f"{nodeid!r}: name the test function, not one of its parameters"
+    f = root / path
+    if not f.is_file():
+        return f"{nodeid!r}: {path} does not exist"
+    scope: list[ast.stmt] = ast.parse(f.read_text(encoding="utf-8")).body
+    for i, name in enumerate(names):
+        last = i == len(names) - 1
+        kinds = (ast.FunctionDef, ast.AsyncFunctionDef) if last else (ast.ClassDef,)
+        found = [n for n in scope if isinstance(n, kinds) and n.name == name]
+        if len(found) != 1:
+            what = "test function" if last else "test class"
+            return f"{nodeid!r}: {path} defines no {what} {name!r}" if not found else \
+                f"{nodeid!r}: {path} defines {name!r} {len(found)} times"
+        if not name.startswith("test" if last else "Test"):
+            return f"{nodeid!r}: {name!r} is not collected as a test (its name)"
+        scope = getattr(found[0], "body", [])
+    return ""
+
+
+#: Third-party modules the tests of nearly every mutant import besides pytest and its plugins (measured: all
+#: fifteen of the suite's import numpy, fourteen yaml, ten scipy's base, three scipy.stats, whose docstrings
+#: alone take 0.8 s to load: 1.3 s once instead of 2.4 s for those three). A mutant without a ROS graph runs its
+#: tests in a fork of this process once it has loaded them (:func:`preload`) instead of in a new interpreter that
+#: loads them again: about half the CPU of a mutant whose catcher takes a tenth of a second. Never the package:
+#: each fork imports the mutated copy's.
+PRELOAD = ("numpy", "scipy", "scipy.stats", "yaml")
+#: pytest's warning that a plugin loaded before it started cannot have its asserts rewritten: true of the
+#: preloaded plugins (hypothesis, anyio, ...) in every fork, and of no concern (their own asserts, not the tests').
+_PRELOADED_PLUGINS = "ignore:Module already imported so cannot be rewritten:pytest.PytestAssertRewriteWarning"
+#: a forked run's exit code when its tests imported the package from somewhere else than the mutated copy
+_NOT_THE_COPY = 70
+
+
+def preload() -> bool:
+    """Load pytest, its plugins and :data:`PRELOAD` once, to fork test runs from; False if forking cannot be used
+    (no ``os.fork``, or the package is already imported here and a fork would test it instead of the copy)."""
+    if not hasattr(os, "fork") or _imports_the_package():
+        return False
+    import importlib
+    import importlib.metadata
+
+    import pytest  # noqa: F401
+
+    for ep in importlib.metadata.entry_points(group="pytest11"):
         try:
+            ep.load()
+        except Exception:  # pytest reports a plugin that does not load, in the fork
+            pass
+    for name in PRELOAD:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass
+    return not _imports_the_package()
+
+
+def _imports_the_package() -> bool:
+    return any(k == "jointwear_ros" or k.startswith("jointwear_ros.") for k in sys.modules)
+
+
+def _forked_pytest(tree: Path, args: list[str], env: dict[str, str], out: int) -> int:
+    """Run ``pytest args`` in a fork of this process, in ``tree`` with ``env``, its output into the file ``out``."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid:
+        return pid
+    code = 3  # pytest's internal error: the fork failed before the tests ran
+    try:
+        os.setsid()  # its own process group: a timeout ends whatever the tests started too
+        os.dup2(out, 1)
+        os.dup2(out, 2)
+        os.chdir(tree)
+        os.environ.clear()
+        os.environ.update(env)
+        here = Path(__file__).resolve().parent
+        # as `python -m pytest` in tree: the copy first; tools/ (this script's folder) is no test's path
+        sys.path[:] = [str(tree), *(p for p in sys.path if p and Path(p).resolve() != here)]
+        import pytest
+
+        code = int(pytest.main(args))
+        pkg = sys.modules.get("jointwear_ros")
+        if pkg is not None and not str(getattr(pkg, "__file__", "")).startswith(str(tree)):
+            print(f"mutation: the tests imported jointwear_ros from {getattr(pkg, '__file__', '?')}, not from the "
+                  "mutated copy")
+            code = _NOT_THE_COPY
+    except BaseException:  # whatever it is, the parent reads it from the output
+        import traceback
+
+        traceback.print_exc()
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+
+
+class _Run:
+    """One mutant's test run under way: its copy, its process (a fork or an interpreter) and its output file."""
+
+    def __init__(self, m: Mutant, python: str, timeout: float, *, catchers: bool, fork: bool):
+        self.m, self.t0, self.timeout = m, time.monotonic(), timeout
+        self.tmp = tempfile.TemporaryDirectory(prefix=f"mutation-{m.name}-")
+        self.out = tempfile.TemporaryFile()
+        self.pid, self.proc = 0, None
+        try:
+            tree = Path(self.tmp.name)
+            copy_tree(tree)
             apply(m, tree)
-        except Stale as exc:
-            return Outcome(m.name, m.description, "STALE", [], time.monotonic() - t0, str(exc))
-        env = dict(os.environ)
-        env["PYTHONPATH"] = str(tree) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-        env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-        env.setdefault("MPLBACKEND", "Agg")
-        sel = ["-k", m.select] if m.select else []
-        cmd = [python, "-m", "pytest", "-q", "-x", "-rf", "-p", "no:cacheprovider", *sel, *m.tests]
-        try:
-            r = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            return Outcome(m.name, m.description, "TIMEOUT", [], time.monotonic() - t0,
-                           f"tests still running after {timeout:g} s")
-        out = r.stdout + r.stderr
+            env = dict(os.environ)
+            env["PYTHONPATH"] = str(tree) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+            env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+            env.setdefault("MPLBACKEND", "Agg")
+            which = list(m.catchers) if catchers else (["-k", m.select] if m.select else []) + list(m.tests)
+            args = ["-q", "-x", "-rf", "-p", "no:cacheprovider", *which]
+            if fork:
+                self.pid = _forked_pytest(tree, ["-W", _PRELOADED_PLUGINS, *args], env, self.out.fileno())
+            else:
+                self.proc = subprocess.Popen([python, "-m", "pytest", *args], cwd=tree, env=env, stdout=self.out,
+                                             stderr=subprocess.STDOUT, start_new_session=True)
+        except BaseException:
+            self.close()
+            raise
+
+    def outcome(self, status: str, caught_by: list[str] | None = None, detail: str = "") -> Outcome:
+        return Outcome(self.m.name, self.m.description, status, caught_by or [], time.monotonic() - self.t0, detail)
+
+    def poll(self) -> Outcome | None:
+        """The outcome once the tests have ended (or run out of time), else None."""
+        if self.proc is not None:
+            rc = self.proc.poll()
+        else:
+            pid, status = os.waitpid(self.pid, os.WNOHANG)
+            rc = None if pid == 0 else os.waitstatus_to_exitcode(status)
+        if rc is None:
+            if time.monotonic() - self.t0 < self.timeout:
+                return None
+            self.close()
+            return self.outcome("TIMEOUT", detail=f"tests still running after {self.timeout:g} s")
+        self.out.seek(0)
+        out = self.out.read().decode(errors="replace")
+        self.close()
         failed = re.findall(r"^FAILED (\S+)", out, flags=re.M)
-        if r.returncode == 0:
-            return Outcome(m.name, m.description, "SURVIVED", [], time.monotonic() - t0)
-        if r.returncode == 1 and failed:
-            return Outcome(m.name, m.description, "caught", failed, time.monotonic() - t0)
+        if rc == 0:
+            return self.outcome("SURVIVED")
+        if rc == 1 and failed:
+            return self.outcome("caught", failed)
         # 2-5 (collection error, no tests selected, ...) is a broken mutant, not a catch
         tail = " | ".join(out.strip().splitlines()[-5:])
-        return Outcome(m.name, m.description, "ERROR", failed, time.monotonic() - t0,
-                       f"pytest exit code {r.returncode}: {tail}")
+        return self.outcome("ERROR", failed, f"pytest exit code {rc}: {tail}")
+
+    def close(self) -> None:
+        """End the run's processes if still running, remove its copy."""
+        pid = self.proc.pid if self.proc is not None else self.pid
+        if pid:
+            try:
+                os.killpg(pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+            if self.proc is not None:
+                self.proc.wait()
+            else:
+                try:
+                    os.waitpid(pid, 0)
+                except ChildProcessError:
+                    pass
+            self.pid, self.proc = 0, None
+        self.out.close()
+        self.tmp.cleanup()
+
+
+def run_mutants(mutants: list[Mutant], python: str, timeout: float, *, catchers: bool = False, jobs: int = 1,
+                fork: bool = True) -> Iterator[Outcome]:
+    """Plant each mutant in a copy of its own and run its tests there, ``jobs`` at once; yield the outcomes as
+    they come. ``catchers``: only the tests known to catch a mutant, where given, instead of its test files.
+
+    A mutant caught without a ROS graph (``fast``) runs in a fork of this process (:func:`preload`) when
+    ``python`` is this interpreter (and ``fork``); the others in ``python -m pytest``, one at a time (their ROS
+    graphs would meet on a domain).
+    """
+    same = fork and Path(python).resolve() == Path(sys.executable).resolve()
+    can_fork: bool | None = None
+    probed = False
+    queue: list[Mutant] = list(mutants)
+    running: list[_Run] = []
+
+    def may_start(m: Mutant) -> bool:
+        if not m.fast or any(not r.m.fast for r in running):
+            return not running
+        return len(running) < jobs
+
+    try:
+        while queue or running:
+            while queue and may_start(queue[0]):
+                m = queue.pop(0)
+                use = catchers and bool(m.catchers)  # a mutant without catchers runs its test files
+                why = next((w for w in (catcher_problem(ROOT, n) for n in m.catchers) if w), "") if use else ""
+                if why:
+                    yield Outcome(m.name, m.description, "STALE", [], 0.0, why)
+                    continue
+                if can_fork is None and m.fast and same:
+                    can_fork = preload()
+                forked = bool(m.fast and same and can_fork)
+                if not forked and not probed:
+                    check_copy_is_used(python)
+                    probed = True
+                try:
+                    running.append(_Run(m, python, timeout, catchers=use, fork=forked))
+                except Stale as exc:
+                    yield Outcome(m.name, m.description, "STALE", [], 0.0, str(exc))
+            for r in list(running):
+                o = r.poll()
+                if o is not None:
+                    running.remove(r)
+                    yield o
+            if running:
+                time.sleep(0.02)
+    finally:
+        for r in running:
+            r.close()
+
+
+def run_one(m: Mutant, python: str, timeout: float, *, catchers: bool = False) -> Outcome:
+    """Plant ``m`` in a copy and run its tests there (``catchers``: only the tests known to catch it, if given)."""
+    return next(iter(run_mutants([m], python, timeout, catchers=catchers)))
 
 
 def check_copy_is_used(python: str) -> None:
@@ -586,9 +819,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true", help="print JSON")
     ap.add_argument("--only", action="append", default=[], metavar="NAME", help="run only this mutant (repeatable)")
     ap.add_argument("--fast", action="store_true", help="only the mutants caught without a ROS graph")
+    ap.add_argument("--catchers", action="store_true",
+                    help="run only the tests known to catch each mutant (its catchers; the suite's check) instead "
+                         "of its test files, where given")
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default 900)")
     ap.add_argument("--python", default=sys.executable, help="interpreter with the test dependencies")
+    ap.add_argument("--no-fork", dest="fork", action="store_false",
+                    help="run every mutant's tests in a new interpreter (by default those without a ROS graph run in "
+                         "a fork of this process, pytest and numpy loaded once)")
     ap.add_argument("--jobs", type=int, default=1,
                     help="mutants run at once (default 1); mutants with ROS tests always run one at a time")
     args = ap.parse_args(argv)
@@ -601,7 +840,6 @@ def main(argv: list[str] | None = None) -> int:
         for m in chosen:
             print(f"{m.name:36s} {'fast' if m.fast else 'ros '}  {m.path}:{m.where}  {m.description}")
         return 0
-    check_copy_is_used(args.python)
     results: list[Outcome] = []
 
     def report(o: Outcome) -> None:
@@ -611,16 +849,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{o.status:8s} {o.seconds:5.0f} s  {o.name}: {what}{'; ' + o.detail if o.detail else ''}",
                   flush=True)
 
-    parallel = [m for m in chosen if m.fast] if args.jobs > 1 else []
-    if parallel:
-        from concurrent.futures import ThreadPoolExecutor
-
-        with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-            for o in pool.map(lambda m: run_one(m, args.python, args.timeout), parallel):
-                report(o)
-    for m in chosen:
-        if m not in parallel:  # the ROS graphs of two at once would meet on a domain
-            report(run_one(m, args.python, args.timeout))
+    # the fast ones first, jobs at once; then the others one at a time (their ROS graphs would meet on a domain)
+    order = [m for m in chosen if m.fast] + [m for m in chosen if not m.fast] if args.jobs > 1 else chosen
+    for o in run_mutants(order, args.python, args.timeout, catchers=args.catchers, jobs=args.jobs,
+                         fork=args.fork):
+        report(o)
     caught = sum(o.status == "caught" for o in results)
     if args.json:
         print(json.dumps({"mutations": [o.to_dict() for o in results], "caught": caught, "total": len(results)},
