@@ -271,7 +271,8 @@ def _steady_block(t: Array, y: Array, r: Array, ns: NDArray[np.int_], efold: flo
     rank = np.argsort(-post[:, 1:], axis=1)[:, :keep] + 1 if L > 1 else np.zeros((len(ns), 0), int)
     # the components of each night: no step (when its posterior is > 0), then the likeliest steps above 1e-4
     cand = np.concatenate([np.zeros((len(ns), 1), int), rank], axis=1)
-    pc = np.take_along_axis(post, cand, axis=1)
+    at = (B[:, None], cand)  # each night's candidates
+    pc = post[at]
     ok = (pc > 0) & some[:, None]
     ok[:, 1:] &= pc[:, 1:] > 1e-4
     tot = np.zeros(len(ns))
@@ -279,5 +280,5 @@ def _steady_block(t: Array, y: Array, r: Array, ns: NDArray[np.int_], efold: flo
         tot = np.where(ok[:, k], tot + pc[:, k], tot)
     with np.errstate(divide="ignore", invalid="ignore"):
         weight = np.where(ok, pc / np.where(ok, tot[:, None], 1.0), 0.0)
-    mean, cov = _regression_moments(*(np.take_along_axis(a, cand, axis=1) for a in terms_a))
+    mean, cov = _regression_moments(*(a[at] for a in terms_a))
     return SteadyRows(np.where(some, lev, -math.inf), ok, weight, mean, cov, np.where(cand > 0, cand, -1))

@@ -139,12 +139,12 @@ def trend_states(t_days: Array, y: Array, r: Array, cfg: TrendConfig, rows: Arra
         covs = np.concatenate([b.cov for b, _, _ in mine], axis=1)[sel]
         for c0 in range(0, len(row), _CHUNK):
             rc = row[c0:c0 + _CHUNK]
-            starts = np.flatnonzero(np.r_[True, rc[1:] != rc[:-1]])
+            starts = np.flatnonzero(np.concatenate([[True], rc[1:] != rc[:-1]]))
             # a chunk in blocks of about _BLOCK components that end where a row does (the arrays of a block
             # stay in the cache; each row's sum is the same)
             mu = mus[c0:c0 + _CHUNK] @ bases[i][0]  # for the chunk at once: the same last bits
-            ends = np.r_[starts, len(rc)]
-            cuts = np.unique(np.r_[ends[np.searchsorted(ends, np.arange(0, len(rc), _BLOCK))], len(rc)])
+            ends = np.append(starts, len(rc))
+            cuts = np.unique(np.append(ends[np.searchsorted(ends, np.arange(0, len(rc), _BLOCK))], len(rc)))
             for b0, b1 in pairwise(cuts.tolist()):
                 a, b = c0 + b0, c0 + b1
                 Fi = crossing_curves(mus[a:b], covs[a:b], *bases[i], cfg.alarm, mu=mu[b0:b1])
@@ -180,11 +180,11 @@ class _Slots:
 
 def _row_sum(x: Array, on: NDArray[np.bool_]) -> Array:
     """Per row, the sum of ``x``'s entries where ``on``, added left to right (the order the components are
-    listed in, so each row's sum is the one a loop over its components gives)."""
-    acc = np.zeros(x.shape[0])
-    for k in range(x.shape[1]):
-        acc = np.where(on[:, k], acc + x[:, k], acc)
-    return acc
+    listed in, so each row's sum is the one a loop over its components gives: a running sum; + 0.0 for the
+    loop's start from 0, which turns a sum of -0.0 into 0.0)."""
+    if x.shape[1] == 0:
+        return np.zeros(x.shape[0])
+    return np.asarray(np.cumsum(np.where(on, x, 0.0), axis=1)[:, -1] + 0.0)
 
 
 def _segment_sums(x: Array, starts: NDArray[np.int_]) -> Array:
@@ -192,7 +192,7 @@ def _segment_sums(x: Array, starts: NDArray[np.int_]) -> Array:
     (a segment here is a row's few components), the same numbers: reduceat adds to a segment's first row the
     sum of the others, and sums fewer than 8 one after the other (numpy's pairwise sum); longer segments are
     left to it."""
-    n = np.diff(np.r_[starts, len(x)])
+    n = np.diff(np.append(starts, len(x)))
     if len(n) == 0 or n.max() > 8:
         return np.asarray(np.add.reduceat(x, starts, axis=0))
     acc = x[starts]
