@@ -66,15 +66,22 @@ def forecast_basis(m: Member, tau: Array, cfg: TrendConfig) -> tuple[Array, Arra
     return H, noise + cfg.level_noise * tau
 
 
-def crossing_curves(mean: Array, cov: Array, H: Array, extra: Array, alarm: float) -> Array:
+def crossing_curves(mean: Array, cov: Array, H: Array, extra: Array, alarm: float, mu: Array | None = None) -> Array:
     """P(``alarm`` crossed by each day ahead) (N, G) of states ``mean`` (N, d), ``cov`` (N, d, d) forecast with
-    :func:`forecast_basis`'s ``H`` (d, G) and process noise ``extra`` (G,): the running maximum over the grid."""
+    :func:`forecast_basis`'s ``H`` (d, G) and process noise ``extra`` (G,): the running maximum over the grid.
+    ``mu``: the forecast means ``mean @ H`` when already computed (the matrix product's last bit depends on the
+    number of rows it is computed for)."""
     m = np.atleast_2d(mean)
     d = m.shape[1]
     P = cov.reshape(-1, d, d)
-    mu = m @ H
-    v = np.einsum("ig,nij,jg->ng", H, P, H) + extra[None, :]
-    z = (mu - alarm) / np.sqrt(np.maximum(v, 1e-12))
+    mu = m @ H if mu is None else mu
+    v = np.einsum("ig,nij,jg->ng", H, P, H)
+    if extra.any():  # the steady members have none
+        v += extra[None, :]
+    # z = (mu - alarm) / sqrt(max(v, 1e-12)), in place
+    np.sqrt(np.maximum(v, 1e-12, out=v), out=v)
+    z = np.subtract(mu, alarm)
+    z /= v
     return np.asarray(np.maximum.accumulate(ndtr(z), axis=1))
 
 

@@ -39,9 +39,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..contract import DiagnosticLevel
-from .alarm import crossing_cdf, crossing_quantiles, forecast_basis, tau_grid
+from .alarm import crossing_curves, crossing_quantiles, forecast_basis, tau_grid
 from .config import DAY, TrendConfig
-from .members import RatePrior, bank_members
+from .members import Member, RatePrior, bank_members
 from .states import trend_states
 
 __all__ = ["NightlyBacktest", "alpha_lambda", "backtest_joint", "joint_run", "lambda_index", "line_limit",
@@ -97,7 +97,9 @@ def backtest_joint(j: _Joint, cfg: TrendConfig, epoch0: float, prior: RatePrior 
         level[idx], growth[idx], qs[idx] = st.level, st.growth, st.quantiles
         count[idx] = np.arange(1, len(idx) + 1)
     days = (t - epoch0) / DAY
-    cross = np.array([j.segment_crossing(float(d), cfg.alarm) for d in days])
+    crossings = getattr(j, "segment_crossings", None)  # all nights at once, where the joint offers it
+    cross = (np.asarray(crossings(days, cfg.alarm), float) if crossings is not None
+             else np.array([j.segment_crossing(float(d), cfg.alarm) for d in days]))
     return NightlyBacktest(days=days, level=level, growth=growth, lo90=qs[:, 0], median=qs[:, 1], hi90=qs[:, 2],
                            true_tta=cross - days, true_wear=np.asarray(j.true_wear(days), float), count=count)
 
@@ -213,6 +215,9 @@ def line_limit(t_days: Array, y: Array, r: Array, cfg: TrendConfig) -> Array:
     out = np.full((len(t), 3), np.inf)
     tau = tau_grid(float(cfg.max_horizon_days))
     C = np.cumsum(np.stack([w, w * t, w * t * t, w * y, w * t * y]), axis=1)
+    nights: list[int] = []
+    means: list[Array] = []
+    covs: list[Array] = []
     for n in range(2, len(t)):
         sw, st, stt, sy, sty = C[:, n]
         tn = t[n]
@@ -224,9 +229,16 @@ def line_limit(t_days: Array, y: Array, r: Array, cfg: TrendConfig) -> Array:
         if det <= 1e-12 * max(a11 * a22, 1e-300):
             continue
         cov = np.array([[a22, -a12], [-a12, a11]]) / det
-        m = cov @ np.array([b1, b2])
-        F = crossing_cdf(m[None, :], cov[None], 0.0, cfg, tau)
-        out[n] = crossing_quantiles(F, tau)[0]
+        nights.append(n)
+        covs.append(cov)
+        means.append(cov @ np.array([b1, b2]))
+    # the crossing CDFs of the nights' lines in blocks (crossing_cdf with q = 0), each night's forecast mean a
+    # product of its own (the matrix product's last bit depends on its number of rows)
+    H, extra = forecast_basis(Member("line", "adaptive", q=0.0, order=2), tau, cfg)
+    for b0 in range(0, len(nights), 256):
+        m, P = np.array(means[b0:b0 + 256]), np.array(covs[b0:b0 + 256])
+        mu = np.concatenate([row[None, :] @ H for row in m])
+        out[nights[b0:b0 + 256]] = crossing_quantiles(crossing_curves(m, P, H, extra, cfg.alarm, mu=mu), tau)
     return out
 
 

@@ -103,6 +103,24 @@ class CalibrationJoint:
             lo, hi = (mid, hi) if float(law(np.array(mid))) < alarm else (lo, mid)
         return hi
 
+    def segment_crossings(self, days: Array, alarm: float = 35.0, max_days: float = 20000.0) -> Array:
+        """:meth:`segment_crossing` at each of ``days``, the same numbers: one bisection for all of them (a power
+        law's one at a time: numpy raises an array to a power with other last bits than a number)."""
+        d = np.asarray(days, float)
+        if self.shape == "power":
+            return np.array([self.segment_crossing(float(x), alarm, max_days) for x in d], float)
+        before = (d < self.step_day) if math.isfinite(self.step_day) else np.zeros(d.shape, bool)
+
+        def below(x: Array) -> NDArray[np.bool_]:
+            return np.asarray(np.where(before, self._law(x), self.true_wear(x)) < alarm)
+
+        lo, hi = d.copy(), d + max_days
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            up = below(mid)
+            lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
+        return np.where(~below(d), d, np.where(below(d + max_days), math.inf, hi))
+
 
 def _times(family: str, days: int, rng: np.random.Generator) -> Array:
     if family == "irregular":

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,7 +30,8 @@ from numpy.typing import NDArray
 from .config import Array, TrendConfig
 from .members import RatePrior, steady_basis
 
-__all__ = ["FilterOutput", "filter_bank", "kalman_llt", "logsumexp", "rts_smooth", "steady_at", "steady_nights"]
+__all__ = ["FilterOutput", "SteadyRows", "filter_bank", "kalman_llt", "logsumexp", "rts_smooth", "steady_at", "steady_nights",
+           "steady_rows"]
 
 
 @dataclass(frozen=True)
@@ -133,11 +135,12 @@ def logsumexp(x: Array) -> float:
 
 
 def _regression_evidence(S: Array, ua: Array, upa: Array, cfg: TrendConfig, pr: RatePrior
-                         ) -> tuple[Array, Array, Array]:
-    """Log evidence, posterior mean (., 2) and covariance (., 2, 2) of ``w = c0 + c1 u(t)`` on segments with
-    sufficient statistics ``S`` (7, .) = sums of w, w u, w u², w y, w u y, w y², log(2 pi r²), w = 1/r², the
-    prior ``N`` on (level, rate) at each segment's first estimate, where u = ``ua`` and u' = ``upa``.
-    ``(c0, c1)`` are the level and rate at the night (u = 0, u' = 1 there)."""
+                         ) -> tuple[Array, Array, Array, Array, Array, Array, Array]:
+    """Log evidence of ``w = c0 + c1 u(t)`` on segments with sufficient statistics ``S`` (7, .) = sums of w,
+    w u, w u², w y, w u y, w y², log(2 pi r²), w = 1/r², the prior ``N`` on (level, rate) at each segment's
+    first estimate, where u = ``ua`` and u' = ``upa``; with the posterior mean ``(c0, c1)`` (the level and rate
+    at the night: u = 0, u' = 1 there) and the terms of its covariance, ``[[a22, -a12], [-a12, a11]] / det``
+    (:func:`_regression_moments` builds mean and covariance where they are needed)."""
     sw, su, suu, sy, suy, syy, sc = S
     pl, ps = 1.0 / cfg.level_prior_std ** 2, 1.0 / pr.std ** 2
     ml, ms = cfg.level_prior_mean, pr.mean
@@ -152,11 +155,17 @@ def _regression_evidence(S: Array, ua: Array, upa: Array, cfg: TrendConfig, pr: 
     quad = b1 * c0 + b2 * c1
     logdet_v = math.log(cfg.level_prior_std ** 2) + math.log(pr.std ** 2) - 2.0 * np.log(upa)
     ev = -0.5 * (sc + syy + pl * ml * ml + ps * ms * ms - quad + logdet_v + np.log(det))
+    return ev, c0, c1, a11, a12, a22, det
+
+
+def _regression_moments(c0: Array, c1: Array, a11: Array, a12: Array, a22: Array, det: Array
+                        ) -> tuple[Array, Array]:
+    """Posterior mean (., 2) and covariance (., 2, 2) from :func:`_regression_evidence`'s terms."""
     mean = np.empty((*c0.shape, 2))
     mean[..., 0], mean[..., 1] = c0, c1
     cov = np.empty((*c0.shape, 2, 2))
     cov[..., 0, 0], cov[..., 0, 1], cov[..., 1, 0], cov[..., 1, 1] = a22 / det, -a12 / det, -a12 / det, a11 / det
-    return ev, mean, cov
+    return mean, cov
 
 
 def steady_at(t: Array, y: Array, r: Array, n: int, efold: float, cfg: TrendConfig, pr: RatePrior,
@@ -170,22 +179,58 @@ def steady_at(t: Array, y: Array, r: Array, n: int, efold: float, cfg: TrendConf
 _BLOCK = 40_000
 
 
+@dataclass(frozen=True)
+class SteadyRows:
+    """One steady member at B nights as arrays (what :func:`steady_nights` lists): ``lev`` (B,) its log
+    evidence; per night up to K components (slot 0: no step, then the likeliest steps), ``ok`` (B, K) where a
+    slot holds one, its ``weight`` within the member, ``mean`` (B, K, 2), ``cov`` (B, K, 2, 2) and ``step``
+    (B, K) the index of the first estimate after the step (-1: none)."""
+
+    lev: Array
+    ok: NDArray[np.bool_]
+    weight: Array
+    mean: Array
+    cov: Array
+    step: NDArray[np.int_]
+
+
 def steady_nights(t: Array, y: Array, r: Array, nights: NDArray[np.int_] | Sequence[int], efold: float, cfg: TrendConfig, pr: RatePrior,
                   keep: int = 3) -> list[tuple[float, list[tuple[float, Array, Array, int]]]]:
-    """:func:`steady_at` at each of ``nights``, the same numbers: the sufficient statistics of every (night,
-    segment start) pair of a block of nights in one array (row b: night ``nights[b]``, column k: estimate k,
-    relative to that night; zero beyond it), so a whole history costs a few array operations per block."""
+    """:func:`steady_at` at each of ``nights``, the same numbers (:func:`steady_rows` as lists)."""
+    sr = steady_rows(t, y, r, nights, efold, cfg, pr, keep)
+    return [(float(sr.lev[b]), [(float(sr.weight[b, k]), sr.mean[b, k].copy(), sr.cov[b, k].copy(),
+                                 int(sr.step[b, k])) for k in np.flatnonzero(sr.ok[b])])
+            for b in range(len(sr.lev))]
+
+
+def steady_rows(t: Array, y: Array, r: Array, nights: NDArray[np.int_] | Sequence[int], efold: float, cfg: TrendConfig,
+                pr: RatePrior, keep: int = 3) -> SteadyRows:
+    """One steady member at each of ``nights``: the sufficient statistics of every (night, segment start)
+    pair of a block of nights in one array (row b: night ``nights[b]``, column k: estimate k, relative to that
+    night; zero beyond it), so a whole history costs a few array operations per block."""
     t, y, r = np.asarray(t, float), np.asarray(y, float), np.asarray(r, float)
     ns_all = np.asarray(nights, int)
-    out: list[tuple[float, list[tuple[float, Array, Array, int]]]] = []
     rows = max(1, _BLOCK // max(1, int(ns_all.max(initial=0)) + 1))
-    for b0 in range(0, len(ns_all), rows):
-        out += _steady_block(t, y, r, ns_all[b0:b0 + rows], efold, cfg, pr, keep)
-    return out
+    blocks = [_steady_block(t, y, r, ns_all[b0:b0 + rows], efold, cfg, pr, keep)
+              for b0 in range(0, len(ns_all), rows)]
+    if len(blocks) == 1:
+        return blocks[0]
+    K = max([b.ok.shape[1] for b in blocks], default=1)
+
+    def cat(name: str, fill: float | int | bool) -> Any:
+        parts = []
+        for b in blocks:
+            a = getattr(b, name)
+            pad = np.full((a.shape[0], K - a.shape[1], *a.shape[2:]), fill, dtype=a.dtype)
+            parts.append(np.concatenate([a, pad], axis=1))
+        return np.concatenate(parts) if parts else np.zeros((0, K))
+
+    return SteadyRows(np.concatenate([b.lev for b in blocks]) if blocks else np.zeros(0), cat("ok", False),
+                      cat("weight", 0.0), cat("mean", 0.0), cat("cov", 0.0), cat("step", -1))
 
 
 def _steady_block(t: Array, y: Array, r: Array, ns: NDArray[np.int_], efold: float, cfg: TrendConfig, pr: RatePrior,
-                  keep: int) -> list[tuple[float, list[tuple[float, Array, Array, int]]]]:
+                  keep: int) -> SteadyRows:
     L = int(ns.max()) + 1
     tt, yy, rr = t[:L], y[:L], r[:L]
     ks = np.arange(L)
@@ -202,9 +247,8 @@ def _steady_block(t: Array, y: Array, r: Array, ns: NDArray[np.int_], efold: flo
     B = np.arange(len(ns))
     after = P[:, B, ns + 1][:, :, None] - P[:, :, :L]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ev_a, mean_a, cov_a = _regression_evidence(after, u, up, cfg, pr)
-        ev_b, _, _ = _regression_evidence(P[:, :, 1:L], np.repeat(u[:, :1], L - 1, 1), np.repeat(up[:, :1], L - 1, 1),
-                                          cfg, pr)
+        ev_a, *terms_a = _regression_evidence(after, u, up, cfg, pr)
+        ev_b = _regression_evidence(P[:, :, 1:L], u[:, :1], up[:, :1], cfg, pr)[0]
     ev_a = np.where(valid, ev_a, -np.inf)
     # the prior probability of no step (column 0) and of a step just before estimate k (column k), per night
     h = cfg.step_rate_per_day
@@ -225,14 +269,16 @@ def _steady_block(t: Array, y: Array, r: Array, ns: NDArray[np.int_], efold: flo
         lev = top + np.log(np.exp(total - np.where(some, top, 0.0)[:, None]).sum(axis=1))
         post = np.exp(total - np.where(some, lev, 0.0)[:, None])
     rank = np.argsort(-post[:, 1:], axis=1)[:, :keep] + 1 if L > 1 else np.zeros((len(ns), 0), int)
-    res: list[tuple[float, list[tuple[float, Array, Array, int]]]] = []
-    for b in range(len(ns)):
-        if not some[b]:
-            res.append((-math.inf, []))
-            continue
-        pb = post[b]
-        order = [k for k in [0, *(int(k) for k in rank[b] if pb[k] > 1e-4)] if pb[k] > 0]
-        tot = float(sum(pb[k] for k in order))
-        res.append((float(lev[b]), [(float(pb[k] / tot), mean_a[b, k].copy(), cov_a[b, k].copy(), k if k > 0 else -1)
-                                    for k in order]))
-    return res
+    # the components of each night: no step (when its posterior is > 0), then the likeliest steps above 1e-4
+    cand = np.concatenate([np.zeros((len(ns), 1), int), rank], axis=1)
+    at = (B[:, None], cand)  # each night's candidates
+    pc = post[at]
+    ok = (pc > 0) & some[:, None]
+    ok[:, 1:] &= pc[:, 1:] > 1e-4
+    tot = np.zeros(len(ns))
+    for k in range(cand.shape[1]):  # summed one slot after the other, as the components are listed
+        tot = np.where(ok[:, k], tot + pc[:, k], tot)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        weight = np.where(ok, pc / np.where(ok, tot[:, None], 1.0), 0.0)
+    mean, cov = _regression_moments(*(a[at] for a in terms_a))
+    return SteadyRows(np.where(some, lev, -math.inf), ok, weight, mean, cov, np.where(cand > 0, cand, -1))
