@@ -97,10 +97,16 @@ def stribeck_shape(v: Array, vs: Array | float, alpha: float = STRIBECK_EXPONENT
     """
     v = np.abs(np.asarray(v, dtype=float))
     vs = np.asarray(vs, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where(v == 0.0, 0.0, v / np.abs(vs))
-        ra = r**alpha
+    if vs.ndim == 0 and vs != 0.0 and not np.isnan(vs):
+        # one speed, neither 0 nor nan: v / |vs| is 0 where v is and nothing divides by 0 (the same numbers
+        # as below, without the error state's cost: a fit evaluates this thousands of times)
+        ra = (v / abs(float(vs))) ** alpha
         s = np.exp(-ra)
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(v == 0.0, 0.0, v / np.abs(vs))
+            ra = r**alpha
+            s = np.exp(-ra)
     ra = np.where(s > 0.0, ra, 0.0)
     return s, ra
 
@@ -110,7 +116,10 @@ def _v(x: Inputs) -> Array:
 
 
 def _zeros_like_inputs(x: Inputs) -> Array:
-    return np.zeros(np.broadcast(*[np.asarray(a) for a in x.values()]).shape)
+    shape = getattr(x, "shape", None)  # inputs prepared once (Model.prepare) carry their broadcast shape
+    if shape is None:
+        shape = np.broadcast(*[np.asarray(a) for a in x.values()]).shape
+    return np.zeros(shape)
 
 
 class Coulomb(Term):
