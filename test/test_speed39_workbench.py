@@ -104,3 +104,17 @@ def test_the_model_prepared_once_gives_the_same_numbers_as_the_model():
         names = list(values)[::-1]
         assert np.array_equal(prepared.jacobian(values, names), model.jacobian(values, names, **x), equal_nan=True)
         assert np.array_equal(prepared.jacobian(values, names[2:3]), model.jacobian(values, names[2:3], **x), equal_nan=True)
+
+
+def test_twice_the_rank_of_each_row_is_scipys_average_rank_doubled():
+    # the ranking's splines are looked up at twice each row's average rank: the same whole numbers as scipy's
+    from scipy import stats
+
+    from jointwear_ros.workbench.residual_tests import _twice_ranks
+
+    rng = np.random.default_rng(1)
+    x = np.round(rng.uniform(0.0, 3.0, 60), 1)  # many ties
+    for xs in (np.stack([x[rng.permutation(60)] for _ in range(9)]), rng.normal(size=(5, 60)),
+               np.repeat(rng.normal(size=(3, 12)), 5, axis=1), np.zeros((2, 7)), np.array([[0.0, -0.0, 1.0]])):
+        want = np.rint(2.0 * stats.rankdata(xs, axis=1)).astype(np.intp)
+        assert np.array_equal(_twice_ranks(xs), want)
