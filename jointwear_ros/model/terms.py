@@ -119,7 +119,7 @@ def _v(x: Inputs) -> Array:
 _SHAPES_KEPT = 8
 
 
-def _speed_shape(x: Inputs, vs: float, key: tuple[float, ...] | None = None,
+def _speed_shape(x: Inputs, vs: float, key: tuple[str | float, ...] | None = None,
                  vs_of: Callable[[], Array] | None = None) -> tuple[Array, Array]:
     """``stribeck_shape(|speed|, vs)``; inputs prepared once (``Model.prepare``) keep the last few by ``key``
     (default: the speed ``vs``; ``vs_of`` computes an array of speeds that ``key`` names), the same arrays
