@@ -1,10 +1,12 @@
 """Session 39: the workbench's speed-ups change no result.
 
 A diagnosis of a small table (8 cycles, a regreasing step), pinned to the numbers the workbench gave before
-the session's speed-ups (the model evaluated on inputs checked once, a spline's basis kept, the linear
-parameters told from their own term's Jacobian column): the verdict, the ranking, every candidate's CV RMSE,
-statistic and p-value, the fits' parameters, to 1e-9 relative. The scenarios of the workbench tests over
-their seeds are compared by bench/bench_workbench39.py.
+the session's speed-ups (the model evaluated on inputs checked once, keeping a spline's basis and the last
+Stribeck shapes; the linear parameters told from their own term's Jacobian column; the ranks of the ranking's
+permutations from one argsort per row): the verdict, the ranking, every candidate's CV RMSE, statistic and
+p-value, the fits' parameters, to 1e-9 relative. It passes on the code before the speed-ups too (that is the
+point); the two tests after it test the new pieces themselves. Every number of the workbench tests' scenarios
+over their seeds is compared (bitwise) by bench/bench_workbench39.py.
 """
 
 from __future__ import annotations
