@@ -23,7 +23,7 @@ from ..errors import ModelError, ParameterError
 from .dimensions import REFERENCE_SPEED, Dimension, Relative, decade, largest_abs, scale_factor, unit_dimension
 from .parameters import Parameter, Parameters, ParamSpec
 
-__all__ = ["Model", "Term"]
+__all__ = ["Model", "PreparedModel", "Term"]
 
 Array = npt.NDArray[np.float64]
 Inputs = Mapping[str, Array]
@@ -335,6 +335,10 @@ class Model:
         cols = [np.ravel(a) for a in g.values()]
         return np.column_stack(cols) if cols else np.zeros((0, 0))
 
+    def prepare(self, **inputs: Any) -> PreparedModel:
+        """The model on fixed inputs, checked once: a fit's many evaluations at new parameter values."""
+        return PreparedModel(self, inputs)
+
     def input_gradient(self, var: str, params: Parameters | Mapping[str, float], **inputs: Any) -> Array:
         """d tau_f / d input variable (``wear``/``w``, ``temperature``/``T``, ...)."""
         var = _INPUT_ALIASES.get(var, var)
@@ -346,3 +350,75 @@ class Model:
         for t in self.terms:
             total = total + t.input_gradient(x, p, var)
         return total
+
+
+class _PreparedInputs(dict):  # type: ignore[type-arg]
+    """Checked inputs that carry their broadcast shape (the terms' zeros need not broadcast them again) and a
+    ``memo`` where a term keeps what depends on the inputs alone (a spline's basis): they do not change."""
+
+    shape: tuple[int, ...]
+    memo: dict[Any, Any]
+
+
+class PreparedModel:
+    """A model on inputs checked once (:meth:`Model.prepare`): :meth:`evaluate` and :meth:`jacobian` at many
+    parameter values, each the same numbers as :meth:`Model.evaluate` and :meth:`Model.jacobian` on those inputs
+    (the same operations in the same order), without checking the inputs again at every call.
+
+    The terms in the model when it was prepared are the ones evaluated; ``values`` must hold every parameter
+    of the model (name -> float).
+
+    >>> from jointwear_ros.model import Coulomb, Viscous
+    >>> m = Coulomb() + Viscous()
+    >>> pm = m.prepare(speed=np.array([0.0, 10.0]))
+    >>> v = {"Fc0": 0.04, "Fv": 4e-4}
+    >>> bool(np.array_equal(pm.evaluate(v), m.evaluate(v, speed=[0.0, 10.0])))
+    True
+    >>> pm.jacobian(v, ["Fv"]).tolist()
+    [[0.0], [10.0]]
+    """
+
+    def __init__(self, model: Model, inputs: Mapping[str, Any]) -> None:
+        self.model = model
+        self.x = _PreparedInputs(model._inputs(inputs))
+        self.shape = self.x.shape = np.broadcast(*self.x.values()).shape
+        self.x.memo = {}
+        self.terms = tuple(model.terms)
+        self.param_names = tuple(n for t in self.terms for n in t.param_names)
+        self._plans: dict[tuple[str, ...], list[tuple[Term, list[tuple[str, int]]]]] = {}
+
+    def evaluate(self, values: Values) -> Array:
+        """tau_f at parameter values ``values`` (as :meth:`Model.evaluate`)."""
+        x = self.x
+        total: Array = np.zeros(self.shape)
+        for t in self.terms:
+            total = total + t.value(x, values)
+        return total
+
+    def _plan(self, names: tuple[str, ...]) -> list[tuple[Term, list[tuple[str, int]]]]:
+        plan = self._plans.get(names)
+        if plan is None:
+            col = {n: j for j, n in enumerate(names)}
+            plan = [(t, [(n, col[n]) for n in t.param_names if n in col]) for t in self.terms
+                    if any(n in col for n in t.param_names)]
+            unknown = [n for n in names if n not in self.param_names]
+            if unknown:
+                raise ParameterError(f"model {self.model.spec!r} has no parameter(s) {', '.join(unknown)}")
+            self._plans[names] = plan
+        return plan
+
+    def jacobian(self, values: Values, names: Iterable[str]) -> Array:
+        """d tau_f / d theta, (n_points, len(names)), columns in ``names`` order (as :meth:`Model.jacobian`);
+        only the terms holding one of ``names`` are differentiated."""
+        key = tuple(names)
+        plan = self._plan(key)
+        if not key:
+            return np.zeros((0, 0))
+        out = np.empty((int(np.prod(self.shape)), len(key)))
+        view = out.reshape(*self.shape, len(key))
+        x = self.x
+        for t, cols in plan:
+            g = t.param_gradient(x, values)
+            for n, j in cols:
+                view[..., j] = g[n]
+        return out

@@ -97,6 +97,9 @@ def is_angle(name: str) -> bool:
 
 
 def broadcast_shape(x: Inputs) -> tuple[int, ...]:
+    shape = getattr(x, "shape", None)  # inputs prepared once (Model.prepare) carry their broadcast shape
+    if shape is not None:
+        return shape  # type: ignore[no-any-return]
     return np.broadcast(*[np.asarray(a) for a in x.values()]).shape
 
 
@@ -601,14 +604,26 @@ class Spline(CandidateTerm):
         dm = BSpline.design_matrix(c, self.knots, 3).toarray()
         return dm[:, 1:]  # type: ignore[no-any-return]
 
+    def _basis_of(self, x: Inputs, col: Array) -> Array:
+        """:meth:`basis` at the column of ``x``; once for inputs prepared once (``Model.prepare``: they keep it)."""
+        memo = getattr(x, "memo", None)
+        if memo is None:
+            return self.basis(col)
+        key = ("spline basis", self.columns[0], self.lo, self.hi, self.n)
+        b = memo.get(key)
+        if b is None:
+            b = memo[key] = self.basis(col)
+            b.setflags(write=False)
+        return b  # type: ignore[no-any-return]
+
     def value(self, x: Inputs, p: Values) -> Array:
         col = column_values(x, self.columns[0])
         coef = np.array([self.p(p, s[0]) for s in self.param_suffixes])
-        return np.broadcast_to((self.basis(col) @ coef).reshape(np.shape(col)), broadcast_shape(x))
+        return np.broadcast_to((self._basis_of(x, col) @ coef).reshape(np.shape(col)), broadcast_shape(x))
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
         col = column_values(x, self.columns[0])
-        b = self.basis(col)
+        b = self._basis_of(x, col)
         sh = broadcast_shape(x)
         return {self.pn(s[0]): np.broadcast_to(b[:, j].reshape(np.shape(col)), sh).copy()
                 for j, s in enumerate(self.param_suffixes)}

@@ -52,7 +52,7 @@ The wear Stribeck term of Eq. (7) at 47 rad/s and w = 35 (Eq. 8 values):
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import ClassVar
 
 import numpy as np
@@ -97,10 +97,16 @@ def stribeck_shape(v: Array, vs: Array | float, alpha: float = STRIBECK_EXPONENT
     """
     v = np.abs(np.asarray(v, dtype=float))
     vs = np.asarray(vs, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where(v == 0.0, 0.0, v / np.abs(vs))
-        ra = r**alpha
+    if vs.ndim == 0 and vs != 0.0 and not np.isnan(vs):
+        # one speed, neither 0 nor nan: v / |vs| is 0 where v is and nothing divides by 0 (the same numbers
+        # as below, without the error state's cost: a fit evaluates this thousands of times)
+        ra = (v / abs(float(vs))) ** alpha
         s = np.exp(-ra)
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(v == 0.0, 0.0, v / np.abs(vs))
+            ra = r**alpha
+            s = np.exp(-ra)
     ra = np.where(s > 0.0, ra, 0.0)
     return s, ra
 
@@ -109,8 +115,36 @@ def _v(x: Inputs) -> Array:
     return np.abs(np.asarray(x["speed"], dtype=float))
 
 
+#: Stribeck shapes an input set prepared once keeps (a fit's Jacobian comes at the point it just evaluated).
+_SHAPES_KEPT = 8
+
+
+def _speed_shape(x: Inputs, vs: float, key: tuple[str | float, ...] | None = None,
+                 vs_of: Callable[[], Array] | None = None) -> tuple[Array, Array]:
+    """``stribeck_shape(|speed|, vs)``; inputs prepared once (``Model.prepare``) keep the last few by ``key``
+    (default: the speed ``vs``; ``vs_of`` computes an array of speeds that ``key`` names), the same arrays
+    as computing them again."""
+    memo = getattr(x, "memo", None)
+    if memo is None:
+        return stribeck_shape(_v(x), vs if vs_of is None else vs_of())
+    kept = memo.setdefault("stribeck", {})
+    k = (float(vs),) if key is None else key
+    hit = kept.get(k)
+    if hit is None:
+        if len(kept) >= _SHAPES_KEPT:
+            kept.clear()
+        s, ra = stribeck_shape(_v(x), vs if vs_of is None else vs_of())
+        s.setflags(write=False)
+        ra.setflags(write=False)
+        hit = kept[k] = (s, ra)
+    return hit  # type: ignore[no-any-return]
+
+
 def _zeros_like_inputs(x: Inputs) -> Array:
-    return np.zeros(np.broadcast(*[np.asarray(a) for a in x.values()]).shape)
+    shape = getattr(x, "shape", None)  # inputs prepared once (Model.prepare) carry their broadcast shape
+    if shape is None:
+        shape = np.broadcast(*[np.asarray(a) for a in x.values()]).shape
+    return np.zeros(shape)
 
 
 class Coulomb(Term):
@@ -196,11 +230,11 @@ class LoadStribeck(Term):
     candidate = True
 
     def value(self, x: Inputs, p: Values) -> Array:
-        s, _ = stribeck_shape(_v(x), p["vstm"])
+        s, _ = _speed_shape(x, p["vstm"])
         return p["Fstm"] * np.abs(np.asarray(x["load_torque"], dtype=float)) * s + _zeros_like_inputs(x)
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        s, ra = stribeck_shape(_v(x), p["vstm"])
+        s, ra = _speed_shape(x, p["vstm"])
         tm = np.abs(np.asarray(x["load_torque"], dtype=float))
         z = _zeros_like_inputs(x)
         return {
@@ -210,7 +244,7 @@ class LoadStribeck(Term):
 
     def input_gradient(self, x: Inputs, p: Values, var: str) -> Array:
         if var == "load_torque":
-            s, _ = stribeck_shape(_v(x), p["vstm"])
+            s, _ = _speed_shape(x, p["vstm"])
             return p["Fstm"] * np.sign(np.asarray(x["load_torque"], dtype=float)) * s + _zeros_like_inputs(x)
         return _zeros_like_inputs(x)
 
@@ -247,7 +281,7 @@ class TempStribeck(Term):
         T = np.asarray(x["temperature"], dtype=float)
         amp = p["Fs0"] + p["FsT"] * T
         vs = p["vs0"] + p["vsT"] * T
-        s, ra = stribeck_shape(_v(x), vs)
+        s, ra = _speed_shape(x, 0.0, ("temp", float(p["vs0"]), float(p["vsT"])), lambda: vs)
         return T, amp, vs, s, ra
 
     def value(self, x: Inputs, p: Values) -> Array:
@@ -424,11 +458,11 @@ class Stribeck(Term):
     starts = tuple({"vs": v} for v in (4.0, 12.0, 30.0, 80.0))
 
     def value(self, x: Inputs, p: Values) -> Array:
-        s, _ = stribeck_shape(_v(x), p["vs"])
+        s, _ = _speed_shape(x, p["vs"])
         return p["Fs"] * s + _zeros_like_inputs(x)
 
     def param_gradient(self, x: Inputs, p: Values) -> dict[str, Array]:
-        s, ra = stribeck_shape(_v(x), p["vs"])
+        s, ra = _speed_shape(x, p["vs"])
         z = _zeros_like_inputs(x)
         return {"Fs": s + z, "vs": p["Fs"] * s * STRIBECK_EXPONENT * ra / p["vs"] + z}
 

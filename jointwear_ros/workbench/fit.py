@@ -236,20 +236,27 @@ class _Problem:
         self.y = y
         self.params = params
         self.free = params.free()
-        self.fixed = {n: p.value for n, p in params.items() if not p.vary}
+        self.fixed = {n: float(p.value) for n, p in params.items() if not p.vary}
         self.lb = np.array([params[n].min for n in self.free], dtype=float)
         self.ub = np.array([params[n].max for n in self.free], dtype=float)
+        # the inputs checked once: every evaluation below is Model.evaluate's and Model.jacobian's numbers
+        self.prepared = model.prepare(**self.x)
+        self._free = tuple(self.free)
 
     def values(self, theta: Array) -> dict[str, float]:
         d = dict(self.fixed)
-        d.update(zip(self.free, (float(t) for t in theta)))
+        d.update(zip(self.free, theta.tolist()))
         return d
 
     def f(self, theta: Array) -> Array:
-        return self.model.evaluate(self.values(theta), **self.x) - self.y
+        return self.prepared.evaluate(self.values(theta)) - self.y
 
     def jac(self, theta: Array) -> Array:
-        return self.model.jacobian(self.values(theta), self.free, **self.x)
+        return self.prepared.jacobian(self.values(theta), self._free)
+
+    def jac_of(self, theta: Array, name: str) -> Array:
+        """The Jacobian's column of free parameter ``name`` alone (only its term is differentiated)."""
+        return self.prepared.jacobian(self.values(theta), (name,))[:, 0]
 
     def clip(self, theta: Array) -> Array:
         with np.errstate(invalid="ignore"):
@@ -282,8 +289,8 @@ def _linear_names(prob: _Problem, theta: Array) -> list[str]:
         if t2[i] == theta[i]:
             continue
         with np.errstate(all="ignore"):
-            j1 = prob.jac(t2)
-        if np.allclose(j0[:, i], j1[:, i], rtol=1e-9, atol=1e-14):
+            j1 = prob.jac_of(t2, n)  # the column of the whole Jacobian (each column is its own term's)
+        if np.allclose(j0[:, i], j1, rtol=1e-9, atol=1e-14):
             out.append(n)
     return out
 
@@ -351,6 +358,7 @@ def fit_model(
     physical: bool = True,
     _clipped: bool = False,
     _check_only: bool = False,
+    _cv: bool = True,
 ) -> FitResult:
     """Fit ``model`` to ``table`` by nonlinear least squares.
 
@@ -403,9 +411,13 @@ def fit_model(
     if physical and not _clipped:
         res = fit_model(model, table, params, fixed=fixed, starts=starts, n_starts=n_starts, cv_folds=cv_folds,
                         folds=folds, cv_max_nfev=cv_max_nfev, max_nfev=max_nfev, scales=scales, rescale=rescale,
-                        widen=widen, physical=True, _clipped=True, _check_only=True)
+                        widen=widen, physical=True, _clipped=True, _check_only=True, _cv=False)
         neg = [nm for nm in NONNEGATIVE if nm in res.free and res.params[nm].value < 0]
         if not neg:
+            # cross-validated only now: a fit refitted below would have thrown its folds' refits away
+            theta = np.array([res.params[nm].value for nm in res.free], dtype=float)  # the fit's own numbers
+            res.cv_rmse, res.cv_residuals = _cv_errors(model, table, x, y, res.params, theta, cv_folds, folds,
+                                                       cv_max_nfev)
             return res
         _clipped = True  # a negative Stribeck amplitude or viscous coefficient: refit with it at least 0
         if starts is None:  # from the free fit with those at 0, and the speed parameters over the data's speeds
@@ -517,13 +529,8 @@ def fit_model(
             success = False
             message = f"{message}; not physical: {'; '.join(bad)}"
 
-    cv_rmse = math.nan
-    cv_res: Array | None = None
-    if n and (cv_folds >= 2 or folds is not None):
-        fid = folds if folds is not None else group_folds(table, cv_folds)
-        if np.unique(fid).size >= 2:
-            cv_res = _cross_validate(model, x, y, out_params, fid, theta, cv_max_nfev)
-            cv_rmse = float(np.sqrt(np.mean(cv_res**2)))
+    cv_rmse, cv_res = (_cv_errors(model, table, x, y, out_params, theta, cv_folds, folds, cv_max_nfev) if _cv
+                       else (math.nan, None))
 
     return FitResult(
         model=model, params=out_params, success=success, message=str(message), n=n, n_free=k, ssr=ssr,
@@ -594,6 +601,19 @@ def _widen_bounds(
             sol.nfev += best.nfev
             best = sol
     return prob, best
+
+
+def _cv_errors(
+    model: Model, table: ObservationTable, x: Mapping[str, Array], y: Array, params: Parameters, theta: Array,
+    cv_folds: int, folds: Array | None, max_nfev: int | None,
+) -> tuple[float, Array | None]:
+    """The CV RMSE and the held-out residuals of the fit ``theta`` (nan and None without folds)."""
+    if y.size and (cv_folds >= 2 or folds is not None):
+        fid = folds if folds is not None else group_folds(table, cv_folds)
+        if np.unique(fid).size >= 2:
+            cv_res = _cross_validate(model, x, y, params, fid, theta, max_nfev)
+            return float(np.sqrt(np.mean(cv_res**2))), cv_res
+    return math.nan, None
 
 
 #: Solver tolerance of the cross-validation refits: each fold's held-out

@@ -168,8 +168,7 @@ class ResidualSpace:
         """Cubic B-splines of the rank of each row of ``xs`` (shape (R, n) -> (R, n, nb - 1))."""
         n = xs.shape[1]
         # an average rank is a whole or a half number: the basis is looked up at twice the rank
-        twice = np.rint(2.0 * stats.rankdata(xs, axis=1)).astype(np.intp)
-        return _rank_splines(n, nb)[twice]  # type: ignore[no-any-return]
+        return _rank_splines(n, nb)[_twice_ranks(xs)]  # type: ignore[no-any-return]
 
     def cv_sse(self, d: Array, return_pred: bool = False) -> Array:
         """Cross-validated SSE of the residual on each design ``d[k]`` (shape (R, n, p), ``z0`` first).
@@ -610,6 +609,32 @@ class ScreenTest:
         xs = (x - x.mean()) / (float(np.std(x)) or 1.0)
         dx = np.concatenate([da, np.column_stack([xs, xs * s.low, xs * s.high])], axis=1)
         return s.nested_sums(da[None], dx[None])
+
+
+def _twice_ranks(xs: Array) -> npt.NDArray[np.intp]:
+    """Twice the average rank of each value in its row of ``xs`` (``rint(2 * scipy.stats.rankdata(xs, axis=1))``,
+    the same whole numbers): a group of ties at sorted places s..e (from 0) has twice its rank s + e + 2."""
+    if xs.ndim != 2 or not np.all(np.isfinite(xs)):
+        return np.rint(2.0 * stats.rankdata(xs, axis=-1)).astype(np.intp)  # type: ignore[no-any-return]
+    r, n = xs.shape
+    order = np.argsort(xs, axis=1)  # any order within ties: they share their rank
+    srt = np.take_along_axis(xs, order, axis=1)
+    tw = np.empty((r, n), dtype=np.intp)
+    tw[:] = np.arange(2, 2 * n + 2, 2)
+    ties = srt[:, 1:] == srt[:, :-1]
+    rows = np.flatnonzero(ties.any(axis=1))
+    if rows.size:
+        idx = np.arange(n)
+        first = np.ones((rows.size, n), dtype=bool)
+        first[:, 1:] = ~ties[rows]
+        last = np.ones((rows.size, n), dtype=bool)
+        last[:, :-1] = first[:, 1:]
+        start = np.maximum.accumulate(np.where(first, idx, 0), axis=1)
+        end = np.minimum.accumulate(np.where(last, idx, n)[:, ::-1], axis=1)[:, ::-1]
+        tw[rows] = start + end + 2
+    out = np.empty((r, n), dtype=np.intp)
+    np.put_along_axis(out, order, tw, axis=1)
+    return out
 
 
 @functools.lru_cache(maxsize=64)
