@@ -17,14 +17,16 @@ sys.path.insert(0, str(ROOT / "tools"))
 import mutation  # noqa: E402
 
 FAST = [m.name for m in mutation.MUTANTS if m.fast]
-#: The planted bugs the suite itself checks (minutes): those caught by tests of the pure cores, the
+#: The planted bugs the suite itself checks (seconds): those caught by tests of the pure cores (the trend
+#: backtest's nightly WARN/ERROR boundaries included), the
 #: CSV reader's NaN, the estimators' value checks and the CLI's --method. The other fast ones
 #: (readers, model, bound, output paths) and the ROS-level ones run with ``make mutation``.
 IN_SUITE = ["alarm_ge_to_gt_level", "observer_std_under_reported", "observer_memory_trim_disabled",
             "observation_screening_off", "observation_temperature_bounds_widened",
             "plausible_temperature_bound_widened", "crawl_speeds_accepted", "held_joints_not_watched",
             "held_reference_follows_joint", "held_movement_not_checked", "history_whole_seconds",
-            "history_screening_off", "csv_nan_optional_column", "estimator_checks_off", "cli_method_unchecked"]
+            "history_screening_off", "csv_nan_optional_column", "estimator_checks_off", "cli_method_unchecked",
+            "trend_warn_strict", "trend_error_strict"]
 
 
 @pytest.mark.parametrize("m", mutation.MUTANTS, ids=[m.name for m in mutation.MUTANTS])

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_trend_core import T0, _series  # one synthetic series helper for both trend test modules
 
+from jointwear_ros.contract import DiagnosticLevel
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.trend import (
     DAY,
@@ -130,6 +131,26 @@ def test_error_exactly_when_the_standing_estimate_is_at_or_above_the_alarm_on_bo
     assert above.level_name == "ERROR"
     assert below.level_name == "WARN"  # just below the alarm: within the estimate's 95 % bound
     assert analyze_joint(t, w, s, cfg=TrendConfig(alarm=newest)).level_name == "ERROR"  # "at or above": >=
+
+
+def test_the_backtests_nightly_warn_is_exactly_the_lower_bound_within_the_horizon_on_both_sides():
+    """The backtest's nightly flags (``trend_states``' level: WARN an alarm expected within the horizon, ERROR the
+    trend's wear at the alarm), checked at their boundaries as the condition level is above."""
+    t, w, s = _issue_linear()
+    days = (t - t[0]) / DAY
+    last = np.array([len(t) - 1])
+    lo = float(trend_states(days, w, s, TrendConfig(), rows=last).quantiles[0, 0])
+    assert trend_states(days, w, s, TrendConfig(horizon_days=lo), rows=last).level[0] == DiagnosticLevel.WARN
+    assert trend_states(days, w, s, TrendConfig(horizon_days=lo - 0.05), rows=last).level[0] == DiagnosticLevel.OK
+
+
+def test_the_backtests_nightly_error_is_exactly_the_trends_wear_at_or_above_the_alarm():
+    t, w, s = _series(40, 0.1, w0=20.0)
+    days = (t - t[0]) / DAY
+    last = np.array([len(t) - 1])
+    wear = float(trend_states(days, w, s, TrendConfig(), rows=last).wear[0])
+    assert trend_states(days, w, s, TrendConfig(alarm=wear), rows=last).level[0] == DiagnosticLevel.ERROR
+    assert trend_states(days, w, s, TrendConfig(alarm=wear + 0.01), rows=last).level[0] != DiagnosticLevel.ERROR
 
 
 def test_no_alarm_expected_without_growth_even_when_the_lower_bound_would_be_near():

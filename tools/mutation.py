@@ -470,11 +470,15 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("trend_warn_strict", "WARN only when the interval's lower bound is strictly inside the horizon",
            "jointwear_ros/trend/states.py", "trend_states",
            expr("qs[:, 0] <= cfg.horizon_days", "qs[:, 0] < cfg.horizon_days"),
-           ("test/test_trend_bank.py",), select="warn_exactly", fast=True),
+           ("test/test_trend_bank.py",), select="backtests_nightly_warn", fast=True,
+           catchers=("test/test_trend_bank.py::"
+                     "test_the_backtests_nightly_warn_is_exactly_the_lower_bound_within_the_horizon_on_both_sides",)),
     Mutant("trend_error_strict", "the trend's ERROR uses > instead of >= at the alarm",
            "jointwear_ros/trend/states.py", "trend_states",
            expr("out['wear'] >= cfg.alarm", "out['wear'] > cfg.alarm"),
-           ("test/test_trend_bank.py",), select="error_exactly", fast=True),
+           ("test/test_trend_bank.py",), select="backtests_nightly_error", fast=True,
+           catchers=("test/test_trend_bank.py::"
+                     "test_the_backtests_nightly_error_is_exactly_the_trends_wear_at_or_above_the_alarm",)),
     Mutant("trend_no_step", "the steady members allow no unrecorded step (a reducer replaced unnoticed)",
            "jointwear_ros/trend/filters.py", "_steady_block",
            stmts("h = cfg.step_rate_per_day", "h = 0.0"),
