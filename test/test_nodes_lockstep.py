@@ -83,20 +83,28 @@ def test_sim_time_waits_for_a_late_controller_and_runs_free_when_it_is_gone(ros_
 
 def test_a_controller_that_commanded_every_joint_to_rest_does_not_hold_the_clock(ros_context):
     """test_cycle sends zero at DONE and stops; the next cycle, requested within the grace, needs joint states (its
-    stale check) and sim time (its first command): a held clock gave neither, and every second commissioning
-    cycle failed its wall-clock watchdog (no joint state for 3.03 s)."""
+    stale check) and sim time (its first command): a clock held for lockstep_grace gave neither, and every
+    second commissioning cycle failed its wall-clock watchdog (no joint state for 3.03 s). After a zero for every
+    joint, lockstep_rest_grace of silence releases it; zeros that keep coming (a settle between sweeps) hold it
+    as any command does: released at the zero itself, the clock ran on while the next sweep's first command
+    waited in the queue, and the arm stood 0.3 s of sim time into a sweep (its 20 rad/s windows rejected)."""
     sim = NodeProcess("joint_sim", {"publish_clock": True, "real_time_factor": RTF, "lockstep": True,
-                                    "command_timeout": 2.0, "lockstep_lead": 0.05, "lockstep_grace": 5.0})
+                                    "command_timeout": 2.0, "lockstep_lead": 0.05, "lockstep_grace": 5.0,
+                                    "lockstep_rest_grace": 0.5})
     ctl = Controller(ros_context, [sim])
     try:
         ctl.spin_until(lambda: len(ctl.sent_at) >= 100, 60.0, "100 commands")
         last, newest = ctl.pause(0.3)
         assert newest - last <= 0.05 + 0.011 + 0.05, (last, newest)  # moving: held (as above)
         n = len(ctl.sent_at)
-        ctl.command = [0.0] * 6  # the stop
+        ctl.command = [0.0] * 6  # a settle: zeros streamed
         ctl.spin_until(lambda: len(ctl.sent_at) >= n + 20, 30.0, "the zero commands")
-        last, newest = ctl.pause(1.0)  # well within the 5 s grace
-        assert newest - last > 2.0, (last, newest)  # free: 1 wall s is 4 sim s at 4x
+        last, newest = ctl.pause(0.3)  # starved within the rest grace
+        assert newest - last <= 0.05 + 0.011 + 0.05, (last, newest)  # held: zeros that stream are commands
+        n = len(ctl.sent_at)
+        ctl.spin_until(lambda: len(ctl.sent_at) >= n + 20, 30.0, "the zero commands again")
+        last, newest = ctl.pause(1.5)  # the stop: silent past the 0.5 s rest grace, well within the 5 s grace
+        assert newest - last > 2.0, (last, newest)  # free: at most 0.5 wall s held, then 1 wall s is 4 sim s
     finally:
         ctl.close()
         sim.stop()

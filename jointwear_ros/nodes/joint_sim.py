@@ -38,9 +38,12 @@ one, so a controller starved of CPU on a loaded machine slows the clock instead
 of falling behind it (its commands would act late in sim time and bend the
 constant-speed sweeps); when no command came for ``lockstep_grace`` wall
 seconds the controller counts as gone and the clock runs free again
-(``command_timeout`` then brings the joints to rest). A command of zero for
-every joint (the controller's stop) releases the clock at once: nothing is swept, and the joint
-states keep coming for the controller's next request. ``lockstep_holds`` in the
+(``command_timeout`` then brings the joints to rest). After a command of zero for
+every joint the controller counts as gone after ``lockstep_rest_grace`` (0.5 s) of silence: test_cycle
+sends one zero at DONE and stops, and the joint states must keep coming for its next request. Zeros
+streamed (a settle between sweeps) hold the clock as any command does: a clock that ran on while the
+first command of the next sweep waited in the queue had the arm stand 0.3 s of sim time into a sweep
+whose reference had started, and the sweep's end fell inside its window. ``lockstep_holds`` in the
 diagnostics counts the ticks the clock waited.
 
 Unlike a real forward command controller, which holds the last command forever,
@@ -127,6 +130,8 @@ _NODE: tuple[ParamDecl, ...] = (
               1e-3, 10.0, unit="s"),
     ParamDecl("lockstep_grace", 5.0, "wall s without a command after which the controller counts as gone and the "
               "clock runs free again (command_timeout then stops the joints)", 0.01, 60.0, unit="s"),
+    ParamDecl("lockstep_rest_grace", 0.5, "the same after a command of zero for every joint (a controller's stop): "
+              "wall s without a command after which the clock runs free", 0.01, 60.0, unit="s"),
     ParamDecl("diagnostics_period", 1.0, "s between /diagnostics republications (wall time)", 0.01, 60.0,
               read_only=True, unit="s"),
     ParamDecl("arm", "", "simulated arm: '' (independent joints) or " + ", ".join(ARMS) + "; the i-th of joints "
@@ -211,6 +216,7 @@ class JointSimNode(Node):
         self.lockstep = bool(p["lockstep"])
         self.lockstep_lead = float(p["lockstep_lead"])
         self.lockstep_grace = float(p["lockstep_grace"])
+        self.lockstep_rest_grace = float(p["lockstep_rest_grace"])
         #: ticks at which the clock waited for a late controller
         self.lockstep_holds = 0
         self._timed_out = True
@@ -314,6 +320,8 @@ class JointSimNode(Node):
             self.lockstep_lead = float(changes["lockstep_lead"])  # type: ignore[arg-type]
         if "lockstep_grace" in changes:
             self.lockstep_grace = float(changes["lockstep_grace"])  # type: ignore[arg-type]
+        if "lockstep_rest_grace" in changes:
+            self.lockstep_rest_grace = float(changes["lockstep_rest_grace"])  # type: ignore[arg-type]
         if "temperature_rate" in changes:
             self.temperature_period = 1.0 / float(changes["temperature_rate"])  # type: ignore[arg-type]
         if "real_time_factor" in changes:
@@ -366,13 +374,14 @@ class JointSimNode(Node):
         newest command while a controller streams (its last command less than ``lockstep_grace`` wall s ago)."""
         if not (self.lockstep and self.publish_clock) or self._last_command_time is None or self._timed_out:
             return None
-        if not any(c != 0.0 for c in self.sim.commands):
-            # every joint commanded to rest (test_cycle's zero at DONE, abort or a watchdog trip): no sweep to
-            # keep straight, and a held clock would publish no joint state, so a cycle requested within the
-            # grace found its state stale and, on sim time, sent no first command to release it (its wall
-            # watchdog then failed every second commissioning cycle)
-            return None
-        if time.monotonic() - self._last_command_wall > self.lockstep_grace:
+        # every joint commanded to rest and then silence (test_cycle's zero at DONE, abort or a watchdog trip):
+        # a clock held for lockstep_grace published no joint state, so a cycle requested then found its state
+        # stale or, on sim time, sent no first command to release it (every second commissioning cycle failed
+        # its wall watchdog); zeros streamed in a settle still hold it (the next sweep's first command must
+        # not wait in the queue while the clock runs on)
+        resting = not any(c != 0.0 for c in self.sim.commands)
+        grace = min(self.lockstep_rest_grace, self.lockstep_grace) if resting else self.lockstep_grace
+        if time.monotonic() - self._last_command_wall > grace:
             return None
         return self._last_command_time + self.lockstep_lead
 
