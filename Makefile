@@ -60,12 +60,11 @@ demo: env
 	$(VENV)/bin/jointwear demo --joints 6 --out out/demo
 
 # Every test, in two tiers (what CI runs): the tests without a ROS graph on both cores (pytest-xdist,
-# each test file in one worker), then the process and graph tests (marker ros) one at a time by default.
-# ROS_WORKERS=2 runs that tier on two workers, each test file in one and each worker on every second ROS
-# domain of the run's block: about half the time (14 min in all on a fresh clone instead of 21), but of
-# four fresh-clone runs so, three failed (docs/testing.md). Both tiers always run; the
+# each test file in one worker), then the process and graph tests (marker ros) on two workers, each test
+# file in one and each worker on every second ROS domain of the run's block (12.6 min in all on a fresh
+# clone; ROS_WORKERS=1: one at a time, about 8 min more; docs/testing.md). Both tiers always run; the
 # target fails if either failed. Bytecode is kept (see test-fast).
-ROS_WORKERS ?= 1
+ROS_WORKERS ?= 2
 ROS_XDIST = $(if $(filter-out 1,$(ROS_WORKERS)),-n $(ROS_WORKERS) --dist loadfile --no-loadscope-reorder,-p no:xdist)
 test: env
 	bash tools/install_system_deps.sh
@@ -77,7 +76,7 @@ test: env
 	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m ros $(ROS_XDIST) --junitxml=out/test-results/ros-tier.xml test || rc=1; \
 	exit $$rc
 
-# The quick tier while you work (55-67 s on this 2-core machine; docs/testing.md):
+# The quick tier while you work (49 s idle on this 2-core machine; docs/testing.md):
 # 85 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
 # DDS, the README walk among them) and the costliest tests without a graph
 # (marker slow, listed once in test/conftest.py's SLOW_TESTS by their measured durations: seeded

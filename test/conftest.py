@@ -65,13 +65,18 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_demo38_startup.py": (
         "test_the_joint_estimator_loads_scipy_stats_on_use_with_the_same_default_prior",
         "test_the_cell_stops_the_producers_then_the_recorder_and_the_clock_source_together",
+        "test_the_wear_estimator_node_imports_without_scipy_stats_or_optimize",
     ),
     "test_cycle_line.py": (
         "test_the_observations_equal_the_one_at_a_time_cycles",
         "test_six_joints_at_once_are_each_observed_at_every_speed_on_one_line_in_a_sixth_of_the_time",
+        "test_any_plannable_request_keeps_every_planned_position_inside_the_limits",
+        "test_a_single_speed_set_shorter_than_the_others_is_stretched_over_the_steps",
     ),
     "test_estimate_model_uncertainty.py": (
         "test_commissioned_sets_with_their_covariance_carried_are_calibrated_where_their_values_alone_are_not",
+        "test_a_coulomb_offsets_variance_adds_the_delta_methods_std_computed_by_hand",
+        "test_a_covariance_with_a_non_finite_entry_is_left_out_and_the_result_says_so",
     ),
     "test_bag_discovery_reprocess.py": (
         "test_a_bag_folder_without_metadata_is_a_failed_bag_not_left_out",
@@ -85,9 +90,11 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_random_damage_never_yields_an_invented_or_altered_message",
         "test_recover_of_a_file_cut_anywhere_gives_exactly_the_complete_chunks_before_the_cut",
         "test_the_writer_produces_a_checked_bag_that_rosbags_and_mcap_read_completely",
+        "test_a_changed_byte_in_the_summary_is_reported_and_recover_does_not_need_the_summary",
     ),
     "test_cli_cycle.py": (
         "test_default_candidates_give_a_cycle_the_test_cycle_node_accepts",
+        "test_design_json_gives_speeds_and_bound_that_beat_the_papers_best_single_speed",
     ),
     "test_commission_arm_run.py": (  # two commissioning runs on the arms in one process: 48 s of module setup
         "test_each_joint_commissioned_on_the_arm_estimates_its_test_wear_within_3_std",
@@ -119,6 +126,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_bags_import_their_recorded_estimates_or_a_re_estimation_once",
         "test_trend_plots_and_html_rank_the_joints_by_time_to_alarm",
         "test_a_bag_stamped_by_a_clock_starting_at_zero_is_refused_with_the_reason_and_kept",
+        "test_csv_import_twice_adds_nothing_and_trend_json_follows_the_contract",
     ),
     "test_cli_production.py": (  # a simulated production (3 s) and the core over it
         "test_from_production_json_gives_each_shifts_counts_and_observations_as_the_core_gives_them",
@@ -129,11 +137,26 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_streaming_batch_and_chunked_give_the_same_shift_bit_for_bit",
         "test_a_payload_carried_one_way_biases_tau_f_and_the_pairing_rejects_it",
         "test_model_based_observations_come_only_from_unpaired_segments",
+        "test_production_observer_reads_every_moving_joints_friction_within_3_std",
+        "test_production_observer_leaves_the_accelerations_out",
+        "test_production_observer_rejects_a_reverse_pass_at_another_configuration",
     ),
-    "test_production_sim.py": ("test_a_run_is_deterministic_for_a_seed_and_wear_changes_per_shift",),  # two runs
-    "test_source.py": ("test_estimate_json_gives_a_production_shift_and_the_test_cycle_of_its_id_apart",),  # 2.4 s
+    "test_production_sim.py": (  # two runs
+        "test_a_run_is_deterministic_for_a_seed_and_wear_changes_per_shift",
+        "test_pick_and_place_retraces_every_line_with_the_payload_one_way_only",
+        "test_self_heating_follows_the_documented_first_order_law",
+        "test_the_recorded_bag_reads_back_with_the_same_samples",
+    ),
+    "test_source.py": (  # 2.4 s
+        "test_estimate_json_gives_a_production_shift_and_the_test_cycle_of_its_id_apart",
+        "test_serve_shows_the_sources_on_the_page_in_the_api_and_in_metrics",
+        "test_replay_of_a_bag_with_production_status_gives_the_live_production_estimate",
+        "test_trend_shows_each_estimates_source_in_its_table_json_and_figure",
+        "test_the_monitor_keeps_a_production_shift_apart_from_the_test_cycle_with_the_same_id",
+    ),
     "test_cli_model.py": (
         "test_bad_arguments_give_one_line_error_and_exit_code_2",
+        "test_curve_table_and_plot",
     ),
     "test_cli_startup.py": (
         "test_each_commands_help_alone_imports_none_of_the_heavy_parts",
@@ -142,6 +165,8 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_robustness_reports_which_estimators_stay_unbiased",
         "test_study_joint_reports_one_cycle_row_with_temperature",
         "test_study_plot_writes_figures_9_10_11",
+        "test_study_json_has_the_contract_keys_one_entry_per_speed",
+        "test_study_bayes_stays_near_the_bound_up_to_100_rad_s",
     ),
     "test_cli_workbench.py": (
         "test_add_shows_before_and_after_per_speed_band_and_keeps_a_json_history",
@@ -170,6 +195,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_a_failed_cycle_with_one_speed_leaves_the_level_as_it_was_and_names_test_cycles_reason",
         "test_one_outlier_20_above_a_flat_history_is_held_and_a_confirmed_step_moves_the_level_at_once",
         "test_the_monitor_and_the_trend_agree_on_the_same_estimates",
+        "test_the_rule_orders_levels_by_wear_and_by_uncertainty",
     ),
     "test_cycle_lateness.py": (
         "test_one_update_late_by_the_reaction_time_anywhere_in_the_braking_stays_inside_the_limits",
@@ -182,18 +208,25 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_estimation_case_study.py": (
         "test_study_case_cli_json_and_plot",
+        "test_case_study_data_come_from_mismatched_joints",
+        "test_study_case_cli_table_and_bad_arguments",
     ),
     "test_estimation_crb.py": (
         "test_quadrature_bound_is_insensitive_to_node_counts",
+        "test_quadrature_and_monte_carlo_agree_within_the_stated_error",
     ),
     "test_estimation_hcr.py": (
         "test_study_reports_the_hcr_column_and_json_null_for_infinite",
+        "test_hcr_equals_crb_where_the_crb_is_reachable_and_exceeds_it_near_a_twin",
     ),
     "test_estimation_joint.py": (
         "test_spread_of_estimates_is_near_the_multi_speed_bound_and_unbiased",
     ),
     "test_estimation_paper.py": (
         "test_unknown_temperature_uses_the_uniform_samples_and_is_reproducible",
+        "test_fast_and_grid_agree_within_grid_resolution_sample_by_sample",
+        "test_tabulated_inverse_matches_exact_solution_and_model",
+        "test_noise_free_observation_with_measured_temperature_gives_back_true_wear",
     ),
     "test_faults28_bags.py": (
         "test_metadata_of_any_type_in_any_key_is_read_or_refused_in_one_line_naming_the_key",
@@ -213,6 +246,11 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_case_study_paper_and_bayes_traces_can_be_told_apart",
         "test_commission_figure_shows_the_fitted_model_over_the_baseline_with_units",
         "test_the_current_segment_and_its_forecast_fill_the_plot_after_maintenance",
+        "test_workbench_residual_legend_is_readable_and_covers_no_residual",
+        "test_workbench_fit_has_units_on_both_panels_and_legends_off_the_data",
+        "test_estimates_minutes_apart_fill_the_plot",
+        "test_a_falling_wear_has_a_fit_but_no_forecast_band_since_no_growth_is_detected",
+        "test_a_forecast_median_that_runs_off_to_minus_infinity_is_not_drawn_below_the_current_level",
     ),
     "test_fleet.py": (
         "test_a_new_parameter_set_is_a_new_analysis_version_and_compare_names_the_changes",
@@ -225,6 +263,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_history_store.py": (
         "test_concurrent_writer_processes_lose_nothing_and_duplicate_nothing",
         "test_processes_opening_a_new_store_at_once_agree_on_one_schema",
+        "test_store_inserts_each_estimate_once_and_reads_it_back_exactly",
     ),
     "test_installed_prefix.py": (
         "test_installed_cli_runs_from_the_prefix",
@@ -234,6 +273,8 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_monitor.py": (
         "test_finished_cycles_are_remembered_up_to_a_bound",
         "test_a_late_observation_revises_the_cycle_estimate",
+        "test_a_revision_of_an_older_cycle_does_not_replace_the_newest_status",
+        "test_estimate_is_deterministic_and_independent_of_arrival_order",
     ),
     "test_mutation.py": (
         "test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught",
@@ -259,9 +300,11 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_prognostic_scores.py": (
         "test_alpha_lambda_and_horizon_agree_with_progpy",
+        "test_score_prognostics_per_family_for_a_perfect_and_a_late_predictor",
     ),
     "test_properties_estimators.py": (
         "test_estimators_give_a_finite_estimate_or_the_projects_error",
+        "test_make_estimator_refuses_options_it_cannot_work_with",
     ),
     "test_real_logs.py": (
         "test_a_published_sweep_at_one_temperature_with_a_noisy_velocity_is_converted_and_commissioned",
@@ -271,6 +314,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_replay.py": (
         "test_replay_and_bag_info_flag_a_bag_whose_recorder_lost_messages",
         "test_replay_compares_the_newest_estimate_of_a_cycle_revised_live",
+        "test_replay_of_a_bag_gives_the_recorded_observations_and_estimate",
     ),
     "test_replay_robot.py": (
         "test_fleet_reprocess_of_a_robot_bag_gives_a_record_per_joint",
@@ -310,6 +354,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_timeseries.py": (
         "test_a_recorded_bag_converted_by_the_observer_and_by_the_converter_agrees",
+        "test_the_converter_without_a_window_uses_the_whole_plateau_overlap_and_still_agrees",
     ),
     "test_trend_bank.py": (
         "test_calibration_backtest_keeps_coverage_narrows_and_never_warns_a_flat_joint",
@@ -367,11 +412,67 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_workbench_shapes.py": (
         "test_hostile_spec_strings_never_crash_with_anything_but_a_model_error",
+        "test_step_width_is_bounded_by_the_option_so_a_held_out_cycle_next_to_the_change_stays_on_its_side",
     ),
     "test_workbench_units.py": (
         "test_a_clean_joint_recorded_joint_side_in_newton_metres_is_nothing_missing",
         "test_scaling_the_torque_by_k_scales_the_fit_by_k_with_the_same_verdict",
         "test_standard_fit_of_a_panda_joint_in_newton_metres_reaches_a_plain_least_squares_fit",
+    ),
+    "test_history_boundary.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_no_module_outside_history_imports_a_database_library_or_holds_sql",
+    ),
+    "test_layering.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_no_import_circle_among_the_modules",
+    ),
+    "test_node_production_shifts.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_production_shifts_equal_observe_production_of_each_shifts_samples_bit_for_bit",
+        "test_each_sample_takes_each_joints_latest_reading_at_or_before_it_in_any_arrival_order",
+        "test_a_shift_is_the_period_of_its_stamps_and_ends_at_the_first_sample_of_a_later_period",
+    ),
+    "test_speed39_workbench.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_a_small_diagnosis_gives_the_numbers_it_gave_before_the_speed_ups",
+    ),
+    "test_ondemand_year.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_a_noisier_production_estimate_near_the_warning_level_can_read_error",
+        "test_production_year_meets_the_done_when_with_the_default_settings",
+        "test_the_year_is_deterministic_per_seed",
+    ),
+    "test_workbench_significance.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_holm_never_lowers_a_p_value_keeps_the_order_and_stays_a_probability",
+    ),
+    "test_ondemand_policy.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_policy_never_raises_anything_but_input_data_error",
+        "test_policy_decides_every_well_formed_input_and_asks_only_for_a_reason",
+    ),
+    "test_outbox.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_the_bounded_buffer_drops_the_oldest_from_memory_and_the_spool_keeps_it_for_the_restart",
+    ),
+    "test_sim_arm.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_a_payload_moves_the_sum_by_its_gravity_and_the_difference_only_by_the_friction_models_load_term",
+        "test_wear_and_temperature_set_live_change_that_joints_friction_only",
+        "test_a_payload_set_while_holding_sags_the_arm_until_its_drives_catch_it",
+        "test_every_joint_tracks_its_constant_speed_within_1_percent_while_the_others_move",
+        "test_the_drive_keeps_to_the_urdfs_velocity_and_position_limits",
+        "test_importing_the_sim_package_does_not_import_pinocchio_until_the_arm_is_used",
+    ),
+    "test_estimation_registry.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_the_study_and_the_case_study_follow_the_cycle_flag_not_the_name",
+    ),
+    "test_monitor_validation.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_screening_never_passes_a_non_physical_value",
+    ),
+    "test_properties_io.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_parameter_set_loader_gives_finite_in_bounds_values_or_its_error",
+    ),
+    "test_speed38d_bag_reads.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_a_reanalysis_opens_the_bag_once_and_parses_its_metadata_once",
+    ),
+    "test_commission_arm.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_on_the_arm_payload_and_pose_change_each_loaded_joints_load_between_baseline_cycles",
+    ),
+    "test_replay_backpressure.py": (  # stop 39: 0.3 s or more of the quick tier's test time (fresh clone, idle)
+        "test_a_subscriber_that_takes_nothing_is_one_line_naming_the_topic",
     ),
 }
 #: Fixtures that put a test on a ROS graph: a test using one is a ``ros`` test.
