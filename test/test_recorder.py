@@ -440,3 +440,26 @@ def test_a_robot_cycle_recorded_with_per_cycle_bags_is_one_bag_and_its_replay_ma
     assert cmp_["observations"]["matched"] == 9 and cmp_["observations"]["max_abs_diff"] == 0.0, cmp_
     assert cmp_["estimates"]["matched"] == 3 and cmp_["estimates"]["max_abs_diff"] == 0.0, cmp_
     pub_node.destroy_node()
+
+
+def test_a_recorder_on_sim_time_without_a_clock_yet_subscribes_to_a_new_topic_within_its_wall_scan(
+        ros_context_per_test, tmp_path):
+    """A recorder started with use_sim_time before anything publishes /clock (the production demo: the bag played
+    onto the graph brings the clock) scans the graph on the wall clock: it subscribes to a topic advertised after
+    it started while no /clock has come, so nothing played is missed. On sim time its scan waited for the first
+    /clock, and under load the recorder subscribed 5 s into a played production (1267 joint states missing)."""
+    topic = "/jw_wall_scan_test/joint_states"
+    log = tmp_path / "recorder.log"
+    rec = NodeProcess("recorder", {"output_dir": tmp_path / "bags", "discovery_period": 0.2, "use_sim_time": True,
+                                   "include": f"['^{topic}$']"}, config=False, log=log)
+    ctx = ros_context_per_test
+    node = rclpy.create_node("jw_wall_scan_pub", context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    try:
+        time.sleep(2.0)  # the recorder's first scan (at start-up) has passed: the topic is not there yet
+        pub = node.create_publisher(JointState, topic, QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE))
+        assert spin_until(ex, lambda: pub.get_subscription_count() > 0, 20.0), log.read_text()
+    finally:
+        node.destroy_node()
+        rec.stop()

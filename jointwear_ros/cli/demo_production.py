@@ -255,15 +255,17 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
         op.node.create_subscription(DiagnosticArray, "/jointwear/cycle_request", on_request, latched)
         op.node.create_subscription(DiagnosticArray, "/diagnostics", on_diag, rel)
         end_client = op.node.create_client(Trigger, "/production_observer/end_shift")
-        # the recorder follows /clock (none until the bag plays): it subscribes to the plant's topics at its
-        # first scan after that, long before a shift's end brings the first observation
+        # the recorder subscribes to the played topics once the player advertises them (its graph scans run on
+        # the wall clock); the player waits for it and the observer
         op.spin_until(lambda: "production_observer" in op.subscribers("/joint_states")
                       and "wear_estimator" in op.subscribers("/jointwear/friction_observations")
                       and "cycle_on_demand" in op.subscribers("/jointwear/wear_estimate")
                       and end_client.service_is_ready(), 60.0, children, "the nodes to connect")
         _progress(f"graph connected after {time.monotonic() - t_wall:.1f} s; playing the production at {rate:g}x")
         cmd = [sys.executable, "-m", "jointwear_ros", "replay", str(prod_bag), "--publish", "--rate", f"{rate:g}",
-               "--topics", "/joint_states,/joint_temperature", "--wait-for-subscribers", "1", "--delay", "1"]
+               # two subscribers on each topic: production_observer and the recorder (which subscribes once it
+               # sees the player's topics; a recorder that came late lost the production's first seconds)
+               "--topics", "/joint_states,/joint_temperature", "--wait-for-subscribers", "2", "--delay", "1"]
         with (logdir / "replay.log").open("wb") as fh:
             player = subprocess.Popen(cmd, env=dict(env), stdout=fh, stderr=subprocess.STDOUT,
                                       stdin=subprocess.DEVNULL)

@@ -4,7 +4,8 @@ The node is the ROS adapter of :mod:`jointwear_ros.io.recording`, which makes
 every decision about the recorded stream without a ROS runtime (filters,
 ``split: session``/``cycle``, loss counts, settings capture, syncs, write
 errors, health). Here: topics are discovered every ``discovery_period``
-seconds (``get_topic_names_and_types``, so later topics are recorded too) and
+wall seconds (a steady timer: on sim time a recorder waiting for the first ``/clock`` subscribed late),
+(``get_topic_names_and_types``, so later topics are recorded too) and
 subscribed with ``raw=True`` and a QoS matched to their publishers (RELIABLE
 when every publisher is, TRANSIENT_LOCAL when every publisher offers it,
 KEEP_LAST ``queue_depth``); callbacks only enqueue, a writer thread runs the
@@ -24,6 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos
@@ -63,7 +65,7 @@ PARAMETERS: tuple[ParamDecl, ...] = (
     ParamDecl("output_dir", "bags", "directory under which bag directories are created"),
     ParamDecl("bag_prefix", "jointwear", "bag directory names start with this"),
     ParamDecl("split", "session", "session: one bag per run; cycle: one bag per test cycle"),
-    ParamDecl("discovery_period", 0.5, "seconds between graph scans for new topics", 0.05, 60.0),
+    ParamDecl("discovery_period", 0.5, "wall seconds between graph scans for new topics", 0.05, 60.0),
     ParamDecl("status_topic", "/test_cycle/status", "TestCycleStatus topic that drives split: cycle"),
     ParamDecl("cycle_tail", 5.0, "seconds (node clock) recorded after a cycle ends", 0.0, 3600.0),
     ParamDecl("queue_depth", 10000, "subscription history depth: messages buffered while the recorder is busy"),
@@ -134,7 +136,11 @@ class RecorderNode(Node):
         self.recording.rate(time.monotonic())
         self.recording.start()
         self.writer.start()
-        self._timer = self.create_timer(float(self.p["discovery_period"]), self.discover)
+        # discovery on the steady clock: on sim time it waited for the first /clock, so a recorder started before
+        # a bag played onto its graph subscribed seconds late under load (the first 5.07 s of a played production,
+        # 1267 joint states, missing from the bag, and the replay no longer equal to live)
+        self._timer = self.create_timer(float(self.p["discovery_period"]), self.discover,
+                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.discover()
 
     # -- what the writer side knows, read by tests and main -----------------------------------
