@@ -1,6 +1,6 @@
 """The joint estimator carries a parameter set's own uncertainty (its ``covariance``) into the wear estimate's std
 (the delta method with the posterior mean's gradient, :meth:`JointEstimator.model_std`), as its own component ``wear_std_model``; a set without a
-covariance gives the numbers it gave before, bit for bit."""
+covariance gives the numbers it gave before (to 1e-6: the last bits are the CPU's)."""
 
 from __future__ import annotations
 
@@ -71,7 +71,9 @@ def test_a_coulomb_offsets_variance_adds_the_delta_methods_std_computed_by_hand(
 
 
 #: measured on the code before the covariance was carried (ref-2011r, ``_cycle(12, 41, seed 5)``): wear, std,
-#: low, high, temperature, temperature std
+#: low, high, temperature, temperature std. Compared to 1e-6 relative, not bit for bit: the last bits depend on
+#: the CPU's BLAS kernels, and the MAP's optimizer carries them on (2e-7 apart on an AMD EPYC)
+BEFORE_REL = 1e-6
 BEFORE = {
     ("mean", False): (11.015861823618918, 0.9528470250825952, 9.09375, 12.84375, 41.73176901694209,
                       0.6032315274798841),
@@ -83,7 +85,7 @@ BEFORE = {
 
 
 @pytest.mark.parametrize("point, known", list(BEFORE), ids=[f"{p}-{'known' if k else 'unknown'}" for p, k in BEFORE])
-def test_a_set_without_a_covariance_gives_todays_numbers_bit_for_bit(point, known):
+def test_a_set_without_a_covariance_gives_todays_numbers(point, known):
     rng = np.random.default_rng(5)
     load = rng.uniform(0.02, 0.5, SPEEDS.size)
     y = paper_wear_model().evaluate(load_parameter_set("ref-2011r"), speed=SPEEDS, load_torque=load,
@@ -93,7 +95,8 @@ def test_a_set_without_a_covariance_gives_todays_numbers_bit_for_bit(point, know
         cols["temperature"] = np.full(SPEEDS.size, 41.0)
     r = JointEstimator(params=load_parameter_set_info("ref-2011r"), point=point).estimate(
         ObservationTable.from_arrays(**cols))
-    assert (r.wear, r.wear_std, r.wear_low, r.wear_high, r.temperature, r.temperature_std) == BEFORE[(point, known)]
+    assert (r.wear, r.wear_std, r.wear_low, r.wear_high, r.temperature, r.temperature_std) == pytest.approx(
+        BEFORE[(point, known)], rel=BEFORE_REL)
     assert r.wear_std_model == 0.0 and "wear_std_model" not in r.info
     assert parameter_covariance(load_parameter_set_info("ref-2011r"), load_parameter_set("ref-2011r")) is None
 

@@ -5,86 +5,20 @@ links is parsed by the real CLI parser (optional ``[...]`` parts included), so a
 flag the docs name and the code lacks fails here; every ``--params`` names a parameter set that
 exists and every ``--method`` an estimator.
 
-Slow (the full suite, ``-m slow``): README.md's command blocks run in order in a scratch directory
-(``python -m jointwear_ros``, exit 0 each), with the placeholders (``BAG``, ``URL``, ...) replaced by
-what the earlier commands made; lines that need what a test machine has not (a PostgreSQL server at
-``dbhost``, a Dask scheduler, a live graph for ``--publish``) are listed and left out.
+Slow (the full suite, ``-m slow``): README.md's command blocks run in order, in four independent chains
+(``test_readme_walk_<chain>.py``, each in a scratch directory; ``readme_walk.py``), with the placeholders
+(``BAG``, ``URL``, ...) replaced by what the chain's earlier commands made; lines that need what a test
+machine has not (a PostgreSQL server at ``dbhost``, a Dask scheduler, a live graph for ``--publish``) are
+listed and left out. Here: every command is in exactly one chain, and each chain has its file.
 """
 
 from __future__ import annotations
 
 import argparse
-import glob
-import os
 import re
-import shlex
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
-README = ROOT / "README.md"
-FENCE = re.compile(r"^```(\w*)\n(.*?)^```$", re.S | re.M)
-LINK = re.compile(r"\]\((docs/[\w\-]+\.md)")
-
-
-def documents() -> list[Path]:
-    """README.md and every docs/ page it links."""
-    text = README.read_text(encoding="utf-8")
-    return [README] + [ROOT / p for p in sorted(set(LINK.findall(text)))]
-
-
-def command_lines(md: Path) -> list[tuple[int, str]]:
-    """(line number, command) of every ``jointwear`` command in the ``sh`` blocks of ``md``, comments cut,
-    continuation lines joined."""
-    text = md.read_text(encoding="utf-8")
-    out = []
-    for m in FENCE.finditer(text):
-        if m.group(1) not in ("sh", "bash", ""):
-            continue
-        first = text.count("\n", 0, m.start(2)) + 1
-        joined = re.sub(r"\\\n\s*", " ", m.group(2))
-        # a synopsis continues on indented lines of options: `    [--json] --out FILE`
-        joined = re.sub(r"\n[ \t]+(?=\[|--)", " ", joined)
-        lines = m.group(2).splitlines()
-        n = 0
-        for line in joined.splitlines():
-            while n < len(lines) and line.split()[:2] != lines[n].split()[:2] if line.split() else False:
-                n += 1
-            cmd = re.split(r"\s#\s|\s#$|\s{2,}#", line)[0].strip()
-            if re.match(r"(\.venv/bin/)?jointwear\s", cmd):
-                out.append((first + n, cmd))
-    return out
-
-
-def _words(cmd: str) -> list[str]:
-    """The command's arguments with the optional parts taken (``[--json]`` -> ``--json``) and the
-    repetition marks dropped (``BAG...`` -> ``BAG``; ``--db ...`` -> ``--db X``)."""
-    # shell expansions of a documented script: arithmetic -> 1, "${array[@]}" -> nothing, others -> X
-    cmd = re.sub(r"\$\(\(.*?\)\)", "1", cmd)
-    cmd = re.sub(r'"?\$\{\w+\[@\]\}"?', " ", cmd)
-    cmd = re.sub(r"\$\{[^}]*\}|\$\w+", "X", cmd)
-    cmd = re.sub(r"(\w)\[(=[^\]]*)\]", r"\1\2", cmd)  # NAME[=VALUE] -> NAME=VALUE
-    cmd = cmd.replace("]...", "]").replace("[", " ").replace("]", " ")
-    words = []
-    for w in shlex.split(cmd)[1:]:
-        if "|" in w and not w.startswith("-"):  # alternatives: auto|plateaus|bins -> auto
-            w = w.split("|")[0]
-        if w == "...":
-            w = "X"
-        elif w in PLACEHOLDER_VALUES:
-            w = PLACEHOLDER_VALUES[w]
-        elif w.endswith("...") and len(w) > 3:
-            w = w[:-3]
-        if w:
-            words.append(w)
-    return words
-
-
-#: placeholders of arguments that take a choice or a whole number, with a valid value
-PLACEHOLDER_VALUES = {"EFFECT": "ripple", "N": "2", "K": "5"}
+from readme_walk import CHAINS, ROOT, RUNS, WALK, _words, chain_of, command_lines, documents
 
 ALL = [(md, line, cmd) for md in documents() for line, cmd in command_lines(md)]
 
@@ -113,101 +47,18 @@ def test_every_documented_command_parses_with_the_real_cli(md, line, cmd):
         assert method in ESTIMATOR_METHODS, f"{md.relative_to(ROOT)}:{line}: unknown method {method!r}"
 
 
-# --------------------------------------------------------------------------- slow: README.md runs in order
-
-#: lines that need what a test machine has not, with why
-NOT_HERE = (
-    ("postgresql://", "a PostgreSQL server at the documented host"),
-    ("tcp://", "a running Dask scheduler"),
-    ("--publish", "a live ROS graph to play onto (tests/test_replay.py covers it)"),
-    ("demo --commission", "4-10 min of wall time (measured in docs/nodes-bag-demo.md); test_demo_commission.py "
-                          "runs it on one joint, test_commission_arm_run.py its plan on both arms in one process"),
-    ("demo --production", "a minute of wall time each; test_demo_production.py runs the demo with --json and checks "
-                          "its estimates and its replay"),
-    ("'archive/", "a plant's bag archive (the other fleet lines run on the demo bags)"),
-    ("from-timeseries log.csv", "the user's own recorded time series (test_timeseries.py converts CSVs)"),
-    ("from-timeseries BAG", "a bag in which that joint swept at constant speeds; the README's last demo is a "
-                            "one-joint run (test_timeseries.py converts a live demo bag both ways)"),
-)
-
-
-def _substitute(cmd: str, cwd: Path) -> str:
-    """The README's placeholders replaced by what the earlier commands made."""
-    bags = sorted(glob.glob(str(cwd / "out" / "demo" / "bags" / "jointwear_*")))
-    versions = []
-    db = cwd / "history.db"
-    if db.exists():
-        from jointwear_ros.history import HistoryStore
-
-        with HistoryStore(f"sqlite:///{db}") as store:
-            versions = store.analysis_versions()
-    subs = {
-        "BAGS...": "out/demo/bags/jointwear_*", "BAG...": "out/demo/bags/jointwear_*",
-        "BAG": bags[-1] if bags else "BAG", "URL": "history.db", "DIR": "recovered",
-    }
-    words = []
-    for w in cmd.replace("[", " ").replace("]", " ").split():
-        words.append(subs.get(w, w))
-    cmd = " ".join(words)
-    if "VERSION" in cmd and versions:
-        cmd = cmd.replace("--from VERSION", f"--from {versions[0]}").replace("--to VERSION", f"--to {versions[-1]}")
-    return cmd
-
-
-#: README.md's commands in order: (index, line, command, why it is left out or None)
-WALK = [(i, line, cmd, next((w for k, w in NOT_HERE if k in cmd), None))
-        for i, (line, cmd) in enumerate(command_lines(README))]
-RUNS = [step for step in WALK if step[3] is None]
-
-
-class ReadmeWalk:
-    """README.md's commands run in order in one scratch directory, each at most once: a command's test
-    runs first the earlier commands that have not run (it needs what they made), then its own."""
-
-    def __init__(self, cwd: Path):
-        self.cwd = cwd
-        self.env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-        self.done: dict[int, str | None] = {}  # index -> None (exit 0) or what went wrong
-
-    def argv(self, cmd: str) -> list[str]:
-        run = _substitute(cmd, self.cwd)
-        argv = [sys.executable, "-m", "jointwear_ros", *_words(run)]
-        return [a for w in argv for a in (sorted(glob.glob(str(self.cwd / w))) or [w]
-                                          if any(c in w for c in "*?") else [w])]
-
-    def run(self, index: int) -> str | None:
-        """Run README command ``index`` (after the earlier ones not run yet); None, or why it failed."""
-        for i, line, cmd, _ in RUNS:
-            if i > index:
-                break
-            if i in self.done:
-                continue
-            argv = self.argv(cmd)
-            r = subprocess.run(argv, cwd=self.cwd, env=self.env, capture_output=True, text=True, timeout=1800)
-            self.done[i] = None if r.returncode == 0 else (
-                f"README.md:{line}: `{cmd}` (run as {' '.join(argv[3:])}) exit {r.returncode}:\n"
-                f"{r.stdout[-2000:]}\n{r.stderr[-2000:]}")
-        return self.done[index]
-
-
-@pytest.fixture(scope="module")
-def readme_walk(tmp_path_factory) -> ReadmeWalk:
-    """One scratch directory for the module: each README command's test adds what the command makes."""
-    return ReadmeWalk(tmp_path_factory.mktemp("readme"))
-
-
 def test_the_readme_walk_runs_most_commands_and_says_why_it_leaves_the_others():
     left_out = [(line, cmd, why) for _, line, cmd, why in WALK if why is not None]
     assert len(RUNS) >= 25, RUNS
     assert len(left_out) <= 10, left_out
 
 
-@pytest.mark.slow
-@pytest.mark.ros
-@pytest.mark.parametrize(("index", "line", "cmd"), [s[:3] for s in RUNS],
-                         ids=[f"{i:02d}-README.md:{line}-{'-'.join(cmd.split()[1:3])}" for i, line, cmd, _ in RUNS])
-def test_the_readme_commands_run_in_order(readme_walk, index, line, cmd):
-    """README.md's command blocks in order (one test a command, so none takes long), with the placeholders
-    replaced by what the earlier commands made; each exits 0."""
-    failed = readme_walk.run(index)
-    assert failed is None, failed
+def test_every_readme_command_runs_in_one_chain_and_each_chain_has_its_test_file():
+    chains = [name for name, _ in CHAINS]
+    seen = {chain_of(cmd) for _, _, cmd, _ in RUNS}
+    assert seen == set(chains), (seen, chains)  # no chain is empty
+    for name in chains:
+        text = (ROOT / "test" / f"test_readme_walk_{name}.py").read_text(encoding="utf-8")
+        assert re.search(rf"walk_fixture\(\"{name}\"\)", text) and f'chain_params("{name}")' in text, name
+    # the demos that make the bags run in the chain of the commands that read them
+    assert all(chain_of(cmd) == "bags" for _, _, cmd, _ in RUNS if re.search(r"\bBAGS?\b|history\.db|URL", cmd))

@@ -48,6 +48,9 @@ SPEED_MIX = (1.0, 0.5, 1.5)
 DEMO_START = 1_790_056_800.0
 #: The plant's nodes the demo starts (no joint_sim, no test_cycle: the robot is the recorded program).
 PRODUCTION_NODES = ("recorder", "wear_estimator", "production_observer", "cycle_on_demand")
+#: the nodes that queue the whole played production (Fast DDS holds more than 5000 samples a reader only with
+#: deep_queue_env's profile)
+DEEP_QUEUE_NODES = ("recorder", "production_observer")
 
 
 def _progress(text: str) -> None:
@@ -201,7 +204,10 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     env = loopback_env(domain)
     before = set(find_bags(bagdir))
     params: dict[str, dict[str, Any]] = {
-        "recorder": {"use_sim_time": True, "output_dir": str(bagdir.resolve()), "split": "session"},
+        # the recorder too takes every played state into its queue (a starved recorder falls behind as the
+        # observer does); both get deep_queue_env below
+        "recorder": {"use_sim_time": True, "output_dir": str(bagdir.resolve()), "split": "session",
+                     "queue_depth": max(10000, n_samples)},
         "wear_estimator": {"use_sim_time": True, "joints": names},
         "production_observer": {"use_sim_time": True, "joints": names, "arm": spec.name, "payload": float(payload),
                                 "shift_seconds": shift_seconds, "shift_origin": origin, "shift_idle": 3600.0,
@@ -223,7 +229,7 @@ def run_production_demo(out: Path, *, arm: str = "ur5", shifts: int = 2, cycles:
     try:
         _progress(f"ROS_DOMAIN_ID={domain}, loopback only; logs in {logdir}")
         for name in PRODUCTION_NODES:
-            children.append(start_child(name, params[name], deep_queue_env(env) if name == "production_observer"
+            children.append(start_child(name, params[name], deep_queue_env(env) if name in DEEP_QUEUE_NODES
                                         else env, logdir))
             _progress(f"started {name} (pid {children[-1].proc.pid})")
         op = Operator(names, domain, progress=_progress)

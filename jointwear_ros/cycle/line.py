@@ -180,6 +180,15 @@ class LinePlan:
                 + f"; about {self.duration:.1f} s (one joint after another: {self.sequential_duration:.1f} s)")
 
 
+def _trapezoid_shape(length: float, cruise: float, accel: float) -> tuple[float, float, float]:
+    """(ramp time, peak speed, cruise time) of a rest-to-rest trapezoid over ``length`` > 0: a triangle when
+    the length is too short to reach ``cruise``."""
+    if length >= cruise * cruise / accel:
+        return cruise / accel, cruise, length / cruise - cruise / accel
+    ta = math.sqrt(length / accel)
+    return ta, accel * ta, 0.0
+
+
 def trapezoid_time(position: float, length: float, cruise: float, accel: float) -> float:
     """The time at which the rest-to-rest trapezoid of :func:`trapezoid` reaches ``position`` (0 at or before its
     start, its duration at or past its end): the inverse of its position.
@@ -189,12 +198,7 @@ def trapezoid_time(position: float, length: float, cruise: float, accel: float) 
     """
     if length <= 0.0 or position <= 0.0:
         return 0.0
-    if length >= cruise * cruise / accel:
-        ta, vp = cruise / accel, cruise
-        tc = length / cruise - cruise / accel
-    else:
-        ta = math.sqrt(length / accel)
-        vp, tc = accel * ta, 0.0
+    ta, vp, tc = _trapezoid_shape(length, cruise, accel)
     total = 2.0 * ta + tc
     ramp = 0.5 * accel * ta * ta
     if position >= length:
@@ -214,12 +218,7 @@ def trapezoid(tau: float, length: float, cruise: float, accel: float) -> tuple[f
     """
     if length <= 0.0:
         return 0.0, 0.0
-    if length >= cruise * cruise / accel:
-        ta, vp = cruise / accel, cruise
-        tc = length / cruise - cruise / accel
-    else:
-        ta = math.sqrt(length / accel)
-        vp, tc = accel * ta, 0.0
+    ta, vp, tc = _trapezoid_shape(length, cruise, accel)
     total = 2.0 * ta + tc
     if tau <= 0.0:
         return 0.0, 0.0
