@@ -134,11 +134,13 @@ RUNS = [step for step in WALK if step[3] is None]
 
 
 #: The walk's chains: a README command belongs to the first chain whose pattern it matches (``re.search``).
-#: The arms' demos, the other multi-joint demos, the one-joint demos with every command that reads the demo
-#: bags or the history made from them, and the rest (synthetic tables, the workbench, studies, curves).
+#: The Panda's and the payload demos, the other multi-joint demos (one joint after another, the
+#: independent-joint robot), every other demo with every command that reads the demo bags or the history
+#: made from them (the history's commands name joint_3: the six-joint demo's), and the rest (synthetic
+#: tables, the workbench, studies, curves).
 CHAINS = (
-    ("arms", r"^jointwear demo --joints [67] (--speeds|--arm|--payload)"),
-    ("demos", r"^jointwear demo --joints"),
+    ("arms", r"^jointwear demo --joints \d+ (--arm panda|--payload)"),
+    ("demos", r"^jointwear demo --joints \d+ (--sweep|--arm none|--wear)"),
     ("bags", r"^jointwear (demo|history|trend|bag|replay|fleet)\b|from-production"),
     ("offline", r""),
 )

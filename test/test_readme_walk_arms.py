@@ -1,4 +1,4 @@
-"""README.md's commands of the walk's chain "arms" run in order: the arms' demos (the UR5's and the Panda's, a payload) (readme_walk.py)."""
+"""README.md's commands of the walk's chain "arms" run in order: the Panda's demo and the UR5's with a payload (readme_walk.py)."""
 
 from __future__ import annotations
 

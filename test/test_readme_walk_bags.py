@@ -1,4 +1,4 @@
-"""README.md's commands of the walk's chain "bags" run in order: the one-joint demos, then every command that reads their bags or the history made from them (readme_walk.py)."""
+"""README.md's commands of the walk's chain "bags" run in order: the six-joint and the one-joint demos, then every command that reads their bags or the history made from them (readme_walk.py)."""
 
 from __future__ import annotations
 
