@@ -30,11 +30,13 @@ all: env
 
 env: $(VENV)/.stamp-pkg
 
+# --no-compile: pip byte-compiled every installed file (scipy's and matplotlib's tests, every ROS package): 104 s
+# against 50 s on a 2-core EPYC; the modules a run imports are compiled on first import instead
 $(VENV)/.stamp-deps: requirements.txt tools/fix_ros_cmake_paths.py
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	@echo "installing ROS 2 Jazzy wheels and Python dependencies into $(VENV) (first run: ~1 min)"
 	$(PY) -m pip install --quiet --upgrade pip setuptools wheel 2>&1 | { grep -v "is ignored: it is neither" || true; }
-	$(PY) -m pip install --quiet -r requirements.txt 2>&1 | { grep -v "is ignored: it is neither" || true; }
+	$(PY) -m pip install --quiet --no-compile -r requirements.txt 2>&1 | { grep -v "is ignored: it is neither" || true; }
 	$(PY) tools/fix_ros_cmake_paths.py
 	@touch $@
 
@@ -61,8 +63,9 @@ demo: env
 
 # Every test, in two tiers (what CI runs): the tests without a ROS graph on both cores (pytest-xdist,
 # each test file in one worker), then the process and graph tests (marker ros) on two workers, each test
-# file in one and each worker on every second ROS domain of the run's block (12.6 min in all on a fresh
-# clone; ROS_WORKERS=1: one at a time, about 8 min more; docs/testing.md). Both tiers always run; the
+# file in one and each worker on every second ROS domain of the run's block (on a fresh clone 12.6 min in all
+# at best on the machine of session 39, about 20 min on session 40's slower 2-core EPYC, where both tiers are
+# CPU bound and a third ROS worker is no faster; ROS_WORKERS=1: one at a time; docs/testing.md). Both tiers always run; the
 # target fails if either failed. Bytecode is kept (see test-fast).
 ROS_WORKERS ?= 2
 ROS_XDIST = $(if $(filter-out 1,$(ROS_WORKERS)),-n $(ROS_WORKERS) --dist loadfile --no-loadscope-reorder,-p no:xdist)
