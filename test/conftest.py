@@ -33,11 +33,15 @@ from typing import Any
 import pytest
 
 from jointwear_ros.nodes.cell import Child, die_with_parent, start_child
+from jointwear_ros.nodes.runtime import use_prompt_acks
 
 # Before anything imports rclpy: DDS discovery on loopback only (each module then gets a domain of
 # the run's own range, below).
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("MPLBACKEND", "Agg")
+# and the suite's Fast DDS profile, as every node process has it: the tests' own reliable publishers
+# heartbeat every 50 ms, so a wait for acknowledgements returns once the subscriber has the data
+use_prompt_acks()
 
 
 # --------------------------------------------------------------------------- markers

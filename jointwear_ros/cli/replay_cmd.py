@@ -287,11 +287,12 @@ def _publish(args: argparse.Namespace) -> int:
 
         RCLError = rclpy_implementation.RCLError
 
-        from ..nodes.runtime import message_class
+        from ..nodes.runtime import message_class, use_prompt_acks
     except ImportError as exc:
         raise InputDataError(f"--publish needs rclpy (the ROS 2 wheels): {exc}") from None
     skip = {"/clock", "/rosout", "/parameter_events"}
     wanted = None if args.topics is None else {t.strip() for t in args.topics.split(",") if t.strip()}
+    use_prompt_acks()  # the end's wait for acknowledgements returns when the subscribers have it, not at 3 s
     rclpy.init()
     node = rclpy.create_node("jointwear_replay")
     played = 0
