@@ -112,3 +112,42 @@ def test_node_diagnostics_keeps_its_one_status_interface(graph):
     (s,) = got[-1].status
     assert (s.name, s.hardware_id, s.level, s.message) == ("kit: joint_2", "joint_2", b"\x02", "broken")
     assert d.level == 2 and d.status.name == "kit: joint_2" and d.updater.published == 1
+
+
+def test_a_node_on_sim_time_publishes_its_status_again_as_its_first_clock_arrives(ros_context_per_test):
+    """A cell starts a cycle once each sim-time node's status is stamped on the sim clock: the node publishes
+    again as the first /clock arrives, not a period (here 100 s) later."""
+    from rclpy.parameter import Parameter
+    from rosgraph_msgs.msg import Clock as ClockMsg
+
+    ctx = ros_context_per_test
+    ex = SingleThreadedExecutor(context=ctx)
+    node = rclpy.create_node("jw_diag_sim", context=ctx,
+                             parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)])
+    probe = rclpy.create_node("jw_diag_clock", context=ctx)
+    ex.add_node(node)
+    ex.add_node(probe)
+    got: list[DiagnosticArray] = []
+    probe.create_subscription(DiagnosticArray, "/jw_kit/diagnostics", got.append, 100)
+    clock = probe.create_publisher(ClockMsg, "/clock", 10)
+    try:
+        up = Updater(node, "kit", period=100.0, topic="/jw_kit/diagnostics")
+        up.add(HeldStatus("robot", message="idle"))
+        assert spin_until(ex, lambda: up.pub.get_subscription_count() > 0 and clock.get_subscription_count() > 0)
+        up.update()
+        assert spin_until(ex, lambda: len(got) == 1)
+        assert got[0].header.stamp.sec == 0  # no /clock yet
+        msg = ClockMsg()
+        msg.clock.sec = 1_800_000_000
+        clock.publish(msg)
+        assert spin_until(ex, lambda: len(got) == 2), "no update on the first /clock"
+        assert got[1].header.stamp.sec == 1_800_000_000
+        msg.clock.sec += 5  # later jumps (a replay) are no first clock
+        clock.publish(msg)
+        spin_until(ex, lambda: node.get_clock().now().nanoseconds >= msg.clock.sec * 10**9, timeout=5.0)
+        ex.spin_once(timeout_sec=0.2)
+        assert len(got) == 2 and up.published == 2
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        probe.destroy_node()

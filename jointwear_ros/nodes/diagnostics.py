@@ -47,7 +47,8 @@ import threading
 from collections.abc import Callable, Iterable, Sequence
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock, ClockType, JumpThreshold
+from rclpy.duration import Duration
 from rclpy.node import Node
 
 from ..contract import DiagnosticLevel
@@ -209,6 +210,17 @@ class Updater:
         self._lock = threading.Lock()
         self.timer = (node.create_timer(self.period, self.update, clock=Clock(clock_type=ClockType.STEADY_TIME))
                       if self.period > 0 else None)
+        # a node on sim time stamps its statuses 0 until its first /clock: it publishes again as that arrives
+        # (the clock jumps from 0), not up to a period later; a cell waits for each sim-time node's stamped
+        # status before it starts a cycle
+        self._clock_heard = False
+        self._jump_handle = node.get_clock().create_jump_callback(
+            JumpThreshold(min_forward=Duration(seconds=1.0), min_backward=None), post_callback=self._on_first_clock)
+
+    def _on_first_clock(self, jump: object) -> None:
+        if not self._clock_heard:
+            self._clock_heard = True
+            self.update()
 
     def add(self, task: DiagnosticTask | str, fn: Callable[[Status], bool | None] | None = None,
             hardware_id: str | None = None) -> DiagnosticTask:
