@@ -132,7 +132,6 @@ WALK = [(i, line, cmd, next((w for k, w in NOT_HERE if k in cmd), None))
 RUNS = [step for step in WALK if step[3] is None]
 
 
-
 #: The walk's chains: a README command belongs to the first chain whose pattern it matches (``re.search``).
 #: The Panda's and the payload demos, the other multi-joint demos (one joint after another, the
 #: independent-joint robot), every other demo with every command that reads the demo bags or the history
@@ -197,11 +196,23 @@ class ReadmeWalk:
 
 
 
-def walk_fixture(chain: str):
-    """A module fixture: the chain's scratch directory, to which each command's test adds what it makes."""
+def chain_tests(chain: str):
+    """The chain's module fixture and its test, for ``readme_walk, test_the_readme_commands_run_in_order =
+    chain_tests(name)`` in the chain's own file (``--dist loadfile`` gives each file, so each chain, a worker of
+    its own): the fixture is the chain's scratch directory, to which each command's test adds what it makes;
+    the test runs README command ``index`` (after the chain's earlier ones) and expects exit 0 (marked ``slow``
+    and ``ros``: the walk runs in ``make test``, with the process and graph tests)."""
 
     @pytest.fixture(scope="module")
     def readme_walk(tmp_path_factory) -> ReadmeWalk:
         return ReadmeWalk(tmp_path_factory.mktemp(f"readme-{chain}"), chain)
 
-    return readme_walk
+    @pytest.mark.slow
+    @pytest.mark.ros
+    @pytest.mark.parametrize(("index", "line", "cmd"), **chain_params(chain))
+    def test_the_readme_commands_run_in_order(readme_walk, index, line, cmd):
+        """Each exits 0, the placeholders replaced by what the chain's earlier commands made."""
+        failed = readme_walk.run(index)
+        assert failed is None, failed
+
+    return readme_walk, test_the_readme_commands_run_in_order

@@ -59,6 +59,6 @@ def test_every_readme_command_runs_in_one_chain_and_each_chain_has_its_test_file
     assert seen == set(chains), (seen, chains)  # no chain is empty
     for name in chains:
         text = (ROOT / "test" / f"test_readme_walk_{name}.py").read_text(encoding="utf-8")
-        assert re.search(rf"walk_fixture\(\"{name}\"\)", text) and f'chain_params("{name}")' in text, name
+        assert f'chain_tests("{name}")' in text, name
     # the demos that make the bags run in the chain of the commands that read them
     assert all(chain_of(cmd) == "bags" for _, _, cmd, _ in RUNS if re.search(r"\bBAGS?\b|history\.db|URL", cmd))
