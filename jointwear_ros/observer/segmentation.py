@@ -7,9 +7,12 @@ effort N·m) and the stamps [t_start, t_end) of one speed of a test cycle:
    ``|position - centre| <= half_width * (1 - edge_trim)``;
 2. direction d = +1 (forward), -1 (reverse): window samples with ``d * v > 0``,
    cut into passes (runs in stamp order without a gap over ``pass_gap``);
-   passes whose median ``|v_motor|`` is within ``tol`` of ``v_cmd`` are the
-   sweeps of this speed (an approach move crossing the window at another
-   speed is left out), ``tol = max(speed_tolerance * v_cmd, speed_tolerance_min)``;
+   passes whose median ``|v_motor|`` is within ``tol`` of ``v_cmd`` and at
+   least ``min_constant_fraction`` of whose samples are too are the sweeps of
+   this speed (an approach move crossing the window at another speed, or
+   accelerating through this one, is left out; when no pass is constant, the
+   passes at this speed on median are checked below and fail "speed not
+   constant"), ``tol = max(speed_tolerance * v_cmd, speed_tolerance_min)``;
 3. at speed: samples of those passes with ``|v_motor - d * v_cmd| <= tol``;
 4. checks, each failing with a reason: a pass at this speed ("speed not
    reached"); at least ``min_samples`` at speed ("too few samples"); at least
@@ -162,17 +165,24 @@ def measure_segment(
         breaks = np.flatnonzero(np.diff(stamps[mov]) > cfg.pass_gap) + 1
         bounds = np.concatenate(([0], breaks, [mov.size]))
         keep = np.zeros(mov.size, dtype=bool)
+        near = np.zeros(mov.size, dtype=bool)  # passes at this speed on median, not constant
         others: list[tuple[float, int]] = []
         for a, b in itertools.pairwise(bounds.tolist()):
             med = float(np.median(vm[a:b]))
             if abs(med - v_cmd) <= tol:
-                keep[a:b] = True
+                at_speed = np.abs(vm[a:b] - v_cmd) <= tol
+                if np.count_nonzero(at_speed) >= cfg.min_constant_fraction * (b - a):
+                    keep[a:b] = True
+                else:
+                    near[a:b] = True
             else:
                 others.append((med, int(b - a)))
-        if not keep.any():
+        if not keep.any() and not near.any():
             seen = ", ".join(f"{m:.3g} rad/s ({n} samples)" for m, n in others[:4])
             return reject(f"speed not reached in {name} window: no pass at {v_cmd:g} ± {tol:.3g} rad/s; "
                           f"passes at median {seen}")
+        if not keep.any():  # the sweep crossed the window at this speed, not constantly: the checks below say so
+            keep = near
         cand = mov[keep]
         n_moving = int(cand.size)
         idx = cand[np.abs(v_motor[cand] - d * v_cmd) <= tol]
