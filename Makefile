@@ -63,12 +63,13 @@ demo: env
 
 # Every test, in two tiers (what CI runs): the tests without a ROS graph on both cores (pytest-xdist,
 # each test file in one worker), then the process and graph tests (marker ros) one at a time or on N workers, each test
-# file in one and each worker on every second ROS domain of the run's block (ROS_WORKERS=2: 12.6 min in all at
-# best on the machine of session 39; on session 40's slower 2-core EPYC both tiers are CPU bound, two ROS workers
-# took 23 min and three cells lost a sweep's first speed to CPU starvation, so one worker is the default again;
-# docs/testing.md). Both tiers always run; the
-# target fails if either failed. Bytecode is kept (see test-fast).
-ROS_WORKERS ?= 1
+# file in one and each worker on every second ROS domain of the run's block. Two workers by default (12.6 min in
+# all at best on the machine of session 39). On session 40's slower 2-core EPYC cells lost a sweep's first speed
+# under two workers; session 41 found the cause in the observer (an approach pass counted as a sweep) and two
+# workers passed the ros tier there twice, in 621 s and 606 s against 977 s for one (docs/testing.md).
+# ROS_WORKERS=1 runs them one at a time. Both tiers always run; the target fails if either failed. Bytecode is
+# kept (see test-fast).
+ROS_WORKERS ?= 2
 ROS_XDIST = $(if $(filter-out 1,$(ROS_WORKERS)),-n $(ROS_WORKERS) --dist loadfile --no-loadscope-reorder,-p no:xdist)
 test: env
 	bash tools/install_system_deps.sh
