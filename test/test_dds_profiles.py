@@ -176,3 +176,12 @@ def test_the_deep_queue_profile_carries_the_same_writer_profile_and_a_users_prof
     env = {}
     use_prompt_acks(env)  # the suite's own profile is replaced by the deep one where a node needs deep queues
     assert deep_queue_env(env)[FASTDDS_PROFILES_VAR].endswith("config/dds/deep_reader_queues.xml")
+
+
+def test_an_installation_without_the_profile_file_leaves_the_variable_unset(monkeypatch, tmp_path):
+    import jointwear_ros.resources as resources
+
+    monkeypatch.setattr(resources, "config_path", lambda name: tmp_path / "config" / name)
+    env: dict[str, str] = {}
+    use_prompt_acks(env)
+    assert env == {}

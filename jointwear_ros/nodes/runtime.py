@@ -100,8 +100,11 @@ def use_prompt_acks(environ: MutableMapping[str, str] | None = None) -> None:
     from ..resources import config_path
 
     env = os.environ if environ is None else environ
-    if not env.get(FASTDDS_PROFILES_VAR):
-        env[FASTDDS_PROFILES_VAR] = str(config_path(PROMPT_ACKS_PROFILE))
+    profile = config_path(PROMPT_ACKS_PROFILE)
+    # an installation without the file keeps Fast DDS's defaults: a variable naming no file makes every
+    # process print Fast DDS's XML parser errors
+    if not env.get(FASTDDS_PROFILES_VAR) and profile.is_file():
+        env[FASTDDS_PROFILES_VAR] = str(profile)
 
 
 def deep_queue_env(env: Mapping[str, str]) -> dict[str, str]:
