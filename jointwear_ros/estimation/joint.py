@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import logsumexp
+from scipy.special import chdtrc, logsumexp  # chdtrc(dof, x): scipy.stats.chi2.sf(x, dof)
 
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
@@ -520,15 +520,13 @@ class JointEstimator(SetModelBase):
         named too (``temperature_at_prior_edge``):
         the joint may be colder or hotter than the prior allows, and the wear then absorbs the difference.
         """
-        from scipy.stats import chi2 as chi2_dist
-
         f = self.model.evaluate(self.params, speed=rows.speed, load_torque=rows.load, temperature=temps, wear=wear)
         r = (rows.tau_f - np.asarray(f, dtype=float)) / rows.noise_std
         chi2 = float(np.sum(r * r))
         dof = len(rows) - (2 if unknown_temperature else 1)
         out: dict = {"fit_chi2": chi2, "fit_dof": int(dof), "std_scale": 1.0}
         notes = []
-        p = float(chi2_dist.sf(chi2, dof)) if dof >= 1 and math.isfinite(chi2) else math.nan
+        p = float(chdtrc(dof, chi2)) if dof >= 1 and math.isfinite(chi2) else math.nan
         if unknown_temperature and p < EDGE_P:
             t_lo, t_hi = self.prior.support(1.0 - 1e-9)
             t = float(temps[0])

@@ -224,7 +224,8 @@ class WearEstimatorNode(Node):
         self.health.update()
         # the estimates' numerical modules load beside the executor, not in it: a cell waits for this node's
         # subscriptions and its first status stamped on sim time before it starts a cycle, and for its estimate
-        # after DONE; loaded in a callback (1.4 s of CPU on a 2-core EPYC) they held both up
+        # after DONE; loaded in a callback (1.4 s of CPU on a 2-core EPYC with scipy.stats, which no estimate loads
+        # now) they held both up
         threading.Thread(target=_warm_up, name="wear_estimator warm-up", daemon=True).start()
 
     @staticmethod
@@ -354,12 +355,10 @@ class WearEstimatorNode(Node):
 
 
 def _warm_up() -> None:
-    """Load what an estimate imports on use (scipy.stats, scipy.optimize), once (a thread: an estimate that
-    needs them first waits on the import lock)."""
-    import importlib
-
-    for module in ("scipy.stats", "scipy.optimize"):
-        importlib.import_module(module)
+    """Load what an estimate imports on use (scipy.optimize, the joint estimator's and the production monitor's),
+    once (a thread: an estimate that needs it first waits on the import lock). The temperature priors need no
+    scipy.stats (:mod:`jointwear_ros.estimation.priors`)."""
+    import scipy.optimize  # noqa: F401
 
 
 def main(args: list[str] | None = None) -> int:
