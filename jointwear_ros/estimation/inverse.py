@@ -93,7 +93,10 @@ class WearInverse:
             cuts.append(self._turning_point(float(w[i]), float(w[i + 1])))
         cuts.append(self.hi)
         self.cuts = np.asarray(cuts)
-        self._build_table(n_table)
+        # the z table is built on first use: a cycle with measured temperatures solves each observation
+        # exactly (:meth:`exact`) and never looks it up (most of an inverse's construction)
+        self.n_table = int(n_table)
+        self._table: tuple[float, float, int, Array, Array, Array] | None = None
 
     # -- the wear term -------------------------------------------------------
     def g(self, w: npt.ArrayLike) -> Array:
@@ -162,7 +165,17 @@ class WearInverse:
         return np.asarray(np.where(tied, c, np.inf).min(axis=1), dtype=float)
 
     # -- tabulated solution --------------------------------------------------
-    def _build_table(self, n_table: int) -> None:
+    @property
+    def z_nodes(self) -> Array:
+        """The z table's nodes (built on first use)."""
+        return self._built()[5]
+
+    def _built(self) -> tuple[float, float, int, Array, Array, Array]:
+        if self._table is None:
+            self._table = self._build_table(self.n_table)
+        return self._table
+
+    def _build_table(self, n_table: int) -> tuple[float, float, int, Array, Array, Array]:
         gmin, gmax = float(self.g_dense.min()), float(self.g_dense.max())
         span = max(gmax - gmin, 1e-12)
         dz = span / n_table
@@ -170,23 +183,19 @@ class WearInverse:
         k1 = math.ceil(gmax / dz) + 1
         nodes = np.arange(k0, k1 + 1) * dz
         eps = 1e-3 * dz
-        self._z0 = float(nodes[0])
-        self._inv_dz = 1.0 / dz
-        self._ncell = nodes.size - 1
         left = self.exact(nodes[:-1] + eps)  # right limit at the cell's start
         right = self.exact(nodes[1:] - eps)  # left limit at the cell's end
-        self._left = left
-        self._delta = right - left
-        self.z_nodes = nodes
+        return float(nodes[0]), 1.0 / dz, nodes.size - 1, left, right - left, nodes
 
     def __call__(self, z: npt.ArrayLike) -> Array:
         """Tabulated G_v(z): one lookup and a linear blend per value (any shape)."""
+        z0, inv_dz, ncell, left, delta, _ = self._built()
         z = np.asarray(z, dtype=float)
-        t = np.asarray((z - self._z0) * self._inv_dz, dtype=float).reshape(z.shape)  # an array also for a scalar z
-        np.clip(t, 0.0, self._ncell - 1e-9, out=t)
+        t = np.asarray((z - z0) * inv_dz, dtype=float).reshape(z.shape)  # an array also for a scalar z
+        np.clip(t, 0.0, ncell - 1e-9, out=t)
         k = t.astype(np.intp)
         t -= k
-        return self._left[k] + t * self._delta[k]
+        return left[k] + t * delta[k]
 
     def slope(self, w: npt.ArrayLike) -> Array:
         """|d g_v / d w| at w (for the noise part of an estimate's uncertainty)."""
