@@ -382,7 +382,8 @@ def context_ok(executor: SingleThreadedExecutor | MultiThreadedExecutor) -> bool
     return bool(executor.context.ok())
 
 
-def run_node_refusing(name: str, make: Callable[[], Node], args: Sequence[str] | None = None) -> int:
+def run_node_refusing(name: str, make: Callable[[], Node], args: Sequence[str] | None = None,
+                      events: bool = False) -> int:
     """:func:`run_node` for a node whose constructor checks its start-up settings: a
     :class:`~jointwear_ros.errors.ParameterError` there (an unknown arm, more joints than the arm has, a value
     out of range) is one line on stderr (``<name>: <reason>``) and exit status 2, not a traceback."""
@@ -397,7 +398,7 @@ def run_node_refusing(name: str, make: Callable[[], Node], args: Sequence[str] |
             refused.append(str(exc))
             raise ExternalShutdownException from None
 
-    rc = run_node(factory, args)
+    rc = run_node(factory, args, events=events)
     if refused:
         print(f"{name}: {refused[0].removeprefix(name + ': ')}", file=sys.stderr)
         return 2
