@@ -339,6 +339,12 @@ class Operator:
         self.status: CycleStatus | None = None
         #: every cycle status heard, in order (a robot cycle's progress, joint by joint)
         self.statuses: list[CycleStatus] = []
+        # the same by cycle id, the cycles over and each cycle's joints started, kept as they come: the waits
+        # ask these at every spin (20 Hz), and scanning every status heard (thousands a cycle) each time took a
+        # third of a six-joint demo's operator CPU
+        self._cycle_statuses: dict[int, list[CycleStatus]] = {}
+        self._cycles_over: set[int] = set()
+        self._started: dict[int, list[str]] = {}
         self.node.create_subscription(FrictionObservation, "/jointwear/friction_observations",
                                       self.observations.append, qos)
         self.node.create_subscription(WearEstimate, "/jointwear/wear_estimate", self._on_estimate, qos)
@@ -371,17 +377,23 @@ class Operator:
         st = status_from_msg(msg)
         self.status = st
         self.statuses.append(st)
+        self._cycle_statuses.setdefault(st.cycle_id, []).append(st)
+        if st.robot_cycle_over:
+            self._cycles_over.add(st.cycle_id)
+        started = self._started.setdefault(st.cycle_id, [])
+        if st.state != CycleState.IDLE and st.joint_name not in started:
+            started.append(st.joint_name)
 
     def robot_cycle_over(self, cycle_id: int) -> bool:
         """True once the robot cycle ``cycle_id`` has ended: its last joint DONE, or any joint ABORTED or
         FAILED (the cycle stops there), per the status contract of ``docs/robot.md``."""
-        return any(st.robot_cycle_over for st in self.statuses if st.cycle_id == cycle_id)
+        return cycle_id in self._cycles_over
 
     def observer_done(self, cycle_id: int, joint: str) -> bool:
         """The observer has finished every speed ``joint`` ran in cycle ``cycle_id`` (an observation or a
         rejected window each, per its ``friction_observer: <joint>`` status) and this operator has
         heard each of those observations. A joint whose test ended early counts the speeds it began."""
-        mine = [st for st in self.statuses if st.in_cycle(cycle_id, joint)]
+        mine = [st for st in self._cycle_statuses.get(cycle_id, ()) if st.in_cycle(cycle_id, joint)]
         if not mine:
             return False
         if any(st.state == CycleState.DONE for st in mine):
@@ -406,11 +418,7 @@ class Operator:
 
     def joints_started(self, cycle_id: int) -> list[str]:
         """The joints of cycle ``cycle_id`` that have started (been RUNNING), in order."""
-        out: list[str] = []
-        for st in self.statuses:
-            if st.cycle_id == cycle_id and st.state != CycleState.IDLE and st.joint_name not in out:
-                out.append(st.joint_name)
-        return out
+        return list(self._started.get(cycle_id, ()))
 
     # -- the cycle's results ---------------------------------------------------------------
     def estimates_of(self, cycle_id: int, joint: str) -> list[Any]:
@@ -481,7 +489,7 @@ class Operator:
         report = JointReport(joint, message_fields(est, ESTIMATE_FIELDS) if est is not None else {}, level, dmsg)
         # cell time: from the joint's first status of the cycle to its first final one (the node
         # republishes the final status while idle: later copies are not cell time)
-        js = [st for st in self.statuses if st.in_cycle(cycle_id, joint)]
+        js = [st for st in self._cycle_statuses.get(cycle_id, ()) if st.in_cycle(cycle_id, joint)]
         end = self.joint_end(cycle_id, joint)
         if js:
             last = end if end is not None else js[-1]
@@ -493,12 +501,12 @@ class Operator:
 
     def joint_end(self, cycle_id: int, joint: str) -> CycleStatus | None:
         """The first final (DONE, ABORTED, FAILED) status of ``joint`` in cycle ``cycle_id``, if any."""
-        return next((st for st in self.statuses if st.in_cycle(cycle_id, joint) and st.ended), None)
+        return next((st for st in self._cycle_statuses.get(cycle_id, ()) if st.in_cycle(cycle_id, joint) and st.ended), None)
 
     def cell_seconds(self, cycle_id: int) -> float:
         """Cell time of the robot cycle (sim s): from its first status to its joints' last first-final one; NaN
         while it has not ended."""
-        mine = [st for st in self.statuses if st.cycle_id == cycle_id]
+        mine = self._cycle_statuses.get(cycle_id, [])
         ends = [e for e in (self.joint_end(cycle_id, j) for j in self.joints) if e is not None]
         if mine and ends and self.robot_cycle_over(cycle_id):
             return max(e.stamp for e in ends) - mine[0].stamp
