@@ -31,6 +31,9 @@ At 47 rad/s (T = 40 degC, tau_m = 0.1) wear 35 adds 0.01794 to the friction
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -38,7 +41,7 @@ import numpy.typing as npt
 from ..errors import ModelError
 from ..model import Model, Parameters
 
-__all__ = ["TemperatureTable", "WearInverse", "base_friction"]
+__all__ = ["TemperatureTable", "WearInverse", "base_friction", "shared_inverse"]
 
 Array = npt.NDArray[np.float64]
 
@@ -70,7 +73,7 @@ class WearInverse:
     def __init__(
         self,
         model: Model,
-        params: Parameters,
+        params: Parameters | Mapping[str, float],
         speed: float,
         wear_range: tuple[float, float] = (0.0, 100.0),
         n_dense: int = 4001,
@@ -200,6 +203,41 @@ class WearInverse:
     def slope(self, w: npt.ArrayLike) -> Array:
         """|d g_v / d w| at w (for the noise part of an estimate's uncertainty)."""
         return np.abs(np.interp(np.asarray(w, dtype=float), self.w_dense, self.dg_dense))
+
+
+#: Inverses kept by :func:`shared_inverse` (about 0.5 MB each with their tables), least recently used dropped.
+_SHARED_MAX = 48
+_SHARED: OrderedDict[tuple[Any, ...], WearInverse] = OrderedDict()
+#: Wear levels (fractions of the search interval) at which a model's wear term is part of the cache key.
+_PROBES = np.array([0.0, 0.071, 0.35, 0.719, 1.0])
+
+
+def shared_inverse(model: Model, params: Parameters, speed: float, wear_range: tuple[float, float] = (0.0, 100.0),
+                   n_table: int = 16384) -> WearInverse:
+    """:class:`WearInverse` of ``model`` and ``params`` at ``speed``, shared by every estimator of this process.
+
+    A monitor builds an estimator for each cycle (its own random seed) and a replay, a fleet re-analysis or a
+    study estimates many cycles at the same speeds with the same set: each built the same inverses again (most
+    of an estimate). The key is the model's spec, the parameter values, the speed and the interval, and the
+    wear term's values at five wear levels, so that a term re-registered under the same name with another
+    shape is a new key, not a stale hit.
+    """
+    lo, hi = map(float, wear_range)
+    probe = lo + (hi - lo) * _PROBES
+    g = np.asarray(model.evaluate(params, speed=float(speed), load_torque=0.0, temperature=40.0, wear=probe),
+                   dtype=float)
+    values = params.valuesdict() if hasattr(params, "valuesdict") else dict(params)
+    key = (model.spec, tuple(values.items()), float(speed), lo, hi, int(n_table), g.tobytes())
+    inv = _SHARED.get(key)
+    if inv is None:
+        # a copy of the values: the inverse builds its table later, and the caller's set may change meanwhile
+        inv = WearInverse(model, dict(values), float(speed), (lo, hi), n_table=n_table)
+        _SHARED[key] = inv
+        while len(_SHARED) > _SHARED_MAX:
+            _SHARED.popitem(last=False)
+    else:
+        _SHARED.move_to_end(key)
+    return inv
 
 
 class TemperatureTable:

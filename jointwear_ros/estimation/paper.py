@@ -32,7 +32,7 @@ from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
 from ..types import ObservationTable, WearResult
 from ._common import WEAR_RANGE, Capabilities, Rows, SetModelBase, combine_rows, make_rng, prepare_rows, with_set_info
-from .inverse import TemperatureTable, WearInverse, base_friction
+from .inverse import TemperatureTable, WearInverse, base_friction, shared_inverse
 from .priors import parse_temperature_prior
 
 __all__ = ["PAPER_N_SAMPLES", "PAPER_TEMPERATURE_RANGE", "PaperEstimator", "PaperGridEstimator"]
@@ -213,7 +213,7 @@ class PaperEstimator(_PaperBase):
         key = float(speed)
         inv = self._inverse.get(key)
         if inv is None:
-            inv = WearInverse(self.model, self.params, key, self.wear_range, n_table=self.n_table)
+            inv = shared_inverse(self.model, self.params, key, self.wear_range, n_table=self.n_table)
             self._inverse[key] = inv
         return inv
 
