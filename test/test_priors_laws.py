@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy import stats
 from scipy.special import chdtrc
 
-from jointwear_ros.estimation.priors import NormalLaw, _gauss_legendre_01, UniformLaw, normal_prior, uniform_prior
+from jointwear_ros.estimation.priors import NormalLaw, UniformLaw, _gauss_legendre_01, normal_prior, uniform_prior
 
 SETTINGS = settings(max_examples=100, deadline=None, derandomize=True)
 locs = st.floats(-273.0, 1e4, allow_nan=False)

@@ -184,7 +184,7 @@ class WearInverse:
         dz = span / n_table
         k0 = math.floor(gmin / dz) - 1  # z = 0 (g(0)) falls on a node: a branch switch there stays sharp
         k1 = math.ceil(gmax / dz) + 1
-        nodes = np.arange(k0, k1 + 1) * dz
+        nodes = np.asarray(np.arange(k0, k1 + 1) * dz, dtype=float)
         eps = 1e-3 * dz
         left = self.exact(nodes[:-1] + eps)  # right limit at the cell's start
         right = self.exact(nodes[1:] - eps)  # left limit at the cell's end
@@ -212,7 +212,7 @@ _SHARED: OrderedDict[tuple[Any, ...], WearInverse] = OrderedDict()
 _PROBES = np.array([0.0, 0.071, 0.35, 0.719, 1.0])
 
 
-def shared_inverse(model: Model, params: Parameters, speed: float, wear_range: tuple[float, float] = (0.0, 100.0),
+def shared_inverse(model: Model, params: Parameters | Mapping[str, float], speed: float, wear_range: tuple[float, float] = (0.0, 100.0),
                    n_table: int = 16384) -> WearInverse:
     """:class:`WearInverse` of ``model`` and ``params`` at ``speed``, shared by every estimator of this process.
 
@@ -226,7 +226,8 @@ def shared_inverse(model: Model, params: Parameters, speed: float, wear_range: t
     probe = lo + (hi - lo) * _PROBES
     g = np.asarray(model.evaluate(params, speed=float(speed), load_torque=0.0, temperature=40.0, wear=probe),
                    dtype=float)
-    values = params.valuesdict() if hasattr(params, "valuesdict") else dict(params)
+    values: dict[str, float] = (params.valuesdict() if isinstance(params, Parameters)
+                                else {str(k): float(v) for k, v in params.items()})
     key = (model.spec, tuple(values.items()), float(speed), lo, hi, int(n_table), g.tobytes())
     inv = _SHARED.get(key)
     if inv is None:

@@ -210,7 +210,7 @@ def load_parameter_set_info(name: str) -> ParameterSet:
     """Read a named parameter set (or a YAML path) with its description and valid ranges."""
     path = _find(name)
     try:
-        doc = yaml.load(path.read_text(encoding="utf-8"), Loader=_YAML_LOADER)  # noqa: S506 (a safe loader)
+        doc = yaml.load(path.read_text(encoding="utf-8"), Loader=_YAML_LOADER)
     except UnicodeDecodeError as exc:
         raise ParameterSetError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); "
                                 "give a parameter set YAML file") from None
