@@ -39,7 +39,8 @@ def test_the_wear_estimator_node_imports_without_scipy_stats_or_optimize():
     assert proc.stdout.split() == ["[]"], proc.stdout
 
 
-def test_the_joint_estimator_loads_scipy_stats_on_use_with_the_same_default_prior():
+def test_the_default_prior_loads_no_scipy_stats_and_is_the_same():
+    # the priors' own uniform and normal laws (priors.py): an estimate never pays scipy.stats' import
     proc = _fresh("""
         import json, sys
         from jointwear_ros.estimation.crb import DEFAULT_CRB_PRIOR
@@ -49,7 +50,7 @@ def test_the_joint_estimator_loads_scipy_stats_on_use_with_the_same_default_prio
         print(json.dumps([before, "scipy.stats" in sys.modules, prior.label, list(prior.support(1.0))]))
     """)
     assert proc.returncode == 0, proc.stderr
-    assert json.loads(proc.stdout) == [False, True, "uniform:25:55", [25.0, 55.0]]
+    assert json.loads(proc.stdout) == [False, False, "uniform:25:55", [25.0, 55.0]]
 
 
 def test_the_demo_checks_its_arguments_without_loading_the_estimators_or_the_model(capsys):
