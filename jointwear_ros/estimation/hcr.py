@@ -67,7 +67,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import logsumexp
 
 from ..errors import InputDataError
 from ..model import Model, Parameters
@@ -113,13 +112,24 @@ class HCRResult:
 
 
 def _log_mixture(y: Array, f: Array, logw: Array, sig: float) -> Array:
-    """log sum_j w_j N(y; f_j, sig^2) for every y (chunked over y)."""
+    """log sum_j w_j N(y; f_j, sig^2) for every y (chunked over y).
+
+    The log-sum-exp is written out (row maximum, exp, sum, log) rather than
+    :func:`scipy.special.logsumexp`: the terms are always finite here (the log
+    weights of the kept nodes), and scipy's general handling of infinities,
+    signs and array namespaces cost more than the sum itself on these
+    (y x nodes) blocks, called thousands of times by a study.
+    """
     out = np.empty(y.size)
     step = max(1, (1 << 20) // max(1, f.size))
     c = -math.log(sig * math.sqrt(2.0 * math.pi))
     for s in range(0, y.size, step):
         r = (y[s:s + step, None] - f[None, :]) / sig
-        out[s:s + step] = logsumexp(logw[None, :] - 0.5 * r * r, axis=1) + c
+        a = logw[None, :] - 0.5 * r * r
+        top = a.max(axis=1)
+        np.subtract(a, top[:, None], out=a)
+        np.exp(a, out=a)
+        out[s:s + step] = np.log(a.sum(axis=1)) + top + c
     return out
 
 
@@ -134,7 +144,8 @@ def _chi2(b: Array, logw: Array, shift: float, sig: float) -> float:
     li = 2.0 * _log_mixture(y, f1, logw, sig) - _log_mixture(y, b, logw, sig)
     li[0] -= math.log(2.0)  # trapezoid end weights
     li[-1] -= math.log(2.0)
-    log_int = float(logsumexp(li)) + math.log(dy)
+    top = float(li.max())
+    log_int = math.log(float(np.exp(li - top).sum())) + top + math.log(dy)
     return math.expm1(log_int) if log_int < 700.0 else math.inf
 
 
@@ -157,6 +168,25 @@ def _twins_and_near_twins(w: Array, delta: Array, w0: float, exclude: float) -> 
     return twin, near
 
 
+def _check_additive(model: Model, params: Parameters, v: Array, wear_range: tuple[float, float]) -> None:
+    """Raise :class:`~jointwear_ros.errors.ModelError` unless the model is additive in wear at every speed.
+
+    The test of :class:`~jointwear_ros.estimation.inverse.WearInverse` (the wear effect the same at two
+    (load, T) points), made for all speeds in two model calls; building a small ``WearInverse`` per speed
+    only for its check cost more than the rest of the bound. A speed that fails is handed to ``WearInverse``,
+    which raises its own error.
+    """
+    w = np.array([0.0, 20.0, 35.0, 70.0])
+    d1 = np.asarray(model.evaluate(params, speed=v[:, None], load_torque=0.0, temperature=30.0, wear=w[None, :]),
+                    dtype=float)
+    d2 = np.asarray(model.evaluate(params, speed=v[:, None], load_torque=0.5, temperature=50.0, wear=w[None, :]),
+                    dtype=float)
+    d1, d2 = np.broadcast_to(d1, (v.size, w.size)), np.broadcast_to(d2, (v.size, w.size))
+    ok = np.isclose(d1 - d1[:, :1], d2 - d2[:, :1], rtol=1e-9, atol=1e-12).all(axis=1)
+    for speed in v[~ok]:
+        WearInverse(model, params, float(speed), wear_range=wear_range, n_dense=64, n_table=16)
+
+
 def hcr_per_speed(
     model: Model | None,
     params: Parameters | Mapping[str, float] | str | None,
@@ -169,8 +199,15 @@ def hcr_per_speed(
     wear_range: tuple[float, float] = WEAR_RANGE,
     n_test: int = 48,
     n_dense: int = 4001,
+    crb: npt.ArrayLike | None = None,
 ) -> HCRResult:
-    """The HCR bound on var(w_hat) from ONE observation at each speed, T ~ prior (see the module docstring)."""
+    """The HCR bound on var(w_hat) from ONE observation at each speed, T ~ prior (see the module docstring).
+
+    ``crb``: the Cramér-Rao bound per speed when the caller has it already
+    (:func:`~jointwear_ros.estimation.crb.crb_per_speed` with the same model,
+    speeds, wear, load, noise and prior, as :func:`~jointwear_ros.estimation.study.run_study`
+    has); computed here when None.
+    """
     m, p = resolve_model(model, params)
     v, w0, tm, sig, pr, _ = check_crb_inputs(speeds, wear, load, noise_std, prior, "quadrature")
     lo, hi = (float(x) for x in wear_range)
@@ -178,7 +215,12 @@ def hcr_per_speed(
         raise InputDataError(f"wear = {wear!r} must lie in the wear range [{lo:g}, {hi:g}]")
     if int(n_test) < 2:
         raise InputDataError(f"n_test = {n_test!r}: need at least 2 test points")
-    crb = np.asarray(crb_per_speed(m, p, v, w0, load=tm, noise_std=sig, prior=pr), dtype=float)
+    if crb is None:
+        crb = crb_per_speed(m, p, v, w0, load=tm, noise_std=sig, prior=pr)
+    crb = np.array(crb, dtype=float).reshape(-1)
+    if crb.size != v.size:
+        raise InputDataError(f"crb has {crb.size} values for {v.size} speeds")
+    _check_additive(m, p, v, (lo, hi))
     frac = np.geomspace(1e-3, 1.0, max(1, int(n_test) // 2))
     offsets = list(-(w0 - lo) * frac) if w0 > lo else []
     offsets += list((hi - w0) * frac) if w0 < hi else []
@@ -186,7 +228,6 @@ def hcr_per_speed(
     exclude = 2.0 * (hi - lo) / (int(n_dense) - 1)
     bound, arg, twins = crb.copy(), np.zeros(v.size), np.full(v.size, math.nan)
     for k, speed in enumerate(v):
-        WearInverse(m, p, float(speed), wear_range=(lo, hi), n_dense=64, n_table=16)  # checks: additive in wear
         n = temperature_nodes(m, p, [speed], w0, load=tm, noise_std=sig, prior=pr)
         t, wts = pr.quadrature(n)
         keep = wts > 0
@@ -198,9 +239,13 @@ def hcr_per_speed(
         if not math.isnan(twin):
             bound[k], arg[k], twins[k] = math.inf, twin - w0, twin
             continue
-        for d in [*offsets, *(x - w0 for x in near)]:
-            g1 = float(m.evaluate(p, speed=speed, load_torque=0.0, temperature=40.0, wear=w0 + d))
-            chi2 = _chi2(b, logw, g1 - g0, sig)
+        tests = [*offsets, *(x - w0 for x in near)]
+        # the wear term at every test wear in one model call (the model is elementwise in wear)
+        g1s = np.broadcast_to(np.asarray(m.evaluate(p, speed=speed, load_torque=0.0, temperature=40.0,
+                                                    wear=w0 + np.asarray(tests, dtype=float)), dtype=float),
+                              (len(tests),))
+        for d, g1 in zip(tests, g1s):
+            chi2 = _chi2(b, logw, float(g1) - g0, sig)
             if chi2 > 0 and d * d / chi2 > bound[k]:
                 bound[k], arg[k] = d * d / chi2, d
     return HCRResult(speeds=tuple(float(x) for x in v), wear=w0, bound=bound, test_point=arg, crb=crb,

@@ -320,8 +320,9 @@ def run_study(
             raise InputDataError("the HCR bound is per speed; it is not computed for a joint (cycle) study")
         from .hcr import hcr_per_speed
 
+        # the CRB column is the HCR's d -> 0 limit with the same inputs: hand it over, not computed twice
         h = hcr_per_speed(m, p, setup.speeds, setup.true_wear, load=setup.load, noise_std=setup.noise_std,
-                          prior=prior)
+                          prior=prior, crb=bound if crb else None)
         hcr_arr, twin = h.bound, h.twin_wear
     return StudyResult(
         method=str(getattr(estimator, "name", type(estimator).__name__)),
