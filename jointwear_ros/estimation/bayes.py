@@ -243,12 +243,16 @@ class SpeedPosterior:
         return ll + self.log_base[None, :]
 
     def summarize(self, tau: npt.ArrayLike, temperature: npt.ArrayLike | None = None,
-                  level: float = CREDIBLE_LEVEL) -> PosteriorSummary:
-        """Posterior mean, std and equal-tailed credible interval for each observation."""
+                  level: float = CREDIBLE_LEVEL, *, interval: bool = True) -> PosteriorSummary:
+        """Posterior mean, std and equal-tailed credible interval for each observation.
+
+        ``interval=False`` leaves ``low`` and ``high`` NaN: the posterior CDF and its quantiles are a fair
+        share of the work on a large block, and a point estimate with its std does not need them.
+        """
         tau = np.atleast_1d(np.asarray(tau, dtype=float))
         temp = None if temperature is None else np.broadcast_to(np.asarray(temperature, dtype=float), tau.shape)
         mean, std, mode = np.empty(tau.size), np.empty(tau.size), np.empty(tau.size)
-        low, high = np.empty(tau.size), np.empty(tau.size)
+        low, high = np.full(tau.size, math.nan), np.full(tau.size, math.nan)
         a = 0.5 * (1.0 - level)
         step = max(1, _CHUNK // self.w.size)
         for s in range(0, tau.size, step):
@@ -261,6 +265,8 @@ class SpeedPosterior:
             m = p @ self.w
             mean[sl] = m
             std[sl] = np.sqrt(np.maximum(p @ (self.w * self.w) - m * m, 0.0))
+            if not interval:
+                continue
             cdf = np.cumsum(p, axis=1)
             low[sl] = _quantile_rows(cdf, self.w, a)
             high[sl] = _quantile_rows(cdf, self.w, 1.0 - a)
@@ -416,10 +422,11 @@ class BayesEstimator(SetModelBase):
         """Single-observation estimates of many rows: ``(point estimate, posterior std)``.
 
         ``rng`` is accepted for the common study interface and unused (the
-        estimator is deterministic). See :meth:`summarize_rows` for intervals.
+        estimator is deterministic). See :meth:`summarize_rows` for intervals
+        (not computed here: nothing returned needs them).
         """
         del rng
-        s = self.summarize_rows(speed, load, tau_f, temperature, noise_std=noise_std)
+        s = self.summarize_rows(speed, load, tau_f, temperature, noise_std=noise_std, interval=False)
         return s.point(self.point), s.std
 
     def summarize_rows(
@@ -430,6 +437,7 @@ class BayesEstimator(SetModelBase):
         temperature: npt.ArrayLike | None = None,
         *,
         noise_std: npt.ArrayLike | None = None,
+        interval: bool = True,
     ) -> PosteriorSummary:
         """Posterior mean, std and 95 % interval of many rows at once.
 
@@ -437,7 +445,7 @@ class BayesEstimator(SetModelBase):
         unknown temperature larger than ``tabulate_above`` is solved through
         a table of the summaries over ``n_tau`` values of tau_f (they depend
         on tau_f alone), interpolated linearly; smaller groups are solved
-        directly.
+        directly. ``interval=False`` skips the interval (``low``, ``high`` NaN).
         """
         speed = np.atleast_1d(np.asarray(speed, dtype=float))
         shape = speed.shape
@@ -461,24 +469,25 @@ class BayesEstimator(SetModelBase):
             known = np.isfinite(temp[idx]) if self.use_temperature else np.zeros(idx.size, dtype=bool)
             if known.any():
                 k = idx[known]
-                _store(out, k, post.summarize(tau[k], temp[k]))
+                _store(out, k, post.summarize(tau[k], temp[k], interval=interval))
             u = idx[~known]
             if u.size > self.tabulate_above:
-                _store(out, u, self._tabulated(post, tau[u]))
+                _store(out, u, self._tabulated(post, tau[u], interval))
             elif u.size:
-                _store(out, u, post.summarize(tau[u]))
+                _store(out, u, post.summarize(tau[u], interval=interval))
         return PosteriorSummary(*out)
 
-    def _tabulated(self, post: SpeedPosterior, tau: Array) -> PosteriorSummary:
+    def _tabulated(self, post: SpeedPosterior, tau: Array, interval: bool = True) -> PosteriorSummary:
         lo, hi = post.tau_range()
         n = int(min(self.n_tau, max(256, math.ceil((hi - lo) / (0.1 * post.sigma)) + 1)))
         grid = np.linspace(lo, hi, n)
-        tab = post.summarize(grid)
+        tab = post.summarize(grid, interval=interval)
         fields = ("mean", "std", "low", "high", "mode")
-        res = PosteriorSummary(*(np.interp(tau, grid, getattr(tab, f)) for f in fields))
+        res = PosteriorSummary(*(np.interp(tau, grid, getattr(tab, f)) if interval or f not in ("low", "high")
+                                 else np.full(tau.shape, math.nan) for f in fields))
         out_of = (tau < lo) | (tau > hi)
         if out_of.any():
-            ex = post.summarize(tau[out_of])
+            ex = post.summarize(tau[out_of], interval=interval)
             for f in fields:
                 getattr(res, f)[out_of] = getattr(ex, f)
         return res
