@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
@@ -28,29 +29,19 @@ def _same(a, b) -> None:
                                equal_nan=True)
 
 
+@pytest.mark.parametrize("mine_of, ref_of", [(NormalLaw, stats.norm), (UniformLaw, stats.uniform)],
+                         ids=["normal", "uniform"])
 @SETTINGS
 @given(locs, scales, st.lists(probs, min_size=1, max_size=5), st.lists(points, min_size=1, max_size=5))
-def test_the_normal_law_is_scipys_norm(loc, scale, q, x):
-    mine, ref = NormalLaw(loc, scale), stats.norm(loc=loc, scale=scale)
+def test_the_law_is_scipys(mine_of, ref_of, loc, scale, q, x):
+    mine, ref = mine_of(loc, scale), ref_of(loc=loc, scale=scale)
     _same(mine.ppf(q), ref.ppf(q))
     _same(mine.cdf(x), ref.cdf(x))
     _same(mine.logpdf(x), ref.logpdf(x))
     _same(mine.pdf(x), ref.pdf(x))
     _same([mine.mean(), mine.std()], [ref.mean(), ref.std()])
     _same(mine.ppf(q[0]), ref.ppf(q[0]))  # a scalar in, a scalar out
-    assert np.ndim(mine.ppf(q[0])) == 0
-
-
-@SETTINGS
-@given(locs, scales, st.lists(probs, min_size=1, max_size=5), st.lists(points, min_size=1, max_size=5))
-def test_the_uniform_law_is_scipys_uniform(loc, scale, q, x):
-    mine, ref = UniformLaw(loc, scale), stats.uniform(loc=loc, scale=scale)
-    _same(mine.ppf(q), ref.ppf(q))
-    _same(mine.cdf(x), ref.cdf(x))
-    _same(mine.logpdf(x), ref.logpdf(x))
-    _same(mine.pdf(x), ref.pdf(x))
-    _same([mine.mean(), mine.std()], [ref.mean(), ref.std()])
-    assert np.ndim(mine.cdf(x[0])) == 0
+    assert np.ndim(mine.ppf(q[0])) == 0 and np.ndim(mine.cdf(x[0])) == 0
 
 
 def test_the_priors_use_them_and_their_quadrature_is_unchanged():
