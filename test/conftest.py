@@ -32,7 +32,7 @@ from typing import Any
 
 import pytest
 
-from jointwear_ros.nodes.cell import Child, die_with_parent, start_child
+from jointwear_ros.nodes.cell import Child, die_with_parent, simulated_cycle_params, start_child
 from jointwear_ros.nodes.runtime import use_prompt_acks
 
 # Before anything imports rclpy: DDS discovery on loopback only (each module then gets a domain of
@@ -723,7 +723,9 @@ class NodeProcess(Child):
 
     Its ``config/<name>.yaml`` (unless ``config=False``), then ``params_files``, then ``params`` as ``-p``
     overrides, then ``args``; on the module's domain and loopback unless ``env`` says otherwise; its output
-    in a log file; SIGTERM when the test process dies. :meth:`stop` sends SIGINT (then SIGKILL).
+    in a log file; SIGTERM when the test process dies. :meth:`stop` sends SIGINT (then SIGKILL). A
+    ``test_cycle`` of a simulated joint (``simulator: true``) gets the demos' wall-clock watchdog for a simulated
+    cell (:func:`~jointwear_ros.nodes.cell.simulated_cycle_params`) unless ``params`` set ``state_timeout_wall``.
     """
 
     def __init__(self, name: str, params: Mapping[str, object] | None = None, *, params_files: Sequence[Path] = (),
@@ -731,7 +733,8 @@ class NodeProcess(Child):
                  log: Path | None = None, preexec_fn: Callable[[], None] | None = None):
         from jointwear_ros.nodes.runtime import loopback_env
 
-        child = start_child(name, params or {}, loopback_env() if env is None else env, log=log,
+        params = simulated_cycle_params(params or {}) if name == "test_cycle" else (params or {})
+        child = start_child(name, params, loopback_env() if env is None else env, log=log,
                             params_files=params_files, args=args, config=config, as_module=True,
                             preexec_fn=preexec_fn or die_with_parent)
         super().__init__(child.name, child.proc, child.log, child.fh, child.own_log)

@@ -1,12 +1,13 @@
 """The cell library's operator kit without a graph (issue 29: one kit for the demo and the tests):
-:func:`run_until_accepted` asks for a cycle as an operator would, whoever sends the request."""
+:func:`run_until_accepted` asks for a cycle as an operator would, whoever sends the request; a simulated cell's
+test_cycle gets one wall-clock watchdog floor, in the demos and in the test harness."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from jointwear_ros.contract import RefusalReason
-from jointwear_ros.nodes.cell import run_until_accepted
+from jointwear_ros.nodes.cell import SIM_STATE_TIMEOUT_WALL, run_until_accepted, simulated_cycle_params
 
 
 @dataclass
@@ -56,3 +57,15 @@ def test_any_answer_shape_through_accepted_and_reason():
     answer = run_until_accepted(lambda: next(answers), lambda s: None, 60.0, accepted=lambda a: a[0],
                                 reason=lambda a: a[1])
     assert answer == (True, RefusalReason.NONE)
+
+
+def test_a_simulated_cells_test_cycle_gets_the_watchdog_floor_unless_it_sets_its_own():
+    assert SIM_STATE_TIMEOUT_WALL == 3.0
+    given = {"simulator": True, "use_sim_time": True}
+    assert simulated_cycle_params(given) == {**given, "state_timeout_wall": 3.0}
+    assert given == {"simulator": True, "use_sim_time": True}  # not changed in place
+    own = {"simulator": True, "state_timeout_wall": 1.0}
+    assert simulated_cycle_params(own) == own  # a test of the watchdog itself keeps its value
+    real = {"joints": ["joint_1"], "motion_enabled": True}
+    assert simulated_cycle_params(real) == real  # a real joint keeps the configured watchdog
+    assert simulated_cycle_params({"simulator": False}) == {"simulator": False}

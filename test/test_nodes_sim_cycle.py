@@ -335,8 +335,9 @@ def test_watchdog_stops_the_joint_when_joint_states_stop(ros_context, operator):
 def test_a_simulator_that_died_is_a_watchdog_error_and_then_a_stale_state_refusal(ros_context, operator):
     # on sim time the simulator is also the clock: when it dies, node time stops and its last
     # joint state never ages in node time; the refusal must come from wall time
+    # (the node's own 1 s watchdog, not the harness's floor for a simulated cell: the simulator is killed here)
     sim = NodeProcess("joint_sim", SIM_PARAMS)
-    cyc = NodeProcess("test_cycle", CYCLE_PARAMS)
+    cyc = NodeProcess("test_cycle", {**CYCLE_PARAMS, "state_timeout_wall": 1.0})
     try:
         _ready(operator)
         resp = operator.start(speeds=[10.0])

@@ -37,7 +37,16 @@ from typing import Any
 from ..commission.names import MIN_BASELINE_CYCLES
 from ..contract import CycleState, DiagnosticLevel, level_name, worst_level
 from ..errors import JointwearError
-from ..nodes.cell import CellError, Child, JointReport, Operator, ready_conditions, start_child, stop_children
+from ..nodes.cell import (
+    SIM_STATE_TIMEOUT_WALL,
+    CellError,
+    Child,
+    JointReport,
+    Operator,
+    ready_conditions,
+    start_child,
+    stop_children,
+)
 from ..resources import node_config
 from . import UsageError
 from .common import check_method, check_output_dir, format_table, parse_float, parse_float_list, print_json
@@ -278,13 +287,6 @@ def _config_value(node: str, name: str, default: Any) -> Any:
         return node_config(node).get(name, default)
     except JointwearError:
         return default
-
-
-#: test_cycle's wall-clock watchdog in a simulated cell, at least: the simulator is a process on the same
-#: machine, and a loaded one starved it of CPU for 1.02-1.48 s (two test workers at load 11-22) without it having
-#: died, which failed the cycle at the configured 1 s. 3 s still catches a simulator that died; a real cell keeps
-#: its configured value.
-SIM_STATE_TIMEOUT_WALL = 3.0
 
 
 def _sim_state_timeout_wall() -> float:

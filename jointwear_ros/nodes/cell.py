@@ -44,10 +44,26 @@ from ..contract import CycleState, CycleStatus, DiagnosticLevel, RefusalReason, 
 from ..errors import JointwearError
 from ..resources import config_path
 
-__all__ = ["CellError", "Child", "JointReport", "Operator", "after", "die_with_parent", "ready_conditions",
-           "run_until_accepted", "start_child", "stop_children"]
+__all__ = ["SIM_STATE_TIMEOUT_WALL", "CellError", "Child", "JointReport", "Operator", "after", "die_with_parent",
+           "ready_conditions", "run_until_accepted", "simulated_cycle_params", "start_child", "stop_children"]
 
 _Answer = TypeVar("_Answer")
+
+
+#: test_cycle's wall-clock watchdog (``state_timeout_wall``) in a simulated cell, at least: the simulator is a
+#: process on the same machine, and a loaded one starved it of CPU for 1.02-1.48 s (two test workers at load
+#: 11-22) without it having died, which failed the cycle at the configured 1 s. 3 s still catches a simulator that
+#: died; a real cell keeps its configured value. The demos and the test harness's simulated cells both use it.
+SIM_STATE_TIMEOUT_WALL = 3.0
+
+
+def simulated_cycle_params(params: Mapping[str, Any]) -> dict[str, Any]:
+    """test_cycle's ``params`` for a cell whose joints are a simulator (``simulator: true``): its wall-clock
+    watchdog at least :data:`SIM_STATE_TIMEOUT_WALL` unless ``params`` set one; other params as given."""
+    out = dict(params)
+    if out.get("simulator") and "state_timeout_wall" not in out:
+        out["state_timeout_wall"] = SIM_STATE_TIMEOUT_WALL
+    return out
 
 
 class CellError(JointwearError):
