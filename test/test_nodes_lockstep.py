@@ -66,9 +66,10 @@ def test_sim_time_waits_for_a_late_controller_and_runs_free_when_it_is_gone(ros_
         last, newest = ctl.pause(0.3)  # starved: 0.3 wall s = 1.2 sim s at 4x
         if lockstep:
             # held within the lead past the newest command as the sim received it: from the controller's own
-            # send time that is the lead, one clock sample and the command's delivery (0.076 s in all was
-            # measured at load 7 on two cores); free, the clock would run 1.2 s
-            assert newest - last <= 0.05 + 0.011 + 0.05, (last, newest)
+            # send time that is the lead, one clock sample and the command's delivery, allowed 25 ms of wall
+            # time (0.1 s of sim at 4x: 0.076 s in all was measured at load 7 on two cores, 0.15 s once with a
+            # demo running beside it, where 12.5 ms had been allowed); free, the clock would run 1.2 s
+            assert newest - last <= 0.05 + 0.011 + 0.1, (last, newest)
         else:
             assert newest - last > 0.6, (last, newest)  # ran away
         n = len(ctl.sent_at)
