@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from test_estimation_paper import MODEL, PARAMS, friction, table
 
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.estimation import make_estimator
+from jointwear_ros.estimation._common import log_sum_exp
 from jointwear_ros.estimation.crb import crb_multi_speed
 from jointwear_ros.estimation.joint import JointEstimator
 from jointwear_ros.types import ObservationTable, WearEstimator
@@ -173,3 +175,18 @@ def test_the_estimators_on_a_set_take_model_noise_and_wear_range_from_one_place(
             cls(MODEL, PARAMS, noise_std=0.0)
         with pytest.raises(InputDataError, match=r"^wear_range = \(5\.0, 5\.0\): needs finite low < high$"):
             cls(MODEL, PARAMS, wear_range=(5.0, 5.0))
+
+
+@settings(max_examples=200, deadline=None)
+@given(arrays(np.float64, st.tuples(st.integers(1, 6), st.integers(1, 9)), elements=st.floats(-700.0, 700.0)),
+       st.sampled_from([0, 1]), st.booleans())
+def test_log_sum_exp_is_scipys_on_arrays_with_a_finite_maximum(a, axis, overwrite):
+    from scipy.special import logsumexp
+
+    want = logsumexp(a, axis=axis)
+    given_a = a.copy()
+    got = log_sum_exp(given_a, axis=axis, overwrite=overwrite)
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
+    if not overwrite:
+        np.testing.assert_array_equal(given_a, a)  # the input is left as it was

@@ -33,6 +33,7 @@ __all__ = [
     "check_observation_values",
     "check_wear_range",
     "combine_rows",
+    "log_sum_exp",
     "make_rng",
     "prepare_rows",
     "resolve_model",
@@ -323,6 +324,20 @@ def extra_offset(table: ObservationTable, extra: Model | None, params: Parameter
                                  f"model needs {var!r} for every observation")
         inputs[var] = col
     return np.asarray(np.broadcast_to(extra.evaluate(params, **inputs), (n,)), dtype=float)
+
+
+def log_sum_exp(a: npt.NDArray[np.float64], axis: int, *, overwrite: bool = False) -> npt.NDArray[np.float64]:
+    """``log(sum(exp(a)))`` along ``axis``, for arrays whose maximum along it is finite (the log weights of the
+    quadrature nodes or kept cells the estimators sum over). Written out (maximum, exp, sum, log) rather than
+    :func:`scipy.special.logsumexp`: its general handling of infinities, signs and array namespaces cost several
+    times the sum itself on these small blocks (0.53 against 0.14 ms on 24 x 401), summed thousands of times by a
+    study. ``overwrite``: ``a`` is scratch, used in place."""
+    top = a.max(axis=axis, keepdims=True)
+    b = a if overwrite else np.empty_like(a)
+    np.subtract(a, top, out=b)
+    np.exp(b, out=b)
+    out: npt.NDArray[np.float64] = np.log(b.sum(axis=axis)) + np.squeeze(top, axis=axis)
+    return out
 
 
 def make_rng(rng: np.random.Generator | None = None, seed: int | None = None) -> np.random.Generator:

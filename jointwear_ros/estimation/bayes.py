@@ -62,6 +62,7 @@ from ._common import (
     check_noise_std,
     check_wear_range,
     combine_rows,
+    log_sum_exp,
     prepare_rows,
     set_temperature_prior,
     with_set_info,
@@ -199,14 +200,8 @@ class SpeedPosterior:
         step = max(1, (1 << 20) // self.b_nodes.size)
         for i in range(0, flat.size, step):
             r = (flat[i:i + step, None] - self.b_nodes[None, :]) / self.sigma
-            # log-sum-exp written out, in place: every term is finite (the log masses of the kept cells), and
-            # scipy.special.logsumexp's general handling (infinities, signs, array namespaces) and temporaries
-            # cost more than the sum on the (y x cells) blocks of the table, built once per speed
-            a = self.log_b_w[None, :] - 0.5 * r * r
-            top = a.max(axis=1)
-            np.subtract(a, top[:, None], out=a)
-            np.exp(a, out=a)
-            out[i:i + step] = np.log(a.sum(axis=1)) + top
+            # every term is finite (the log masses of the kept cells); summed in place
+            out[i:i + step] = log_sum_exp(self.log_b_w[None, :] - 0.5 * r * r, axis=1, overwrite=True)
         return (out - 0.5 * _LOG_2PI - math.log(self.sigma)).reshape(y.shape)
 
     def log_marginal(self, y: Array) -> Array:

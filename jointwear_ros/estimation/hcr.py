@@ -70,7 +70,7 @@ import numpy.typing as npt
 
 from ..errors import InputDataError
 from ..model import Model, Parameters
-from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, resolve_model
+from ._common import DEFAULT_NOISE_STD, WEAR_RANGE, log_sum_exp, resolve_model
 from .crb import DEFAULT_CRB_PRIOR, check_crb_inputs, crb_per_speed, temperature_nodes
 from .inverse import WearInverse
 from .priors import TemperaturePrior
@@ -114,22 +114,15 @@ class HCRResult:
 def _log_mixture(y: Array, f: Array, logw: Array, sig: float) -> Array:
     """log sum_j w_j N(y; f_j, sig^2) for every y (chunked over y).
 
-    The log-sum-exp is written out (row maximum, exp, sum, log) rather than
-    :func:`scipy.special.logsumexp`: the terms are always finite here (the log
-    weights of the kept nodes), and scipy's general handling of infinities,
-    signs and array namespaces cost more than the sum itself on these
-    (y x nodes) blocks, called thousands of times by a study.
+    The terms are always finite here (the log weights of the kept nodes): the
+    sum is :func:`~jointwear_ros.estimation._common.log_sum_exp`, in place.
     """
     out = np.empty(y.size)
     step = max(1, (1 << 20) // max(1, f.size))
     c = -math.log(sig * math.sqrt(2.0 * math.pi))
     for s in range(0, y.size, step):
         r = (y[s:s + step, None] - f[None, :]) / sig
-        a = logw[None, :] - 0.5 * r * r
-        top = a.max(axis=1)
-        np.subtract(a, top[:, None], out=a)
-        np.exp(a, out=a)
-        out[s:s + step] = np.log(a.sum(axis=1)) + top + c
+        out[s:s + step] = log_sum_exp(logw[None, :] - 0.5 * r * r, axis=1, overwrite=True) + c
     return out
 
 

@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import chdtrc, logsumexp  # chdtrc(dof, x): scipy.stats.chi2.sf(x, dof)
+from scipy.special import chdtrc  # chdtrc(dof, x): scipy.stats.chi2.sf(x, dof)
 
 from ..errors import InputDataError
 from ..model import Model, Parameters, ParameterSet
@@ -70,6 +70,7 @@ from ._common import (
     SetModelBase,
     check_noise_std,
     check_wear_range,
+    log_sum_exp,
     prepare_rows,
     set_temperature_prior,
     with_set_info,
@@ -137,7 +138,11 @@ class _Grid:
         return np.asarray(np.broadcast_to(f, (self.speed.size, self.temps.size, w.size)), dtype=float)
 
     def fine(self, idx: Index) -> Array:
+        """The model on the fine columns ``idx`` (ascending); a view of the cache when they are one run (one mode:
+        the usual case), not a copy."""
         if self.full is not None:
+            if idx.size and int(idx[-1]) - int(idx[0]) + 1 == idx.size:
+                return self.full[:, :, int(idx[0]):int(idx[-1]) + 1]
             return self.full[:, :, idx]
         return self._eval(self.w[idx])
 
@@ -297,7 +302,7 @@ class JointEstimator(SetModelBase):
         # coarse pass: marginal over T on the coarse w grid
         rc = y[:, None, None] - g.coarse
         llc = logw[:, None] - np.einsum("k,ktw->tw", inv, rc * rc)
-        marg = logsumexp(llc, axis=0)
+        marg = log_sum_exp(llc, axis=0, overwrite=True)  # finite: the quadrature weights sum to 1
         keep = np.flatnonzero(marg >= marg.max() - _KEEP_LOG)
         idx = self._fine_columns(g, keep)
         # fine pass
