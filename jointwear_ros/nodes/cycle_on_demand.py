@@ -200,7 +200,9 @@ class CycleOnDemandNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``cycle_on_demand``."""
-    return run_node(CycleOnDemandNode, args)
+    # rclpy's C++ EventsExecutor: on sim time its /clock subscription woke the Python executor at every tick of
+    # a played bag (its timer runs on the steady clock)
+    return run_node(CycleOnDemandNode, args, events=True)
 
 
 if __name__ == "__main__":

@@ -409,7 +409,9 @@ def observation_to_msg(o: FrictionObservationData) -> FrictionObservation:
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``production_observer``."""
-    return run_node_refusing("production_observer", ProductionObserverNode, args)
+    # rclpy's C++ EventsExecutor: every /joint_states message of the played or live production woke the Python
+    # executor (its timer runs on the steady clock)
+    return run_node_refusing("production_observer", ProductionObserverNode, args, events=True)
 
 
 if __name__ == "__main__":
