@@ -31,3 +31,34 @@ def test_another_set_or_a_changed_value_is_another_inverse():
     assert shared_inverse(m, p, 80.0) is not first
     assert shared_inverse(m, p, 47.0, (0.0, 50.0)) is not first
     assert shared_inverse(m, p, 47.0) is first
+
+
+def test_estimators_in_threads_share_the_cache_through_its_evictions():
+    # a Dask worker of several threads estimates bags at once: every lookup gets the inverse of its own speed,
+    # and one thread's eviction (more speeds than the cache keeps) never breaks another's lookup
+    import threading
+
+    from jointwear_ros.estimation import inverse
+
+    m, p = paper_wear_model(), load_parameter_set("ref-2011r")
+    speeds = [10.0 + k for k in range(inverse._SHARED_MAX + 6)]
+    start = threading.Barrier(3)
+    errors: list[BaseException] = []
+
+    def work(order: list[float]) -> None:
+        start.wait()
+        try:
+            for _ in range(2):
+                for v in order:
+                    assert shared_inverse(m, p, v).speed == v
+        except BaseException as exc:  # reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(o,)) for o in (speeds, speeds[::-1], speeds[1::2] + speeds[::2])]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []
+    assert len(inverse._SHARED) <= inverse._SHARED_MAX
+    assert shared_inverse(m, p, speeds[-1]) is shared_inverse(m, p, speeds[-1])

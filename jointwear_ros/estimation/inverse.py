@@ -31,6 +31,7 @@ At 47 rad/s (T = 40 degC, tau_m = 0.1) wear 35 adds 0.01794 to the friction
 from __future__ import annotations
 
 import math
+import threading
 from collections import OrderedDict
 from collections.abc import Mapping
 from typing import Any
@@ -208,6 +209,9 @@ class WearInverse:
 #: Inverses kept by :func:`shared_inverse` (about 0.5 MB each with their tables), least recently used dropped.
 _SHARED_MAX = 48
 _SHARED: OrderedDict[tuple[Any, ...], WearInverse] = OrderedDict()
+#: estimators may run in threads (a Dask worker of several threads): a lookup, an insertion and an eviction each
+#: hold it, so one thread's eviction never falls between another's lookup and its move to the end
+_SHARED_LOCK = threading.Lock()
 #: Wear levels (fractions of the search interval) at which a model's wear term is part of the cache key.
 _PROBES = np.array([0.0, 0.071, 0.35, 0.719, 1.0])
 
@@ -229,15 +233,19 @@ def shared_inverse(model: Model, params: Parameters | Mapping[str, float], speed
     values: dict[str, float] = (params.valuesdict() if isinstance(params, Parameters)
                                 else {str(k): float(v) for k, v in params.items()})
     key = (model.spec, tuple(values.items()), float(speed), lo, hi, int(n_table), g.tobytes())
-    inv = _SHARED.get(key)
-    if inv is None:
-        # a copy of the values: the inverse builds its table later, and the caller's set may change meanwhile
-        inv = WearInverse(model, dict(values), float(speed), (lo, hi), n_table=n_table)
-        _SHARED[key] = inv
+    with _SHARED_LOCK:
+        inv = _SHARED.get(key)
+        if inv is not None:
+            _SHARED.move_to_end(key)
+            return inv
+    # built outside the lock (other threads go on); a copy of the values: the inverse builds its table later, and
+    # the caller's set may change meanwhile
+    built = WearInverse(model, dict(values), float(speed), (lo, hi), n_table=n_table)
+    with _SHARED_LOCK:
+        inv = _SHARED.setdefault(key, built)  # another thread's, if it came first: one inverse per key
+        _SHARED.move_to_end(key)
         while len(_SHARED) > _SHARED_MAX:
             _SHARED.popitem(last=False)
-    else:
-        _SHARED.move_to_end(key)
     return inv
 
 
