@@ -606,9 +606,12 @@ class TestCycleNode(Node):
 def main(args: Sequence[str] | None = None) -> int:
     """Console entry point ``test_cycle``: exit status 2 with one line on stderr for a bad start-up setting (an
     unknown ``arm``, more joints than the arm has, a value out of range)."""
-    # rclpy's C++ EventsExecutor: every /joint_states message (1.5 kHz in a 3x demo) woke the Python executor
-    # (about 0.4 ms of CPU each here); test_cycle's CPU in a six-joint demo 6.7 s -> 4.2 s (docs/testing.md, stop 42)
-    return run_node_refusing("test_cycle", TestCycleNode, args, events=True)
+    # rclpy's Python executor, not the C++ EventsExecutor (which took test_cycle's CPU in a six-joint demo from
+    # 6.7 s to 4.2 s at stop 42): on it the sim-time command timer once stopped firing while /clock had passed its
+    # deadline. joint_sim's lockstep then held the clock for the command that never came, and the wall watchdog
+    # failed the cycle (`demo --wear 40`, 3.046 s without a joint state; a five-cycle graph test, 1.047 s); the
+    # recorded bag shows the clock past the timer's next call and no command for 3 s (docs/testing.md, stop 43)
+    return run_node_refusing("test_cycle", TestCycleNode, args)
 
 if __name__ == "__main__":  # pragma: no cover
     raise SystemExit(main())
