@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import functools
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -76,8 +77,15 @@ def _imports(path: Path) -> list[tuple[str, tuple[str, ...], int]]:
     """(absolute module, imported names, line) for each import in ``path``."""
     mod = _module_name(path)
     package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
+    return list(_parsed_imports(str(path), package, path.read_text()))
+
+
+@functools.lru_cache(maxsize=None)
+def _parsed_imports(where: str, package: str, text: str) -> tuple[tuple[str, tuple[str, ...], int], ...]:
+    """:func:`_imports` of one file's ``text`` in ``package``: each module is read by two tests of each rule and by
+    the circle search, and is parsed once (the key holds the text, so a planted file that changes is read again)."""
     out = []
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(ast.parse(text, where)):
         if isinstance(node, ast.Import):
             out.extend((a.name, (), node.lineno) for a in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -88,7 +96,7 @@ def _imports(path: Path) -> list[tuple[str, tuple[str, ...], int]]:
             else:
                 target = node.module or ""
             out.append((target, tuple(a.name for a in node.names), node.lineno))
-    return out
+    return tuple(out)
 
 
 MODULES = sorted(PKG.rglob("*.py"))

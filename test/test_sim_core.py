@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from jointwear_ros.data.synth import HIDDEN_EFFECTS
 from jointwear_ros.errors import ParameterError
+from jointwear_ros.model import Parameters, load_parameter_set
 from jointwear_ros.sim import FrictionTable, JointSim, JointSimConfig
 
 
@@ -65,6 +67,24 @@ def test_hidden_effects_change_the_friction():
     plain = FrictionTable(temperature=40.0)
     ripple = FrictionTable(temperature=40.0, hidden_effects=["ripple"])
     assert ripple(47.0, 0.1, 0.5) - plain(47.0, 0.1, 0.5) == pytest.approx(0.004 * math.sin(1.5 + 0.7), abs=1e-6)
+
+
+def test_tables_of_equal_inputs_are_built_once_and_every_input_that_moves_the_friction_gets_its_own():
+    """A process builds the tables of one (model, values, units, temperature, wear, effects, grid) once and shares
+    them read-only; a change of any of these is a new table (a test would otherwise see another joint's friction)."""
+    first = FrictionTable("ref-2011r", temperature=41.5, wear=12.0)
+    again = FrictionTable("ref-2011r", temperature=41.5, wear=12.0)
+    assert again._a is first._a and again._b is first._b
+    values = load_parameter_set("ref-2011r")
+    changed = Parameters(replace(p, value=p.value * 1.5) if p.name == "Fc0" else p for p in values.values())
+    others = [FrictionTable("ref-2011r", temperature=41.6, wear=12.0), FrictionTable("ref-2011r", temperature=41.5, wear=12.5),
+              FrictionTable("ref-2011r", temperature=41.5, wear=12.0, hidden_effects=["load_viscous"]),
+              FrictionTable(changed, temperature=41.5, wear=12.0)]
+    for other in others:
+        assert other._a is not first._a
+        assert other(47.0, 0.1) != first(47.0, 0.1)
+    assert FrictionTable("ref-2011r", temperature=41.5, wear=12.0, speed_step=0.02)._a is not first._a
+    assert FrictionTable(values, temperature=41.5, wear=12.0)(47.0, 0.1) == first(47.0, 0.1)
 
 
 def test_unknown_hidden_effect_is_refused_with_the_known_names():

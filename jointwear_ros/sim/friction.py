@@ -24,7 +24,10 @@ Interpolation error with the default grid (0.01 rad/s) is below 1e-6
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -36,6 +39,14 @@ from ..model import Parameters, load_parameter_set_info, parse_model_spec
 __all__ = ["FrictionTable"]
 
 Array = npt.NDArray[np.float64]
+
+#: Tables already built in this process, by everything they depend on (the model and its values, the units, the
+#: temperature, wear, effects and grids), the newest last: a simulator rebuilds a joint's tables at every
+#: reconfiguration and a test process builds the default ones hundreds of times. Each table holds about 80 000
+#: floats (2.6 MB as lists); the tables are shared read-only between the instances.
+_BUILT: OrderedDict[tuple[Any, ...], tuple[float, list[float], list[float], list[float], float, bool]] = OrderedDict()
+_BUILT_MAX = 16
+_BUILT_LOCK = threading.Lock()
 
 
 class FrictionTable:
@@ -113,21 +124,52 @@ class FrictionTable:
         self.hidden_effects = tuple(effects)
         self.lube_hours = float(lube_hours)
 
-        n = math.ceil(max_speed / speed_step) + 1
-        v: Array = np.arange(n, dtype=float) * speed_step
+        p0, p1 = float(position_range[0]), float(position_range[1])
         self.speed_step = float(speed_step)
-        self.max_speed = float(v[-1])
+        key = (self.model.spec, tuple((type(t).__module__, type(t).__qualname__) for t in self.model.terms),
+               tuple(self.params.valuesdict().items()), self._sf, self._tf, self.temperature, self.wear,
+               self.hidden_effects, self.lube_hours, float(max_speed), self.speed_step, p0, p1, float(position_step))
+        with _BUILT_LOCK:
+            built = _BUILT.get(key)
+            if built is not None:
+                _BUILT.move_to_end(key)
+        if built is None:  # built outside the lock (tens of ms); the first one stored for a key is kept
+            built = self._build(max_speed, p0, p1, position_step)
+            with _BUILT_LOCK:
+                built = _BUILT.setdefault(key, built)
+                while len(_BUILT) > _BUILT_MAX:
+                    _BUILT.popitem(last=False)
+        self.max_speed, self._a, self._b, self._p, k_time, p_zero = built
+        self._p0 = float(p0)
+        self._pstep = float(position_step)
+        self._k_time = float(k_time)
+        self._inv_step = 1.0 / self.speed_step
+        self._inv_pstep = 1.0 / self._pstep
+        # per-call constants of __call__ (it runs once per joint and physics step): the last interpolation
+        # interval of each table, and whether the position table is all +0.0 (no position effect: its
+        # interpolation adds exactly +0.0, done as one addition)
+        self._a_last = len(self._a) - 2
+        self._p_last = len(self._p) - 1
+        self._p_zero = p_zero
+
+    def _build(self, max_speed: float, p0: float, p1: float,
+               position_step: float) -> tuple[float, list[float], list[float], list[float], float, bool]:
+        """The tables of :meth:`__init__`: ``(largest speed, A, B, P, k_t, P all +0.0)``, from the model and the
+        hidden effects."""
+        n = math.ceil(max_speed / self.speed_step) + 1
+        v: Array = np.arange(n, dtype=float) * self.speed_step
         a = self._model(v, 0.0)
         b = self._model(v, 1.0) - a
-        half = self._model(v, 0.5)
-        if not np.allclose(half, a + 0.5 * b, rtol=0.0, atol=1e-12):
+        # linear in |tau_m| (the lookup's premise), checked on every 16th speed of the grid (the model is smooth)
+        vs = v[::16]
+        half = self._model(vs, 0.5)
+        if not np.allclose(half, a[::16] + 0.5 * b[::16], rtol=0.0, atol=1e-12):
             raise ModelError(f"model {self.model.spec!r} is not linear in |tau_m|; the simulator's table needs that")
-        p0, p1 = position_range
         npos = math.ceil((p1 - p0) / position_step) + 1
         pos: Array = p0 + np.arange(npos, dtype=float) * position_step
         ptab = np.zeros(npos)
         k_time = 0.0
-        for e in effects:
+        for e in self.hidden_effects:
             variables = HIDDEN_EFFECTS[e].variables
             if "position" in variables:
                 ptab = ptab + effect_value(e, self._cols(np.zeros(npos), 0.0, pos, 0.0))
@@ -142,20 +184,8 @@ class FrictionTable:
                 e_b = effect_value(e, self._cols(v, 1.0, np.zeros(n), 0.0)) - e_a
                 a = a + e_a
                 b = b + e_b
-        self._a: list[float] = a.tolist()
-        self._b: list[float] = b.tolist()
-        self._p: list[float] = ptab.tolist()
-        self._p0 = float(p0)
-        self._pstep = float(position_step)
-        self._k_time = float(k_time)
-        self._inv_step = 1.0 / self.speed_step
-        self._inv_pstep = 1.0 / self._pstep
-        # per-call constants of __call__ (it runs once per joint and physics step): the last interpolation
-        # interval of each table, and whether the position table is all +0.0 (no position effect: its
-        # interpolation adds exactly +0.0, done as one addition)
-        self._a_last = len(self._a) - 2
-        self._p_last = len(self._p) - 1
-        self._p_zero = len(self._p) > 1 and all(x == 0.0 and math.copysign(1.0, x) > 0.0 for x in self._p)
+        p_zero = npos > 1 and not ptab.any() and not np.signbit(ptab).any()
+        return float(v[-1]), a.tolist(), b.tolist(), ptab.tolist(), float(k_time), bool(p_zero)
 
     def speed_tables(self) -> tuple[list[float], list[float], float, int] | None:
         """``(A, B, 1 / speed_step, last)`` when the friction is ``A(|v|) + |tau_m| * B(|v|)`` alone (no position or
