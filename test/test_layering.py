@@ -80,7 +80,7 @@ def _imports(path: Path) -> list[tuple[str, tuple[str, ...], int]]:
     return list(_parsed_imports(str(path), package, path.read_text()))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _parsed_imports(where: str, package: str, text: str) -> tuple[tuple[str, tuple[str, ...], int], ...]:
     """:func:`_imports` of one file's ``text`` in ``package``: each module is read by two tests of each rule and by
     the circle search, and is parsed once (the key holds the text, so a planted file that changes is read again)."""
