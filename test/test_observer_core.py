@@ -7,6 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from jointwear_ros.contract import CycleState, CycleStatus
 from jointwear_ros.errors import InputDataError
@@ -19,7 +21,7 @@ from jointwear_ros.observer import (
     measure_segment,
     observe_arrays,
 )
-from jointwear_ros.observer.synthetic import synthetic_cycle
+from jointwear_ros.observer.synthetic import ar1, synthetic_cycle
 from jointwear_ros.settings import from_mapping
 
 CFG = ObserverConfig()
@@ -523,3 +525,28 @@ def test_an_approach_that_accelerates_through_the_window_near_the_sweep_speed_is
     slow[last] *= 0.5
     out = measure_segment(stamps, position, slow, effort, seg, cfg)
     assert not isinstance(out, FrictionObservationData) and out.reason.startswith("speed not constant in reverse window")
+
+
+_FINITE = st.floats(-1e3, 1e3, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(_FINITE, max_size=40), st.floats(-0.999, 0.999), _FINITE)
+def test_the_synthetic_noise_is_the_ar1_recursion_bit_for_bit(innov, corr, start):
+    y, want = start, []
+    for e in innov:
+        y = e + corr * y
+        want.append(y)
+    got = ar1(innov, corr, start)
+    assert got.dtype == np.float64 and got.shape == (len(innov),)
+    assert got.tobytes() == np.array(want, dtype=float).tobytes()
+
+
+def test_the_synthetic_noise_is_scipys_lfilter_bit_for_bit():
+    from scipy.signal import lfilter  # 1.9 s to import: the slow tier
+
+    rng = np.random.default_rng(5)
+    for n, corr in ((1, 0.7), (5000, 0.9), (3000, -0.3), (2000, 0.0)):
+        innov, start = rng.normal(0.0, 0.3, n), float(rng.normal())
+        want = lfilter([1.0], [1.0, -corr], innov, zi=[corr * start])[0]
+        assert ar1(innov, corr, start).tobytes() == want.tobytes()

@@ -21,10 +21,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from itertools import accumulate
 
 import numpy as np
 import numpy.typing as npt
-from scipy.signal import lfilter
 
 from ..contract import CyclePhase, CycleState, CycleStatus
 from ..model import Model, Parameters, load_parameter_set, paper_wear_model
@@ -36,6 +36,7 @@ __all__ = [
     "PHASE_SETTLE",
     "SyntheticCycle",
     "SyntheticRobotCycle",
+    "ar1",
     "synthetic_cycle",
     "synthetic_robot_cycle",
 ]
@@ -94,6 +95,20 @@ def _trapezoid(p0: float, p1: float, vmax: float, acc: float, dt: float) -> tupl
     v[m3] = vmax - acc * tr
     a[m3] = -acc
     return p0 + d * s, d * v, d * a
+
+
+def ar1(innovations: npt.ArrayLike, corr: float, start: float) -> Array:
+    """The AR(1) series ``x[k] = innovations[k] + corr * x[k - 1]`` with ``x[-1] = start``.
+
+    The same float operations, bit for bit, as ``scipy.signal.lfilter([1], [1, -corr], innovations,
+    zi=[corr * start])[0]`` (without importing scipy.signal: 1.9 s here).
+
+    >>> ar1([1.0, 0.0, 0.0], 0.5, 2.0).tolist()
+    [2.0, 1.0, 0.5]
+    """
+    e = np.asarray(innovations, dtype=float).reshape(-1)
+    c = float(corr)
+    return np.fromiter(accumulate(e.tolist(), lambda y, x: x + c * y, initial=float(start)), float, e.size + 1)[1:]
 
 
 def synthetic_cycle(
@@ -185,7 +200,7 @@ def synthetic_cycle(
                           temperature=temperature, wear=wear)
     innov = rng.normal(0.0, noise_std * math.sqrt(1 - noise_corr**2), n)
     x0 = rng.normal(0.0, noise_std)
-    noise = lfilter([1.0], [1.0, -noise_corr], innov, zi=[noise_corr * x0])[0]  # AR(1)
+    noise = ar1(innov, noise_corr, x0)
     u = load * np.cos(pos) + np.sign(vel) * friction + inertia * acc + noise
     if velocity_noise > 0:
         vel = vel + rng.normal(0.0, velocity_noise, n)
