@@ -64,7 +64,6 @@ MARKERS = {
 #: ``make test`` runs them; so does ``-m slow``.
 SLOW_TESTS: dict[str, tuple[str, ...]] = {
     "test_bounds38_commission.py": ("test_a_carried_effects_refit_past_a_physical_bound_is_held_there_and_its_set_loads",),
-    "test_observer_core.py": ("test_the_synthetic_noise_is_scipys_lfilter_bit_for_bit",),
     "test_speed38d_ranking_memo.py": (
         "test_a_second_noise_floor_reuses_the_permuted_designs_and_gives_the_same_ranking",
     ),
@@ -272,6 +271,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_the_planted_bugs_of_the_pure_cores_readers_and_cli_are_caught",
     ),
     "test_observer_core.py": (
+        "test_the_synthetic_noise_is_scipys_lfilter_bit_for_bit",
         "test_tau_f_std_matches_scatter_over_seeds",
         "test_memory_stays_bounded_over_a_long_idle_at_500_hz",
     ),
