@@ -15,9 +15,12 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import pinocchio as pin
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from jointwear_ros.sim.arm import ArmSim, arm_configs
+from jointwear_ros.sim.arm import ArmSim, _solve_spd, arm_configs
 from jointwear_ros.sim.arms import arm_spec
 from jointwear_ros.sim.friction import FrictionTable
 
@@ -94,3 +97,22 @@ def test_a_table_with_a_position_or_time_effect_gives_no_speed_tables(effects):
     table = FrictionTable(hidden_effects=effects)
     assert table.speed_tables() is None
     assert table(10.0, 0.5, 0.0, 0.0) != table(10.0, 0.5, 0.7, 3600.0)  # its lookup reads them
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 7))
+def test_the_stick_bands_cholesky_solves_any_subset_of_an_arms_mass_matrix_as_numpy_does(seed, size):
+    """The held-joint solve (:func:`_solve_spd` on crba's upper triangle) against numpy's on the same sub-matrix: a real
+    mass matrix of the Panda in a random pose, any subset of its joints in any order."""
+    rng = np.random.default_rng(seed)
+    spec = arm_spec("panda")
+    names = [f"joint_{i}" for i in range(1, len(spec.joints) + 1)]
+    sim = ArmSim(spec, names, arm_configs(spec, names), seeds=range(len(names)))
+    lo, hi = sim.model.lowerPositionLimit, sim.model.upperPositionLimit
+    q = lo + rng.uniform(0.05, 0.95, lo.size) * (hi - lo)
+    up = pin.crba(sim.model, sim.data, q)
+    full = np.triu(up) + np.triu(up, 1).T
+    idx = [int(i) for i in rng.permutation(lo.size)[:size]]
+    rhs = rng.normal(0.0, 10.0, size)
+    got = _solve_spd(up.tolist(), idx, rhs.tolist())
+    np.testing.assert_allclose(got, np.linalg.solve(full[np.ix_(idx, idx)], rhs), rtol=1e-9, atol=1e-9)

@@ -452,24 +452,22 @@ class ArmSim:
         together. Where the drive's torque ``us`` misses that by more than the breakaway friction ``ffs``,
         the joint that misses most breaks away (the breakaway friction against its net torque, in ``tau``)
         and the rest are solved again, until every joint still held is held. ``tau`` gets each held
-        joint's torque (what it needs)."""
+        joint's torque (what it needs). ``M_FF`` (symmetric positive definite, at most the arm's joints) is
+        solved by Cholesky in plain Python: numpy's solve on a 5 x 5 costs more in its call than in its sums."""
         n = len(us)
         held = list(band)
-        mm: list[list[float]] = []  # M(q): crba's upper triangle mirrored (armature included), when first needed
+        up: list[list[float]] = []  # M(q): crba's upper triangle (armature included), when first needed
 
         while True:
             free = [i for i in range(n) if i not in held]
             af: list[float] = []
             if free:
-                if not mm:
+                if not up:
                     up = pin.crba(self.model, self.data, q).tolist()
-                    mm = [[up[i][k] if i <= k else up[k][i] for k in range(n)] for i in range(n)]
                 r = [float(tau[i]) - nle[i] for i in free]
-                if len(free) == 1:
-                    af = [r[0] / mm[free[0]][free[0]]]
-                else:
-                    af = np.linalg.solve(np.array([[mm[i][k] for k in free] for i in free]), r).tolist()
-            need = [nle[i] + sum(mm[i][k] * ak for k, ak in zip(free, af, strict=True)) for i in held]
+                af = _solve_spd(up, free, r)
+            need = [nle[i] + sum((up[i][k] if i <= k else up[k][i]) * ak for k, ak in zip(free, af, strict=True))
+                    for i in held]
             worst, excess = -1, 0.0
             for k, i in enumerate(held):
                 over = abs(us[i] - need[k]) - ffs[i]
@@ -569,3 +567,45 @@ class ArmModel:
         if model_based:
             out["rigid_body"] = self.rigid_body
         return out
+
+
+def _solve_spd(up: list[list[float]], idx: list[int], rhs: list[float]) -> list[float]:
+    """``x`` of ``M[idx][:, idx] x = rhs`` for the symmetric positive definite ``M`` whose upper triangle is ``up``
+    (Pinocchio's ``crba``), by Cholesky in plain Python (at most six unknowns: the arm's joints).
+
+    >>> [round(x, 12) for x in _solve_spd([[4.0, 2.0, 9.0], [0.0, 3.0, 9.0], [0.0, 0.0, 9.0]], [0, 1], [8.0, 8.0])]
+    [1.0, 2.0]
+    """
+    m = len(idx)
+    if m == 1:
+        return [rhs[0] / up[idx[0]][idx[0]]]
+    low: list[list[float]] = []  # L, row by row: M_FF = L L^T
+    for a in range(m):
+        ia = idx[a]
+        row: list[float] = []
+        for b in range(a):
+            ib = idx[b]
+            lb = low[b]
+            acc = up[ib][ia] if ib <= ia else up[ia][ib]
+            for c in range(b):
+                acc -= row[c] * lb[c]
+            row.append(acc / lb[b])
+        d = up[ia][ia]
+        for c in range(a):
+            d -= row[c] * row[c]
+        row.append(math.sqrt(d))
+        low.append(row)
+    y: list[float] = []
+    for a in range(m):  # L y = rhs
+        acc = rhs[a]
+        row = low[a]
+        for c in range(a):
+            acc -= row[c] * y[c]
+        y.append(acc / row[a])
+    x = [0.0] * m
+    for a in range(m - 1, -1, -1):  # L^T x = y
+        acc = y[a]
+        for c in range(a + 1, m):
+            acc -= low[c][a] * x[c]
+        x[a] = acc / low[a][a]
+    return x
