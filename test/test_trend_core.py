@@ -14,6 +14,8 @@ from jointwear_ros.data.fleet import EPOCH0, ESTIMATOR_NOISE, make_fleet
 from jointwear_ros.errors import InputDataError
 from jointwear_ros.trend import DAY, TrendConfig, analyze_joint, collapse_revisions, kalman_llt, last_segment
 from jointwear_ros.trend.backtest import backtest_joint, score_at_lead, score_fleet
+from jointwear_ros.trend.filters import _transition
+from jointwear_ros.trend.members import RatePrior
 
 T0 = 1.7e9
 
@@ -172,3 +174,48 @@ def test_fleet_scores_are_in_their_targets(fleet, backtests):
     assert s["false_per_1000"] <= 1.0, s
     assert s["joints_missed"] == 0 and s["median_lead_days"] > 10.0, s
     assert abs(s["median_lag_days"]) < 5.0, s
+
+
+def _kalman_on_matrices(t, y, r, cfg, q, order, prior):
+    """The filter of :func:`kalman_llt` written on numpy matrices (its form before the plain-float one)."""
+    var = np.asarray(r, float) ** 2
+    m = np.zeros(order)
+    m[0], m[1] = cfg.level_prior_mean, prior.mean
+    P = np.diag([cfg.level_prior_std ** 2, prior.std ** 2, cfg.accel_prior_std ** 2][:order])
+    means, covs, lls, total = [], [], [], 0.0
+    for k in range(len(t)):
+        if k > 0:
+            F, Q = _transition(max(t[k] - t[k - 1], 0.0), order, q, cfg.level_noise)
+            m = F @ m
+            P = F @ P @ F.T + Q
+        s_ = P[0, 0] + var[k]
+        v = y[k] - m[0]
+        total += -0.5 * (math.log(2 * math.pi * s_) + v * v / s_)
+        K = P[:, 0] / s_
+        m = m + K * v
+        P = P - np.outer(K, P[0, :])
+        P = 0.5 * (P + P.T)
+        means.append(m)
+        covs.append(P)
+        lls.append(total)
+    return means, covs, lls
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 40), st.sampled_from([2, 3]), st.sampled_from([1e-6, 1e-4, 1e-2]))
+def test_the_plain_float_filter_is_the_matrix_filter(seed, n, order, q):
+    """Irregular steps (repeated times included), a rate prior, both orders: each state, covariance and
+    log-likelihood equal to the matrix form's to rounding (relative to each step's largest entry)."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0.0, 400.0, n))
+    t[n // 2] = t[max(n // 2 - 1, 0)]
+    y, r = rng.normal(20.0, 5.0, n), rng.uniform(0.5, 3.0, n)
+    cfg = TrendConfig()
+    prior = RatePrior(mean=float(rng.normal(0.0, 0.1)), std=float(rng.uniform(0.01, 1.0)))
+    got = kalman_llt(t, y, r, cfg, q, order, prior)
+    means, covs, lls = _kalman_on_matrices(t, y, r, cfg, q, order, prior)
+    assert got.mean.shape == (n, order) and got.cov.shape == (n, order, order) and got.loglik.shape == (n,)
+    for k in range(n):
+        for a, b in ((got.mean[k], means[k]), (got.cov[k], covs[k])):
+            assert np.max(np.abs(a - b)) <= 1e-11 * np.max(np.abs(b))
+        assert got.loglik[k] == pytest.approx(lls[k], rel=1e-12, abs=1e-12)

@@ -77,30 +77,55 @@ def kalman_llt(t_days: Array, y: Array, r: Array, cfg: TrendConfig, q: float | N
     q = float(cfg.accel_noise[0] if q is None else q)
     pr = prior or RatePrior(std=cfg.slope_prior_std)
     t = np.asarray(t_days, float)
-    y = np.asarray(y, float)
-    var = np.asarray(r, float) ** 2
-    n = len(t)
-    mean = np.zeros((n, order))
-    cov = np.zeros((n, order, order))
-    ll = np.zeros(n)
-    m = np.zeros(order)
-    m[0], m[1] = cfg.level_prior_mean, pr.mean
-    P = np.diag([cfg.level_prior_std ** 2, pr.std ** 2, cfg.accel_prior_std ** 2][:order])
+    tl = t.tolist()
+    yl = np.asarray(y, float).tolist()
+    var = (np.asarray(r, float) ** 2).tolist()
+    ql = float(cfg.level_noise)
+    # the states and covariances in plain floats (numpy's per-call cost on 2 x 2 and 3 x 3 is most of a step):
+    # order 2: m = (L, S), P = [[a, b], [b, c]]; order 3 adds the acceleration A and P's third row (d, e, f)
+    m0, m1, m2 = float(cfg.level_prior_mean), float(pr.mean), 0.0
+    pa, pb, pc = float(cfg.level_prior_std) ** 2, 0.0, float(pr.std) ** 2
+    pd, pe, pf = 0.0, 0.0, float(cfg.accel_prior_std) ** 2
+    means: list[tuple[float, ...]] = []
+    covs: list[tuple[float, ...]] = []
+    lls: list[float] = []
     total = 0.0
-    for k in range(n):
+    for k in range(len(tl)):
         if k > 0:
-            F, Q = _transition(max(t[k] - t[k - 1], 0.0), order, q, cfg.level_noise)
-            m = F @ m
-            P = F @ P @ F.T + Q
-        s_ = P[0, 0] + var[k]
-        v = y[k] - m[0]
+            dt = tl[k] - tl[k - 1]
+            dt = dt if dt > 0.0 else 0.0
+            d2, d3 = dt * dt, dt * dt * dt
+            if order == 2:  # F = [[1, dt], [0, 1]]; F P F^T + Q (Q of _transition)
+                m0 = m0 + dt * m1
+                pa, pb, pc = (pa + 2.0 * dt * pb + d2 * pc + q * d3 / 3 + ql * dt, pb + dt * pc + q * d2 / 2,
+                              pc + q * dt)
+            else:  # F = [[1, dt, dt^2/2], [0, 1, dt], [0, 0, 1]]
+                h = d2 / 2
+                m0, m1 = m0 + dt * m1 + h * m2, m1 + dt * m2
+                r0 = (pa + dt * pb + h * pd, pb + dt * pc + h * pe, pd + dt * pe + h * pf)  # (F P) row 0
+                r1 = (pb + dt * pd, pc + dt * pe, pe + dt * pf)  # row 1
+                pa, pb, pd = (r0[0] + dt * r0[1] + h * r0[2] + q * d3 * d2 / 20 + ql * dt,
+                              r0[1] + dt * r0[2] + q * d2 * d2 / 8, r0[2] + q * d3 / 6)
+                pc, pe = r1[1] + dt * r1[2] + q * d3 / 3, r1[2] + q * d2 / 2
+                pf = pf + q * dt
+        s_ = pa + var[k]
+        v = yl[k] - m0
         total += -0.5 * (math.log(2 * math.pi * s_) + v * v / s_)
-        K = P[:, 0] / s_
-        m = m + K * v
-        P = P - np.outer(K, P[0, :])
-        P = 0.5 * (P + P.T)
-        mean[k], cov[k], ll[k] = m, P, total
-    return FilterOutput(t, mean, cov, ll, q, order)
+        ka, kb, kc = pa / s_, pb / s_, pd / s_  # K = P[:, 0] / s
+        m0, m1, m2 = m0 + ka * v, m1 + kb * v, m2 + kc * v
+        # P - K P[0, :], symmetric by construction (K_i P_0j = P_i0 P_0j / s)
+        pa, pb, pc, pd, pe, pf = (pa - ka * pa, pb - ka * pb, pc - kb * pb, pd - ka * pd, pe - kb * pd, pf - kc * pd)
+        if order == 2:
+            means.append((m0, m1))
+            covs.append((pa, pb, pb, pc))
+        else:
+            means.append((m0, m1, m2))
+            covs.append((pa, pb, pd, pb, pc, pe, pd, pe, pf))
+        lls.append(total)
+    n = len(tl)
+    mean = np.array(means, dtype=float).reshape(n, order)
+    cov = np.array(covs, dtype=float).reshape(n, order, order)
+    return FilterOutput(t, mean, cov, np.array(lls, dtype=float), q, order)
 
 
 def filter_bank(t_days: Array, y: Array, r: Array, cfg: TrendConfig,
