@@ -81,8 +81,8 @@ test: env
 	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -m ros $(ROS_XDIST) --junitxml=out/test-results/ros-tier.xml test || rc=1; \
 	exit $$rc
 
-# The quick tier while you work (49 s idle on a 2-core machine, 85 s on a slower 2-core EPYC; docs/testing.md):
-# 84 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
+# The quick tier while you work (49 s idle on a 2-core machine, 74 s on a slower 2-core EPYC; docs/testing.md):
+# 83.5 % of the tests. It leaves out the process and graph tests (marker ros: real nodes over
 # DDS, the README walk among them) and the costliest tests without a graph
 # (marker slow, listed once in test/conftest.py's SLOW_TESTS by their measured durations: seeded
 # workbench discoveries, a served and scraped plant, process pools, Ctrl-C drills, the mutation run).
