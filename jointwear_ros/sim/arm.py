@@ -571,7 +571,7 @@ class ArmModel:
 
 def _solve_spd(up: list[list[float]], idx: list[int], rhs: list[float]) -> list[float]:
     """``x`` of ``M[idx][:, idx] x = rhs`` for the symmetric positive definite ``M`` whose upper triangle is ``up``
-    (Pinocchio's ``crba``), by Cholesky in plain Python (at most six unknowns: the arm's joints).
+    (Pinocchio's ``crba``), by Cholesky in plain Python (as many unknowns as the arm has joints: seven at most).
 
     >>> [round(x, 12) for x in _solve_spd([[4.0, 2.0, 9.0], [0.0, 3.0, 9.0], [0.0, 0.0, 9.0]], [0, 1], [8.0, 8.0])]
     [1.0, 2.0]
