@@ -1,7 +1,7 @@
-"""The fits of the bank's members to a segment's estimates (pure numpy).
+"""The fits of the bank's members to a segment's estimates (numpy, the Kalman filters on plain floats).
 
 *Adaptive members*: 2- and 3-state Kalman filters with irregular steps and per-estimate variance
-(hand-written in numpy: a few lines, and the fleet backtest runs at hundreds of joint-nights per second;
+(hand-written on plain floats: a few lines, and the fleet backtest runs at hundreds of joint-nights per second;
 statsmodels' ``UnobservedComponents`` assumes equal steps and fits the observation variance)::
 
     L(t + dt) = L(t) + S(t) dt + eta_L,    S(t + dt) = S(t) + eta_S
