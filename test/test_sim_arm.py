@@ -18,7 +18,7 @@ import pytest
 pin = pytest.importorskip("pinocchio")
 
 from jointwear_ros.errors import ParameterError  # noqa: E402
-from jointwear_ros.sim import ARMS, ArmSim, arm_configs, arm_spec  # noqa: E402
+from jointwear_ros.sim import ARMS, ArmSim, JointSimConfig, RobotSim, arm_configs, arm_spec  # noqa: E402
 from jointwear_ros.sim.arms import LOOP_BANDWIDTH  # noqa: E402
 
 #: one line in joint space per arm: every joint at its own speed (rad/s), signs mixed
@@ -150,6 +150,26 @@ def test_unknown_arms_too_many_joints_and_a_pose_outside_the_limits_are_one_line
     cfgs[2] = replace(cfgs[2], initial_position=4.0)
     with pytest.raises(ParameterError, match=r"joint_3 \(elbow_joint\) initial_position 4 rad is outside"):
         ArmSim(spec, _names(6), cfgs, seeds=range(6))
+
+
+
+@pytest.mark.parametrize("kind", ["arm", "robot"])
+def test_a_command_of_the_wrong_length_or_not_finite_is_refused_whole(kind):
+    """All or none, on the arm and on the independent-joint robot alike: the message names the slip and
+    every joint keeps the command it had."""
+    if kind == "arm":
+        _spec, sim = _model("ur5")
+        owner = r"the arm has 6 driven joint\(s\)"
+    else:
+        sim = RobotSim(_names(6), [JointSimConfig()] * 6, seeds=range(6))
+        owner = r"the robot has 6 joint\(s\)"
+    sim.set_commands([0.1, -0.2, 0.0, 0.0, 0.3, 0.0])
+    before = sim.commands
+    with pytest.raises(ParameterError, match=rf"^command has 5 value\(s\), {owner} \(joint_1, .*, joint_6\)$"):
+        sim.set_commands([0.5] * 5)
+    with pytest.raises(ParameterError, match=r"^command not finite: data\[1\] = nan, data\[4\] = inf$"):
+        sim.set_commands([0.5, float("nan"), 0.5, 0.5, float("inf"), 0.5])
+    assert sim.commands == before
 
 
 # -- holding and tracking ---------------------------------------------------------------------------

@@ -116,7 +116,7 @@ from dataclasses import dataclass
 from ..contract import CyclePhase, CycleState, CycleStatus, RefusalReason
 from .plan import CycleConfig, CycleRequestError, move_duration, stop_allowance
 from .robot import JointOutcome, plan_robot_cycle
-from .runner import JointReading
+from .runner import CycleMachine, JointReading, SpeedSteps
 
 __all__ = ["LineCycleRunner", "LinePlan", "LineStep", "plan_line_cycle", "trapezoid"]
 
@@ -356,7 +356,7 @@ class _Move:
         return [p + d * self.length for p, d in zip(self.origin, self.direction, strict=True)]
 
 
-class LineCycleRunner:
+class LineCycleRunner(SpeedSteps, CycleMachine):
     """Runs one line cycle at a time (see the module docstring).
 
     Parameters
@@ -374,8 +374,6 @@ class LineCycleRunner:
     SWEEP_CORRECTION = 0.5
     #: The correction's clip during an approach, as a fraction of the joint's approach_speed.
     APPROACH_CORRECTION = 0.2
-    #: Approach moves tried before the cycle fails for not reaching a line's start.
-    MAX_APPROACHES = 4
 
     def __init__(self, configs: Mapping[str, CycleConfig], hold_tolerance: float = 0.02) -> None:
         if not configs:
@@ -391,17 +389,14 @@ class LineCycleRunner:
         self.phase = Phase.NONE
         self.cycle_id = 0
         self.plan: LinePlan | None = None
-        self.speeds_done = 0
         self.message = "idle"
         self.results: dict[str, JointOutcome] = {}
         self.fault_joint = ""
         self._commands: dict[str, float] = dict.fromkeys(self.names, 0.0)
         self._cfgs: list[CycleConfig] = []
-        self._step = 0
-        self._approaches = 0
+        self._restart_steps()
         self._move: _Move | None = None
         self._settle_until = 0.0
-        self._settling = False
         self._hold: dict[str, float] = {}
         self._t_start = 0.0
         #: largest distance of any joint from the line of a sweep so far in this cycle, rad
@@ -411,10 +406,6 @@ class LineCycleRunner:
         self.reference_step = max(c.control_period + c.reaction_time for c in self.configs.values())
 
     # -- control -------------------------------------------------------------
-    @property
-    def running(self) -> bool:
-        return self.state == CycleState.RUNNING
-
     @property
     def joint_name(self) -> str:
         """The last joint of the plan (whose ended status ends the robot cycle); the first driven one before any."""
@@ -442,14 +433,10 @@ class LineCycleRunner:
         self.cycle_id = int(cycle_id)
         self.state = CycleState.RUNNING
         self.phase = Phase.APPROACH
-        self.speeds_done = 0
         self.fault_joint = ""
         self.message = f"running: {plan.summary()}"
         self._commands = dict.fromkeys(self.names, 0.0)
-        self._step = 0
-        self._approaches = 0
-        self._move = None
-        self._settling = False
+        self._restart_steps()
         self._t_start = now
         self.max_deviation = 0.0
         self.reference_holds = 0
@@ -457,22 +444,7 @@ class LineCycleRunner:
                       if j not in plan.joints and math.isfinite(p)}
         self._note_results(CycleState.RUNNING, self.message)
 
-    def abort(self, reason: str = "aborted by operator") -> bool:
-        """Stop a running cycle (ABORTED); False if none was running."""
-        if not self.running:
-            return False
-        self._finish(CycleState.ABORTED, reason)
-        return True
-
-    def fail(self, reason: str, joint: str = "") -> bool:
-        """Trip: stop a running cycle with FAILED; False if none was running."""
-        if not self.running:
-            return False
-        self.fault_joint = joint
-        self._finish(CycleState.FAILED, reason)
-        return True
-
-    def _finish(self, state: CycleState, message: str) -> None:
+    def _end(self, state: CycleState, message: str) -> None:
         self.state = state
         self.phase = Phase.NONE
         self.message = message
@@ -567,7 +539,7 @@ class LineCycleRunner:
         zero = [0.0] * len(q)
         while True:
             if self.speeds_done >= len(plan.steps):
-                self._finish(CycleState.DONE, f"done: {len(plan.joints)} joints at once, {len(plan.steps)} speed "
+                self._end(CycleState.DONE, f"done: {len(plan.joints)} joints at once, {len(plan.steps)} speed "
                              f"step(s) in {now - self._t_start:.1f} s")
                 return zero
             step = plan.steps[self.speeds_done]
@@ -590,9 +562,7 @@ class LineCycleRunner:
                                 f"{worst[2]} at {q[plan.joints.index(worst[2])]:.3f} rad after {self.MAX_APPROACHES} "
                                 f"approaches, not within {worst[1]:g} rad of the line's start "
                                 f"{step.start[plan.joints.index(worst[2])]:.3f} rad"))
-                        self._move = None
-                        self._settling = False
-                        self._step = 0
+                        self._approach_again()
                         continue
                 self._next_step()
                 continue
@@ -700,13 +670,9 @@ class LineCycleRunner:
             out.append(mv.direction[i] * rate + max(-lim, min(lim, corr)))
         return out
 
-    def _next_step(self) -> None:
-        self._move = None
-        self._settling = False
-        self._approaches = 0 if self._step == 1 else self._approaches
-        self._step += 1
-        if self._step > 5:
-            self._step = 0
-            self.speeds_done += 1
-            if self.running and self.plan is not None:
-                self._note_results(CycleState.RUNNING, self.message)
+    def _next_step(self) -> bool:
+        """:meth:`SpeedSteps._next_step`; a speed finished is noted in each joint's result."""
+        finished = super()._next_step()
+        if finished and self.running and self.plan is not None:
+            self._note_results(CycleState.RUNNING, self.message)
+        return finished

@@ -42,7 +42,7 @@ from dataclasses import dataclass, replace
 
 from ..contract import CycleStatus, RefusalReason
 from .plan import CycleConfig, CyclePlan, CycleRequestError, plan_cycle
-from .runner import CycleRunner, CycleState, JointReading
+from .runner import CycleMachine, CycleRunner, CycleState, JointReading
 
 __all__ = ["JointOutcome", "RobotCycleRunner", "RobotPlan", "plan_robot_cycle"]
 
@@ -157,7 +157,7 @@ HOLD_GAIN = 5.0
 HOLD_DEADBAND = 0.1
 
 
-class RobotCycleRunner:
+class RobotCycleRunner(CycleMachine):
     """Runs one robot cycle at a time (see the module docstring).
 
     Parameters
@@ -194,10 +194,6 @@ class RobotCycleRunner:
         self._t_start = 0.0
 
     # -- control -------------------------------------------------------------
-    @property
-    def running(self) -> bool:
-        return self.state == CycleState.RUNNING
-
     @property
     def joint_name(self) -> str:
         """The joint under test (the last one tested when idle; the first configured before any cycle)."""
@@ -247,22 +243,7 @@ class RobotCycleRunner:
         self.results[j] = JointOutcome(self.cycle_id, CycleState.RUNNING, self.runner.message, 0,
                                       len(self.plan.plans[self.index].speeds))
 
-    def abort(self, reason: str = "aborted by operator") -> bool:
-        """Stop a running robot cycle (ABORTED); False if none was running."""
-        if not self.running:
-            return False
-        self._stop(CycleState.ABORTED, reason)
-        return True
-
-    def fail(self, reason: str, joint: str = "") -> bool:
-        """Trip: stop a running robot cycle with FAILED; False if none was running."""
-        if not self.running:
-            return False
-        self.fault_joint = joint
-        self._stop(CycleState.FAILED, reason)
-        return True
-
-    def _stop(self, state: CycleState, reason: str) -> None:
+    def _end(self, state: CycleState, reason: str) -> None:
         assert self.plan is not None
         if self._between:  # the last joint finished; the stop belongs to the next one, which never started
             self._between = False
@@ -381,7 +362,7 @@ class RobotCycleRunner:
         else:  # FAILED by the joint's own watchdog (the runner never ends ABORTED by itself)
             if runner.message.startswith("watchdog:"):
                 self.fault_joint = j
-            self._stop(runner.state, runner.message)
+            self._end(runner.state, runner.message)
         return self.commands
 
     def _hold_correction(self, j: str, r: JointReading | None) -> float:

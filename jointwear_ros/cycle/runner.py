@@ -43,7 +43,7 @@ from dataclasses import dataclass
 from ..contract import CyclePhase, CycleState, CycleStatus
 from .plan import CycleConfig, CyclePlan, move_duration
 
-__all__ = ["CycleRunner", "CycleState", "JointReading", "Phase"]
+__all__ = ["CycleMachine", "CycleRunner", "CycleState", "JointReading", "Phase", "SpeedSteps"]
 
 
 #: Phases of a running cycle: the contract's ``TestCycleStatus.PHASE_*``.
@@ -71,7 +71,82 @@ class _Move:
     checked_window: bool = False
 
 
-class CycleRunner:
+class CycleMachine:
+    """What every cycle machine (one joint, one joint after another, every joint at once) does alike: it is
+    ``running`` in state RUNNING; the operator's :meth:`abort` ends a running cycle ABORTED and the watchdog's
+    :meth:`fail` ends it FAILED, naming the joint whose reading tripped it (``fault_joint``); each is False
+    when no cycle runs. A machine ends a cycle its own way in :meth:`_end` (its commands to zero)."""
+
+    state: CycleState
+    #: the joint whose reading tripped the last watchdog stop ("" for none, or a fault of the cycle itself)
+    fault_joint: str = ""
+
+    @property
+    def running(self) -> bool:
+        return self.state == CycleState.RUNNING
+
+    def abort(self, reason: str = "aborted by operator") -> bool:
+        """Stop a running cycle (state ABORTED); False if none was running."""
+        if not self.running:
+            return False
+        self._end(CycleState.ABORTED, reason)
+        return True
+
+    def fail(self, reason: str, joint: str = "") -> bool:
+        """Trip: stop a running cycle with state FAILED; False if none was running."""
+        if not self.running:
+            return False
+        self.fault_joint = joint
+        self._end(CycleState.FAILED, reason)
+        return True
+
+    def _end(self, state: CycleState, message: str) -> None:
+        raise NotImplementedError
+
+
+class SpeedSteps:
+    """The step sequence of each speed, shared by the one-joint and the every-joint-at-once machines:
+    0 approach, 1 settle, 2 forward, 3 settle, 4 reverse, 5 settle; ``speeds_done`` advances after the last
+    settle. An approach that ends off the sweep's start is repeated (``_approaches`` counts them; the
+    machine fails after ``MAX_APPROACHES``)."""
+
+    #: Approach moves tried before the cycle fails for not reaching a sweep start.
+    MAX_APPROACHES = 4
+
+    speeds_done: int
+    _step: int
+    _approaches: int
+    _move: object | None
+    _settling: bool
+
+    def _restart_steps(self) -> None:
+        """At a cycle's start: the first speed's approach."""
+        self.speeds_done = 0
+        self._step = 0
+        self._approaches = 0
+        self._move = None
+        self._settling = False
+
+    def _approach_again(self) -> None:
+        """The approach missed the start: back to step 0 (the caller counted it in ``_approaches``)."""
+        self._move = None
+        self._settling = False
+        self._step = 0
+
+    def _next_step(self) -> bool:
+        """On to the next step; True when that finished a speed."""
+        self._move = None
+        self._settling = False
+        self._approaches = 0 if self._step == 1 else self._approaches
+        self._step += 1
+        if self._step > 5:
+            self._step = 0
+            self.speeds_done += 1
+            return True
+        return False
+
+
+class CycleRunner(SpeedSteps, CycleMachine):
     """Runs one cycle at a time; see the module docstring.
 
     The step sequence per speed is APPROACH, SETTLE, FORWARD, SETTLE, REVERSE,
@@ -80,8 +155,6 @@ class CycleRunner:
 
     #: Slowest command while a move has not arrived, as a fraction of its cruise speed.
     CREEP = 0.05
-    #: Approach moves tried before the cycle fails for not reaching a sweep start.
-    MAX_APPROACHES = 4
     #: Update intervals remembered for the braking lead (the longest of them is used).
     LEAD_UPDATES = 50
 
@@ -92,22 +165,15 @@ class CycleRunner:
         self.phase = Phase.NONE
         self.cycle_id = 0
         self.plan: CyclePlan | None = None
-        self.speeds_done = 0
         self.message = "idle"
         self.command = 0.0
-        self._step = 0
-        self._approaches = 0
+        self._restart_steps()
         self._move: _Move | None = None
         self._settle_until = 0.0
-        self._started = False
         self._last_update: float | None = None
         self._intervals: deque[float] = deque(maxlen=self.LEAD_UPDATES)
 
     # -- control -------------------------------------------------------------
-    @property
-    def running(self) -> bool:
-        return self.state == CycleState.RUNNING
-
     def start(self, plan: CyclePlan, cycle_id: int, now: float) -> None:
         """Start running ``plan`` (a cycle must not be running)."""
         if self.running:
@@ -116,32 +182,15 @@ class CycleRunner:
         self.cycle_id = int(cycle_id)
         self.state = CycleState.RUNNING
         self.phase = Phase.APPROACH
-        self.speeds_done = 0
+        self.fault_joint = ""
         self.message = f"running: {plan.summary()}"
         self.command = 0.0
-        self._step = 0
-        self._approaches = 0
-        self._move = None
-        self._started = False
+        self._restart_steps()
         self._t_start = now
         self._last_update = None
         self._intervals.clear()
 
-    def abort(self, reason: str = "aborted by operator") -> bool:
-        """Stop a running cycle (state ABORTED); False if none was running."""
-        if not self.running:
-            return False
-        self._finish(CycleState.ABORTED, reason)
-        return True
-
-    def fail(self, reason: str) -> bool:
-        """Trip: stop a running cycle with state FAILED; False if none was running."""
-        if not self.running:
-            return False
-        self._finish(CycleState.FAILED, reason)
-        return True
-
-    def _finish(self, state: CycleState, message: str) -> None:
+    def _end(self, state: CycleState, message: str) -> None:
         self.state = state
         self.phase = Phase.NONE
         self.message = message
@@ -204,7 +253,7 @@ class CycleRunner:
         self._last_update = now
         reason = self._watchdog(now, reading, wall_age)
         if reason is not None:
-            self._finish(CycleState.FAILED, f"watchdog: {reason}")
+            self._end(CycleState.FAILED, f"watchdog: {reason}")
             return 0.0
         assert reading is not None
         self.command = self._advance(now, reading)
@@ -235,14 +284,14 @@ class CycleRunner:
         cfg = self.config
         while True:
             if self.speeds_done >= len(plan.speeds):
-                self._finish(CycleState.DONE, f"done: {len(plan.speeds)} speed(s) in {now - self._t_start:.1f} s")
+                self._end(CycleState.DONE, f"done: {len(plan.speeds)} speed(s) in {now - self._t_start:.1f} s")
                 return 0.0
             sp = plan.speeds[self.speeds_done]
             # steps of one speed: 0 approach, 1 settle, 2 forward, 3 settle, 4 reverse, 5 settle
             k = self._step
             if k in (1, 3, 5):
-                if not self._started:
-                    self._started = True
+                if not self._settling:
+                    self._settling = True
                     self._settle_until = now + cfg.settle_time
                 self.phase = Phase.SETTLE
                 if now < self._settle_until:
@@ -251,15 +300,13 @@ class CycleRunner:
                     # the approach overshot (or fell short): a shorter, slower move back to the start
                     self._approaches += 1
                     if self._approaches > self.MAX_APPROACHES:
-                        self._finish(
+                        self._end(
                             CycleState.FAILED,
                             f"watchdog: joint at {r.position:.3f} rad after {self.MAX_APPROACHES} approaches, "
                             f"not within {cfg.approach_tolerance:g} rad of the sweep start {sp.start:.3f} rad",
                         )
                         return 0.0
-                    self._move = None
-                    self._started = False
-                    self._step = 0
+                    self._approach_again()
                     continue
                 self._next_step()
                 continue
@@ -281,7 +328,7 @@ class CycleRunner:
                 self._next_step()
                 continue
             if now - mv.t_start > cfg.move_timeout_factor * mv.planned + 2.0:
-                self._finish(
+                self._end(
                     CycleState.FAILED,
                     f"watchdog: {mv.phase.name.lower()} move to {mv.target:.3f} rad not finished after "
                     f"{now - mv.t_start:.1f} s (planned {mv.planned:.1f} s); joint at {r.position:.3f} rad",
@@ -293,7 +340,7 @@ class CycleRunner:
                     mv.checked_window = True
                     want = mv.direction * mv.cruise
                     if abs(r.velocity - want) > cfg.speed_tolerance * mv.cruise:
-                        self._finish(
+                        self._end(
                             CycleState.FAILED,
                             f"watchdog: speed not reached at the window start ({edge:.3f} rad): "
                             f"{r.velocity:.4f} rad/s vs {want:.4f} rad/s ± {100 * cfg.speed_tolerance:g} % "
@@ -304,12 +351,3 @@ class CycleRunner:
             w = min(mv.cruise, a * (now - mv.t_start) + self.CREEP * mv.cruise, self.brake_speed(rem))
             w = max(w, self.CREEP * mv.cruise)
             return mv.direction * w
-
-    def _next_step(self) -> None:
-        self._move = None
-        self._started = False
-        self._approaches = 0 if self._step == 1 else self._approaches
-        self._step += 1
-        if self._step > 5:
-            self._step = 0
-            self.speeds_done += 1

@@ -85,7 +85,7 @@ import pinocchio as pin
 
 from ..errors import ParameterError
 from .arms import ArmJoint, ArmSpec
-from .joint import JointSim, JointSimConfig
+from .joint import JointSim, JointSimConfig, command_all
 
 __all__ = ["ArmJointSim", "ArmModel", "ArmSim", "arm_configs"]
 
@@ -256,15 +256,7 @@ class ArmSim:
         """Set every joint's velocity command (joint rad/s, joint order); all or none (a wrong length or
         a non-finite value raises :class:`ParameterError` and changes nothing). The drive clamps each to
         the joint's URDF velocity limit."""
-        v = [float(x) for x in velocities]
-        if len(v) != len(self.joints):
-            raise ParameterError(f"command has {len(v)} value(s), the arm has {len(self.joints)} driven joint(s) "
-                                 f"({', '.join(self.names)})")
-        bad = [f"data[{i}] = {x}" for i, x in enumerate(v) if not math.isfinite(x)]
-        if bad:
-            raise ParameterError(f"command not finite: {', '.join(bad)}")
-        for j, x in zip(self.joints, v, strict=True):
-            j.set_command(x)
+        command_all(self.joints, self.names, velocities, "the arm", "driven joint")
 
     def stop(self) -> None:
         """Command zero velocity on every joint."""

@@ -50,7 +50,7 @@ from ..errors import ParameterError
 from ..settings import check_ranges, setting
 from .friction import FrictionTable
 
-__all__ = ["JointSample", "JointSim", "JointSimConfig", "parse_effects"]
+__all__ = ["JointSample", "JointSim", "JointSimConfig", "command_all", "parse_effects"]
 
 
 def parse_effects(text: Any) -> tuple[str, ...]:
@@ -65,6 +65,22 @@ def parse_effects(text: Any) -> tuple[str, ...]:
             f"known: {', '.join(HIDDEN_EFFECTS)}"
         )
     return names
+
+
+def command_all(joints: Sequence[JointSim], names: Sequence[str], velocities: Sequence[float],
+                owner: str = "the robot", kind: str = "joint") -> None:
+    """Set each joint's velocity command (joint rad/s, joint order); all or none: a wrong length or a
+    non-finite entry raises :class:`ParameterError` and changes nothing (the robot's and the arm's
+    ``set_commands``; ``owner`` and ``kind`` name them in the message)."""
+    v = [float(x) for x in velocities]
+    if len(v) != len(joints):
+        raise ParameterError(f"command has {len(v)} value(s), {owner} has {len(joints)} {kind}(s) "
+                             f"({', '.join(names)})")
+    bad = [f"data[{i}] = {x}" for i, x in enumerate(v) if not math.isfinite(x)]
+    if bad:
+        raise ParameterError(f"command not finite: {', '.join(bad)}")
+    for j, x in zip(joints, v, strict=True):
+        j.set_command(x)
 
 
 @dataclass(frozen=True)

@@ -23,11 +23,10 @@ about 3000 steps per simulated second.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 from ..errors import ParameterError
-from .joint import JointSim, JointSimConfig
+from .joint import JointSim, JointSimConfig, command_all
 
 __all__ = ["RobotSim"]
 
@@ -87,16 +86,7 @@ class RobotSim:
         A wrong length or a non-finite entry raises :class:`ParameterError` and
         changes nothing.
         """
-        v = [float(x) for x in velocities]
-        if len(v) != len(self.joints):
-            raise ParameterError(
-                f"command has {len(v)} value(s), the robot has {len(self.joints)} joint(s) ({', '.join(self.names)})"
-            )
-        bad = [f"data[{i}] = {x}" for i, x in enumerate(v) if not math.isfinite(x)]
-        if bad:
-            raise ParameterError(f"command not finite: {', '.join(bad)}")
-        for j, x in zip(self.joints, v, strict=True):
-            j.set_command(x)
+        command_all(self.joints, self.names, velocities)
 
     def stop(self) -> None:
         """Command zero velocity on every joint."""
