@@ -17,8 +17,10 @@ from jointwear_ros.cycle import (
     CycleRunner,
     CycleState,
     JointReading,
+    LineCycleRunner,
     RobotCycleRunner,
     plan_cycle,
+    plan_line_cycle,
     plan_robot_cycle,
 )
 from jointwear_ros.sim import JointSimConfig, RobotSim
@@ -341,3 +343,34 @@ def test_a_held_joint_drifting_slowly_beyond_the_tolerance_fails_the_cycle(joint
     assert runner.state == CycleState.FAILED, runner.message
     assert re.search(rf"held joint {joint} (moved|keeps being pushed away)", runner.message), runner.message
     assert sim.time < 0.2 + 1.5 * HOLD / drift + 0.1  # tripped as the drift passed the tolerance
+
+
+@pytest.mark.parametrize("kind", ["robot", "line"])
+def test_both_multi_joint_machines_check_their_joints_and_change_settings_only_between_cycles(kind):
+    """One after another (robot) or all at once (line): no joints, a hold tolerance that is no distance and new
+    settings while a cycle runs or for other joints are refused, each naming the machine; between cycles the
+    new settings are taken; abort and fail say False when no cycle runs."""
+    machine = RobotCycleRunner if kind == "robot" else LineCycleRunner
+    with pytest.raises(CycleRequestError, match=rf"^a {kind} cycle needs at least one joint$"):
+        machine({})
+    for bad in (0.0, -0.1, math.nan, math.inf):
+        with pytest.raises(CycleRequestError, match=r"^hold_tolerance must be finite and > 0 rad"):
+            machine(CONFIGS, hold_tolerance=bad)
+    runner = machine(CONFIGS)
+    assert not runner.abort() and not runner.fail("watchdog: x", "joint_2") and runner.state == CycleState.IDLE
+    slower = {j: replace(c, approach_speed=c.approach_speed / 2) for j, c in CONFIGS.items()}
+    runner.reconfigure(slower, hold_tolerance=0.05)
+    assert runner.configs == slower and runner.hold_tolerance == 0.05
+    with pytest.raises(CycleRequestError, match=r"^the driven joints cannot change: \['joint_1', 'joint_2', 'joint_3'\] "
+                                                r"-> \['joint_1', 'joint_2'\]$"):
+        runner.reconfigure({j: slower[j] for j in JOINTS[:2]})
+    start = dict.fromkeys(JOINTS, 0.0)
+    plan = (plan_robot_cycle(slower, start_positions=start) if kind == "robot"
+            else plan_line_cycle(slower, start_positions=start))
+    runner.start(plan, 7, 0.0, start)
+    assert runner.running
+    with pytest.raises(RuntimeError, match=rf"^a {kind} cycle is running$"):
+        runner.reconfigure(CONFIGS)
+    assert runner.fail("watchdog: joint_2 stale", "joint_2") and runner.fault_joint == "joint_2"
+    assert runner.state == CycleState.FAILED and not runner.running and not runner.abort()
+    assert all(v == 0.0 for v in runner.commands.values())

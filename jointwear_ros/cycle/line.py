@@ -115,8 +115,8 @@ from dataclasses import dataclass
 
 from ..contract import CyclePhase, CycleState, CycleStatus, RefusalReason
 from .plan import CycleConfig, CycleRequestError, move_duration, stop_allowance
-from .robot import JointOutcome, plan_robot_cycle
-from .runner import CycleMachine, JointReading, SpeedSteps
+from .robot import DrivenJoints, JointOutcome, plan_robot_cycle
+from .runner import JointReading, SpeedSteps
 
 __all__ = ["LineCycleRunner", "LinePlan", "LineStep", "plan_line_cycle", "trapezoid"]
 
@@ -356,7 +356,7 @@ class _Move:
         return [p + d * self.length for p, d in zip(self.origin, self.direction, strict=True)]
 
 
-class LineCycleRunner(SpeedSteps, CycleMachine):
+class LineCycleRunner(SpeedSteps, DrivenJoints):
     """Runs one line cycle at a time (see the module docstring).
 
     Parameters
@@ -375,16 +375,10 @@ class LineCycleRunner(SpeedSteps, CycleMachine):
     #: The correction's clip during an approach, as a fraction of the joint's approach_speed.
     APPROACH_CORRECTION = 0.2
 
+    KIND = "line"
+
     def __init__(self, configs: Mapping[str, CycleConfig], hold_tolerance: float = 0.02) -> None:
-        if not configs:
-            raise CycleRequestError("a line cycle needs at least one joint")
-        self.configs = dict(configs)
-        for c in self.configs.values():
-            c.check()
-        self.hold_tolerance = float(hold_tolerance)
-        if not (math.isfinite(self.hold_tolerance) and self.hold_tolerance > 0):
-            raise CycleRequestError(f"hold_tolerance must be finite and > 0 rad, got {hold_tolerance}")
-        self.names: tuple[str, ...] = tuple(self.configs)
+        super().__init__(configs, hold_tolerance)
         self.state = CycleState.IDLE
         self.phase = Phase.NONE
         self.cycle_id = 0
@@ -410,16 +404,6 @@ class LineCycleRunner(SpeedSteps, CycleMachine):
     def joint_name(self) -> str:
         """The last joint of the plan (whose ended status ends the robot cycle); the first driven one before any."""
         return self.plan.joints[-1] if self.plan is not None else self.names[0]
-
-    def reconfigure(self, configs: Mapping[str, CycleConfig], hold_tolerance: float | None = None) -> None:
-        """New settings for the next cycle (refused while one runs: its plan used the old ones)."""
-        if self.running:
-            raise RuntimeError("a line cycle is running")
-        if list(configs) != list(self.names):
-            raise CycleRequestError(f"the driven joints cannot change: {list(self.names)} -> {list(configs)}")
-        self.configs = dict(configs)
-        if hold_tolerance is not None:
-            self.hold_tolerance = float(hold_tolerance)
 
     def start(self, plan: LinePlan, cycle_id: int, now: float, positions: Mapping[str, float] | None = None) -> None:
         """Start ``plan``; ``positions`` are where the joints stand (the held joints' references)."""

@@ -157,7 +157,36 @@ HOLD_GAIN = 5.0
 HOLD_DEADBAND = 0.1
 
 
-class RobotCycleRunner(CycleMachine):
+class DrivenJoints(CycleMachine):
+    """A cycle machine over every joint a node drives (one after another, or all at once): their settings
+    by name in command order (each checked), the held joints' tolerance, and new settings only between
+    cycles (:meth:`reconfigure`). ``KIND`` names the machine in its messages."""
+
+    KIND = "multi-joint"
+
+    def __init__(self, configs: Mapping[str, CycleConfig], hold_tolerance: float = 0.02) -> None:
+        if not configs:
+            raise CycleRequestError(f"a {self.KIND} cycle needs at least one joint")
+        self.configs = dict(configs)
+        for c in self.configs.values():
+            c.check()
+        self.hold_tolerance = float(hold_tolerance)
+        if not (math.isfinite(self.hold_tolerance) and self.hold_tolerance > 0):
+            raise CycleRequestError(f"hold_tolerance must be finite and > 0 rad, got {hold_tolerance}")
+        self.names: tuple[str, ...] = tuple(self.configs)
+
+    def reconfigure(self, configs: Mapping[str, CycleConfig], hold_tolerance: float | None = None) -> None:
+        """New settings for the next cycle (refused while one runs: its plan used the old ones)."""
+        if self.running:
+            raise RuntimeError(f"a {self.KIND} cycle is running")
+        if list(configs) != list(self.names):
+            raise CycleRequestError(f"the driven joints cannot change: {list(self.names)} -> {list(configs)}")
+        self.configs = dict(configs)
+        if hold_tolerance is not None:
+            self.hold_tolerance = float(hold_tolerance)
+
+
+class RobotCycleRunner(DrivenJoints):
     """Runs one robot cycle at a time (see the module docstring).
 
     Parameters
@@ -168,16 +197,10 @@ class RobotCycleRunner(CycleMachine):
         Largest move of a held joint from where the cycle found it, rad.
     """
 
+    KIND = "robot"
+
     def __init__(self, configs: Mapping[str, CycleConfig], hold_tolerance: float = 0.02) -> None:
-        if not configs:
-            raise CycleRequestError("a robot cycle needs at least one joint")
-        self.configs = dict(configs)
-        for c in self.configs.values():
-            c.check()
-        self.hold_tolerance = float(hold_tolerance)
-        if not (math.isfinite(self.hold_tolerance) and self.hold_tolerance > 0):
-            raise CycleRequestError(f"hold_tolerance must be finite and > 0 rad, got {hold_tolerance}")
-        self.names: tuple[str, ...] = tuple(self.configs)
+        super().__init__(configs, hold_tolerance)
         self.state = CycleState.IDLE
         self.cycle_id = 0
         self.plan: RobotPlan | None = None
@@ -200,16 +223,6 @@ class RobotCycleRunner(CycleMachine):
         if self.plan is None:
             return self.names[0]
         return self.plan.joints[min(self.index, len(self.plan.joints) - 1)]
-
-    def reconfigure(self, configs: Mapping[str, CycleConfig], hold_tolerance: float | None = None) -> None:
-        """New settings for the next cycle (refused while one runs: its plan used the old ones)."""
-        if self.running:
-            raise RuntimeError("a robot cycle is running")
-        if list(configs) != list(self.names):
-            raise CycleRequestError(f"the driven joints cannot change: {list(self.names)} -> {list(configs)}")
-        self.configs = dict(configs)
-        if hold_tolerance is not None:
-            self.hold_tolerance = float(hold_tolerance)
 
     def start(self, plan: RobotPlan, cycle_id: int, now: float, positions: Mapping[str, float] | None = None) -> None:
         """Start ``plan``; ``positions`` are where the joints stand (the held joints' references)."""
