@@ -249,7 +249,7 @@ def test_watchdog_trips_on_non_finite_state():
 
 def test_watchdog_trips_outside_the_joint_limits():
     runner = _trip(hook=lambda t, r: replace(r, position=1.6) if t > 0.5 else r)
-    assert runner.state == CycleState.FAILED and "outside the joint limits" in runner.message
+    assert runner.state == CycleState.FAILED and "outside its joint limits" in runner.message
 
 
 def test_watchdog_trips_when_the_joint_cannot_be_positioned_at_the_sweep_start():

@@ -271,7 +271,7 @@ def test_the_joint_under_tests_own_watchdog_still_applies_and_names_the_rest():
     _start(runner, sim, joints=["joint_2", "joint_1", "joint_3"], speeds=(40.0,))
     _run(runner, sim)
     assert runner.state == CycleState.FAILED and runner.status().joint_name == "joint_2"
-    assert runner.message.startswith("watchdog: |effort| ") and runner.message.endswith("; not tested: joint_1, joint_3")
+    assert runner.message.startswith("watchdog: joint_2: |effort| ") and runner.message.endswith("; not tested: joint_1, joint_3")
     assert runner.fault_joint == "joint_2"
 
 

@@ -116,7 +116,7 @@ from dataclasses import dataclass
 from ..contract import CyclePhase, CycleState, CycleStatus, RefusalReason
 from .plan import CycleConfig, CycleRequestError, move_duration, stop_allowance
 from .robot import DrivenJoints, JointOutcome, plan_robot_cycle
-from .runner import JointReading, SpeedSteps
+from .runner import JointReading, SpeedSteps, reading_fault
 
 __all__ = ["LineCycleRunner", "LinePlan", "LineStep", "plan_line_cycle", "trapezoid"]
 
@@ -312,25 +312,6 @@ def plan_line_cycle(
     return LinePlan(order, tuple(centres), starts, tuple(steps), settle, total, robot.duration)
 
 
-def _reading_fault(j: str, cfg: CycleConfig, now: float, r: JointReading | None, wall_age: float | None,
-                   what: str = "joint") -> str | None:
-    """Why ``j``'s reading trips the watchdog (missing, stale, not finite, effort, limits), or None."""
-    if r is None:
-        return f"no joint state for {what} {j}"
-    age = now - r.stamp
-    if age > cfg.state_timeout and (wall_age is None or wall_age > cfg.state_timeout):
-        return f"joint state of {what} {j} stale for {age:.3f} s (state_timeout {cfg.state_timeout:g} s)"
-    if not (math.isfinite(r.position) and math.isfinite(r.velocity) and math.isfinite(r.effort)):
-        return (f"joint state of {what} {j} not finite (position {r.position}, velocity {r.velocity}, "
-                f"effort {r.effort})")
-    if abs(r.effort) > cfg.effort_limit:
-        return f"{what} {j}: |effort| {abs(r.effort):.1f} N·m > effort_limit {cfg.effort_limit:g} N·m at {r.position:.3f} rad"
-    lo, hi = cfg.joint_limits
-    if not lo <= r.position <= hi:
-        return f"{what} {j} at {r.position:.3f} rad, outside its joint limits [{lo:g}, {hi:g}] rad"
-    return None
-
-
 @dataclass
 class _Move:
     origin: tuple[float, ...]  # P0
@@ -485,7 +466,7 @@ class LineCycleRunner(SpeedSteps, DrivenJoints):
         ages = wall_ages or {}
         for j in self.names:
             held = j not in plan.joints
-            reason = _reading_fault(j, self.configs[j], now, readings.get(j), ages.get(j),
+            reason = reading_fault(j, self.configs[j], now, readings.get(j), ages.get(j),
                                     "held joint" if held else "joint")
             if reason is None and held:
                 r = readings[j]

@@ -42,7 +42,7 @@ from dataclasses import dataclass, replace
 
 from ..contract import CycleStatus, RefusalReason
 from .plan import CycleConfig, CyclePlan, CycleRequestError, plan_cycle
-from .runner import CycleMachine, CycleRunner, CycleState, JointReading
+from .runner import CycleMachine, CycleRunner, CycleState, JointReading, reading_fault
 
 __all__ = ["JointOutcome", "RobotCycleRunner", "RobotPlan", "plan_robot_cycle"]
 
@@ -396,20 +396,10 @@ class RobotCycleRunner(DrivenJoints):
         return max(-cap, min(cap, HOLD_GAIN * (err - math.copysign(band, err))))
 
     def _hold_watchdog(self, j: str, now: float, r: JointReading | None, wall_age: float | None) -> str | None:
-        cfg = self.configs[j]
-        if r is None:
-            return f"no joint state for held joint {j}"
-        age = now - r.stamp
-        if age > cfg.state_timeout and (wall_age is None or wall_age > cfg.state_timeout):
-            return f"joint state of held joint {j} stale for {age:.3f} s (state_timeout {cfg.state_timeout:g} s)"
-        if not (math.isfinite(r.position) and math.isfinite(r.velocity) and math.isfinite(r.effort)):
-            return (f"joint state of held joint {j} not finite (position {r.position}, velocity {r.velocity}, "
-                    f"effort {r.effort})")
-        if abs(r.effort) > cfg.effort_limit:
-            return f"held joint {j}: |effort| {abs(r.effort):.1f} N·m > effort_limit {cfg.effort_limit:g} N·m"
-        lo, hi = cfg.joint_limits
-        if not lo <= r.position <= hi:
-            return f"held joint {j} at {r.position:.3f} rad, outside its joint limits [{lo:g}, {hi:g}] rad"
+        reason = reading_fault(j, self.configs[j], now, r, wall_age, "held joint")
+        if reason is not None:
+            return reason
+        assert r is not None
         ref = self._hold.setdefault(j, r.position)
         if abs(r.position - ref) > self.hold_tolerance:
             return (f"held joint {j} moved {r.position - ref:+.3f} rad from {ref:.3f} rad "

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 from ..contract import CyclePhase, CycleState, CycleStatus
 from .plan import CycleConfig, CyclePlan, move_duration
 
-__all__ = ["CycleMachine", "CycleRunner", "CycleState", "JointReading", "Phase", "SpeedSteps"]
+__all__ = ["CycleMachine", "CycleRunner", "CycleState", "JointReading", "Phase", "SpeedSteps", "reading_fault"]
 
 
 #: Phases of a running cycle: the contract's ``TestCycleStatus.PHASE_*``.
@@ -69,6 +69,29 @@ class _Move:
     phase: Phase
     direction: int = 0
     checked_window: bool = False
+
+
+def reading_fault(joint: str, cfg: CycleConfig, now: float, r: JointReading | None, wall_age: float | None,
+                  what: str = "joint") -> str | None:
+    """Why ``joint``'s latest reading trips the watchdog, or None: missing; older than ``state_timeout`` (in
+    the runner's clock and, when ``wall_age`` is given, in wall time too: see :meth:`CycleRunner.update`); not
+    finite; ``|effort|`` above ``effort_limit``; outside ``joint_limits``. ``what`` names the joint's role
+    ("joint", "held joint"; "" in a one-joint cycle, where the joint is the cycle's)."""
+    who = f"{what} {joint}".strip()
+    if r is None:
+        return f"no joint state for {who}"
+    age = now - r.stamp
+    if age > cfg.state_timeout and (wall_age is None or wall_age > cfg.state_timeout):
+        return f"joint state of {who} stale for {age:.3f} s (state_timeout {cfg.state_timeout:g} s)"
+    if not (math.isfinite(r.position) and math.isfinite(r.velocity) and math.isfinite(r.effort)):
+        return f"joint state of {who} not finite (position {r.position}, velocity {r.velocity}, effort {r.effort})"
+    if abs(r.effort) > cfg.effort_limit:
+        return (f"{who}: |effort| {abs(r.effort):.1f} N·m > effort_limit {cfg.effort_limit:g} N·m "
+                f"at {r.position:.3f} rad")
+    lo, hi = cfg.joint_limits
+    if not lo <= r.position <= hi:
+        return f"{who} at {r.position:.3f} rad, outside its joint limits [{lo:g}, {hi:g}] rad"
+    return None
 
 
 class CycleMachine:
@@ -260,23 +283,7 @@ class CycleRunner(SpeedSteps, CycleMachine):
         return self.command if self.running else 0.0
 
     def _watchdog(self, now: float, r: JointReading | None, wall_age: float | None = None) -> str | None:
-        cfg = self.config
-        if r is None:
-            return f"no joint state for {cfg.joint_name}"
-        age = now - r.stamp
-        if age > cfg.state_timeout and (wall_age is None or wall_age > cfg.state_timeout):
-            return f"joint state of {cfg.joint_name} stale for {age:.3f} s (state_timeout {cfg.state_timeout:g} s)"
-        if not (math.isfinite(r.position) and math.isfinite(r.velocity) and math.isfinite(r.effort)):
-            return (
-                f"joint state of {cfg.joint_name} not finite (position {r.position}, velocity {r.velocity}, "
-                f"effort {r.effort})"
-            )
-        if abs(r.effort) > cfg.effort_limit:
-            return f"|effort| {abs(r.effort):.1f} N·m > effort_limit {cfg.effort_limit:g} N·m at {r.position:.3f} rad"
-        lo, hi = cfg.joint_limits
-        if not lo <= r.position <= hi:
-            return f"joint at {r.position:.3f} rad, outside the joint limits [{lo:g}, {hi:g}] rad"
-        return None
+        return reading_fault(self.config.joint_name, self.config, now, r, wall_age, "")
 
     def _advance(self, now: float, r: JointReading) -> float:
         plan = self.plan
