@@ -22,8 +22,8 @@ It never changes the condition level; it has its own field, metric and alert.
 
 **Only evidence moves the level.** An estimate's *evidence*:
 
-- ``complete``: every planned speed of a cycle that ended DONE;
-- ``partial``: a cycle that ended FAILED or ABORTED, or missed planned speeds, with at least the
+- ``complete``: every planned step of a cycle that ended DONE (a step may repeat a speed);
+- ``partial``: a cycle that ended FAILED or ABORTED, or missed planned steps, with at least the
   method's minimum number of speeds: the estimate stands, marked partial on every surface;
 - ``insufficient``: fewer distinct speeds than the method needs to identify the wear (and the
   temperature when it is not measured, :func:`min_speeds`): no level from it; the joint's last level
@@ -164,15 +164,24 @@ def speed_levels(speeds: Iterable[float], match: float = SPEED_LEVEL_MATCH) -> i
     return len(first)
 
 
-def evidence_of(speeds_observed: int, speeds_planned: int, ended_badly: bool, temperature_known: bool) -> str:
+def evidence_of(speeds_observed: int, speeds_planned: int, ended_badly: bool, temperature_known: bool,
+                observations: int | None = None) -> str:
     """``complete``, ``partial`` or ``insufficient`` (module docstring) for a cycle's estimate.
+
+    ``speeds_observed`` counts the distinct speed levels observed (:func:`speed_levels`: what carries the wear
+    and the temperature apart); ``speeds_planned`` the cycle's steps, ``observations`` the steps observed (default
+    ``speeds_observed``). A step may repeat a speed (a line cycle stretches a joint's shorter set over its steps;
+    a request may name a speed twice): the cycle is complete when every step gave its observation.
 
     >>> evidence_of(8, 8, False, False), evidence_of(4, 8, True, False), evidence_of(1, 8, True, False)
     ('complete', 'partial', 'insufficient')
+    >>> evidence_of(4, 8, False, False, observations=8), evidence_of(4, 8, False, False, observations=7)
+    ('complete', 'partial')
     """
     if speeds_observed < min_speeds(temperature_known):
         return INSUFFICIENT
-    if ended_badly or (speeds_planned > 0 and speeds_observed < speeds_planned):
+    got = speeds_observed if observations is None else observations
+    if ended_badly or (speeds_planned > 0 and got < speeds_planned):
         return PARTIAL
     return COMPLETE
 

@@ -261,3 +261,15 @@ def test_a_partial_estimate_stays_partial_through_the_store_and_a_csv_round_trip
                                       "cell_1,joint_4,2026-01-01T00:00:00Z,12,0.8,maybe\n")
     with pytest.raises(InputDataError, match="bad.csv:2: evidence = 'maybe'"):
         estimates_from_csv(tmp_path / "bad.csv")
+
+
+def test_a_complete_cycle_that_sweeps_a_speed_twice_is_complete_and_one_missing_step_is_partial():
+    """A line cycle stretches a joint's shorter set over its steps (four speeds over eight steps: each twice), and a
+    request may name a speed twice: every step observed is a complete cycle, though it has fewer speed levels than
+    steps; one step short is partial ("7 of 8 steps")."""
+    twice = tuple(v for v in EIGHT[::2] for _ in range(2))
+    mon = WearMonitor(MonitorConfig(seed=1, done_timeout=5.0))
+    r = _cycle(mon, 1, 10.0, speeds=twice)
+    assert r.result is not None and r.evidence == "complete" and "partial" not in r.message, r.message
+    r = _cycle(mon, 2, 10.0, speeds=twice[:-1], end=CycleState.FAILED, reason="effort limit")
+    assert r.evidence == "partial" and "partial: 7 of 8 steps (4 speeds)" in r.message, r.message

@@ -539,7 +539,7 @@ class WearMonitor:
         need = max(min_speeds(t_known), int(cfg.min_observations))
         # a test cycle plans its speeds; a production shift plans none (its speeds_total counts observations)
         planned = 0 if src == Source.PRODUCTION else cyc.speeds_total
-        evidence = evidence_of(speeds, planned, failed, t_known)
+        evidence = evidence_of(speeds, planned, failed, t_known, observations=len(obs))
         if speeds < need:
             if not obs:
                 what = (f"no usable friction observation{why_cycle}" if failed else
@@ -563,7 +563,9 @@ class WearMonitor:
         level = DiagnosticLevel.STALE if st.level is None else st.level
         tag = f"{label}{ended}{partial}"
         if evidence == "partial":
-            tag += f"; partial: {speeds} of {max(cyc.speeds_total, speeds)} speeds{why_cycle}"
+            total = max(cyc.speeds_total, len(obs))
+            tag += (f"; partial: {speeds} of {total} speeds{why_cycle}" if len(obs) == speeds else
+                    f"; partial: {len(obs)} of {total} steps ({speeds} speeds){why_cycle}")
         msg = f"{st.reason} ({tag})" if own == "confirmed" else f"{st.reason}; this cycle: {res.wear:.1f} ± {res.wear_std:.1f} ({tag})"
         values = [("wear", f"{res.wear:.3f}"), ("wear_std", f"{res.wear_std:.3f}"),
                   ("wear_low", f"{res.wear_low:.3f}"), ("wear_high", f"{res.wear_high:.3f}"),
