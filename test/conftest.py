@@ -102,7 +102,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
     ),
     "test_commission_arm_run.py": (  # two commissioning runs on the arms in one process: 48 s of module setup
         "test_each_joint_commissioned_on_the_arm_estimates_its_test_wear_within_3_std",
-        "test_the_pandas_base_joint_commissioned_without_a_load_column_is_within_3_std",
+        "test_the_pandas_top_speed_is_swept_twice_in_every_cycle_and_each_sweep_is_an_observation",
         "test_the_overload_payload_fails_its_cycle_at_the_effort_limit_and_it_is_skipped_by_name",
         "test_a_joint_whose_load_hardly_changes_says_so_and_the_loaded_joints_identify_theirs",
     ),
