@@ -229,6 +229,7 @@ def test_watchdog_trips_on_effort_over_limit():
     runner = _trip(hook=lambda t, r: replace(r, effort=-180.0) if t > 2.0 else r)
     assert runner.state == CycleState.FAILED
     assert "|effort| 180.0 N·m > effort_limit 150 N·m" in runner.message
+    assert runner.fault_joint == runner.config.joint_name  # the watchdog names the joint it tripped on
 
 
 def test_watchdog_trips_when_the_speed_is_not_reached_at_the_window_start():

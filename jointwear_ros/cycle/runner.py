@@ -276,7 +276,7 @@ class CycleRunner(SpeedSteps, CycleMachine):
         self._last_update = now
         reason = self._watchdog(now, reading, wall_age)
         if reason is not None:
-            self._end(CycleState.FAILED, f"watchdog: {reason}")
+            self.fail(f"watchdog: {reason}", self.config.joint_name)
             return 0.0
         assert reading is not None
         self.command = self._advance(now, reading)
