@@ -100,12 +100,6 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
         "test_default_candidates_give_a_cycle_the_test_cycle_node_accepts",
         "test_design_json_gives_speeds_and_bound_that_beat_the_papers_best_single_speed",
     ),
-    "test_commission_arm_run.py": (  # two commissioning runs on the arms in one process: 48 s of module setup
-        "test_each_joint_commissioned_on_the_arm_estimates_its_test_wear_within_3_std",
-        "test_the_pandas_top_speed_is_swept_twice_in_every_cycle_and_each_sweep_is_an_observation",
-        "test_the_overload_payload_fails_its_cycle_at_the_effort_limit_and_it_is_skipped_by_name",
-        "test_a_joint_whose_load_hardly_changes_says_so_and_the_loaded_joints_identify_theirs",
-    ),
     "test_production_estimate.py": (  # a simulated production of 2 x 3 pick-and-place cycles on the UR5: 15-25 s setup
         "test_payload_corrected_pairs_on_the_loaded_joints_are_within_3_std_of_the_truth",
         "test_a_one_way_payload_without_the_payload_model_is_rejected_as_a_load_mismatch_and_with_it_corrected",

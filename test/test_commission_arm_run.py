@@ -12,6 +12,10 @@ import pytest
 
 from jointwear_ros.cli.demo_cmd import run_commission_in_process
 
+#: every test here needs the module's two commissioning runs (about 48 s of setup): the module is slow as a whole, so a
+#: new test cannot pull those runs into the quick tier (stop 45: one did, until conftest.SLOW_TESTS named it)
+pytestmark = pytest.mark.slow
+
 #: the run's speeds and baseline cycles: the UR5 short; the Panda its default plan (its 6 speeds, the top one swept twice,
 #: and 6 cycles; with 80 rad/s once, seed 0 read its base joint 3.13 ± 2.23 at true wear 10, z -3.08: docs/arm.md): on 5 speeds
 #: and 4 cycles, the arm jogged within 0.01 rad, its joint_4 read 2.85 ± 1.79 at true wear 10 (z -4.0; ref-2011r,
